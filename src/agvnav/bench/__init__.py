@@ -1,0 +1,1 @@
+"""Benchmarks behind ``agvnav bench``: each module has ``TITLE`` and ``run(quick, seed)``."""

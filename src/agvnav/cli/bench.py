@@ -1,0 +1,62 @@
+"""``agvnav bench ...``: speed and accuracy tables; ``--json`` for machines.
+
+Every benchmark module ``agvnav.bench.<name>`` exposes
+``run(quick: bool, seed: int) -> list[dict]`` (one flat record per table row)
+and ``TITLE``; this module only parses arguments and prints.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import typer
+
+from agvnav.bench.common import emit
+from agvnav.cli.errors import user_errors
+
+bench_app = typer.Typer(help="Benchmarks: speed and accuracy tables (--json for machines).", no_args_is_help=True)
+
+JSON_OPT = typer.Option(False, "--json", help="Print {\"benchmark\": NAME, \"records\": [...]} instead of a table.")
+QUICK_OPT = typer.Option(False, "--quick", help="Smaller problem sizes, for a fast look (figures are noisier).")
+SEED_OPT = typer.Option(0, "--seed", help="Random seed; the same seed reproduces the same figures.")
+
+
+def _run(name: str, as_json: bool, quick: bool, seed: int) -> None:
+    module = importlib.import_module(f"agvnav.bench.{name}")
+    records = module.run(quick=quick, seed=seed)
+    emit(name, records, as_json=as_json, title=module.TITLE)
+
+
+@bench_app.command("triangulation")
+@user_errors
+def triangulation(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+    """Triangulation methods: ns per fix (batch), µs per single fix, RMS error against the CRLB."""
+    _run("triangulation", json, quick, seed)
+
+
+@bench_app.command("kinematics")
+@user_errors
+def kinematics(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+    """Kinematic models: steps per second for 10,000 vehicles; odometry integrator errors."""
+    _run("kinematics", json, quick, seed)
+
+
+@bench_app.command("positioning")
+@user_errors
+def positioning(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+    """Dynamic positioning of a moving tricycle: naive, angle propagation, batch ML, EKF."""
+    _run("positioning", json, quick, seed)
+
+
+@bench_app.command("guidance")
+@user_errors
+def guidance(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+    """Guidance laws against pure pursuit and Stanley; simulator real-time factor."""
+    _run("guidance", json, quick, seed)
+
+
+@bench_app.command("landmarks")
+@user_errors
+def landmarks(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+    """Tracked robot on the square route: error per lap with and without wall landmarks."""
+    _run("landmarks", json, quick, seed)

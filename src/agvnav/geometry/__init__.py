@@ -1,0 +1,27 @@
+"""Plane geometry: angles, SE(2) poses, intersections."""
+
+from agvnav.geometry.angles import angle_diff, deg2rad, rad2deg, wrap_angle
+from agvnav.geometry.intersect import (
+    circumcentre,
+    cross2,
+    intersect_lines,
+    triangle_signed_area,
+)
+from agvnav.geometry.se2 import between, bearing_to, compose, inverse, to_body, transform_points
+
+__all__ = [
+    "angle_diff",
+    "bearing_to",
+    "between",
+    "circumcentre",
+    "compose",
+    "cross2",
+    "deg2rad",
+    "intersect_lines",
+    "inverse",
+    "rad2deg",
+    "to_body",
+    "transform_points",
+    "triangle_signed_area",
+    "wrap_angle",
+]
