@@ -1,1 +1,1 @@
-"""sensors."""
+"""Sensors: wheel/steering encoders, the rotating laser goniometer, ultrasonic rangers."""

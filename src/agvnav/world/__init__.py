@@ -1,1 +1,1 @@
-"""world."""
+"""The world: reflector and wall maps, scenarios."""

@@ -1,0 +1,1 @@
+"""Actuators: steering servo, traction speed profile, motors with PID speed loops."""
