@@ -1,0 +1,319 @@
+"""Reflector and wall maps of the workspace, and their YAML form.
+
+The laser positioning system of seed 000 (§2.1, §4.1, Fig. 6b) needs the
+surveyed positions of its cylindrical reflectors; walls, pillars and racks
+block the beam. A map is a list of :class:`Reflector` and a list of
+:class:`Wall` (open polylines or closed polygons), all in the ``map`` frame
+(REP-105), metres. YAML form (see docs/ARCHITECTURE.md)::
+
+    reflectors:
+      - {id: R1, x: 0.0, y: 5.0, radius: 0.04}
+    walls:
+      - {id: W1, points: [[0, 0], [10, 0]]}
+      - {id: pillar, points: [[2, 2], [2.4, 2], [2.4, 2.4], [2, 2.4]], closed: true}
+
+Every validation error names the offending entry, e.g.
+``reflectors[3] (id 'R4'): radius must be >= 0, got -0.1``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["Reflector", "Wall", "WorldMap", "load_map", "save_map"]
+
+_REFLECTOR_KEYS = ("id", "x", "y", "radius")
+_WALL_KEYS = ("id", "points", "closed")
+_MAP_KEYS = ("reflectors", "walls")
+
+
+def _check_id(value: Any) -> str:
+    """Ids are non-empty strings; YAML integers (``id: 3``) are accepted as ``"3"``."""
+    if isinstance(value, bool) or not isinstance(value, (str, int)):
+        raise ValueError(f"id must be a string, got {value!r}")
+    text = str(value)
+    if not text.strip():
+        raise ValueError("id must be a non-empty string")
+    return text
+
+
+def _check_coordinate(name: str, value: Any) -> float:
+    """A finite real number (bool and strings are refused: they are YAML typos)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Reflector:
+    """A cylindrical reflector (seed 000 §2.1): centre ``(x, y)`` in ``map`` (m), ``radius`` (m).
+
+    ``radius = 0`` is a point reflector. The goniometer reports the start of the
+    reflection, i.e. the tangent edge of the cylinder, not its centre.
+    """
+
+    id: str
+    x: float
+    y: float
+    radius: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "id", _check_id(self.id))
+        object.__setattr__(self, "x", _check_coordinate("x", self.x))
+        object.__setattr__(self, "y", _check_coordinate("y", self.y))
+        r = _check_coordinate("radius", self.radius)
+        if r < 0.0:
+            raise ValueError(f"radius must be >= 0, got {self.radius!r}")
+        object.__setattr__(self, "radius", r)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict in the YAML form ``{id, x, y, radius}``."""
+        return {"id": self.id, "x": self.x, "y": self.y, "radius": self.radius}
+
+
+@dataclass(frozen=True, eq=False)
+class Wall:
+    """An obstacle that blocks the beam: a polyline through ``points (k, 2)`` (m, ``map``).
+
+    ``closed=True`` joins the last point back to the first (a polygon such as a
+    pillar; at least 3 points). Every segment must have non-zero length.
+    """
+
+    id: str
+    points: NDArray[np.float64]
+    closed: bool = False
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "id", _check_id(self.id))
+        if not isinstance(self.closed, (bool, np.bool_)):
+            raise ValueError(f"closed must be true or false, got {self.closed!r}")
+        object.__setattr__(self, "closed", bool(self.closed))
+        pts = _as_points(self.points)
+        need = 3 if self.closed else 2
+        if pts.shape[0] < need:
+            kind = "a closed wall" if self.closed else "a wall"
+            raise ValueError(f"points: {kind} needs at least {need} points, got {pts.shape[0]}")
+        pts.setflags(write=False)
+        object.__setattr__(self, "points", pts)
+        seg = self.segments
+        lengths = np.hypot(*(seg[:, 1] - seg[:, 0]).T)
+        if np.any(lengths <= 0.0):
+            i = int(np.argmax(lengths <= 0.0))
+            raise ValueError(f"points: segment {i} has zero length (repeated point {seg[i, 0].tolist()})")
+
+    @property
+    def segments(self) -> NDArray[np.float64]:
+        """Line segments ``(m, 2, 2)``: ``[[x0, y0], [x1, y1]]`` per segment."""
+        pts = self.points
+        ends = np.roll(pts, -1, axis=0) if self.closed else pts[1:]
+        starts = pts if self.closed else pts[:-1]
+        return np.stack([starts, ends], axis=1)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict in the YAML form ``{id, points, closed}``."""
+        out: dict[str, Any] = {"id": self.id, "points": self.points.tolist()}
+        if self.closed:
+            out["closed"] = True
+        return out
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Wall):
+            return NotImplemented
+        return (
+            self.id == other.id
+            and self.closed == other.closed
+            and self.points.shape == other.points.shape
+            and bool(np.all(self.points == other.points))
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+def _as_points(points: ArrayLike) -> NDArray[np.float64]:
+    """``points`` as a finite float ``(k, 2)`` array, else ValueError naming the problem."""
+    if isinstance(points, (str, bytes)):
+        raise ValueError(f"points must be a list of [x, y] pairs, got {points!r}")
+    try:
+        pts = np.array(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"points must be a list of [x, y] pairs, got {points!r}") from None
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise ValueError(f"points must be a list of [x, y] pairs, got shape {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise ValueError("points must be finite (NaN or inf found)")
+    return pts
+
+
+@dataclass(frozen=True)
+class WorldMap:
+    """Reflectors and walls of one workspace, with array views for the vectorised kernels.
+
+    Attributes
+    ----------
+    reflectors, walls:
+        Tuples of :class:`Reflector` / :class:`Wall`; ids are unique within each list.
+    reflector_xy:
+        ``(N, 2)`` reflector centres (m), read-only.
+    reflector_radius:
+        ``(N,)`` reflector radii (m), read-only.
+    reflector_ids:
+        ``(N,)`` tuple of ids, in the same order.
+    wall_segments:
+        ``(M, 2, 2)`` every wall segment, read-only.
+    """
+
+    reflectors: tuple[Reflector, ...] = ()
+    walls: tuple[Wall, ...] = ()
+    reflector_xy: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    reflector_radius: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+    reflector_ids: tuple[str, ...] = field(init=False, repr=False, compare=False)
+    wall_segments: NDArray[np.float64] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        refl = tuple(self.reflectors)
+        walls = tuple(self.walls)
+        for kind, items, cls in (("reflectors", refl, Reflector), ("walls", walls, Wall)):
+            for i, item in enumerate(items):
+                if not isinstance(item, cls):
+                    raise ValueError(f"{kind}[{i}] must be a {cls.__name__}, got {type(item).__name__}")
+            _check_unique(kind, [item.id for item in items])
+        object.__setattr__(self, "reflectors", refl)
+        object.__setattr__(self, "walls", walls)
+        xy = np.array([[r.x, r.y] for r in refl], dtype=np.float64).reshape(-1, 2)
+        radius = np.array([r.radius for r in refl], dtype=np.float64)
+        segs = [w.segments for w in walls]
+        wall_segments = np.concatenate(segs, axis=0) if segs else np.zeros((0, 2, 2))
+        for arr in (xy, radius, wall_segments):
+            arr.setflags(write=False)
+        object.__setattr__(self, "reflector_xy", xy)
+        object.__setattr__(self, "reflector_radius", radius)
+        object.__setattr__(self, "reflector_ids", tuple(r.id for r in refl))
+        object.__setattr__(self, "wall_segments", wall_segments)
+
+    def reflector_index(self, reflector_id: str) -> int:
+        """Row of reflector ``reflector_id`` in :attr:`reflector_xy`; ValueError if unknown."""
+        try:
+            return self.reflector_ids.index(str(reflector_id))
+        except ValueError:
+            raise ValueError(f"unknown reflector id {reflector_id!r}") from None
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> WorldMap:
+        """Build and validate a map from its YAML-shaped dict (``reflectors``, ``walls``)."""
+        if not isinstance(data, Mapping):
+            raise ValueError(f"a map must be a mapping with keys {list(_MAP_KEYS)}, got {type(data).__name__}")
+        _check_keys("map", data, _MAP_KEYS)
+        reflectors = _entries(data, "reflectors", _reflector_from_dict)
+        walls = _entries(data, "walls", _wall_from_dict)
+        return cls(tuple(reflectors), tuple(walls))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict (YAML form); ``WorldMap.from_dict(m.to_dict()) == m``."""
+        return {
+            "reflectors": [r.to_dict() for r in self.reflectors],
+            "walls": [w.to_dict() for w in self.walls],
+        }
+
+
+def _check_unique(kind: str, ids: Sequence[str]) -> None:
+    seen: dict[str, int] = {}
+    for i, ident in enumerate(ids):
+        if ident in seen:
+            raise ValueError(f"{kind}[{i}] (id {ident!r}): duplicate id, first used by {kind}[{seen[ident]}]")
+        seen[ident] = i
+
+
+def _check_keys(where: str, entry: Mapping[str, Any], allowed: Sequence[str]) -> None:
+    unknown = [str(k) for k in entry if k not in allowed]
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {unknown}; allowed keys are {list(allowed)}")
+
+
+def _entries(data: Mapping[str, Any], kind: str, build: Any) -> list[Any]:
+    """Build every entry of list ``data[kind]``, prefixing errors with ``kind[i] (id ...)``."""
+    items = data.get(kind) or []
+    if not isinstance(items, list):
+        raise ValueError(f"{kind} must be a list, got {type(items).__name__}")
+    out = []
+    for i, entry in enumerate(items):
+        where = f"{kind}[{i}]"
+        if isinstance(entry, Mapping) and "id" in entry:
+            where += f" (id {entry['id']!r})"
+        try:
+            out.append(build(entry))
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
+    return out
+
+
+def _reflector_from_dict(entry: Any) -> Reflector:
+    if not isinstance(entry, Mapping):
+        raise ValueError(f"must be a mapping {{id, x, y, radius}}, got {entry!r}")
+    _check_keys("entry", entry, _REFLECTOR_KEYS)
+    missing = [k for k in ("id", "x", "y") if k not in entry]
+    if missing:
+        raise ValueError(f"missing key(s) {missing}")
+    return Reflector(entry["id"], entry["x"], entry["y"], entry.get("radius", 0.0))
+
+
+def _wall_from_dict(entry: Any) -> Wall:
+    if not isinstance(entry, Mapping):
+        raise ValueError(f"must be a mapping {{id, points, closed}}, got {entry!r}")
+    _check_keys("entry", entry, _WALL_KEYS)
+    missing = [k for k in ("id", "points") if k not in entry]
+    if missing:
+        raise ValueError(f"missing key(s) {missing}")
+    points = entry["points"]
+    if isinstance(points, list):
+        for j, p in enumerate(points):
+            if not isinstance(p, list) or len(p) != 2:
+                raise ValueError(f"points[{j}] must be a pair [x, y], got {p!r}")
+            for axis, v in zip("xy", p):
+                _check_coordinate(f"points[{j}].{axis}", v)
+    return Wall(entry["id"], points, entry.get("closed", False))
+
+
+def load_map(path: str | Path) -> WorldMap:
+    """Read and validate a YAML map file; ValueError names the file and the offending entry.
+
+    A missing or unreadable file raises OSError (as ``open`` does).
+    """
+    path = Path(path)
+    text = path.read_text(encoding="utf-8")
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ValueError(f"{path}: not valid YAML: {exc}") from None
+    if data is None:
+        raise ValueError(f"{path}: the map file is empty")
+    try:
+        return WorldMap.from_dict(data)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+
+
+def save_map(world: WorldMap, path: str | Path) -> None:
+    """Write ``world`` as YAML (one flow-style line per entry); floats round-trip exactly."""
+    if not isinstance(world, WorldMap):
+        raise ValueError(f"world must be a WorldMap, got {type(world).__name__}")
+    lines = ["reflectors:"] if world.reflectors else ["reflectors: []"]
+    lines += [f"  - {_flow(r.to_dict())}" for r in world.reflectors]
+    lines += ["walls:"] if world.walls else ["walls: []"]
+    lines += [f"  - {_flow(w.to_dict())}" for w in world.walls]
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def _flow(entry: dict[str, Any]) -> str:
+    text = yaml.safe_dump(entry, default_flow_style=True, sort_keys=False, width=math.inf)
+    return text.strip()
