@@ -213,7 +213,7 @@ class WorldMap:
         """Build and validate a map from its YAML-shaped dict (``reflectors``, ``walls``)."""
         if not isinstance(data, Mapping):
             raise ValueError(f"a map must be a mapping with keys {list(_MAP_KEYS)}, got {type(data).__name__}")
-        _check_keys("map", data, _MAP_KEYS)
+        _check_keys(data, _MAP_KEYS, "map")
         reflectors = _entries(data, "reflectors", _reflector_from_dict)
         walls = _entries(data, "walls", _wall_from_dict)
         return cls(tuple(reflectors), tuple(walls))
@@ -234,10 +234,11 @@ def _check_unique(kind: str, ids: Sequence[str]) -> None:
         seen[ident] = i
 
 
-def _check_keys(where: str, entry: Mapping[str, Any], allowed: Sequence[str]) -> None:
+def _check_keys(entry: Mapping[str, Any], allowed: Sequence[str], where: str = "") -> None:
     unknown = [str(k) for k in entry if k not in allowed]
     if unknown:
-        raise ValueError(f"{where}: unknown key(s) {unknown}; allowed keys are {list(allowed)}")
+        prefix = f"{where}: " if where else ""
+        raise ValueError(f"{prefix}unknown key(s) {unknown}; allowed keys are {list(allowed)}")
 
 
 def _entries(data: Mapping[str, Any], kind: str, build: Any) -> list[Any]:
@@ -260,7 +261,7 @@ def _entries(data: Mapping[str, Any], kind: str, build: Any) -> list[Any]:
 def _reflector_from_dict(entry: Any) -> Reflector:
     if not isinstance(entry, Mapping):
         raise ValueError(f"must be a mapping {{id, x, y, radius}}, got {entry!r}")
-    _check_keys("entry", entry, _REFLECTOR_KEYS)
+    _check_keys(entry, _REFLECTOR_KEYS)
     missing = [k for k in ("id", "x", "y") if k not in entry]
     if missing:
         raise ValueError(f"missing key(s) {missing}")
@@ -270,7 +271,7 @@ def _reflector_from_dict(entry: Any) -> Reflector:
 def _wall_from_dict(entry: Any) -> Wall:
     if not isinstance(entry, Mapping):
         raise ValueError(f"must be a mapping {{id, points, closed}}, got {entry!r}")
-    _check_keys("entry", entry, _WALL_KEYS)
+    _check_keys(entry, _WALL_KEYS)
     missing = [k for k in ("id", "points") if k not in entry]
     if missing:
         raise ValueError(f"missing key(s) {missing}")
