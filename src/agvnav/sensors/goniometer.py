@@ -1,0 +1,498 @@
+"""The rotating laser goniometer of seed 000 (§2.1, §4.1) as a sensor model.
+
+A laser head fixed to the vehicle frame turns at ``rate_hz`` (8 Hz in seed 000
+§4.1). Its beam sweeps the horizon; when it meets a reflector an incremental
+encoder (65535 pulses per revolution, 0.095 mrad) gives the beam angle relative
+to the frame *at the start of the reflection* (seed 000 §2.1). For a cylindrical
+reflector of radius ``r`` at distance ``d`` from the head centre P that is the
+tangent edge the beam meets first, offset from the centre bearing by
+``asin(r/d)`` against the rotation. The vehicle keeps moving during the sweep,
+so each reflector is seen at its own instant; :meth:`Goniometer.scan` solves
+those instants exactly by root finding in the moving frame.
+
+Frames and conventions (docs/ARCHITECTURE.md): ``pose_at(t)`` gives the true
+``base_link`` pose in ``map``; the head centre P sits at ``mount = (x, y, theta)``
+in ``base_link``; a reported bearing is the encoder angle in the head frame
+(x-axis rotated by ``mount[2]`` from ``base_link``), CCW positive, in [-pi, pi).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agvnav._validate import require_finite, require_nonnegative, require_positive
+from agvnav.geometry.angles import wrap_angle
+from agvnav.world.map import WorldMap
+
+__all__ = [
+    "Goniometer",
+    "Reflections",
+    "leading_edge_bearing",
+    "reflector_centre_bearing",
+]
+
+TWO_PI = 2.0 * math.pi
+#: Grid intervals per head revolution used to bracket the crossings (each interval
+#: then holds at most one crossing per reflector, and the beam-edge offset moves by
+#: about pi/2 < pi across it, so its wrapped value is continuous on the bracket).
+_BRACKETS_PER_REV = 4
+_ANGLE_TOL = 1e-12  # rad: root-finding tolerance on the beam-edge offset
+_MAX_ITER = 60
+
+PoseFunction = Callable[[NDArray[np.float64]], ArrayLike]
+
+
+@dataclass(frozen=True)
+class Reflections:
+    """Anonymous reflections of one scan, in time order.
+
+    Attributes
+    ----------
+    t:
+        ``(k,)`` reported instants (s), non-decreasing.
+    bearing:
+        ``(k,)`` encoder bearing (rad, head frame, [-pi, pi)), quantised.
+    reflector_index:
+        ``(k,)`` int: ground truth row in ``WorldMap.reflector_xy`` (-1 for a
+        spurious reflection). For tests and evaluation only: positioning never reads it.
+    """
+
+    t: NDArray[np.float64]
+    bearing: NDArray[np.float64]
+    reflector_index: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+    def __post_init__(self) -> None:
+        t = np.array(self.t, dtype=np.float64).reshape(-1)
+        bearing = np.array(self.bearing, dtype=np.float64).reshape(-1)
+        index = np.array(self.reflector_index, dtype=np.int64).reshape(-1)
+        if index.size == 0 and t.size:
+            index = np.full(t.size, -1, dtype=np.int64)
+        if not (t.shape == bearing.shape == index.shape):
+            raise ValueError(f"t, bearing and reflector_index must have equal lengths, got "
+                             f"{t.shape}, {bearing.shape}, {index.shape}")
+        if t.size > 1 and np.any(np.diff(t) < 0.0):
+            raise ValueError("reflection times must be non-decreasing")
+        for name, arr in (("t", t), ("bearing", bearing), ("reflector_index", index)):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+    def __len__(self) -> int:
+        return int(self.t.size)
+
+    @classmethod
+    def empty(cls) -> Reflections:
+        """No reflections."""
+        return cls(np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.int64))
+
+    @classmethod
+    def concatenate(cls, parts: Sequence[Reflections]) -> Reflections:
+        """Join consecutive scans (each time-ordered, windows in increasing order)."""
+        if not parts:
+            return cls.empty()
+        return cls(
+            np.concatenate([p.t for p in parts]),
+            np.concatenate([p.bearing for p in parts]),
+            np.concatenate([p.reflector_index for p in parts]),
+        )
+
+
+def leading_edge_bearing(
+    head_pose: ArrayLike, reflector_xy: ArrayLike, radius: ArrayLike, direction: int = 1
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Bearing of the edge of a cylindrical reflector that a rotating beam meets first.
+
+    Seed 000 §2.1: the encoder angle is taken at the *start* of the reflection. For a
+    head turning CCW (``direction=+1``) the first point touched is the tangent edge at
+    ``centre_bearing - asin(r/d)``; for a CW head, ``centre_bearing + asin(r/d)``.
+
+    Parameters
+    ----------
+    head_pose:
+        ``(..., 3)`` pose of the head frame in ``map`` (m, rad).
+    reflector_xy:
+        ``(..., 2)`` reflector centres (m).
+    radius:
+        ``(...)`` reflector radii (m).
+    direction:
+        +1 for a CCW head, -1 for CW.
+
+    Returns
+    -------
+    bearing, distance, valid:
+        ``(...)`` edge bearing in the head frame (rad, [-pi, pi)), head-to-centre
+        distance (m), and ``valid`` (False when the head is inside the cylinder,
+        ``d <= r``; the bearing is then NaN).
+    """
+    pose = np.asarray(head_pose, dtype=np.float64)
+    xy = np.asarray(reflector_xy, dtype=np.float64)
+    r = np.asarray(radius, dtype=np.float64)
+    dx, dy = xy[..., 0] - pose[..., 0], xy[..., 1] - pose[..., 1]
+    d = np.hypot(dx, dy)
+    valid = d > r
+    half_width = np.arcsin(np.where(valid, r / np.where(valid, d, 1.0), 0.0))
+    bearing = wrap_angle(np.arctan2(dy, dx) - pose[..., 2] - direction * half_width)
+    return np.where(valid, bearing, np.nan), d, valid
+
+
+def reflector_centre_bearing(
+    edge_bearing: ArrayLike, distance: ArrayLike, radius: ArrayLike, direction: int = 1
+) -> NDArray[np.float64]:
+    """Positioning-side correction from the reported edge bearing to the reflector centre.
+
+    Inverts :func:`leading_edge_bearing`: ``centre = edge + direction * asin(r/d)``
+    (rad, wrapped to [-pi, pi)); without it a CCW head biases every centre bearing by
+    ``-asin(r/d)`` (4 mrad at 10 m for r = 4 cm). ``distance`` (m) is the head-to-centre
+    distance, from the predicted pose. Vectorised; elements with ``d <= r`` or a
+    non-finite input are NaN (flagged, never raising).
+    """
+    edge = np.asarray(edge_bearing, dtype=np.float64)
+    d = np.asarray(distance, dtype=np.float64)
+    r = np.asarray(radius, dtype=np.float64)
+    valid = np.isfinite(edge) & np.isfinite(d) & np.isfinite(r) & (d > r) & (r >= 0.0)
+    ratio = np.where(valid, r / np.where(valid, d, 1.0), 0.0)
+    centre = wrap_angle(np.where(valid, edge, 0.0) + direction * np.arcsin(ratio))
+    return np.where(valid, centre, np.nan)
+
+
+@dataclass(frozen=True)
+class Goniometer:
+    """Rotating laser head with an incremental encoder (seed 000 §2.1, §4.1).
+
+    Parameters
+    ----------
+    rate_hz:
+        Head rotation frequency f (Hz, > 0); seed 000 §4.1: 8 Hz.
+    pulses_per_rev:
+        Encoder pulses per revolution N (> 0); seed 000 §4.1: 65535 (0.095 mrad).
+    mount:
+        ``(x, y, theta)`` of the head centre P and head x-axis in ``base_link`` (m, rad).
+    min_range, max_range:
+        Beam range limits (m), measured from P to the tangent point of the cylinder.
+    p_miss:
+        Probability in [0, 1] that a visible reflector gives no reflection.
+    spurious_rate:
+        Expected spurious reflections ("shiny surfaces") per revolution; a Poisson
+        process in time whose bearing is the head angle at that instant.
+    jitter_std:
+        Standard deviation (s) of Gaussian timestamp jitter; the bearing is unaffected.
+    phase:
+        Head angle (rad) at t = 0.
+    direction:
+        +1 CCW (default), -1 CW.
+    """
+
+    rate_hz: float = 8.0
+    pulses_per_rev: int = 65535
+    mount: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    min_range: float = 0.0
+    max_range: float = 30.0
+    p_miss: float = 0.0
+    spurious_rate: float = 0.0
+    jitter_std: float = 0.0
+    phase: float = 0.0
+    direction: int = 1
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "rate_hz", require_positive("rate_hz", self.rate_hz))
+        n = self.pulses_per_rev
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n <= 0:
+            raise ValueError(f"pulses_per_rev must be a positive integer, got {n!r}")
+        object.__setattr__(self, "pulses_per_rev", int(n))
+        mount = require_finite("mount", self.mount)
+        if mount.shape != (3,):
+            raise ValueError(f"mount must be (x, y, theta), got shape {mount.shape}")
+        object.__setattr__(self, "mount", tuple(float(v) for v in mount))
+        lo = require_nonnegative("min_range", self.min_range)
+        hi = require_positive("max_range", self.max_range)
+        if lo > hi:
+            raise ValueError(f"min_range ({lo}) must not exceed max_range ({hi})")
+        object.__setattr__(self, "min_range", lo)
+        object.__setattr__(self, "max_range", hi)
+        p = require_nonnegative("p_miss", self.p_miss)
+        if p > 1.0:
+            raise ValueError(f"p_miss must be in [0, 1], got {self.p_miss!r}")
+        object.__setattr__(self, "p_miss", p)
+        object.__setattr__(self, "spurious_rate", require_nonnegative("spurious_rate", self.spurious_rate))
+        object.__setattr__(self, "jitter_std", require_nonnegative("jitter_std", self.jitter_std))
+        phase = float(require_finite("phase", self.phase))
+        object.__setattr__(self, "phase", phase)
+        if self.direction not in (1, -1):
+            raise ValueError(f"direction must be +1 (CCW) or -1 (CW), got {self.direction!r}")
+        object.__setattr__(self, "direction", int(self.direction))
+
+    @property
+    def resolution(self) -> float:
+        """Encoder angular resolution 2*pi/N (rad); seed 000 §4.1: 0.095 mrad."""
+        return TWO_PI / self.pulses_per_rev
+
+    @property
+    def noisy(self) -> bool:
+        """True if :meth:`scan` draws random numbers (misses, spurious, jitter)."""
+        return self.p_miss > 0.0 or self.spurious_rate > 0.0 or self.jitter_std > 0.0
+
+    def head_angle(self, t: ArrayLike) -> NDArray[np.float64]:
+        """True (unquantised) head angle phi(t) = phase + direction*2*pi*f*t, in [0, 2*pi) (rad).
+
+        Computed in revolutions (fractional part) to keep precision over hours.
+        """
+        u = self.phase / TWO_PI + self.direction * self.rate_hz * np.asarray(t, dtype=np.float64)
+        return TWO_PI * (u - np.floor(u))
+
+    def encoder_bearing(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Encoder reading at instants ``t`` (s): floor of the head angle to whole pulses (rad, [-pi, pi))."""
+        n = self.pulses_per_rev
+        count = np.floor(self.head_angle(t) * (n / TWO_PI)) % n
+        return wrap_angle(count * self.resolution)
+
+    def head_pose(self, pose: ArrayLike) -> NDArray[np.float64]:
+        """Head frame pose ``(..., 3)`` in ``map`` from the ``base_link`` pose ``(..., 3)`` (no wrap)."""
+        q = np.asarray(pose, dtype=np.float64)
+        mx, my, mth = self.mount
+        c, s = np.cos(q[..., 2]), np.sin(q[..., 2])
+        return np.stack([q[..., 0] + c * mx - s * my, q[..., 1] + s * mx + c * my, q[..., 2] + mth], axis=-1)
+
+    def scan(
+        self,
+        world: WorldMap,
+        pose_at: PoseFunction,
+        t0: float,
+        t1: float,
+        rng: np.random.Generator | None = None,
+    ) -> Reflections:
+        """Reflections whose instant falls in the window ``(t0, t1]`` (s), in time order.
+
+        For every reflector the instant t* at which the beam, turning in the moving
+        vehicle frame, meets the reflector's leading edge solves
+
+            wrap(direction * (psi(t) + theta_m + phi(t) - alpha_edge(t))) = 0,
+
+        with ``alpha_edge`` the absolute direction of the leading tangent edge seen
+        from P(t) (seed 000 §2.1). The window is split into brackets of a quarter
+        revolution; a bracket holds a crossing when the wrapped offset passes 2*pi,
+        and all crossings are then refined together by a vectorised Illinois
+        (regula falsi) iteration to 1e-12 rad. A crossing is reported if the beam
+        range is within [min_range, max_range], the line of sight is not cut by a
+        wall or another reflector, and it survives ``p_miss``. Spurious reflections
+        and timestamp jitter are added; jittered times are clipped into the window so
+        consecutive scans stay time-ordered.
+
+        Parameters
+        ----------
+        world:
+            Reflectors and walls.
+        pose_at:
+            ``pose_at(t (k,)) -> (k, 3)``: true ``base_link`` pose in ``map``, continuous in t.
+        t0, t1:
+            Window (s), ``t1 >= t0``. Consecutive windows sharing ends never report a
+            reflection twice.
+        rng:
+            Source of every random draw; required when :attr:`noisy`.
+
+        Returns
+        -------
+        Reflections
+        """
+        if not isinstance(world, WorldMap):
+            raise ValueError(f"world must be a WorldMap, got {type(world).__name__}")
+        t0, t1 = float(t0), float(t1)
+        if not (math.isfinite(t0) and math.isfinite(t1)):
+            raise ValueError(f"t0 and t1 must be finite, got {t0!r}, {t1!r}")
+        if t1 < t0:
+            raise ValueError(f"t1 ({t1}) must be >= t0 ({t0})")
+        if self.noisy and not isinstance(rng, np.random.Generator):
+            raise ValueError("rng must be a numpy.random.Generator when p_miss, spurious_rate or jitter_std > 0")
+        if t1 == t0:
+            return Reflections.empty()
+        t_true, index = self._true_reflections(world, pose_at, t0, t1)
+        return self._add_noise(t_true, index, t0, t1, rng)
+
+    # -- exact crossings -------------------------------------------------
+
+    def _offsets(
+        self, world: WorldMap, pose_at: PoseFunction, t: NDArray[np.float64], index: NDArray[np.intp] | None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Beam-minus-leading-edge angle, wrapped to [-pi, pi) (rad), at instants ``t (k,)``.
+
+        ``index=None`` gives every reflector, shape ``(k, N)``; otherwise one reflector
+        per instant, shape ``(k,)``. Also returns the head position ``(k, 2)`` and the
+        head-to-centre distance. NaN offset where the head is inside a cylinder.
+        """
+        pose = _call_pose(pose_at, t)
+        head = self.head_pose(pose)
+        beam = head[:, 2] + self.head_angle(t)
+        if index is None:
+            xy, r = world.reflector_xy[None, :, :], world.reflector_radius[None, :]
+            px, py, beam = head[:, 0, None], head[:, 1, None], beam[:, None]
+        else:
+            xy, r = world.reflector_xy[index], world.reflector_radius[index]
+            px, py = head[:, 0], head[:, 1]
+        dx, dy = xy[..., 0] - px, xy[..., 1] - py
+        d = np.hypot(dx, dy)
+        inside = d <= r
+        half_width = np.arcsin(np.where(inside, 0.0, r / np.where(inside, 1.0, d)))
+        edge = np.arctan2(dy, dx) - self.direction * half_width
+        offset = wrap_angle(self.direction * (beam - edge))
+        return np.where(inside, np.nan, offset), head[:, :2], d
+
+    def _true_reflections(
+        self, world: WorldMap, pose_at: PoseFunction, t0: float, t1: float
+    ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """Exact, unquantised instants and reflector rows of the visible crossings in (t0, t1]."""
+        if world.reflector_xy.shape[0] == 0:
+            return np.zeros(0), np.zeros(0, dtype=np.int64)
+        n_int = max(1, math.ceil((t1 - t0) * self.rate_hz * _BRACKETS_PER_REV))
+        grid = np.linspace(t0, t1, n_int + 1)
+        offset, _, _ = self._offsets(world, pose_at, grid, None)
+        w = np.mod(offset, TWO_PI)
+        # A crossing: the wrapped offset drops by more than pi over one bracket
+        # (it passes 2*pi; a small drop would be the beam lagging, not a crossing).
+        with np.errstate(invalid="ignore"):
+            crossing = (w[:-1] - w[1:]) > math.pi
+        interval, refl = np.nonzero(crossing)
+        if interval.size == 0:
+            return np.zeros(0), np.zeros(0, dtype=np.int64)
+        f_lo = w[interval, refl] - TWO_PI
+        f_hi = w[interval + 1, refl]
+        t_star, head_xy, d = self._refine(world, pose_at, grid[interval], grid[interval + 1], f_lo, f_hi, refl)
+        seen = self._visible(world, refl, head_xy, d)
+        order = np.argsort(t_star[seen], kind="stable")
+        return t_star[seen][order], refl[seen][order].astype(np.int64)
+
+    def _refine(
+        self,
+        world: WorldMap,
+        pose_at: PoseFunction,
+        lo: NDArray[np.float64],
+        hi: NDArray[np.float64],
+        f_lo: NDArray[np.float64],
+        f_hi: NDArray[np.float64],
+        refl: NDArray[np.intp],
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Vectorised Illinois iteration on the brackets ``[lo, hi]`` (f_lo < 0 <= f_hi).
+
+        Returns the crossing instants, the head position there ``(c, 2)`` and the
+        head-to-centre distances.
+        """
+        lo, hi, f_lo, f_hi = lo.copy(), hi.copy(), f_lo.copy(), f_hi.copy()
+        side = np.zeros(lo.shape, dtype=np.int8)
+        t = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+        for _ in range(_MAX_ITER):
+            f, head_xy, d = self._offsets(world, pose_at, t, refl)
+            stalled = (hi - lo) <= 4.0 * np.finfo(float).eps * np.maximum(np.abs(t), 1.0)
+            if np.all((np.abs(f) <= _ANGLE_TOL) | stalled | np.isnan(f)):
+                break
+            upper = f >= 0.0
+            hi, f_hi = np.where(upper, t, hi), np.where(upper, f, f_hi)
+            lo, f_lo = np.where(upper, lo, t), np.where(upper, f_lo, f)
+            f_lo = np.where(upper & (side == 1), 0.5 * f_lo, f_lo)
+            f_hi = np.where(~upper & (side == -1), 0.5 * f_hi, f_hi)
+            side = np.where(upper, 1, -1).astype(np.int8)
+            t = np.clip(hi - f_hi * (hi - lo) / (f_hi - f_lo), lo, hi)
+        else:
+            _, head_xy, d = self._offsets(world, pose_at, t, refl)
+        return t, head_xy, d
+
+    def _visible(
+        self, world: WorldMap, refl: NDArray[np.intp], head_xy: NDArray[np.float64], d: NDArray[np.float64]
+    ) -> NDArray[np.bool_]:
+        """Range limits and occlusion by walls and by other reflectors at the crossing instants.
+
+        The line of sight is tested from P to the near surface of the cylinder (distance
+        ``d - r`` along the centre line): the cylinder is small, so testing the tangent
+        ray itself would change nothing but make wall-mounted reflectors graze their wall.
+        """
+        r = world.reflector_radius[refl]
+        inside = ~(d > r)
+        beam_range = np.sqrt(np.where(inside, 0.0, d * d - r * r))
+        ok = ~inside & (beam_range >= self.min_range) & (beam_range <= self.max_range)
+        if not np.any(ok):
+            return ok
+        scale = np.where(inside, 0.0, (d - r) / np.where(inside, 1.0, d)) * (1.0 - 1e-9)
+        ray = (world.reflector_xy[refl] - head_xy) * scale[:, None]
+        ok &= ~_ray_hits_segments(head_xy, ray, world.wall_segments)
+        ok &= ~_ray_hits_discs(head_xy, ray, world.reflector_xy, world.reflector_radius, refl)
+        return ok
+
+    # -- noise -------------------------------------------------------------
+
+    def _add_noise(
+        self,
+        t_true: NDArray[np.float64],
+        index: NDArray[np.int64],
+        t0: float,
+        t1: float,
+        rng: np.random.Generator | None,
+    ) -> Reflections:
+        """Missed detections, spurious reflections and timestamp jitter; quantised bearings.
+
+        Random draws in a fixed order (misses, spurious count, spurious instants,
+        jitter) so one seed reproduces the output bit for bit.
+        """
+        if self.p_miss > 0.0 and t_true.size:
+            keep = rng.random(t_true.size) >= self.p_miss  # type: ignore[union-attr]
+            t_true, index = t_true[keep], index[keep]
+        if self.spurious_rate > 0.0:
+            n_spur = int(rng.poisson(self.spurious_rate * self.rate_hz * (t1 - t0)))  # type: ignore[union-attr]
+            t_spur = t1 - (t1 - t0) * rng.random(n_spur)  # type: ignore[union-attr]  # in (t0, t1]
+            t_true = np.concatenate([t_true, t_spur])
+            index = np.concatenate([index, np.full(n_spur, -1, dtype=np.int64)])
+        bearing = self.encoder_bearing(t_true)
+        t_report = t_true
+        if self.jitter_std > 0.0 and t_true.size:
+            jitter = rng.normal(0.0, self.jitter_std, t_true.size)  # type: ignore[union-attr]
+            t_report = np.clip(t_true + jitter, t0, t1)
+        order = np.argsort(t_report, kind="stable")
+        return Reflections(t_report[order], bearing[order], index[order])
+
+
+def _call_pose(pose_at: PoseFunction, t: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``pose_at(t)`` as a finite ``(k, 3)`` array, else ValueError."""
+    pose = np.asarray(pose_at(t), dtype=np.float64)
+    if pose.shape != (t.size, 3):
+        raise ValueError(f"pose_at(t) must return shape ({t.size}, 3), got {pose.shape}")
+    if not np.all(np.isfinite(pose)):
+        raise ValueError("pose_at(t) returned NaN or inf")
+    return pose
+
+
+def _ray_hits_segments(
+    origin: NDArray[np.float64], ray: NDArray[np.float64], segments: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    """``(c,)`` True where the segment ``origin -> origin + ray`` ``(c, 2)`` crosses any wall segment ``(M, 2, 2)``.
+
+    Parallel (and collinear, i.e. grazing) pairs do not block.
+    """
+    if segments.shape[0] == 0:
+        return np.zeros(origin.shape[0], dtype=bool)
+    a = segments[None, :, 0, :] - origin[:, None, :]  # (c, M, 2)
+    v = segments[None, :, 1, :] - segments[None, :, 0, :]  # (1, M, 2)
+    u = ray[:, None, :]  # (c, 1, 2)
+    den = u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+    num_s = a[..., 0] * v[..., 1] - a[..., 1] * v[..., 0]  # along the beam: s = num_s / den
+    num_t = a[..., 0] * u[..., 1] - a[..., 1] * u[..., 0]  # along the wall:  t = num_t / den
+    sign = np.sign(den)
+    num_s, num_t, den = num_s * sign, num_t * sign, np.abs(den)
+    hit = (den > 0.0) & (num_s >= 0.0) & (num_s <= den) & (num_t >= 0.0) & (num_t <= den)
+    return np.any(hit, axis=1)
+
+
+def _ray_hits_discs(
+    origin: NDArray[np.float64],
+    ray: NDArray[np.float64],
+    centres: NDArray[np.float64],
+    radius: NDArray[np.float64],
+    target: NDArray[np.intp],
+) -> NDArray[np.bool_]:
+    """``(c,)`` True where the segment ``origin -> origin + ray`` passes within another reflector's radius."""
+    rel = centres[None, :, :] - origin[:, None, :]  # (c, N, 2)
+    length2 = np.maximum(np.sum(ray * ray, axis=1), 1e-300)[:, None]
+    tau = np.clip((rel[..., 0] * ray[:, None, 0] + rel[..., 1] * ray[:, None, 1]) / length2, 0.0, 1.0)
+    gap = rel - tau[..., None] * ray[:, None, :]
+    hit = np.sum(gap * gap, axis=2) < radius[None, :] ** 2
+    hit[np.arange(target.size), target] = False
+    return np.any(hit, axis=1)
