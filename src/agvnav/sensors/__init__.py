@@ -1,1 +1,8 @@
 """Sensors: wheel/steering encoders, the rotating laser goniometer, ultrasonic rangers."""
+
+from agvnav.sensors.goniometer import (  # noqa: E402  (laser goniometer, issue 4)
+    Goniometer,
+    Reflections,
+    leading_edge_bearing,
+    reflector_centre_bearing,
+)
