@@ -1,0 +1,119 @@
+"""Shared pieces of the three-reflector kernels (absolute angles, relative angles, ToTal).
+
+Batch-internal helpers on component arrays: ``x``/``y``/``theta`` are tuples of three
+arrays (reflectors 1, 2, 3) that broadcast against each other. Nothing here raises;
+singular elements come out as inf/NaN and are flagged by the callers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+Arr = NDArray[np.float64]
+Three = tuple[Arr, Arr, Arr]
+
+#: Relative distance of the head from the critical circle (|C_12 C_23| over the layout
+#: scale) below which the heading is unobservable from the three bearings. With the seed's
+#: 65535-pulse head the heading error grows like sigma * d / |C_12 C_23|: at 1e-2 it is
+#: about 50 bearing stds, so inside this band the odometric heading is better (seed 000, §2.3).
+CRITICAL_TOL = 1e-2
+
+TWO_PI = 2.0 * np.pi
+
+
+def wrap(a: Arr) -> Arr:
+    """Fast wrap to [-pi, pi] (internal; public outputs go through ``geometry.wrap_angle``)."""
+    return a - TWO_PI * np.rint(a / TWO_PI)
+
+
+def order_pairs(x: Three, y: Three, theta: Three) -> tuple[Three, Three, Three, Three]:
+    """Cyclically reorder each fix so that reflector pair (3, 1) is the most nearly aligned with P.
+
+    Returns ``x, y, theta`` reordered and ``tan_ab = (tan(theta2-theta1), tan(theta3-theta2),
+    tan(theta1-theta3))`` in the new order. ``|tan|`` is monotone in ``|sin|`` of the
+    relative angle, so the pair with the smallest ``|tan|`` is the one whose circle
+    centre is nearest infinity (P aligned with both reflectors, seed 000 eq. 5 case).
+    A cyclic shift keeps the orientation, so all later formulas hold unchanged; pairs
+    (1, 2) and (2, 3) then are never singular unless the reflectors are collinear.
+    """
+    t12 = np.tan(theta[1] - theta[0])
+    t23 = np.tan(theta[2] - theta[1])
+    t31 = np.tan(theta[0] - theta[2])
+    a12, a23, a31 = np.abs(t12), np.abs(t23), np.abs(t31)
+    roll1 = (a12 < a23) & (a12 < a31)  # order (2, 3, 1): pair (1, 2) becomes (3', 1')
+    roll2 = (a23 <= a12) & (a23 < a31)  # order (3, 1, 2): pair (2, 3) becomes (3', 1')
+    if not (np.any(roll1) or np.any(roll2)):
+        return x, y, theta, (t12, t23, t31)
+
+    def pick(v: Three) -> Three:
+        v0, v1, v2 = (np.broadcast_to(c, roll1.shape) for c in v)
+        return (
+            np.where(roll1, v1, np.where(roll2, v2, v0)),
+            np.where(roll1, v2, np.where(roll2, v0, v1)),
+            np.where(roll1, v0, np.where(roll2, v1, v2)),
+        )
+
+    return pick(x), pick(y), pick(theta), pick((t12, t23, t31))
+
+
+def centres(x: Three, y: Three, tan_ab: Three) -> tuple[Three, Three]:
+    """Centres ``C_12, C_23, C_31`` of the circles through P and each reflector pair (seed 000, Fig. 3).
+
+    The chord ``R_i R_j`` subtends the inscribed angle ``alpha_ij = theta_j - theta_i`` at P, so
+    ``C_ij = (R_i + R_j)/2 + cot(alpha_ij)/2 * rot90(R_j - R_i)`` with ``rot90(u, v) = (-v, u)``.
+    Returns ``(cx, cy)`` tuples in pair order (12, 23, 31).
+    """
+    cx: list[Arr] = []
+    cy: list[Arr] = []
+    for i, j, t in ((0, 1, tan_ab[0]), (1, 2, tan_ab[1]), (2, 0, tan_ab[2])):
+        k = 0.5 / t
+        cx.append(0.5 * (x[i] + x[j]) - k * (y[j] - y[i]))
+        cy.append(0.5 * (y[i] + y[j]) + k * (x[j] - x[i]))
+    return (cx[0], cx[1], cx[2]), (cy[0], cy[1], cy[2])
+
+
+def line_directions(heading: Arr, theta: Three) -> tuple[Three, Three]:
+    """Unnormalised directions of the lines through each reflector at absolute angle ``heading + theta_i``.
+
+    Lines are undirected, so the angle is reduced modulo pi to [-pi/2, pi/2] and the
+    direction written with the half-angle tangent ``t``: ``(1 - t², 2t)``. This needs one
+    ``tan`` per line instead of a ``sin`` and a ``cos`` (several times faster in NumPy).
+    """
+    ux: list[Arr] = []
+    uy: list[Arr] = []
+    for th in theta:
+        phi = heading + th
+        phi = phi - np.pi * np.rint(phi / np.pi)
+        t = np.tan(0.5 * phi)
+        ux.append(1.0 - t * t)
+        uy.append(2.0 * t)
+    return (ux[0], ux[1], ux[2]), (uy[0], uy[1], uy[2])
+
+
+def intersect(
+    xi: Arr, yi: Arr, ui: Arr, vi: Arr, xj: Arr, yj: Arr, uj: Arr, vj: Arr
+) -> tuple[Arr, Arr]:
+    """Intersection of the line through ``(xi, yi)`` along ``(ui, vi)`` with the one through ``(xj, yj)``.
+
+    Parallel lines give inf/NaN (callers weight or flag them).
+    """
+    den = ui * vj - vi * uj
+    s = ((xj - xi) * vj - (yj - yi) * uj) / den
+    return xi + s * ui, yi + s * vi
+
+
+def layout_scale2(x: Three, y: Three) -> Arr:
+    """Mean squared reflector spacing (m²): the length scale of relative tolerances."""
+    d12 = (x[1] - x[0]) ** 2 + (y[1] - y[0]) ** 2
+    d23 = (x[2] - x[1]) ** 2 + (y[2] - y[1]) ** 2
+    d31 = (x[0] - x[2]) ** 2 + (y[0] - y[2]) ** 2
+    return (d12 + d23 + d31) / 3.0
+
+
+def heading_from_position(px: Arr, py: Arr, x: Three, y: Three, theta: Three) -> Arr:
+    """Heading (rad) as the circular mean of ``atan2(R_i - P) - theta_i`` over the three reflectors."""
+    h0 = np.arctan2(y[0] - py, x[0] - px) - theta[0]
+    h1 = np.arctan2(y[1] - py, x[1] - px) - theta[1]
+    h2 = np.arctan2(y[2] - py, x[2] - px) - theta[2]
+    return wrap(h0 + (wrap(h1 - h0) + wrap(h2 - h0)) / 3.0)

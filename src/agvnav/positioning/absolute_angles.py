@@ -1,0 +1,151 @@
+"""Absolute-angle triangulation of Font-Llagunes & Batlle (seed 000, §2.3, eqs 1-7; seed 001, §3).
+
+With a heading estimate ``psi_est = psi + delta``, the line through reflector ``R_i`` at the
+absolute angle ``Phi_i,est = psi_est + theta_i`` is the true ray rotated by ``delta`` about
+``R_i``. Two such lines meet at the vertex ``T_ij`` of the *error triangle*, which lies on the
+circle through ``P, R_i, R_j`` (same inscribed angle), whose centre ``C_ij`` is therefore also
+the circumcentre of ``R_i, R_j, T_ij``. ``T_ij`` is ``P`` rotated by ``2 delta`` about ``C_ij``, so
+
+    T_ij - T_ik = (1 - e^{2 i delta}) (C_ij - C_ik) = 2 sin|delta| e^{∓i(90° - |delta|)} (C_ij - C_ik):
+
+the error triangle is the *centres triangle* scaled by ``r = 2 sin|delta|`` (eq. 1) and turned
+clockwise by ``90° - |delta|`` when ``delta > 0``. Hence ``|delta|`` from the area ratio
+(eqs 2, 4) or, when P is aligned with two reflectors and one vertex is at infinity, from the
+ratio of finite sides (eqs 3, 5); the sign from the cross product of homologous sides (eq. 6);
+the corrected absolute angles give three pairwise intersections ``P_ij`` averaged with the
+weights of eq. 7.
+
+Deviations, each for a stated reason:
+
+* ``arcsin`` is evaluated as ``atan2(s, sqrt(1 - s²))`` (same value; cheaper and defined when
+  noise pushes ``s`` slightly past 1, where it is clipped).
+* Refinement: eqs 2-6 are applied a second time from the corrected heading. Near
+  ``|delta| = 90°`` ``arcsin`` is flat, so one pass loses half the significant digits
+  (error ~ sqrt(eps)); the second pass has ``delta ≈ 0`` where ``arcsin`` is linear. This
+  is the seed's own construction repeated, not a different estimator; a full
+  maximum-likelihood refinement is what ``method="least_squares"`` is for.
+* ``delta`` is only known modulo 180° (lines are undirected): the half-turn is chosen so
+  that reflector 1 lies ahead along its ray, which makes any heading estimate work away
+  from the critical circle.
+* The distance ``rho_ij`` of eq. 7 needs P; it is measured from a first weighted mean
+  with ``rho`` left out (weights ``sin alpha_ij / L_ij``).
+* On or near the critical circle (``|C_12 C_23|`` below ``CRITICAL_TOL`` of the layout
+  scale) the heading is unobservable: the heading estimate is kept, the position is the
+  intersection of the lines it defines, and ``heading_from_estimate`` is set (seed 000, §2.3).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from agvnav.positioning._three import (
+    CRITICAL_TOL,
+    Arr,
+    Three,
+    centres,
+    intersect,
+    layout_scale2,
+    line_directions,
+    order_pairs,
+    wrap,
+)
+
+#: |tan(alpha_31)| below which vertex T_31 is treated as at infinity and eq. 5 replaces eq. 4.
+ALIGN_TOL = 1e-3
+
+
+def _tri_area(ax: Arr, ay: Arr, bx: Arr, by: Arr, cx: Arr, cy: Arr) -> Arr:
+    """Unsigned area (m²) of triangle abc."""
+    return 0.5 * np.abs((bx - ax) * (cy - ay) - (by - ay) * (cx - ax))
+
+
+def _error_triangle(x: Three, y: Three, theta: Three, heading: Arr) -> tuple[Three, Three]:
+    """Vertices ``T_12, T_23, T_31`` of the error triangle for a heading estimate (seed 000, Fig. 2b)."""
+    ux, uy = line_directions(heading, theta)
+    t12 = intersect(x[0], y[0], ux[0], uy[0], x[1], y[1], ux[1], uy[1])
+    t23 = intersect(x[1], y[1], ux[1], uy[1], x[2], y[2], ux[2], uy[2])
+    t31 = intersect(x[2], y[2], ux[2], uy[2], x[0], y[0], ux[0], uy[0])
+    return (t12[0], t23[0], t31[0]), (t12[1], t23[1], t31[1])
+
+
+def heading_error(
+    x: Three, y: Three, theta: Three, heading: Arr, cx: Three, cy: Three, aligned: Arr
+) -> Arr:
+    """Signed heading error ``delta = psi_est - psi`` in (-90°, 90°] (seed 000, eqs 4-6).
+
+    ``|delta| = arcsin(sqrt(A_e / A_c) / 2)`` (eq. 4), or from the finite sides
+    ``|T_12 T_23| / |C_12 C_23|`` where ``aligned`` (eq. 5); sign of
+    ``[T_12T_23 ∧ C_12C_23]_z`` (eq. 6).
+    """
+    tx, ty = _error_triangle(x, y, theta, heading)
+    sx, sy = tx[1] - tx[0], ty[1] - ty[0]  # side T_12 -> T_23
+    kx, ky = cx[1] - cx[0], cy[1] - cy[0]  # homologous side C_12 -> C_23
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio_area = _tri_area(tx[0], ty[0], tx[1], ty[1], tx[2], ty[2]) / _tri_area(
+            cx[0], cy[0], cx[1], cy[1], cx[2], cy[2]
+        )
+        ratio_side = (sx * sx + sy * sy) / (kx * kx + ky * ky)
+    q = 0.25 * np.where(aligned, ratio_side, ratio_area)  # sin²|delta| (eq. 1)
+    q = np.clip(q, 0.0, 1.0)
+    magnitude = np.arctan2(np.sqrt(q), np.sqrt(1.0 - q))
+    return np.copysign(magnitude, sx * ky - sy * kx)
+
+
+def weighted_position(x: Three, y: Three, theta: Three, heading: Arr, sin_a: Three) -> tuple[Arr, Arr]:
+    """Eq. 7: mean of the pairwise intersections ``P_ij`` weighted ``W_ij = sin a_ij / max(L_ij, 2 rho_ij)``.
+
+    A pair of parallel lines has ``sin a_ij = 0`` and drops out (its P_ij is not used).
+    """
+    tx, ty = _error_triangle(x, y, theta, heading)
+    pairs = ((0, 1), (1, 2), (2, 0))
+    lengths = [np.hypot(x[j] - x[i], y[j] - y[i]) for i, j in pairs]
+    ok = [s > 1e-12 for s in sin_a]
+    px = [np.where(o, v, 0.0) for o, v in zip(ok, tx, strict=True)]
+    py = [np.where(o, v, 0.0) for o, v in zip(ok, ty, strict=True)]
+
+    def mean(weights: list[Arr]) -> tuple[Arr, Arr]:
+        total = weights[0] + weights[1] + weights[2]
+        mx = (weights[0] * px[0] + weights[1] * px[1] + weights[2] * px[2]) / total
+        my = (weights[0] * py[0] + weights[1] * py[1] + weights[2] * py[2]) / total
+        return mx, my
+
+    x0, y0 = mean([s / lng for s, lng in zip(sin_a, lengths, strict=True)])
+    w = []
+    for (i, j), s, lng in zip(pairs, sin_a, lengths, strict=True):
+        rho = np.hypot(0.5 * (x[i] + x[j]) - x0, 0.5 * (y[i] + y[j]) - y0)
+        w.append(s / np.maximum(lng, 2.0 * rho))
+    return mean(w)
+
+
+def absolute_angles_kernel(x: Three, y: Three, theta: Three, heading_estimate: Arr) -> dict[str, Arr]:
+    """Absolute-angle triangulation on component arrays (m, rad); see the module docstring.
+
+    Returns ``x, y, heading, quality, valid, heading_from_estimate``; ``quality`` is
+    ``|C_12 C_23|`` over the layout scale (0 on the critical circle).
+    """
+    x, y, theta, tan_ab = order_pairs(x, y, theta)
+    sin_a = tuple(np.abs(t) / np.sqrt(1.0 + t * t) for t in tan_ab)
+    aligned = np.abs(tan_ab[2]) < ALIGN_TOL
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cx, cy = centres(x, y, tan_ab)
+    quality = np.hypot(cx[1] - cx[0], cy[1] - cy[0]) / np.sqrt(layout_scale2(x, y))
+    critical = ~(quality > CRITICAL_TOL)
+    psi_est = np.asarray(heading_estimate, dtype=np.float64)
+    psi = psi_est
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for _ in range(2):  # one pass of eqs 4-6, then the refinement pass
+            psi = psi - heading_error(x, y, theta, psi, cx, cy, aligned)
+        psi = np.where(critical, psi_est, psi)
+        px, py = weighted_position(x, y, theta, psi, sin_a)
+    # delta is known modulo 180°: keep the half-turn that puts reflector 1 ahead of P.
+    ahead = np.arctan2(y[0] - py, x[0] - px) - theta[0]
+    psi = np.where(critical, psi, psi + np.pi * np.rint(wrap(ahead - psi) / np.pi))
+    valid = np.isfinite(px) & np.isfinite(py) & np.isfinite(psi)
+    return {
+        "x": px,
+        "y": py,
+        "heading": wrap(psi),
+        "quality": quality,
+        "valid": valid,
+        "heading_from_estimate": critical & valid,
+    }

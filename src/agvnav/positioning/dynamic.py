@@ -1,0 +1,312 @@
+"""Fixes for a moving vehicle from bearings taken at different instants (seeds 000 §2.2, 001 §2).
+
+A rotating head sees each reflector at its own instant while the vehicle moves, so
+"the angles theta_i must be known for one and the same configuration of the robot"
+(seed 000 §2.2). Three ways to form a fix at the instant ``t_f`` of the latest
+identified reflection, given the odometric pose of base_link at every reflection:
+
+* :class:`NaiveEstimator` -- triangulate the last three bearings as if simultaneous
+  (the baseline that shows the problem);
+* :class:`AnglePropagationEstimator` -- the seeds' method: simulate the evolution of
+  each relative angle from its reflection to ``t_f`` with the kinematics and odometry
+  (:func:`propagate_bearings`), then triangulate with absolute angles (seed 000 §2.3);
+* :class:`BatchMLEstimator` -- every bearing of the last revolution with the odometry
+  between them, solved jointly for the pose at ``t_f`` by Gauss-Newton
+  (:func:`batch_ml_fix`), the maximum-likelihood fix when odometry over one revolution
+  is taken as exact.
+
+All three share identification, odometric prediction and status with the EKF
+(:class:`~agvnav.positioning.estimator.StreamingEstimator`); between fixes the pose is
+dead-reckoned from the last fix.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agvnav.geometry import angle_diff, between, compose, inverse, wrap_angle
+from agvnav.positioning.estimator import StreamingEstimator
+from agvnav.positioning.identification import bearing_model, edge_offset
+
+__all__ = [
+    "AnglePropagationEstimator",
+    "BatchMLEstimator",
+    "NaiveEstimator",
+    "batch_ml_fix",
+    "centre_bearings",
+    "propagate_bearings",
+]
+
+
+def centre_bearings(
+    edge_bearing: ArrayLike, pose: ArrayLike, mount: ArrayLike, reflector_xy: ArrayLike, radius: ArrayLike
+) -> NDArray[np.float64]:
+    """Reported leading-edge bearings (rad) moved to the reflector centres, ``+asin(r/d)``.
+
+    The distance d is taken from the (predicted) base_link ``pose (..., 3)`` at the
+    reflection; an error of a few cm in d changes the correction by ``r * dd / d^2``,
+    i.e. micro-radians (seed 000 §2.1: the angle is read at the start of the reflection).
+    """
+    _, _, d = bearing_model(pose, mount, reflector_xy, radius)
+    return wrap_angle(np.asarray(edge_bearing, dtype=np.float64) - edge_offset(d, radius))
+
+
+def propagate_bearings(
+    bearings: ArrayLike,
+    odom_at_reflection: ArrayLike,
+    odom_at_fix: ArrayLike,
+    pose_at_fix: ArrayLike,
+    mount: ArrayLike,
+    reflector_xy: ArrayLike,
+) -> NDArray[np.float64]:
+    """Bring centre bearings measured at instants t_i to the fix instant t_f (seed 000 §2.2, [7]).
+
+    The vehicle's motion from t_i to t_f is the odometric relative motion
+    ``between(odom_f, odom_i)``; composing it with the pose at the fix gives the pose at
+    t_i, and the reflector's relative angle changes by the kinematic prediction
+
+        theta_i(t_f) = theta_i(t_i) + [h(x_f, R_i) - h(x_i, R_i)],
+
+    with ``h`` the head-frame centre bearing. The correction is exact when the odometry
+    is exact and ``pose_at_fix`` is right; callers iterate it with the new fix (a fixed
+    point, since the correction's sensitivity to the pose error is second order).
+
+    Shapes: ``bearings (..., n)``, ``odom_at_reflection (..., n, 3)``, ``odom_at_fix (..., 3)``,
+    ``pose_at_fix (..., 3)``, ``reflector_xy (..., n, 2)``; returns ``(..., n)`` (rad).
+    """
+    x_f = np.asarray(pose_at_fix, dtype=np.float64)[..., None, :]
+    rel = between(np.asarray(odom_at_fix, dtype=np.float64)[..., None, :], odom_at_reflection)
+    x_i = compose(x_f, rel)
+    h_f, _, _ = bearing_model(x_f, mount, reflector_xy, 0.0)
+    h_i, _, _ = bearing_model(x_i, mount, reflector_xy, 0.0)
+    return wrap_angle(np.asarray(bearings, dtype=np.float64) + angle_diff(h_f, h_i))
+
+
+def batch_ml_fix(
+    pose0: ArrayLike,
+    bearings: ArrayLike,
+    reflector_xy: ArrayLike,
+    radius: ArrayLike,
+    relative_motion: ArrayLike,
+    mount: ArrayLike,
+    bearing_var: float,
+    iterations: int = 10,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]:
+    """Joint Gauss-Newton fix of the pose at t_f from bearings taken at their own instants.
+
+    Unknown ``x_f``; the pose at reflection i is ``x_i = x_f ⊕ d_i`` with ``d_i`` the
+    odometric motion from t_f back to t_i (``relative_motion (n, 3)``). Minimises
+    ``sum_i wrap(z_i - h(x_i, R_i))^2 / sigma^2`` with ``h`` the leading-edge bearing
+    (:func:`~agvnav.positioning.identification.bearing_model`), Jacobian
+    ``dh/dx_f = H_i J_i``, ``J_i = d(x_f ⊕ d_i)/dx_f``.
+
+    ``bearings (n,)`` edge bearings (rad), ``reflector_xy (n, 2)``, ``radius (n,)``.
+    Returns ``(pose (3,), covariance (3, 3), valid)``; invalid when the normal matrix is
+    singular (fewer than three independent directions) or the iteration diverges.
+    """
+    x = np.array(pose0, dtype=np.float64)
+    z = np.asarray(bearings, dtype=np.float64)
+    rel = np.asarray(relative_motion, dtype=np.float64)
+    for _ in range(iterations):
+        A, r = _ml_system(x, z, reflector_xy, radius, rel, mount)
+        N = A.T @ A
+        if np.linalg.cond(N) > 1e12:
+            return x, np.full((3, 3), np.nan), False
+        step = np.linalg.solve(N, A.T @ r)
+        x = x + step
+        x[2] = wrap_angle(x[2])
+        if np.max(np.abs(step)) < 1e-10:
+            break
+    A, r = _ml_system(x, z, reflector_xy, radius, rel, mount)
+    cov = np.linalg.inv(A.T @ A / bearing_var)
+    valid = bool(np.all(np.isfinite(x)) and np.max(np.abs(r)) < 0.5)
+    return x, 0.5 * (cov + cov.T), valid
+
+
+def _ml_system(
+    x: NDArray[np.float64], z: NDArray[np.float64], xy: ArrayLike, radius: ArrayLike, rel: NDArray[np.float64], mount: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Stacked Jacobian ``(n, 3)`` with respect to ``x_f`` and residuals ``(n,)``."""
+    x_i = compose(x, rel)
+    h, H, _ = bearing_model(x_i, mount, xy, radius)
+    c, s = np.cos(x[2]), np.sin(x[2])
+    J = np.zeros((rel.shape[0], 3, 3))
+    J[:, 0, 0] = J[:, 1, 1] = J[:, 2, 2] = 1.0
+    J[:, 0, 2] = -s * rel[:, 0] - c * rel[:, 1]
+    J[:, 1, 2] = c * rel[:, 0] - s * rel[:, 1]
+    return np.einsum("ni,nij->nj", H, J), angle_diff(z, h)
+
+
+def _triangulate_head(
+    reflector_xy: NDArray[np.float64], bearings: NDArray[np.float64], heading_estimate: float, method: str
+) -> tuple[NDArray[np.float64], bool]:
+    """Head pose from three (made-)simultaneous centre bearings via the issue-2 triangulation."""
+    from agvnav.positioning import triangulate
+
+    res = triangulate(reflector_xy, bearings, method=method, heading_estimate=np.float64(heading_estimate))
+    pose = np.array([float(res.x), float(res.y), float(res.heading)])
+    return pose, bool(res.valid) and bool(np.all(np.isfinite(pose)))
+
+
+class _FixEstimator(StreamingEstimator):
+    """Shared machinery of the fix-based methods: a buffer of identified reflections.
+
+    Each entry is ``(t, edge bearing, reflector row, odometric pose of base_link)``;
+    ``_fix`` forms a fix at the latest entry and returns ``(pose, covariance)`` or None.
+    """
+
+    def __init__(self, world: Any, mount: ArrayLike = (0.0, 0.0, 0.0), **kwargs: Any) -> None:
+        super().__init__(world, mount, **kwargs)
+        self._entries: deque[tuple[float, float, int, NDArray[np.float64]]] = deque()
+        self.n_fixes = 0
+
+    def _accept(self, t: float, bearing: float, assoc: Any) -> None:
+        self._entries.append((t, bearing, assoc.index, self._odom.copy()))
+        while self._entries and t - self._entries[0][0] > 2.0 / self.rate_hz + 1.0:
+            self._entries.popleft()
+        fix = self._fix()
+        if fix is not None:
+            self._x, self._P = fix
+            self.n_fixes += 1
+
+    def _on_start(self) -> None:
+        self._entries.clear()
+
+    def _last_distinct(self, count: int) -> list[tuple[float, float, int, NDArray[np.float64]]]:
+        """The latest entry of each of the ``count`` most recently seen reflectors (oldest first)."""
+        seen: dict[int, tuple[float, float, int, NDArray[np.float64]]] = {}
+        for entry in reversed(self._entries):
+            if entry[2] not in seen:
+                seen[entry[2]] = entry
+            if len(seen) == count:
+                break
+        return sorted(seen.values(), key=lambda e: e[0]) if len(seen) == count else []
+
+    def _fix_covariance(self, pose: NDArray[np.float64], entries: list, rel: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Bearing-noise covariance ``(A^T A / sigma^2)^-1`` of a fix from ``entries``."""
+        idx = [e[2] for e in entries]
+        A, _ = _ml_system(
+            pose, np.array([e[1] for e in entries]), self.reflector_xy[idx], self.reflector_radius[idx], rel, self.mount
+        )
+        N = A.T @ A / self.bearing_std**2
+        if np.linalg.cond(N) > 1e12:
+            return self._P
+        cov = np.linalg.inv(N)
+        return 0.5 * (cov + cov.T)
+
+    def _relative(self, entries: list) -> NDArray[np.float64]:
+        """Odometric pose at each entry seen from the current odometric pose, ``(n, 3)``."""
+        return between(self._odom, np.array([e[3] for e in entries]))
+
+    def _fix(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+class NaiveEstimator(_FixEstimator):
+    """Triangulate the last three identified bearings as if they were simultaneous.
+
+    The baseline of seed 000 §2.2: correct at standstill, wrong in motion. Its covariance
+    adds, to the bearing-noise part, the pose change of one revolution (distance and turn
+    driven at the current odometric rate), so that its own gate stays honest at speed.
+    """
+
+    method = "naive"
+
+    def __init__(self, world: Any, mount: ArrayLike = (0.0, 0.0, 0.0), *, triangulation_method: str = "absolute_angles", **kwargs: Any) -> None:
+        super().__init__(world, mount, **kwargs)
+        self.triangulation_method = triangulation_method
+
+    def _fix(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        entries = self._last_distinct(3)
+        if not entries:
+            return None
+        idx = [e[2] for e in entries]
+        xy = self.reflector_xy[idx]
+        z = centre_bearings([e[1] for e in entries], self._x, self.mount, xy, self.reflector_radius[idx])
+        head_est = compose(self._x, self.mount)[2]
+        head, ok = _triangulate_head(xy, z, head_est, self.triangulation_method)
+        if not ok:
+            return None
+        pose = compose(head, inverse(self.mount))
+        cov = self._fix_covariance(pose, entries, np.zeros((3, 3)))
+        per_rev = np.abs(self._rate) / self.rate_hz
+        return pose, cov + np.diag([per_rev[0] ** 2, per_rev[0] ** 2, per_rev[1] ** 2])
+
+
+class AnglePropagationEstimator(_FixEstimator):
+    """The seeds' method: propagate the last three bearings to the fix instant, then triangulate.
+
+    Each bearing is brought from its reflection to ``t_f`` by :func:`propagate_bearings`
+    (odometry between them, map, predicted pose), then the three are triangulated with
+    ``absolute_angles`` (seed 000 §2.3), the odometric heading estimate being the
+    predicted one. With ``triangulation_method="relative_angles"`` the geometric method is
+    used away from the critical circle and absolute angles on it (seed 000 §2.2).
+    The propagation is iterated ``iterations`` times with the new fix as the pose at t_f.
+    """
+
+    method = "angle_propagation"
+
+    def __init__(
+        self,
+        world: Any,
+        mount: ArrayLike = (0.0, 0.0, 0.0),
+        *,
+        triangulation_method: str = "absolute_angles",
+        iterations: int = 3,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(world, mount, **kwargs)
+        if triangulation_method not in ("absolute_angles", "relative_angles"):
+            raise ValueError(f"triangulation_method must be 'absolute_angles' or 'relative_angles', got {triangulation_method!r}")
+        self.triangulation_method = triangulation_method
+        self.iterations = int(iterations)
+
+    def _fix(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        entries = self._last_distinct(3)
+        if not entries:
+            return None
+        idx = [e[2] for e in entries]
+        xy = self.reflector_xy[idx]
+        rel = self._relative(entries)
+        odom_i = np.array([e[3] for e in entries])
+        pose = self._x.copy()
+        ok = False
+        for _ in range(max(self.iterations, 1)):
+            z = centre_bearings([e[1] for e in entries], compose(pose, rel), self.mount, xy, self.reflector_radius[idx])
+            z_f = propagate_bearings(z, odom_i, self._odom, pose, self.mount, xy)
+            head_est = compose(pose, self.mount)[2]
+            head, ok = _triangulate_head(xy, z_f, head_est, self.triangulation_method)
+            if not ok and self.triangulation_method != "absolute_angles":
+                head, ok = _triangulate_head(xy, z_f, head_est, "absolute_angles")
+            if not ok:
+                return None
+            pose = compose(head, inverse(self.mount))
+        return pose, self._fix_covariance(pose, entries, rel)
+
+
+class BatchMLEstimator(_FixEstimator):
+    """Motion-compensated maximum-likelihood fix over the last revolution (:func:`batch_ml_fix`).
+
+    Uses every identified reflection of the last ``1 / rate_hz`` seconds (at least three
+    distinct reflectors), with the odometric motion between each and ``t_f``, started from
+    the predicted pose.
+    """
+
+    method = "batch_ml"
+
+    def _fix(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        t_f = self._entries[-1][0]
+        entries = [e for e in self._entries if t_f - e[0] < 1.0 / self.rate_hz]
+        if len({e[2] for e in entries}) < 3:
+            return None
+        idx = [e[2] for e in entries]
+        rel = self._relative(entries)
+        pose, cov, ok = batch_ml_fix(
+            self._x, np.array([e[1] for e in entries]), self.reflector_xy[idx], self.reflector_radius[idx],
+            rel, self.mount, self.bearing_std**2,
+        )
+        return (pose, cov) if ok else None

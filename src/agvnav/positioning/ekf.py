@@ -1,0 +1,99 @@
+"""Extended Kalman filter on the base_link pose, one bearing at a time (the seeds' future work).
+
+State ``x = [x, y, psi]`` of base_link in ``map``, covariance ``P``.
+
+* predict (odometry, seed 002 eqs 20-26): ``x <- f(x, dD, dtheta)`` (arc rule),
+  ``P <- F P F^T + Q`` with ``F`` = :func:`agvnav.odometry.pose_jacobian`,
+  ``Q`` = :func:`agvnav.odometry.motion_covariance`;
+* update (one reflection, at its own instant): ``y = wrap(z - h(x))`` with ``h`` the
+  leading-edge bearing of the identified reflector from the head
+  (:func:`~agvnav.positioning.identification.bearing_model`, seed 000 §2.1),
+  ``S = H P H^T + R``, ``K = P H^T S^-1``, ``x <- x + K y``,
+  ``P <- (I - K H) P (I - K H)^T + K R K^T`` (Joseph form, stays symmetric positive).
+
+Because every bearing updates the state at the instant it was measured, the motion
+between reflections never enters the measurement: this is the filter-based answer to
+the problem of seed 000 §2.2, which the seeds instead solve by propagating the angles.
+Seed 000 §2.2 argues the errors of raw dynamic triangulation are not Gaussian; here the
+filter never sees those errors, only the bearing noise and the odometry noise.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agvnav.geometry import wrap_angle
+from agvnav.positioning.estimator import StreamingEstimator
+
+__all__ = ["EkfEstimator", "ekf_predict", "ekf_update"]
+
+
+def ekf_predict(
+    x_pred: ArrayLike, P: ArrayLike, F: ArrayLike, Q: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Covariance prediction ``P' = F P F^T + Q``; ``x_pred (..., 3)`` is passed through wrapped.
+
+    ``P, F, Q`` are ``(..., 3, 3)``; the state prediction ``f(x, u)`` itself is
+    :func:`agvnav.odometry.integrate_pose`.
+    """
+    x = np.array(x_pred, dtype=np.float64)
+    x[..., 2] = wrap_angle(x[..., 2])
+    F = np.asarray(F, dtype=np.float64)
+    P_new = F @ np.asarray(P, dtype=np.float64) @ np.swapaxes(F, -1, -2) + np.asarray(Q, dtype=np.float64)
+    return x, 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
+
+
+def ekf_update(
+    x: ArrayLike, P: ArrayLike, innovation: ArrayLike, H: ArrayLike, R: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Scalar-measurement EKF update in Joseph form, vectorised over leading dimensions.
+
+    Parameters
+    ----------
+    x, P:
+        ``(..., 3)`` prior state and ``(..., 3, 3)`` covariance.
+    innovation:
+        ``(...)`` ``y = wrap(z - h(x))`` (rad), already wrapped by the caller.
+    H, R:
+        ``(..., 3)`` measurement Jacobian row and ``(...)`` measurement variance (rad²).
+
+    Returns the posterior ``(x, P)``; the heading is wrapped.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    P = np.asarray(P, dtype=np.float64)
+    H = np.asarray(H, dtype=np.float64)
+    R = np.asarray(R, dtype=np.float64)
+    PHt = np.einsum("...ij,...j->...i", P, H)
+    S = np.einsum("...i,...i->...", H, PHt) + R
+    K = PHt / S[..., None]
+    x_new = x + K * np.asarray(innovation, dtype=np.float64)[..., None]
+    x_new[..., 2] = wrap_angle(x_new[..., 2])
+    I_KH = np.eye(3) - K[..., :, None] * H[..., None, :]
+    P_new = I_KH @ P @ np.swapaxes(I_KH, -1, -2) + R[..., None, None] * K[..., :, None] * K[..., None, :]
+    return x_new, 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
+
+
+class EkfEstimator(StreamingEstimator):
+    """Streaming EKF (default method of :func:`~agvnav.positioning.make_estimator`).
+
+    Prediction from each odometry increment (base class), sequential update per
+    identified reflection at its own instant. Inspectable after each update:
+    ``last_innovation`` (rad), ``last_nis`` and ``last_reflector`` (map row).
+    """
+
+    method = "ekf"
+
+    def __init__(self, world: Any, mount: ArrayLike = (0.0, 0.0, 0.0), **kwargs: Any) -> None:
+        super().__init__(world, mount, **kwargs)
+        self.last_innovation = float("nan")
+        self.last_nis = float("nan")
+        self.last_reflector = -1
+
+    def _accept(self, t: float, bearing: float, assoc: Any) -> None:
+        self._x, self._P = ekf_update(self._x, self._P, assoc.innovation, assoc.H, self.bearing_std**2)
+        self.last_innovation = assoc.innovation
+        self.last_nis = assoc.nis
+        self.last_reflector = assoc.index

@@ -1,0 +1,287 @@
+"""The streaming positioning interface shared by every method, and the factory by name.
+
+One object serves a real vehicle and the simulator alike: feed timestamped odometry
+increments of base_link (:meth:`StreamingEstimator.predict`) and raw anonymous
+reflections (:meth:`StreamingEstimator.update`) in time order; read ``t``, ``pose``,
+``covariance`` and ``status`` of the latest estimate at any moment.
+
+What the methods share lives here: time ordering, the odometric prediction of the pose
+and its covariance between absolute corrections (``P' = F P F^T + Q``, seed 002 eqs
+20-26 via :mod:`agvnav.odometry`), the identification of each reflection by a
+chi-square gate (:func:`~agvnav.positioning.identification.gate_reflection`), the
+start-up pose search when no initial pose is given, and the degraded
+``"dead_reckoning"`` state. What differs -- how an identified reflection corrects the
+pose -- is the subclass's ``_accept``.
+
+Reflections usually fall between two odometry samples. The estimator then extrapolates
+the odometry to the reflection instant at the rate of the last increment, and deducts
+that advance from the next increment, so the odometric path is never counted twice and
+never jumps.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agvnav._validate import as_float_array, require_finite, require_positive
+from agvnav.geometry import wrap_angle
+from agvnav.odometry import OdometryNoise, integrate_pose, motion_covariance, pose_jacobian
+from agvnav.positioning.identification import CHI2_1DOF_999, gate_reflection, initial_pose_search
+
+__all__ = ["METHODS", "STATUSES", "StreamingEstimator", "make_estimator"]
+
+#: Method names accepted by :func:`make_estimator` (seed 000 §2.2 and issue 4 §4).
+METHODS = ("naive", "angle_propagation", "batch_ml", "ekf")
+#: Values of :attr:`StreamingEstimator.status`.
+STATUSES = ("initialising", "tracking", "dead_reckoning")
+
+
+def _default_bearing_std(pulses_per_rev: int) -> float:
+    """Encoder quantisation std (rad): one pulse ``2 pi / N`` over sqrt(12) (uniform error)."""
+    try:
+        from agvnav.positioning.triangulation import encoder_bearing_std
+    except ImportError:  # issue-2 module not installed: same formula, kept local
+        return 2.0 * np.pi / pulses_per_rev / np.sqrt(12.0)
+    return float(encoder_bearing_std(pulses_per_rev))
+
+
+class StreamingEstimator:
+    """Base of the streaming estimators: odometry prediction, gating, status, counters.
+
+    Parameters
+    ----------
+    world:
+        A :class:`~agvnav.world.WorldMap` (only ``reflector_xy`` and ``reflector_radius`` are read).
+    mount:
+        ``(3,)`` pose of the goniometer head centre P in base_link (m, rad).
+    bearing_std:
+        Std (rad) of one bearing; default the encoder quantisation of ``pulses_per_rev``.
+    odometry_noise:
+        :class:`~agvnav.odometry.OdometryNoise` for the covariance growth ``Q``.
+    initial_pose, initial_covariance:
+        ``(3,)`` base_link pose in ``map`` and ``(3, 3)`` covariance; without them the
+        estimator starts ``"initialising"`` and searches the pose from one revolution of
+        reflections at standstill.
+    rate_hz:
+        Head rotation rate (Hz): one revolution is the "sweep" in which a reflector can be
+        claimed only once, and the time the start-up search collects.
+    max_range:
+        Reflectors farther than this (m) are never predicted visible.
+    dead_reckoning_after:
+        Seconds without an accepted reflection after which ``status`` becomes
+        ``"dead_reckoning"`` (the covariance then keeps growing with the odometry).
+    gate:
+        Chi-square threshold (1 dof) on the innovation of one bearing.
+    """
+
+    method = "base"
+
+    def __init__(
+        self,
+        world: Any,
+        mount: ArrayLike = (0.0, 0.0, 0.0),
+        *,
+        bearing_std: float | None = None,
+        pulses_per_rev: int = 65535,
+        odometry_noise: OdometryNoise | None = None,
+        initial_pose: ArrayLike | None = None,
+        initial_covariance: ArrayLike | None = None,
+        rate_hz: float = 8.0,
+        max_range: float = 30.0,
+        dead_reckoning_after: float = 1.0,
+        gate: float = CHI2_1DOF_999,
+    ) -> None:
+        self.reflector_xy = np.asarray(world.reflector_xy, dtype=np.float64)
+        self.reflector_radius = np.asarray(world.reflector_radius, dtype=np.float64)
+        self.mount = require_finite("mount", mount)
+        if self.mount.shape != (3,):
+            raise ValueError(f"mount must have shape (3,), got {self.mount.shape}")
+        std = _default_bearing_std(int(pulses_per_rev)) if bearing_std is None else bearing_std
+        self.bearing_std = require_positive("bearing_std", std)
+        self.odometry_noise = OdometryNoise() if odometry_noise is None else odometry_noise
+        self.rate_hz = require_positive("rate_hz", rate_hz)
+        self.max_range = require_positive("max_range", max_range)
+        self.dead_reckoning_after = require_positive("dead_reckoning_after", dead_reckoning_after)
+        self.gate = require_positive("gate", gate)
+        self.n_accepted = 0
+        self.n_rejected = 0
+        self.last_search = None
+        self._t: float | None = None
+        self._t_odometry: float | None = None
+        self._rate = np.zeros(2)
+        self._advance = np.zeros(2)
+        self._odom = np.zeros(3)  # odometric pose of base_link in the odom frame
+        self._t_first: float | None = None
+        self._t_last_accept: float | None = None
+        self._claimed = np.full(self.reflector_xy.shape[0], -np.inf)
+        self._init_buffer: list[tuple[float, float]] = []
+        self._x = np.full(3, np.nan)
+        self._P = np.full((3, 3), np.nan)
+        if initial_pose is not None:
+            self._start(initial_pose, initial_covariance)
+
+    # ------------------------------------------------------------------ read
+    @property
+    def t(self) -> float:
+        """Time (s) of the latest input (NaN before the first one)."""
+        return float("nan") if self._t is None else self._t
+
+    @property
+    def pose(self) -> NDArray[np.float64]:
+        """``(3,)`` base_link pose ``[x, y, psi]`` in ``map`` at :attr:`t` (NaN while initialising)."""
+        return self._x.copy()
+
+    @property
+    def covariance(self) -> NDArray[np.float64]:
+        """``(3, 3)`` covariance of :attr:`pose` (m², rad²; NaN while initialising)."""
+        return self._P.copy()
+
+    @property
+    def status(self) -> str:
+        """``"initialising"``, ``"tracking"`` or ``"dead_reckoning"`` (see the class docstring)."""
+        if not np.all(np.isfinite(self._x)):
+            return "initialising"
+        since = self._t_last_accept if self._t_last_accept is not None else self._t_first
+        if self._t is not None and since is not None and self._t - since > self.dead_reckoning_after:
+            return "dead_reckoning"
+        return "tracking"
+
+    # ------------------------------------------------------------------ feed
+    def predict(self, t: float, delta_d: float, delta_theta: float) -> None:
+        """Odometry increment of base_link since the previous call.
+
+        ``delta_d`` (m) along the path, ``delta_theta`` (rad) heading change, both from
+        the previous :meth:`predict` time to ``t`` (s) (for the tricycle ``delta_d = ds_C
+        cos(gamma)``, ``delta_theta = ds_C sin(gamma) / L``, seed 000 eq. 8).
+        """
+        t = self._check_time(t, "odometry")
+        inc = require_finite("odometry increment", [delta_d, delta_theta])
+        if self._t_odometry is not None and t > self._t_odometry:
+            self._rate = inc / (t - self._t_odometry)
+        rest = inc - self._advance
+        self._advance = np.zeros(2)
+        self._t_odometry = t
+        self._t = t
+        self._move(float(rest[0]), float(rest[1]))
+        if self.status == "initialising" and np.any(np.abs(inc) > 1e-9):
+            self._init_buffer.clear()  # the start-up search needs a standing vehicle
+
+    def update(self, t: float, bearing: float) -> bool:
+        """One raw anonymous reflection: time ``t`` (s), head-frame bearing (rad) of its start.
+
+        Returns True when the reflection was identified and used, False when rejected
+        (spurious, ambiguous, already claimed in this sweep) or buffered for start-up.
+        """
+        t = self._check_time(t, "reflection")
+        z = float(require_finite("bearing", bearing))
+        if self._t_odometry is not None and t > self._t:
+            ahead = self._rate * (t - self._t)
+            self._advance += ahead
+            self._move(float(ahead[0]), float(ahead[1]))
+        self._t = t
+        if self.status == "initialising":
+            self._init_buffer.append((t, z))
+            self._try_start()
+            return False
+        assoc = gate_reflection(
+            z, self._x, self._P, self.mount, self.reflector_xy, self.reflector_radius, self.bearing_std**2,
+            max_range=self.max_range, excluded=t - self._claimed < 0.75 / self.rate_hz, gate=self.gate,
+        )
+        if assoc.index < 0:
+            self.n_rejected += 1
+            return False
+        self.n_accepted += 1
+        self._claimed[assoc.index] = t
+        self._t_last_accept = t
+        self._accept(t, z, assoc)
+        return True
+
+    def update_many(self, t: ArrayLike, bearings: ArrayLike) -> NDArray[np.bool_]:
+        """Several reflections in time order: ``t (k,)``, ``bearings (k,)`` -> accepted ``(k,)``."""
+        tt = np.atleast_1d(as_float_array("t", t))
+        zz = np.atleast_1d(as_float_array("bearings", bearings))
+        if tt.shape != zz.shape:
+            raise ValueError(f"t and bearings must have the same shape, got {tt.shape} and {zz.shape}")
+        return np.array([self.update(float(a), float(b)) for a, b in zip(tt, zz)], dtype=bool)
+
+    # ------------------------------------------------------------------ internals
+    def _check_time(self, t: float, what: str) -> float:
+        t = float(require_finite("t", t))
+        if self._t is not None and t < self._t:
+            raise ValueError(
+                f"{what} at t={t!r} s is earlier than the previous input at t={self._t!r} s; "
+                "feed odometry and reflections in time order"
+            )
+        if self._t_first is None:
+            self._t_first = t
+        return t
+
+    def _move(self, delta_d: float, delta_theta: float) -> None:
+        """Dead-reckon the odom pose, and the map pose with ``P' = F P F^T + Q`` (seed 002)."""
+        self._odom = integrate_pose(self._odom, delta_d, delta_theta, rule="arc")
+        if np.all(np.isfinite(self._x)):
+            F = pose_jacobian(self._x, delta_d, delta_theta)
+            Q = motion_covariance(self._x, delta_d, delta_theta, self.odometry_noise)
+            self._x = integrate_pose(self._x, delta_d, delta_theta, rule="arc")
+            self._x[2] = wrap_angle(self._x[2])
+            self._P = F @ self._P @ F.T + Q
+            self._P = 0.5 * (self._P + self._P.T)
+
+    def _start(self, pose: ArrayLike, covariance: ArrayLike | None) -> None:
+        x = require_finite("initial_pose", pose)
+        if x.shape != (3,):
+            raise ValueError(f"initial_pose must have shape (3,), got {x.shape}")
+        P = np.diag([0.05, 0.05, 0.02]) ** 2 if covariance is None else require_finite("initial_covariance", covariance)
+        if P.shape != (3, 3):
+            raise ValueError(f"initial_covariance must have shape (3, 3), got {P.shape}")
+        self._x = x.copy()
+        self._x[2] = wrap_angle(x[2])
+        self._P = 0.5 * (P + P.T)
+        self._t_last_accept = self._t  # None before the first input: counted from the first one
+
+    def _try_start(self) -> None:
+        """Start-up search once a full revolution of reflections at standstill is buffered."""
+        times = np.array([b[0] for b in self._init_buffer])
+        if times[-1] - times[0] < 1.0 / self.rate_hz:
+            return
+        sweep = [z for (tb, z) in self._init_buffer if times[-1] - tb < 1.0 / self.rate_hz]
+        result = initial_pose_search(
+            sweep, self.reflector_xy, self.reflector_radius, self.mount, self.bearing_std,
+            max_range=self.max_range, gate=self.gate,
+        )
+        self.last_search = result
+        self._init_buffer = [b for b in self._init_buffer if times[-1] - b[0] < 1.0 / self.rate_hz]
+        if result.found:
+            self._start(result.pose, result.covariance + np.diag([1e-6, 1e-6, 1e-8]))
+            self._on_start()
+
+    def _on_start(self) -> None:
+        """Hook for subclasses: called once the start-up search has set the pose."""
+
+    def _accept(self, t: float, bearing: float, assoc: Any) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+def make_estimator(method: str = "ekf", world: Any = None, mount: ArrayLike = (0.0, 0.0, 0.0), **kwargs: Any) -> StreamingEstimator:
+    """Build a streaming estimator by name: ``"naive"``, ``"angle_propagation"``, ``"batch_ml"`` or ``"ekf"``.
+
+    ``world`` is the :class:`~agvnav.world.WorldMap`, ``mount`` the head pose in base_link;
+    other keyword arguments go to the estimator (see :class:`StreamingEstimator`).
+    """
+    from agvnav.positioning.dynamic import AnglePropagationEstimator, BatchMLEstimator, NaiveEstimator
+    from agvnav.positioning.ekf import EkfEstimator
+
+    classes = {
+        "naive": NaiveEstimator,
+        "angle_propagation": AnglePropagationEstimator,
+        "batch_ml": BatchMLEstimator,
+        "ekf": EkfEstimator,
+    }
+    if method not in classes:
+        raise ValueError(f"unknown positioning method {method!r}; choose one of {list(METHODS)}")
+    if world is None:
+        raise ValueError("make_estimator needs a world map (world=...)")
+    return classes[method](world, mount, **kwargs)

@@ -1,0 +1,453 @@
+"""Identifying anonymous reflections: the bearing model, a tracking gate, and the start-up search.
+
+The goniometer reports only ``(t, bearing)`` (seed 000 §2.1): which map reflector
+produced a reflection must be decided by the positioning side. Two situations:
+
+* tracking -- a predicted pose and its covariance exist: each reflection is matched
+  to the reflector whose predicted bearing lies inside a chi-square gate on the
+  innovation, and a reflector already claimed in the current sweep cannot be claimed
+  again (:func:`gate_reflection`, :func:`associate_sweep`);
+* start-up without any prior (standstill, as commercial sensors do): reflector
+  triples are tried against observed bearing triples, each hypothesis is resected and
+  scored by how many reflections it explains, and an ambiguity (several distinct
+  poses explaining equally many, e.g. a rotationally symmetric layout) is reported
+  rather than guessed (:func:`initial_pose_search`).
+
+The measurement model (:func:`bearing_model`) is the bearing, in the head frame, of
+the leading tangent edge of a cylindrical reflector of radius r seen from the head
+centre P: the head turns counter-clockwise, so the beam meets the edge at
+``centre - asin(r / d)`` (seed 000 §2.1: the angle is read "at the start of the
+reflection").
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import linear_sum_assignment
+
+from agvnav.geometry import angle_diff, compose, inverse, wrap_angle
+
+__all__ = [
+    "Association",
+    "InitialPoseResult",
+    "associate_sweep",
+    "bearing_model",
+    "edge_offset",
+    "gate_reflection",
+    "initial_pose_search",
+    "resect_three",
+]
+
+#: chi-square quantile, 1 degree of freedom, probability 0.999 (gate on one bearing innovation).
+CHI2_1DOF_999 = 10.827566170662733
+
+
+def edge_offset(distance: ArrayLike, radius: ArrayLike) -> NDArray[np.float64]:
+    """Angle (rad) from a reflector's centre to its leading tangent edge, ``-asin(r / d)``.
+
+    The head turns counter-clockwise, so the reflection starts on the clockwise side of
+    the cylinder (seed 000 §2.1). ``distance`` (m) and ``radius`` (m) broadcast; a head
+    inside a reflector (``d <= r``) is clipped to ``-pi/2``.
+    """
+    d = np.asarray(distance, dtype=np.float64)
+    r = np.asarray(radius, dtype=np.float64)
+    ratio = np.clip(r / np.where(d > 0.0, d, np.inf), 0.0, 1.0)
+    return -np.arcsin(np.where(d > 0.0, ratio, 1.0))
+
+
+def bearing_model(
+    pose: ArrayLike, mount: ArrayLike, reflector_xy: ArrayLike, radius: ArrayLike = 0.0
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Predicted leading-edge bearing of reflectors from the head, and its Jacobian.
+
+    Parameters
+    ----------
+    pose:
+        ``(..., 3)`` base_link pose ``[x, y, psi]`` in ``map`` (m, rad).
+    mount:
+        ``(3,)`` pose of the head centre P in base_link (m, rad).
+    reflector_xy, radius:
+        ``(..., 2)`` reflector centres (m) and ``(...)`` radii (m); all broadcast.
+
+    Returns
+    -------
+    h:
+        ``(...)`` bearing in the head frame (rad, wrapped), ``atan2(R - P) - psi_P - asin(r/d)``
+        (seed 000 §2.1: the angle theta_i of the beam relative to the frame at the start of
+        the reflection).
+    H:
+        ``(..., 3)`` derivative of ``h`` with respect to ``[x, y, psi]`` of base_link.
+    distance:
+        ``(...)`` distance (m) from P to the reflector centre.
+    """
+    pose = np.asarray(pose, dtype=np.float64)
+    m = np.asarray(mount, dtype=np.float64)
+    xy = np.asarray(reflector_xy, dtype=np.float64)
+    r = np.asarray(radius, dtype=np.float64)
+    c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
+    px = pose[..., 0] + c * m[0] - s * m[1]
+    py = pose[..., 1] + s * m[0] + c * m[1]
+    dx, dy = xy[..., 0] - px, xy[..., 1] - py
+    d2 = dx * dx + dy * dy
+    d = np.sqrt(d2)
+    h = wrap_angle(np.arctan2(dy, dx) - pose[..., 2] - m[2] + edge_offset(d, r))
+    safe_d = np.where(d > 0.0, d, np.inf)
+    ratio = np.clip(r / safe_d, 0.0, 1.0 - 1e-12)
+    edge_gain = r / (safe_d**3 * np.sqrt(1.0 - ratio**2))  # d/dd of asin(r/d), sign folded below
+    dh_dpx = dy / np.where(d2 > 0.0, d2, np.inf) - edge_gain * dx
+    dh_dpy = -dx / np.where(d2 > 0.0, d2, np.inf) - edge_gain * dy
+    dpx_dpsi = -s * m[0] - c * m[1]
+    dpy_dpsi = c * m[0] - s * m[1]
+    dh_dpsi = dh_dpx * dpx_dpsi + dh_dpy * dpy_dpsi - 1.0
+    H = np.stack(np.broadcast_arrays(dh_dpx, dh_dpy, dh_dpsi), axis=-1)
+    return h, H, d
+
+
+@dataclass(frozen=True)
+class Association:
+    """Outcome of gating one reflection (see :func:`gate_reflection`).
+
+    ``index`` is the map reflector row (-1 when rejected); ``nis`` the normalised innovation
+    squared of the chosen reflector (inf when none); ``n_in_gate`` how many reflectors fell
+    inside the gate (2 or more means the reflection was rejected as ambiguous).
+    """
+
+    index: int
+    innovation: float
+    nis: float
+    n_in_gate: int
+    H: NDArray[np.float64] = field(repr=False)
+    S: float
+
+
+def gate_reflection(
+    bearing: float,
+    pose: ArrayLike,
+    covariance: ArrayLike,
+    mount: ArrayLike,
+    reflector_xy: ArrayLike,
+    radius: ArrayLike,
+    bearing_var: float,
+    *,
+    max_range: float = np.inf,
+    excluded: ArrayLike | None = None,
+    gate: float = CHI2_1DOF_999,
+) -> Association:
+    """Match one anonymous bearing to a map reflector with a chi-square innovation gate.
+
+    For every reflector within ``max_range`` of the head the innovation
+    ``y = wrap(z - h(x))`` and its variance ``S = H P H^T + sigma^2`` are formed; the
+    reflection is accepted when exactly one reflector has ``y^2 / S < gate`` (chi-square,
+    1 dof). Two or more reflectors in the gate means the prediction cannot tell them apart:
+    the reflection is rejected rather than risk a wrong label. ``excluded`` (bool ``(N,)``)
+    removes reflectors already claimed in the current sweep, so one sweep never gives the
+    same reflector twice.
+    """
+    xy = np.asarray(reflector_xy, dtype=np.float64)
+    P = np.asarray(covariance, dtype=np.float64)
+    h, H, d = bearing_model(pose, mount, xy, radius)
+    y = angle_diff(float(bearing), h)
+    S = np.einsum("ni,ij,nj->n", H, P, H) + float(bearing_var)
+    nis = y * y / S
+    ok = d <= max_range
+    if excluded is not None:
+        ok &= ~np.asarray(excluded, dtype=bool)
+    in_gate = ok & (nis < gate)
+    n_in = int(np.count_nonzero(in_gate))
+    if n_in != 1:
+        return Association(-1, float("nan"), float("inf"), n_in, np.zeros(3), float("nan"))
+    j = int(np.flatnonzero(in_gate)[0])
+    return Association(j, float(y[j]), float(nis[j]), 1, H[j], float(S[j]))
+
+
+def associate_sweep(
+    bearings: ArrayLike,
+    pose: ArrayLike,
+    covariance: ArrayLike,
+    mount: ArrayLike,
+    reflector_xy: ArrayLike,
+    radius: ArrayLike,
+    bearing_var: float,
+    *,
+    max_range: float = np.inf,
+    gate: float = CHI2_1DOF_999,
+) -> NDArray[np.int64]:
+    """Label all bearings ``(k,)`` of one sweep at once: ``(k,)`` reflector rows, -1 = rejected.
+
+    A global nearest-neighbour assignment (Hungarian algorithm on the NIS) inside the
+    chi-square gate, so no two reflections of the sweep claim the same reflector and
+    spurious reflections that fit no reflector are left unlabelled.
+    """
+    z = np.atleast_1d(np.asarray(bearings, dtype=np.float64))
+    xy = np.asarray(reflector_xy, dtype=np.float64)
+    h, H, d = bearing_model(pose, mount, xy, radius)
+    S = np.einsum("ni,ij,nj->n", H, np.asarray(covariance, dtype=np.float64), H) + float(bearing_var)
+    nis = angle_diff(z[:, None], h[None, :]) ** 2 / S[None, :]
+    allowed = (nis < gate) & (d <= max_range)[None, :]
+    labels = np.full(z.shape, -1, dtype=np.int64)
+    if not np.any(allowed):
+        return labels
+    cost = np.where(allowed, nis, 1e9)
+    rows, cols = linear_sum_assignment(cost)
+    keep = allowed[rows, cols]
+    labels[rows[keep]] = cols[keep]
+    return labels
+
+
+def resect_three(
+    reflector_xy: ArrayLike, bearings: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Head pose from three simultaneous centre bearings (rad) of three known reflectors.
+
+    Geometric circle intersection on the relative angles (seed 000 §2.2, Fig. 1b, the
+    "arcos capaces" method): P lies on the circle through R1, R2 that sees them under
+    ``alpha = theta2 - theta1`` and on the circle through R2, R3 under ``beta``; the two
+    circles meet at R2 and at P, the mirror of R2 in the line of their centres. The heading
+    is then the circular mean of ``atan2(R_i - P) - theta_i``. Used here only to generate
+    start-up hypotheses (no odometric heading exists yet); the fixes of a moving vehicle use
+    :func:`agvnav.positioning.triangulate`.
+
+    ``reflector_xy (..., 3, 2)``, ``bearings (..., 3)`` -> ``(pose (..., 3), valid (...))``;
+    invalid on the critical circle and for collinear, coincident or inconsistent data.
+    """
+    R = np.asarray(reflector_xy, dtype=np.float64)
+    th = np.asarray(bearings, dtype=np.float64)
+    c12 = _arc_centre(R[..., 0, :], R[..., 1, :], angle_diff(th[..., 1], th[..., 0]))
+    c23 = _arc_centre(R[..., 1, :], R[..., 2, :], angle_diff(th[..., 2], th[..., 1]))
+    u = c23 - c12
+    uu = np.sum(u * u, axis=-1)
+    scale = np.maximum(np.sum((R[..., 1, :] - R[..., 0, :]) ** 2, -1), 1e-300)
+    valid = np.isfinite(uu) & (uu > 1e-10 * scale)
+    safe = np.where(valid, uu, 1.0)
+    t = np.sum((R[..., 1, :] - c12) * u, axis=-1) / safe
+    foot = c12 + t[..., None] * u
+    p = 2.0 * foot - R[..., 1, :]
+    absolute = np.arctan2(R[..., 1] - p[..., None, 1], R[..., 0] - p[..., None, 0])
+    diff = wrap_angle(absolute - th)
+    heading = np.arctan2(np.mean(np.sin(diff), -1), np.mean(np.cos(diff), -1))
+    spread = np.max(np.abs(angle_diff(diff, heading[..., None])), axis=-1)
+    valid &= np.all(np.isfinite(p), axis=-1) & (spread < 1e-3)
+    pose = np.concatenate([p, heading[..., None]], axis=-1)
+    return np.where(valid[..., None], pose, np.nan), valid
+
+
+def _arc_centre(a: NDArray[np.float64], b: NDArray[np.float64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Centre of the circle through ``a``, ``b`` from which chord ab is seen under ``angle`` (CCW)."""
+    chord = b - a
+    left = np.stack([-chord[..., 1], chord[..., 0]], axis=-1)
+    sin_a = np.sin(angle)
+    cot = np.cos(angle) / np.where(np.abs(sin_a) > 1e-12, sin_a, np.nan)
+    return 0.5 * (a + b) + 0.5 * cot[..., None] * left
+
+
+@dataclass(frozen=True)
+class InitialPoseResult:
+    """Outcome of :func:`initial_pose_search`.
+
+    Attributes
+    ----------
+    pose:
+        ``(3,)`` base_link pose in ``map`` (NaN when ``found`` is False).
+    covariance:
+        ``(3, 3)`` Gauss-Newton covariance of the refined pose (NaN when not found).
+    labels:
+        ``(k,)`` reflector row per observed bearing, -1 for unexplained (spurious) ones.
+    n_explained:
+        Reflections explained by the best pose.
+    found:
+        True when one pose explains at least ``min_explained`` reflections and no other does
+        equally well.
+    ambiguous:
+        True when two or more distinct poses explain the same, maximal number of
+        reflections (e.g. a rotationally symmetric layout); ``alternatives`` lists them.
+    alternatives:
+        ``(m, 3)`` every distinct pose with the maximal score (the best first).
+    """
+
+    pose: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    labels: NDArray[np.int64]
+    n_explained: int
+    found: bool
+    ambiguous: bool
+    alternatives: NDArray[np.float64]
+
+
+def initial_pose_search(
+    bearings: ArrayLike,
+    reflector_xy: ArrayLike,
+    radius: ArrayLike,
+    mount: ArrayLike,
+    bearing_std: float,
+    *,
+    max_range: float = np.inf,
+    min_explained: int = 4,
+    max_observation_triples: int = 24,
+    position_tol: float = 0.05,
+    heading_tol: float = 0.01,
+    gate: float = CHI2_1DOF_999,
+) -> InitialPoseResult:
+    """Pose of a standing vehicle from one revolution of anonymous bearings, without prior.
+
+    1. Pick bearing triples spread around the revolution (all triples when few).
+    2. For each, try every ordered triple of map reflectors, resect the head pose
+       (:func:`resect_three`, then once more with the edge correction of seed 000 §2.1 at
+       the resected distances), drop hypotheses out of range.
+    3. Score each hypothesis by the number of bearings it explains within a coarse
+       tolerance; refine the best distinct hypotheses by Gauss-Newton on all the bearings
+       they explain (labels by :func:`associate_sweep`, chi-square gate).
+    4. Keep the pose explaining the most; if another distinct pose (farther than
+       ``position_tol`` m or ``heading_tol`` rad) explains as many, report ``ambiguous``.
+
+    ``bearings (k,)`` head-frame edge bearings (rad); the map arrays as in
+    :func:`bearing_model`. Needs at least three reflections and three reflectors.
+    """
+    z = np.sort(wrap_angle(np.atleast_1d(np.asarray(bearings, dtype=np.float64))))
+    order = np.argsort(wrap_angle(np.atleast_1d(np.asarray(bearings, dtype=np.float64))), kind="stable")
+    xy = np.asarray(reflector_xy, dtype=np.float64)
+    rad = np.broadcast_to(np.asarray(radius, dtype=np.float64), xy.shape[:1])
+    if z.size < 3 or xy.shape[0] < 3:
+        return _not_found(z.size)
+    hyps = _hypotheses(z, xy, rad, mount, max_observation_triples, max_range)
+    if hyps.shape[0] == 0:
+        return _not_found(z.size)
+    coarse_tol = max(30.0 * bearing_std, 2e-3)
+    h, _, d = bearing_model(hyps[:, None, :], mount, xy[None], rad[None])
+    visible = d <= max_range
+    close = np.abs(angle_diff(z[None, :, None], h[:, None, :])) < coarse_tol
+    explained = np.any(close & visible[:, None, :], axis=-1).sum(-1)
+    refined = _refine_distinct(hyps, explained, z, xy, rad, mount, bearing_std, max_range, gate, position_tol, heading_tol)
+    if not refined:
+        return _not_found(z.size)
+    best_n = max(r[1] for r in refined)
+    top = [r for r in refined if r[1] == best_n]
+    top.sort(key=lambda r: r[2])
+    top = _distinct(top, position_tol, heading_tol)
+    pose, n, _, labels_sorted, cov = top[0]
+    labels = np.empty_like(labels_sorted)
+    labels[order] = labels_sorted
+    alternatives = np.array([r[0] for r in top])
+    ambiguous = len(top) > 1
+    found = (not ambiguous) and n >= min_explained
+    return InitialPoseResult(pose, cov, labels, int(n), found, ambiguous, alternatives)
+
+
+def _not_found(k: int) -> InitialPoseResult:
+    nan3 = np.full(3, np.nan)
+    return InitialPoseResult(nan3, np.full((3, 3), np.nan), np.full(k, -1, dtype=np.int64), 0, False, False, np.zeros((0, 3)))
+
+
+def _observation_triples(k: int, limit: int) -> list[tuple[int, int, int]]:
+    """Bearing triples to try: all of them when few, else triples spread around the sweep."""
+    if k * (k - 1) * (k - 2) // 6 <= limit:
+        return list(itertools.combinations(range(k), 3))
+    triples: list[tuple[int, int, int]] = []
+    for a, b in ((k // 3, 2 * k // 3), (1, k // 2), (k // 4, k // 2)):
+        for i in range(k):
+            tri = tuple(sorted({i, (i + a) % k, (i + b) % k}))
+            if len(tri) == 3 and tri not in triples:
+                triples.append(tri)  # type: ignore[arg-type]
+            if len(triples) >= limit:
+                return triples
+    return triples
+
+
+def _hypotheses(
+    z: NDArray[np.float64],
+    xy: NDArray[np.float64],
+    rad: NDArray[np.float64],
+    mount: ArrayLike,
+    limit: int,
+    max_range: float,
+) -> NDArray[np.float64]:
+    """base_link poses resected from every (bearing triple, ordered reflector triple) pair."""
+    obs = np.array(_observation_triples(z.size, limit))
+    refl = np.array(list(itertools.permutations(range(xy.shape[0]), 3)))
+    zi = np.repeat(z[obs], refl.shape[0], axis=0)
+    ri = np.tile(refl, (obs.shape[0], 1))
+    R = xy[ri]
+    head, valid = resect_three(R, zi)
+    for _ in range(2):  # the reported bearings are edges: move them to the centres and resect again
+        dist = np.linalg.norm(R - head[:, None, :2], axis=-1)
+        head, valid = resect_three(R, zi - edge_offset(dist, rad[ri]))
+    dist = np.linalg.norm(R - head[:, None, :2], axis=-1)
+    valid &= np.all(dist <= max_range, axis=-1) & np.all(dist > rad[ri], axis=-1)
+    base = compose(head[valid], inverse(np.asarray(mount, dtype=np.float64)))
+    return base
+
+
+def _refine_distinct(
+    hyps: NDArray[np.float64],
+    explained: NDArray[np.int64],
+    z: NDArray[np.float64],
+    xy: NDArray[np.float64],
+    rad: NDArray[np.float64],
+    mount: ArrayLike,
+    bearing_std: float,
+    max_range: float,
+    gate: float,
+    position_tol: float,
+    heading_tol: float,
+) -> list[tuple]:
+    """Gauss-Newton refinement of the best-scoring distinct hypotheses."""
+    best = int(explained.max())
+    cand = hyps[explained >= max(best - 1, 3)]
+    cand = cand[np.argsort(-explained[explained >= max(best - 1, 3)], kind="stable")]
+    seeds = [r[0] for r in _distinct([(p, 0, 0.0) for p in cand[:400]], position_tol, heading_tol)]
+    out = []
+    var = bearing_std**2
+    for pose in seeds[:32]:
+        loose = np.diag([0.05, 0.05, 0.01]) ** 2
+        labels = associate_sweep(z, pose, loose, mount, xy, rad, var, max_range=max_range, gate=gate)
+        for _ in range(2):
+            if np.count_nonzero(labels >= 0) < 3:
+                break
+            pose, cov, ssr = _gauss_newton(pose, z[labels >= 0], xy[labels[labels >= 0]], rad[labels[labels >= 0]], mount, var)
+            labels = associate_sweep(z, pose, cov, mount, xy, rad, var, max_range=max_range, gate=gate)
+        n = int(np.count_nonzero(labels >= 0))
+        if n >= 3:
+            pose, cov, ssr = _gauss_newton(pose, z[labels >= 0], xy[labels[labels >= 0]], rad[labels[labels >= 0]], mount, var)
+            out.append((pose, n, ssr, labels, cov))
+    return out
+
+
+def _gauss_newton(
+    pose: NDArray[np.float64],
+    z: NDArray[np.float64],
+    xy: NDArray[np.float64],
+    rad: NDArray[np.float64],
+    mount: ArrayLike,
+    var: float,
+    iterations: int = 8,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """Static least-squares pose from labelled bearings: ``(pose, covariance, sum of squared residuals)``."""
+    x = np.array(pose, dtype=np.float64)
+    for _ in range(iterations):
+        h, H, _ = bearing_model(x, mount, xy, rad)
+        r = angle_diff(z, h)
+        step, *_ = np.linalg.lstsq(H, r, rcond=None)
+        x = x + step
+        x[2] = wrap_angle(x[2])
+        if np.max(np.abs(step)) < 1e-12:
+            break
+    h, H, _ = bearing_model(x, mount, xy, rad)
+    r = angle_diff(z, h)
+    cov = np.linalg.pinv(H.T @ H / var)
+    return x, cov, float(r @ r / var)
+
+
+def _distinct(items: list[tuple], position_tol: float, heading_tol: float) -> list[tuple]:
+    """Keep the first item of every cluster of poses closer than the tolerances."""
+    kept: list[tuple] = []
+    for it in items:
+        p = it[0]
+        if all(
+            np.hypot(p[0] - k[0][0], p[1] - k[0][1]) > position_tol or abs(float(angle_diff(p[2], k[0][2]))) > heading_tol
+            for k in kept
+        ):
+            kept.append(it)
+    return kept

@@ -1,0 +1,294 @@
+"""Pose of the goniometer head from reflector bearings: one entry point, four methods.
+
+``triangulate(reflectors, bearings, method=...)`` solves one fix or a million at once.
+Bearings are measured from the head's x-axis, counter-clockwise (REP-103); the
+result is the pose ``[x, y, heading]`` of the head centre P in the world frame
+(seed 000, §2.2, Fig. 1a).
+
+Methods (see each module):
+
+* ``"absolute_angles"`` (``absolute_angles``): seed 000 eqs 1-7, needs a heading
+  estimate (``None`` means 0: the method corrects any heading error away from the
+  critical circle, but on it no estimate means no fix, so ``valid=False`` there);
+* ``"relative_angles"`` (``relative_angles``): circle intersection, heading-free;
+* ``"total"`` (``total``): ToTal, the speed baseline;
+* ``"least_squares"`` (``least_squares``): maximum likelihood over N >= 3 bearings, or
+  N >= 2 with ``heading_estimate`` and ``heading_std``.
+
+The first three take exactly three reflectors.
+
+Bad input. *Structural* problems raise ``ValueError`` on every path: unknown method,
+reflectors not ``(..., N, 2)``, bearings not ``(..., N)`` with the same N, batch shapes
+that do not broadcast, too few/many reflectors for the method, non-positive
+``bearing_std``/``heading_std``. *Value* problems depend on the path:
+
+* single fix (no batch dimensions): NaN/inf in reflectors, bearings or the heading
+  estimate, coincident reflectors and collinear reflectors raise ``ValueError`` naming
+  the problem;
+* batch: the same problems only set ``valid=False`` for the element concerned (its
+  x, y, heading are NaN); neighbours are unaffected.
+
+Degenerate *geometry* is not bad input and never raises: on the critical circle
+``relative_angles``/``total`` give ``valid=False``, ``absolute_angles`` keeps the heading
+estimate and sets ``heading_from_estimate``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agvnav._validate import as_float_array
+from agvnav.geometry.angles import wrap_angle
+from agvnav.positioning.absolute_angles import absolute_angles_kernel
+from agvnav.positioning.bounds import fisher_information, inv_sym3
+from agvnav.positioning.least_squares import least_squares_kernel
+from agvnav.positioning.relative_angles import relative_angles_kernel
+from agvnav.positioning.total import total_kernel
+
+METHODS = ("absolute_angles", "relative_angles", "total", "least_squares")
+
+#: Fixes per kernel call: 8192 float64 = 64 KiB per temporary, so a kernel's working set
+#: stays in L2 cache and NumPy's temporaries stay below malloc's mmap threshold.
+CHUNK = 8192
+
+#: Relative tolerance for coincident / collinear reflector layouts.
+LAYOUT_TOL = 1e-9
+
+
+@dataclass(frozen=True)
+class TriangulationResult:
+    """A fix (or a batch of fixes): head pose, flags, quality and optional covariance.
+
+    ``x, y`` (m), ``heading`` (rad, [-pi, pi)), ``valid``, ``heading_from_estimate``,
+    ``quality`` all have the batch shape ``(...)`` (0-d for one fix); ``covariance`` is
+    ``(..., 3, 3)`` over ``[x, y, heading]`` (m², m·rad, rad²) or None without ``bearing_std``.
+    ``quality`` is method specific: |C_12 C_23| / layout scale (absolute and relative
+    angles), 1/|D| (ToTal, m⁻²), 1/PDOP (least squares, rad/m); larger is better.
+    """
+
+    x: NDArray[np.float64]
+    y: NDArray[np.float64]
+    heading: NDArray[np.float64]
+    valid: NDArray[np.bool_]
+    heading_from_estimate: NDArray[np.bool_]
+    quality: NDArray[np.float64]
+    covariance: NDArray[np.float64] | None
+
+    @property
+    def pose(self) -> NDArray[np.float64]:
+        """The pose ``(..., 3)`` = ``[x, y, heading]``."""
+        return np.stack([self.x, self.y, self.heading], axis=-1)
+
+
+def triangulate(
+    reflectors: ArrayLike,
+    bearings: ArrayLike,
+    method: str = "absolute_angles",
+    heading_estimate: ArrayLike | None = None,
+    bearing_std: ArrayLike | None = None,
+    heading_std: ArrayLike | None = None,
+) -> TriangulationResult:
+    """Pose of the goniometer head from the bearings of known reflectors.
+
+    Parameters
+    ----------
+    reflectors : (..., N, 2) world coordinates (m); a plain ``(N, 2)`` layout is shared
+        by the whole batch without copying.
+    bearings : (..., N) bearings (rad) from the head x-axis, CCW, in reflector order.
+    method : one of ``METHODS``.
+    heading_estimate : (...) odometric heading estimate ``psi_est`` (rad), optional.
+    bearing_std : bearing noise std (rad), broadcasting against (..., N); gives the
+        covariance from the linearisation at the solution (and weights least squares).
+    heading_std : std (rad) of ``heading_estimate``; with it, least squares uses the
+        estimate as a prior, and absolute_angles' covariance on the critical circle uses it.
+
+    Returns
+    -------
+    TriangulationResult, shapes as described there. See the module docstring for
+    which bad inputs raise and which are flagged.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> r = [(0.0, 1.0), (-np.sqrt(3) / 2, -0.5), (np.sqrt(3) / 2, -0.5)]
+    >>> fix = triangulate(r, np.deg2rad([90.0, -150.0, -30.0]), heading_estimate=0.2)
+    >>> bool(fix.valid), (np.round(fix.pose, 12) + 0.0).tolist()
+    (True, [0.0, 0.0, 0.0])
+    """
+    if method not in METHODS:
+        raise ValueError(f"unknown triangulation method {method!r}; choose one of {', '.join(METHODS)}")
+    r, b = _check_shapes(reflectors, bearings)
+    n = r.shape[-2]
+    h = None if heading_estimate is None else as_float_array("heading_estimate", heading_estimate)
+    bs = _optional_std("bearing_std", bearing_std)
+    hs = _optional_std("heading_std", heading_std)
+    _check_count(method, n, h is not None and hs is not None)
+    try:
+        batch = np.broadcast_shapes(r.shape[:-2], b.shape[:-1], () if h is None else h.shape)
+        if bs is not None:
+            np.broadcast_shapes(bs.shape, batch + (n,))
+        if hs is not None:
+            np.broadcast_shapes(hs.shape, batch)
+    except ValueError:
+        raise ValueError(
+            f"batch shapes do not broadcast: reflectors {r.shape}, bearings {b.shape}"
+            + ("" if h is None else f", heading_estimate {h.shape}")
+        ) from None
+    if batch == ():
+        _check_single(r, b, h)
+    return _solve(method, r, b, h, bs, hs, batch)
+
+
+def _check_shapes(reflectors: ArrayLike, bearings: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    r = as_float_array("reflectors", reflectors)
+    b = as_float_array("bearings", bearings)
+    if r.ndim < 2 or r.shape[-1] != 2:
+        raise ValueError(f"reflectors must have shape (..., N, 2), got {r.shape}")
+    if b.ndim < 1 or b.shape[-1] != r.shape[-2]:
+        raise ValueError(f"bearings must have shape (..., N) with N={r.shape[-2]} reflectors, got {b.shape}")
+    return r, b
+
+
+def _optional_std(name: str, value: ArrayLike | None) -> NDArray[np.float64] | None:
+    if value is None:
+        return None
+    arr = as_float_array(name, value)
+    if not np.all(arr > 0.0) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be positive and finite")
+    return arr
+
+
+def _check_count(method: str, n: int, has_prior: bool) -> None:
+    if method != "least_squares" and n != 3:
+        raise ValueError(f"method {method!r} needs exactly 3 reflectors, got {n}")
+    need = 2 if has_prior else 3
+    if method == "least_squares" and n < need:
+        hint = "" if has_prior else " (2 with heading_estimate and heading_std)"
+        raise ValueError(f"method 'least_squares' needs at least {need} reflectors{hint}, got {n}")
+
+
+def _check_single(r: NDArray[np.float64], b: NDArray[np.float64], h: NDArray[np.float64] | None) -> None:
+    """Single-fix path: value problems raise (batches flag them instead)."""
+    for name, arr in (("reflectors", r), ("bearings", b), ("heading_estimate", h)):
+        if arr is not None and not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name} contains NaN or inf")
+    coincident, collinear = _layout_flags(r)
+    if coincident:
+        raise ValueError("reflectors: two reflectors coincide")
+    if collinear:
+        raise ValueError("reflectors are collinear: the fix is undetermined")
+
+
+def _layout_flags(r: NDArray[np.float64]) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Per-element (coincident, collinear) flags of layouts ``(..., N, 2)``."""
+    d = r[..., :, None, :] - r[..., None, :, :]
+    dist2 = np.sum(d * d, axis=-1)
+    n = r.shape[-2]
+    scale = np.max(dist2, axis=(-2, -1))
+    off = np.where(np.eye(n, dtype=bool), np.inf, dist2)
+    coincident = np.min(off, axis=(-2, -1)) <= LAYOUT_TOL**2 * scale
+    c = r - np.mean(r, axis=-2, keepdims=True)
+    sxx, syy, sxy = np.sum(c[..., 0] ** 2, -1), np.sum(c[..., 1] ** 2, -1), np.sum(c[..., 0] * c[..., 1], -1)
+    collinear = sxx * syy - sxy * sxy <= LAYOUT_TOL * (sxx + syy) ** 2
+    return coincident, collinear
+
+
+def _solve(
+    method: str,
+    r: NDArray[np.float64],
+    b: NDArray[np.float64],
+    h: NDArray[np.float64] | None,
+    bs: NDArray[np.float64] | None,
+    hs: NDArray[np.float64] | None,
+    batch: tuple[int, ...],
+) -> TriangulationResult:
+    n = r.shape[-2]
+    m = int(np.prod(batch))
+    shared = r.ndim == 2
+    rf = r if shared else np.broadcast_to(r, batch + (n, 2)).reshape(m, n, 2)
+    bf = np.broadcast_to(b, batch + (n,)).reshape(m, n)
+    hf = None if h is None else np.broadcast_to(h, batch).reshape(m)
+    bsf = None if bs is None else np.broadcast_to(bs, batch + (n,)).reshape(m, n)
+    hsf = None if hs is None else np.broadcast_to(hs, batch).reshape(m)
+    coincident, collinear = _layout_flags(rf)
+    layout_ok = ~(coincident | collinear)
+    out = {k: np.empty(m) for k in ("x", "y", "heading", "quality")}
+    out["valid"] = np.empty(m, dtype=bool)
+    out["heading_from_estimate"] = np.zeros(m, dtype=bool)
+    cov = None if bs is None else np.empty((m, 3, 3))
+    for start in range(0, m, CHUNK):
+        s = slice(start, min(start + CHUNK, m))
+        rc = rf if shared else rf[s]
+        hc = None if hf is None else hf[s]
+        res = _kernel(method, rc, bf[s], hc, None if bsf is None else bsf[s], None if hsf is None else hsf[s])
+        for key, value in res.items():
+            if key in out:
+                out[key][s] = value
+        if cov is not None:
+            cov[s] = _covariance(method, rc, res, bsf[s], None if hsf is None else hsf[s])  # type: ignore[index]
+    valid = out["valid"] & layout_ok & np.all(np.isfinite(bf), axis=-1)
+    for key in ("x", "y", "heading"):
+        out[key][~valid] = np.nan
+    out["quality"][~valid] = 0.0
+    out["heading_from_estimate"] &= valid
+    shaped = {k: v.reshape(batch) for k, v in out.items()}
+    shaped["valid"] = valid.reshape(batch)
+    shaped["heading"] = wrap_angle(shaped["heading"])
+    return TriangulationResult(
+        covariance=None if cov is None else cov.reshape(batch + (3, 3)),
+        **shaped,  # type: ignore[arg-type]
+    )
+
+
+def _kernel(
+    method: str,
+    r: NDArray[np.float64],
+    b: NDArray[np.float64],
+    h: NDArray[np.float64] | None,
+    bs: NDArray[np.float64] | None,
+    hs: NDArray[np.float64] | None,
+) -> dict[str, NDArray[np.float64]]:
+    """Run one method's kernel on a flat chunk: ``r`` (N, 2) or (m, N, 2), ``b`` (m, N)."""
+    if method == "least_squares":
+        return least_squares_kernel(r[..., 0], r[..., 1], b, bs, h, hs)
+    x = (r[..., 0, 0], r[..., 1, 0], r[..., 2, 0])
+    y = (r[..., 0, 1], r[..., 1, 1], r[..., 2, 1])
+    t = (b[:, 0], b[:, 1], b[:, 2])
+    with np.errstate(all="ignore"):
+        if method == "total":
+            return total_kernel(x, y, t)
+        if method == "relative_angles":
+            return relative_angles_kernel(x, y, t)
+        res = absolute_angles_kernel(x, y, t, np.zeros(b.shape[0]) if h is None else h)
+    if h is None:  # no estimate to fall back on near the critical circle
+        res["valid"] = res["valid"] & ~res["heading_from_estimate"]
+    return res
+
+
+def _covariance(
+    method: str,
+    r: NDArray[np.float64],
+    res: dict[str, NDArray[np.float64]],
+    bs: NDArray[np.float64],
+    hs: NDArray[np.float64] | None,
+) -> NDArray[np.float64]:
+    """Covariance ``(m, 3, 3)`` from the linearisation at the solution.
+
+    For three bearings every exact method has the same first-order error
+    ``J^-1 dtheta``, so ``(J^T R^-1 J)^-1`` applies to all of them; where absolute_angles
+    kept the heading estimate its std ``heading_std`` enters as a prior on the heading.
+    """
+    if method == "least_squares":
+        info = res["information"]
+    else:
+        pose = np.stack([res["x"], res["y"], res["heading"]], axis=-1)
+        with np.errstate(all="ignore"):
+            info = fisher_information(r, pose, bs)
+        if hs is not None and "heading_from_estimate" in res:
+            info[:, 2, 2] += np.where(res["heading_from_estimate"], 1.0 / hs**2, 0.0)
+    cov, ok = inv_sym3(info)
+    cov[~ok] = np.nan
+    return cov
