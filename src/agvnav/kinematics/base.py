@@ -1,0 +1,214 @@
+"""The interface every vehicle model shares, and the integration kernels they reuse.
+
+A model maps a state ``(..., n)`` and an input ``(..., m)`` to the state
+derivative ``(..., n)``; everything is vectorised over leading batch dimensions.
+The kernels (``derivative``, Jacobians, ``step``) do not validate, so a batch of
+10,000 vehicles steps in one NumPy call; ``check_state``/``check_input`` raise a
+``ValueError`` naming the parameter, and ``input_valid`` flags bad elements of a
+batch without raising.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agvnav._validate import as_float_array, require_last_dim
+
+FloatArray = NDArray[np.float64]
+
+
+def twist_step(pose: ArrayLike, v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike, dt: float) -> FloatArray:
+    """Exact pose after moving with a constant body twist for ``dt`` seconds.
+
+    Parameters
+    ----------
+    pose : (..., 3) ``[x, y, heading]`` (m, m, rad).
+    v_x, v_y : (...) body-frame velocity of the reference point (m/s).
+    omega : (...) yaw rate (rad/s).
+    dt : time step (s).
+
+    Returns
+    -------
+    (..., 3) new pose; the heading is not wrapped (integrators keep it continuous).
+
+    Notes
+    -----
+    The SE(2) exponential. With ``v_y = 0`` it is the exact arc of seed 002,
+    eq. 25 (chord ``ΔD·sin(Δθ/2)/(Δθ/2)`` along the mid heading); a series
+    expansion is used for ``|Δθ| < 1e-4`` so straight lines lose no precision.
+    """
+    pose = np.asarray(pose, dtype=np.float64)
+    dth = np.asarray(omega, dtype=np.float64) * dt
+    dx = np.asarray(v_x, dtype=np.float64) * dt
+    dy = np.asarray(v_y, dtype=np.float64) * dt
+    sinc_half = _sinc_half(dth)
+    # Exponential map: body displacement V(Δθ)·(dx, dy) = sinc(Δθ/2)·R(Δθ/2)·(dx, dy).
+    heading_mid = pose[..., 2] + 0.5 * dth
+    fwd = sinc_half * dx
+    lat = sinc_half * dy
+    c, s = np.cos(heading_mid), np.sin(heading_mid)
+    return np.stack(
+        [pose[..., 0] + c * fwd - s * lat, pose[..., 1] + s * fwd + c * lat, pose[..., 2] + dth], axis=-1
+    )
+
+
+def _sinc_half(dth: FloatArray) -> FloatArray:
+    """``sin(h)/h`` for the half angle ``h = Δθ/2`` (series below 5e-5 rad)."""
+    h = 0.5 * dth
+    small = np.abs(h) < 5e-5
+    safe_h = np.where(small, 1.0, h)
+    return np.where(small, 1.0 - h * h / 6.0, np.sin(safe_h) / safe_h)
+
+
+def rk4_step(
+    f: Callable[[FloatArray, FloatArray], FloatArray], state: FloatArray, u: FloatArray, dt: float, substeps: int = 1
+) -> FloatArray:
+    """Classical fourth-order Runge-Kutta over ``dt`` with ``substeps`` equal sub-steps, input held."""
+    x = np.asarray(state, dtype=np.float64)
+    h = dt / substeps
+    for _ in range(substeps):
+        k1 = f(x, u)
+        k2 = f(x + 0.5 * h * k1, u)
+        k3 = f(x + 0.5 * h * k2, u)
+        k4 = f(x + h * k3, u)
+        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return x
+
+
+def numerical_jacobian(
+    f: Callable[[FloatArray], FloatArray], x: ArrayLike, eps: float = 1e-6
+) -> FloatArray:
+    """Central-difference Jacobian ``(..., p, q)`` of ``f: (..., q) -> (..., p)`` (tests and checks)."""
+    x = np.asarray(x, dtype=np.float64)
+    cols = []
+    for j in range(x.shape[-1]):
+        d = np.zeros(x.shape[-1])
+        d[j] = eps
+        cols.append((f(x + d) - f(x - d)) / (2.0 * eps))
+    return np.stack(cols, axis=-1)
+
+
+class KinematicModel(ABC):
+    """Common interface of every vehicle model (docs/ARCHITECTURE.md, kinematics).
+
+    Subclasses define ``state_names``, ``input_names``, ``derivative`` and the
+    two Jacobians; ``step`` defaults to sub-stepped RK4 and is overridden where
+    a closed form exists. ``n_config`` and ``constraint_matrix`` give the
+    Pfaffian constraints ``A(q)·q' = 0`` of seed 003 §3.2, so the degrees of
+    freedom are ``n_config - n_constraints``.
+    """
+
+    state_names: tuple[str, ...] = ()
+    input_names: tuple[str, ...] = ()
+    #: RK4 sub-steps used by the default ``step``.
+    substeps: int = 4
+
+    @property
+    def n_state(self) -> int:
+        """Length of the state vector."""
+        return len(self.state_names)
+
+    @property
+    def n_input(self) -> int:
+        """Length of the input vector."""
+        return len(self.input_names)
+
+    @property
+    def dof(self) -> int:
+        """Degrees of freedom as seed 003 counts them: configuration variables minus constraints."""
+        return self.n_state - self.n_constraints
+
+    @property
+    def n_constraints(self) -> int:
+        """Number of independent non-holonomic constraints (rows of ``constraint_matrix``)."""
+        return 0
+
+    def constraint_matrix(self, state: ArrayLike) -> FloatArray:
+        """Pfaffian constraint matrix ``A (..., k, n)`` with ``A·state' = 0`` (seed 003 §3.2)."""
+        state = np.asarray(state, dtype=np.float64)
+        return np.zeros(state.shape[:-1] + (0, self.n_state))
+
+    @abstractmethod
+    def derivative(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+        """State derivative ``(..., n)`` for state ``(..., n)`` and input ``(..., m)``."""
+
+    @abstractmethod
+    def jacobian_state(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+        """``∂derivative/∂state``, shape ``(..., n, n)``."""
+
+    @abstractmethod
+    def jacobian_input(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+        """``∂derivative/∂u``, shape ``(..., n, m)``."""
+
+    def step(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
+        """State after ``dt`` s with the input held (RK4, ``substeps`` sub-steps)."""
+        return rk4_step(self.derivative, np.asarray(state, np.float64), np.asarray(u, np.float64), dt, self.substeps)
+
+    # ------------------------------------------------------------------ checks
+    def input_violations(self, u: FloatArray) -> list[tuple[str, NDArray[np.bool_]]]:
+        """Per-limit masks ``(name, bad (...))`` of inputs beyond the model's limits."""
+        return []
+
+    def state_violations(self, state: FloatArray) -> list[tuple[str, NDArray[np.bool_]]]:
+        """Per-limit masks ``(name, bad (...))`` of states beyond the model's limits."""
+        return []
+
+    def input_valid(self, u: ArrayLike) -> NDArray[np.bool_]:
+        """Batch flag ``(...)``: True where the input is finite and within limits (never raises on values)."""
+        u = require_last_dim("u", as_float_array("u", u), self.n_input)
+        ok = np.all(np.isfinite(u), axis=-1)
+        with np.errstate(invalid="ignore"):
+            for _, bad in self.input_violations(u):
+                ok &= ~bad
+        return ok
+
+    def check_input(self, u: ArrayLike) -> FloatArray:
+        """Return ``u`` as float ``(..., m)``; ValueError naming the input if bad shape, NaN or beyond a limit."""
+        u = require_last_dim("u", as_float_array("u", u), self.n_input)
+        _raise_nonfinite(u, self.input_names, "input")
+        for name, bad in self.input_violations(u):
+            if np.any(bad):
+                raise ValueError(f"{type(self).__name__}: {name} beyond its limit")
+        return u
+
+    def check_state(self, state: ArrayLike) -> FloatArray:
+        """Return ``state`` as float ``(..., n)``; ValueError naming the variable if bad shape, NaN or out of range."""
+        state = require_last_dim("state", as_float_array("state", state), self.n_state)
+        _raise_nonfinite(state, self.state_names, "state")
+        for name, bad in self.state_violations(state):
+            if np.any(bad):
+                raise ValueError(f"{type(self).__name__}: {name} beyond its limit")
+        return state
+
+    def checked_step(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
+        """``step`` after ``check_state``, ``check_input`` and a positive finite ``dt`` (the API path)."""
+        if not np.isfinite(dt) or dt <= 0.0:
+            raise ValueError(f"dt must be a positive finite number, got {dt!r}")
+        return self.step(self.check_state(state), self.check_input(u), dt)
+
+
+def _raise_nonfinite(arr: FloatArray, names: tuple[str, ...], what: str) -> None:
+    finite = np.isfinite(arr)
+    if not np.all(finite):
+        bad = [names[j] for j in range(arr.shape[-1]) if not np.all(finite[..., j])]
+        raise ValueError(f"{what} {', '.join(bad)} contains NaN or inf")
+
+
+def check_angle_limit(name: str, value: float, upper: float = np.pi / 2) -> float:
+    """Validate a steering limit: finite, in ``(0, upper]`` rad."""
+    v = float(value)
+    if not np.isfinite(v) or v <= 0.0 or v > upper:
+        raise ValueError(f"{name} must be in (0, {upper:.6g}] rad, got {value!r}")
+    return v
+
+
+def check_rate_limit(name: str, value: float) -> float:
+    """Validate a rate limit: > 0, ``inf`` allowed (no limit)."""
+    v = float(value)
+    if np.isnan(v) or v <= 0.0:
+        raise ValueError(f"{name} must be > 0 (inf for no limit), got {value!r}")
+    return v

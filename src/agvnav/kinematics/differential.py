@@ -1,0 +1,158 @@
+"""Differential drive / unicycle (seed 002 §2, seed 003 §3.2.4, seed 004 §II.A).
+
+State ``[x, y, theta]`` of the axle midpoint, input ``[v, omega]``; the wheels'
+speeds convert to and from ``(v, ω)`` with the track ``L`` (distance between
+the wheel contact points).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agvnav._validate import require_positive
+from agvnav.kinematics.base import FloatArray, KinematicModel, twist_step
+
+
+def unicycle_derivative(state: ArrayLike, u: ArrayLike) -> FloatArray:
+    """``[ẋ, ẏ, θ'] = [v cosθ, v sinθ, ω]`` (seed 002 eq. 11), state ``(..., 3)``, u ``(..., 2)``."""
+    state = np.asarray(state, dtype=np.float64)
+    u = np.asarray(u, dtype=np.float64)
+    th = state[..., 2]
+    return np.stack([u[..., 0] * np.cos(th), u[..., 0] * np.sin(th), u[..., 1]], axis=-1)
+
+
+def wheel_speeds(v: ArrayLike, omega: ArrayLike, track: float) -> tuple[FloatArray, FloatArray]:
+    """Wheel ground speeds ``(v_R, v_L)`` (m/s) for body speed ``v`` (m/s) and yaw rate ``ω`` (rad/s).
+
+    Inverse of seed 002 eq. 4: ``v_R = v + ωL/2``, ``v_L = v − ωL/2``.
+    """
+    v = np.asarray(v, dtype=np.float64)
+    half = 0.5 * track * np.asarray(omega, dtype=np.float64)
+    return v + half, v - half
+
+
+def body_speeds(v_right: ArrayLike, v_left: ArrayLike, track: float) -> tuple[FloatArray, FloatArray]:
+    """``(v, ω)`` from wheel ground speeds: ``v = (v_R+v_L)/2``, ``ω = (v_R−v_L)/L`` (seed 002 eq. 4)."""
+    vr = np.asarray(v_right, dtype=np.float64)
+    vl = np.asarray(v_left, dtype=np.float64)
+    return 0.5 * (vr + vl), (vr - vl) / track
+
+
+def turning_radius(v_right: ArrayLike, v_left: ArrayLike, track: float) -> FloatArray:
+    """Signed radius ``R = L(v_R+v_L) / (2(v_R−v_L))`` (m) of the axle midpoint (seed 002 eq. 4).
+
+    ``+inf``/``-inf`` for straight motion (``v_R = v_L ≠ 0``); NaN when both are zero
+    (no motion, radius undefined). Positive R: the centre is on the left.
+    """
+    vr = np.asarray(v_right, dtype=np.float64)
+    vl = np.asarray(v_left, dtype=np.float64)
+    num = track * (vr + vl)
+    den = 2.0 * (vr - vl)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = num / den
+    return np.where(den == 0.0, np.where(num == 0.0, np.nan, np.copysign(np.inf, num)), r)
+
+
+def instantaneous_centre(state: ArrayLike, radius: ArrayLike) -> FloatArray:
+    """ICR ``(x − R sinθ, y + R cosθ)`` ``(..., 2)`` (m) for signed radius ``R`` (seed 002 eq. 2)."""
+    state = np.asarray(state, dtype=np.float64)
+    r = np.asarray(radius, dtype=np.float64)
+    th = state[..., 2]
+    return np.stack([state[..., 0] - r * np.sin(th), state[..., 1] + r * np.cos(th)], axis=-1)
+
+
+class DifferentialDrive(KinematicModel):
+    """Differential-drive vehicle, equivalently a unicycle with ``[v, ω]`` input.
+
+    Parameters
+    ----------
+    track : distance L between the two wheel contact points (m), > 0.
+    wheel_radius : r (m), > 0; used by the wheel angular-speed conversions.
+    max_wheel_speed : limit on |v_R|, |v_L| (m/s); ``inf`` for none.
+
+    ``step`` is exact (constant ``(v, ω)`` gives an arc, seed 002 eq. 25).
+    """
+
+    state_names = ("x", "y", "theta")
+    input_names = ("v", "omega")
+
+    def __init__(self, track: float, wheel_radius: float = 0.1, max_wheel_speed: float = np.inf) -> None:
+        self.track = require_positive("track", track)
+        self.wheel_radius = require_positive("wheel_radius", wheel_radius)
+        if np.isnan(max_wheel_speed) or max_wheel_speed <= 0.0:
+            raise ValueError(f"max_wheel_speed must be > 0, got {max_wheel_speed!r}")
+        self.max_wheel_speed = float(max_wheel_speed)
+
+    @property
+    def n_constraints(self) -> int:
+        """One non-holonomic constraint: ``ẋ sinθ − ẏ cosθ = 0`` (seed 003 §3.2.4, 3 − 1 = 2 DOF)."""
+        return 1
+
+    def constraint_matrix(self, state: ArrayLike) -> FloatArray:
+        """``[[sinθ, −cosθ, 0]]`` ``(..., 1, 3)`` (seed 003 §3.2.4; seed 002 eq. 1)."""
+        th = np.asarray(state, dtype=np.float64)[..., 2]
+        return np.stack([np.sin(th), -np.cos(th), np.zeros_like(th)], axis=-1)[..., None, :]
+
+    def derivative(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+        """Seed 002 eq. 11."""
+        return unicycle_derivative(state, u)
+
+    def jacobian_state(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+        """``∂f/∂[x, y, θ]`` ``(..., 3, 3)``: only the θ column is non-zero."""
+        th = np.asarray(state, dtype=np.float64)[..., 2]
+        v = np.asarray(u, dtype=np.float64)[..., 0]
+        jac = np.zeros(np.broadcast_shapes(th.shape, v.shape) + (3, 3))
+        jac[..., 0, 2] = -v * np.sin(th)
+        jac[..., 1, 2] = v * np.cos(th)
+        return jac
+
+    def jacobian_input(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+        """``∂f/∂[v, ω]`` ``(..., 3, 2)`` = ``[[cosθ, 0], [sinθ, 0], [0, 1]]`` (seed 002 eq. 11)."""
+        th = np.asarray(state, dtype=np.float64)[..., 2]
+        shape = np.broadcast_shapes(th.shape, np.asarray(u).shape[:-1])
+        jac = np.zeros(shape + (3, 2))
+        jac[..., 0, 0] = np.cos(th)
+        jac[..., 1, 0] = np.sin(th)
+        jac[..., 2, 1] = 1.0
+        return jac
+
+    def step(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
+        """Exact arc for constant ``(v, ω)`` (seed 002 eq. 25)."""
+        u = np.asarray(u, dtype=np.float64)
+        return twist_step(state, u[..., 0], 0.0, u[..., 1], dt)
+
+    def input_violations(self, u: FloatArray) -> list[tuple[str, NDArray[np.bool_]]]:
+        """Wheel ground speeds beyond ``max_wheel_speed``."""
+        vr, vl = wheel_speeds(u[..., 0], u[..., 1], self.track)
+        return [("wheel speed (v ± omega*track/2)", (np.abs(vr) > self.max_wheel_speed) | (np.abs(vl) > self.max_wheel_speed))]
+
+    # ---------------------------------------------------------------- wheels
+    def wheel_speeds(self, u: ArrayLike) -> FloatArray:
+        """Wheel ground speeds ``(..., 2)`` = ``[v_R, v_L]`` (m/s) for input ``[v, ω]``."""
+        u = np.asarray(u, dtype=np.float64)
+        return np.stack(wheel_speeds(u[..., 0], u[..., 1], self.track), axis=-1)
+
+    def input_from_wheel_speeds(self, wheel: ArrayLike) -> FloatArray:
+        """``[v, ω]`` ``(..., 2)`` from ``[v_R, v_L]`` (seed 002 eq. 4)."""
+        wheel = np.asarray(wheel, dtype=np.float64)
+        return np.stack(body_speeds(wheel[..., 0], wheel[..., 1], self.track), axis=-1)
+
+    def wheel_rates(self, u: ArrayLike) -> FloatArray:
+        """Wheel angular speeds ``[ω_R, ω_L]`` (rad/s) (seed 004 eqs. 1-2: ``ω_R = (2v + ωL)/(2r)``)."""
+        return self.wheel_speeds(u) / self.wheel_radius
+
+    def input_from_wheel_rates(self, rates: ArrayLike) -> FloatArray:
+        """``[v, ω]`` from wheel angular speeds ``[ω_R, ω_L]`` (seed 002 eqs. 6-8)."""
+        return self.input_from_wheel_speeds(np.asarray(rates, dtype=np.float64) * self.wheel_radius)
+
+    def icr(self, state: ArrayLike, u: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Instantaneous centre of rotation ``(..., 2)`` and signed radius ``R = v/ω`` ``(...)`` (seed 002 eqs. 2-4).
+
+        For ``ω = 0`` the radius is ±inf and the centre is at infinity (inf/nan entries).
+        """
+        u = np.asarray(u, dtype=np.float64)
+        vr, vl = wheel_speeds(u[..., 0], u[..., 1], self.track)
+        radius = turning_radius(vr, vl, self.track)
+        with np.errstate(invalid="ignore"):
+            return instantaneous_centre(state, radius), radius
