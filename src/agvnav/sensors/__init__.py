@@ -6,3 +6,12 @@ from agvnav.sensors.goniometer import (  # noqa: E402  (laser goniometer, issue 
     leading_edge_bearing,
     reflector_centre_bearing,
 )
+from agvnav.sensors.ultrasonic import (  # noqa: E402  (ultrasonic rangers, issue 6)
+    ConeEcho,
+    UltrasonicArray,
+    UltrasonicReadings,
+    UltrasonicSensor,
+    check_wall_segments,
+    cone_echo,
+    seed_004_layout,
+)
