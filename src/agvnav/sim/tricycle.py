@@ -1,0 +1,280 @@
+"""The seed-000 tricycle pallet stacker as plant and autopilot of the closed loop (Fig. 9).
+
+Wiring only: the motion is :class:`agvnav.kinematics.TricycleStacker`, the
+steering servo and speed profile come from :mod:`agvnav.actuators`, the law from
+:mod:`agvnav.guidance`, the goniometer from :mod:`agvnav.sensors.goniometer`.
+
+Truth versus nominal. The truth vehicle may differ from what odometry and
+guidance believe: a drive wheel of radius ``R (1 + e_R)``, a wheelbase
+``L (1 + e_L)``, a steering offset (the wheel points ``delta`` off what the
+steering encoder reads), random slip of the traction (distance error of
+variance ``slip_std**2 * |ds|``, so it does not depend on the step) and a random
+steering error per step. The encoders quantise: the traction encoder counts
+whole pulses of the wheel's rotation, the steering encoder rounds to whole
+pulses.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["GoniometerSensor", "TricycleAutopilot", "TricyclePlant", "TruthErrors"]
+
+TWO_PI = 2.0 * math.pi
+
+
+@dataclass(frozen=True)
+class TruthErrors:
+    """How the truth vehicle differs from the nominal one (see the module docstring)."""
+
+    wheel_radius_error: float = 0.0
+    wheelbase_error: float = 0.0
+    steering_offset: float = 0.0
+    slip_std: float = 0.0
+    steering_noise_std: float = 0.0
+
+
+class TricyclePlant:
+    """Truth tricycle stacker with steering servo and quantising encoders.
+
+    Parameters
+    ----------
+    wheelbase, wheel_radius
+        Nominal L and drive-wheel radius (m).
+    traction_cpr, steering_cpr
+        Encoder counts per revolution of the drive wheel and of the steering.
+    steering
+        A :class:`agvnav.actuators.SteeringActuator` (servo limits and lag).
+    errors
+        :class:`TruthErrors`.
+    initial_state
+        True ``[x_O, y_O, psi, gamma]`` (m, rad); ``gamma`` is what the encoder reads
+        (the wheel itself points ``steering_offset`` further).
+    """
+
+    signal_names = (
+        "x",
+        "y",
+        "psi",
+        "gamma",
+        "x_C",
+        "y_C",
+        "v",
+        "gamma_rate",
+        "gamma_meas",
+        "ds_meas",
+        "odo_dd",
+        "odo_dtheta",
+        "distance_C",
+    )
+
+    def __init__(
+        self,
+        wheelbase: float,
+        wheel_radius: float,
+        traction_cpr: int,
+        steering_cpr: int,
+        steering: Any,
+        errors: TruthErrors,
+        initial_state: Sequence[float],
+    ) -> None:
+        from agvnav.kinematics import TricycleStacker
+
+        self.L = float(wheelbase)
+        self.R = float(wheel_radius)
+        self.errors = errors
+        self.L_true = self.L * (1.0 + errors.wheelbase_error)
+        self.R_true = self.R * (1.0 + errors.wheel_radius_error)
+        self.model = TricycleStacker(self.L_true)
+        self.traction_cpr = int(traction_cpr)
+        self.steering_q = TWO_PI / int(steering_cpr)
+        self.steering = steering
+        x0 = np.asarray(initial_state, dtype=np.float64)
+        self.steering.reset(float(x0[3]))
+        self._state = np.array([x0[0], x0[1], x0[2], x0[3] + errors.steering_offset])
+        self._start = self._state.copy()
+        self._u = np.zeros(2)
+        self._dt = 1.0
+        self._t0 = 0.0
+        self._wheel_angle = 0.0  # true rotation of the drive wheel (rad)
+        self._count = 0
+        self.v = 0.0
+        self.gamma_meas = self._quantise_steering(self.steering.gamma)
+        self._gamma_meas_prev = self.gamma_meas
+        self.ds_meas = 0.0
+        self._odo = (0.0, 0.0)
+        self.distance_C = 0.0
+
+    def _quantise_steering(self, gamma: float) -> float:
+        q = self.steering_q
+        return math.floor(gamma / q + 0.5) * q
+
+    @property
+    def state(self) -> NDArray[np.float64]:
+        """True ``[x_O, y_O, psi, gamma_wheel]`` now (a copy)."""
+        return self._state.copy()
+
+    def advance(self, command: Sequence[float], t0: float, dt: float, rng: np.random.Generator) -> None:
+        """From ``t0`` (s), hold ``(v, gamma_dot)`` commands for ``dt`` s: servo, truth motion, encoders.
+
+        ``v`` (m/s) is the commanded speed of C, realised by the traction loop as a
+        wheel rotation rate ``v / R`` (nominal radius); the ground moves ``R_true``
+        per radian plus slip. ``gamma_dot`` (rad/s) goes through the steering servo.
+        """
+        v_cmd, rate_cmd = float(command[0]), float(command[1])
+        self._t0 = float(t0)
+        err = self.errors
+        g0 = self.steering.gamma
+        g1, rate = self.steering.step_rate(rate_cmd, dt)
+        wheel_rate = v_cmd / self.R
+        ds_true = wheel_rate * dt * self.R_true
+        if err.slip_std > 0.0 and ds_true != 0.0:
+            ds_true += err.slip_std * math.sqrt(abs(ds_true)) * float(rng.standard_normal())
+        noise = err.steering_noise_std * float(rng.standard_normal()) if err.steering_noise_std > 0.0 else 0.0
+        start = self._state
+        start[3] = g0 + err.steering_offset + noise
+        self._start = start.copy()
+        self._u = np.array([ds_true / dt, rate])
+        self._dt = dt
+        self._state = self.model.step(start, self._u, dt)
+        self.v = ds_true / dt
+        self.distance_C += abs(ds_true)
+        # encoders (nominal parameters)
+        self._wheel_angle += wheel_rate * dt
+        count = math.floor(self._wheel_angle * self.traction_cpr / TWO_PI)
+        self.ds_meas = (count - self._count) * TWO_PI * self.R / self.traction_cpr
+        self._count = count
+        self._gamma_meas_prev, self.gamma_meas = self.gamma_meas, self._quantise_steering(g1)
+        self._odo = _tricycle_increment(self.ds_meas, 0.5 * (self._gamma_meas_prev + self.gamma_meas), self.L)
+
+    def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """True base_link (O) pose ``(k, 3)`` at instants inside the last step.
+
+        Exact kinematic interpolation: the model is driftless and linear in its
+        input, so the state after ``tau`` s with input ``u`` equals the state after
+        the full step ``dt`` with input ``u tau / dt``; one vectorised call of the
+        kinematic step serves every instant.
+        """
+        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        tau = np.clip(t - self._t0, 0.0, self._dt)
+        u = self._u[None, :] * (tau / self._dt)[:, None]
+        states = self.model.step(np.broadcast_to(self._start, (t.size, 4)), u, self._dt)
+        return states[:, :3]
+
+    def odometry(self) -> tuple[float, float]:
+        """``(delta_d, delta_theta)`` of O over the last step from the encoders (nominal L, R)."""
+        return self._odo
+
+    def signals(self) -> tuple[float, ...]:
+        s = self._state
+        c, si = math.cos(s[2]), math.sin(s[2])
+        return (
+            s[0],
+            s[1],
+            s[2],
+            s[3],
+            s[0] + self.L_true * c,
+            s[1] + self.L_true * si,
+            self.v,
+            self.steering.rate,
+            self.gamma_meas,
+            self.ds_meas,
+            self._odo[0],
+            self._odo[1],
+            self.distance_C,
+        )
+
+
+def _tricycle_increment(ds_c: float, gamma: float, wheelbase: float) -> tuple[float, float]:
+    """Odometry increment of O from the traction distance of C and the steering angle.
+
+    ``delta_d = ds_C cos(gamma)``, ``delta_theta = ds_C sin(gamma) / L`` (seed 000 eq. 8
+    integrated over one step, docs/ARCHITECTURE.md odometry contract).
+    """
+    try:
+        from agvnav.odometry import tricycle_increments
+    except ImportError:
+        return ds_c * math.cos(gamma), ds_c * math.sin(gamma) / wheelbase
+    dd, dth = tricycle_increments(ds_c, gamma, wheelbase)
+    return float(dd), float(dth)
+
+
+class GoniometerSensor:
+    """The laser goniometer as a closed-loop sensor: scans along the true motion."""
+
+    name = "reflections"
+    event_names = ("t", "bearing", "reflector_index")
+
+    def __init__(self, goniometer: Any, world: Any) -> None:
+        self.goniometer = goniometer
+        self.world = world
+
+    def observe(self, pose_at: Any, t0: float, t1: float, rng: np.random.Generator) -> NDArray[np.float64]:
+        r = self.goniometer.scan(self.world, pose_at, t0, t1, rng)
+        if len(r) == 0:
+            return _EMPTY3
+        return np.column_stack([r.t, r.bearing, r.reflector_index])
+
+    def deliver(self, estimator: Any, event: NDArray[np.float64]) -> None:
+        estimator.update(float(event[0]), float(event[1]))
+
+
+_EMPTY3 = np.zeros((0, 3))
+
+
+class TricycleAutopilot:
+    """Guidance law and traction speed profile of the stacker (seed 000 Fig. 9).
+
+    Each step: the speed profile gives the speed of C for the next step from the
+    distance left along the path (the projection of the estimated tracked point),
+    then the law gives the steering-rate command from the estimated pose, the
+    measured steering angle and that speed. Until the estimator has a fix the
+    vehicle waits at standstill.
+    """
+
+    signal_names = ("v_cmd", "gamma_dot_cmd", "s_est", "eps_c_est", "xi_r_est", "remaining")
+
+    def __init__(self, controller: Any, path: Any, profile: Any, wheelbase: float, point: str = "C") -> None:
+        self.controller = controller
+        self.path = path
+        self.profile = profile
+        self.L = float(wheelbase)
+        self.point = point
+        self.finished = False
+        self._s = 0.0
+        self._length = float(path.length)
+        self._sig = (0.0, 0.0, 0.0, math.nan, math.nan, self._length)
+
+    def _direction(self, s: float) -> int:
+        return int(self.path.direction_at(s))
+
+    def command(self, t: float, estimator: Any, plant: Any, dt: float) -> tuple[float, float]:
+        pose = estimator.pose
+        if not (math.isfinite(pose[0]) and math.isfinite(pose[1]) and math.isfinite(pose[2])):
+            self.profile.reset(0.0)
+            self._sig = (0.0, 0.0, self._s, math.nan, math.nan, self._length - self._s)
+            return 0.0, 0.0
+        remaining = self._length - self._s
+        direction = self._direction(self._s)
+        v = self.profile.command(remaining, dt, direction * abs(self.profile.cruise_speed))
+        gamma = plant.gamma_meas
+        rate = float(self.controller.command(pose, gamma, v if v != 0.0 else direction * 1e-3))
+        if v == 0.0 and remaining <= self.profile.stop_tolerance + 1e-9:
+            self.finished = True
+            rate = 0.0
+        err = getattr(self.controller, "last_errors", None)
+        eps_c = xi_r = math.nan
+        if err is not None:
+            self._s = max(self._s, float(err.s))
+            eps_c, xi_r = float(err.eps_c), float(err.xi_r)
+        self._sig = (v, rate, self._s, eps_c, xi_r, self._length - self._s)
+        return v, rate
+
+    def signals(self) -> tuple[float, ...]:
+        return self._sig
