@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 run: $(STAMP)
-	$(BIN)/agvnav demo
+	$(BIN)/agvnav simulate
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -n 2 -q

@@ -7,6 +7,7 @@ import typer
 from agvnav import __version__
 from agvnav.cli.bench import bench_app
 from agvnav.cli.demo import demo
+from agvnav.cli.simulate import simulate
 
 app = typer.Typer(
     help="agvnav: positioning and guidance of automated guided vehicles.",
@@ -16,6 +17,7 @@ app = typer.Typer(
 )
 app.add_typer(bench_app, name="bench")
 app.command("demo")(demo)
+app.command("simulate")(simulate)
 
 
 def _version(value: bool) -> None:

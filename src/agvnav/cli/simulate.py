@@ -1,0 +1,91 @@
+"""``agvnav simulate [SCENARIO] [--out DIR] [--seed N]``: the product's main job.
+
+Runs a closed-loop scenario (the seed-000 guidance test in the lab when none is
+given) with a progress bar, prints a summary table and writes ``DIR/metrics.json``,
+``DIR/timeseries.csv``, ``DIR/reflections.csv`` and the PNG plots. Argument
+parsing and printing only; the work is :func:`agvnav.sim.simulate`.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.table import Table
+
+from agvnav.cli.errors import user_errors
+
+SCENARIO_ARG = typer.Argument(
+    None, help="Scenario YAML file or shipped scenario name (default: guidance_test, seed 000 §4.3)."
+)
+OUT_OPT = typer.Option(Path("sim_out"), "--out", "-o", help="Output folder for metrics.json, CSV series and PNG plots.")
+SEED_OPT = typer.Option(None, "--seed", help="Random seed (overrides the scenario's); same seed, same run.")
+PLOTS_OPT = typer.Option(True, "--plots/--no-plots", help="Write the PNG plots.")
+
+
+@user_errors
+def simulate(
+    scenario: str | None = SCENARIO_ARG,
+    out: Path = OUT_OPT,
+    seed: int | None = SEED_OPT,
+    plots: bool = PLOTS_OPT,
+) -> None:
+    """Run a closed-loop scenario; write metrics.json, time series (CSV) and plots."""
+    from agvnav.sim import save_result
+    from agvnav.sim import simulate as run_scenario
+    from agvnav.sim.build import build
+    from agvnav.world.scenario import default_scenario, load_scenario
+
+    sc = default_scenario() if scenario is None else load_scenario(scenario)
+    if seed is not None:
+        sc = sc.with_seed(seed)
+    build(sc)  # validate every cross-part rule before the progress bar starts
+    console = Console(highlight=False)
+    with Progress(
+        TextColumn(f"[bold]{sc.name}[/bold]"),
+        BarColumn(),
+        TextColumn("{task.fields[t]:7.2f} s simulated"),
+        TimeRemainingColumn(),
+        console=console,
+        transient=True,
+    ) as bar:
+        task = bar.add_task("simulate", total=None, t=0.0)
+        result = run_scenario(sc, progress=lambda t: bar.update(task, t=t))
+    written = save_result(result, out, plots=plots)
+    console.print(_summary(result))
+    console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+
+
+def _fmt(value: float | None, scale: float = 1.0, digits: int = 1) -> str:
+    if value is None or not math.isfinite(value):
+        return "-"
+    return f"{value * scale:.{digits}f}"
+
+
+def _summary(result) -> Table:  # type: ignore[no-untyped-def]
+    m = result.metrics
+    t = Table(title=f"{result.scenario.name} (seed {result.scenario.seed})")
+    t.add_column("metric")
+    t.add_column("value", justify="right")
+    t.add_column("seed 000", justify="right")
+    rows = [
+        ("initial lateral error [mm]", _fmt(m.initial_lateral_error_m, 1e3), "110"),
+        ("max |lateral error| after transient [mm]", _fmt(m.max_abs_lateral_error_m, 1e3), "16.5"),
+        ("RMS lateral error after transient [mm]", _fmt(m.rms_lateral_error_m, 1e3), ""),
+        ("max |wheel heading error| after transient [deg]", _fmt(m.max_abs_wheel_heading_error_rad, 180 / math.pi, 2), "3.8"),
+        ("settling distance [m]", _fmt(m.settling_distance_m, 1.0, 3), ""),
+        ("positioning RMS [mm]", _fmt(m.positioning_rms_m, 1e3), ""),
+        ("positioning mean |e_lat| [mm]", _fmt(m.positioning_lateral_mean_abs_m, 1e3), "9.7"),
+        ("positioning std e_lat [mm]", _fmt(m.positioning_lateral_std_m, 1e3), "6.6"),
+        ("positioning max |e_lat| [mm]", _fmt(m.positioning_lateral_max_abs_m, 1e3), "23"),
+        ("path completed", "yes" if m.path_completed else "no", ""),
+        ("simulated time [s]", _fmt(m.sim_time_s, 1.0, 2), ""),
+        ("wall time [s]", _fmt(m.wall_time_s, 1.0, 3), ""),
+        ("real-time factor", _fmt(m.real_time_factor, 1.0, 0), ""),
+    ]
+    for r in rows:
+        t.add_row(*r)
+    return t
