@@ -36,11 +36,16 @@ Deviations, each for a stated reason:
 
 from __future__ import annotations
 
+from typing import Any
+
+import math
+
 import numpy as np
 
 from agvnav.positioning._three import (
     CRITICAL_TOL,
     Arr,
+    ScalarMath,
     Three,
     centres,
     intersect,
@@ -52,56 +57,76 @@ from agvnav.positioning._three import (
 
 #: |tan(alpha_31)| below which vertex T_31 is treated as at infinity and eq. 5 replaces eq. 4.
 ALIGN_TOL = 1e-3
+#: sin of the angle between two lines below which their intersection is not used (eq. 7 weight 0).
+SIN_TOL = 1e-12
 
 
-def _tri_area(ax: Arr, ay: Arr, bx: Arr, by: Arr, cx: Arr, cy: Arr) -> Arr:
+def _parallel(ui: float, vi: float, uj: float, vj: float) -> bool:
+    """Float path only: True when two line directions are exactly parallel (no intersection)."""
+    return ui * vj - vi * uj == 0.0
+
+
+def _tri_area(ax: Arr, ay: Arr, bx: Arr, by: Arr, cx: Arr, cy: Arr, xp: Any) -> Arr:
     """Unsigned area (m²) of triangle abc."""
-    return 0.5 * np.abs((bx - ax) * (cy - ay) - (by - ay) * (cx - ax))
+    return 0.5 * xp.abs((bx - ax) * (cy - ay) - (by - ay) * (cx - ax))
 
 
-def _error_triangle(x: Three, y: Three, theta: Three, heading: Arr) -> tuple[Three, Three]:
+def _error_triangle(x: Three, y: Three, theta: Three, heading: Arr, xp: Any) -> tuple[Three, Three]:
     """Vertices ``T_12, T_23, T_31`` of the error triangle for a heading estimate (seed 000, Fig. 2b)."""
-    ux, uy = line_directions(heading, theta)
+    ux, uy = line_directions(heading, theta, xp)
     t12 = intersect(x[0], y[0], ux[0], uy[0], x[1], y[1], ux[1], uy[1])
     t23 = intersect(x[1], y[1], ux[1], uy[1], x[2], y[2], ux[2], uy[2])
-    t31 = intersect(x[2], y[2], ux[2], uy[2], x[0], y[0], ux[0], uy[0])
+    if xp is ScalarMath and _parallel(ux[2], uy[2], ux[0], uy[0]):
+        t31 = (math.inf, math.inf)  # eq. 5 case: this vertex is not used
+    else:
+        t31 = intersect(x[2], y[2], ux[2], uy[2], x[0], y[0], ux[0], uy[0])
     return (t12[0], t23[0], t31[0]), (t12[1], t23[1], t31[1])
 
 
 def heading_error(
-    x: Three, y: Three, theta: Three, heading: Arr, cx: Three, cy: Three, aligned: Arr
+    x: Three, y: Three, theta: Three, heading: Arr, cx: Three, cy: Three, aligned: Arr, xp: Any = np
 ) -> Arr:
-    """Signed heading error ``delta = psi_est - psi`` in (-90°, 90°] (seed 000, eqs 4-6).
+    """Signed heading error ``delta = psi_est - psi`` in [-90°, 90°] (seed 000, eqs 4-6).
 
     ``|delta| = arcsin(sqrt(A_e / A_c) / 2)`` (eq. 4), or from the finite sides
     ``|T_12 T_23| / |C_12 C_23|`` where ``aligned`` (eq. 5); sign of
     ``[T_12T_23 ∧ C_12C_23]_z`` (eq. 6).
     """
-    tx, ty = _error_triangle(x, y, theta, heading)
+    tx, ty = _error_triangle(x, y, theta, heading, xp)
     sx, sy = tx[1] - tx[0], ty[1] - ty[0]  # side T_12 -> T_23
     kx, ky = cx[1] - cx[0], cy[1] - cy[0]  # homologous side C_12 -> C_23
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio_area = _tri_area(tx[0], ty[0], tx[1], ty[1], tx[2], ty[2]) / _tri_area(
-            cx[0], cy[0], cx[1], cy[1], cx[2], cy[2]
-        )
-        ratio_side = (sx * sx + sy * sy) / (kx * kx + ky * ky)
-    q = 0.25 * np.where(aligned, ratio_side, ratio_area)  # sin²|delta| (eq. 1)
-    q = np.clip(q, 0.0, 1.0)
-    magnitude = np.arctan2(np.sqrt(q), np.sqrt(1.0 - q))
-    return np.copysign(magnitude, sx * ky - sy * kx)
+    ratio_side = (sx * sx + sy * sy) / (kx * kx + ky * ky)
+    if xp is ScalarMath and aligned:
+        ratio = ratio_side
+    else:
+        area_e = _tri_area(tx[0], ty[0], tx[1], ty[1], tx[2], ty[2], xp)
+        ratio = xp.where(aligned, ratio_side, area_e / _tri_area(cx[0], cy[0], cx[1], cy[1], cx[2], cy[2], xp))
+    q = xp.clip(0.25 * ratio, 0.0, 1.0)  # sin²|delta| (eq. 1)
+    magnitude = xp.arctan2(xp.sqrt(q), xp.sqrt(1.0 - q))
+    return xp.copysign(magnitude, sx * ky - sy * kx)
 
 
-def weighted_position(x: Three, y: Three, theta: Three, heading: Arr, sin_a: Three) -> tuple[Arr, Arr]:
+def weighted_position(
+    x: Three, y: Three, theta: Three, heading: Arr, sin_a: Three, xp: Any = np
+) -> tuple[Arr, Arr]:
     """Eq. 7: mean of the pairwise intersections ``P_ij`` weighted ``W_ij = sin a_ij / max(L_ij, 2 rho_ij)``.
 
     A pair of parallel lines has ``sin a_ij = 0`` and drops out (its P_ij is not used).
     """
-    tx, ty = _error_triangle(x, y, theta, heading)
+    ux, uy = line_directions(heading, theta, xp)
     pairs = ((0, 1), (1, 2), (2, 0))
-    lengths = [np.hypot(x[j] - x[i], y[j] - y[i]) for i, j in pairs]
-    ok = [s > 1e-12 for s in sin_a]
-    px = [np.where(o, v, 0.0) for o, v in zip(ok, tx, strict=True)]
-    py = [np.where(o, v, 0.0) for o, v in zip(ok, ty, strict=True)]
+    px: list[Arr] = []
+    py: list[Arr] = []
+    lengths: list[Arr] = []
+    for (i, j), s in zip(pairs, sin_a, strict=True):
+        lengths.append(xp.hypot(x[j] - x[i], y[j] - y[i]))
+        if xp is ScalarMath and s <= SIN_TOL:
+            px.append(0.0)
+            py.append(0.0)
+            continue
+        pij = intersect(x[i], y[i], ux[i], uy[i], x[j], y[j], ux[j], uy[j])
+        px.append(xp.where(s > SIN_TOL, pij[0], 0.0))
+        py.append(xp.where(s > SIN_TOL, pij[1], 0.0))
 
     def mean(weights: list[Arr]) -> tuple[Arr, Arr]:
         total = weights[0] + weights[1] + weights[2]
@@ -112,39 +137,41 @@ def weighted_position(x: Three, y: Three, theta: Three, heading: Arr, sin_a: Thr
     x0, y0 = mean([s / lng for s, lng in zip(sin_a, lengths, strict=True)])
     w = []
     for (i, j), s, lng in zip(pairs, sin_a, lengths, strict=True):
-        rho = np.hypot(0.5 * (x[i] + x[j]) - x0, 0.5 * (y[i] + y[j]) - y0)
-        w.append(s / np.maximum(lng, 2.0 * rho))
+        rho = xp.hypot(0.5 * (x[i] + x[j]) - x0, 0.5 * (y[i] + y[j]) - y0)
+        w.append(s / xp.maximum(lng, 2.0 * rho))
     return mean(w)
 
 
-def absolute_angles_kernel(x: Three, y: Three, theta: Three, heading_estimate: Arr) -> dict[str, Arr]:
+def absolute_angles_kernel(
+    x: Three, y: Three, theta: Three, heading_estimate: Arr, xp: Any = np
+) -> dict[str, Arr]:
     """Absolute-angle triangulation on component arrays (m, rad); see the module docstring.
 
-    Returns ``x, y, heading, quality, valid, heading_from_estimate``; ``quality`` is
-    ``|C_12 C_23|`` over the layout scale (0 on the critical circle).
+    ``xp`` is ``numpy`` (batches; run under ``np.errstate(all="ignore")``) or
+    ``_three.ScalarMath`` (one fix in floats). Returns ``x, y, heading, quality, valid,
+    heading_from_estimate``; ``quality`` is ``|C_12 C_23|`` over the layout scale (0 on
+    the critical circle).
     """
-    x, y, theta, tan_ab = order_pairs(x, y, theta)
-    sin_a = tuple(np.abs(t) / np.sqrt(1.0 + t * t) for t in tan_ab)
-    aligned = np.abs(tan_ab[2]) < ALIGN_TOL
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cx, cy = centres(x, y, tan_ab)
-    quality = np.hypot(cx[1] - cx[0], cy[1] - cy[0]) / np.sqrt(layout_scale2(x, y))
-    critical = ~(quality > CRITICAL_TOL)
-    psi_est = np.asarray(heading_estimate, dtype=np.float64)
+    x, y, theta, tan_ab = order_pairs(x, y, theta, xp)
+    sin_a = tuple(xp.abs(t) / xp.sqrt(1.0 + t * t) for t in tan_ab)
+    aligned = xp.abs(tan_ab[2]) < ALIGN_TOL
+    cx, cy = centres(x, y, tan_ab)
+    quality = xp.hypot(cx[1] - cx[0], cy[1] - cy[0]) / xp.sqrt(layout_scale2(x, y))
+    critical = xp.logical_not(quality > CRITICAL_TOL)
+    psi_est = heading_estimate
     psi = psi_est
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for _ in range(2):  # one pass of eqs 4-6, then the refinement pass
-            psi = psi - heading_error(x, y, theta, psi, cx, cy, aligned)
-        psi = np.where(critical, psi_est, psi)
-        px, py = weighted_position(x, y, theta, psi, sin_a)
+    for _ in range(2):  # one pass of eqs 4-6, then the refinement pass
+        psi = psi - heading_error(x, y, theta, psi, cx, cy, aligned, xp)
+    psi = xp.where(critical, psi_est, psi)
+    px, py = weighted_position(x, y, theta, psi, sin_a, xp)
     # delta is known modulo 180°: keep the half-turn that puts reflector 1 ahead of P.
-    ahead = np.arctan2(y[0] - py, x[0] - px) - theta[0]
-    psi = np.where(critical, psi, psi + np.pi * np.rint(wrap(ahead - psi) / np.pi))
-    valid = np.isfinite(px) & np.isfinite(py) & np.isfinite(psi)
+    ahead = xp.arctan2(y[0] - py, x[0] - px) - theta[0]
+    psi = xp.where(critical, psi, psi + np.pi * xp.rint(wrap(ahead - psi, xp) / np.pi))
+    valid = xp.isfinite(px) & xp.isfinite(py) & xp.isfinite(psi)
     return {
         "x": px,
         "y": py,
-        "heading": wrap(psi),
+        "heading": wrap(psi, xp),
         "quality": quality,
         "valid": valid,
         "heading_from_estimate": critical & valid,

@@ -22,6 +22,7 @@ dead-reckoned from the last fix.
 
 from __future__ import annotations
 
+import itertools
 from collections import deque
 from typing import Any
 
@@ -29,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav.geometry import angle_diff, between, compose, inverse, wrap_angle
+from agvnav.positioning.bounds import crlb
 from agvnav.positioning.estimator import StreamingEstimator
 from agvnav.positioning.identification import bearing_model, edge_offset
 
@@ -176,15 +178,33 @@ class _FixEstimator(StreamingEstimator):
     def _on_start(self) -> None:
         self._entries.clear()
 
-    def _last_distinct(self, count: int) -> list[tuple[float, float, int, NDArray[np.float64]]]:
-        """The latest entry of each of the ``count`` most recently seen reflectors (oldest first)."""
-        seen: dict[int, tuple[float, float, int, NDArray[np.float64]]] = {}
+    def _best_triple(self) -> list[tuple[float, float, int, NDArray[np.float64]]]:
+        """Three identified reflections to triangulate, oldest first (empty when fewer than 3 reflectors).
+
+        Among the reflectors seen in the last revolution (latest reflection of each), the
+        triple that contains the newest reflection and has the smallest position CRLB at
+        the predicted pose; seed 000 §2.3 notes the accuracy depends on where P lies
+        relative to the three reflectors, and near their circle the heading -- hence the
+        position -- of a three-bearing fix is poorly determined. Falls back to the three
+        most recently seen reflectors when the last revolution holds fewer than three.
+        """
+        latest: dict[int, tuple[float, float, int, NDArray[np.float64]]] = {}
         for entry in reversed(self._entries):
-            if entry[2] not in seen:
-                seen[entry[2]] = entry
-            if len(seen) == count:
-                break
-        return sorted(seen.values(), key=lambda e: e[0]) if len(seen) == count else []
+            if entry[2] not in latest and (len(latest) < 3 or self._entries[-1][0] - entry[0] < 1.0 / self.rate_hz):
+                latest[entry[2]] = entry
+        if len(latest) < 3:
+            return []
+        cand = list(latest.values())
+        newest, others = cand[0], cand[1:]
+        triples = [(newest, a, b) for a, b in itertools.combinations(others, 2)]
+        if len(triples) > 1:
+            xy = self.reflector_xy[np.array([[e[2] for e in tri] for tri in triples])]
+            cov = crlb(xy, compose(self._x, self.mount), self.bearing_std)
+            score = np.where(np.isfinite(cov[:, 0, 0]), cov[:, 0, 0] + cov[:, 1, 1], np.inf)
+            best = triples[int(np.argmin(score))]
+        else:
+            best = triples[0]
+        return sorted(best, key=lambda e: e[0])
 
     def _fix_covariance(self, pose: NDArray[np.float64], entries: list, rel: NDArray[np.float64]) -> NDArray[np.float64]:
         """Bearing-noise covariance ``(A^T A / sigma^2)^-1`` of a fix from ``entries``."""
@@ -207,9 +227,13 @@ class _FixEstimator(StreamingEstimator):
 
 
 class NaiveEstimator(_FixEstimator):
-    """Triangulate the last three identified bearings as if they were simultaneous.
+    """Triangulate three recent identified bearings as if they were simultaneous.
 
-    The baseline of seed 000 §2.2: correct at standstill, wrong in motion. Its covariance
+    The baseline of seed 000 §2.2: correct at standstill, wrong in motion. The three are
+    chosen as for the angle propagation (:meth:`_FixEstimator._best_triple`: the newest
+    and the best-conditioned pair of the last revolution) so the two methods differ only
+    by the propagation; "the last three bearings" verbatim would also pick ill-conditioned
+    triples at standstill and blur the comparison. Its covariance
     adds, to the bearing-noise part, the pose change of one revolution (distance and turn
     driven at the current odometric rate), so that its own gate stays honest at speed.
     """
@@ -221,7 +245,7 @@ class NaiveEstimator(_FixEstimator):
         self.triangulation_method = triangulation_method
 
     def _fix(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
-        entries = self._last_distinct(3)
+        entries = self._best_triple()
         if not entries:
             return None
         idx = [e[2] for e in entries]
@@ -266,7 +290,7 @@ class AnglePropagationEstimator(_FixEstimator):
         self.iterations = int(iterations)
 
     def _fix(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
-        entries = self._last_distinct(3)
+        entries = self._best_triple()
         if not entries:
             return None
         idx = [e[2] for e in entries]

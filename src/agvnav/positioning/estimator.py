@@ -28,7 +28,42 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import as_float_array, require_finite, require_positive
 from agvnav.geometry import wrap_angle
-from agvnav.odometry import OdometryNoise, integrate_pose, motion_covariance, pose_jacobian
+try:
+    from agvnav.odometry import OdometryNoise, integrate_pose, motion_covariance, pose_jacobian
+except ImportError:  # STAND-IN until the issue-3 odometry module lands (same contract, ARCHITECTURE.md)
+    from dataclasses import dataclass as _dataclass
+
+    @_dataclass(frozen=True)
+    class OdometryNoise:  # type: ignore[no-redef]
+        """Stand-in: var(dD) = k_d^2 |dD|, var(dtheta) = k_dtheta^2 |dD| + k_theta^2 |dtheta|."""
+
+        k_d: float = 0.001
+        k_dtheta: float = 0.003
+        k_theta: float = 0.001
+
+    def integrate_pose(pose, delta_d, delta_theta, rule="arc"):  # type: ignore[no-redef]
+        """Stand-in: exact arc (seed 002 eq. 25)."""
+        p = np.asarray(pose, dtype=np.float64)
+        dth = np.asarray(delta_theta, dtype=np.float64)
+        chord = np.asarray(delta_d, dtype=np.float64) * np.sinc(dth / (2 * np.pi))
+        mid = p[..., 2] + 0.5 * dth
+        return np.stack([p[..., 0] + chord * np.cos(mid), p[..., 1] + chord * np.sin(mid), p[..., 2] + dth], axis=-1)
+
+    def pose_jacobian(pose, delta_d, delta_theta):  # type: ignore[no-redef]
+        """Stand-in: d integrate_pose / d pose."""
+        p = np.asarray(pose, dtype=np.float64)
+        chord = float(delta_d) * np.sinc(float(delta_theta) / (2 * np.pi))
+        mid = p[2] + 0.5 * float(delta_theta)
+        return np.array([[1.0, 0.0, -chord * np.sin(mid)], [0.0, 1.0, chord * np.cos(mid)], [0.0, 0.0, 1.0]])
+
+    def motion_covariance(pose, delta_d, delta_theta, noise):  # type: ignore[no-redef]
+        """Stand-in: Q = G diag(var dD, var dtheta) G^T (midpoint input Jacobian G)."""
+        p = np.asarray(pose, dtype=np.float64)
+        dd, dth = float(delta_d), float(delta_theta)
+        mid = p[2] + 0.5 * dth
+        G = np.array([[np.cos(mid), -0.5 * dd * np.sin(mid)], [np.sin(mid), 0.5 * dd * np.cos(mid)], [0.0, 1.0]])
+        var = np.diag([noise.k_d**2 * abs(dd), noise.k_dtheta**2 * abs(dd) + noise.k_theta**2 * abs(dth)])
+        return G @ var @ G.T
 from agvnav.positioning.identification import CHI2_1DOF_999, gate_reflection, initial_pose_search
 
 __all__ = ["METHODS", "STATUSES", "StreamingEstimator", "make_estimator"]
@@ -75,6 +110,10 @@ class StreamingEstimator:
         ``"dead_reckoning"`` (the covariance then keeps growing with the odometry).
     gate:
         Chi-square threshold (1 dof) on the innovation of one bearing.
+    bearing_offset:
+        Added to every reported bearing (rad). Default half a pulse, ``pi / pulses_per_rev``:
+        an incremental encoder reports the last whole pulse passed, so a CCW head's reading
+        lags the beam by half a pulse on average (:meth:`~agvnav.sensors.goniometer.Goniometer.encoder_bearing`).
     """
 
     method = "base"
@@ -86,6 +125,7 @@ class StreamingEstimator:
         *,
         bearing_std: float | None = None,
         pulses_per_rev: int = 65535,
+        bearing_offset: float | None = None,
         odometry_noise: OdometryNoise | None = None,
         initial_pose: ArrayLike | None = None,
         initial_covariance: ArrayLike | None = None,
@@ -101,6 +141,8 @@ class StreamingEstimator:
             raise ValueError(f"mount must have shape (3,), got {self.mount.shape}")
         std = _default_bearing_std(int(pulses_per_rev)) if bearing_std is None else bearing_std
         self.bearing_std = require_positive("bearing_std", std)
+        offset = np.pi / int(pulses_per_rev) if bearing_offset is None else bearing_offset
+        self.bearing_offset = float(require_finite("bearing_offset", offset))
         self.odometry_noise = OdometryNoise() if odometry_noise is None else odometry_noise
         self.rate_hz = require_positive("rate_hz", rate_hz)
         self.max_range = require_positive("max_range", max_range)
@@ -176,7 +218,7 @@ class StreamingEstimator:
         (spurious, ambiguous, already claimed in this sweep) or buffered for start-up.
         """
         t = self._check_time(t, "reflection")
-        z = float(require_finite("bearing", bearing))
+        z = float(wrap_angle(float(require_finite("bearing", bearing)) + self.bearing_offset))
         if self._t_odometry is not None and t > self._t:
             ahead = self._rate * (t - self._t)
             self._advance += ahead

@@ -10,9 +10,11 @@ At the solution the covariance is ``(J^T R^-1 J)^-1`` (plus the prior's informat
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from agvnav.positioning._three import Arr, wrap
+from agvnav.positioning._three import TWO_PI, Arr, wrap
 from agvnav.positioning.bounds import inv_sym3
 from agvnav.positioning.total import total_kernel
 
@@ -125,12 +127,12 @@ def least_squares_kernel(
             damped = a + lam[:, None, None] * np.eye(3) * a
             inv, _ = inv_sym3(damped)
             step = np.einsum("mij,mj->mi", inv, g)
+            small = np.max(np.abs(step) / (1.0 + np.abs(state)), axis=-1) < STEP_TOL
             trial = state + step
             better = _cost(trial, rx, ry, theta, w, prior) <= cost
             state = np.where((better & ~done)[:, None], trial, state)
             lam = np.where(better, lam * 0.1, lam * 10.0)
-            small = np.max(np.abs(step) / (1.0 + np.abs(state)), axis=-1) < STEP_TOL
-            done |= (better & small) | (lam > 1e8) | ~np.all(np.isfinite(step), axis=-1)
+            done |= small | (lam > 1e8) | ~np.all(np.isfinite(step), axis=-1)
             if np.all(done):
                 break
         info, _, _ = _normal_equations(state, rx, ry, theta, w, prior)
@@ -147,3 +149,115 @@ def least_squares_kernel(
         "valid": valid,
         "information": info,
     }
+
+
+def _solve3(a: list[list[float]], g: list[float]) -> list[float]:
+    """Solve a 3x3 system by Cramer's rule in floats (raises ZeroDivisionError if singular)."""
+    (a00, a01, a02), (a10, a11, a12), (a20, a21, a22) = a
+    c0 = a11 * a22 - a12 * a21
+    c1 = a12 * a20 - a10 * a22
+    c2 = a10 * a21 - a11 * a20
+    inv_det = 1.0 / (a00 * c0 + a01 * c1 + a02 * c2)
+    return [
+        (g[0] * c0 + a01 * (a12 * g[2] - g[1] * a22) + a02 * (g[1] * a21 - a11 * g[2])) * inv_det,
+        (a00 * (g[1] * a22 - a12 * g[2]) + g[0] * c1 + a02 * (a10 * g[2] - g[1] * a20)) * inv_det,
+        (a00 * (a11 * g[2] - g[1] * a21) + a01 * (g[1] * a20 - a10 * g[2]) + g[0] * c2) * inv_det,
+    ]
+
+
+def inv3_single(a: list[list[float]]) -> list[list[float]]:
+    """Inverse of a symmetric 3x3 matrix in floats by the adjugate (raises ZeroDivisionError if singular)."""
+    (a00, a01, a02), (_, a11, a12), (_, _, a22) = a
+    c00, c01, c02 = a11 * a22 - a12 * a12, a02 * a12 - a01 * a22, a01 * a12 - a02 * a11
+    c11, c12, c22 = a00 * a22 - a02 * a02, a01 * a02 - a00 * a12, a00 * a11 - a01 * a01
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    if abs(det) <= 1e-13 * (abs(a00 * c00) + abs(a01 * c01) + abs(a02 * c02)):
+        raise ZeroDivisionError("singular information matrix")
+    k = 1.0 / det
+    return [[c00 * k, c01 * k, c02 * k], [c01 * k, c11 * k, c12 * k], [c02 * k, c12 * k, c22 * k]]
+
+
+def _cost_single(
+    state: list[float], pts: list[list[float]], theta: list[float], w: list[float], prior: tuple[float, float] | None
+) -> float:
+    """Float version of ``_cost`` for one fix."""
+    x, y, psi = state
+    cost = 0.0
+    for (rx, ry), th, wi in zip(pts, theta, w, strict=True):
+        r = th - (math.atan2(ry - y, rx - x) - psi)
+        r -= TWO_PI * round(r / TWO_PI)
+        cost += wi * r * r
+    if prior is not None:
+        rp = prior[0] - psi
+        rp -= TWO_PI * round(rp / TWO_PI)
+        cost += prior[1] * rp * rp
+    return cost
+
+
+def _normal_equations_single(
+    state: list[float], pts: list[list[float]], theta: list[float], w: list[float], prior: tuple[float, float] | None
+) -> tuple[list[list[float]], list[float], float]:
+    """Float version of ``_normal_equations`` for one fix."""
+    a = [[0.0] * 3 for _ in range(3)]
+    g = [0.0, 0.0, 0.0]
+    cost = 0.0
+    x, y, psi = state
+    for (rx, ry), th, wi in zip(pts, theta, w, strict=True):
+        dx, dy = rx - x, ry - y
+        d2 = dx * dx + dy * dy
+        r = th - (math.atan2(dy, dx) - psi)
+        r -= TWO_PI * round(r / TWO_PI)
+        j0, j1 = dy / d2, -dx / d2  # third Jacobian entry is -1
+        a[0][0] += wi * j0 * j0
+        a[0][1] += wi * j0 * j1
+        a[0][2] -= wi * j0
+        a[1][1] += wi * j1 * j1
+        a[1][2] -= wi * j1
+        a[2][2] += wi
+        g[0] += wi * j0 * r
+        g[1] += wi * j1 * r
+        g[2] -= wi * r
+        cost += wi * r * r
+    a[1][0], a[2][0], a[2][1] = a[0][1], a[0][2], a[1][2]
+    if prior is not None:
+        rp = prior[0] - psi
+        rp -= TWO_PI * round(rp / TWO_PI)
+        a[2][2] += prior[1]
+        g[2] += prior[1] * rp
+        cost += prior[1] * rp * rp
+    return a, g, cost
+
+
+def least_squares_single(
+    pts: list[list[float]],
+    theta: list[float],
+    w: list[float],
+    prior: tuple[float, float] | None,
+    start: list[float],
+) -> tuple[list[float], bool, list[list[float]]]:
+    """Levenberg-Marquardt for one fix in Python floats (the fast single-fix path).
+
+    Same iteration as ``least_squares_kernel`` (tested against it); ``w`` are the bearing
+    weights ``1/sigma²``, ``prior`` ``(psi_est, 1/sigma_psi²)`` or None. Returns
+    ``(state, converged, information)``; raises ArithmeticError on a singular system so
+    the caller can fall back to the batch path, which flags it.
+    """
+    state = list(start)
+    lam = 1e-6
+    converged = False
+    for _ in range(MAX_ITER):
+        a, g, cost = _normal_equations_single(state, pts, theta, w, prior)
+        damped = [[a[i][j] * (1.0 + lam) if i == j else a[i][j] for j in range(3)] for i in range(3)]
+        step = _solve3(damped, g)
+        trial = [s + d for s, d in zip(state, step, strict=True)]
+        small = max(abs(d) / (1.0 + abs(s)) for d, s in zip(step, state, strict=True)) < STEP_TOL
+        if _cost_single(trial, pts, theta, w, prior) <= cost:
+            state = trial
+            lam *= 0.1
+        else:
+            lam *= 10.0
+        if small or lam > 1e8:  # at the minimum to rounding, or no descent left
+            converged = True
+            break
+    info = _normal_equations_single(state, pts, theta, w, prior)[0]
+    return state, converged, info

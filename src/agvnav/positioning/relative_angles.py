@@ -13,6 +13,8 @@ pair most nearly aligned with P (the classic method with a fixed pair fails ther
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from agvnav.positioning._three import (
@@ -26,22 +28,22 @@ from agvnav.positioning._three import (
 )
 
 
-def relative_angles_kernel(x: Three, y: Three, theta: Three) -> dict[str, Arr]:
+def relative_angles_kernel(x: Three, y: Three, theta: Three, xp: Any = np) -> dict[str, Arr]:
     """Circle-intersection triangulation on component arrays (m, rad).
 
+    Nothing raises; callers run it under ``np.errstate(all='ignore')``.
     Returns ``x, y, heading, quality, valid``; ``quality`` is ``|C_12 C_23|`` over the
     layout scale and ``valid`` is False below ``CRITICAL_TOL`` (on the critical circle).
     """
-    x, y, theta, tan_ab = order_pairs(x, y, theta)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cx, cy = centres(x, y, tan_ab)
-        ex, ey = cx[1] - cx[0], cy[1] - cy[0]
-        e2 = ex * ex + ey * ey
-        # foot of R_2 on the line of centres, then mirror R_2 across it
-        s = ((x[1] - cx[0]) * ex + (y[1] - cy[0]) * ey) / e2
-        px = 2.0 * (cx[0] + s * ex) - x[1]
-        py = 2.0 * (cy[0] + s * ey) - y[1]
-        quality = np.sqrt(e2 / layout_scale2(x, y))
-        heading = heading_from_position(px, py, x, y, theta)
-    valid = (quality > CRITICAL_TOL) & np.isfinite(px) & np.isfinite(py)
+    x, y, theta, tan_ab = order_pairs(x, y, theta, xp)
+    cx, cy = centres(x, y, tan_ab)
+    ex, ey = cx[1] - cx[0], cy[1] - cy[0]
+    e2 = ex * ex + ey * ey
+    # foot of R_2 on the line of centres, then mirror R_2 across it
+    s = ((x[1] - cx[0]) * ex + (y[1] - cy[0]) * ey) / e2
+    px = 2.0 * (cx[0] + s * ex) - x[1]
+    py = 2.0 * (cy[0] + s * ey) - y[1]
+    quality = xp.sqrt(e2 / layout_scale2(x, y))
+    heading = heading_from_position(px, py, x, y, theta, xp)
+    valid = (quality > CRITICAL_TOL) & xp.isfinite(px) & xp.isfinite(py)
     return {"x": px, "y": py, "heading": heading, "quality": quality, "valid": valid}

@@ -23,17 +23,20 @@ special case. The heading is the circular mean of ``atan2(R_i - P) - theta_i``.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from agvnav.positioning._three import Arr, Three, heading_from_position, order_pairs
 
 
-def total_kernel(x: Three, y: Three, theta: Three) -> dict[str, Arr]:
+def total_kernel(x: Three, y: Three, theta: Three, xp: Any = np) -> dict[str, Arr]:
     """ToTal on component arrays (reflector coordinates in m, bearings in rad).
 
-    Returns ``x, y, heading, quality, valid`` arrays of the broadcast batch shape.
+    Returns ``x, y, heading, quality, valid`` arrays of the broadcast batch shape
+    (``xp``: ``numpy`` or ``_three.ScalarMath`` for one fix in floats).
     """
-    x, y, theta, tan_ab = order_pairs(x, y, theta)
+    x, y, theta, tan_ab = order_pairs(x, y, theta, xp)
     t12 = 1.0 / tan_ab[0]
     t23 = 1.0 / tan_ab[1]
     x1, y1 = x[0] - x[1], y[0] - y[1]
@@ -51,7 +54,7 @@ def total_kernel(x: Three, y: Three, theta: Three) -> dict[str, Arr]:
     f = dk31 / dd
     px = x[1] + f * a
     py = y[1] + f * b
-    quality = np.abs(d / dd)
-    valid = np.isfinite(px) & np.isfinite(py) & (quality < 1e12 / (x1 * x1 + y1 * y1 + x3 * x3 + y3 * y3))
-    heading = heading_from_position(px, py, x, y, theta)
+    quality = xp.abs(d / dd)
+    valid = xp.isfinite(px) & xp.isfinite(py) & (quality < 1e12 / (x1 * x1 + y1 * y1 + x3 * x3 + y3 * y3))
+    heading = heading_from_position(px, py, x, y, theta, xp)
     return {"x": px, "y": py, "heading": heading, "quality": quality, "valid": valid}
