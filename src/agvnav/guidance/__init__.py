@@ -1,1 +1,116 @@
-"""guidance."""
+"""guidance: paths, the seed-000 guidance laws (seed 000 §3) and baseline controllers.
+
+* :mod:`.paths` - line/arc paths, projection, YAML in/out;
+* :mod:`.errors` - errors of Fig. 5 (eqs 9-10) and the curvature feed-forward;
+* :mod:`.laws` - general law (eqs 11-13) and simple law (eqs 20-22) kernels;
+* :mod:`.gains` - poles per metre -> a, b, c; Routh-Hurwitz (eqs 17-19);
+* :mod:`.baselines` - pure pursuit, Stanley, steering servo;
+* :mod:`.controller` - stateful controllers and ``make_controller``.
+"""
+
+from agvnav.guidance.baselines import (
+    MAX_STEERING_RAD,
+    lookahead_for_distance,
+    pure_pursuit_steering,
+    servo_rate,
+    stanley_gain_for_distance,
+    stanley_steering,
+)
+from agvnav.guidance.controller import (
+    CONTROLLERS,
+    DEFAULT_CONVERGENCE_DISTANCE_M,
+    GuidanceController,
+    PurePursuitController,
+    SeedGeneralController,
+    SeedSimpleController,
+    StanleyController,
+    linearised_poles_per_metre,
+    make_controller,
+    tune_for_convergence,
+)
+from agvnav.guidance.errors import (
+    POINTS,
+    TrackingErrors,
+    errors_from_projection,
+    feedforward_steering,
+    point_c,
+    tracking_errors,
+)
+from agvnav.guidance.gains import (
+    SETTLING_FRACTION,
+    GeneralGains,
+    SimpleGains,
+    check_routh_hurwitz,
+    check_simple_stability,
+    convergence_distance,
+    general_characteristic,
+    general_gains,
+    poles_for_convergence,
+    routh_hurwitz_ok,
+    simple_characteristic,
+    simple_gains,
+)
+from agvnav.guidance.laws import GENERAL_FORMS, SIMPLE_FORMS, general_law, simple_law
+from agvnav.guidance.paths import (
+    GAP_TOLERANCE_M,
+    ArcSegment,
+    LineSegment,
+    Path,
+    PathProjection,
+    Segment,
+    load_path,
+    path_from_moves,
+    save_path,
+    seed_test_path,
+)
+
+__all__ = [
+    "ArcSegment",
+    "CONTROLLERS",
+    "DEFAULT_CONVERGENCE_DISTANCE_M",
+    "GAP_TOLERANCE_M",
+    "GENERAL_FORMS",
+    "GeneralGains",
+    "GuidanceController",
+    "LineSegment",
+    "MAX_STEERING_RAD",
+    "POINTS",
+    "Path",
+    "PathProjection",
+    "PurePursuitController",
+    "SETTLING_FRACTION",
+    "SIMPLE_FORMS",
+    "SeedGeneralController",
+    "SeedSimpleController",
+    "Segment",
+    "SimpleGains",
+    "StanleyController",
+    "TrackingErrors",
+    "check_routh_hurwitz",
+    "check_simple_stability",
+    "convergence_distance",
+    "errors_from_projection",
+    "feedforward_steering",
+    "general_characteristic",
+    "general_gains",
+    "general_law",
+    "linearised_poles_per_metre",
+    "load_path",
+    "lookahead_for_distance",
+    "make_controller",
+    "path_from_moves",
+    "point_c",
+    "poles_for_convergence",
+    "pure_pursuit_steering",
+    "routh_hurwitz_ok",
+    "save_path",
+    "seed_test_path",
+    "servo_rate",
+    "simple_characteristic",
+    "simple_gains",
+    "simple_law",
+    "stanley_gain_for_distance",
+    "stanley_steering",
+    "tracking_errors",
+    "tune_for_convergence",
+]

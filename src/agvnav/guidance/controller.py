@@ -1,0 +1,471 @@
+"""Stateful guidance controllers with one narrow interface (nav2-like).
+
+Every controller is built from a :class:`~agvnav.guidance.paths.Path` (the
+planned path of its tracked point) and the wheelbase L, and offers:
+
+* ``command(pose_o, gamma, v) -> gamma_dot`` (rad/s): ``pose_o`` = ``[x, y, psi]``
+  of point O (base_link of the tricycle) in ``map``, ``gamma`` the steering
+  angle (rad), ``v`` the signed speed of C (m/s);
+* ``set_path(path)`` and ``reset()``;
+* read-only ``last_errors``: :class:`~agvnav.guidance.errors.TrackingErrors`
+  of the last command (eps_c, eps_o, xi, xi_r, s, ...), for recording.
+
+The projection of the tracked point is searched within ``window`` metres of
+the previous one, so a self-crossing path does not make the controller jump.
+Create controllers by name with :func:`make_controller`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agvnav._validate import require_finite, require_positive
+from agvnav.geometry.angles import wrap_angle
+from agvnav.guidance.baselines import (
+    lookahead_for_distance,
+    pure_pursuit_steering,
+    servo_rate,
+    stanley_gain_for_distance,
+    stanley_steering,
+)
+from agvnav.guidance.errors import TrackingErrors, point_c, tracking_errors
+from agvnav.guidance.gains import (
+    check_routh_hurwitz,
+    SETTLING_FRACTION,
+    check_simple_stability,
+    general_gains,
+    poles_for_convergence,
+    simple_gains,
+)
+from agvnav.guidance.laws import GENERAL_FORMS, SIMPLE_FORMS, general_law, simple_law
+from agvnav.guidance.paths import LineSegment, Path
+
+__all__ = [
+    "GuidanceController",
+    "SeedGeneralController",
+    "SeedSimpleController",
+    "PurePursuitController",
+    "StanleyController",
+    "CONTROLLERS",
+    "DEFAULT_CONVERGENCE_DISTANCE_M",
+    "make_controller",
+    "linearised_poles_per_metre",
+    "tune_for_convergence",
+]
+
+DEFAULT_CONVERGENCE_DISTANCE_M = 2.0
+"""Default distance (m) within which every controller brings a small error to 2 %."""
+
+
+class GuidanceController(Protocol):
+    """The narrow controller interface the simulator relies on."""
+
+    @property
+    def path(self) -> Path: ...
+
+    @property
+    def last_errors(self) -> TrackingErrors | None: ...
+
+    def set_path(self, path: Path) -> None: ...
+
+    def reset(self) -> None: ...
+
+    def command(self, pose_o: ArrayLike, gamma: float, v: float) -> float: ...
+
+
+class _PathFollower:
+    """Shared state: path, tracked point, projection hint and the last errors."""
+
+    point: str = "C"
+
+    def __init__(self, path: Path, wheelbase: float, point: str, window: float, feedforward: bool = True):
+        if not isinstance(path, Path):
+            raise ValueError(f"path must be an agvnav.guidance.Path, got {type(path).__name__}")
+        if point not in ("O", "C"):
+            raise ValueError(f"point must be 'O' or 'C', got {point!r}")
+        self.wheelbase = require_positive("wheelbase", wheelbase)
+        self.window = require_positive("window", window)
+        self.point = point
+        self.feedforward = bool(feedforward)
+        self._path = path
+        self._s: float | None = None
+        self._last: TrackingErrors | None = None
+
+    @property
+    def path(self) -> Path:
+        """The planned path of the tracked point."""
+        return self._path
+
+    @property
+    def last_errors(self) -> TrackingErrors | None:
+        """Errors computed by the last :meth:`command` (None after a reset)."""
+        return self._last
+
+    def set_path(self, path: Path) -> None:
+        """Follow a new path from its closest point (resets the controller)."""
+        if not isinstance(path, Path):
+            raise ValueError(f"path must be an agvnav.guidance.Path, got {type(path).__name__}")
+        self._path = path
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the projection hint and the last errors."""
+        self._s = None
+        self._last = None
+
+    def _inputs(self, pose_o: ArrayLike, gamma: float, v: float) -> tuple[NDArray[np.float64], float, float]:
+        pose = require_finite("pose_o", pose_o)
+        if pose.shape != (3,):
+            raise ValueError(f"pose_o must have shape (3,) = [x_O, y_O, psi], got {pose.shape}")
+        g, vv = float(gamma), float(v)
+        if not math.isfinite(g) or abs(g) >= math.pi / 2:
+            raise ValueError(f"gamma must be finite and within (-pi/2, pi/2) rad, got {gamma!r}")
+        if not math.isfinite(vv):
+            raise ValueError(f"v must be finite, got {v!r}")
+        return pose, g, vv
+
+    def _errors(self, pose: NDArray[np.float64], gamma: float) -> TrackingErrors:
+        hint = {} if self._s is None else {"s_hint": self._s, "window": self.window}
+        e = tracking_errors(self._path, pose, gamma, self.wheelbase, self.point, feedforward=self.feedforward, **hint)
+        if not bool(e.valid):
+            raise ValueError(
+                f"path radius at s = {float(e.s):.3f} m is below the wheelbase: point C cannot follow it"
+            )
+        self._s = float(e.s)
+        self._last = e
+        return e
+
+
+def _design_choice(poles_per_m: ArrayLike | None, convergence_distance: float | None, gains: Any, order: int) -> Any:
+    given = [x is not None for x in (poles_per_m, convergence_distance, gains)]
+    if sum(given) > 1:
+        raise ValueError("give only one of poles_per_m, convergence_distance or gains")
+    if gains is not None:
+        return None
+    if poles_per_m is not None:
+        return np.asarray(poles_per_m, dtype=np.complex128)
+    d = DEFAULT_CONVERGENCE_DISTANCE_M if convergence_distance is None else convergence_distance
+    return poles_for_convergence(d, order=order)
+
+
+class SeedGeneralController(_PathFollower):
+    """General three-parameter law of seed 000 (eqs 11-13) with curvature feed-forward.
+
+    Gains from closed-loop poles per metre (``poles_per_m`` or
+    ``convergence_distance``; a, b, c recomputed from |v| at every command so
+    the convergence distance does not change with speed and b follows the sign
+    of v), or fixed ``gains=(a, |b|, c)`` checked by Routh-Hurwitz (eqs 18-19)
+    up to ``v_max`` (m/s) in both directions. ``point`` "O" (manoeuvres, default
+    form eq. 11) or "C" (cruising, default form eq. 13). At v = 0 the command is 0.
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        wheelbase: float,
+        *,
+        poles_per_m: ArrayLike | None = None,
+        convergence_distance: float | None = None,
+        gains: tuple[float, float, float] | None = None,
+        v_max: float | None = None,
+        point: str = "C",
+        form: int | None = None,
+        feedforward: bool = True,
+        window: float = 1.0,
+    ):
+        super().__init__(path, wheelbase, point, window, feedforward)
+        self.form = (11 if point == "O" else 13) if form is None else form
+        if self.form not in GENERAL_FORMS:
+            raise ValueError(f"form must be one of {GENERAL_FORMS} (seed 000 eqs 11-13), got {form!r}")
+        self.poles_per_m = _design_choice(poles_per_m, convergence_distance, gains, 3)
+        self.v_max: float | None = None
+        self.fixed_gains: tuple[float, float, float] | None = None
+        if self.poles_per_m is not None:
+            g = general_gains(self.poles_per_m, 1.0, self.wheelbase)  # validates the poles
+            check_routh_hurwitz(g.a, g.b, g.c, 1.0)
+        else:
+            assert gains is not None
+            a, b, c = (float(x) for x in gains)
+            self.v_max = require_positive("v_max (needed with fixed gains)", v_max if v_max is not None else 0.0)
+            for v in (self.v_max, -self.v_max):
+                check_routh_hurwitz(a, math.copysign(abs(b), v), c, v)
+            self.fixed_gains = (a, abs(b), c)
+
+    def gains_at(self, v: float) -> tuple[float, float, float]:
+        """(a, b, c) used at speed ``v`` (m/s); b carries the sign of v."""
+        if self.fixed_gains is None:
+            g = general_gains(self.poles_per_m, v, self.wheelbase)
+            return g.a, g.b, g.c
+        a, b, c = self.fixed_gains
+        if self.v_max is not None and abs(v) > self.v_max:
+            raise ValueError(f"|v| = {abs(v):g} m/s exceeds v_max = {self.v_max:g} m/s checked for these gains")
+        return a, math.copysign(b, v), c
+
+    def command(self, pose_o: ArrayLike, gamma: float, v: float) -> float:
+        """Steering rate (rad/s) from seed 000 eq. 11, 12 or 13 (see class doc)."""
+        pose, gamma, v = self._inputs(pose_o, gamma, v)
+        e = self._errors(pose, gamma)
+        if v == 0.0:
+            return 0.0
+        a, b, c = self.gains_at(v)
+        dgamma = gamma - float(e.gamma_ss)
+        return float(general_law(self.form, e.eps_c, e.eps_o, e.xi, e.xi_r, dgamma, a, b, c, self.wheelbase))
+
+
+class SeedSimpleController(_PathFollower):
+    """Simple two-parameter law of seed 000 (eqs 20-22), point C, v > 0 only.
+
+    Gains from two poles per metre (``poles_per_m`` or ``convergence_distance``)
+    or fixed ``gains=(a, b)``. With ``curvature_compensation`` the gain a is
+    lowered by ``kappa^2 v`` on arcs, which cancels the curvature term of the
+    linearised arc dynamics (``eps_c'' + b eps_c' + (a + kappa^2 v) v eps_c = 0``)
+    so the designed poles hold on arcs as on lines. v < 0 raises ValueError
+    (the law is unstable there, seed 000 §3.3); at v = 0 the command is 0.
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        wheelbase: float,
+        *,
+        poles_per_m: ArrayLike | None = None,
+        convergence_distance: float | None = None,
+        gains: tuple[float, float] | None = None,
+        form: int = 20,
+        feedforward: bool = True,
+        curvature_compensation: bool = True,
+        window: float = 1.0,
+    ):
+        super().__init__(path, wheelbase, "C", window, feedforward)
+        if form not in SIMPLE_FORMS:
+            raise ValueError(f"form must be one of {SIMPLE_FORMS} (seed 000 eqs 20-22), got {form!r}")
+        self.form = form
+        self.curvature_compensation = bool(curvature_compensation)
+        self.poles_per_m = _design_choice(poles_per_m, convergence_distance, gains, 2)
+        self.fixed_gains: tuple[float, float] | None = None
+        if self.poles_per_m is not None:
+            g = simple_gains(self.poles_per_m, 1.0)
+            check_simple_stability(g.a, g.b, 1.0)
+        else:
+            assert gains is not None
+            a, b = (float(x) for x in gains)
+            check_simple_stability(a, b, 1.0)
+            self.fixed_gains = (a, b)
+
+    def command(self, pose_o: ArrayLike, gamma: float, v: float) -> float:
+        """Steering rate (rad/s) from seed 000 eq. 20, 21 or 22 (see class doc)."""
+        pose, gamma, v = self._inputs(pose_o, gamma, v)
+        e = self._errors(pose, gamma)
+        if v == 0.0:
+            return 0.0
+        if v < 0.0:
+            check_simple_stability(1.0, 1.0, v)
+        if self.fixed_gains is None:
+            g = simple_gains(self.poles_per_m, v)
+            a, b = g.a, g.b
+        else:
+            a, b = self.fixed_gains
+        if self.curvature_compensation and self.feedforward:
+            a -= float(e.kappa) ** 2 * v
+        return float(
+            simple_law(self.form, e.eps_c, e.eps_o, e.xi, e.xi_r, gamma, e.gamma_ss, a, b, v, self.wheelbase)
+        )
+
+
+class PurePursuitController(_PathFollower):
+    """Pure pursuit on point O (default) or C, both directions, through a first-order servo.
+
+    ``lookahead`` (m) or ``convergence_distance`` (m, tuned at ``v_nominal``
+    with the servo by :func:`tune_for_convergence`); ``servo_tau`` (s).
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        wheelbase: float,
+        *,
+        lookahead: float | None = None,
+        convergence_distance: float | None = None,
+        v_nominal: float = 0.2,
+        servo_tau: float = 0.1,
+        point: str = "O",
+        window: float = 1.0,
+    ):
+        super().__init__(path, wheelbase, point, window)
+        self.servo_tau = require_positive("servo_tau", servo_tau)
+        if lookahead is not None and convergence_distance is not None:
+            raise ValueError("give lookahead or convergence_distance, not both")
+        if lookahead is None:
+            d = DEFAULT_CONVERGENCE_DISTANCE_M if convergence_distance is None else convergence_distance
+            lookahead = tune_for_convergence("pure_pursuit", d, wheelbase, v_nominal, servo_tau=servo_tau, point=point)
+        self.lookahead = require_positive("lookahead", lookahead)
+
+    def command(self, pose_o: ArrayLike, gamma: float, v: float) -> float:
+        """Steering rate (rad/s): servo towards the pure-pursuit steering angle."""
+        pose, gamma, v = self._inputs(pose_o, gamma, v)
+        e = self._errors(pose, gamma)
+        d = int(e.direction)
+        p = pose[:2] if self.point == "O" else point_c(pose, self.wheelbase)
+        g = self._path.extrapolate(float(e.s) + self.lookahead)
+        psi_motion = pose[2] + (math.pi if d < 0 else 0.0)
+        beta = float(wrap_angle(math.atan2(g[1] - p[1], g[0] - p[0]) - psi_motion))
+        target = pure_pursuit_steering(beta, self.lookahead, self.wheelbase, self.point, d)
+        return float(servo_rate(target, gamma, self.servo_tau))
+
+
+class StanleyController(_PathFollower):
+    """Stanley law on point C (the steered wheel), v > 0, through a first-order servo.
+
+    ``gain_per_m`` (1/m) or ``convergence_distance`` (m, tuned at ``v_nominal``
+    with the servo); ``servo_tau`` (s). v < 0 raises ValueError: with the
+    steered wheel trailing, Stanley's front-axle law is not defined (use
+    pure pursuit or the seed's general law on O for reverse manoeuvres).
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        wheelbase: float,
+        *,
+        gain_per_m: float | None = None,
+        convergence_distance: float | None = None,
+        v_nominal: float = 0.2,
+        servo_tau: float = 0.1,
+        window: float = 1.0,
+    ):
+        super().__init__(path, wheelbase, "C", window)
+        self.servo_tau = require_positive("servo_tau", servo_tau)
+        if gain_per_m is not None and convergence_distance is not None:
+            raise ValueError("give gain_per_m or convergence_distance, not both")
+        if gain_per_m is None:
+            d = DEFAULT_CONVERGENCE_DISTANCE_M if convergence_distance is None else convergence_distance
+            gain_per_m = tune_for_convergence("stanley", d, wheelbase, v_nominal, servo_tau=servo_tau)
+        self.gain_per_m = require_positive("gain_per_m", gain_per_m)
+
+    def command(self, pose_o: ArrayLike, gamma: float, v: float) -> float:
+        """Steering rate (rad/s): servo towards the Stanley steering angle."""
+        pose, gamma, v = self._inputs(pose_o, gamma, v)
+        e = self._errors(pose, gamma)
+        if v < 0.0 or int(e.direction) < 0:
+            raise ValueError("stanley: defined for forward driving only (v > 0, steered wheel leading)")
+        heading_error = float(e.xi) - float(e.gamma_ss)  # psi - tangent at C
+        target = stanley_steering(heading_error, float(e.eps_c), self.gain_per_m)
+        return float(servo_rate(target, gamma, self.servo_tau))
+
+
+CONTROLLERS: dict[str, Callable[..., GuidanceController]] = {
+    "seed_general": SeedGeneralController,
+    "seed_simple": SeedSimpleController,
+    "pure_pursuit": PurePursuitController,
+    "stanley": StanleyController,
+}
+
+
+def make_controller(name: str, path: Path, wheelbase: float, **params: Any) -> GuidanceController:
+    """Create a controller by name ("seed_general", "seed_simple", "pure_pursuit", "stanley").
+
+    ``params`` go to the controller's constructor; an unknown name or
+    parameter is a ValueError naming it. ``convergence_distance`` (m) is
+    understood by all four, so they can be tuned alike.
+    """
+    if name not in CONTROLLERS:
+        raise ValueError(f"unknown controller {name!r}; choose one of {sorted(CONTROLLERS)}")
+    try:
+        return CONTROLLERS[name](path, wheelbase, **params)
+    except TypeError as exc:
+        raise ValueError(f"controller {name!r}: {exc}") from None
+
+
+def linearised_poles_per_metre(
+    controller: GuidanceController, v: float, wheelbase: float, visible_only: bool = False, eps: float = 1e-6
+) -> NDArray[np.complex128]:
+    """Poles (1/m) of the closed loop linearised numerically about a straight path.
+
+    The controller is given a 100 m straight path along x (its segment
+    direction = sign of v) and the nonlinear tricycle (seed 000 eq. 8) with
+    state ``(y_O, psi, gamma)`` is differentiated by central differences
+    about zero error; eigenvalues divided by |v|. For the seed's laws these
+    are the roots of eq. 17 / eqs 23-24. With ``visible_only`` only the modes
+    that appear in the lateral error of the controller's tracked point are
+    kept: those whose residue in the tracked point's lateral error after a unit
+    lateral offset exceeds the 2 % settling fraction (e.g. the body-alignment
+    pole -1/L of eq. 24 has zero residue in eps_c).
+    The controller's own path is restored afterwards (and the controller reset).
+    """
+    d = 1 if v > 0 else -1
+    L = require_positive("wheelbase", wheelbase)
+    original = controller.path
+    controller.set_path(Path([LineSegment(np.array([-50.0, 0.0]), 0.0, 100.0, d)]))
+    psi0 = 0.0 if d > 0 else math.pi
+
+    def f(z: NDArray[np.float64]) -> NDArray[np.float64]:
+        y, psi, gamma = z
+        controller.reset()
+        u = controller.command(np.array([0.0, y, psi0 + psi]), gamma, v)
+        return np.array([v * math.cos(gamma) * math.sin(psi0 + psi), v * math.sin(gamma) / L, u])
+
+    try:
+        jac = np.empty((3, 3))
+        for j in range(3):
+            dz = np.zeros(3)
+            dz[j] = eps
+            jac[:, j] = (f(dz) - f(-dz)) / (2.0 * eps)
+    finally:
+        controller.set_path(original)
+    lam, vecs = np.linalg.eig(jac)
+    if visible_only:
+        # residue of each mode in the tracked point's lateral error after a unit lateral offset
+        out = np.array([1.0, L if getattr(controller, "point", "C") == "C" else 0.0, 0.0])
+        residue = (out @ vecs) * np.linalg.solve(vecs, np.array([1.0, 0.0, 0.0]))
+        lam = lam[np.abs(residue) > SETTLING_FRACTION]
+    return lam / abs(v)
+
+
+def tune_for_convergence(name: str, distance: float, wheelbase: float, v: float = 0.2, **params: Any) -> float:
+    """Look-ahead (m, pure pursuit) or gain (1/m, Stanley) converging within ``distance`` (m).
+
+    The convergence distance is that of the slowest linearised mode visible in
+    the tracked point's lateral error (:func:`linearised_poles_per_metre`,
+    servo included, at speed ``v``), decaying to 2 %. The parameter is scanned
+    from gentle to aggressive on a log grid around the ideal-servo formula of
+    :mod:`agvnav.guidance.baselines` until the first crossing, then bisected.
+    Raises ValueError if the distance is not reachable.
+    """
+    require_positive("distance", distance)
+    target = math.log(50.0) / distance
+    path = Path([LineSegment(np.array([-50.0, 0.0]), 0.0, 100.0, 1 if v > 0 else -1)])
+    if name == "pure_pursuit":
+        key, guess, aggressive = "lookahead", lookahead_for_distance(distance), -1.0
+    elif name == "stanley":
+        key, guess, aggressive = "gain_per_m", stanley_gain_for_distance(distance), 1.0
+    else:
+        raise ValueError(f"tune_for_convergence: no tuning for {name!r} (use pure_pursuit or stanley)")
+
+    def excess(logx: float) -> float:
+        ctrl = CONTROLLERS[name](path, wheelbase, **{key: math.exp(logx)}, **params)
+        poles = linearised_poles_per_metre(ctrl, v, wheelbase, visible_only=True)
+        return -float(np.max(poles.real)) - target
+
+    grid = math.log(guess) + aggressive * np.linspace(-3.0, 3.0, 25)
+    prev = grid[0]
+    if excess(prev) >= 0:
+        raise ValueError(f"{name}: scan start already converges faster than {distance:g} m; widen the grid")
+    for x in grid[1:]:
+        if excess(x) >= 0:
+            lo, hi = prev, x
+            break
+        prev = x
+    else:
+        raise ValueError(f"{name}: convergence within {distance:g} m is not reachable at v = {v:g} m/s")
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if excess(mid) >= 0:
+            hi = mid
+        else:
+            lo = mid
+    return math.exp(0.5 * (lo + hi))

@@ -1,0 +1,96 @@
+"""Seed-000 guidance laws: steering rate gamma' (rad/s) from the errors of Fig. 5.
+
+Pure kernels, vectorised over the batch. Errors are those of
+:mod:`agvnav.guidance.errors`, taken relative to the curvature feed-forward:
+``dgamma = gamma - gamma_ss`` replaces the seed's ``gamma`` (on a line
+``gamma_ss = 0`` and the laws are exactly the seed's). Since ``gamma_ss`` is
+constant along a segment, the steady turn (all errors zero, ``dgamma = 0``)
+is an equilibrium of the closed loop: zero steady-state error on arcs.
+Without the feed-forward (``gamma_ss`` forced to 0) the general law settles on
+an arc where ``a eps_o + c gamma_ss ~ 0``, i.e. a lateral offset of about
+``-c gamma_ss / a``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["GENERAL_FORMS", "SIMPLE_FORMS", "general_law", "simple_law"]
+
+GENERAL_FORMS = (11, 12, 13)
+SIMPLE_FORMS = (20, 21, 22)
+
+
+def _f(x: ArrayLike) -> NDArray[np.float64]:
+    return np.asarray(x, dtype=np.float64)
+
+
+def general_law(
+    form: int,
+    eps_c: ArrayLike,
+    eps_o: ArrayLike,
+    xi: ArrayLike,
+    xi_r: ArrayLike,
+    dgamma: ArrayLike,
+    a: ArrayLike,
+    b: ArrayLike,
+    c: ArrayLike,
+    wheelbase: float,
+) -> NDArray[np.float64]:
+    """General three-parameter law, seed 000 eqs 11-13 (rad/s).
+
+    * 11 (point O, manoeuvres, v of either sign): ``-a eps_o - b xi - c dgamma``
+    * 12 (point C): ``-a eps_c - (b - a L) xi - c dgamma``
+    * 13 (point C): ``-a eps_c - (b - a L) xi_r - (c - b + a L) dgamma``
+
+    The three are the same law rewritten with eqs 9-10 (linearised); their
+    closed loop obeys eq. 17 (see :mod:`agvnav.guidance.gains`).
+    Only the errors a form uses are read.
+    """
+    a, b, c, L = _f(a), _f(b), _f(c), float(wheelbase)
+    if form == 11:
+        return -a * _f(eps_o) - b * _f(xi) - c * _f(dgamma)
+    if form == 12:
+        return -a * _f(eps_c) - (b - a * L) * _f(xi) - c * _f(dgamma)
+    if form == 13:
+        return -a * _f(eps_c) - (b - a * L) * _f(xi_r) - (c - b + a * L) * _f(dgamma)
+    raise ValueError(f"general law form must be one of {GENERAL_FORMS} (seed 000 eqs 11-13), got {form!r}")
+
+
+def simple_law(
+    form: int,
+    eps_c: ArrayLike,
+    eps_o: ArrayLike,
+    xi: ArrayLike,
+    xi_r: ArrayLike,
+    gamma: ArrayLike,
+    gamma_ss: ArrayLike,
+    a: ArrayLike,
+    b: ArrayLike,
+    v: ArrayLike,
+    wheelbase: float,
+) -> NDArray[np.float64]:
+    """Simple two-parameter law for v > 0, seed 000 eqs 20-22 (rad/s).
+
+    * 20: ``-a eps_c - b xi_r - (v/L) dsin``
+    * 21: ``-a eps_c - b xi - b dgamma - (v/L) dsin``
+    * 22: ``-a eps_o - (b + a L) xi - b dgamma - (v/L) dsin``
+
+    with ``dgamma = gamma - gamma_ss`` and ``dsin = sin(gamma) - sin(gamma_ss)``.
+    Deviation: the seed writes ``(v/L) gamma``; the term is there to cancel the
+    body rotation ``psi' = (v/L) sin(gamma)`` of eq. 8 in ``xi_r'``, so we use
+    the sine (equal to first order on a line, and exact on an arc, where the
+    cancellation leaves ``xi_r' = -a eps_c - b xi_r`` plus the curvature term
+    ``-kappa^2 v eps_c``). Linearised: eq. 23 ``q'' + b q' + a v q = 0``.
+    """
+    a, b, v, L = _f(a), _f(b), _f(v), float(wheelbase)
+    dgamma = _f(gamma) - _f(gamma_ss)
+    rot = (v / L) * (np.sin(_f(gamma)) - np.sin(_f(gamma_ss)))
+    if form == 20:
+        return -a * _f(eps_c) - b * _f(xi_r) - rot
+    if form == 21:
+        return -a * _f(eps_c) - b * _f(xi) - b * dgamma - rot
+    if form == 22:
+        return -a * _f(eps_o) - (b + a * L) * _f(xi) - b * dgamma - rot
+    raise ValueError(f"simple law form must be one of {SIMPLE_FORMS} (seed 000 eqs 20-22), got {form!r}")
