@@ -1,1 +1,36 @@
-"""odometry."""
+"""Odometry (seed 002 §3): increments, pose integration rules, covariance, error models, UMBmark."""
+
+from agvnav.odometry.covariance import OdometryNoise, motion_covariance, propagate
+from agvnav.odometry.errors import (
+    DifferentialGeometry,
+    NonSystematicErrors,
+    SystematicErrors,
+    TrueDifferentialVehicle,
+)
+from agvnav.odometry.increments import differential_increments, differential_wheel_distances, tricycle_increments
+from agvnav.odometry.integrate import RULES, increment_jacobian, integrate_pose, pose_jacobian
+from agvnav.odometry.odometer import DifferentialOdometer, TricycleOdometer
+from agvnav.odometry.umbmark import UMBmarkResult, estimate_errors, square_run, umbmark
+
+__all__ = [
+    "DifferentialGeometry",
+    "DifferentialOdometer",
+    "NonSystematicErrors",
+    "OdometryNoise",
+    "RULES",
+    "SystematicErrors",
+    "TricycleOdometer",
+    "TrueDifferentialVehicle",
+    "UMBmarkResult",
+    "differential_increments",
+    "differential_wheel_distances",
+    "estimate_errors",
+    "increment_jacobian",
+    "integrate_pose",
+    "motion_covariance",
+    "pose_jacobian",
+    "propagate",
+    "square_run",
+    "tricycle_increments",
+    "umbmark",
+]

@@ -1,5 +1,6 @@
 """Sensors: wheel/steering encoders, the rotating laser goniometer, ultrasonic rangers."""
 
+from agvnav.sensors.encoders import SteeringEncoder, WheelEncoder  # noqa: E402  (issue 3)
 from agvnav.sensors.goniometer import (  # noqa: E402  (laser goniometer, issue 4)
     Goniometer,
     Reflections,

@@ -1,0 +1,138 @@
+"""Systematic and non-systematic odometry errors (seed 002 §3.1), as a "true vehicle" vs "nominal odometry" split.
+
+A simulation commands wheel rotations; the encoders report them; the odometry
+converts them to distances with the *nominal* geometry while the ground truth
+moves with the *true* geometry plus random slip and bumps. Systematic errors
+follow Borenstein and Feng (1996): ``E_d = D_R/D_L`` (ratio of the actual wheel
+diameters, their mean being the nominal one) and ``E_b = b_actual/b_nominal``;
+misalignment turns both wheels' rolling direction by a small angle.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from agvnav._validate import require_nonnegative, require_positive
+from agvnav.kinematics.base import twist_step
+from agvnav.odometry.increments import differential_increments
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class DifferentialGeometry:
+    """Wheel radii and track of a differential vehicle (m); nominal or true."""
+
+    radius_right: float
+    radius_left: float
+    track: float
+
+    def __post_init__(self) -> None:
+        require_positive("radius_right", self.radius_right)
+        require_positive("radius_left", self.radius_left)
+        require_positive("track", self.track)
+
+    @classmethod
+    def symmetric(cls, wheel_radius: float, track: float) -> DifferentialGeometry:
+        """Both wheels of radius ``wheel_radius``."""
+        return cls(wheel_radius, wheel_radius, track)
+
+    def increments(self, phi_right: ArrayLike, phi_left: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """``(ΔD, Δθ)`` for wheel rotations (rad) with this geometry (seed 002 eq. 16)."""
+        return differential_increments(np.asarray(phi_right) * self.radius_right,
+                                       np.asarray(phi_left) * self.radius_left, self.track)
+
+
+@dataclass(frozen=True)
+class SystematicErrors:
+    """Systematic errors of the true vehicle relative to the nominal one.
+
+    e_d : ``D_R/D_L`` of the actual wheels (1 = equal diameters); the mean diameter is nominal.
+    e_b : actual track / nominal track.
+    misalignment : angle (rad) by which the wheels' rolling direction is turned from the body x-axis.
+    """
+
+    e_d: float = 1.0
+    e_b: float = 1.0
+    misalignment: float = 0.0
+
+    def __post_init__(self) -> None:
+        require_positive("e_d", self.e_d)
+        require_positive("e_b", self.e_b)
+        if not np.isfinite(self.misalignment) or abs(self.misalignment) >= np.pi / 4:
+            raise ValueError(f"misalignment must be finite and below 45°, got {self.misalignment!r}")
+
+    def true_geometry(self, nominal: DifferentialGeometry) -> DifferentialGeometry:
+        """Actual geometry: ``r_R = 2/(1/E_d + 1)·r_a``, ``r_L = 2/(E_d + 1)·r_a``, ``b = E_b·b_n`` (Borenstein & Feng)."""
+        r_a = 0.5 * (nominal.radius_right + nominal.radius_left)
+        return DifferentialGeometry(2.0 / (1.0 / self.e_d + 1.0) * r_a, 2.0 / (self.e_d + 1.0) * r_a,
+                                    self.e_b * nominal.track)
+
+
+@dataclass(frozen=True)
+class NonSystematicErrors:
+    """Random wheel-ground errors of the true vehicle.
+
+    slip_k : variance of each wheel's ground distance per metre rolled (m²/m), Gaussian.
+    bump_rate : expected bumps per metre rolled per wheel (1/m), Poisson.
+    bump_loss : ground distance lost by a wheel climbing one bump (m): the
+        encoder counts the rolled arc, the floor sees less horizontal progress.
+    """
+
+    slip_k: float = 0.0
+    bump_rate: float = 0.0
+    bump_loss: float = 0.005
+
+    def __post_init__(self) -> None:
+        require_nonnegative("slip_k", self.slip_k)
+        require_nonnegative("bump_rate", self.bump_rate)
+        require_nonnegative("bump_loss", self.bump_loss)
+
+    def perturb(self, distance: ArrayLike, rng: np.random.Generator) -> FloatArray:
+        """Ground distance (m) for a rolled distance (m): slip noise, then bump losses against the motion."""
+        d = np.asarray(distance, dtype=np.float64)
+        out = d + rng.normal(0.0, 1.0, d.shape) * np.sqrt(self.slip_k * np.abs(d))
+        if self.bump_rate > 0.0:
+            bumps = rng.poisson(self.bump_rate * np.abs(d))
+            out = out - np.sign(d) * np.minimum(bumps * self.bump_loss, np.abs(d))
+        return out
+
+
+class TrueDifferentialVehicle:
+    """Ground truth of a differential vehicle whose odometry uses ``nominal``.
+
+    Parameters
+    ----------
+    nominal : the geometry the odometry believes.
+    systematic : systematic errors of the real vehicle.
+    nonsystematic : slip and bumps (None: none).
+    seed : seed or Generator for the non-systematic errors (same seed, same truth).
+    """
+
+    def __init__(self, nominal: DifferentialGeometry, systematic: SystematicErrors | None = None,
+                 nonsystematic: NonSystematicErrors | None = None,
+                 seed: int | np.random.Generator | None = 0) -> None:
+        self.nominal = nominal
+        self.systematic = systematic or SystematicErrors()
+        self.nonsystematic = nonsystematic
+        self.geometry = self.systematic.true_geometry(nominal)
+        self.rng = np.random.default_rng(seed)
+
+    def ground_increments(self, phi_right: ArrayLike, phi_left: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """True ``(ΔD, Δθ)`` of the axle midpoint for wheel rotations (rad)."""
+        g = self.geometry
+        d_r = np.asarray(phi_right, dtype=np.float64) * g.radius_right
+        d_l = np.asarray(phi_left, dtype=np.float64) * g.radius_left
+        if self.nonsystematic is not None:
+            d_r = self.nonsystematic.perturb(d_r, self.rng)
+            d_l = self.nonsystematic.perturb(d_l, self.rng)
+        return differential_increments(d_r, d_l, g.track)
+
+    def advance(self, pose: ArrayLike, phi_right: ArrayLike, phi_left: ArrayLike) -> FloatArray:
+        """True pose after wheel rotations (rad): exact arc, displaced along the misaligned rolling direction."""
+        dd, dth = self.ground_increments(phi_right, phi_left)
+        m = self.systematic.misalignment
+        return twist_step(pose, dd * np.cos(m), dd * np.sin(m), dth, 1.0)

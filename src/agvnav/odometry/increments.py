@@ -1,0 +1,34 @@
+"""Odometry increments ``(ΔD, Δθ)`` of the vehicle reference point from encoder distances."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+def differential_increments(d_right: ArrayLike, d_left: ArrayLike, track: float) -> tuple[FloatArray, FloatArray]:
+    """``ΔD = (ΔD_R + ΔD_L)/2``, ``Δθ = (ΔD_R − ΔD_L)/L`` (seed 002 eq. 16); distances in m, track L in m."""
+    dr = np.asarray(d_right, dtype=np.float64)
+    dl = np.asarray(d_left, dtype=np.float64)
+    return 0.5 * (dr + dl), (dr - dl) / track
+
+
+def differential_wheel_distances(delta_d: ArrayLike, delta_theta: ArrayLike, track: float) -> tuple[FloatArray, FloatArray]:
+    """Inverse of eq. 16: ``ΔD_R = ΔD + Δθ L/2``, ``ΔD_L = ΔD − Δθ L/2`` (seed 002 eqs. 18, 21)."""
+    dd = np.asarray(delta_d, dtype=np.float64)
+    half = 0.5 * track * np.asarray(delta_theta, dtype=np.float64)
+    return dd + half, dd - half
+
+
+def tricycle_increments(ds_c: ArrayLike, gamma: ArrayLike, wheelbase: float) -> tuple[FloatArray, FloatArray]:
+    """Increments of O from the distance rolled by the drive wheel C and the steering angle γ.
+
+    ``ΔD = ds_C cos γ``, ``Δθ = ds_C sin γ / L`` (seed 000 eq. 8 integrated over
+    the step); pass the mid-step γ (mean of the readings at both ends), which
+    makes the increments second-order accurate while γ changes.
+    """
+    ds = np.asarray(ds_c, dtype=np.float64)
+    g = np.asarray(gamma, dtype=np.float64)
+    return ds * np.cos(g), ds * np.sin(g) / wheelbase
