@@ -137,14 +137,18 @@ def write_plots(
 
     ``series`` needs ``t``, ``x_C``, ``y_C``, ``x``, ``y``, ``psi``, ``est_x``,
     ``est_y``, ``est_psi``, ``est_valid``, ``eps_c``, ``xi_r`` (the columns the
-    simulator records).
+    simulator records); with ``est_x_C``/``est_y_C`` the estimated path of C is drawn.
     """
     out_dir = Path(out_dir)
     driven = np.column_stack([series["x_C"], series["y_C"]])
     valid = series["est_valid"] > 0.5
     true_pose = np.column_stack([series["x"], series["y"], series["psi"]])
     est_pose = np.column_stack([series["est_x"], series["est_y"], series["est_psi"]])
-    est_xy = est_pose[valid, :2] if np.any(valid) else None
+    if "est_x_C" in series:
+        est_c = np.column_stack([series["est_x_C"], series["est_y_C"]])
+        est_xy = est_c[valid] if np.any(valid) else None
+    else:
+        est_xy = est_pose[valid, :2] if np.any(valid) else None
     e_lat = lateral_position_error(true_pose[valid], est_pose[valid])
     return [
         plot_map(path_xy, driven, reflector_xy, wall_segments, out_dir / "map.png", est_xy, title),

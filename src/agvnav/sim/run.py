@@ -76,6 +76,9 @@ def simulate(
         spec=spec,
     )
     series["est_valid"] = (series["est_status"] >= 1.0).astype(np.float64)
+    L = built.plant.L  # nominal: where the vehicle believes C is
+    series["est_x_C"] = series["est_x"] + L * np.cos(series["est_psi"])
+    series["est_y_C"] = series["est_y"] + L * np.sin(series["est_psi"])
     t_end = None if k0 is None else float(series["t"][k0])
     return SimResult(scenario, series, out.events, metrics, built.path, built.world, t_end)
 

@@ -92,6 +92,7 @@ class TricyclePlant:
         self.L_true = self.L * (1.0 + errors.wheelbase_error)
         self.R_true = self.R * (1.0 + errors.wheel_radius_error)
         self.model = TricycleStacker(self.L_true)
+        self.model.substeps = 1  # one RK4 step per control step: local error O(dt^5)
         self.traction_cpr = int(traction_cpr)
         self.steering_q = TWO_PI / int(steering_cpr)
         self.steering = steering
@@ -99,6 +100,7 @@ class TricyclePlant:
         self.steering.reset(float(x0[3]))
         self._state = np.array([x0[0], x0[1], x0[2], x0[3] + errors.steering_offset])
         self._start = self._state.copy()
+        self._deriv = np.zeros((2, 4))
         self._u = np.zeros(2)
         self._dt = 1.0
         self._t0 = 0.0
@@ -113,7 +115,9 @@ class TricyclePlant:
 
     def _quantise_steering(self, gamma: float) -> float:
         q = self.steering_q
-        return math.floor(gamma / q + 0.5) * q
+        g = math.floor(gamma / q + 0.5) * q
+        limit = math.pi / 2 - q  # the reading stays inside the open range (-90, 90) deg of seed 000 §3.1
+        return max(-limit, min(limit, g))
 
     @property
     def state(self) -> NDArray[np.float64]:
@@ -143,6 +147,7 @@ class TricyclePlant:
         self._u = np.array([ds_true / dt, rate])
         self._dt = dt
         self._state = self.model.step(start, self._u, dt)
+        self._deriv = self.model.derivative(np.stack([start, self._state]), self._u)
         self.v = ds_true / dt
         self.distance_C += abs(ds_true)
         # encoders (nominal parameters)
@@ -154,18 +159,25 @@ class TricyclePlant:
         self._odo = _tricycle_increment(self.ds_meas, 0.5 * (self._gamma_meas_prev + self.gamma_meas), self.L)
 
     def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """True base_link (O) pose ``(k, 3)`` at instants inside the last step.
+        """True base_link (O) pose ``(k, 3)`` at instants ``t (k,)`` inside the last step.
 
-        Exact kinematic interpolation: the model is driftless and linear in its
-        input, so the state after ``tau`` s with input ``u`` equals the state after
-        the full step ``dt`` with input ``u tau / dt``; one vectorised call of the
-        kinematic step serves every instant.
+        Cubic Hermite interpolation between the exact states at both ends of the
+        step, with the exact time derivatives there (seed 000 eq. 8 via the
+        kinematic model). Its error is ``h^4/384 max|d4x/dt4|``: for a 0.02 s step
+        at 1 m/s with the wheel turning at 90 deg/s it is below 1e-9 m, far under
+        the goniometer's resolution, at a fraction of the cost of integrating the
+        kinematics again for every query of the sensor's root finder.
         """
-        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
-        tau = np.clip(t - self._t0, 0.0, self._dt)
-        u = self._u[None, :] * (tau / self._dt)[:, None]
-        states = self.model.step(np.broadcast_to(self._start, (t.size, 4)), u, self._dt)
-        return states[:, :3]
+        t = np.asarray(t, dtype=np.float64)
+        h = self._dt
+        u = np.clip((t - self._t0) / h, 0.0, 1.0)[..., None]
+        u2 = u * u
+        u3 = u2 * u
+        h00, h10 = 2.0 * u3 - 3.0 * u2 + 1.0, u3 - 2.0 * u2 + u
+        h01, h11 = 3.0 * u2 - 2.0 * u3, u3 - u2
+        p0, p1 = self._start[:3], self._state[:3]
+        d0, d1 = self._deriv[0, :3] * h, self._deriv[1, :3] * h
+        return h00 * p0 + h10 * d0 + h01 * p1 + h11 * d1
 
     def odometry(self) -> tuple[float, float]:
         """``(delta_d, delta_theta)`` of O over the last step from the encoders (nominal L, R)."""
@@ -195,14 +207,10 @@ def _tricycle_increment(ds_c: float, gamma: float, wheelbase: float) -> tuple[fl
     """Odometry increment of O from the traction distance of C and the steering angle.
 
     ``delta_d = ds_C cos(gamma)``, ``delta_theta = ds_C sin(gamma) / L`` (seed 000 eq. 8
-    integrated over one step, docs/ARCHITECTURE.md odometry contract).
+    over one step; the odometry contract of docs/ARCHITECTURE.md). Scalar ``math``
+    in the hot loop: the same two products as the odometry package's kernel.
     """
-    try:
-        from agvnav.odometry import tricycle_increments
-    except ImportError:
-        return ds_c * math.cos(gamma), ds_c * math.sin(gamma) / wheelbase
-    dd, dth = tricycle_increments(ds_c, gamma, wheelbase)
-    return float(dd), float(dth)
+    return ds_c * math.cos(gamma), ds_c * math.sin(gamma) / wheelbase
 
 
 class GoniometerSensor:
@@ -264,7 +272,7 @@ class TricycleAutopilot:
         direction = self._direction(self._s)
         v = self.profile.command(remaining, dt, direction * abs(self.profile.cruise_speed))
         gamma = plant.gamma_meas
-        rate = float(self.controller.command(pose, gamma, v if v != 0.0 else direction * 1e-3))
+        rate = float(self.controller.command(pose, gamma, v))
         if v == 0.0 and remaining <= self.profile.stop_tolerance + 1e-9:
             self.finished = True
             rate = 0.0
