@@ -183,6 +183,33 @@ def test_split_windows_give_the_same_reflections_as_one_window():
         assert np.max(np.abs(part.bearing - whole.bearing)) <= RES * 1.0001
 
 
+def test_bracketed_fallback_solver_agrees_with_the_fast_path(monkeypatch):
+    import agvnav.sensors.goniometer as gmod
+
+    world = ring_world()
+    pose_at = arc(0.0, 0.5, -1.0, 2.0, 0.8)
+    gonio = Goniometer(mount=(0.9, 0.15, 0.3), phase=1.1)
+    fast = windows(gonio, world, pose_at, 0.0, 0.4, 0.01)
+    monkeypatch.setattr(gmod, "_CHORD_ITER", 0)  # go straight to the Illinois iteration
+    slow = windows(gonio, world, pose_at, 0.0, 0.4, 0.01)
+    np.testing.assert_array_equal(slow.reflector_index, fast.reflector_index)
+    np.testing.assert_allclose(slow.t, fast.t, rtol=0, atol=1e-11)
+
+
+def test_an_hour_into_the_drive_bearings_keep_encoder_accuracy():
+    world = load_builtin_map("lab")
+    gonio = Goniometer(phase=0.4)
+    pose = (6.0, 3.0, 0.7)
+    t0 = 3600.0 + 1.0 / 3.0
+    out = windows(gonio, world, static(*pose), t0, t0 + 0.125, 0.01)
+    rel = world.reflector_xy[out.reflector_index] - np.array(pose[:2])
+    true_edge = np.arctan2(rel[:, 1], rel[:, 0]) - np.arcsin(0.04 / np.hypot(*rel.T)) - pose[2]
+    lag = np.mod(true_edge - out.bearing, 2 * np.pi)
+    lag = np.where(lag > np.pi, lag - 2 * np.pi, lag)
+    assert len(out) >= 5 and len(np.unique(out.reflector_index)) == len(out)
+    assert np.all(lag >= -1e-9) and np.all(lag < RES + 1e-9)
+
+
 # --- occlusion and range ------------------------------------------------------------
 
 

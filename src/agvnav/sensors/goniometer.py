@@ -41,8 +41,9 @@ TWO_PI = 2.0 * math.pi
 #: then holds at most one crossing per reflector, and the beam-edge offset moves by
 #: about pi/2 < pi across it, so its wrapped value is continuous on the bracket).
 _BRACKETS_PER_REV = 4
-_ANGLE_TOL = 1e-12  # rad: root-finding tolerance on the beam-edge offset
+_ANGLE_TOL = 1e-10  # rad: root-finding tolerance on the beam-edge offset (1e-6 of a 65535 encoder step)
 _MAX_ITER = 60
+_CHORD_ITER = 6
 
 PoseFunction = Callable[[NDArray[np.float64]], ArrayLike]
 
@@ -275,7 +276,7 @@ class Goniometer:
         from P(t) (seed 000 §2.1). The window is split into brackets of a quarter
         revolution; a bracket holds a crossing when the wrapped offset passes 2*pi,
         and all crossings are then refined together by a vectorised Illinois
-        (regula falsi) iteration to 1e-12 rad. A crossing is reported if the beam
+        (regula falsi) iteration to 1e-10 rad (2e-12 s). A crossing is reported if the beam
         range is within [min_range, max_range], the line of sight is not cut by a
         wall or another reflector, and it survives ``p_miss``. Spurious reflections
         and timestamp jitter are added; jittered times are clipped into the window so
@@ -315,29 +316,39 @@ class Goniometer:
 
     def _offsets(
         self, world: WorldMap, pose_at: PoseFunction, t: NDArray[np.float64], index: NDArray[np.intp] | None
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Beam-minus-leading-edge angle, wrapped to [-pi, pi) (rad), at instants ``t (k,)``.
+    ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]:
+        """Unwrapped beam-minus-leading-edge angle ``direction*(beam - edge)`` (rad) at instants ``t (k,)``.
 
         ``index=None`` gives every reflector, shape ``(k, N)``; otherwise one reflector
-        per instant, shape ``(k,)``. Also returns the head position ``(k, 2)`` and the
-        head-to-centre distance. NaN offset where the head is inside a cylinder.
+        per instant, shape ``(k,)``. Also returns the head position ``(x (k,), y (k,))`` and the
+        head-to-centre distance.
+        Written out by hand (no stacking, no wrapping): this is the simulator's hot path.
         """
         pose = _call_pose(pose_at, t)
-        head = self.head_pose(pose)
-        beam = head[:, 2] + self.head_angle(t)
+        mx, my, mth = self.mount
+        heading = pose[:, 2]
+        px, py = pose[:, 0], pose[:, 1]
+        if mx != 0.0 or my != 0.0:
+            c, s = np.cos(heading), np.sin(heading)
+            px, py = px + c * mx - s * my, py + s * mx + c * my
+        # Unwrapped beam direction: the caller wraps once. Over an hour (2*pi*f*t ~ 2e5 rad)
+        # this loses ~3e-11 rad, far below the 1e-10 rad root tolerance and the encoder step.
+        beam = heading + (self.phase + mth) + (self.direction * TWO_PI * self.rate_hz) * t
+        head = (px, py)
         if index is None:
-            xy, r = world.reflector_xy[None, :, :], world.reflector_radius[None, :]
-            px, py, beam = head[:, 0, None], head[:, 1, None], beam[:, None]
+            xy, r = world.reflector_xy, world.reflector_radius
+            px, py, beam = px[:, None], py[:, None], beam[:, None]
         else:
             xy, r = world.reflector_xy[index], world.reflector_radius[index]
-            px, py = head[:, 0], head[:, 1]
         dx, dy = xy[..., 0] - px, xy[..., 1] - py
         d = np.hypot(dx, dy)
-        inside = d <= r
-        half_width = np.arcsin(np.where(inside, 0.0, r / np.where(inside, 1.0, d)))
-        edge = np.arctan2(dy, dx) - self.direction * half_width
-        offset = wrap_angle(self.direction * (beam - edge))
-        return np.where(inside, np.nan, offset), head[:, :2], d
+        # asin(r/d) saturates at pi/2 inside a cylinder (d <= r); _visible rejects those.
+        half_width = np.arcsin(np.minimum(r / np.maximum(d, 1e-300), 1.0))
+        if self.direction == 1:
+            offset = beam - np.arctan2(dy, dx) + half_width
+        else:
+            offset = np.arctan2(dy, dx) + half_width - beam
+        return offset, head, d
 
     def _true_reflections(
         self, world: WorldMap, pose_at: PoseFunction, t0: float, t1: float
@@ -346,9 +357,9 @@ class Goniometer:
         if world.reflector_xy.shape[0] == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
         n_int = max(1, math.ceil((t1 - t0) * self.rate_hz * _BRACKETS_PER_REV))
-        grid = np.linspace(t0, t1, n_int + 1)
+        grid = np.array([t0, t1]) if n_int == 1 else np.linspace(t0, t1, n_int + 1)
         offset, _, _ = self._offsets(world, pose_at, grid, None)
-        w = np.mod(offset, TWO_PI)
+        w = np.mod(offset, TWO_PI)  # in [0, 2*pi)
         # A crossing: the wrapped offset drops by more than pi over one bracket
         # (it passes 2*pi; a small drop would be the beam lagging, not a crossing).
         with np.errstate(invalid="ignore"):
@@ -373,29 +384,62 @@ class Goniometer:
         f_hi: NDArray[np.float64],
         refl: NDArray[np.intp],
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Vectorised Illinois iteration on the brackets ``[lo, hi]`` (f_lo < 0 <= f_hi).
+        """Crossing instants in the brackets ``[lo, hi]`` (``f_lo < 0 <= f_hi``), all at once.
 
-        Returns the crossing instants, the head position there ``(c, 2)`` and the
-        head-to-centre distances.
+        Common path: chord iterations ``t <- t - f(t) / slope`` with the bracket's
+        secant slope. The offset is dominated by the head term 2*pi*f*t, so the
+        slope is right to ~1e-4 and two pose evaluations reach 1e-10 rad. If that
+        fails (a reflector within centimetres of a fast-moving head), a bracketed
+        Illinois iteration takes over. Returns the instants, the head position there
+        ``(c, 2)`` and the head-to-centre distances.
         """
-        lo, hi, f_lo, f_hi = lo.copy(), hi.copy(), f_lo.copy(), f_hi.copy()
+        tol = self._tolerance(hi)
+        slope = (f_hi - f_lo) / (hi - lo)  # > 0: f_hi >= 0 > f_lo
+        t = lo - f_lo / slope
+        for _ in range(_CHORD_ITER):
+            raw, head, d = self._offsets(world, pose_at, t, refl)
+            f = np.mod(raw + math.pi, TWO_PI) - math.pi  # continuous on the bracket (see _BRACKETS_PER_REV)
+            if np.all(np.abs(f) <= tol):
+                return t, np.column_stack(head), d
+            t = np.clip(t - f / slope, lo, hi)
+        return self._illinois(world, pose_at, lo, hi, f_lo, f_hi, refl, tol)
+
+    def _tolerance(self, t: NDArray[np.float64]) -> float:
+        """Root tolerance (rad): 1e-10, or the float noise of t itself if larger (t ~ 1 h: ~2e-11 rad)."""
+        return max(_ANGLE_TOL, 8.0 * np.finfo(float).eps * float(np.max(np.abs(t))) * TWO_PI * self.rate_hz)
+
+    def _illinois(
+        self,
+        world: WorldMap,
+        pose_at: PoseFunction,
+        lo: NDArray[np.float64],
+        hi: NDArray[np.float64],
+        f_lo: NDArray[np.float64],
+        f_hi: NDArray[np.float64],
+        refl: NDArray[np.intp],
+        tol: float,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Vectorised Illinois (modified regula falsi) on the brackets: slower, always converges."""
         side = np.zeros(lo.shape, dtype=np.int8)
         t = hi - f_hi * (hi - lo) / (f_hi - f_lo)
         for _ in range(_MAX_ITER):
-            f, head_xy, d = self._offsets(world, pose_at, t, refl)
-            stalled = (hi - lo) <= 4.0 * np.finfo(float).eps * np.maximum(np.abs(t), 1.0)
-            if np.all((np.abs(f) <= _ANGLE_TOL) | stalled | np.isnan(f)):
+            raw, head, d = self._offsets(world, pose_at, t, refl)
+            f = np.mod(raw + math.pi, TWO_PI) - math.pi
+            if np.all(np.abs(f) <= tol):
                 break
             upper = f >= 0.0
             hi, f_hi = np.where(upper, t, hi), np.where(upper, f, f_hi)
             lo, f_lo = np.where(upper, lo, t), np.where(upper, f_lo, f)
-            f_lo = np.where(upper & (side == 1), 0.5 * f_lo, f_lo)
+            f_lo = np.where(upper & (side == 1), 0.5 * f_lo, f_lo)  # halve the stale end
             f_hi = np.where(~upper & (side == -1), 0.5 * f_hi, f_hi)
             side = np.where(upper, 1, -1).astype(np.int8)
-            t = np.clip(hi - f_hi * (hi - lo) / (f_hi - f_lo), lo, hi)
+            t_new = np.clip(hi - f_hi * (hi - lo) / (f_hi - f_lo), lo, hi)
+            if np.array_equal(t_new, t):
+                break
+            t = t_new
         else:
-            _, head_xy, d = self._offsets(world, pose_at, t, refl)
-        return t, head_xy, d
+            _, head, d = self._offsets(world, pose_at, t, refl)
+        return t, np.column_stack(head), d
 
     def _visible(
         self, world: WorldMap, refl: NDArray[np.intp], head_xy: NDArray[np.float64], d: NDArray[np.float64]
@@ -410,13 +454,13 @@ class Goniometer:
         inside = ~(d > r)
         beam_range = np.sqrt(np.where(inside, 0.0, d * d - r * r))
         ok = ~inside & (beam_range >= self.min_range) & (beam_range <= self.max_range)
-        if not np.any(ok):
+        if not ok.any():
             return ok
         scale = np.where(inside, 0.0, (d - r) / np.where(inside, 1.0, d)) * (1.0 - 1e-9)
         ray = (world.reflector_xy[refl] - head_xy) * scale[:, None]
-        ok &= ~_ray_hits_segments(head_xy, ray, world.wall_segments)
-        ok &= ~_ray_hits_discs(head_xy, ray, world.reflector_xy, world.reflector_radius, refl)
-        return ok
+        blocked = _ray_hits_segments(head_xy, ray, world.wall_segments)
+        blocked |= _ray_hits_discs(head_xy, ray, world.reflector_xy, world.reflector_radius, refl)
+        return ok & ~blocked
 
     # -- noise -------------------------------------------------------------
 
@@ -465,20 +509,24 @@ def _ray_hits_segments(
 ) -> NDArray[np.bool_]:
     """``(c,)`` True where the segment ``origin -> origin + ray`` ``(c, 2)`` crosses any wall segment ``(M, 2, 2)``.
 
-    Parallel (and collinear, i.e. grazing) pairs do not block.
+    With ``a`` the wall start relative to the origin, ``v`` the wall direction and
+    ``u`` the ray, the crossing is at ``s = (a x v) / (u x v)`` along the ray and
+    ``w = (a x u) / (u x v)`` along the wall; both in [0, 1] means blocked (signs
+    folded into the numerators to avoid dividing). Parallel (grazing) pairs do not block.
     """
     if segments.shape[0] == 0:
         return np.zeros(origin.shape[0], dtype=bool)
-    a = segments[None, :, 0, :] - origin[:, None, :]  # (c, M, 2)
-    v = segments[None, :, 1, :] - segments[None, :, 0, :]  # (1, M, 2)
-    u = ray[:, None, :]  # (c, 1, 2)
-    den = u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
-    num_s = a[..., 0] * v[..., 1] - a[..., 1] * v[..., 0]  # along the beam: s = num_s / den
-    num_t = a[..., 0] * u[..., 1] - a[..., 1] * u[..., 0]  # along the wall:  t = num_t / den
+    ox, oy = origin[:, 0:1], origin[:, 1:2]  # (c, 1)
+    ux, uy = ray[:, 0:1], ray[:, 1:2]
+    ax, ay = segments[:, 0, 0] - ox, segments[:, 0, 1] - oy  # (c, M)
+    vx, vy = segments[:, 1, 0] - segments[:, 0, 0], segments[:, 1, 1] - segments[:, 0, 1]  # (M,)
+    den = ux * vy - uy * vx
     sign = np.sign(den)
-    num_s, num_t, den = num_s * sign, num_t * sign, np.abs(den)
-    hit = (den > 0.0) & (num_s >= 0.0) & (num_s <= den) & (num_t >= 0.0) & (num_t <= den)
-    return np.any(hit, axis=1)
+    num_s = (ax * vy - ay * vx) * sign
+    num_w = (ax * uy - ay * ux) * sign
+    den = np.abs(den)
+    hit = (num_s >= 0.0) & (num_s <= den) & (num_w >= 0.0) & (num_w <= den) & (den > 0.0)
+    return hit.any(axis=1)
 
 
 def _ray_hits_discs(
@@ -489,10 +537,11 @@ def _ray_hits_discs(
     target: NDArray[np.intp],
 ) -> NDArray[np.bool_]:
     """``(c,)`` True where the segment ``origin -> origin + ray`` passes within another reflector's radius."""
-    rel = centres[None, :, :] - origin[:, None, :]  # (c, N, 2)
-    length2 = np.maximum(np.sum(ray * ray, axis=1), 1e-300)[:, None]
-    tau = np.clip((rel[..., 0] * ray[:, None, 0] + rel[..., 1] * ray[:, None, 1]) / length2, 0.0, 1.0)
-    gap = rel - tau[..., None] * ray[:, None, :]
-    hit = np.sum(gap * gap, axis=2) < radius[None, :] ** 2
+    ux, uy = ray[:, 0:1], ray[:, 1:2]  # (c, 1)
+    cx, cy = centres[:, 0] - origin[:, 0:1], centres[:, 1] - origin[:, 1:2]  # (c, N)
+    length2 = np.maximum(ux * ux + uy * uy, 1e-300)
+    tau = np.clip((cx * ux + cy * uy) / length2, 0.0, 1.0)
+    gx, gy = cx - tau * ux, cy - tau * uy
+    hit = gx * gx + gy * gy < radius * radius
     hit[np.arange(target.size), target] = False
-    return np.any(hit, axis=1)
+    return hit.any(axis=1)
