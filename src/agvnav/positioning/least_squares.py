@@ -140,11 +140,12 @@ def least_squares_kernel(
         _, observable = inv_sym3(info)
         unit_cov, bearings_only = inv_sym3(unit_info)
         quality = np.where(bearings_only, 1.0 / np.sqrt(unit_cov[:, 0, 0] + unit_cov[:, 1, 1]), 0.0)
+        heading = wrap(state[:, 2])
     valid = done & observable & np.all(np.isfinite(state), axis=-1)
     return {
         "x": state[:, 0],
         "y": state[:, 1],
-        "heading": wrap(state[:, 2]),
+        "heading": heading,
         "quality": quality,
         "valid": valid,
         "information": info,

@@ -23,7 +23,7 @@ that do not broadcast, too few/many reflectors for the method, non-positive
 ``bearing_std``/``heading_std``. *Value* problems depend on the path:
 
 * single fix (no batch dimensions): NaN/inf in reflectors, bearings or the heading
-  estimate, coincident reflectors and collinear reflectors raise ``ValueError`` naming
+  estimate, coincident reflectors and (for N >= 3) collinear reflectors raise ``ValueError`` naming
   the problem;
 * batch: the same problems only set ``valid=False`` for the element concerned (its
   x, y, heading are NaN); neighbours are unaffected.
@@ -200,7 +200,7 @@ def _check_single(r: NDArray[np.float64], b: NDArray[np.float64], h: NDArray[np.
     sxx = sum((p[0] - mx) ** 2 for p in pts)
     syy = sum((p[1] - my) ** 2 for p in pts)
     sxy = sum((p[0] - mx) * (p[1] - my) for p in pts)
-    if sxx * syy - sxy * sxy <= LAYOUT_TOL * (sxx + syy) ** 2:
+    if n >= 3 and sxx * syy - sxy * sxy <= LAYOUT_TOL * (sxx + syy) ** 2:
         raise ValueError("reflectors are collinear: the fix is undetermined")
 
 
@@ -214,7 +214,7 @@ def _layout_flags(r: NDArray[np.float64]) -> tuple[NDArray[np.bool_], NDArray[np
     coincident = np.min(off, axis=(-2, -1)) <= LAYOUT_TOL**2 * scale
     c = r - np.mean(r, axis=-2, keepdims=True)
     sxx, syy, sxy = np.sum(c[..., 0] ** 2, -1), np.sum(c[..., 1] ** 2, -1), np.sum(c[..., 0] * c[..., 1], -1)
-    collinear = sxx * syy - sxy * sxy <= LAYOUT_TOL * (sxx + syy) ** 2
+    collinear = (n >= 3) & (sxx * syy - sxy * sxy <= LAYOUT_TOL * (sxx + syy) ** 2)
     return coincident, collinear
 
 
