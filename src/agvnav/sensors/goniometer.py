@@ -274,11 +274,12 @@ class Goniometer:
 
         with ``alpha_edge`` the absolute direction of the leading tangent edge seen
         from P(t) (seed 000 §2.1). The window is split into brackets of a quarter
-        revolution; a bracket holds a crossing when the wrapped offset passes 2*pi,
-        and all crossings are then refined together by a vectorised Illinois
-        (regula falsi) iteration to 1e-10 rad (2e-12 s). A crossing is reported if the beam
-        range is within [min_range, max_range], the line of sight is not cut by a
-        wall or another reflector, and it survives ``p_miss``. Spurious reflections
+        revolution (one pose evaluation per bracket end); a bracket holds a crossing
+        when the wrapped offset passes 2*pi. All crossings are then refined together,
+        vectorised over reflectors, by chord iterations (Illinois regula falsi as the
+        fallback) to 1e-10 rad, i.e. 2e-12 s. A crossing is reported if the beam range
+        is within [min_range, max_range], the line of sight is not cut by a wall or
+        another reflector, and it survives ``p_miss``. Spurious reflections
         and timestamp jitter are added; jittered times are clipped into the window so
         consecutive scans stay time-ordered.
 
@@ -362,8 +363,7 @@ class Goniometer:
         w = np.mod(offset, TWO_PI)  # in [0, 2*pi)
         # A crossing: the wrapped offset drops by more than pi over one bracket
         # (it passes 2*pi; a small drop would be the beam lagging, not a crossing).
-        with np.errstate(invalid="ignore"):
-            crossing = (w[:-1] - w[1:]) > math.pi
+        crossing = (w[:-1] - w[1:]) > math.pi
         interval, refl = np.nonzero(crossing)
         if interval.size == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
