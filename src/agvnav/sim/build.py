@@ -146,6 +146,18 @@ def _check_visibility(sc: Scenario, world: Any, path: Any, point: str, L: float)
         )
 
 
+def _check_radii(sc: Scenario, point: str, L: float) -> None:
+    """Point C cannot follow an arc tighter than the wheelbase (R_C = L / |sin gamma| >= L, seed 000 eq. 8)."""
+    if point != "C":
+        return
+    for i, seg in enumerate(sc.path.segments):
+        if seg.type == "arc" and seg.radius_m < L:
+            raise sc.error(
+                ("path", "segments", i, "radius_m"),
+                f"radius {seg.radius_m:g} m is below the wheelbase {L:g} m: the drive wheel C cannot follow it",
+            )
+
+
 def _initial_state(sc: Scenario, path: Any, point: str, L: float) -> NDArray[np.float64]:
     """True ``[x_O, y_O, psi, gamma]``: the tracked point displaced left of the path start."""
     start = path.start_pose
@@ -200,6 +212,7 @@ def build(sc: Scenario) -> Built:
     veh = sc.vehicle
     L = veh.wheelbase_m
     point = sc.controller.point if sc.controller.name.startswith("seed") else "C"
+    _check_radii(sc, point, L)
     _check_visibility(sc, world, path, point, L)
     g = sc.goniometer
     mount = (g.mount[0], g.mount[1], math.radians(g.mount[2]))
