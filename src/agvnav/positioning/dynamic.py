@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 from agvnav.geometry import angle_diff, between, compose, inverse, wrap_angle
 from agvnav.positioning.bounds import crlb
 from agvnav.positioning.estimator import StreamingEstimator
-from agvnav.positioning.identification import bearing_model, edge_offset
+from agvnav.positioning.identification import bearing_model, edge_offset, measurement_variance
 
 __all__ = [
     "AnglePropagationEstimator",
@@ -95,7 +95,7 @@ def batch_ml_fix(
     radius: ArrayLike,
     relative_motion: ArrayLike,
     mount: ArrayLike,
-    bearing_var: float,
+    bearing_var: ArrayLike,
     iterations: int = 10,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]:
     """Joint Gauss-Newton fix of the pose at t_f from bearings taken at their own instants.
@@ -106,25 +106,27 @@ def batch_ml_fix(
     (:func:`~agvnav.positioning.identification.bearing_model`), Jacobian
     ``dh/dx_f = H_i J_i``, ``J_i = d(x_f ⊕ d_i)/dx_f``.
 
-    ``bearings (n,)`` edge bearings (rad), ``reflector_xy (n, 2)``, ``radius (n,)``.
+    ``bearings (n,)`` edge bearings (rad), ``reflector_xy (n, 2)``, ``radius (n,)``,
+    ``bearing_var`` scalar or ``(n,)`` variances (rad²) weighting each residual.
     Returns ``(pose (3,), covariance (3, 3), valid)``; invalid when the normal matrix is
     singular (fewer than three independent directions) or the iteration diverges.
     """
     x = np.array(pose0, dtype=np.float64)
     z = np.asarray(bearings, dtype=np.float64)
     rel = np.asarray(relative_motion, dtype=np.float64)
+    w = 1.0 / np.broadcast_to(np.asarray(bearing_var, dtype=np.float64), z.shape)
     for _ in range(iterations):
         A, r = _ml_system(x, z, reflector_xy, radius, rel, mount)
-        N = A.T @ A
+        N = A.T @ (A * w[:, None])
         if np.linalg.cond(N) > 1e12:
             return x, np.full((3, 3), np.nan), False
-        step = np.linalg.solve(N, A.T @ r)
+        step = np.linalg.solve(N, A.T @ (r * w))
         x = x + step
         x[2] = wrap_angle(x[2])
         if np.max(np.abs(step)) < 1e-10:
             break
     A, r = _ml_system(x, z, reflector_xy, radius, rel, mount)
-    cov = np.linalg.inv(A.T @ A / bearing_var)
+    cov = np.linalg.inv(A.T @ (A * w[:, None]))
     valid = bool(np.all(np.isfinite(x)) and np.max(np.abs(r)) < 0.5)
     return x, 0.5 * (cov + cov.T), valid
 
@@ -208,15 +210,21 @@ class _FixEstimator(StreamingEstimator):
 
     def _fix_covariance(self, pose: NDArray[np.float64], entries: list, rel: NDArray[np.float64]) -> NDArray[np.float64]:
         """Bearing-noise covariance ``(A^T A / sigma^2)^-1`` of a fix from ``entries``."""
-        idx = [e[2] for e in entries]
         A, _ = _ml_system(
-            pose, np.array([e[1] for e in entries]), self.reflector_xy[idx], self.reflector_radius[idx], rel, self.mount
+            pose, np.array([e[1] for e in entries]), self.reflector_xy[idx := [e[2] for e in entries]],
+            self.reflector_radius[idx], rel, self.mount,
         )
-        N = A.T @ A / self.bearing_std**2
+        N = A.T @ (A / self._variances(pose, entries, rel)[:, None])
         if np.linalg.cond(N) > 1e12:
             return self._P
         cov = np.linalg.inv(N)
         return 0.5 * (cov + cov.T)
+
+    def _variances(self, pose: NDArray[np.float64], entries: list, rel: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Measurement variance (rad²) of each entry: bearing noise plus map survey error."""
+        idx = [e[2] for e in entries]
+        _, _, d = bearing_model(compose(pose, rel), self.mount, self.reflector_xy[idx], 0.0)
+        return measurement_variance(self.bearing_std**2, self.map_std, d)
 
     def _relative(self, entries: list) -> NDArray[np.float64]:
         """Odometric pose at each entry seen from the current odometric pose, ``(n, 3)``."""
@@ -331,6 +339,6 @@ class BatchMLEstimator(_FixEstimator):
         rel = self._relative(entries)
         pose, cov, ok = batch_ml_fix(
             self._x, np.array([e[1] for e in entries]), self.reflector_xy[idx], self.reflector_radius[idx],
-            rel, self.mount, self.bearing_std**2,
+            rel, self.mount, self._variances(self._x, entries, rel),
         )
         return (pose, cov) if ok else None

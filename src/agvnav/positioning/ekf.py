@@ -93,7 +93,7 @@ class EkfEstimator(StreamingEstimator):
         self.last_reflector = -1
 
     def _accept(self, t: float, bearing: float, assoc: Any) -> None:
-        self._x, self._P = ekf_update(self._x, self._P, assoc.innovation, assoc.H, self.bearing_std**2)
+        self._x, self._P = ekf_update(self._x, self._P, assoc.innovation, assoc.H, assoc.R)
         self.last_innovation = assoc.innovation
         self.last_nis = assoc.nis
         self.last_reflector = assoc.index

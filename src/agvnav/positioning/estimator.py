@@ -26,44 +26,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav._validate import as_float_array, require_finite, require_positive
+from agvnav._validate import as_float_array, require_finite, require_nonnegative, require_positive
 from agvnav.geometry import wrap_angle
-try:
-    from agvnav.odometry import OdometryNoise, integrate_pose, motion_covariance, pose_jacobian
-except ImportError:  # STAND-IN until the issue-3 odometry module lands (same contract, ARCHITECTURE.md)
-    from dataclasses import dataclass as _dataclass
-
-    @_dataclass(frozen=True)
-    class OdometryNoise:  # type: ignore[no-redef]
-        """Stand-in: var(dD) = k_d^2 |dD|, var(dtheta) = k_dtheta^2 |dD| + k_theta^2 |dtheta|."""
-
-        k_d: float = 0.001
-        k_dtheta: float = 0.003
-        k_theta: float = 0.001
-
-    def integrate_pose(pose, delta_d, delta_theta, rule="arc"):  # type: ignore[no-redef]
-        """Stand-in: exact arc (seed 002 eq. 25)."""
-        p = np.asarray(pose, dtype=np.float64)
-        dth = np.asarray(delta_theta, dtype=np.float64)
-        chord = np.asarray(delta_d, dtype=np.float64) * np.sinc(dth / (2 * np.pi))
-        mid = p[..., 2] + 0.5 * dth
-        return np.stack([p[..., 0] + chord * np.cos(mid), p[..., 1] + chord * np.sin(mid), p[..., 2] + dth], axis=-1)
-
-    def pose_jacobian(pose, delta_d, delta_theta):  # type: ignore[no-redef]
-        """Stand-in: d integrate_pose / d pose."""
-        p = np.asarray(pose, dtype=np.float64)
-        chord = float(delta_d) * np.sinc(float(delta_theta) / (2 * np.pi))
-        mid = p[2] + 0.5 * float(delta_theta)
-        return np.array([[1.0, 0.0, -chord * np.sin(mid)], [0.0, 1.0, chord * np.cos(mid)], [0.0, 0.0, 1.0]])
-
-    def motion_covariance(pose, delta_d, delta_theta, noise):  # type: ignore[no-redef]
-        """Stand-in: Q = G diag(var dD, var dtheta) G^T (midpoint input Jacobian G)."""
-        p = np.asarray(pose, dtype=np.float64)
-        dd, dth = float(delta_d), float(delta_theta)
-        mid = p[2] + 0.5 * dth
-        G = np.array([[np.cos(mid), -0.5 * dd * np.sin(mid)], [np.sin(mid), 0.5 * dd * np.cos(mid)], [0.0, 1.0]])
-        var = np.diag([noise.k_d**2 * abs(dd), noise.k_dtheta**2 * abs(dd) + noise.k_theta**2 * abs(dth)])
-        return G @ var @ G.T
+from agvnav.odometry import OdometryNoise, integrate_pose, motion_covariance, pose_jacobian
 from agvnav.positioning.identification import CHI2_1DOF_999, gate_reflection, initial_pose_search
 
 __all__ = ["METHODS", "STATUSES", "StreamingEstimator", "make_estimator"]
@@ -110,6 +75,9 @@ class StreamingEstimator:
         ``"dead_reckoning"`` (the covariance then keeps growing with the odometry).
     gate:
         Chi-square threshold (1 dof) on the innovation of one bearing.
+    map_std:
+        Survey error std (m) of the reflector positions; adds ``(map_std / d)^2`` to the
+        variance of a bearing at distance d (seed 000 §4.1: topographically measured).
     bearing_offset:
         Added to every reported bearing (rad). Default half a pulse, ``pi / pulses_per_rev``:
         an incremental encoder reports the last whole pulse passed, so a CCW head's reading
@@ -126,6 +94,7 @@ class StreamingEstimator:
         bearing_std: float | None = None,
         pulses_per_rev: int = 65535,
         bearing_offset: float | None = None,
+        map_std: float = 0.001,
         odometry_noise: OdometryNoise | None = None,
         initial_pose: ArrayLike | None = None,
         initial_covariance: ArrayLike | None = None,
@@ -143,6 +112,7 @@ class StreamingEstimator:
         self.bearing_std = require_positive("bearing_std", std)
         offset = np.pi / int(pulses_per_rev) if bearing_offset is None else bearing_offset
         self.bearing_offset = float(require_finite("bearing_offset", offset))
+        self.map_std = require_nonnegative("map_std", map_std)
         self.odometry_noise = OdometryNoise() if odometry_noise is None else odometry_noise
         self.rate_hz = require_positive("rate_hz", rate_hz)
         self.max_range = require_positive("max_range", max_range)
@@ -150,6 +120,8 @@ class StreamingEstimator:
         self.gate = require_positive("gate", gate)
         self.n_accepted = 0
         self.n_rejected = 0
+        self.n_inflations = 0
+        self._recent: list[tuple[float, bool]] = []
         self.last_search = None
         self._t: float | None = None
         self._t_odometry: float | None = None
@@ -231,7 +203,9 @@ class StreamingEstimator:
         assoc = gate_reflection(
             z, self._x, self._P, self.mount, self.reflector_xy, self.reflector_radius, self.bearing_std**2,
             max_range=self.max_range, excluded=t - self._claimed < 0.75 / self.rate_hz, gate=self.gate,
+            map_std=self.map_std,
         )
+        self._watch_lockout(t, assoc.index >= 0)
         if assoc.index < 0:
             self.n_rejected += 1
             return False
@@ -260,6 +234,26 @@ class StreamingEstimator:
         if self._t_first is None:
             self._t_first = t
         return t
+
+    def _watch_lockout(self, t: float, accepted: bool) -> None:
+        """Inflate ``P`` x4 when most reflections of the last 1.5 revolutions miss their gates.
+
+        A wrong early association (a spurious reflection inside a wide initial gate) can leave
+        a confident but wrong estimate that then rejects the true reflections: the classic
+        EKF lock-out. Genuine operation rejects only spurious reflections, a small fraction;
+        when rejections outnumber acceptances twice over (and at least four), the covariance
+        is inflated -- never the pose -- until the gates admit the reflectors again
+        (counted in :attr:`n_inflations`).
+        """
+        window = 1.5 / self.rate_hz
+        self._recent = [(tr, ok) for (tr, ok) in self._recent if t - tr <= window]
+        self._recent.append((t, accepted))
+        n_ok = sum(ok for _, ok in self._recent)
+        n_bad = len(self._recent) - n_ok
+        if n_bad >= 4 and 2 * n_ok < n_bad:
+            self._P = 4.0 * self._P
+            self.n_inflations += 1
+            self._recent.clear()
 
     def _move(self, delta_d: float, delta_theta: float) -> None:
         """Dead-reckon the odom pose, and the map pose with ``P' = F P F^T + Q`` (seed 002)."""
@@ -292,7 +286,7 @@ class StreamingEstimator:
         sweep = [z for (tb, z) in self._init_buffer if times[-1] - tb < 1.0 / self.rate_hz]
         result = initial_pose_search(
             sweep, self.reflector_xy, self.reflector_radius, self.mount, self.bearing_std,
-            max_range=self.max_range, gate=self.gate,
+            max_range=self.max_range, gate=self.gate, map_std=self.map_std,
         )
         self.last_search = result
         self._init_buffer = [b for b in self._init_buffer if times[-1] - b[0] < 1.0 / self.rate_hz]

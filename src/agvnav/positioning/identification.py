@@ -39,6 +39,7 @@ __all__ = [
     "edge_offset",
     "gate_reflection",
     "initial_pose_search",
+    "measurement_variance",
     "resect_three",
 ]
 
@@ -113,7 +114,8 @@ class Association:
 
     ``index`` is the map reflector row (-1 when rejected); ``nis`` the normalised innovation
     squared of the chosen reflector (inf when none); ``n_in_gate`` how many reflectors fell
-    inside the gate (2 or more means the reflection was rejected as ambiguous).
+    inside the gate (2 or more means the reflection was rejected as ambiguous); ``H`` the
+    bearing Jacobian row, ``S`` the innovation variance and ``R`` the measurement variance.
     """
 
     index: int
@@ -122,6 +124,17 @@ class Association:
     n_in_gate: int
     H: NDArray[np.float64] = field(repr=False)
     S: float
+    R: float
+
+
+def measurement_variance(bearing_var: ArrayLike, map_std: float, distance: ArrayLike) -> NDArray[np.float64]:
+    """Variance (rad²) of one bearing: encoder/bearing noise plus the map survey error seen at ``distance`` (m).
+
+    ``R = sigma_b^2 + (map_std / d)^2``: a reflector displaced by ``map_std`` across the line
+    of sight shifts its bearing by ``map_std / d`` (seed 000 §4.1: surveyed positions).
+    """
+    d = np.asarray(distance, dtype=np.float64)
+    return np.asarray(bearing_var, dtype=np.float64) + (float(map_std) / np.where(d > 0.0, d, np.inf)) ** 2
 
 
 def gate_reflection(
@@ -136,6 +149,7 @@ def gate_reflection(
     max_range: float = np.inf,
     excluded: ArrayLike | None = None,
     gate: float = CHI2_1DOF_999,
+    map_std: float = 0.0,
 ) -> Association:
     """Match one anonymous bearing to a map reflector with a chi-square innovation gate.
 
@@ -145,13 +159,15 @@ def gate_reflection(
     1 dof). Two or more reflectors in the gate means the prediction cannot tell them apart:
     the reflection is rejected rather than risk a wrong label. ``excluded`` (bool ``(N,)``)
     removes reflectors already claimed in the current sweep, so one sweep never gives the
-    same reflector twice.
+    same reflector twice. ``map_std`` (m) is the survey error of a reflector position; it
+    adds ``(map_std / d)^2`` to the measurement variance (returned as ``R``).
     """
     xy = np.asarray(reflector_xy, dtype=np.float64)
     P = np.asarray(covariance, dtype=np.float64)
     h, H, d = bearing_model(pose, mount, xy, radius)
     y = angle_diff(float(bearing), h)
-    S = np.einsum("ni,ij,nj->n", H, P, H) + float(bearing_var)
+    R = measurement_variance(bearing_var, map_std, d)
+    S = np.einsum("ni,ij,nj->n", H, P, H) + R
     nis = y * y / S
     ok = d <= max_range
     if excluded is not None:
@@ -159,9 +175,9 @@ def gate_reflection(
     in_gate = ok & (nis < gate)
     n_in = int(np.count_nonzero(in_gate))
     if n_in != 1:
-        return Association(-1, float("nan"), float("inf"), n_in, np.zeros(3), float("nan"))
+        return Association(-1, float("nan"), float("inf"), n_in, np.zeros(3), float("nan"), float("nan"))
     j = int(np.flatnonzero(in_gate)[0])
-    return Association(j, float(y[j]), float(nis[j]), 1, H[j], float(S[j]))
+    return Association(j, float(y[j]), float(nis[j]), 1, H[j], float(S[j]), float(R[j]))
 
 
 def associate_sweep(
@@ -175,6 +191,7 @@ def associate_sweep(
     *,
     max_range: float = np.inf,
     gate: float = CHI2_1DOF_999,
+    map_std: float = 0.0,
 ) -> NDArray[np.int64]:
     """Label all bearings ``(k,)`` of one sweep at once: ``(k,)`` reflector rows, -1 = rejected.
 
@@ -185,7 +202,7 @@ def associate_sweep(
     z = np.atleast_1d(np.asarray(bearings, dtype=np.float64))
     xy = np.asarray(reflector_xy, dtype=np.float64)
     h, H, d = bearing_model(pose, mount, xy, radius)
-    S = np.einsum("ni,ij,nj->n", H, np.asarray(covariance, dtype=np.float64), H) + float(bearing_var)
+    S = np.einsum("ni,ij,nj->n", H, np.asarray(covariance, dtype=np.float64), H) + measurement_variance(bearing_var, map_std, d)
     nis = angle_diff(z[:, None], h[None, :]) ** 2 / S[None, :]
     allowed = (nis < gate) & (d <= max_range)[None, :]
     labels = np.full(z.shape, -1, dtype=np.int64)
@@ -290,6 +307,7 @@ def initial_pose_search(
     position_tol: float = 0.05,
     heading_tol: float = 0.01,
     gate: float = CHI2_1DOF_999,
+    map_std: float = 0.0,
 ) -> InitialPoseResult:
     """Pose of a standing vehicle from one revolution of anonymous bearings, without prior.
 
@@ -304,7 +322,8 @@ def initial_pose_search(
        ``position_tol`` m or ``heading_tol`` rad) explains as many, report ``ambiguous``.
 
     ``bearings (k,)`` head-frame edge bearings (rad); the map arrays as in
-    :func:`bearing_model`. Needs at least three reflections and three reflectors.
+    :func:`bearing_model`; ``map_std`` as in :func:`gate_reflection`. Needs at least three
+    reflections and three reflectors.
     """
     z = np.sort(wrap_angle(np.atleast_1d(np.asarray(bearings, dtype=np.float64))))
     order = np.argsort(wrap_angle(np.atleast_1d(np.asarray(bearings, dtype=np.float64))), kind="stable")
@@ -320,7 +339,7 @@ def initial_pose_search(
     visible = d <= max_range
     close = np.abs(angle_diff(z[None, :, None], h[:, None, :])) < coarse_tol
     explained = np.any(close & visible[:, None, :], axis=-1).sum(-1)
-    refined = _refine_distinct(hyps, explained, z, xy, rad, mount, bearing_std, max_range, gate, position_tol, heading_tol)
+    refined = _refine_distinct(hyps, explained, z, xy, rad, mount, bearing_std, max_range, gate, position_tol, heading_tol, map_std)
     if not refined:
         return _not_found(z.size)
     best_n = max(r[1] for r in refined)
@@ -392,6 +411,7 @@ def _refine_distinct(
     gate: float,
     position_tol: float,
     heading_tol: float,
+    map_std: float,
 ) -> list[tuple]:
     """Gauss-Newton refinement of the best-scoring distinct hypotheses."""
     best = int(explained.max())
@@ -402,15 +422,15 @@ def _refine_distinct(
     var = bearing_std**2
     for pose in seeds[:32]:
         loose = np.diag([0.05, 0.05, 0.01]) ** 2
-        labels = associate_sweep(z, pose, loose, mount, xy, rad, var, max_range=max_range, gate=gate)
-        for _ in range(2):
+        labels = associate_sweep(z, pose, loose, mount, xy, rad, var, max_range=max_range, gate=gate, map_std=map_std)
+        for _ in range(3):
             if np.count_nonzero(labels >= 0) < 3:
                 break
-            pose, cov, ssr = _gauss_newton(pose, z[labels >= 0], xy[labels[labels >= 0]], rad[labels[labels >= 0]], mount, var)
-            labels = associate_sweep(z, pose, cov, mount, xy, rad, var, max_range=max_range, gate=gate)
+            pose, cov, ssr = _gauss_newton(pose, z[labels >= 0], xy[labels[labels >= 0]], rad[labels[labels >= 0]], mount, var, map_std)
+            labels = associate_sweep(z, pose, cov, mount, xy, rad, var, max_range=max_range, gate=gate, map_std=map_std)
         n = int(np.count_nonzero(labels >= 0))
         if n >= 3:
-            pose, cov, ssr = _gauss_newton(pose, z[labels >= 0], xy[labels[labels >= 0]], rad[labels[labels >= 0]], mount, var)
+            pose, cov, ssr = _gauss_newton(pose, z[labels >= 0], xy[labels[labels >= 0]], rad[labels[labels >= 0]], mount, var, map_std)
             out.append((pose, n, ssr, labels, cov))
     return out
 
@@ -422,22 +442,25 @@ def _gauss_newton(
     rad: NDArray[np.float64],
     mount: ArrayLike,
     var: float,
+    map_std: float = 0.0,
     iterations: int = 8,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """Static least-squares pose from labelled bearings: ``(pose, covariance, sum of squared residuals)``."""
+    """Static weighted least-squares pose from labelled bearings: ``(pose, covariance, chi-square)``."""
     x = np.array(pose, dtype=np.float64)
     for _ in range(iterations):
-        h, H, _ = bearing_model(x, mount, xy, rad)
+        h, H, d = bearing_model(x, mount, xy, rad)
         r = angle_diff(z, h)
-        step, *_ = np.linalg.lstsq(H, r, rcond=None)
+        w = 1.0 / np.sqrt(measurement_variance(var, map_std, d))
+        step, *_ = np.linalg.lstsq(H * w[:, None], r * w, rcond=None)
         x = x + step
         x[2] = wrap_angle(x[2])
         if np.max(np.abs(step)) < 1e-12:
             break
-    h, H, _ = bearing_model(x, mount, xy, rad)
+    h, H, d = bearing_model(x, mount, xy, rad)
     r = angle_diff(z, h)
-    cov = np.linalg.pinv(H.T @ H / var)
-    return x, cov, float(r @ r / var)
+    R = measurement_variance(var, map_std, d)
+    cov = np.linalg.pinv(H.T @ (H / R[:, None]))
+    return x, cov, float(np.sum(r * r / R))
 
 
 def _distinct(items: list[tuple], position_tol: float, heading_tol: float) -> list[tuple]:
