@@ -1,0 +1,57 @@
+import subprocess
+import sys
+
+import numpy as np
+
+from agvnav.report import plot_errors, plot_map, plot_positioning_histogram, write_plots
+
+
+def _png(path):
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
+    return data
+
+
+def _series(n=200):
+    t = np.linspace(0.0, 20.0, n)
+    x = 0.2 * t
+    zeros = np.zeros(n)
+    return {
+        "t": t,
+        "x": x,
+        "y": zeros,
+        "psi": zeros,
+        "x_C": x + 1.0,
+        "y_C": 0.1 * np.exp(-t),
+        "est_x": x + 0.001,
+        "est_y": 0.002 * np.sin(t),
+        "est_psi": zeros,
+        "est_valid": np.ones(n),
+        "eps_c": 0.1 * np.exp(-t),
+        "xi_r": -0.1 * t * np.exp(-t),
+    }
+
+
+def test_write_plots_creates_three_pngs(tmp_path):
+    s = _series()
+    path_xy = np.column_stack([np.linspace(1, 5, 50), np.zeros(50)])
+    refl = np.array([[0.0, 3.0], [6.0, 3.0], [3.0, -3.0]])
+    walls = np.array([[[0.0, -4.0], [6.0, -4.0]]])
+    files = write_plots(s, path_xy, refl, walls, tmp_path / "out", transient_end_s=3.0, title="t")
+    assert [f.name for f in files] == ["map.png", "errors.png", "positioning_histogram.png"]
+    for f in files:
+        _png(f)
+
+
+def test_single_plots_and_empty_histogram(tmp_path):
+    s = _series(50)
+    _png(plot_errors(s["t"], s["eps_c"], s["xi_r"], tmp_path / "e.png"))
+    xy = np.column_stack([s["x"], s["y"]])
+    _png(plot_map(xy, xy, np.zeros((0, 2)), np.zeros((0, 2, 2)), tmp_path / "m.png"))
+    _png(plot_positioning_histogram(np.array([np.nan]), tmp_path / "h.png"))
+
+
+def test_math_packages_do_not_import_matplotlib():
+    code = "import sys, agvnav.sim, agvnav.report, agvnav.world.scenario; print('matplotlib' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
