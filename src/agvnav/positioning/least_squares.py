@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
 from agvnav.positioning._three import TWO_PI, Arr, wrap
 from agvnav.positioning.bounds import inv_sym3
@@ -20,22 +21,37 @@ from agvnav.positioning.total import total_kernel
 
 #: Iteration cap; from the ToTal start Gauss-Newton converges in 3-5 iterations.
 MAX_ITER = 30
-#: Step (m or rad, relative to 1 + |state|) below which an element has converged.
-STEP_TOL = 1e-12
+#: Step (m or rad, relative to 1 + |state|) below which an element has converged; the
+#: step is still taken, and Gauss-Newton converges quadratically, so the error left is ~STEP_TOL².
+STEP_TOL = 1e-10
+#: A step this small that fails to lower the cost means the cost is flat to rounding: done.
+ROUNDING_STEP = 1e-7
 
 
 def _normal_equations(
     state: Arr, rx: Arr, ry: Arr, theta: Arr, w: Arr, prior: tuple[Arr, Arr] | None
 ) -> tuple[Arr, Arr, Arr]:
-    """Information ``A = J^T W J`` (m,3,3), gradient ``g = J^T W r`` (m,3) and cost (m,)."""
-    dx = rx - state[:, 0:1]
-    dy = ry - state[:, 1:2]
+    """Information ``A = J^T W J`` (m,3,3), gradient ``g = J^T W r`` (m,3) and cost (m,).
+
+    Internal layout is reflector-major: ``rx, ry`` ``(N, 1)`` or ``(N, m)``, ``theta, w``
+    ``(N, m)``, so the sums over reflectors are contiguous vector adds.
+    """
+    dx = rx - state[:, 0]
+    dy = ry - state[:, 1]
     d2 = dx * dx + dy * dy
-    r = wrap(theta - (np.arctan2(dy, dx) - state[:, 2:3]))
-    jac = np.stack([dy / d2, -dx / d2, -np.ones_like(d2)], axis=-1)
-    a = np.einsum("mni,mn,mnj->mij", jac, w, jac)
-    g = np.einsum("mni,mn,mn->mi", jac, w, r)
-    cost = np.sum(w * r * r, axis=-1)
+    r = wrap(theta - (np.arctan2(dy, dx) - state[:, 2]))
+    j0 = dy / d2  # Jacobian row [j0, j1, -1] (see bounds.bearing_jacobian)
+    j1 = -dx / d2
+    wj0, wj1, wr = w * j0, w * j1, w * r
+    a = np.empty((state.shape[0], 3, 3))
+    a[:, 0, 0] = np.sum(wj0 * j0, 0)
+    a[:, 0, 1] = a[:, 1, 0] = np.sum(wj0 * j1, 0)
+    a[:, 0, 2] = a[:, 2, 0] = -np.sum(wj0, 0)
+    a[:, 1, 1] = np.sum(wj1 * j1, 0)
+    a[:, 1, 2] = a[:, 2, 1] = -np.sum(wj1, 0)
+    a[:, 2, 2] = np.sum(w, 0)
+    g = np.stack([np.sum(wj0 * r, 0), np.sum(wj1 * r, 0), -np.sum(wr, 0)], axis=-1)
+    cost = np.sum(wr * r, 0)
     if prior is not None:
         psi_est, w_psi = prior
         rp = wrap(psi_est - state[:, 2])
@@ -46,8 +62,9 @@ def _normal_equations(
 
 
 def _cost(state: Arr, rx: Arr, ry: Arr, theta: Arr, w: Arr, prior: tuple[Arr, Arr] | None) -> Arr:
-    r = wrap(theta - (np.arctan2(ry - state[:, 1:2], rx - state[:, 0:1]) - state[:, 2:3]))
-    cost = np.sum(w * r * r, axis=-1)
+    """Weighted squared residuals (m,), same layout as ``_normal_equations``."""
+    r = wrap(theta - (np.arctan2(ry - state[:, 1], rx - state[:, 0]) - state[:, 2]))
+    cost = np.sum(w * r * r, 0)
     if prior is not None:
         rp = wrap(prior[0] - state[:, 2])
         cost = cost + prior[1] * rp * rp
@@ -112,31 +129,49 @@ def least_squares_kernel(
     ``quality`` is ``1 / PDOP`` of the bearings alone at the solution (rad/m; 0 when
     they cannot fix the pose without the prior).
     """
-    m = theta.shape[0]
+    m, n = theta.shape
     sigma = np.ones(1) if bearing_std is None else bearing_std
-    w = np.broadcast_to(1.0 / np.asarray(sigma, dtype=np.float64) ** 2, theta.shape)
-    prior = None
+    w_t = np.ascontiguousarray(np.broadcast_to(1.0 / np.asarray(sigma, dtype=np.float64) ** 2, theta.shape).T)
+    theta_t = np.ascontiguousarray(theta.T)
+    shared = np.ndim(rx) == 1
+    rx_t = rx[:, None] if shared else np.ascontiguousarray(rx.T)
+    ry_t = ry[:, None] if shared else np.ascontiguousarray(ry.T)
+    w_psi = None
     if heading_estimate is not None and heading_std is not None:
-        prior = (heading_estimate, np.broadcast_to(1.0 / np.asarray(heading_std) ** 2, (m,)))
+        w_psi = np.broadcast_to(1.0 / np.asarray(heading_std, dtype=np.float64) ** 2, (m,))
+
+    def data(idx: NDArray[np.intp]) -> tuple[Arr, Arr, Arr, Arr, tuple[Arr, Arr] | None]:
+        """The problem restricted to the elements ``idx`` (active set)."""
+        prior = None if w_psi is None else (heading_estimate[idx], w_psi[idx])  # type: ignore[index]
+        if shared:
+            return rx_t, ry_t, theta_t[:, idx], w_t[:, idx], prior
+        return rx_t[:, idx], ry_t[:, idx], theta_t[:, idx], w_t[:, idx], prior
+
     with np.errstate(all="ignore"):
         state = initial_state(rx, ry, theta, heading_estimate)
         lam = np.full(m, 1e-6)
         done = np.zeros(m, dtype=bool)
+        active = np.arange(m)
         for _ in range(MAX_ITER):
-            a, g, cost = _normal_equations(state, rx, ry, theta, w, prior)
-            damped = a + lam[:, None, None] * np.eye(3) * a
-            inv, _ = inv_sym3(damped)
+            args = data(active)
+            s = state[active]
+            a, g, cost = _normal_equations(s, *args)
+            inv, _ = inv_sym3(a + lam[active, None, None] * np.eye(3) * a)
             step = np.einsum("mij,mj->mi", inv, g)
-            small = np.max(np.abs(step) / (1.0 + np.abs(state)), axis=-1) < STEP_TOL
-            trial = state + step
-            better = _cost(trial, rx, ry, theta, w, prior) <= cost
-            state = np.where((better & ~done)[:, None], trial, state)
-            lam = np.where(better, lam * 0.1, lam * 10.0)
-            done |= small | (lam > 1e8) | ~np.all(np.isfinite(step), axis=-1)
-            if np.all(done):
+            rel = np.max(np.abs(step) / (1.0 + np.abs(s)), axis=-1)
+            trial = s + step
+            better = _cost(trial, *args) <= cost
+            state[active] = np.where(better[:, None], trial, s)
+            lam[active] = np.where(better, lam[active] * 0.1, lam[active] * 10.0)
+            finished = (rel < STEP_TOL) | (~better & (rel < ROUNDING_STEP)) | (lam[active] > 1e8)
+            finished |= ~np.all(np.isfinite(step), axis=-1)
+            done[active[finished]] = True
+            active = active[~finished]
+            if active.size == 0:
                 break
-        info, _, _ = _normal_equations(state, rx, ry, theta, w, prior)
-        unit_info, _, _ = _normal_equations(state, rx, ry, theta, np.ones_like(w), None)
+        everything = data(np.arange(m))
+        info, _, _ = _normal_equations(state, *everything)
+        unit_info, _, _ = _normal_equations(state, *everything[:2], theta_t, np.ones_like(w_t), None)
         _, observable = inv_sym3(info)
         unit_cov, bearings_only = inv_sym3(unit_info)
         quality = np.where(bearings_only, 1.0 / np.sqrt(unit_cov[:, 0, 0] + unit_cov[:, 1, 1]), 0.0)
@@ -251,13 +286,14 @@ def least_squares_single(
         damped = [[a[i][j] * (1.0 + lam) if i == j else a[i][j] for j in range(3)] for i in range(3)]
         step = _solve3(damped, g)
         trial = [s + d for s, d in zip(state, step, strict=True)]
-        small = max(abs(d) / (1.0 + abs(s)) for d, s in zip(step, state, strict=True)) < STEP_TOL
-        if _cost_single(trial, pts, theta, w, prior) <= cost:
+        rel = max(abs(d) / (1.0 + abs(s)) for d, s in zip(step, state, strict=True))
+        better = _cost_single(trial, pts, theta, w, prior) <= cost
+        if better:
             state = trial
             lam *= 0.1
         else:
             lam *= 10.0
-        if small or lam > 1e8:  # at the minimum to rounding, or no descent left
+        if rel < STEP_TOL or (not better and rel < ROUNDING_STEP) or lam > 1e8:
             converged = True
             break
     info = _normal_equations_single(state, pts, theta, w, prior)[0]
