@@ -48,7 +48,7 @@ _CHORD_ITER = 6
 PoseFunction = Callable[[NDArray[np.float64]], ArrayLike]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Reflections:
     """Anonymous reflections of one scan, in time order.
 
@@ -84,6 +84,13 @@ class Reflections:
 
     def __len__(self) -> int:
         return int(self.t.size)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Reflections):
+            return NotImplemented
+        return all(np.array_equal(getattr(self, k), getattr(other, k)) for k in ("t", "bearing", "reflector_index"))
+
+    __hash__ = None  # type: ignore[assignment]
 
     @classmethod
     def empty(cls) -> Reflections:
