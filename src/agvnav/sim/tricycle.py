@@ -24,6 +24,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.odometry import tricycle_increments
+
 __all__ = ["GoniometerSensor", "TricycleAutopilot", "TricyclePlant", "TruthErrors"]
 
 TWO_PI = 2.0 * math.pi
@@ -85,6 +87,7 @@ class TricyclePlant:
         initial_state: Sequence[float],
     ) -> None:
         from agvnav.kinematics import TricycleStacker
+        from agvnav.sensors.encoders import SteeringEncoder, WheelEncoder
 
         self.L = float(wheelbase)
         self.R = float(wheel_radius)
@@ -93,8 +96,10 @@ class TricyclePlant:
         self.R_true = self.R * (1.0 + errors.wheel_radius_error)
         self.model = TricycleStacker(self.L_true)
         self.model.substeps = 1  # one RK4 step per control step: local error O(dt^5)
-        self.traction_cpr = int(traction_cpr)
-        self.steering_q = TWO_PI / int(steering_cpr)
+        self.traction_encoder = WheelEncoder(int(traction_cpr), self.R)
+        # the encoder reads the servo position: the true wheel angle minus the steering offset
+        self.steering_encoder = SteeringEncoder(int(steering_cpr), offset=errors.steering_offset)
+        self.steering_q = self.steering_encoder.resolution
         self.steering = steering
         x0 = np.asarray(initial_state, dtype=np.float64)
         self.steering.reset(float(x0[3]))
@@ -107,16 +112,17 @@ class TricyclePlant:
         self._wheel_angle = 0.0  # true rotation of the drive wheel (rad)
         self._count = 0
         self.v = 0.0
-        self.gamma_meas = self._quantise_steering(self.steering.gamma)
+        self.gamma_meas = self._read_steering(self.steering.gamma)
         self._gamma_meas_prev = self.gamma_meas
         self.ds_meas = 0.0
         self._odo = (0.0, 0.0)
         self.distance_C = 0.0
 
-    def _quantise_steering(self, gamma: float) -> float:
-        q = self.steering_q
-        g = math.floor(gamma / q + 0.5) * q
-        limit = math.pi / 2 - q  # the reading stays inside the open range (-90, 90) deg of seed 000 §3.1
+    def _read_steering(self, gamma_servo: float) -> float:
+        """Steering encoder reading (rad) with the wheel at ``gamma_servo + offset``."""
+        enc = self.steering_encoder
+        g = float(enc.angle(enc.counts(gamma_servo + enc.offset)))
+        limit = math.pi / 2 - enc.resolution  # the reading stays inside (-90, 90) deg, seed 000 §3.1
         return max(-limit, min(limit, g))
 
     @property
@@ -152,11 +158,12 @@ class TricyclePlant:
         self.distance_C += abs(ds_true)
         # encoders (nominal parameters)
         self._wheel_angle += wheel_rate * dt
-        count = math.floor(self._wheel_angle * self.traction_cpr / TWO_PI)
-        self.ds_meas = (count - self._count) * TWO_PI * self.R / self.traction_cpr
+        count = int(self.traction_encoder.counts(self._wheel_angle))
+        self.ds_meas = float(self.traction_encoder.distance(count - self._count))
         self._count = count
-        self._gamma_meas_prev, self.gamma_meas = self.gamma_meas, self._quantise_steering(g1)
-        self._odo = _tricycle_increment(self.ds_meas, 0.5 * (self._gamma_meas_prev + self.gamma_meas), self.L)
+        self._gamma_meas_prev, self.gamma_meas = self.gamma_meas, self._read_steering(g1)
+        dd, dth = tricycle_increments(self.ds_meas, 0.5 * (self._gamma_meas_prev + self.gamma_meas), self.L)
+        self._odo = (float(dd), float(dth))
 
     def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
         """True base_link (O) pose ``(k, 3)`` at instants ``t (k,)`` inside the last step.
@@ -202,16 +209,6 @@ class TricyclePlant:
             self._odo[1],
             self.distance_C,
         )
-
-
-def _tricycle_increment(ds_c: float, gamma: float, wheelbase: float) -> tuple[float, float]:
-    """Odometry increment of O from the traction distance of C and the steering angle.
-
-    ``delta_d = ds_C cos(gamma)``, ``delta_theta = ds_C sin(gamma) / L`` (seed 000 eq. 8
-    over one step; the odometry contract of docs/ARCHITECTURE.md). Scalar ``math``
-    in the hot loop: the same two products as the odometry package's kernel.
-    """
-    return ds_c * math.cos(gamma), ds_c * math.sin(gamma) / wheelbase
 
 
 class GoniometerSensor:
