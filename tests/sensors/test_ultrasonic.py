@@ -153,3 +153,14 @@ def test_mount_inside_body_is_refused():
         UltrasonicArray({"inward": UltrasonicSensor(mount=(0.225, 0.0, math.pi))}, 0.45, 0.40)
     with pytest.raises(ValueError, match="half_angle"):
         UltrasonicSensor(half_angle=2.0)
+
+
+def test_array_echo_batches_all_sensors():
+    layout = seed_004_layout()
+    walls = np.array([[[-5.0, -0.5], [5.0, -0.5]], [[0.8, -2.0], [0.8, 2.0]]])
+    poses = np.array([[0.0, 0.0, 0.05], [0.1, 0.02, -0.03]])
+    batch = layout.echo(poses, walls)
+    assert batch.range.shape == (2, 5)
+    for i, name in enumerate(layout.names):
+        single = layout[name].echo(poses, walls)
+        assert np.array_equal(batch.range[:, i], single.range) and np.array_equal(batch.segment[:, i], single.segment)

@@ -326,6 +326,25 @@ class UltrasonicArray:
     def __getitem__(self, name: str) -> UltrasonicSensor:
         return self.sensors[name]
 
+    def sensor_poses(self, pose: ArrayLike) -> NDArray[np.float64]:
+        """Transducer poses ``(..., S, 3)`` in ``map`` for base_link poses ``(..., 3)``, in ``names`` order."""
+        mounts = np.array([self.sensors[n].mount for n in self.names])
+        return compose(np.asarray(pose, dtype=np.float64)[..., None, :], mounts)
+
+    def echo(self, pose: ArrayLike, segments: ArrayLike) -> ConeEcho:
+        """Noise-free echoes of all sensors at once, fields ``(..., S)`` in ``names`` order."""
+        def per_sensor(attr: str) -> NDArray[np.float64]:
+            return np.array([getattr(self.sensors[n], attr) for n in self.names])
+
+        return cone_echo(
+            self.sensor_poses(pose),
+            segments,
+            per_sensor("half_angle"),
+            per_sensor("max_incidence"),
+            per_sensor("min_range"),
+            per_sensor("max_range"),
+        )
+
     def measure(self, pose: ArrayLike, segments: ArrayLike, rng: np.random.Generator) -> dict[str, float]:
         """One noisy reading (m, nan when invalid) per sensor for one base_link pose ``(3,)``.
 
