@@ -85,8 +85,8 @@ def maps(draw):
     for j in range(draw(st.integers(0, 3))):
         closed = draw(st.booleans())
         k = draw(st.integers(3 if closed else 2, 5))
-        pts = np.cumsum([[draw(finite), draw(finite)] for _ in range(k)], axis=0)
-        pts[1:] += np.arange(1, k)[:, None] * 0.5  # distinct consecutive points
+        steps = [[abs(draw(finite)) + 0.1, draw(finite)] for _ in range(k)]  # x strictly increases
+        pts = np.cumsum(steps, axis=0)
         walls.append(Wall(f"W{j}", pts, closed=closed))
     return WorldMap(reflectors, walls)
 
