@@ -45,3 +45,14 @@ def run(controller, state0, v: float, wheelbase: float, distance: float, dt: flo
         states.append(state)
     travelled = abs(v) * dt * np.arange(n)
     return np.array(states), errs, travelled
+
+
+def assert_same_roots(actual, desired, atol: float) -> None:
+    """Two sets of complex roots agree (order-free matching by nearest neighbour)."""
+    a = np.asarray(actual, dtype=complex).ravel()
+    d = list(np.asarray(desired, dtype=complex).ravel())
+    assert a.size == len(d), (a, d)
+    for x in a:
+        j = int(np.argmin([abs(x - y) for y in d]))
+        assert abs(x - d[j]) <= atol, (a, d)
+        d.pop(j)

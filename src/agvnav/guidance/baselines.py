@@ -34,16 +34,18 @@ MAX_STEERING_RAD = math.radians(89.0)
 _LN50 = math.log(50.0)
 
 
-def servo_rate(gamma_target: ArrayLike, gamma: ArrayLike, tau: float) -> NDArray[np.float64]:
+def servo_rate(gamma_target: ArrayLike, gamma: ArrayLike, tau: float) -> NDArray[np.float64] | float:
     """First-order steering servo: ``gamma' = (gamma_target - gamma) / tau`` (rad/s), ``tau`` in s."""
     if not (math.isfinite(tau) and tau > 0.0):
         raise ValueError(f"servo time constant tau must be a positive finite number (s), got {tau!r}")
+    if isinstance(gamma_target, float) and isinstance(gamma, float):
+        return (gamma_target - gamma) / tau
     return (np.asarray(gamma_target, dtype=np.float64) - np.asarray(gamma, dtype=np.float64)) / tau
 
 
 def pure_pursuit_steering(
     beta: ArrayLike, lookahead: float, wheelbase: float, point: str = "O", direction: ArrayLike = 1
-) -> NDArray[np.float64]:
+) -> NDArray[np.float64] | float:
     """Pure-pursuit steering target (rad) (Coulter 1992) on the seed-000 tricycle.
 
     ``beta`` (rad): bearing of the look-ahead point G, at arclength ``lookahead``
@@ -63,18 +65,27 @@ def pure_pursuit_steering(
     """
     if not (math.isfinite(lookahead) and lookahead > 0.0):
         raise ValueError(f"lookahead must be a positive finite distance (m), got {lookahead!r}")
+    if point not in ("O", "C"):
+        raise ValueError(f"point must be 'O' or 'C', got {point!r}")
+    if isinstance(beta, float) and isinstance(direction, int):  # controllers' fast path
+        k2 = 2.0 * direction * wheelbase
+        if point == "O":
+            g = math.atan(k2 * math.sin(beta) / lookahead)
+        else:
+            g = math.atan2(k2 * math.sin(beta), lookahead + k2 * math.cos(beta))
+        return min(max(g, -MAX_STEERING_RAD), MAX_STEERING_RAD)
     beta = np.asarray(beta, dtype=np.float64)
     k = 2.0 * np.asarray(direction, dtype=np.float64) * wheelbase
     if point == "O":
         gamma = np.arctan(k * np.sin(beta) / lookahead)
-    elif point == "C":
-        gamma = np.arctan2(k * np.sin(beta), lookahead + k * np.cos(beta))
     else:
-        raise ValueError(f"point must be 'O' or 'C', got {point!r}")
+        gamma = np.arctan2(k * np.sin(beta), lookahead + k * np.cos(beta))
     return np.clip(wrap_angle(gamma), -MAX_STEERING_RAD, MAX_STEERING_RAD)
 
 
-def stanley_steering(heading_error: ArrayLike, eps_c: ArrayLike, gain_per_m: float) -> NDArray[np.float64]:
+def stanley_steering(
+    heading_error: ArrayLike, eps_c: ArrayLike, gain_per_m: float
+) -> NDArray[np.float64] | float:
     """Stanley steering target (rad) (Thrun et al. 2006), front wheel = point C, v > 0.
 
     ``gamma = -heading_error - atan(k eps_c)`` where ``heading_error = psi -
@@ -88,6 +99,9 @@ def stanley_steering(heading_error: ArrayLike, eps_c: ArrayLike, gain_per_m: flo
     """
     if not (math.isfinite(gain_per_m) and gain_per_m > 0.0):
         raise ValueError(f"Stanley gain must be a positive finite number (1/m), got {gain_per_m!r}")
+    if isinstance(heading_error, float) and isinstance(eps_c, float):  # controllers' fast path
+        g = math.remainder(-heading_error - math.atan(gain_per_m * eps_c), 2.0 * math.pi)
+        return min(max(g, -MAX_STEERING_RAD), MAX_STEERING_RAD)
     g = -np.asarray(heading_error, dtype=np.float64) - np.arctan(gain_per_m * np.asarray(eps_c, dtype=np.float64))
     return np.clip(wrap_angle(g), -MAX_STEERING_RAD, MAX_STEERING_RAD)
 

@@ -24,8 +24,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav._validate import require_finite, require_positive
-from agvnav.geometry.angles import wrap_angle
+from agvnav._validate import require_positive
 from agvnav.guidance.baselines import (
     lookahead_for_distance,
     pure_pursuit_steering,
@@ -33,12 +32,13 @@ from agvnav.guidance.baselines import (
     stanley_gain_for_distance,
     stanley_steering,
 )
-from agvnav.guidance.errors import TrackingErrors, point_c, tracking_errors
+from agvnav.guidance.errors import TrackingErrors, tracking_errors_scalar
 from agvnav.guidance.gains import (
     check_routh_hurwitz,
     SETTLING_FRACTION,
+    characteristic_coefficients,
     check_simple_stability,
-    general_gains,
+    general_gains_from_coefficients,
     poles_for_convergence,
     simple_gains,
 )
@@ -118,10 +118,17 @@ class _PathFollower:
         self._s = None
         self._last = None
 
-    def _inputs(self, pose_o: ArrayLike, gamma: float, v: float) -> tuple[NDArray[np.float64], float, float]:
-        pose = require_finite("pose_o", pose_o)
-        if pose.shape != (3,):
-            raise ValueError(f"pose_o must have shape (3,) = [x_O, y_O, psi], got {pose.shape}")
+    def _inputs(self, pose_o: ArrayLike, gamma: float, v: float) -> tuple[tuple[float, float, float], float, float]:
+        if not (isinstance(pose_o, np.ndarray) and pose_o.shape == (3,)):
+            pose_o = np.asarray(pose_o, dtype=np.float64) if not isinstance(pose_o, np.ndarray) else pose_o
+            if pose_o.shape != (3,):
+                raise ValueError(f"pose_o must have shape (3,) = [x_O, y_O, psi], got {pose_o.shape}")
+        try:
+            pose = (float(pose_o[0]), float(pose_o[1]), float(pose_o[2]))
+        except (TypeError, ValueError):
+            raise ValueError("pose_o must be numeric") from None
+        if not all(math.isfinite(p) for p in pose):
+            raise ValueError("pose_o contains NaN or inf")
         g, vv = float(gamma), float(v)
         if not math.isfinite(g) or abs(g) >= math.pi / 2:
             raise ValueError(f"gamma must be finite and within (-pi/2, pi/2) rad, got {gamma!r}")
@@ -129,10 +136,10 @@ class _PathFollower:
             raise ValueError(f"v must be finite, got {v!r}")
         return pose, g, vv
 
-    def _errors(self, pose: NDArray[np.float64], gamma: float) -> TrackingErrors:
-        hint = {} if self._s is None else {"s_hint": self._s, "window": self.window}
-        e = tracking_errors(self._path, pose, gamma, self.wheelbase, self.point, feedforward=self.feedforward, **hint)
-        if not bool(e.valid):
+    def _errors(self, pose: tuple[float, float, float], gamma: float) -> TrackingErrors:
+        window = None if self._s is None else self.window
+        e = tracking_errors_scalar(self._path, pose, gamma, self.wheelbase, self.point, self._s, window, self.feedforward)
+        if not e.valid:
             raise ValueError(
                 f"path radius at s = {float(e.s):.3f} m is below the wheelbase: point C cannot follow it"
             )
@@ -186,7 +193,8 @@ class SeedGeneralController(_PathFollower):
         self.v_max: float | None = None
         self.fixed_gains: tuple[float, float, float] | None = None
         if self.poles_per_m is not None:
-            g = general_gains(self.poles_per_m, 1.0, self.wheelbase)  # validates the poles
+            self._coeffs = characteristic_coefficients(self.poles_per_m, 3)  # validates the poles
+            g = general_gains_from_coefficients(self._coeffs, 1.0, self.wheelbase)
             check_routh_hurwitz(g.a, g.b, g.c, 1.0)
         else:
             assert gains is not None
@@ -199,7 +207,7 @@ class SeedGeneralController(_PathFollower):
     def gains_at(self, v: float) -> tuple[float, float, float]:
         """(a, b, c) used at speed ``v`` (m/s); b carries the sign of v."""
         if self.fixed_gains is None:
-            g = general_gains(self.poles_per_m, v, self.wheelbase)
+            g = general_gains_from_coefficients(self._coeffs, v, self.wheelbase)
             return g.a, g.b, g.c
         a, b, c = self.fixed_gains
         if self.v_max is not None and abs(v) > self.v_max:
@@ -213,7 +221,7 @@ class SeedGeneralController(_PathFollower):
         if v == 0.0:
             return 0.0
         a, b, c = self.gains_at(v)
-        dgamma = gamma - float(e.gamma_ss)
+        dgamma = gamma - e.gamma_ss
         return float(general_law(self.form, e.eps_c, e.eps_o, e.xi, e.xi_r, dgamma, a, b, c, self.wheelbase))
 
 
@@ -249,6 +257,7 @@ class SeedSimpleController(_PathFollower):
         self.poles_per_m = _design_choice(poles_per_m, convergence_distance, gains, 2)
         self.fixed_gains: tuple[float, float] | None = None
         if self.poles_per_m is not None:
+            _, self._f1, self._f2 = characteristic_coefficients(self.poles_per_m, 2)
             g = simple_gains(self.poles_per_m, 1.0)
             check_simple_stability(g.a, g.b, 1.0)
         else:
@@ -266,12 +275,11 @@ class SeedSimpleController(_PathFollower):
         if v < 0.0:
             check_simple_stability(1.0, 1.0, v)
         if self.fixed_gains is None:
-            g = simple_gains(self.poles_per_m, v)
-            a, b = g.a, g.b
+            a, b = v * self._f2, v * self._f1  # simple_gains, without re-validating the poles
         else:
             a, b = self.fixed_gains
         if self.curvature_compensation and self.feedforward:
-            a -= float(e.kappa) ** 2 * v
+            a -= e.kappa**2 * v
         return float(
             simple_law(self.form, e.eps_c, e.eps_o, e.xi, e.xi_r, gamma, e.gamma_ss, a, b, v, self.wheelbase)
         )
@@ -310,10 +318,12 @@ class PurePursuitController(_PathFollower):
         pose, gamma, v = self._inputs(pose_o, gamma, v)
         e = self._errors(pose, gamma)
         d = int(e.direction)
-        p = pose[:2] if self.point == "O" else point_c(pose, self.wheelbase)
-        g = self._path.extrapolate(float(e.s) + self.lookahead)
-        psi_motion = pose[2] + (math.pi if d < 0 else 0.0)
-        beta = float(wrap_angle(math.atan2(g[1] - p[1], g[0] - p[0]) - psi_motion))
+        x, y, psi = pose
+        if self.point == "C":
+            x, y = x + self.wheelbase * math.cos(psi), y + self.wheelbase * math.sin(psi)
+        gx, gy = self._path.extrapolate_point(e.s + self.lookahead)
+        psi_motion = psi + (math.pi if d < 0 else 0.0)
+        beta = math.remainder(math.atan2(gy - y, gx - x) - psi_motion, 2.0 * math.pi)
         target = pure_pursuit_steering(beta, self.lookahead, self.wheelbase, self.point, d)
         return float(servo_rate(target, gamma, self.servo_tau))
 
@@ -353,8 +363,8 @@ class StanleyController(_PathFollower):
         e = self._errors(pose, gamma)
         if v < 0.0 or int(e.direction) < 0:
             raise ValueError("stanley: defined for forward driving only (v > 0, steered wheel leading)")
-        heading_error = float(e.xi) - float(e.gamma_ss)  # psi - tangent at C
-        target = stanley_steering(heading_error, float(e.eps_c), self.gain_per_m)
+        heading_error = e.xi - e.gamma_ss  # psi - tangent at C
+        target = stanley_steering(heading_error, e.eps_c, self.gain_per_m)
         return float(servo_rate(target, gamma, self.servo_tau))
 
 

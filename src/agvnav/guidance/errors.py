@@ -64,6 +64,7 @@ __all__ = [
     "point_c",
     "errors_from_projection",
     "tracking_errors",
+    "tracking_errors_scalar",
 ]
 
 POINTS = ("O", "C")
@@ -86,15 +87,15 @@ class TrackingErrors:
     (False where the feed-forward is impossible: C on an arc of radius < L).
     """
 
-    eps_c: NDArray[np.float64]
-    eps_o: NDArray[np.float64]
-    xi: NDArray[np.float64]
-    xi_r: NDArray[np.float64]
-    s: NDArray[np.float64]
-    gamma_ss: NDArray[np.float64]
-    kappa: NDArray[np.float64]
-    direction: NDArray[np.int64]
-    valid: NDArray[np.bool_]
+    eps_c: NDArray[np.float64] | float
+    eps_o: NDArray[np.float64] | float
+    xi: NDArray[np.float64] | float
+    xi_r: NDArray[np.float64] | float
+    s: NDArray[np.float64] | float
+    gamma_ss: NDArray[np.float64] | float
+    kappa: NDArray[np.float64] | float
+    direction: NDArray[np.int64] | int
+    valid: NDArray[np.bool_] | bool
 
     def as_dict(self) -> dict[str, float]:
         """Scalar errors as a flat dict of floats (for recording one time step)."""
@@ -187,3 +188,49 @@ def tracking_errors(
         pose[..., 2], gamma, proj.lateral, proj.heading, kappa_ff, proj.direction, L, point
     )
     return TrackingErrors(eps_c, eps_o, xi, xi_r, proj.s, gamma_ss, proj.curvature, proj.direction, valid)
+
+
+def _wrap(a: float) -> float:
+    return math.remainder(a, 2.0 * math.pi)
+
+
+def tracking_errors_scalar(
+    path: Path,
+    pose_o: tuple[float, float, float],
+    gamma: float,
+    wheelbase: float,
+    point: str = "C",
+    s_hint: float | None = None,
+    window: float | None = None,
+    feedforward: bool = True,
+) -> TrackingErrors:
+    """Scalar fast path of :func:`tracking_errors` (plain floats in and out), for controllers.
+
+    Same equations (seed 000 eqs 9-10 relative to the feed-forward); wrapping
+    to [-pi, pi] by ``math.remainder``. No input checks: the caller validates.
+    """
+    x, y, psi = pose_o
+    L = wheelbase
+    if point == "C":
+        x, y = x + L * math.cos(psi), y + L * math.sin(psi)
+    pr = path.project_point(x, y, s_hint, window)
+    d = pr.direction
+    kappa = pr.curvature if feedforward else 0.0
+    q = d * L * kappa
+    valid = True
+    if point == "O":
+        gamma_ss = math.atan(q)
+    else:
+        valid = abs(q) <= 1.0
+        gamma_ss = math.asin(min(max(q, -1.0), 1.0))
+    psi_ref = pr.heading + (math.pi if d < 0 else 0.0)
+    eps = d * pr.lateral
+    if point == "O":
+        eps_o, xi = eps, _wrap(psi - psi_ref)
+        xi_r = _wrap(xi + gamma - gamma_ss)
+        eps_c = eps_o + L * math.sin(xi)
+    else:
+        eps_c, xi_r = eps, _wrap(psi + gamma - psi_ref)
+        xi = _wrap(xi_r - (gamma - gamma_ss))
+        eps_o = eps_c - L * math.sin(xi)
+    return TrackingErrors(eps_c, eps_o, xi, xi_r, pr.s, gamma_ss, pr.curvature, d, valid)

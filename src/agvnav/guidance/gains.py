@@ -43,6 +43,8 @@ __all__ = [
     "poles_for_convergence",
     "convergence_distance",
     "general_gains",
+    "general_gains_from_coefficients",
+    "characteristic_coefficients",
     "general_characteristic",
     "routh_hurwitz_ok",
     "check_routh_hurwitz",
@@ -116,6 +118,21 @@ def _monic_real(poles: ArrayLike, order: int) -> NDArray[np.float64]:
     return coeffs.real
 
 
+def characteristic_coefficients(poles_per_m: ArrayLike, order: int) -> NDArray[np.float64]:
+    """Real coefficients ``[1, e1, ..., e_order]`` of ``prod(s - lambda_i)`` for poles per metre (1/m).
+
+    Raises ValueError unless there are ``order`` finite poles, real or in
+    conjugate pairs, all with negative real parts.
+    """
+    return _monic_real(poles_per_m, order)
+
+
+def general_gains_from_coefficients(coeffs: NDArray[np.float64], v: float, wheelbase: float) -> GeneralGains:
+    """``c = |v| e1``, ``b = L v e2``, ``a = L |v| e3`` from ``coeffs = [1, e1, e2, e3]`` (module docstring)."""
+    _, e1, e2, e3 = coeffs
+    return GeneralGains(a=wheelbase * abs(v) * e3, b=wheelbase * v * e2, c=abs(v) * e1)
+
+
 def general_gains(poles_per_m: ArrayLike, v: float, wheelbase: float) -> GeneralGains:
     """a, b, c of the general law placing the eq.-17 poles at ``poles_per_m`` (1/m) at speed ``v`` (m/s).
 
@@ -123,9 +140,7 @@ def general_gains(poles_per_m: ArrayLike, v: float, wheelbase: float) -> General
     ``v = 0`` all gains are 0 (nothing moves, nothing to correct).
     """
     L = require_positive("wheelbase", wheelbase)
-    _, e1, e2, e3 = _monic_real(poles_per_m, 3)
-    v = float(v)
-    return GeneralGains(a=L * abs(v) * e3, b=L * v * e2, c=abs(v) * e1)
+    return general_gains_from_coefficients(_monic_real(poles_per_m, 3), float(v), L)
 
 
 def general_characteristic(a: float, b: float, c: float, v: float, wheelbase: float) -> NDArray[np.float64]:

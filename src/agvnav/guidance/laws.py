@@ -13,6 +13,8 @@ an arc where ``a eps_o + c gamma_ss ~ 0``, i.e. a lateral offset of about
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -22,8 +24,13 @@ GENERAL_FORMS = (11, 12, 13)
 SIMPLE_FORMS = (20, 21, 22)
 
 
-def _f(x: ArrayLike) -> NDArray[np.float64]:
-    return np.asarray(x, dtype=np.float64)
+def _f(x: ArrayLike) -> NDArray[np.float64] | float:
+    """Plain floats pass through (the controllers' fast path); anything else becomes an array."""
+    return x if isinstance(x, float) else np.asarray(x, dtype=np.float64)
+
+
+def _sin(x: NDArray[np.float64] | float) -> NDArray[np.float64] | float:
+    return math.sin(x) if isinstance(x, float) else np.sin(x)
 
 
 def general_law(
@@ -86,7 +93,7 @@ def simple_law(
     """
     a, b, v, L = _f(a), _f(b), _f(v), float(wheelbase)
     dgamma = _f(gamma) - _f(gamma_ss)
-    rot = (v / L) * (np.sin(_f(gamma)) - np.sin(_f(gamma_ss)))
+    rot = (v / L) * (_sin(_f(gamma)) - _sin(_f(gamma_ss)))
     if form == 20:
         return -a * _f(eps_c) - b * _f(xi_r) - rot
     if form == 21:

@@ -21,7 +21,7 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path as FsPath
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import yaml
@@ -36,6 +36,7 @@ __all__ = [
     "Segment",
     "Path",
     "PathProjection",
+    "PointProjection",
     "GAP_TOLERANCE_M",
     "path_from_moves",
     "seed_test_path",
@@ -122,6 +123,17 @@ class LineSegment:
         u = (points - self.start) @ t
         return np.clip(u, u_lo, u_hi)
 
+    def point_scalar(self, u: float) -> tuple[float, float]:
+        """Scalar fast path of :meth:`point_at` (u clipped to the segment)."""
+        u = min(max(u, 0.0), self.length)
+        return self.start[0] + u * math.cos(self.heading), self.start[1] + u * math.sin(self.heading)
+
+    def project_scalar(self, x: float, y: float, u_lo: float, u_hi: float) -> tuple[float, float, float, float]:
+        """Scalar fast path of :meth:`local_projection`: ``(u, foot_x, foot_y, heading)`` (plain floats)."""
+        c, sn = math.cos(self.heading), math.sin(self.heading)
+        u = min(max((x - self.start[0]) * c + (y - self.start[1]) * sn, u_lo), u_hi)
+        return u, self.start[0] + u * c, self.start[1] + u * sn, self.heading
+
 
 @dataclass(frozen=True, eq=False)
 class ArcSegment:
@@ -149,6 +161,9 @@ class ArcSegment:
         object.__setattr__(self, "radius", float(self.radius))
         object.__setattr__(self, "sweep", sw)
         object.__setattr__(self, "direction", _check_direction(self.direction))
+        c = self.centre
+        object.__setattr__(self, "_centre", (float(c[0]), float(c[1])))
+        object.__setattr__(self, "_phi0", math.atan2(p[1] - c[1], p[0] - c[0]))
 
     @property
     def sign(self) -> float:
@@ -213,8 +228,42 @@ class ArcSegment:
         inside = (u >= lo) & (u <= hi)
         return np.where(inside, u, np.where(d_lo <= d_hi, lo, hi))
 
+    def point_scalar(self, u: float) -> tuple[float, float]:
+        """Scalar fast path of :meth:`point_at` (u clipped to the arc)."""
+        u = min(max(u, 0.0), self.length)
+        h = self.heading + self.sign * u / self.radius
+        cx, cy = self._centre
+        return cx + self.sign * self.radius * math.sin(h), cy - self.sign * self.radius * math.cos(h)
+
+    def project_scalar(self, x: float, y: float, u_lo: float, u_hi: float) -> tuple[float, float, float, float]:
+        """Scalar fast path of :meth:`local_projection`: ``(u, foot_x, foot_y, heading)`` (plain floats)."""
+        cx, cy = self._centre
+        r, sg = self.radius, self.sign
+        u = ((sg * (math.atan2(y - cy, x - cx) - self._phi0)) % (2.0 * math.pi)) * r
+        if not (u_lo <= u <= u_hi):
+            circ = 2.0 * math.pi * r
+            d_lo = min(abs(u - u_lo), circ - abs(u - u_lo))
+            d_hi = min(abs(u - u_hi), circ - abs(u - u_hi))
+            u = u_lo if d_lo <= d_hi else u_hi
+        h = self.heading + sg * u / r
+        return u, cx + sg * r * math.sin(h), cy - sg * r * math.cos(h), math.remainder(h, 2.0 * math.pi)
+
 
 Segment = LineSegment | ArcSegment
+
+
+class PointProjection(NamedTuple):
+    """Projection of one point (plain floats/ints), as :class:`PathProjection` for a batch."""
+
+    s: float
+    lateral: float
+    heading: float
+    curvature: float
+    direction: int
+    segment: int
+    x: float
+    y: float
+    distance: float
 
 
 @dataclass(frozen=True)
@@ -346,6 +395,20 @@ class Path:
         p = p + before[..., None] * np.array([math.cos(h0), math.sin(h0)])
         return p + after[..., None] * np.array([math.cos(h1), math.sin(h1)])
 
+    def extrapolate_point(self, s: float) -> tuple[float, float]:
+        """Scalar fast path of :meth:`extrapolate` for one arclength ``s`` (m)."""
+        if s <= 0.0:
+            seg = self._segments[0]
+            return seg.start[0] + s * math.cos(seg.heading), seg.start[1] + s * math.sin(seg.heading)
+        if s >= self.length:
+            seg = self._segments[-1]
+            ex, ey = seg.point_scalar(seg.length)
+            h, extra = seg.end_heading, s - self.length
+            return ex + extra * math.cos(h), ey + extra * math.sin(h)
+        i = int(np.searchsorted(self._s0, s, side="right")) - 1
+        i = min(max(i, 0), len(self._segments) - 1)
+        return self._segments[i].point_scalar(s - float(self._s0[i]))
+
     # ------------------------------------------------------------ projection
     def project(
         self, points: ArrayLike, s_hint: ArrayLike | None = None, window: float | None = None
@@ -386,6 +449,39 @@ class Path:
         if np.any(~np.isfinite(best_d)):
             raise ValueError("s_hint +/- window does not overlap the path")
         return self._projection_at(pts, best_s, best_i, best_d)
+
+    def project_point(
+        self, x: float, y: float, s_hint: float | None = None, window: float | None = None
+    ) -> PointProjection:
+        """Scalar fast path of :meth:`project` for one point ``(x, y)`` (m): plain floats, same result.
+
+        Meant for controllers called at every time step; only segments that
+        overlap ``s_hint +/- window`` are visited.
+        """
+        if s_hint is None:
+            lo, hi = -math.inf, math.inf
+        else:
+            if window is None or not window > 0.0:
+                raise ValueError(f"window must be a positive finite number, got {window!r}")
+            lo, hi = s_hint - window, s_hint + window
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError("point contains NaN or inf")
+        best = None
+        best_d2 = math.inf
+        for i, seg in enumerate(self._segments):
+            s0 = float(self._s0[i])
+            if hi < s0 or lo > s0 + seg.length:
+                continue
+            u, fx, fy, h = seg.project_scalar(x, y, min(max(lo - s0, 0.0), seg.length), min(max(hi - s0, 0.0), seg.length))
+            d2 = (x - fx) ** 2 + (y - fy) ** 2
+            if d2 < best_d2:
+                best_d2, best = d2, (s0 + u, fx, fy, h, i)
+        if best is None:
+            raise ValueError("s_hint +/- window does not overlap the path")
+        s_b, fx, fy, h, i = best
+        lateral = math.cos(h) * (y - fy) - math.sin(h) * (x - fx)
+        seg = self._segments[i]
+        return PointProjection(s_b, lateral, h, seg.curvature, seg.direction, i, fx, fy, math.sqrt(best_d2))
 
     def _projection_at(
         self,
