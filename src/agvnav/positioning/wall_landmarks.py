@@ -30,7 +30,8 @@ landmarks, measured by HY-SRF05 rangers (agvnav.sensors.ultrasonic):
 * **Lateral offset from the side pair** (an extension, not in the seed: the
   same relation with the side sensors fixes the distance to a side wall).
 
-Dead reckoning uses the Euler rule of eqs 3-5, as the seed does.
+Dead reckoning uses the Euler rule of eqs 3-5, as the seed does, through
+agvnav.odometry.integrate_pose (``rule`` selects its exact-arc form instead).
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import require_finite, require_positive
 from agvnav.geometry import angle_diff, wrap_angle
+from agvnav.odometry import integrate_pose
 
 __all__ = [
     "Calibration",
@@ -68,13 +70,7 @@ def dead_reckoning_step(
     wr, wl = np.asarray(omega_right, dtype=np.float64), np.asarray(omega_left, dtype=np.float64)
     delta_d = wheel_radius / 2.0 * (wr + wl) * dt
     delta_theta = wheel_radius / track_width * (wr - wl) * dt
-    return _euler(p, delta_d, delta_theta)
-
-
-def _euler(p: NDArray[np.float64], delta_d: ArrayLike, delta_theta: ArrayLike) -> NDArray[np.float64]:
-    x = p[..., 0] + delta_d * np.cos(p[..., 2])
-    y = p[..., 1] + delta_d * np.sin(p[..., 2])
-    return np.stack(np.broadcast_arrays(x, y, wrap_angle(p[..., 2] + delta_theta)), axis=-1)
+    return integrate_pose(p, delta_d, delta_theta, rule="euler")
 
 
 def heading_from_side_pair(
@@ -185,6 +181,7 @@ class WallLandmarkLocalizer:
     t: float = 0.0
     gain: float = 1.0
     beam: str = "cone"
+    rule: str = "euler"
     history: list[Calibration] = field(default_factory=list)
     status: str = "dead_reckoning"
     covariance: None = None
@@ -194,6 +191,8 @@ class WallLandmarkLocalizer:
         if not 0.0 < self.gain <= 1.0:
             raise ValueError(f"gain must be in (0, 1], got {self.gain!r}")
         _check_beam(self.beam)
+        if self.rule not in ("euler", "midpoint", "arc"):
+            raise ValueError(f"rule must be 'euler', 'midpoint' or 'arc', got {self.rule!r}")
 
     def reset(self, pose: ArrayLike, t: float = 0.0) -> None:
         """Restart from a known pose (m, m, rad) at time ``t`` (s)."""
@@ -202,10 +201,10 @@ class WallLandmarkLocalizer:
         self.history.clear()
 
     def predict(self, t: float, delta_d: float, delta_theta: float) -> None:
-        """Dead reckoning by an odometry increment (m, rad) (seed 004, eqs 3-5, Euler)."""
+        """Dead reckoning by an odometry increment (m, rad) (seed 004, eqs 3-5 with ``rule="euler"``)."""
         if not (math.isfinite(delta_d) and math.isfinite(delta_theta)):
             raise ValueError("delta_d and delta_theta must be finite")
-        self.pose = _euler(self.pose, delta_d, delta_theta)
+        self.pose = integrate_pose(self.pose, delta_d, delta_theta, rule=self.rule)
         self.t, self.status = float(t), "dead_reckoning"
 
     def calibrate_heading(
