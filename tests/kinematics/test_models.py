@@ -272,3 +272,25 @@ def test_wheel_residual_helpers_seed_forms():
     # Swedish 90° wheel: the residual is the seed's rolling equation.
     assert swedish_wheel_residual([1.0, 0.0], 0.0, 10.0, 0.1, np.pi / 2) == pytest.approx(0.0)
     assert swedish_wheel_residual([1.0, 0.7], 0.0, 10.0, 0.1, np.pi / 2) == pytest.approx(0.0)
+
+
+@pytest.mark.parametrize(
+    ("make", "n_config", "n_constraints"),
+    [
+        (lambda: DifferentialDrive(track=0.5), 3, 1),  # seed 003 §3.2.4: 3 − 1 = 2
+        (lambda: TricycleStacker(wheelbase=1.3), 4, 2),  # §3.2.5: [x y θ φ], 4 − 2 = 2
+        (lambda: TricycleRearDrive(wheelbase=1.3, max_steer=1.0), 4, 2),
+        (lambda: Ackermann(wheelbase=2.5, track=1.5), 4, 2),  # §3.2.6: like the tricycle
+        (lambda: TractorTrailer(trailer_length=2.0), 4, 2),  # §3.2.7
+        (lambda: MecanumBase(0.05, 0.3, 0.25), 3, 0),  # Swedish wheels: omnidirectional, 3 DOF
+    ],
+)
+def test_degrees_of_freedom_as_seed_003_counts(make, n_config, n_constraints):
+    m = make()
+    assert (m.n_state, m.n_constraints, m.dof) == (n_config, n_constraints, n_config - n_constraints)
+
+
+def test_state_valid_flags_steering_beyond_limit():
+    tri = TricycleStacker(wheelbase=1.3, max_steer=1.0)
+    states = np.array([[0, 0, 0, 0.5], [0, 0, 0, 1.2], [0, 0, np.nan, 0.0]])
+    np.testing.assert_array_equal(tri.state_valid(states), [True, False, False])

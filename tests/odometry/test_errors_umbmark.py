@@ -88,3 +88,20 @@ def test_umbmark_with_random_errors_still_calibrates():
     res2, _ = umbmark(true, NOMINAL, side=4.0, runs=5, nonsystematic=ns, seed=4)
     assert (res2.e_d, res2.e_b) == (res.e_d, res.e_b)  # same seed, same result
     np.testing.assert_array_equal(res2.centroid_cw, res.centroid_cw)
+
+
+def test_tricycle_truth_vs_nominal_odometry():
+    """A 1 % larger traction wheel: the odometry (nominal radius) under-reports a straight run by 1 %."""
+    from agvnav.odometry import TricycleErrors, TrueTricycleVehicle, integrate_pose, tricycle_increments
+
+    truth = TrueTricycleVehicle(1.3, 0.125, TricycleErrors(radius_scale=1.01, wheelbase_scale=0.98))
+    pose_true, pose_odo = np.zeros(3), np.zeros(3)
+    for _ in range(100):
+        pose_true = truth.advance(pose_true, 1.0, 0.0)
+        pose_odo = integrate_pose(pose_odo, *tricycle_increments(0.125, 0.0, 1.3))
+    assert pose_true[0] == pytest.approx(1.01 * pose_odo[0])
+    # Turning: a shorter true wheelbase turns faster than the odometry believes.
+    turned = truth.advance(np.zeros(3), 1.0, 0.5)
+    assert turned[2] == pytest.approx(0.125 * 1.01 * np.sin(0.5) / (1.3 * 0.98))
+    with pytest.raises(ValueError, match="radius_scale"):
+        TricycleErrors(radius_scale=0.0)

@@ -166,6 +166,15 @@ class KinematicModel(ABC):
                 ok &= ~bad
         return ok
 
+    def state_valid(self, state: ArrayLike) -> NDArray[np.bool_]:
+        """Batch flag ``(...)``: True where the state is finite and within limits (never raises on values)."""
+        state = require_last_dim("state", as_float_array("state", state), self.n_state)
+        ok = np.all(np.isfinite(state), axis=-1)
+        with np.errstate(invalid="ignore"):
+            for _, bad in self.state_violations(state):
+                ok &= ~bad
+        return ok
+
     def check_input(self, u: ArrayLike) -> FloatArray:
         """Return ``u`` as float ``(..., m)``; ValueError naming the input if bad shape, NaN or beyond a limit."""
         u = require_last_dim("u", as_float_array("u", u), self.n_input)

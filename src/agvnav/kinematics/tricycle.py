@@ -131,7 +131,11 @@ class _Tricycle(KinematicModel):
         return jac
 
     def step(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
-        """Exact arc while the steering angle is constant, sub-stepped RK4 where it changes."""
+        """Exact arc while the steering angle is constant, sub-stepped RK4 where it changes.
+
+        The kernel does not clamp γ at ``max_steer``: limits belong to the steering actuator;
+        ``state_valid``/``check_state`` flag a state that went beyond them.
+        """
         state, u, steer = self._split(state, u)
         speed, omega = self._twist(u[..., 0], steer)
         arc = twist_step(state[..., :3], speed, 0.0, omega, dt)

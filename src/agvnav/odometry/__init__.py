@@ -5,7 +5,9 @@ from agvnav.odometry.errors import (
     DifferentialGeometry,
     NonSystematicErrors,
     SystematicErrors,
+    TricycleErrors,
     TrueDifferentialVehicle,
+    TrueTricycleVehicle,
 )
 from agvnav.odometry.increments import differential_increments, differential_wheel_distances, tricycle_increments
 from agvnav.odometry.integrate import RULES, increment_jacobian, integrate_pose, pose_jacobian
@@ -19,8 +21,10 @@ __all__ = [
     "OdometryNoise",
     "RULES",
     "SystematicErrors",
+    "TricycleErrors",
     "TricycleOdometer",
     "TrueDifferentialVehicle",
+    "TrueTricycleVehicle",
     "UMBmarkResult",
     "differential_increments",
     "differential_wheel_distances",

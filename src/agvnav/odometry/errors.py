@@ -136,3 +136,52 @@ class TrueDifferentialVehicle:
         dd, dth = self.ground_increments(phi_right, phi_left)
         m = self.systematic.misalignment
         return twist_step(pose, dd * np.cos(m), dd * np.sin(m), dth, 1.0)
+
+
+@dataclass(frozen=True)
+class TricycleErrors:
+    """Systematic errors of a true tricycle (seed-000 stacker) relative to its nominal odometry.
+
+    radius_scale : true / nominal traction-wheel radius (wear, tyre load).
+    wheelbase_scale : true / nominal wheelbase L.
+    A steering-encoder zero error is modelled by ``SteeringEncoder(offset=...)``.
+    """
+
+    radius_scale: float = 1.0
+    wheelbase_scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        require_positive("radius_scale", self.radius_scale)
+        require_positive("wheelbase_scale", self.wheelbase_scale)
+
+
+class TrueTricycleVehicle:
+    """Ground truth of a front-drive tricycle whose odometry uses nominal ``wheelbase`` and ``wheel_radius``.
+
+    Parameters
+    ----------
+    wheelbase, wheel_radius : nominal values (m).
+    systematic : ``TricycleErrors`` (None: none).
+    nonsystematic : slip and bumps of the traction wheel (None: none).
+    seed : seed or Generator (same seed, same truth).
+    """
+
+    def __init__(self, wheelbase: float, wheel_radius: float, systematic: TricycleErrors | None = None,
+                 nonsystematic: NonSystematicErrors | None = None,
+                 seed: int | np.random.Generator | None = 0) -> None:
+        self.systematic = systematic or TricycleErrors()
+        self.wheelbase = require_positive("wheelbase", wheelbase) * self.systematic.wheelbase_scale
+        self.wheel_radius = require_positive("wheel_radius", wheel_radius) * self.systematic.radius_scale
+        self.nonsystematic = nonsystematic
+        self.rng = np.random.default_rng(seed)
+
+    def advance(self, pose: ArrayLike, wheel_rotation: ArrayLike, gamma: ArrayLike) -> FloatArray:
+        """True pose of O after the traction wheel turns ``wheel_rotation`` (rad) at steering angle γ (rad).
+
+        Exact arc for γ held over the step (pass the mid-step γ when it changes), seed 000 eq. 8.
+        """
+        ds = np.asarray(wheel_rotation, dtype=np.float64) * self.wheel_radius
+        if self.nonsystematic is not None:
+            ds = self.nonsystematic.perturb(ds, self.rng)
+        g = np.asarray(gamma, dtype=np.float64)
+        return twist_step(pose, ds * np.cos(g), 0.0, ds * np.sin(g) / self.wheelbase, 1.0)
