@@ -33,7 +33,7 @@ def _unicycle(pose, v, omega, dt):
     return np.array([x + v / omega * (math.sin(th1) - math.sin(th)), y - v / omega * (math.cos(th1) - math.cos(th)), th1])
 
 
-def _run(ctrl, walls, slip=(0.02, 0.03), dt=0.1, t_max=400.0, noise=0.0, seed=0):
+def _run(ctrl, walls, slip=(0.02, 0.03), dt=0.1, t_max=400.0, noise=0.0, seed=0, via_observe=False):
     """Truth drives with speed loss and yaw-rate error; odometry sees the commands."""
     rng = np.random.default_rng(seed)
     truth = ctrl.route.start_pose.copy()
@@ -43,7 +43,11 @@ def _run(ctrl, walls, slip=(0.02, 0.03), dt=0.1, t_max=400.0, noise=0.0, seed=0)
         noisy = np.where(e.valid, e.range + noise * rng.standard_normal(e.range.shape), np.nan)
         ranges = dict(zip(LAYOUT.names, noisy.tolist()))
         n_before = len(ctrl.transitions)
-        cmd = ctrl.command(t, ranges)
+        if via_observe:  # as a simulator delivering each ping at its instant
+            ctrl.observe(t, ranges)
+            cmd = ctrl.command(t)
+        else:
+            cmd = ctrl.command(t, ranges)
         if any(tr.target is HybridState.E4 for tr in ctrl.transitions[n_before:]):
             lap_truth.append(truth.copy())
         truth = _unicycle(truth, cmd.v * (1 - slip[0]), cmd.omega * (1 + slip[1]), dt)
@@ -82,7 +86,7 @@ def test_landmarks_beat_dead_reckoning_over_laps():
     errors = {}
     for use in (True, False):
         ctrl = HybridController(route, LAYOUT, walls, laps=2, use_landmarks=use, params=HybridParams(dwell=0.5))
-        lap_truth = _run(ctrl, walls, noise=0.003, seed=4)
+        lap_truth = _run(ctrl, walls, noise=0.003, seed=4, via_observe=use)
         assert len(lap_truth) == 2
         errors[use] = np.hypot(*(lap_truth[:, :2] - route.start_pose[:2]).T)
     assert np.all(errors[True] < 0.06)

@@ -11,9 +11,10 @@ finite state machine of five states:
 
 This module makes that machine explicit and inspectable: :attr:`state`,
 :attr:`leg`, :attr:`turns`, :attr:`laps_done`, and :attr:`transitions`, the
-list of every :class:`Transition` with its time and cause. ``command(t,
-ranges)`` takes the latest ultrasonic readings and returns wheel speed
-set-points (seed 004 eqs 1-2) for the PID speed loops.
+list of every :class:`Transition` with its time and cause. ``observe(t,
+ranges)`` takes ultrasonic readings at their instant; ``command(t)`` steps
+the machine and returns wheel speed set-points (seed 004 eqs 1-2) for the PID
+speed loops.
 
 Choices the seed leaves open (each a parameter of :class:`HybridParams`):
 
@@ -256,17 +257,29 @@ class HybridController:
         return [HybridState.E0.value] + [tr.target.value for tr in self.transitions]
 
     # --------------------------------------------------------------- control
-    def command(self, t: float, ranges: Mapping[str, float] | None = None) -> DriveCommand:
-        """Wheel speed set-points at time ``t`` (s) given the fresh ultrasonic ranges.
+    def observe(self, t: float, ranges: Mapping[str, float]) -> None:
+        """Take ultrasonic readings made at time ``t`` (s) and apply eqs 6-8 at once.
 
-        ``ranges`` maps sensor names to the readings that arrived since the
-        previous call (m; nan for a ping without a valid echo); sensors without
-        a new reading are simply absent.
+        ``ranges`` maps sensor names to ranges (m; nan for a ping without a
+        valid echo). Call it when the localizer has been predicted up to ``t``,
+        so a calibration corrects the pose of the instant of the ping. Readings
+        during a turn (E3) or a stop (E4) are stored but not used.
         """
         t = float(t)
-        fresh = self._store(t, ranges or {})
+        fresh = self._store(t, ranges)
         if self.use_landmarks and fresh and self.state in (HybridState.E0, HybridState.E1, HybridState.E2):
             self._landmark_updates(t, fresh)
+
+    def command(self, t: float, ranges: Mapping[str, float] | None = None) -> DriveCommand:
+        """Step the automaton at time ``t`` (s) and return the wheel speed set-points.
+
+        ``ranges`` (optional) are readings made at ``t``, passed to
+        :meth:`observe` first; a simulator that delivers each ping at its own
+        instant calls :meth:`observe` itself and omits them here.
+        """
+        t = float(t)
+        if ranges:
+            self.observe(t, ranges)
         self._step_machine(t)
         v, omega = self._motion()
         return DriveCommand(v, omega, self.geometry.to_wheels(v, omega), self.state.value)

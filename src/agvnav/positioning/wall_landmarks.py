@@ -167,6 +167,9 @@ class Calibration:
 class WallLandmarkLocalizer:
     """Dead-reckoned pose recalibrated by wall landmarks (seed 004 §II-B).
 
+    ``status`` is ``"tracking"`` right after a calibration and
+    ``"dead_reckoning"`` after a prediction without one.
+
     Follows the positioning interface of docs/ARCHITECTURE.md: ``predict(t,
     delta_d, delta_theta)`` with the odometry increment, then ``pose``/``t``/
     ``status``. Corrections come from :meth:`calibrate_heading` (eqs 6-7) and
@@ -245,4 +248,4 @@ class WallLandmarkLocalizer:
 
     def _apply(self, t: float, kind: str, wall_index: int, after: NDArray[np.float64]) -> None:
         self.history.append(Calibration(float(t), kind, int(wall_index), self.pose.copy(), after.copy()))
-        self.pose, self.t, self.status = after, float(t), "calibrated"
+        self.pose, self.t, self.status = after, float(t), "tracking"
