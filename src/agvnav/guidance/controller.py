@@ -119,14 +119,15 @@ class _PathFollower:
         self._last = None
 
     def _inputs(self, pose_o: ArrayLike, gamma: float, v: float) -> tuple[tuple[float, float, float], float, float]:
-        if not (isinstance(pose_o, np.ndarray) and pose_o.shape == (3,)):
-            pose_o = np.asarray(pose_o, dtype=np.float64) if not isinstance(pose_o, np.ndarray) else pose_o
-            if pose_o.shape != (3,):
-                raise ValueError(f"pose_o must have shape (3,) = [x_O, y_O, psi], got {pose_o.shape}")
         try:
-            pose = (float(pose_o[0]), float(pose_o[1]), float(pose_o[2]))
-        except (TypeError, ValueError):
-            raise ValueError("pose_o must be numeric") from None
+            arr = pose_o if isinstance(pose_o, np.ndarray) else np.asarray(pose_o, dtype=np.float64)
+            if arr.shape != (3,):
+                raise ValueError(f"pose_o must have shape (3,) = [x_O, y_O, psi], got {arr.shape}")
+            pose = (float(arr[0]), float(arr[1]), float(arr[2]))
+        except (TypeError, ValueError) as exc:
+            if "shape" in str(exc):
+                raise
+            raise ValueError(f"pose_o must be numeric: {exc}") from None
         if not all(math.isfinite(p) for p in pose):
             raise ValueError("pose_o contains NaN or inf")
         g, vv = float(gamma), float(v)
