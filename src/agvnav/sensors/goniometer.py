@@ -94,8 +94,19 @@ class Reflections:
 
     @classmethod
     def empty(cls) -> Reflections:
-        """No reflections."""
-        return cls(np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.int64))
+        """No reflections (a shared immutable instance)."""
+        return _EMPTY
+
+    @classmethod
+    def _trusted(
+        cls, t: NDArray[np.float64], bearing: NDArray[np.float64], index: NDArray[np.int64]
+    ) -> Reflections:
+        """Wrap arrays the sensor built itself (time-ordered, right dtypes), skipping the checks."""
+        out = object.__new__(cls)
+        for name, arr in (("t", t), ("bearing", bearing), ("reflector_index", index)):
+            arr.setflags(write=False)
+            object.__setattr__(out, name, arr)
+        return out
 
     @classmethod
     def concatenate(cls, parts: Sequence[Reflections]) -> Reflections:
@@ -107,6 +118,9 @@ class Reflections:
             np.concatenate([p.bearing for p in parts]),
             np.concatenate([p.reflector_index for p in parts]),
         )
+
+
+_EMPTY = Reflections(np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.int64))
 
 
 def leading_edge_bearing(
@@ -318,6 +332,8 @@ class Goniometer:
         if t1 == t0:
             return Reflections.empty()
         t_true, index = self._true_reflections(world, pose_at, t0, t1)
+        if t_true.size == 0 and self.spurious_rate == 0.0:
+            return _EMPTY  # the common case in short windows: nothing to quantise or draw
         return self._add_noise(t_true, index, t0, t1, rng)
 
     # -- exact crossings -------------------------------------------------
@@ -498,7 +514,7 @@ class Goniometer:
             jitter = rng.normal(0.0, self.jitter_std, t_true.size)  # type: ignore[union-attr]
             t_report = np.clip(t_true + jitter, t0, t1)
         order = np.argsort(t_report, kind="stable")
-        return Reflections(t_report[order], bearing[order], index[order])
+        return Reflections._trusted(t_report[order], bearing[order], index[order])
 
 
 def _call_pose(pose_at: PoseFunction, t: NDArray[np.float64]) -> NDArray[np.float64]:
