@@ -177,10 +177,12 @@ def _controller(sc: Scenario, path: Any, L: float, cruise: float) -> Any:
     spec = sc.controller
     kwargs: dict[str, Any] = dict(spec.params)
     key: KeyPath = ("controller",)
-    if spec.name == "seed_general":
+    if spec.name in ("seed_general", "pure_pursuit"):
         kwargs["point"] = spec.point
-    elif spec.point != "C" and spec.name == "seed_simple":
-        raise sc.error(("controller", "point"), "the simple law (seed 000 eqs 20-22) guides point C only")
+    elif spec.point != "C":
+        raise sc.error(("controller", "point"), f"{spec.name} guides point C only")
+    if spec.name in ("pure_pursuit", "stanley"):
+        kwargs.setdefault("v_nominal", cruise)
     if spec.poles_per_m is not None:
         kwargs["poles_per_m"] = list(spec.poles_per_m)
         key = ("controller", "poles_per_m")
@@ -211,7 +213,7 @@ def build(sc: Scenario) -> Built:
     path = build_path(sc)
     veh = sc.vehicle
     L = veh.wheelbase_m
-    point = sc.controller.point if sc.controller.name.startswith("seed") else "C"
+    point = sc.controller.point
     _check_radii(sc, point, L)
     _check_visibility(sc, world, path, point, L)
     g = sc.goniometer
