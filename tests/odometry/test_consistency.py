@@ -29,7 +29,7 @@ def nees_run(runs: int, steps: int, seed: int, scale: float = 1.0) -> tuple[floa
     for k in range(steps):
         cov = noise.increment_covariance(dd[k], dth[k])
         n = rng.normal(size=(runs, 2)) * np.sqrt(np.diag(cov))
-        truth, _ = propagate(truth, np.zeros((3, 3)), dd[k] + n[:, 0], dth[k] + n[:, 1], noise, "midpoint")
+        truth = integrate_pose(truth, dd[k] + n[:, 0], dth[k] + n[:, 1], "midpoint")
     err = truth - est
     err[:, 2] = angle_diff(truth[:, 2], est[2])
     nees = np.einsum("ri,ij,rj->r", err, np.linalg.inv(P), err)

@@ -117,3 +117,14 @@ def test_tricycle_mid_step_gamma_is_second_order():
         dd, dth = tricycle_increments(u[0] * dt, 0.5 * (x0[3] + truth[3]), 1.3)
         errs.append(np.hypot(*(integrate_pose(x0[:3], dd, dth)[:2] - truth[:2])))
     assert errs[0] / errs[1] > 6.0  # about 8 for third order
+
+
+@given(dd=st.floats(-2, 2), dth=st.floats(-2, 2), frac=st.floats(0, 1))
+def test_arc_rule_splits_exactly(dd, dth, frac):
+    """Two arc steps of the same curvature equal one: extrapolating then completing an increment is exact."""
+    p = np.array([0.3, -0.7, 2.9])
+    half = integrate_pose(p, frac * dd, frac * dth, "arc")
+    both = integrate_pose(half, (1 - frac) * dd, (1 - frac) * dth, "arc")
+    once = integrate_pose(p, dd, dth, "arc")
+    np.testing.assert_allclose(both[:2], once[:2], atol=1e-12)
+    assert abs(np.angle(np.exp(1j * (both[2] - once[2])))) < 1e-12
