@@ -474,12 +474,11 @@ class Goniometer:
         ray itself would change nothing but make wall-mounted reflectors graze their wall.
         """
         r = world.reflector_radius[refl]
-        inside = ~(d > r)
-        beam_range = np.sqrt(np.where(inside, 0.0, d * d - r * r))
-        ok = ~inside & (beam_range >= self.min_range) & (beam_range <= self.max_range)
+        range2 = d * d - r * r  # squared beam range to the tangent point; <= 0 inside the cylinder
+        ok = (range2 > 0.0) & (range2 >= self.min_range**2) & (range2 <= self.max_range**2)
         if not ok.any():
             return ok
-        scale = np.where(inside, 0.0, (d - r) / np.where(inside, 1.0, d)) * (1.0 - 1e-9)
+        scale = (d - r) / np.maximum(d, 1e-300) * (1.0 - 1e-9)
         ray = (world.reflector_xy[refl] - head_xy) * scale[:, None]
         blocked = _ray_hits_segments(head_xy, ray, world.wall_segments)
         blocked |= _ray_hits_discs(head_xy, ray, world.reflector_xy, world.reflector_radius, refl)
