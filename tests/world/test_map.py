@@ -122,6 +122,7 @@ def test_dict_round_trip_property(world):
         ("walls:\n  - {id: W, points: [[0, 0], [1, 0]], closed: maybe}\n", "closed must be true or false"),
         ("reflectors: []\nlandmarks: []\n", "map: unknown key(s) ['landmarks']"),
         ("reflectors: {id: A}\n", "reflectors must be a list"),
+        ("reflectors: 0\n", "reflectors must be a list"),
         ("- 1\n- 2\n", "a map must be a mapping"),
     ],
 )
@@ -156,6 +157,11 @@ def test_constructor_validation():
         WorldMap([Reflector("A", 0, 0)]).reflector_index("Z")
     with pytest.raises(ValueError, match="must be a WorldMap"):
         save_map({"reflectors": []}, "x.yaml")
+
+
+def test_empty_sections_are_empty_lists():
+    world = WorldMap.from_dict({"reflectors": None, "walls": []})
+    assert len(world.reflectors) == 0 and len(world.walls) == 0
 
 
 def test_integer_ids_are_accepted_as_strings():

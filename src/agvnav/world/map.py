@@ -243,7 +243,8 @@ def _check_keys(entry: Mapping[str, Any], allowed: Sequence[str], where: str = "
 
 def _entries(data: Mapping[str, Any], kind: str, build: Any) -> list[Any]:
     """Build every entry of list ``data[kind]``, prefixing errors with ``kind[i] (id ...)``."""
-    items = data.get(kind) or []
+    items = data.get(kind)
+    items = [] if items is None else items  # `walls:` with nothing after it is an empty list
     if not isinstance(items, list):
         raise ValueError(f"{kind} must be a list, got {type(items).__name__}")
     out = []
