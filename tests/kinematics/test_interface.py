@@ -32,8 +32,13 @@ def test_shapes_and_batch_consistency(model, sampler):
     batch = model.step(x, u, 0.1)
     single = np.stack([model.step(x[i], u[i], 0.1) for i in range(len(x))])
     np.testing.assert_allclose(batch, single, rtol=0, atol=1e-13)
-    # Broadcasting one input over many states.
+    # Broadcasting one input over many states, and one state over many inputs.
     assert model.step(x, u[0], 0.1).shape == x.shape
+    assert model.jacobian_state(x, u[0]).shape == (12, model.n_state, model.n_state)
+    assert model.jacobian_input(x, u[0]).shape == (12, model.n_state, model.n_input)
+    assert model.jacobian_state(x[0], u).shape == (12, model.n_state, model.n_state)
+    assert model.derivative(x[0], u).shape == (12, model.n_state)
+    assert model.step(x[0], u, 0.1).shape == (12, model.n_state)
 
 
 def test_step_matches_fine_rk4(model, sampler):

@@ -101,7 +101,7 @@ class _Tricycle(KinematicModel):
         speed, _ = self._twist(u[..., 0], steer)
         psi = state[..., 2]
         c, s = np.cos(psi), np.sin(psi)
-        jac = np.zeros(speed.shape + (self.n_state, self.n_state))
+        jac = np.zeros(np.broadcast_shapes(speed.shape, psi.shape) + (self.n_state, self.n_state))
         jac[..., 0, 2] = -speed * s
         jac[..., 1, 2] = speed * c
         if self.steer_is_state:
