@@ -203,8 +203,8 @@ def run(quick: bool, seed: int) -> list[dict[str, Any]]:
     gon = Goniometer(rate_hz=8.0, pulses_per_rev=65535, mount=MOUNT, max_range=30.0, p_miss=0.02, spurious_rate=0.2)
     noise = ODOMETRY_NOISE
     bearing_std = gon.resolution / np.sqrt(12.0)
-    max_seconds = 4.0 if quick else np.inf
-    n_static = 3 if quick else N_STATIC
+    max_seconds = 3.0 if quick else np.inf
+    n_static = 2 if quick else N_STATIC
     records = []
     for speed in SPEEDS:
         crlb_runs: list[dict[str, NDArray[np.float64]]] | None = None

@@ -13,3 +13,41 @@ __all__ = [
     "pdop",
     "triangulate",
 ]
+
+# Dynamic positioning (issue 4): identification, streaming estimators, factory by name.
+from agvnav.positioning.dynamic import (  # noqa: E402
+    AnglePropagationEstimator,
+    BatchMLEstimator,
+    NaiveEstimator,
+    batch_ml_fix,
+    propagate_bearings,
+)
+from agvnav.positioning.ekf import EkfEstimator, ekf_predict, ekf_update  # noqa: E402
+from agvnav.positioning.estimator import METHODS as ESTIMATOR_METHODS  # noqa: E402
+from agvnav.positioning.estimator import StreamingEstimator, make_estimator  # noqa: E402
+from agvnav.positioning.identification import (  # noqa: E402
+    InitialPoseResult,
+    associate_sweep,
+    bearing_model,
+    gate_reflection,
+    initial_pose_search,
+)
+
+__all__ += [
+    "ESTIMATOR_METHODS",
+    "AnglePropagationEstimator",
+    "BatchMLEstimator",
+    "EkfEstimator",
+    "InitialPoseResult",
+    "NaiveEstimator",
+    "StreamingEstimator",
+    "associate_sweep",
+    "batch_ml_fix",
+    "bearing_model",
+    "ekf_predict",
+    "ekf_update",
+    "gate_reflection",
+    "initial_pose_search",
+    "make_estimator",
+    "propagate_bearings",
+]

@@ -288,7 +288,7 @@ class AnglePropagationEstimator(_FixEstimator):
         mount: ArrayLike = (0.0, 0.0, 0.0),
         *,
         triangulation_method: str = "absolute_angles",
-        iterations: int = 3,
+        iterations: int = 2,
         **kwargs: Any,
     ) -> None:
         super().__init__(world, mount, **kwargs)
