@@ -29,7 +29,7 @@ def arc(x0, y0, psi0, v, omega):
     def pose_at(t):
         t = np.asarray(t, dtype=float)
         psi = psi0 + omega * t
-        if omega == 0.0:
+        if abs(omega) < 1e-9:
             x, y = x0 + v * t * np.cos(psi0), y0 + v * t * np.sin(psi0)
         else:
             x = x0 + v / omega * (np.sin(psi) - np.sin(psi0))
@@ -208,6 +208,24 @@ def test_an_hour_into_the_drive_bearings_keep_encoder_accuracy():
     lag = np.where(lag > np.pi, lag - 2 * np.pi, lag)
     assert len(out) >= 5 and len(np.unique(out.reflector_index)) == len(out)
     assert np.all(lag >= -1e-9) and np.all(lag < RES + 1e-9)
+
+
+@given(
+    st.tuples(st.floats(-3, 3), st.floats(-3, 3), st.floats(-3.2, 3.2), st.floats(-2, 2), st.floats(-1.5, 1.5)),
+    st.lists(st.floats(0.0, 0.3), min_size=1, max_size=6),
+    st.floats(0, 6.3),
+)
+def test_any_split_of_the_time_axis_gives_the_same_reflections(motion, cuts, phase):
+    world = ring_world(n=5)
+    pose_at = arc(*motion)
+    gonio = Goniometer(phase=phase, mount=(0.3, 0.1, 0.0))
+    whole = gonio.scan(world, pose_at, 0.0, 0.3)
+    edges = np.unique(np.concatenate([[0.0, 0.3], cuts]))
+    parts = Reflections.concatenate([gonio.scan(world, pose_at, a, b) for a, b in zip(edges[:-1], edges[1:])])
+    np.testing.assert_array_equal(parts.reflector_index, whole.reflector_index)
+    np.testing.assert_allclose(parts.t, whole.t, rtol=0, atol=1e-11)
+    # each reflector at most once per revolution (0.125 s) plus one: 0.3 s spans < 3 revolutions
+    assert np.all(np.bincount(whole.reflector_index, minlength=5) <= 3)
 
 
 # --- occlusion and range ------------------------------------------------------------
