@@ -152,3 +152,21 @@ def test_one_sweep_never_claims_a_reflector_twice(lab: WorldMap) -> None:
     for t, z in zip(refl.t, refl.bearing):
         assert est.update(float(t), float(z))
         assert not est.update(float(t) + 1e-4, float(z))  # an echo in the same sweep: rejected
+
+
+def test_overconfident_start_recovers_by_covariance_inflation(lab: WorldMap) -> None:
+    truth = np.array([4.0, 3.0, 0.1])
+    est = make_estimator("ekf", lab, MOUNT, initial_pose=truth + [0.04, -0.03, 0.01], initial_covariance=np.diag([1e-3, 1e-3, 1e-4]) ** 2)
+    feed(est, lab, Goniometer(mount=tuple(MOUNT)), arc_pose_at(truth, 0.0, 0.0), 0.0, 0.0, 3.0)
+    assert est.n_inflations > 0  # the gates first rejected the true reflectors: lock-out detected
+    assert est.status == "tracking"
+    assert np.hypot(*(est.pose[:2] - truth[:2])) < 2e-3
+
+
+def test_inflation_is_bounded_when_everything_is_rejected(lab: WorldMap) -> None:
+    est = make_estimator("ekf", lab, MOUNT, initial_pose=[4.0, 3.0, 0.0], max_range=0.5)
+    est.predict(0.0, 0.0, 0.0)
+    for k in range(1, 2000):
+        est.update(0.01 * k, 0.3)
+    P = est.covariance
+    assert np.all(np.isfinite(P)) and P[0, 0] + P[1, 1] < 1.0

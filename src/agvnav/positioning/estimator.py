@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from agvnav._validate import as_float_array, require_finite, require_nonnegative, require_positive
 from agvnav.geometry import wrap_angle
 from agvnav.odometry import OdometryNoise, integrate_pose, motion_covariance, pose_jacobian
+from agvnav.positioning.bounds import encoder_bearing_std
 from agvnav.positioning.identification import CHI2_1DOF_999, gate_reflection, initial_pose_search
 
 __all__ = ["METHODS", "STATUSES", "StreamingEstimator", "make_estimator"]
@@ -39,14 +40,8 @@ METHODS = ("naive", "angle_propagation", "batch_ml", "ekf")
 STATUSES = ("initialising", "tracking", "dead_reckoning")
 
 
-def _default_bearing_std(pulses_per_rev: int) -> float:
-    """Encoder quantisation std (rad): one pulse ``2 pi / N`` over sqrt(12) (uniform error)."""
-    try:
-        from agvnav.positioning.triangulation import encoder_bearing_std
-    except ImportError:  # issue-2 module not installed: same formula, kept local
-        return 2.0 * np.pi / pulses_per_rev / np.sqrt(12.0)
-    return float(encoder_bearing_std(pulses_per_rev))
-
+#: Lock-out inflation stops once the position variance trace reaches this (m²).
+MAX_INFLATED_POSITION_VAR = 0.25
 
 class StreamingEstimator:
     """Base of the streaming estimators: odometry prediction, gating, status, counters.
@@ -108,7 +103,7 @@ class StreamingEstimator:
         self.mount = require_finite("mount", mount)
         if self.mount.shape != (3,):
             raise ValueError(f"mount must have shape (3,), got {self.mount.shape}")
-        std = _default_bearing_std(int(pulses_per_rev)) if bearing_std is None else bearing_std
+        std = encoder_bearing_std(int(pulses_per_rev)) if bearing_std is None else bearing_std
         self.bearing_std = require_positive("bearing_std", std)
         offset = np.pi / int(pulses_per_rev) if bearing_offset is None else bearing_offset
         self.bearing_offset = float(require_finite("bearing_offset", offset))
@@ -243,14 +238,15 @@ class StreamingEstimator:
         EKF lock-out. Genuine operation rejects only spurious reflections, a small fraction;
         when rejections outnumber acceptances twice over (and at least four), the covariance
         is inflated -- never the pose -- until the gates admit the reflectors again
-        (counted in :attr:`n_inflations`).
+        (counted in :attr:`n_inflations`), up to ``MAX_INFLATED_POSITION_VAR``.
         """
         window = 1.5 / self.rate_hz
         self._recent = [(tr, ok) for (tr, ok) in self._recent if t - tr <= window]
         self._recent.append((t, accepted))
         n_ok = sum(ok for _, ok in self._recent)
         n_bad = len(self._recent) - n_ok
-        if n_bad >= 4 and 2 * n_ok < n_bad:
+        room = self._P[0, 0] + self._P[1, 1] < MAX_INFLATED_POSITION_VAR
+        if n_bad >= 4 and 2 * n_ok < n_bad and room:
             self._P = 4.0 * self._P
             self.n_inflations += 1
             self._recent.clear()
