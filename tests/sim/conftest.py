@@ -14,6 +14,6 @@ def scenario_text(name: str = "guidance_test", **replace: str) -> str:
 
 @pytest.fixture
 def short_scenario():
-    """The default scenario cut to 6 s of simulated time (for determinism/wiring tests)."""
-    text = scenario_text().replace("end_hold_s: 1.0", "end_hold_s: 1.0\nduration_s: 6.0", 1)
+    """The default scenario cut to 4 s of simulated time (for determinism/wiring tests)."""
+    text = scenario_text().replace("end_hold_s: 1.0", "end_hold_s: 1.0\nduration_s: 4.0", 1)
     return parse_scenario(text, "short.yaml")
