@@ -89,23 +89,24 @@ def check_wall_segments(segments: ArrayLike, min_length: float = 1e-9) -> NDArra
     return seg
 
 
-def _clip_to_cone(a: NDArray, d: NDArray, sin_h: NDArray, cos_h: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-    """Parameter interval [t_lo, t_hi] of ``a + t d`` (t in [0, 1]) inside the cone.
+def _clip_to_cone(
+    ax: NDArray, ay: NDArray, dx: NDArray, dy: NDArray, sin_h: NDArray, cos_h: NDArray
+) -> tuple[NDArray, NDArray]:
+    """Parameter interval [t_lo, t_hi] of ``a + t d`` (t in [0, 1]) inside the cone (empty if t_lo > t_hi).
 
     The cone (half-angle < 90°, apex at the origin, axis +x) is the intersection
     of the half-planes ``x sin h - y cos h >= 0`` and ``x sin h + y cos h >= 0``.
     """
-    t_lo = np.zeros(a.shape[:-1])
-    t_hi = np.ones(a.shape[:-1])
+    t_lo = np.zeros(np.broadcast_shapes(ax.shape, sin_h.shape))
+    t_hi = np.ones_like(t_lo)
     for sign in (-1.0, 1.0):
-        g0 = a[..., 0] * sin_h + sign * a[..., 1] * cos_h
-        slope = d[..., 0] * sin_h + sign * d[..., 1] * cos_h
+        g0 = ax * sin_h + sign * ay * cos_h
+        slope = dx * sin_h + sign * dy * cos_h
         with np.errstate(divide="ignore", invalid="ignore"):
             root = -g0 / slope
         t_lo = np.where(slope > 0, np.maximum(t_lo, root), t_lo)
-        t_hi = np.where(slope < 0, np.minimum(t_hi, root), t_hi)
-        t_hi = np.where((slope == 0) & (g0 < 0), -1.0, t_hi)
-    return t_lo, t_hi, t_lo <= t_hi
+        t_hi = np.where(slope < 0, np.minimum(t_hi, root), np.where((slope == 0) & (g0 < 0), -1.0, t_hi))
+    return t_lo, t_hi
 
 
 def cone_echo(
@@ -144,23 +145,23 @@ def cone_echo(
     seg = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
     h = np.asarray(half_angle, dtype=np.float64)[..., None]
     c, s = np.cos(pose[..., 2])[..., None], np.sin(pose[..., 2])[..., None]
-    rel_a = seg[:, 0] - pose[..., None, :2]  # (..., M, 2)
-    rel_b = seg[:, 1] - pose[..., None, :2]
-    a = np.stack([c * rel_a[..., 0] + s * rel_a[..., 1], -s * rel_a[..., 0] + c * rel_a[..., 1]], axis=-1)
-    b = np.stack([c * rel_b[..., 0] + s * rel_b[..., 1], -s * rel_b[..., 0] + c * rel_b[..., 1]], axis=-1)
-    d = b - a
-    dd = np.sum(d * d, axis=-1)
-    t_lo, t_hi, inside = _clip_to_cone(a, d, np.sin(h), np.cos(h))
+    px, py = pose[..., 0][..., None], pose[..., 1][..., None]
+    # segment end points in the sensor frame, shape (..., M) per component
+    ux, uy = seg[:, 0, 0] - px, seg[:, 0, 1] - py
+    ax, ay = c * ux + s * uy, c * uy - s * ux
+    wx, wy = seg[:, 1, 0] - seg[:, 0, 0], seg[:, 1, 1] - seg[:, 0, 1]
+    dx, dy = c * wx + s * wy, c * wy - s * wx
+    dd = wx * wx + wy * wy  # (M,)
+    t_lo, t_hi = _clip_to_cone(ax, ay, dx, dy, np.sin(h), np.cos(h))
     with np.errstate(divide="ignore", invalid="ignore"):
-        t_foot = np.where(dd > 0, -np.sum(a * d, axis=-1) / dd, 0.0)
-    t = np.clip(t_foot, t_lo, np.maximum(t_lo, t_hi))
-    p = a + t[..., None] * d
-    dist = np.hypot(p[..., 0], p[..., 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        normal_part = np.abs(p[..., 0] * d[..., 1] - p[..., 1] * d[..., 0]) / np.sqrt(dd)
+        t_foot = np.where(dd > 0, -(ax * dx + ay * dy) / dd, 0.0)
+        t = np.clip(t_foot, t_lo, np.maximum(t_lo, t_hi))
+        qx, qy = ax + t * dx, ay + t * dy
+        dist = np.hypot(qx, qy)
+        normal_part = np.abs(qx * dy - qy * dx) / np.sqrt(dd)
         cos_inc = np.where(dist > 0, normal_part / dist, 1.0)
     incidence = np.arccos(np.clip(cos_inc, 0.0, 1.0))
-    echoes = inside & (dd > 0) & (incidence <= np.asarray(max_incidence)[..., None] + 1e-12)
+    echoes = (t_lo <= t_hi) & (dd > 0) & (incidence <= np.asarray(max_incidence)[..., None] + 1e-12)
     masked = np.concatenate([np.where(echoes, dist, np.inf), np.full(dist.shape[:-1] + (1,), np.inf)], axis=-1)
     nearest = np.argmin(masked, axis=-1)  # the appended inf column makes M = 0 work
     rng = np.take_along_axis(masked, nearest[..., None], axis=-1)[..., 0]
@@ -313,6 +314,7 @@ class UltrasonicArray:
     body_length: float = 0.45
     body_width: float = 0.40
     names: tuple[str, ...] = field(init=False)
+    _params: dict[str, NDArray[np.float64]] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         require_positive("body_length", self.body_length)
@@ -322,38 +324,51 @@ class UltrasonicArray:
         for name, sensor in self.sensors.items():
             sensor.check_mount(self.body_length, self.body_width, name=f"sensor {name!r}")
         object.__setattr__(self, "names", tuple(self.sensors))
+        attrs = ("half_angle", "max_incidence", "min_range", "max_range", "optimal_max", "noise_std",
+                 "noise_growth", "p_miss")
+        params = {a: np.array([getattr(self.sensors[n], a) for n in self.names]) for a in attrs}
+        params["mount"] = np.array([self.sensors[n].mount for n in self.names])
+        object.__setattr__(self, "_params", params)
 
     def __getitem__(self, name: str) -> UltrasonicSensor:
         return self.sensors[name]
 
     def sensor_poses(self, pose: ArrayLike) -> NDArray[np.float64]:
         """Transducer poses ``(..., S, 3)`` in ``map`` for base_link poses ``(..., 3)``, in ``names`` order."""
-        mounts = np.array([self.sensors[n].mount for n in self.names])
-        return compose(np.asarray(pose, dtype=np.float64)[..., None, :], mounts)
+        return compose(np.asarray(pose, dtype=np.float64)[..., None, :], self._params["mount"])
 
     def echo(self, pose: ArrayLike, segments: ArrayLike) -> ConeEcho:
         """Noise-free echoes of all sensors at once, fields ``(..., S)`` in ``names`` order."""
-        def per_sensor(attr: str) -> NDArray[np.float64]:
-            return np.array([getattr(self.sensors[n], attr) for n in self.names])
-
         return cone_echo(
             self.sensor_poses(pose),
             segments,
-            per_sensor("half_angle"),
-            per_sensor("max_incidence"),
-            per_sensor("min_range"),
-            per_sensor("max_range"),
+            self._per_sensor("half_angle"),
+            self._per_sensor("max_incidence"),
+            self._per_sensor("min_range"),
+            self._per_sensor("max_range"),
         )
 
     def measure(self, pose: ArrayLike, segments: ArrayLike, rng: np.random.Generator) -> dict[str, float]:
         """One noisy reading (m, nan when invalid) per sensor for one base_link pose ``(3,)``.
 
-        Sensors are drawn in ``names`` order, so the result is deterministic for
-        a given generator state.
+        Same model as :meth:`UltrasonicSensor.measure`, batched over the
+        sensors: one normal and one uniform draw per sensor, in ``names`` order.
         """
         p = require_finite("pose", pose).reshape(3)
         seg = check_wall_segments(segments) if np.size(segments) else np.zeros((0, 2, 2))
-        return {n: float(self.sensors[n].measure(p, seg, rng)[0]) for n in self.names}
+        e = self.echo(p, seg)
+        noise = rng.standard_normal(len(self.names))
+        drop = rng.random(len(self.names)) < self._per_sensor("p_miss")
+        finite = np.where(np.isfinite(e.range), e.range, 0.0)
+        std = self._per_sensor("noise_std") + self._per_sensor("noise_growth") * np.maximum(
+            finite - self._per_sensor("optimal_max"), 0.0
+        )
+        noisy = finite + std * noise
+        valid = e.valid & ~drop & (noisy >= self._per_sensor("min_range")) & (noisy <= self._per_sensor("max_range"))
+        return dict(zip(self.names, np.where(valid, noisy, np.nan).tolist()))
+
+    def _per_sensor(self, attr: str) -> NDArray[np.float64]:
+        return self._params[attr]
 
 
 def seed_004_layout(
