@@ -27,6 +27,9 @@ Deviations, each for a stated reason:
 * ``delta`` is only known modulo 180° (lines are undirected): the half-turn is chosen so
   that reflector 1 lies ahead along its ray, which makes any heading estimate work away
   from the critical circle.
+* The corrected error triangle is not re-intersected from new lines: each vertex is turned
+  about its centre ``C_ij`` by ``-2 delta`` (the seed's own similarity relation), which is
+  the same point and needs no trigonometry (speed).
 * The distance ``rho_ij`` of eq. 7 needs P; it is measured from a first weighted mean
   with ``rho`` left out (weights ``sin alpha_ij / L_ij``).
 * On or near the critical circle (``|C_12 C_23|`` below ``CRITICAL_TOL`` of the layout
@@ -58,7 +61,9 @@ from agvnav.positioning._three import (
 #: |tan(alpha_31)| below which vertex T_31 is treated as at infinity and eq. 5 replaces eq. 4.
 ALIGN_TOL = 1e-3
 #: sin of the angle between two lines below which their intersection is not used (eq. 7 weight 0).
-SIN_TOL = 1e-12
+#: The turned vertex of such a pair carries a rounding error ~ eps L / sin², i.e. ~ eps / sin
+#: after weighting; below 1e-3 its weight is under 0.1 % of the others anyway.
+SIN_TOL = ALIGN_TOL
 
 
 def _parallel(ui: float, vi: float, uj: float, vj: float) -> bool:
@@ -83,16 +88,12 @@ def _error_triangle(x: Three, y: Three, theta: Three, heading: Arr, xp: Any) -> 
     return (t12[0], t23[0], t31[0]), (t12[1], t23[1], t31[1])
 
 
-def heading_error(
-    x: Three, y: Three, theta: Three, heading: Arr, cx: Three, cy: Three, aligned: Arr, xp: Any = np
-) -> Arr:
-    """Signed heading error ``delta = psi_est - psi`` in [-90°, 90°] (seed 000, eqs 4-6).
+def _similarity(tx: Three, ty: Three, cx: Three, cy: Three, aligned: Arr, xp: Any) -> tuple[Arr, Arr]:
+    """``(sin delta, cos delta)`` from the error and centres triangles (seed 000, eqs 1-6).
 
-    ``|delta| = arcsin(sqrt(A_e / A_c) / 2)`` (eq. 4), or from the finite sides
-    ``|T_12 T_23| / |C_12 C_23|`` where ``aligned`` (eq. 5); sign of
-    ``[T_12T_23 ∧ C_12C_23]_z`` (eq. 6).
+    ``sin²|delta| = A_e / (4 A_c)`` (eqs 1, 2, 4) or ``|T_12 T_23|² / (4 |C_12 C_23|²)`` where
+    ``aligned`` (eqs 3, 5); the sign of ``[T_12T_23 ∧ C_12C_23]_z`` (eq. 6); ``cos delta >= 0``.
     """
-    tx, ty = _error_triangle(x, y, theta, heading, xp)
     sx, sy = tx[1] - tx[0], ty[1] - ty[0]  # side T_12 -> T_23
     kx, ky = cx[1] - cx[0], cy[1] - cy[0]  # homologous side C_12 -> C_23
     ratio_side = (sx * sx + sy * sy) / (kx * kx + ky * ky)
@@ -102,31 +103,65 @@ def heading_error(
         area_e = _tri_area(tx[0], ty[0], tx[1], ty[1], tx[2], ty[2], xp)
         ratio = xp.where(aligned, ratio_side, area_e / _tri_area(cx[0], cy[0], cx[1], cy[1], cx[2], cy[2], xp))
     q = xp.clip(0.25 * ratio, 0.0, 1.0)  # sin²|delta| (eq. 1)
-    magnitude = xp.arctan2(xp.sqrt(q), xp.sqrt(1.0 - q))
-    return xp.copysign(magnitude, sx * ky - sy * kx)
+    return xp.copysign(xp.sqrt(q), sx * ky - sy * kx), xp.sqrt(1.0 - q)
 
 
-def weighted_position(
-    x: Three, y: Three, theta: Three, heading: Arr, sin_a: Three, xp: Any = np
-) -> tuple[Arr, Arr]:
+def heading_error(
+    x: Three, y: Three, theta: Three, heading: Arr, cx: Three, cy: Three, aligned: Arr, xp: Any = np
+) -> Arr:
+    """Signed heading error ``delta = psi_est - psi`` (rad, in [-90°, 90°]) of a heading estimate.
+
+    The error triangle of the lines at ``heading`` (seed 000, Fig. 2b), then eqs 4-6:
+    ``|delta| = arcsin(sqrt(A_e / A_c) / 2)``, evaluated as ``atan2(sin, cos)``.
+    """
+    tx, ty = _error_triangle(x, y, theta, heading, xp)
+    sin_d, cos_d = _similarity(tx, ty, cx, cy, aligned, xp)
+    return xp.arctan2(sin_d, cos_d)
+
+
+def _turn(tx: Three, ty: Three, cx: Three, cy: Three, sin_d: Arr, cos_d: Arr) -> tuple[Three, Three]:
+    """Error-triangle vertices after correcting the heading by ``-delta``.
+
+    Turning every line by ``-delta`` about its reflector moves ``T_ij`` along its circle by
+    ``-2 delta`` about ``C_ij`` (inscribed-angle theorem; exact for noisy bearings too, since
+    ``C_ij`` comes from the measured relative angle). No trigonometry: ``cos 2d = c² - s²``,
+    ``sin 2d = 2 s c``.
+    """
+    c2 = cos_d * cos_d - sin_d * sin_d
+    s2 = 2.0 * sin_d * cos_d
+    ox: list[Arr] = []
+    oy: list[Arr] = []
+    for k in range(3):
+        vx, vy = tx[k] - cx[k], ty[k] - cy[k]
+        ox.append(cx[k] + c2 * vx + s2 * vy)
+        oy.append(cy[k] - s2 * vx + c2 * vy)
+    return (ox[0], ox[1], ox[2]), (oy[0], oy[1], oy[2])
+
+
+def weighted_position(x: Three, y: Three, tx: Three, ty: Three, sin_a: Three, xp: Any = np) -> tuple[Arr, Arr]:
     """Eq. 7: mean of the pairwise intersections ``P_ij`` weighted ``W_ij = sin a_ij / max(L_ij, 2 rho_ij)``.
 
-    A pair of parallel lines has ``sin a_ij = 0`` and drops out (its P_ij is not used).
+    ``tx, ty`` are the intersections of the corrected lines, in pair order (12, 23, 31). A
+    pair of parallel lines has ``sin a_ij = 0`` and drops out (its P_ij is not used).
     """
-    ux, uy = line_directions(heading, theta, xp)
     pairs = ((0, 1), (1, 2), (2, 0))
     px: list[Arr] = []
     py: list[Arr] = []
     lengths: list[Arr] = []
-    for (i, j), s in zip(pairs, sin_a, strict=True):
+    used: list[Arr] = []
+    for k, ((i, j), s) in enumerate(zip(pairs, sin_a, strict=True)):
         lengths.append(xp.hypot(x[j] - x[i], y[j] - y[i]))
-        if xp is ScalarMath and s <= SIN_TOL:
-            px.append(0.0)
-            py.append(0.0)
-            continue
-        pij = intersect(x[i], y[i], ux[i], uy[i], x[j], y[j], ux[j], uy[j])
-        px.append(xp.where(s > SIN_TOL, pij[0], 0.0))
-        py.append(xp.where(s > SIN_TOL, pij[1], 0.0))
+        if xp is ScalarMath:
+            keep = s > SIN_TOL
+            px.append(tx[k] if keep else 0.0)
+            py.append(ty[k] if keep else 0.0)
+            used.append(s if keep else 0.0)
+        else:
+            keep = s > SIN_TOL
+            px.append(xp.where(keep, tx[k], 0.0))
+            py.append(xp.where(keep, ty[k], 0.0))
+            used.append(xp.where(keep, s, 0.0))
+    sin_a = (used[0], used[1], used[2])
 
     def mean(weights: list[Arr]) -> tuple[Arr, Arr]:
         total = weights[0] + weights[1] + weights[2]
@@ -159,11 +194,20 @@ def absolute_angles_kernel(
     quality = xp.hypot(cx[1] - cx[0], cy[1] - cy[0]) / xp.sqrt(layout_scale2(x, y))
     critical = xp.logical_not(quality > CRITICAL_TOL)
     psi_est = heading_estimate
-    psi = psi_est
+    tx0, ty0 = _error_triangle(x, y, theta, psi_est, xp)  # lines at the estimate (Fig. 2b)
+    tx, ty, psi = tx0, ty0, psi_est
     for _ in range(2):  # one pass of eqs 4-6, then the refinement pass
-        psi = psi - heading_error(x, y, theta, psi, cx, cy, aligned, xp)
-    psi = xp.where(critical, psi_est, psi)
-    px, py = weighted_position(x, y, theta, psi, sin_a, xp)
+        sin_d, cos_d = _similarity(tx, ty, cx, cy, aligned, xp)
+        psi = psi - xp.arctan2(sin_d, cos_d)
+        tx, ty = _turn(tx, ty, cx, cy, sin_d, cos_d)
+    if xp is ScalarMath:
+        if critical:
+            tx, ty, psi = tx0, ty0, psi_est
+    else:
+        psi = xp.where(critical, psi_est, psi)
+        tx = tuple(xp.where(critical, a, b) for a, b in zip(tx0, tx, strict=True))
+        ty = tuple(xp.where(critical, a, b) for a, b in zip(ty0, ty, strict=True))
+    px, py = weighted_position(x, y, tx, ty, sin_a, xp)
     # delta is known modulo 180°: keep the half-turn that puts reflector 1 ahead of P.
     ahead = xp.arctan2(y[0] - py, x[0] - px) - theta[0]
     psi = xp.where(critical, psi, psi + np.pi * xp.rint(wrap(ahead - psi, xp) / np.pi))

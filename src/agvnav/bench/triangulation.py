@@ -1,0 +1,199 @@
+"""``agvnav bench triangulation``: speed and accuracy of the four triangulation methods.
+
+Per method: ns per fix over a batch of 1e6 fixes, µs per single fix through the public
+API, peak memory of the batch, and RMS position/heading error over a workspace grid with
+the seed's goniometer (65535 pulses/rev, bearings quantised to the pulse) against the
+CRLB of that quantisation noise (seed 000, §4.1).
+
+The speed baseline is a small C implementation of ToTal written here from the same
+equations as ``agvnav.positioning.total`` (same outputs: position and the circular-mean
+heading), compiled with gcc at bench time into a temporary directory and loaded with
+ctypes, so the comparison is on the same machine. Without gcc the C column is None and
+a note says why.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import shutil
+import subprocess
+import tempfile
+import time
+import tracemalloc
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agvnav.bench.common import best_time
+from agvnav.geometry import angle_diff, bearing_to
+from agvnav.positioning import METHODS, crlb, encoder_bearing_std, triangulate
+
+TITLE = "Triangulation: ns/fix (batch 1e6), µs/single fix, RMS error vs CRLB (65535 pulses/rev)"
+
+PULSES_PER_REV = 65535
+#: Seed-like layout: three reflectors on a 10 m circle (the critical circle), workspace inside it.
+REFLECTORS_3 = np.array([[0.0, 10.0], [-10.0 * math.sqrt(3) / 2, -5.0], [10.0 * math.sqrt(3) / 2, -5.0]])
+#: Two more reflectors for the N > 3 least-squares row.
+REFLECTORS_5 = np.vstack([REFLECTORS_3, [[-9.0, 6.0], [9.0, 6.5]]])
+
+C_SOURCE = r"""
+#include <math.h>
+static const double TWO_PI = 6.283185307179586;
+static double wrap(double a) { return a - TWO_PI * nearbyint(a / TWO_PI); }
+
+/* ToTal (Pierlot & Van Droogenbroeck 2014) for n fixes with one layout r[6] = x1 y1 x2 y2 x3 y3.
+   theta[3n] bearings; out[3n] = x, y, heading. The pair most nearly aligned with P is put
+   last (3, 1) and T31 is kept as a fraction, as in agvnav.positioning.total. */
+void total_batch(const double *r, const double *theta, double *out, long n) {
+    for (long k = 0; k < n; ++k) {
+        const double *t = theta + 3 * k;
+        double t12 = tan(t[1] - t[0]), t23 = tan(t[2] - t[1]), t31 = tan(t[0] - t[2]);
+        int o0 = 0, o1 = 1, o2 = 2;
+        double a12 = fabs(t12), a23 = fabs(t23), a31 = fabs(t31), ta = t12, tb = t23;
+        if (a12 < a23 && a12 < a31) { o0 = 1; o1 = 2; o2 = 0; ta = t23; tb = t31; }
+        else if (a23 <= a12 && a23 < a31) { o0 = 2; o1 = 0; o2 = 1; ta = t31; tb = t12; }
+        double x1 = r[2*o0] - r[2*o1], y1 = r[2*o0+1] - r[2*o1+1];
+        double x3 = r[2*o2] - r[2*o1], y3 = r[2*o2+1] - r[2*o1+1];
+        double c12 = 1.0 / ta, c23 = 1.0 / tb;
+        double nn = 1.0 - c12 * c23, d = c12 + c23;
+        double x12 = x1 + c12 * y1, y12 = y1 - c12 * x1;
+        double x23 = x3 - c23 * y3, y23 = y3 + c23 * x3;
+        double dx31 = d * (x3 + x1) + nn * (y3 - y1);
+        double dy31 = d * (y3 + y1) - nn * (x3 - x1);
+        double dk31 = d * (x1 * x3 + y1 * y3) + nn * (x1 * y3 - x3 * y1);
+        double a = y12 - y23, b = x23 - x12;
+        double dd = (x12 - x23) * (d * y23 - dy31) - a * (d * x23 - dx31);
+        double f = dk31 / dd;
+        double px = r[2*o1] + f * a, py = r[2*o1+1] + f * b;
+        double h0 = atan2(r[1] - py, r[0] - px) - t[0];
+        double h1 = atan2(r[3] - py, r[2] - px) - t[1];
+        double h2 = atan2(r[5] - py, r[4] - px) - t[2];
+        out[3*k] = px; out[3*k+1] = py;
+        out[3*k+2] = wrap(h0 + (wrap(h1 - h0) + wrap(h2 - h0)) / 3.0);
+    }
+}
+"""
+
+
+def _compile_c_total(workdir: Path) -> tuple[Any, str]:
+    """Compile the C ToTal into ``workdir``; returns (function or None, note)."""
+    gcc = shutil.which("gcc")
+    if gcc is None:
+        return None, "gcc not found: no C baseline"
+    src = workdir / "total.c"
+    lib = workdir / "libtotal.so"
+    src.write_text(C_SOURCE)
+    flags = ["-O3", "-march=native", "-fPIC", "-shared"]
+    proc = subprocess.run([gcc, *flags, str(src), "-o", str(lib), "-lm"], capture_output=True, text=True)
+    if proc.returncode != 0:
+        return None, f"gcc failed: {proc.stderr.strip()[:200]}"
+    fn = ctypes.CDLL(str(lib)).total_batch
+    fn.restype = None
+    ptr = ctypes.POINTER(ctypes.c_double)
+    fn.argtypes = [ptr, ptr, ptr, ctypes.c_long]
+    return fn, "gcc " + " ".join(flags[:2])
+
+
+def _c_ns_per_fix(fn: Any, bearings: np.ndarray, truth: np.ndarray) -> float:
+    r = np.ascontiguousarray(REFLECTORS_3.ravel())
+    th = np.ascontiguousarray(bearings)
+    out = np.empty_like(th)
+    ptr = ctypes.POINTER(ctypes.c_double)
+
+    def call() -> None:
+        fn(r.ctypes.data_as(ptr), th.ctypes.data_as(ptr), out.ctypes.data_as(ptr), th.shape[0])
+
+    seconds = best_time(call, repeat=3)
+    err = np.max(np.abs(out[:, :2] - truth[:, :2]))  # the C code must actually solve the fix
+    if not err < 1e-6:
+        raise RuntimeError(f"C ToTal disagrees with the truth by {err} m")
+    return seconds / th.shape[0] * 1e9
+
+
+def _random_poses(n: int, rng: np.random.Generator) -> np.ndarray:
+    """Poses uniformly in the disc of radius 7 m (inside the 10 m critical circle)."""
+    rad = 7.0 * np.sqrt(rng.uniform(0, 1, n))
+    ang = rng.uniform(-math.pi, math.pi, n)
+    return np.stack([rad * np.cos(ang), rad * np.sin(ang), rng.uniform(-math.pi, math.pi, n)], axis=-1)
+
+
+def _quantise(bearings: np.ndarray) -> np.ndarray:
+    step = 2.0 * math.pi / PULSES_PER_REV
+    return np.round(bearings / step) * step
+
+
+def _grid(quick: bool, rng: np.random.Generator) -> np.ndarray:
+    """Workspace grid (step 0.25 m, 0.5 m quick) inside 70 % of the critical circle, random headings."""
+    step = 0.5 if quick else 0.25
+    g = np.arange(-7.0, 7.0 + 1e-9, step)
+    xx, yy = np.meshgrid(g, g)
+    keep = np.hypot(xx, yy) <= 7.0
+    xy = np.stack([xx[keep], yy[keep]], axis=-1)
+    xy = xy[np.min(np.linalg.norm(xy[:, None, :] - REFLECTORS_5[None], axis=-1), axis=1) > 0.5]
+    heading = rng.uniform(-math.pi, math.pi, len(xy))
+    return np.concatenate([xy, heading[:, None]], axis=-1)
+
+
+def _accuracy(method: str, reflectors: np.ndarray, grid: np.ndarray, rng: np.random.Generator) -> dict[str, float]:
+    sigma = encoder_bearing_std(PULSES_PER_REV)
+    bearings = _quantise(bearing_to(grid[:, None, :], reflectors))
+    heading_estimate = grid[:, 2] + rng.normal(0.0, math.radians(2.0), len(grid))
+    fix = triangulate(reflectors, bearings, method, heading_estimate=heading_estimate)
+    ok = fix.valid
+    pos2 = (fix.x - grid[:, 0]) ** 2 + (fix.y - grid[:, 1]) ** 2
+    head2 = angle_diff(fix.heading, grid[:, 2]) ** 2
+    bound = crlb(reflectors, grid, sigma)
+    return {
+        "rms_position_m": float(np.sqrt(np.mean(pos2[ok]))),
+        "rms_heading_rad": float(np.sqrt(np.mean(head2[ok]))),
+        "crlb_rms_position_m": float(np.sqrt(np.mean(bound[ok, 0, 0] + bound[ok, 1, 1]))),
+        "crlb_rms_heading_rad": float(np.sqrt(np.mean(bound[ok, 2, 2]))),
+        "valid_fraction": float(np.mean(ok)),
+    }
+
+
+def _speed(method: str, reflectors: np.ndarray, n_batch: int, rng: np.random.Generator) -> dict[str, float]:
+    poses = _random_poses(n_batch, rng)
+    bearings = bearing_to(poses[:, None, :], reflectors)
+    heading_estimate = poses[:, 2] + 0.05
+    batch = best_time(lambda: triangulate(reflectors, bearings, method, heading_estimate=heading_estimate), repeat=3)
+    tracemalloc.start()
+    triangulate(reflectors, bearings, method, heading_estimate=heading_estimate)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    one_b, one_h = bearings[0], float(heading_estimate[0])
+    single = best_time(lambda: triangulate(reflectors, one_b, method, heading_estimate=one_h), repeat=5, number=200)
+    return {
+        "batch_ns_per_fix": batch / n_batch * 1e9,
+        "single_us_per_fix": single * 1e6,
+        "peak_mib_per_1e6_fixes": peak / 2**20 * (1e6 / n_batch),
+    }
+
+
+def run(quick: bool, seed: int) -> list[dict[str, Any]]:
+    """One record per method (plus least squares over five reflectors); see the module docstring."""
+    rng = np.random.default_rng(seed)
+    n_batch = 100_000 if quick else 1_000_000
+    grid = _grid(quick, rng)
+    with tempfile.TemporaryDirectory() as tmp:
+        fn, note = _compile_c_total(Path(tmp))
+        c_ns = None
+        if fn is not None:
+            poses = _random_poses(n_batch, rng)
+            c_ns = _c_ns_per_fix(fn, bearing_to(poses[:, None, :], REFLECTORS_3), poses)
+    records: list[dict[str, Any]] = []
+    rows = [(m, m, REFLECTORS_3) for m in METHODS] + [("least_squares_5", "least_squares", REFLECTORS_5)]
+    for name, method, refl in rows:
+        t0 = time.perf_counter()
+        speed = _speed(method, refl, n_batch if method != "least_squares" else n_batch // 10, rng)
+        rec: dict[str, Any] = {"method": name, "reflectors": len(refl), **speed}
+        rec.update(_accuracy(method, refl, grid, rng))
+        rec["rms_over_crlb"] = rec["rms_position_m"] / rec["crlb_rms_position_m"]
+        rec["c_total_ns_per_fix"] = c_ns
+        rec["batch_over_c_total"] = None if c_ns is None else rec["batch_ns_per_fix"] / c_ns
+        rec["note"] = note if method == "total" else ("batch of 1e5" if method == "least_squares" else "")
+        rec["bench_s"] = time.perf_counter() - t0
+        records.append(rec)
+    return records
