@@ -130,7 +130,9 @@ def test_sensor_noise_statistics_and_determinism():
 def test_ping_times_follow_rate_and_phase():
     s = UltrasonicSensor(rate_hz=20.0, phase=0.01)
     assert s.ping_times(0.0, 0.2) == pytest.approx([0.01, 0.06, 0.11, 0.16])
-    assert s.ping_times(0.06, 0.11) == pytest.approx([0.06])
+    assert s.ping_times(0.06, 0.11) == pytest.approx([0.11])  # window (t0, t1]
+    tiles = np.concatenate([s.ping_times(0.05 * k, 0.05 * (k + 1)) for k in range(40)])
+    assert tiles == pytest.approx(s.ping_times(0.0, 2.0)) and tiles.size == 40
 
 
 def test_seed_layout_reads_side_walls_and_scan():

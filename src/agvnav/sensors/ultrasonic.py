@@ -261,10 +261,14 @@ class UltrasonicSensor:
         return np.where(valid, noisy, np.nan), valid, e.segment
 
     def ping_times(self, t0: float, t1: float) -> NDArray[np.float64]:
-        """Ping instants in ``[t0, t1)`` (s): ``phase + k / rate_hz``."""
+        """Ping instants in the half-open window ``(t0, t1]`` (s): ``phase + k / rate_hz``.
+
+        Same window convention as the goniometer and the simulator's steps, so
+        back-to-back windows never repeat or lose a ping.
+        """
         period = 1.0 / self.rate_hz
-        k0 = math.ceil((t0 - self.phase) / period - 1e-9)
-        k1 = math.ceil((t1 - self.phase) / period - 1e-9)
+        k0 = math.floor((t0 - self.phase) / period + 1e-9) + 1
+        k1 = math.floor((t1 - self.phase) / period + 1e-9) + 1
         return self.phase + period * np.arange(k0, k1, dtype=np.float64)
 
     def scan(
@@ -275,7 +279,7 @@ class UltrasonicSensor:
         t1: float,
         rng: np.random.Generator,
     ) -> UltrasonicReadings:
-        """All readings in ``[t0, t1)``; ``pose_at(t (k,)) -> (k, 3)`` is the true pose."""
+        """All readings in ``(t0, t1]``; ``pose_at(t (k,)) -> (k, 3)`` is the true pose."""
         t = self.ping_times(t0, t1)
         if t.size == 0:
             empty = np.zeros(0)
