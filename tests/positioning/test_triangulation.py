@@ -98,12 +98,22 @@ def test_absolute_angles_on_the_critical_circle_keeps_the_estimate(refl, s, psi,
 
 
 @given(st.tuples(point, point, point), angle, angle)
-def test_relative_angles_is_invalid_on_the_critical_circle(refl, s, psi):
+def test_relative_angles_and_total_are_invalid_on_the_critical_circle(refl, s, psi):
     r, c, p = _on_critical_circle(refl, s)
     assume(_layout_ok(r) and np.linalg.norm(r - p, axis=1).min() > 0.05 * np.linalg.norm(r[0] - c))
-    fix = triangulate(r, bearing_to(np.array([p[0], p[1], psi]), r), "relative_angles")
-    assert not fix.valid
-    assert np.isnan(fix.x) and np.isnan(fix.y)
+    for method in ("relative_angles", "total"):
+        fix = triangulate(r, bearing_to(np.array([p[0], p[1], psi]), r), method)
+        assert not fix.valid
+        assert np.isnan(fix.x) and np.isnan(fix.y)
+
+
+def test_least_squares_starts_from_another_triple_when_the_first_is_critical():
+    r3 = np.array([[0.0, 1.0], [-math.sqrt(3) / 2, -0.5], [math.sqrt(3) / 2, -0.5]]) * 10.0
+    r = np.vstack([r3, [[3.0, 9.0]]])
+    pose = np.array([10.0 * math.cos(2.0), 10.0 * math.sin(2.0), 0.4])  # on the first triple's circle
+    for bearings in (bearing_to(pose, r), bearing_to(pose, r)[None]):
+        fix = triangulate(r, bearings, "least_squares")
+        np.testing.assert_allclose(np.reshape(fix.pose, 3), pose, atol=1e-9)
 
 
 def test_without_heading_estimate_absolute_angles_is_invalid_only_on_the_critical_circle():

@@ -1,11 +1,127 @@
-"""``agvnav demo``: positioning on a built-in reflector layout (placeholder until issue 2 lands)."""
+"""``agvnav demo``: triangulate a vehicle on a built-in reflector layout and print a table.
+
+The goniometer is the seed's (65535 pulses/rev, seed 000 §4.1): bearings are quantised
+to the pulse; the odometric heading estimate is off by a few degrees. One pose sits on
+the critical circle of the first three reflectors, where relative angles fail and
+absolute angles fall back on the heading estimate (seed 000, §2.3). Degrees appear only
+here, at the user's edge, and are labelled.
+"""
 
 from __future__ import annotations
 
+import math
+from typing import Any
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.table import Table
+
 from agvnav.cli.errors import user_errors
+from agvnav.geometry import angle_diff, bearing_to, circumcentre
+from agvnav.positioning import METHODS, encoder_bearing_std, triangulate
+
+#: A 20 m x 14 m hall with five wall reflectors (m); the first three are "in view" for the
+#: three-reflector methods, least squares uses all five.
+LAYOUT = np.array([[0.0, 7.0], [10.0, 14.0], [20.0, 7.0], [10.0, 0.0], [2.0, 13.0]])
+
+
+def demo_poses() -> np.ndarray:
+    """Vehicle poses ``(k, 3)`` (m, m, rad): three ordinary ones and one on the critical circle."""
+    centre, _ = circumcentre(LAYOUT[0], LAYOUT[1], LAYOUT[2])
+    radius = float(np.linalg.norm(LAYOUT[0] - centre))
+    on_circle = centre + radius * np.array([math.cos(2.5), math.sin(2.5)])  # inside the hall
+    return np.array(
+        [
+            [5.0, 5.0, math.radians(30.0)],
+            [12.0, 8.0, math.radians(95.0)],
+            [15.0, 3.0, math.radians(-120.0)],
+            [on_circle[0], on_circle[1], math.radians(10.0)],
+        ]
+    )
+
+
+def demo_rows(pulses_per_rev: int = 65535, heading_error_deg: float = 1.0) -> list[dict[str, Any]]:
+    """One row per (pose, method): truth, estimate and error, in SI units.
+
+    Bearings are the exact ones rounded to the encoder pulse ``2 pi / pulses_per_rev``; the
+    heading estimate's std is taken as the size of its error (used on the critical circle).
+    """
+    sigma = encoder_bearing_std(pulses_per_rev)
+    step = 2.0 * math.pi / pulses_per_rev
+    rows: list[dict[str, Any]] = []
+    for k, pose in enumerate(demo_poses(), start=1):
+        bearings = np.round(bearing_to(pose, LAYOUT) / step) * step
+        estimate = pose[2] + math.radians(heading_error_deg)
+        heading_std = max(abs(math.radians(heading_error_deg)), 1e-4)
+        for method in METHODS:
+            n = len(LAYOUT) if method == "least_squares" else 3
+            fix = triangulate(
+                LAYOUT[:n], bearings[:n], method, heading_estimate=estimate, bearing_std=sigma, heading_std=heading_std
+            )
+            rows.append(
+                {
+                    "pose": k,
+                    "truth": pose,
+                    "method": method,
+                    "reflectors": n,
+                    "fix": fix,
+                    "position_error_m": float(math.hypot(fix.x - pose[0], fix.y - pose[1])),
+                    "heading_error_rad": float(angle_diff(fix.heading, pose[2])),
+                    "std_position_m": float(np.sqrt(fix.covariance[0, 0] + fix.covariance[1, 1])),
+                }
+            )
+    return rows
+
+
+def _status(fix: Any) -> str:
+    if not fix.valid:
+        return "[red]invalid (critical circle)[/red]"
+    return "heading from estimate" if fix.heading_from_estimate else "ok"
+
+
+def _table(rows: list[dict[str, Any]], pulses_per_rev: int, heading_error_deg: float) -> Table:
+    sigma_mrad = encoder_bearing_std(pulses_per_rev) * 1e3
+    table = Table(
+        title="agvnav demo: goniometer triangulation on a 20 m x 14 m hall",
+        caption=(
+            f"encoder {pulses_per_rev} pulses/rev (bearing std {sigma_mrad:.4f} mrad); "
+            f"heading estimate off by {heading_error_deg:+.1f} deg; pose 4 is on the critical circle"
+        ),
+    )
+    for name, justify in [
+        ("pose", "right"), ("true x, y (m)", "right"), ("true heading (deg)", "right"), ("method", "left"),
+        ("N", "right"), ("x, y (m)", "right"), ("heading (deg)", "right"), ("position error (mm)", "right"),
+        ("heading error (deg)", "right"), ("1-sigma position (mm)", "right"), ("status", "left"),
+    ]:
+        table.add_column(name, justify=justify)  # type: ignore[arg-type]
+    for row in rows:
+        fix, truth = row["fix"], row["truth"]
+        ok = bool(fix.valid)
+        table.add_row(
+            str(row["pose"]),
+            f"{truth[0]:.3f}, {truth[1]:.3f}",
+            f"{math.degrees(truth[2]):.2f}",
+            row["method"],
+            str(row["reflectors"]),
+            f"{float(fix.x):.4f}, {float(fix.y):.4f}" if ok else "-",
+            f"{math.degrees(float(fix.heading)):.3f}" if ok else "-",
+            f"{row['position_error_m'] * 1e3:.3f}" if ok else "-",
+            f"{math.degrees(row['heading_error_rad']):.4f}" if ok else "-",
+            f"{row['std_position_m'] * 1e3:.3f}" if ok and math.isfinite(row["std_position_m"]) else "-",
+            _status(fix),
+            end_section=row["method"] == METHODS[-1],
+        )
+    return table
 
 
 @user_errors
-def demo() -> None:
+def demo(
+    pulses_per_rev: int = typer.Option(65535, "--pulses-per-rev", help="Goniometer encoder pulses per revolution."),
+    heading_error_deg: float = typer.Option(
+        1.0, "--heading-error-deg", help="Error of the odometric heading estimate, in degrees."
+    ),
+) -> None:
     """Triangulate a vehicle on a built-in reflector layout and print a table."""
-    raise ValueError("demo is not built yet")
+    rows = demo_rows(pulses_per_rev, heading_error_deg)
+    Console(highlight=False).print(_table(rows, pulses_per_rev, heading_error_deg))

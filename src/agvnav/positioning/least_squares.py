@@ -83,16 +83,24 @@ def _lines_start(rx: Arr, ry: Arr, theta: Arr, psi: Arr) -> Arr:
 
 
 def initial_state(rx: Arr, ry: Arr, theta: Arr, psi_est: Arr | None) -> Arr:
-    """Start value (m,3): ToTal on the first three reflectors, else the lines of the heading estimate."""
+    """Start value (m,3): ToTal on the first usable of up to four reflector triples, else the
+    least-squares intersection of the lines of the heading estimate, else the centroid."""
     m, n = theta.shape
     state = np.full((m, 3), np.nan)
-    if n >= 3:
-        x3 = tuple(np.broadcast_to(rx, theta.shape)[:, k] for k in range(3))
-        y3 = tuple(np.broadcast_to(ry, theta.shape)[:, k] for k in range(3))
-        t3 = tuple(theta[:, k] for k in range(3))
-        fix = total_kernel(x3, y3, t3)  # type: ignore[arg-type]
-        ok = fix["valid"]
-        state[ok] = np.stack([fix["x"], fix["y"], fix["heading"]], axis=-1)[ok]
+    triples = [(0, 1, 2), (0, 1, 3), (1, 2, 3), (0, 2, 3)] if n >= 4 else [(0, 1, 2)] if n == 3 else []
+    rxb, ryb = np.broadcast_to(rx, theta.shape), np.broadcast_to(ry, theta.shape)
+    for triple in triples:  # a triple on its critical circle gives no start: try the next
+        missing = ~np.all(np.isfinite(state), axis=-1)
+        if not np.any(missing):
+            break
+        fix = total_kernel(
+            tuple(rxb[missing, k] for k in triple),  # type: ignore[arg-type]
+            tuple(ryb[missing, k] for k in triple),  # type: ignore[arg-type]
+            tuple(theta[missing, k] for k in triple),  # type: ignore[arg-type]
+        )
+        start = np.stack([fix["x"], fix["y"], fix["heading"]], axis=-1)
+        start[~fix["valid"]] = np.nan
+        state[missing] = start
     missing = ~np.all(np.isfinite(state), axis=-1)
     if np.any(missing) and psi_est is not None:
         state[missing] = _lines_start(

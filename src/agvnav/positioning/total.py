@@ -11,7 +11,9 @@ Written from the published equations. With reflector 2 as origin
 * ``D = (x'_12 - x'_23)(y'_23 - y'_31) - (y'_12 - y'_23)(x'_23 - x'_31)``,
 * ``x = x_2 + k'_31 (y'_12 - y'_23) / D``, ``y = y_2 + k'_31 (x'_23 - x'_12) / D``.
 
-Quality is ``1 / |D|`` (m⁻², as published: D → 0 on the critical circle).
+Quality is ``1 / |D|`` (m⁻², as published: D → 0 on the critical circle; it depends on the
+reflector order and on the layout's size). ``valid`` is False within ``CRITICAL_TOL`` of
+the critical circle, by the same test on ``|C_12 C_23|`` as ``relative_angles``.
 
 Two documented deviations, both exact rewrites: (1) each fix is cyclically reordered
 so that the pair (3, 1) is the most nearly aligned with P (the paper's special-case
@@ -27,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from agvnav.positioning._three import Arr, Three, heading_from_position, order_pairs
+from agvnav.positioning._three import CRITICAL_TOL, Arr, Three, heading_from_position, order_pairs
 
 
 def total_kernel(x: Three, y: Three, theta: Three, xp: Any = np) -> dict[str, Arr]:
@@ -55,6 +57,9 @@ def total_kernel(x: Three, y: Three, theta: Three, xp: Any = np) -> dict[str, Ar
     px = x[1] + f * a
     py = y[1] + f * b
     quality = xp.abs(d / dd)
-    valid = xp.isfinite(px) & xp.isfinite(py) & (quality < 1e12 / (x1 * x1 + y1 * y1 + x3 * x3 + y3 * y3))
+    # |C_12 C_23| = |(a, b)| / 2: the same critical-circle test as relative_angles
+    scale2 = (x1 * x1 + y1 * y1 + x3 * x3 + y3 * y3 + (x1 - x3) ** 2 + (y1 - y3) ** 2) / 3.0
+    off_circle = a * a + b * b > (2.0 * CRITICAL_TOL) ** 2 * scale2
+    valid = xp.isfinite(px) & xp.isfinite(py) & off_circle
     heading = heading_from_position(px, py, x, y, theta, xp)
     return {"x": px, "y": py, "heading": heading, "quality": quality, "valid": valid}
