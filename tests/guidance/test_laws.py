@@ -14,6 +14,7 @@ from agvnav.guidance import (
     SeedSimpleController,
     general_gains,
     general_law,
+    linearised_loop,
     linearised_poles_per_metre,
     path_from_moves,
     poles_for_convergence,
@@ -59,8 +60,10 @@ def test_simple_law_linearisation_is_eq_23_and_24():
     got = linearised_poles_per_metre(ctrl, 0.4, L)
     # eq. 24 adds the pole -v/L (i.e. -1/L per metre) seen by eps_o, xi, gamma only
     assert_same_roots(got, np.append(poles, -1 / L), atol=1e-5)
-    vis = linearised_poles_per_metre(ctrl, 0.4, L, visible_only=True)
-    assert_same_roots(vis, poles, atol=1e-5)
+    lam, res = linearised_loop(ctrl, 0.4, L)
+    hidden = np.argmin(np.abs(lam + 1 / L))
+    assert abs(res[hidden]) < 1e-6  # the eq.-24 pole does not show in eps_c
+    assert_same_roots(lam[np.abs(res) > 1e-6], poles, atol=1e-5)
 
 
 def _linear_general(point, a, b, c, v):
@@ -107,7 +110,7 @@ def _arc_path():
 
 
 @pytest.mark.parametrize("make", [
-    lambda ff: SeedGeneralController(_arc_path(), L, convergence_distance=1.5, point="C", feedforward=ff),
+    lambda ff: SeedGeneralController(_arc_path(), L, convergence_distance=3.0, point="C", feedforward=ff),
     lambda ff: SeedGeneralController(_arc_path(), L, convergence_distance=1.5, point="O", feedforward=ff),
     lambda ff: SeedSimpleController(_arc_path(), L, convergence_distance=1.5, feedforward=ff),
 ], ids=["general_C", "general_O", "simple"])
@@ -115,9 +118,14 @@ def test_feedforward_gives_zero_steady_state_error_on_an_arc(make):
     results = {}
     for ff in (True, False):
         ctrl = make(ff)
-        _, errs, _ = run(ctrl, [0.0, 0.02, 0.0, 0.0], 1.0, L, distance=12.0, dt=0.01)
+        # tracked point 20 mm off the start of the arc (left turn, radius 3 m), steered for the turn
+        g_ss = math.atan(L / 3.0) if ctrl.point == "O" else math.asin(L / 3.0)
+        psi = 0.0 if ctrl.point == "O" else -g_ss
+        o = np.array([0.0, 0.02]) - (0.0 if ctrl.point == "O" else L) * np.array([math.cos(psi), math.sin(psi)])
+        _, errs, _ = run(ctrl, [*o, psi, g_ss], 1.0, L, distance=12.0, dt=0.01)
         key = "eps_o" if ctrl.point == "O" else "eps_c"
         results[ff] = np.array([e[key] for e in errs])
+        assert results[ff][0] == pytest.approx(0.02, abs=1e-9)
     tail = slice(-100, None)
     assert np.max(np.abs(results[True][tail])) < 1e-5
     assert np.min(np.abs(results[False][tail])) > 5e-3

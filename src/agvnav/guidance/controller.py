@@ -35,11 +35,13 @@ from agvnav.guidance.baselines import (
 from agvnav.guidance.errors import TrackingErrors, tracking_errors_scalar
 from agvnav.guidance.gains import (
     check_routh_hurwitz,
-    SETTLING_FRACTION,
     characteristic_coefficients,
     check_simple_stability,
     general_gains_from_coefficients,
-    poles_for_convergence,
+    envelope_distance,
+    general_gains_on_arc,
+    modal_response,
+    seed_poles_for_distance,
     simple_gains,
 )
 from agvnav.guidance.laws import GENERAL_FORMS, SIMPLE_FORMS, general_law, simple_law
@@ -54,7 +56,9 @@ __all__ = [
     "CONTROLLERS",
     "DEFAULT_CONVERGENCE_DISTANCE_M",
     "make_controller",
+    "linearised_loop",
     "linearised_poles_per_metre",
+    "loop_convergence_distance",
     "tune_for_convergence",
 ]
 
@@ -131,8 +135,8 @@ class _PathFollower:
         if not all(math.isfinite(p) for p in pose):
             raise ValueError("pose_o contains NaN or inf")
         g, vv = float(gamma), float(v)
-        if not math.isfinite(g) or abs(g) >= math.pi / 2:
-            raise ValueError(f"gamma must be finite and within (-pi/2, pi/2) rad, got {gamma!r}")
+        if not math.isfinite(g) or abs(g) > math.pi / 2 + 1e-9:
+            raise ValueError(f"gamma must be finite and within [-pi/2, pi/2] rad (seed 000 §3.1), got {gamma!r}")
         if not math.isfinite(vv):
             raise ValueError(f"v must be finite, got {v!r}")
         return pose, g, vv
@@ -149,7 +153,15 @@ class _PathFollower:
         return e
 
 
-def _design_choice(poles_per_m: ArrayLike | None, convergence_distance: float | None, gains: Any, order: int) -> Any:
+def _design_choice(
+    poles_per_m: ArrayLike | None,
+    convergence_distance: float | None,
+    gains: Any,
+    wheelbase: float,
+    law: str,
+    point: str,
+) -> Any:
+    """Poles per metre from the user's choice (None for fixed gains)."""
     given = [x is not None for x in (poles_per_m, convergence_distance, gains)]
     if sum(given) > 1:
         raise ValueError("give only one of poles_per_m, convergence_distance or gains")
@@ -158,7 +170,7 @@ def _design_choice(poles_per_m: ArrayLike | None, convergence_distance: float | 
     if poles_per_m is not None:
         return np.asarray(poles_per_m, dtype=np.complex128)
     d = DEFAULT_CONVERGENCE_DISTANCE_M if convergence_distance is None else convergence_distance
-    return poles_for_convergence(d, order=order)
+    return seed_poles_for_distance(d, wheelbase, law, point)
 
 
 class SeedGeneralController(_PathFollower):
@@ -170,6 +182,11 @@ class SeedGeneralController(_PathFollower):
     of v), or fixed ``gains=(a, |b|, c)`` checked by Routh-Hurwitz (eqs 18-19)
     up to ``v_max`` (m/s) in both directions. ``point`` "O" (manoeuvres, default
     form eq. 11) or "C" (cruising, default form eq. 13). At v = 0 the command is 0.
+    With ``curvature_compensation`` (and designed poles) the gains on an arc
+    come from :func:`~agvnav.guidance.gains.general_gains_on_arc`, so the
+    linearised poles per metre are the designed ones on arcs too; without it
+    the line gains are used everywhere (on tight arcs, where gamma_ss is large,
+    that loop can lose its damping or even its stability).
     """
 
     def __init__(
@@ -184,13 +201,16 @@ class SeedGeneralController(_PathFollower):
         point: str = "C",
         form: int | None = None,
         feedforward: bool = True,
+        curvature_compensation: bool = True,
         window: float = 1.0,
     ):
         super().__init__(path, wheelbase, point, window, feedforward)
+        self.curvature_compensation = bool(curvature_compensation)
+        self._arc_gains: dict[tuple[float, float], tuple[float, float, float]] = {}
         self.form = (11 if point == "O" else 13) if form is None else form
         if self.form not in GENERAL_FORMS:
             raise ValueError(f"form must be one of {GENERAL_FORMS} (seed 000 eqs 11-13), got {form!r}")
-        self.poles_per_m = _design_choice(poles_per_m, convergence_distance, gains, 3)
+        self.poles_per_m = _design_choice(poles_per_m, convergence_distance, gains, self.wheelbase, "general", point)
         self.v_max: float | None = None
         self.fixed_gains: tuple[float, float, float] | None = None
         if self.poles_per_m is not None:
@@ -205,11 +225,18 @@ class SeedGeneralController(_PathFollower):
                 check_routh_hurwitz(a, math.copysign(abs(b), v), c, v)
             self.fixed_gains = (a, abs(b), c)
 
-    def gains_at(self, v: float) -> tuple[float, float, float]:
-        """(a, b, c) used at speed ``v`` (m/s); b carries the sign of v."""
+    def gains_at(self, v: float, kappa_ref: float = 0.0) -> tuple[float, float, float]:
+        """(a, b, c) used at speed ``v`` (m/s) on curvature ``kappa_ref`` = d kappa (1/m); b ~ sign of v."""
         if self.fixed_gains is None:
-            g = general_gains_from_coefficients(self._coeffs, v, self.wheelbase)
-            return g.a, g.b, g.c
+            if kappa_ref == 0.0 or not self.curvature_compensation:
+                g = general_gains_from_coefficients(self._coeffs, v, self.wheelbase)
+                return g.a, g.b, g.c
+            key = (kappa_ref, math.copysign(1.0, v))
+            if key not in self._arc_gains:  # per unit |v|: the gains scale with |v|
+                g = general_gains_on_arc(self.poles_per_m, key[1], self.wheelbase, kappa_ref, self.point)
+                self._arc_gains[key] = (g.a, g.b, g.c)
+            a, b, c = self._arc_gains[key]
+            return a * abs(v), b * abs(v), c * abs(v)
         a, b, c = self.fixed_gains
         if self.v_max is not None and abs(v) > self.v_max:
             raise ValueError(f"|v| = {abs(v):g} m/s exceeds v_max = {self.v_max:g} m/s checked for these gains")
@@ -221,7 +248,8 @@ class SeedGeneralController(_PathFollower):
         e = self._errors(pose, gamma)
         if v == 0.0:
             return 0.0
-        a, b, c = self.gains_at(v)
+        kappa_ref = e.direction * e.kappa if self.feedforward else 0.0
+        a, b, c = self.gains_at(v, kappa_ref)
         dgamma = gamma - e.gamma_ss
         return float(general_law(self.form, e.eps_c, e.eps_o, e.xi, e.xi_r, dgamma, a, b, c, self.wheelbase))
 
@@ -255,7 +283,7 @@ class SeedSimpleController(_PathFollower):
             raise ValueError(f"form must be one of {SIMPLE_FORMS} (seed 000 eqs 20-22), got {form!r}")
         self.form = form
         self.curvature_compensation = bool(curvature_compensation)
-        self.poles_per_m = _design_choice(poles_per_m, convergence_distance, gains, 2)
+        self.poles_per_m = _design_choice(poles_per_m, convergence_distance, gains, self.wheelbase, "simple", "C")
         self.fixed_gains: tuple[float, float] | None = None
         if self.poles_per_m is not None:
             _, self._f1, self._f2 = characteristic_coefficients(self.poles_per_m, 2)
@@ -392,21 +420,19 @@ def make_controller(name: str, path: Path, wheelbase: float, **params: Any) -> G
         raise ValueError(f"controller {name!r}: {exc}") from None
 
 
-def linearised_poles_per_metre(
-    controller: GuidanceController, v: float, wheelbase: float, visible_only: bool = False, eps: float = 1e-6
-) -> NDArray[np.complex128]:
-    """Poles (1/m) of the closed loop linearised numerically about a straight path.
+def linearised_loop(
+    controller: GuidanceController, v: float, wheelbase: float, eps: float = 1e-6
+) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """Poles (1/m) and lateral-error residues of the closed loop linearised numerically on a line.
 
     The controller is given a 100 m straight path along x (its segment
     direction = sign of v) and the nonlinear tricycle (seed 000 eq. 8) with
     state ``(y_O, psi, gamma)`` is differentiated by central differences
-    about zero error; eigenvalues divided by |v|. For the seed's laws these
-    are the roots of eq. 17 / eqs 23-24. With ``visible_only`` only the modes
-    that appear in the lateral error of the controller's tracked point are
-    kept: those whose residue in the tracked point's lateral error after a unit
-    lateral offset exceeds the 2 % settling fraction (e.g. the body-alignment
-    pole -1/L of eq. 24 has zero residue in eps_c).
-    The controller's own path is restored afterwards (and the controller reset).
+    about zero error. Returns the eigenvalues divided by |v| and, for each,
+    its residue in the tracked point's lateral error after a unit lateral
+    offset of that point (:func:`~agvnav.guidance.gains.modal_response`).
+    For the seed's laws the poles are the roots of eq. 17 / eqs 23-24. The
+    controller's own path is restored afterwards (and the controller reset).
     """
     d = 1 if v > 0 else -1
     L = require_positive("wheelbase", wheelbase)
@@ -428,27 +454,38 @@ def linearised_poles_per_metre(
             jac[:, j] = (f(dz) - f(-dz)) / (2.0 * eps)
     finally:
         controller.set_path(original)
-    lam, vecs = np.linalg.eig(jac)
-    if visible_only:
-        # residue of each mode in the tracked point's lateral error after a unit lateral offset
-        out = np.array([1.0, L if getattr(controller, "point", "C") == "C" else 0.0, 0.0])
-        residue = (out @ vecs) * np.linalg.solve(vecs, np.array([1.0, 0.0, 0.0]))
-        lam = lam[np.abs(residue) > SETTLING_FRACTION]
-    return lam / abs(v)
+    # lateral error of the tracked point in the reference frame: d (y_O + L psi for C)
+    out = d * np.array([1.0, L if getattr(controller, "point", "C") == "C" else 0.0, 0.0])
+    lam, residues = modal_response(jac, out, np.array([d, 0.0, 0.0]))
+    return lam / abs(v), residues
+
+
+def linearised_poles_per_metre(controller: GuidanceController, v: float, wheelbase: float) -> NDArray[np.complex128]:
+    """Poles (1/m) of the closed loop linearised on a line (see :func:`linearised_loop`)."""
+    return linearised_loop(controller, v, wheelbase)[0]
+
+
+def loop_convergence_distance(controller: GuidanceController, v: float, wheelbase: float) -> float:
+    """Convergence distance (m) of a controller at speed ``v``: :func:`~agvnav.guidance.gains.envelope_distance`.
+
+    The bound on the linearised lateral error of the tracked point after a
+    lateral offset falls below 2 % beyond this distance. Used to tune every
+    controller alike.
+    """
+    return envelope_distance(*linearised_loop(controller, v, wheelbase))
 
 
 def tune_for_convergence(name: str, distance: float, wheelbase: float, v: float = 0.2, **params: Any) -> float:
     """Look-ahead (m, pure pursuit) or gain (1/m, Stanley) converging within ``distance`` (m).
 
-    The convergence distance is that of the slowest linearised mode visible in
-    the tracked point's lateral error (:func:`linearised_poles_per_metre`,
-    servo included, at speed ``v``), decaying to 2 %. The parameter is scanned
-    from gentle to aggressive on a log grid around the ideal-servo formula of
-    :mod:`agvnav.guidance.baselines` until the first crossing, then bisected.
-    Raises ValueError if the distance is not reachable.
+    Convergence as in :func:`loop_convergence_distance` (servo included, at
+    speed ``v``), the same measure the seed laws are designed by
+    (:func:`~agvnav.guidance.gains.seed_poles_for_distance`). The parameter
+    is scanned from gentle to aggressive on a log grid around the
+    ideal-servo formula of :mod:`agvnav.guidance.baselines` up to the first
+    crossing, then bisected. Raises ValueError if the distance is not reachable.
     """
     require_positive("distance", distance)
-    target = math.log(50.0) / distance
     path = Path([LineSegment(np.array([-50.0, 0.0]), 0.0, 100.0, 1 if v > 0 else -1)])
     if name == "pure_pursuit":
         key, guess, aggressive = "lookahead", lookahead_for_distance(distance), -1.0
@@ -459,13 +496,12 @@ def tune_for_convergence(name: str, distance: float, wheelbase: float, v: float 
 
     def excess(logx: float) -> float:
         ctrl = CONTROLLERS[name](path, wheelbase, **{key: math.exp(logx)}, **params)
-        poles = linearised_poles_per_metre(ctrl, v, wheelbase, visible_only=True)
-        return -float(np.max(poles.real)) - target
+        return distance - loop_convergence_distance(ctrl, v, wheelbase)
 
-    grid = math.log(guess) + aggressive * np.linspace(-3.0, 3.0, 25)
+    grid = math.log(guess) + aggressive * np.linspace(-3.0, 3.0, 31)
     prev = grid[0]
     if excess(prev) >= 0:
-        raise ValueError(f"{name}: scan start already converges faster than {distance:g} m; widen the grid")
+        raise ValueError(f"{name}: scan start already converges within {distance:g} m; widen the grid")
     for x in grid[1:]:
         if excess(x) >= 0:
             lo, hi = prev, x
@@ -479,4 +515,4 @@ def tune_for_convergence(name: str, distance: float, wheelbase: float, v: float 
             hi = mid
         else:
             lo = mid
-    return math.exp(0.5 * (lo + hi))
+    return math.exp(hi)

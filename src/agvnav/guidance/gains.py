@@ -21,6 +21,23 @@ speed; then ``c = |v| e1``, ``b = L v e2``, ``a = L |v| e3`` where
 ``prod(s - lambda_i) = s^3 + e1 s^2 + e2 s + e3``. The convergence distance
 stays fixed and a, b, c scale with v.
 
+On an arc (seed ref. [13], not in seed 000) the linearisation about the steady
+turn adds curvature terms. With ``k = d kappa`` (curvature in the reference
+body frame), ``gamma_ss`` the feed-forward and ``dgamma = gamma - gamma_ss``:
+
+* tracked O, state (eps_o, xi, dgamma):
+  ``eps_o' = v cos(gamma_ss) xi``,
+  ``xi' = v / (L cos(gamma_ss)) dgamma - k^2 v cos(gamma_ss) eps_o``;
+* tracked C, state (eps_c, xi_r, dgamma):
+  ``eps_c' = v xi_r``,
+  ``xi_r' = (v cos(gamma_ss) / L) dgamma + dgamma' - k^2 v eps_c``;
+
+and ``dgamma' = -a eps_o - b xi - c dgamma`` (the three forms are one law).
+:func:`general_gains_on_arc` solves for a, b, c placing the poles of this
+model (the characteristic coefficients are affine in a, b, c: a single-input
+loop), so the designed poles per metre hold on arcs too; on a line it
+reduces to :func:`general_gains`.
+
 Simple law (seed 000 §3.3, eq. 23): ``q'' + b q' + a v q = 0`` for
 ``q = eps_c, xi_r``; with poles per metre ``mu_i``: ``b = v f1``, ``a = v f2``
 where ``prod(s - mu_i) = s^2 + f1 s + f2``.
@@ -42,8 +59,14 @@ __all__ = [
     "SETTLING_FRACTION",
     "poles_for_convergence",
     "convergence_distance",
+    "envelope_distance",
+    "seed_loop_matrix",
+    "seed_poles_for_distance",
+    "modal_response",
     "general_gains",
     "general_gains_from_coefficients",
+    "general_gains_on_arc",
+    "arc_linear_model",
     "characteristic_coefficients",
     "general_characteristic",
     "routh_hurwitz_ok",
@@ -54,7 +77,7 @@ __all__ = [
 ]
 
 SETTLING_FRACTION = 0.02
-"""The convergence distance is where the slowest mode has decayed to 2 % of its start."""
+"""Convergence means an error down to 2 % of its initial value."""
 
 
 @dataclass(frozen=True)
@@ -98,10 +121,55 @@ def poles_for_convergence(
 
 
 def convergence_distance(poles_per_m: ArrayLike) -> float:
-    """Distance (m) for the slowest mode of ``poles_per_m`` (1/m) to decay to 2 %; inf if unstable."""
+    """Distance (m) for the slowest mode of ``poles_per_m`` (1/m) to decay to 2 %; inf if unstable.
+
+    This is the pole-only measure; :func:`envelope_distance` also weighs how
+    much each mode shows in the error (the one the controllers are tuned by).
+    """
     p = np.asarray(poles_per_m, dtype=np.complex128)
     sigma = -float(np.max(p.real))
     return math.log(1.0 / SETTLING_FRACTION) / sigma if sigma > 0 else math.inf
+
+
+def modal_response(
+    a_matrix: ArrayLike, out: ArrayLike, x0: ArrayLike
+) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """Poles and residues of ``y = out @ x`` for ``x' = A x``, ``x(0) = x0``: ``y = sum r_i exp(p_i t)``."""
+    lam, vecs = np.linalg.eig(np.asarray(a_matrix, dtype=np.float64))
+    residues = (np.asarray(out, dtype=np.float64) @ vecs) * np.linalg.solve(vecs, np.asarray(x0, dtype=np.float64))
+    return lam, residues
+
+
+def envelope_distance(poles_per_m: ArrayLike, residues: ArrayLike, fraction: float = SETTLING_FRACTION) -> float:
+    """Distance (m) beyond which ``sum |r_i| exp(Re(p_i) s)`` stays below ``fraction`` (2 %).
+
+    With ``poles_per_m`` (1/m) and ``residues`` of the tracked point's lateral
+    error after a unit lateral offset (:func:`modal_response`), this bounds the
+    linearised error: the convergence distance every controller is tuned to.
+    One mode of residue 1 gives ``ln(1/fraction) / sigma``, as
+    :func:`convergence_distance`; modes hidden from the error (zero residue,
+    like the -1/L pole of eq. 24 in eps_c) do not count. inf if a visible mode
+    is not decaying.
+    """
+    p = np.asarray(poles_per_m, dtype=np.complex128)
+    r = np.abs(np.asarray(residues, dtype=np.complex128))
+    keep = r > 1e-9 * max(1.0, float(np.max(r)))
+    p, r = p[keep].real, r[keep]
+    if np.any(p >= 0.0):
+        return math.inf
+    total = float(np.sum(r))
+    if total <= fraction:
+        return 0.0
+    lo, hi = 0.0, float(np.max(np.log(total / fraction) / -p))  # envelope(hi) <= fraction
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if float(np.sum(r * np.exp(p * mid))) > fraction:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo < 1e-12 * hi:
+            break
+    return hi
 
 
 def _monic_real(poles: ArrayLike, order: int) -> NDArray[np.float64]:
@@ -129,7 +197,7 @@ def characteristic_coefficients(poles_per_m: ArrayLike, order: int) -> NDArray[n
 
 def general_gains_from_coefficients(coeffs: NDArray[np.float64], v: float, wheelbase: float) -> GeneralGains:
     """``c = |v| e1``, ``b = L v e2``, ``a = L |v| e3`` from ``coeffs = [1, e1, e2, e3]`` (module docstring)."""
-    _, e1, e2, e3 = coeffs
+    _, e1, e2, e3 = (float(x) for x in coeffs)
     return GeneralGains(a=wheelbase * abs(v) * e3, b=wheelbase * v * e2, c=abs(v) * e1)
 
 
@@ -141,6 +209,108 @@ def general_gains(poles_per_m: ArrayLike, v: float, wheelbase: float) -> General
     """
     L = require_positive("wheelbase", wheelbase)
     return general_gains_from_coefficients(_monic_real(poles_per_m, 3), float(v), L)
+
+
+def arc_linear_model(
+    point: str, kappa_ref: float, v: float, wheelbase: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Linearised error dynamics about the steady turn (module docstring): ``(A0, B, R)``.
+
+    ``x' = A0 x + B u`` with ``x`` = (eps_o, xi, dgamma) for point O or
+    (eps_c, xi_r, dgamma) for point C, ``u = dgamma'``; ``R`` (3, 3) holds the
+    rows expressing (eps_o, xi, dgamma) in ``x`` so that the general law is
+    ``u = -[a, b, c] @ R @ x``. ``kappa_ref`` = direction * curvature (1/m).
+    """
+    L = require_positive("wheelbase", wheelbase)
+    k = float(kappa_ref)
+    if point == "O":
+        cg = 1.0 / math.sqrt(1.0 + (L * k) ** 2)  # cos(gamma_ss), tan(gamma_ss) = L k
+        a0 = np.array([[0.0, v * cg, 0.0], [-k * k * v * cg, 0.0, v / (L * cg)], [0.0, 0.0, 0.0]])
+        return a0, np.array([0.0, 0.0, 1.0]), np.eye(3)
+    if point != "C":
+        raise ValueError(f"point must be 'O' or 'C', got {point!r}")
+    if abs(L * k) >= 1.0:
+        raise ValueError(f"point C cannot follow curvature {kappa_ref:g} 1/m with wheelbase {L:g} m")
+    cg = math.sqrt(1.0 - (L * k) ** 2)  # cos(gamma_ss), sin(gamma_ss) = L k
+    a0 = np.array([[0.0, v, 0.0], [-k * k * v, 0.0, v * cg / L], [0.0, 0.0, 0.0]])
+    rows = np.array([[1.0, -L, L], [0.0, 1.0, -1.0], [0.0, 0.0, 1.0]])  # eps_o, xi from eqs 9-10
+    return a0, np.array([0.0, 1.0, 1.0]), rows
+
+
+def general_gains_on_arc(
+    poles_per_m: ArrayLike, v: float, wheelbase: float, kappa_ref: float, point: str
+) -> GeneralGains:
+    """a, b, c placing the poles of the arc-linearised loop (module docstring) at ``poles_per_m`` (1/m).
+
+    ``kappa_ref`` = direction * curvature (1/m); ``point`` "O" or "C". Gains
+    scale with |v| as on a line; at ``kappa_ref = 0`` equal :func:`general_gains`.
+    """
+    coeffs = _monic_real(poles_per_m, 3)
+    v = float(v)
+    if v == 0.0:
+        return GeneralGains(0.0, 0.0, 0.0)
+    sv = math.copysign(1.0, v)
+    a0, bvec, rows = arc_linear_model(point, kappa_ref, sv, wheelbase)  # unit speed, then scale
+
+    def charpoly(k: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.poly(a0 - np.outer(bvec, k @ rows)).real[1:]
+
+    base = charpoly(np.zeros(3))
+    m = np.column_stack([charpoly(e) - base for e in np.eye(3)])
+    a, b, c = np.linalg.solve(m, coeffs[1:] - base)
+    s = abs(v)
+    return GeneralGains(a=float(a) * s, b=float(b) * s, c=float(c) * s)
+
+
+def seed_loop_matrix(poles_per_m: ArrayLike, wheelbase: float, law: str, point: str) -> NDArray[np.float64]:
+    """Closed-loop matrix per metre (v = 1 m/s) on a line, state (eps, heading error, gamma) of ``point``.
+
+    ``law`` "general" (eqs 11-13, eq. 17) or "simple" (eq. 20, point C).
+    """
+    a0, bvec, rows = arc_linear_model(point, 0.0, 1.0, wheelbase)
+    if law == "general":
+        g = general_gains(poles_per_m, 1.0, wheelbase)
+        return a0 - np.outer(bvec, np.array([g.a, g.b, g.c]) @ rows)
+    if law == "simple":
+        if point != "C":
+            raise ValueError("the simple law guides point C (seed 000 §3.3)")
+        g2 = simple_gains(poles_per_m, 1.0)
+        return a0 - np.outer(bvec, [g2.a, g2.b, 1.0 / wheelbase])
+    raise ValueError(f"law must be 'general' or 'simple', got {law!r}")
+
+
+def seed_poles_for_distance(
+    distance: float,
+    wheelbase: float,
+    law: str = "general",
+    point: str = "C",
+    damping: float = 1.0 / math.sqrt(2.0),
+    real_ratio: float = 1.0,
+) -> NDArray[np.complex128]:
+    """Poles per metre (shape of :func:`poles_for_convergence`) whose :func:`envelope_distance` is ``distance``.
+
+    The tracked point's lateral error after a unit lateral offset (the seed's
+    110 mm start, scaled) stays within 2 % beyond ``distance`` (m), in the
+    linearised loop on a line. Found by bisection on the pole scale.
+    """
+    d = require_positive("distance", distance)
+    order = 3 if law == "general" else 2
+    shape = poles_for_convergence(1.0, damping=damping, order=order, real_ratio=real_ratio)
+
+    def dist(log_k: float) -> float:
+        lam, res = modal_response(seed_loop_matrix(math.exp(log_k) * shape, wheelbase, law, point), [1, 0, 0], [1, 0, 0])
+        return envelope_distance(lam, res)
+
+    lo, hi = math.log(1.0 / d) - 6.0, math.log(1.0 / d) + 6.0
+    if not dist(lo) > d > dist(hi):
+        raise ValueError(f"cannot design {law}-law poles converging within {distance:g} m")
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if dist(mid) > d:
+            lo = mid
+        else:
+            hi = mid
+    return math.exp(hi) * shape
 
 
 def general_characteristic(a: float, b: float, c: float, v: float, wheelbase: float) -> NDArray[np.float64]:
