@@ -173,3 +173,10 @@ def test_scalar_stacker_step_matches_kinematics_package():
         new, der = stacker_rk4(x, v, gd, 1.1, 0.05)
         np.testing.assert_allclose(new, model.step(x, np.array([v, gd]), 0.05), rtol=0, atol=1e-12)
         np.testing.assert_allclose(der, model.derivative(np.stack([x, new]), np.array([v, gd])), atol=1e-12)
+
+
+def test_feedforward_start_steering():
+    text = scenario_text(**{"steering_deg: 0.0": "steering_deg: feedforward"})
+    b = build(parse_scenario(text))
+    # C on an arc of radius R: sin(gamma_ss) = L / R (seed 000 eq. 8 at steady state)
+    assert b.plant.steering.gamma == pytest.approx(math.asin(1.0 / 1.24), abs=1e-12)

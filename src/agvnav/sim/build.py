@@ -167,7 +167,14 @@ def _initial_state(sc: Scenario, path: Any, point: str, L: float) -> NDArray[np.
     p = start[:2] + sc.start.lateral_offset_m * normal
     if point == "C":
         p = p - L * np.array([math.cos(psi), math.sin(psi)])
-    return np.array([p[0], p[1], psi, math.radians(sc.start.steering_deg)])
+    if sc.start.steering_deg == "feedforward":
+        from agvnav.guidance.errors import feedforward_steering
+
+        gamma, _ = feedforward_steering(float(path.curvature_at(0.0)), L, point, d)
+        gamma = float(gamma)
+    else:
+        gamma = math.radians(sc.start.steering_deg)
+    return np.array([p[0], p[1], psi, gamma])
 
 
 def _controller(sc: Scenario, path: Any, L: float, cruise: float) -> Any:

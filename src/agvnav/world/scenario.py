@@ -183,12 +183,13 @@ class StartSpec(_Strict):
 
     ``lateral_offset_m`` displaces the guided point to the left of the path
     (negative: right); ``heading_offset_deg`` turns the vehicle;
-    ``steering_deg`` is the initial wheel angle.
+    ``steering_deg`` is the initial wheel angle, or ``feedforward`` for the
+    steady-state angle of the first segment's curvature.
     """
 
     lateral_offset_m: Finite = 0.0
     heading_offset_deg: Finite = 0.0
-    steering_deg: Annotated[float, Field(ge=-90.0, le=90.0)] = 0.0
+    steering_deg: Annotated[float, Field(gt=-90.0, lt=90.0)] | Literal["feedforward"] = 0.0
 
 
 class ControllerSpec(_Strict):
