@@ -12,10 +12,14 @@ from agvnav.guidance import (
     Path,
     SeedGeneralController,
     SeedSimpleController,
+    arc_linear_model,
+    envelope_distance,
     general_gains,
+    general_gains_on_arc,
     general_law,
     linearised_loop,
     linearised_poles_per_metre,
+    modal_response,
     path_from_moves,
     poles_for_convergence,
     simple_law,
@@ -160,3 +164,42 @@ def test_seed_guidance_experiment_corrects_110_mm():
     assert np.max(np.abs(eps[after])) < 0.0165  # the seed's real-vehicle bound
     assert np.max(np.abs(xi_r[after])) < math.radians(3.8)
     assert abs(eps[-1]) < 1e-3
+
+
+@pytest.mark.parametrize("point", ["O", "C"])
+@pytest.mark.parametrize("v", [0.5, -0.5])
+def test_arc_compensated_gains_give_the_designed_poles_in_the_nonlinear_loop(point, v):
+    """Small offset on a tight arc: the nonlinear loop follows the linear model with the designed poles."""
+    d = 1 if v > 0 else -1
+    R = 2.0
+    p = path_from_moves([0.0, 0.0, 0.0], [("arc", R, 3.0, d)])
+    poles = poles_for_convergence(2.0)
+    errs_by = {}
+    for comp in (True, False):
+        ctrl = SeedGeneralController(p, L, poles_per_m=poles, point=point, curvature_compensation=comp)
+        kref = d / R
+        g_ss = math.atan(d * L / R) if point == "O" else math.asin(d * L / R)
+        psi = (0.0 if d > 0 else math.pi) - (g_ss if point == "C" else 0.0)
+        y0 = 0.002
+        tracked = np.array([0.0, y0 * d])  # y0 to the left of the body's reference direction
+        o = tracked - (L * np.array([math.cos(psi), math.sin(psi)]) if point == "C" else 0.0)
+        _, errs, travelled = run(ctrl, [*o, psi, g_ss], v, L, distance=3.0, dt=0.005)
+        errs_by[comp] = np.array([e["eps_o" if point == "O" else "eps_c"] for e in errs])
+        assert errs_by[comp][0] == pytest.approx(y0, abs=1e-9)
+    g = general_gains_on_arc(poles, v, L, kref, point)
+    a0, bvec, rows = arc_linear_model(point, kref, v, L)
+    A = a0 - np.outer(bvec, np.array([g.a, g.b, g.c]) @ rows)
+    assert_same_roots(np.linalg.eigvals(A), abs(v) * poles, atol=1e-9)
+    lam, res = modal_response(A, [1, 0, 0], [y0, 0, 0])
+    lin = np.real(np.exp(np.outer(travelled / abs(v), lam)) @ res)
+    assert np.max(np.abs(errs_by[True] - lin)) < 0.03 * y0
+    assert np.max(np.abs(errs_by[False] - lin)) > 0.02 * y0  # the line gains do not place these poles
+
+
+def test_envelope_distance_cases():
+    assert envelope_distance([-2.0], [1.0]) == pytest.approx(math.log(50) / 2)
+    assert envelope_distance([-2.0, -0.1], [1.0, 0.0]) == pytest.approx(math.log(50) / 2)  # hidden mode
+    assert envelope_distance([-2.0, 0.1], [1.0, 0.5]) == math.inf
+    assert envelope_distance([-1.0], [0.01]) == 0.0
+    two = envelope_distance([-1.0, -1.0], [0.5, 0.5])
+    assert two == pytest.approx(math.log(50))
