@@ -222,7 +222,6 @@ class PositioningSpec(_Strict):
     odometry_noise: tuple[NonNegFloat, NonNegFloat, NonNegFloat] = Field(
         (0.001, 0.003, 0.001), description="k_d, k_dtheta, k_theta of the odometry covariance model"
     )
-    use_truth: bool = False
 
 
 class Scenario(_Strict):
