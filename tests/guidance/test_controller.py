@@ -10,7 +10,6 @@ from agvnav.guidance import (
     CONTROLLERS,
     LineSegment,
     Path,
-    PurePursuitController,
     SeedGeneralController,
     SeedSimpleController,
     StanleyController,

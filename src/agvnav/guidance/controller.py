@@ -12,7 +12,11 @@ planned path of its tracked point) and the wheelbase L, and offers:
 
 The projection of the tracked point is searched within ``window`` metres of
 the previous one, so a self-crossing path does not make the controller jump.
-Create controllers by name with :func:`make_controller`.
+Create controllers by name with :func:`make_controller`. Every controller
+accepts ``convergence_distance`` (m): the seed laws place their poles and the
+baselines pick their look-ahead/gain so that the linearised lateral error of
+the tracked point after an offset stays within 2 % beyond that distance
+(:func:`loop_convergence_distance`), so they can be compared on equal terms.
 """
 
 from __future__ import annotations
@@ -187,6 +191,12 @@ class SeedGeneralController(_PathFollower):
     linearised poles per metre are the designed ones on arcs too; without it
     the line gains are used everywhere (on tight arcs, where gamma_ss is large,
     that loop can lose its damping or even its stability).
+
+    For point C the law answers a lateral offset of C with an immediate
+    steering rate ``-a eps_c`` and eps_c overshoots (eq. 17 started from
+    eps_c'' != 0); from large offsets on tight arcs the wheel can swing to its
+    +/-90 deg limit. The seed cruises with the simple law (§4.3); the general
+    law is meant above all for point O in manoeuvres.
     """
 
     def __init__(

@@ -8,7 +8,7 @@ general law eq. 11, ``gamma' = -a eps_o - b xi - c gamma``, and ``q = eps_o``:
 
     q''' + c q'' + (v/L) b q' + (v^2/L) a q = 0          (eq. 17)
 
-The extracted text of eq. 17 is garbled (it shows ``q''`` as leading term);
+The extracted text of eq. 17 is garbled (it reads ``q'' + c q' + (v/L) b q' + ...``);
 the derivation above, repeated for eps_c, xi, xi_r and gamma (all linear
 combinations of eps_o and its derivatives), confirms the third-order form.
 Routh-Hurwitz on ``s^3 + c s^2 + (v b/L) s + v^2 a/L`` gives ``c > 0``,
@@ -37,6 +37,16 @@ and ``dgamma' = -a eps_o - b xi - c dgamma`` (the three forms are one law).
 model (the characteristic coefficients are affine in a, b, c: a single-input
 loop), so the designed poles per metre hold on arcs too; on a line it
 reduces to :func:`general_gains`.
+
+Convergence distance. The seed does not say how far the poles should be.
+Here every controller is tuned by one measure (:func:`envelope_distance`):
+the distance beyond which the envelope ``sum |r_i| exp(Re(p_i) s)`` of the
+linearised lateral error of the tracked point, after a unit lateral offset,
+stays below 2 %. :func:`seed_poles_for_distance` scales the seed's pole
+pattern (one real pole and a complex pair) to a given distance. For point C
+the general law reacts to a lateral offset of C with an immediate steering
+rate ``-a eps_c`` and eps_c swings past zero (large residues), so its poles
+come out faster than for point O at the same distance.
 
 Simple law (seed 000 §3.3, eq. 23): ``q'' + b q' + a v q = 0`` for
 ``q = eps_c, xi_r``; with poles per metre ``mu_i``: ``b = v f1``, ``a = v f2``
