@@ -33,15 +33,18 @@ def rk4_step(state: np.ndarray, v: float, gamma_dot: float, wheelbase: float, dt
     return state + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
 
 
-def run(controller, state0, v: float, wheelbase: float, distance: float, dt: float = 0.01):
-    """Drive ``distance`` metres at speed v; returns (states (n+1, 4), errors dicts list, travelled (n,))."""
+def run(controller, state0, v: float, wheelbase: float, distance: float, dt: float = 0.01, step=None):
+    """Drive ``distance`` metres at speed v; returns (states (n+1, 4), errors dicts list, travelled (n,)).
+
+    ``step(state, v, gamma_dot, dt)`` advances the plant (default: RK4 of eq. 8 here).
+    """
     state = np.asarray(state0, dtype=float)
     states, errs = [state], []
     n = int(round(distance / (abs(v) * dt)))
     for _ in range(n):
         u = controller.command(state[:3], state[3], v)
         errs.append(controller.last_errors.as_dict())
-        state = rk4_step(state, v, u, wheelbase, dt)
+        state = rk4_step(state, v, u, wheelbase, dt) if step is None else step(state, v, u, dt)
         states.append(state)
     travelled = abs(v) * dt * np.arange(n)
     return np.array(states), errs, travelled

@@ -149,3 +149,17 @@ def test_scalar_fast_path_equals_the_vectorised_kernel(point, feedforward):
                 a, b = math.remainder(a - b, 2 * math.pi), 0.0
             assert a == pytest.approx(b, abs=1e-12), name
         assert one.direction == batch.direction[i]
+
+
+def test_local_plant_matches_the_kinematics_package():
+    """The tests' RK4 helper integrates the same eq. 8 as agvnav.kinematics.TricycleStacker."""
+    from _guidance_sim import tricycle_derivative
+
+    from agvnav.kinematics.tricycle import TricycleStacker
+
+    model = TricycleStacker(wheelbase=L)
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        state = np.append(rng.normal(size=3), rng.uniform(-1.4, 1.4))
+        v, gd = rng.normal(), rng.normal()
+        np.testing.assert_allclose(tricycle_derivative(state, v, gd, L), model.derivative(state, [v, gd]), atol=1e-12)

@@ -148,15 +148,22 @@ def test_offset_without_feedforward_matches_the_linear_prediction():
     assert errs[-1]["eps_o"] == pytest.approx(predicted, rel=0.05)
 
 
-def test_seed_guidance_experiment_corrects_110_mm():
+@pytest.mark.parametrize("plant", ["local_rk4", "kinematics.TricycleStacker"])
+def test_seed_guidance_experiment_corrects_110_mm(plant):
     """Seed 000 §4.3: C on an arc of radius 1.24 m then 3 m straight at 0.2 m/s, starting 110 mm off."""
     Lw = 1.0
+    step = None
+    if plant != "local_rk4":
+        from agvnav.kinematics.tricycle import TricycleStacker
+
+        model = TricycleStacker(wheelbase=Lw)
+        step = lambda s, v, u, dt: model.step(s, np.array([v, u]), dt)  # noqa: E731
     p = path_from_moves([0.0, 0.0, 0.0], [("arc", 1.24, -math.pi / 2), ("line", 3.0)])
     ctrl = SeedSimpleController(p, Lw, convergence_distance=1.0)
     gamma0 = math.asin(-Lw / 1.24)
     psi0 = -gamma0  # wheel along the path at C, body turned inwards
     o = np.array([0.0, 0.11]) - Lw * np.array([math.cos(psi0), math.sin(psi0)])
-    _, errs, travelled = run(ctrl, [*o, psi0, gamma0], 0.2, Lw, distance=p.length - 0.3, dt=0.02)
+    _, errs, travelled = run(ctrl, [*o, psi0, gamma0], 0.2, Lw, distance=p.length - 0.3, dt=0.02, step=step)
     eps = np.array([e["eps_c"] for e in errs])
     xi_r = np.array([e["xi_r"] for e in errs])
     assert eps[0] == pytest.approx(0.11, abs=1e-9)
