@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
@@ -53,7 +53,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import require_finite, require_nonnegative, require_positive
 from agvnav.actuators import DriveGeometry
-from agvnav.geometry import angle_diff, wrap_angle
+from agvnav.geometry import angle_diff
 from agvnav.guidance.kanayama import DriveCommand
 from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
 from agvnav.sensors.ultrasonic import ConeEcho, UltrasonicArray, check_wall_segments

@@ -185,9 +185,12 @@ class KanayamaController:
         self._t = t
         if dt == 0.0:
             return
-        stop = float(self._stops[np.searchsorted(self._stops, self.s_ref + 1e-9)]) if self.s_ref < path.length - 1e-9 else path.length
+        stop = path.length
+        if self.s_ref < path.length - 1e-9:  # next stop: a change of direction or the end
+            stop = float(self._stops[np.searchsorted(self._stops, self.s_ref + 1e-9)])
         remaining = stop - self.s_ref
-        self.speed_ref = float(profile_speed(self.speed_ref, self.cruise_speed, remaining, dt, self.max_accel, self.max_accel))
+        speed = profile_speed(self.speed_ref, self.cruise_speed, remaining, dt, self.max_accel, self.max_accel)
+        self.speed_ref = float(speed)
         if remaining <= 1e-6:
             self.speed_ref, self.s_ref = 0.0, stop
             return

@@ -211,7 +211,14 @@ class WallLandmarkLocalizer:
         self.t, self.status = float(t), "dead_reckoning"
 
     def calibrate_heading(
-        self, t: float, us_front: float, us_rear: float, spacing: float, side: str, wall: ArrayLike, wall_index: int = -1
+        self,
+        t: float,
+        us_front: float,
+        us_rear: float,
+        spacing: float,
+        side: str,
+        wall: ArrayLike,
+        wall_index: int = -1,
     ) -> float:
         """Correct the heading from a side pair beside ``wall (2, 2)`` (eqs 6-7); return it (rad).
 
@@ -230,7 +237,13 @@ class WallLandmarkLocalizer:
         return measured
 
     def calibrate_offset(
-        self, t: float, ranges: ArrayLike, mounts: ArrayLike, wall: ArrayLike, kind: str = "front_offset", wall_index: int = -1
+        self,
+        t: float,
+        ranges: ArrayLike,
+        mounts: ArrayLike,
+        wall: ArrayLike,
+        kind: str = "front_offset",
+        wall_index: int = -1,
     ) -> float:
         """Correct the position along ``wall``'s normal from ranges of sensors facing it (eq 8).
 

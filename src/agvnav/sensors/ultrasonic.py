@@ -166,7 +166,8 @@ def cone_echo(
     nearest = np.argmin(masked, axis=-1)  # the appended inf column makes M = 0 work
     rng = np.take_along_axis(masked, nearest[..., None], axis=-1)[..., 0]
     found = np.isfinite(rng)
-    inc = np.take_along_axis(np.concatenate([incidence, masked[..., -1:]], axis=-1), nearest[..., None], axis=-1)[..., 0]
+    padded = np.concatenate([incidence, masked[..., -1:]], axis=-1)
+    inc = np.take_along_axis(padded, nearest[..., None], axis=-1)[..., 0]
     valid = found & (rng >= min_range) & (rng <= max_range)
     return ConeEcho(
         range=rng,
