@@ -147,7 +147,8 @@ class _PathFollower:
 
     def _errors(self, pose: tuple[float, float, float], gamma: float) -> TrackingErrors:
         window = None if self._s is None else self.window
-        e = tracking_errors_scalar(self._path, pose, gamma, self.wheelbase, self.point, self._s, window, self.feedforward)
+        L, ff = self.wheelbase, self.feedforward
+        e = tracking_errors_scalar(self._path, pose, gamma, L, self.point, self._s, window, ff)
         if not e.valid:
             raise ValueError(
                 f"path radius at s = {float(e.s):.3f} m is below the wheelbase: point C cannot follow it"

@@ -308,7 +308,8 @@ def seed_poles_for_distance(
     shape = poles_for_convergence(1.0, damping=damping, order=order, real_ratio=real_ratio)
 
     def dist(log_k: float) -> float:
-        lam, res = modal_response(seed_loop_matrix(math.exp(log_k) * shape, wheelbase, law, point), [1, 0, 0], [1, 0, 0])
+        a_cl = seed_loop_matrix(math.exp(log_k) * shape, wheelbase, law, point)
+        lam, res = modal_response(a_cl, [1, 0, 0], [1, 0, 0])
         return envelope_distance(lam, res)
 
     lo, hi = math.log(1.0 / d) - 6.0, math.log(1.0 / d) + 6.0

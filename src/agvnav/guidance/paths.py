@@ -472,7 +472,8 @@ class Path:
             s0 = float(self._s0[i])
             if hi < s0 or lo > s0 + seg.length:
                 continue
-            u, fx, fy, h = seg.project_scalar(x, y, min(max(lo - s0, 0.0), seg.length), min(max(hi - s0, 0.0), seg.length))
+            u_lo, u_hi = min(max(lo - s0, 0.0), seg.length), min(max(hi - s0, 0.0), seg.length)
+            u, fx, fy, h = seg.project_scalar(x, y, u_lo, u_hi)
             d2 = (x - fx) ** 2 + (y - fy) ** 2
             if d2 < best_d2:
                 best_d2, best = d2, (s0 + u, fx, fy, h, i)
