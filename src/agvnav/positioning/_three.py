@@ -24,6 +24,9 @@ CRITICAL_TOL = 1e-2
 
 TWO_PI = 2.0 * np.pi
 
+#: |tan| of a relative angle below which a fix is reordered (about 14 degrees from aligned).
+REORDER_TOL = 0.25
+
 
 class ScalarMath:
     """The NumPy functions the kernels use, on plain Python floats (the single-fix fast path).
@@ -61,33 +64,42 @@ def wrap(a: Arr, xp: Any = np) -> Arr:
 
 
 def order_pairs(x: Three, y: Three, theta: Three, xp: Any = np) -> tuple[Three, Three, Three, Three]:
-    """Cyclically reorder each fix so that reflector pair (3, 1) is the most nearly aligned with P.
+    """Cyclically reorder a fix whose pair (1, 2) or (2, 3) is nearly aligned with P, so that pair is (3, 1).
 
     Returns ``x, y, theta`` reordered and ``tan_ab = (tan(theta2-theta1), tan(theta3-theta2),
     tan(theta1-theta3))`` in the new order. ``|tan|`` is monotone in ``|sin|`` of the
     relative angle, so the pair with the smallest ``|tan|`` is the one whose circle
     centre is nearest infinity (P aligned with both reflectors, seed 000 eq. 5 case).
     A cyclic shift keeps the orientation, so all later formulas hold unchanged; pairs
-    (1, 2) and (2, 3) then are never singular unless the reflectors are collinear.
+    (1, 2) and (2, 3) then have ``|tan| >= REORDER_TOL`` or are the better conditioned
+    ones. Only the few fixes that need it are reordered (by index), the rest are untouched.
     """
     t12 = xp.tan(theta[1] - theta[0])
     t23 = xp.tan(theta[2] - theta[1])
     t31 = xp.tan(theta[0] - theta[2])
     a12, a23, a31 = xp.abs(t12), xp.abs(t23), xp.abs(t31)
-    roll1 = (a12 < a23) & (a12 < a31)  # order (2, 3, 1): pair (1, 2) becomes (3', 1')
-    roll2 = (a23 <= a12) & (a23 < a31)  # order (3, 1, 2): pair (2, 3) becomes (3', 1')
-    if not (xp.any(roll1) or xp.any(roll2)):
-        return x, y, theta, (t12, t23, t31)
+    roll1 = (a12 < REORDER_TOL) & (a12 < a23) & (a12 < a31)  # order (2, 3, 1): pair (1, 2) -> (3', 1')
+    roll2 = (a23 < REORDER_TOL) & (a23 <= a12) & (a23 < a31)  # order (3, 1, 2): pair (2, 3) -> (3', 1')
+    tans = (t12, t23, t31)
+    if xp is ScalarMath or np.ndim(roll1) == 0:  # one fix
+        if roll1:
+            return (x[1], x[2], x[0]), (y[1], y[2], y[0]), (theta[1], theta[2], theta[0]), (t23, t31, t12)
+        if roll2:
+            return (x[2], x[0], x[1]), (y[2], y[0], y[1]), (theta[2], theta[0], theta[1]), (t31, t12, t23)
+        return x, y, theta, tans
+    i1, i2 = np.flatnonzero(roll1), np.flatnonzero(roll2)
+    if i1.size == 0 and i2.size == 0:
+        return x, y, theta, tans
+    shape = roll1.shape
 
     def pick(v: Three) -> Three:
-        v0, v1, v2 = v
-        return (
-            xp.where(roll1, v1, xp.where(roll2, v2, v0)),
-            xp.where(roll1, v2, xp.where(roll2, v0, v1)),
-            xp.where(roll1, v0, xp.where(roll2, v1, v2)),
-        )
+        out = tuple(np.array(np.broadcast_to(c, shape)) for c in v)
+        for k in range(3):
+            for idx, src in ((i1, v[(k + 1) % 3]), (i2, v[(k + 2) % 3])):
+                out[k][idx] = src if np.ndim(src) == 0 else src[idx]
+        return out  # type: ignore[return-value]
 
-    return pick(x), pick(y), pick(theta), pick((t12, t23, t31))
+    return pick(x), pick(y), pick(theta), pick(tans)
 
 
 def centres(x: Three, y: Three, tan_ab: Three) -> tuple[Three, Three]:

@@ -19,10 +19,11 @@ Deviations, each for a stated reason:
 
 * ``arcsin`` is evaluated as ``atan2(s, sqrt(1 - s²))`` (same value; cheaper and defined when
   noise pushes ``s`` slightly past 1, where it is clipped).
-* Refinement: eqs 2-6 are applied a second time from the corrected heading. Near
-  ``|delta| = 90°`` ``arcsin`` is flat, so one pass loses half the significant digits
-  (error ~ sqrt(eps)); the second pass has ``delta ≈ 0`` where ``arcsin`` is linear. This
-  is the seed's own construction repeated, not a different estimator; a full
+* Refinement: where the first pass finds ``|delta| > 45°``, eqs 2-6 are applied a second
+  time from the corrected heading. Near ``|delta| = 90°`` ``arcsin`` is flat, so one pass
+  loses half the significant digits (error ~ sqrt(eps)); the second pass has ``delta ≈ 0``
+  where ``arcsin`` is linear. This is the seed's own construction repeated, not a
+  different estimator (below 45° it would change nothing but rounding); a full
   maximum-likelihood refinement is what ``method="least_squares"`` is for.
 * ``delta`` is only known modulo 180° (lines are undirected): the half-turn is chosen so
   that reflector 1 lies ahead along its ray, which makes any heading estimate work away
@@ -30,8 +31,8 @@ Deviations, each for a stated reason:
 * The corrected error triangle is not re-intersected from new lines: each vertex is turned
   about its centre ``C_ij`` by ``-2 delta`` (the seed's own similarity relation), which is
   the same point and needs no trigonometry (speed).
-* The distance ``rho_ij`` of eq. 7 needs P; it is measured from a first weighted mean
-  with ``rho`` left out (weights ``sin alpha_ij / L_ij``).
+* The distance ``rho_ij`` of eq. 7 needs P; it is measured from the midpoint of the two
+  intersections that are never nearly parallel (``P_12``, ``P_23`` after reordering).
 * On or near the critical circle (``|C_12 C_23|`` below ``CRITICAL_TOL`` of the layout
   scale) the heading is unobservable: the heading estimate is kept, the position is the
   intersection of the lines it defines, and ``heading_from_estimate`` is set (seed 000, §2.3).
@@ -44,6 +45,7 @@ from typing import Any
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
 from agvnav.positioning._three import (
     CRITICAL_TOL,
@@ -64,6 +66,9 @@ ALIGN_TOL = 1e-3
 #: The turned vertex of such a pair carries a rounding error ~ eps L / sin², i.e. ~ eps / sin
 #: after weighting; below 1e-3 its weight is under 0.1 % of the others anyway.
 SIN_TOL = ALIGN_TOL
+#: cos(delta) below which (|delta| > 45°) the refinement pass runs: arcsin's error there
+#: grows like eps / cos(delta), up to sqrt(eps) at 90°.
+REFINE_COS = math.sqrt(0.5)
 
 
 def _parallel(ui: float, vi: float, uj: float, vj: float) -> bool:
@@ -141,40 +146,43 @@ def _turn(tx: Three, ty: Three, cx: Three, cy: Three, sin_d: Arr, cos_d: Arr) ->
 def weighted_position(x: Three, y: Three, tx: Three, ty: Three, sin_a: Three, xp: Any = np) -> tuple[Arr, Arr]:
     """Eq. 7: mean of the pairwise intersections ``P_ij`` weighted ``W_ij = sin a_ij / max(L_ij, 2 rho_ij)``.
 
-    ``tx, ty`` are the intersections of the corrected lines, in pair order (12, 23, 31). A
-    pair of parallel lines has ``sin a_ij = 0`` and drops out (its P_ij is not used).
+    ``tx, ty`` are the intersections of the corrected lines, in pair order (12, 23, 31);
+    after ``order_pairs`` only pair (3, 1) can be nearly parallel, and below ``SIN_TOL`` it
+    drops out. ``rho_ij`` is measured from the midpoint of ``P_12`` and ``P_23``.
     """
-    pairs = ((0, 1), (1, 2), (2, 0))
-    px: list[Arr] = []
-    py: list[Arr] = []
-    lengths: list[Arr] = []
-    used: list[Arr] = []
-    for k, ((i, j), s) in enumerate(zip(pairs, sin_a, strict=True)):
-        lengths.append(xp.hypot(x[j] - x[i], y[j] - y[i]))
-        if xp is ScalarMath:
-            keep = s > SIN_TOL
-            px.append(tx[k] if keep else 0.0)
-            py.append(ty[k] if keep else 0.0)
-            used.append(s if keep else 0.0)
-        else:
-            keep = s > SIN_TOL
-            px.append(xp.where(keep, tx[k], 0.0))
-            py.append(xp.where(keep, ty[k], 0.0))
-            used.append(xp.where(keep, s, 0.0))
-    sin_a = (used[0], used[1], used[2])
-
-    def mean(weights: list[Arr]) -> tuple[Arr, Arr]:
-        total = weights[0] + weights[1] + weights[2]
-        mx = (weights[0] * px[0] + weights[1] * px[1] + weights[2] * px[2]) / total
-        my = (weights[0] * py[0] + weights[1] * py[1] + weights[2] * py[2]) / total
-        return mx, my
-
-    x0, y0 = mean([s / lng for s, lng in zip(sin_a, lengths, strict=True)])
+    tx2, ty2, s31 = tx[2], ty[2], sin_a[2]
+    if xp is ScalarMath:
+        if not s31 > SIN_TOL:
+            tx2, ty2, s31 = 0.0, 0.0, 0.0
+    elif xp.any(xp.logical_not(s31 > SIN_TOL)):
+        keep = s31 > SIN_TOL
+        tx2, ty2, s31 = xp.where(keep, tx2, 0.0), xp.where(keep, ty2, 0.0), xp.where(keep, s31, 0.0)
+    x0 = 0.5 * (tx[0] + tx[1])
+    y0 = 0.5 * (ty[0] + ty[1])
     w = []
-    for (i, j), s, lng in zip(pairs, sin_a, lengths, strict=True):
+    for (i, j), s in zip(((0, 1), (1, 2), (2, 0)), (sin_a[0], sin_a[1], s31), strict=True):
+        length = xp.hypot(x[j] - x[i], y[j] - y[i])
         rho = xp.hypot(0.5 * (x[i] + x[j]) - x0, 0.5 * (y[i] + y[j]) - y0)
-        w.append(s / xp.maximum(lng, 2.0 * rho))
-    return mean(w)
+        w.append(s / xp.maximum(length, 2.0 * rho))
+    total = w[0] + w[1] + w[2]
+    return (w[0] * tx[0] + w[1] * tx[1] + w[2] * tx2) / total, (w[0] * ty[0] + w[1] * ty[1] + w[2] * ty2) / total
+
+
+def _refine(idx: NDArray[np.intp], tx: Three, ty: Three, cx: Three, cy: Three, aligned: Arr, psi: Arr) -> None:
+    """Second pass of eqs 4-6 for the fixes ``idx`` (in place on ``tx, ty, psi``)."""
+    if idx.size == 0:
+        return
+
+    def sub(v: Three) -> Three:
+        return tuple(c if np.ndim(c) == 0 else c[idx] for c in v)  # type: ignore[return-value]
+
+    sx, sy, scx, scy = sub(tx), sub(ty), sub(cx), sub(cy)
+    sin_d, cos_d = _similarity(sx, sy, scx, scy, aligned if np.ndim(aligned) == 0 else aligned[idx], np)
+    psi[idx] -= np.arctan2(sin_d, cos_d)
+    nx, ny = _turn(sx, sy, scx, scy, sin_d, cos_d)
+    for k in range(3):
+        tx[k][idx] = nx[k]
+        ty[k][idx] = ny[k]
 
 
 def absolute_angles_kernel(
@@ -195,18 +203,24 @@ def absolute_angles_kernel(
     critical = xp.logical_not(quality > CRITICAL_TOL)
     psi_est = heading_estimate
     tx0, ty0 = _error_triangle(x, y, theta, psi_est, xp)  # lines at the estimate (Fig. 2b)
-    tx, ty, psi = tx0, ty0, psi_est
-    for _ in range(2):  # one pass of eqs 4-6, then the refinement pass
-        sin_d, cos_d = _similarity(tx, ty, cx, cy, aligned, xp)
-        psi = psi - xp.arctan2(sin_d, cos_d)
-        tx, ty = _turn(tx, ty, cx, cy, sin_d, cos_d)
+    sin_d, cos_d = _similarity(tx0, ty0, cx, cy, aligned, xp)  # eqs 4-6
+    psi = psi_est - xp.arctan2(sin_d, cos_d)
+    tx, ty = _turn(tx0, ty0, cx, cy, sin_d, cos_d)
     if xp is ScalarMath:
+        if cos_d < REFINE_COS:
+            sin_d, cos_d = _similarity(tx, ty, cx, cy, aligned, xp)
+            psi = psi - xp.arctan2(sin_d, cos_d)
+            tx, ty = _turn(tx, ty, cx, cy, sin_d, cos_d)
         if critical:
             tx, ty, psi = tx0, ty0, psi_est
     else:
-        psi = xp.where(critical, psi_est, psi)
-        tx = tuple(xp.where(critical, a, b) for a, b in zip(tx0, tx, strict=True))
-        ty = tuple(xp.where(critical, a, b) for a, b in zip(ty0, ty, strict=True))
+        _refine(np.flatnonzero(cos_d < REFINE_COS), tx, ty, cx, cy, aligned, psi)
+        keep = np.flatnonzero(critical)  # critical circle: the estimate's own lines
+        if keep.size:
+            psi[keep] = np.broadcast_to(psi_est, psi.shape)[keep]
+            for k in range(3):
+                tx[k][keep] = tx0[k][keep]
+                ty[k][keep] = ty0[k][keep]
     px, py = weighted_position(x, y, tx, ty, sin_a, xp)
     # delta is known modulo 180°: keep the half-turn that puts reflector 1 ahead of P.
     ahead = xp.arctan2(y[0] - py, x[0] - px) - theta[0]

@@ -5,7 +5,7 @@ A rotating head sees each reflector at its own instant while the vehicle moves, 
 (seed 000 §2.2). Three ways to form a fix at the instant ``t_f`` of the latest
 identified reflection, given the odometric pose of base_link at every reflection:
 
-* :class:`NaiveEstimator` -- triangulate the last three bearings as if simultaneous
+* :class:`NaiveEstimator` -- triangulate three recent bearings as if simultaneous
   (the baseline that shows the problem);
 * :class:`AnglePropagationEstimator` -- the seeds' method: simulate the evolution of
   each relative angle from its reflection to ``t_f`` with the kinematics and odometry
@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav.geometry import angle_diff, between, compose, inverse, wrap_angle
+from agvnav.geometry import angle_diff, between, circumcentre, compose, inverse, wrap_angle
 from agvnav.positioning.bounds import crlb
 from agvnav.positioning.estimator import StreamingEstimator
 from agvnav.positioning.identification import bearing_model, edge_offset, measurement_variance
@@ -40,6 +40,7 @@ __all__ = [
     "NaiveEstimator",
     "batch_ml_fix",
     "centre_bearings",
+    "near_critical_circle",
     "propagate_bearings",
 ]
 
@@ -145,6 +146,19 @@ def _ml_system(
     return np.einsum("ni,nij->nj", H, J), angle_diff(z, h)
 
 
+def near_critical_circle(reflector_xy: ArrayLike, head_xy: ArrayLike, margin: float) -> bool:
+    """True when P lies within ``margin`` (relative to the radius) of the circle through three reflectors.
+
+    ``reflector_xy (3, 2)``, ``head_xy (2,)`` (m). Collinear reflectors (no circle) give False.
+    Seed 000 §2.2: the relative-angle triangulation is indeterminate on that circle.
+    """
+    centre, valid = circumcentre(*np.asarray(reflector_xy, dtype=np.float64))
+    if not valid:
+        return False
+    radius = np.hypot(*(np.asarray(reflector_xy)[0] - centre))
+    return bool(abs(np.hypot(*(np.asarray(head_xy) - centre)) - radius) < margin * radius)
+
+
 def _triangulate_head(
     reflector_xy: NDArray[np.float64], bearings: NDArray[np.float64], heading_estimate: float, method: str
 ) -> tuple[NDArray[np.float64], bool]:
@@ -210,10 +224,9 @@ class _FixEstimator(StreamingEstimator):
 
     def _fix_covariance(self, pose: NDArray[np.float64], entries: list, rel: NDArray[np.float64]) -> NDArray[np.float64]:
         """Bearing-noise covariance ``(A^T A / sigma^2)^-1`` of a fix from ``entries``."""
-        A, _ = _ml_system(
-            pose, np.array([e[1] for e in entries]), self.reflector_xy[idx := [e[2] for e in entries]],
-            self.reflector_radius[idx], rel, self.mount,
-        )
+        idx = [e[2] for e in entries]
+        z = np.array([e[1] for e in entries])
+        A, _ = _ml_system(pose, z, self.reflector_xy[idx], self.reflector_radius[idx], rel, self.mount)
         N = A.T @ (A / self._variances(pose, entries, rel)[:, None])
         if np.linalg.cond(N) > 1e12:
             return self._P
@@ -276,7 +289,9 @@ class AnglePropagationEstimator(_FixEstimator):
     (odometry between them, map, predicted pose), then the three are triangulated with
     ``absolute_angles`` (seed 000 §2.3), the odometric heading estimate being the
     predicted one. With ``triangulation_method="relative_angles"`` the geometric method is
-    used away from the critical circle and absolute angles on it (seed 000 §2.2).
+    used away from the critical circle and absolute angles within ``critical_margin``
+    (relative distance) of it (seed 000 §2.2: the relative-angle method is indeterminate
+    on the circle through the three reflectors and inaccurate near it).
     The propagation is iterated ``iterations`` times with the new fix as the pose at t_f.
     """
 
@@ -289,6 +304,7 @@ class AnglePropagationEstimator(_FixEstimator):
         *,
         triangulation_method: str = "absolute_angles",
         iterations: int = 2,
+        critical_margin: float = 0.1,
         **kwargs: Any,
     ) -> None:
         super().__init__(world, mount, **kwargs)
@@ -296,6 +312,7 @@ class AnglePropagationEstimator(_FixEstimator):
             raise ValueError(f"triangulation_method must be 'absolute_angles' or 'relative_angles', got {triangulation_method!r}")
         self.triangulation_method = triangulation_method
         self.iterations = int(iterations)
+        self.critical_margin = float(critical_margin)
 
     def _fix(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
         entries = self._best_triple()
@@ -310,10 +327,11 @@ class AnglePropagationEstimator(_FixEstimator):
         for _ in range(max(self.iterations, 1)):
             z = centre_bearings([e[1] for e in entries], compose(pose, rel), self.mount, xy, self.reflector_radius[idx])
             z_f = propagate_bearings(z, odom_i, self._odom, pose, self.mount, xy)
-            head_est = compose(pose, self.mount)[2]
-            head, ok = _triangulate_head(xy, z_f, head_est, self.triangulation_method)
-            if not ok and self.triangulation_method != "absolute_angles":
-                head, ok = _triangulate_head(xy, z_f, head_est, "absolute_angles")
+            head_pred = compose(pose, self.mount)
+            method = self.triangulation_method
+            if method == "relative_angles" and near_critical_circle(xy, head_pred[:2], self.critical_margin):
+                method = "absolute_angles"
+            head, ok = _triangulate_head(xy, z_f, head_pred[2], method)
             if not ok:
                 return None
             pose = compose(head, inverse(self.mount))

@@ -325,8 +325,9 @@ def initial_pose_search(
     :func:`bearing_model`; ``map_std`` as in :func:`gate_reflection`. Needs at least three
     reflections and three reflectors.
     """
-    z = np.sort(wrap_angle(np.atleast_1d(np.asarray(bearings, dtype=np.float64))))
-    order = np.argsort(wrap_angle(np.atleast_1d(np.asarray(bearings, dtype=np.float64))), kind="stable")
+    raw = wrap_angle(np.atleast_1d(np.asarray(bearings, dtype=np.float64)))
+    order = np.argsort(raw, kind="stable")
+    z = raw[order]  # sorted around the sweep, so bearing triples can be spread
     xy = np.asarray(reflector_xy, dtype=np.float64)
     rad = np.broadcast_to(np.asarray(radius, dtype=np.float64), xy.shape[:1])
     if z.size < 3 or xy.shape[0] < 3:
