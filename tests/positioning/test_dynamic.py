@@ -123,3 +123,29 @@ def test_bad_triangulation_method_rejected(lab: WorldMap) -> None:
     with pytest.raises(ValueError, match="triangulation_method"):
         make_estimator("angle_propagation", lab, MOUNT, triangulation_method="total")
 
+
+
+def test_near_critical_circle() -> None:
+    from agvnav.positioning.dynamic import near_critical_circle
+
+    R = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])
+    assert near_critical_circle(R, [0.0, -1.0], 0.1)
+    assert near_critical_circle(R, [0.0, -0.95], 0.1)
+    assert not near_critical_circle(R, [0.0, 0.0], 0.1)
+    assert not near_critical_circle(np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]), [0.0, 1.0], 0.1)
+
+
+def test_relative_angles_near_critical_circle_falls_back_to_absolute(lab: WorldMap, monkeypatch: pytest.MonkeyPatch) -> None:
+    from agvnav.positioning import dynamic
+
+    used: list[str] = []
+    real = dynamic._triangulate_head
+
+    def spy(xy, z, heading, method):  # type: ignore[no-untyped-def]
+        used.append(method)
+        return real(xy, z, heading, method)
+
+    monkeypatch.setattr(dynamic, "_triangulate_head", spy)
+    err = _moving_errors(lab, "angle_propagation", 0.5, 0.05, triangulation_method="relative_angles", critical_margin=0.5)
+    assert {"relative_angles", "absolute_angles"} <= set(used)  # both, depending on the triple's circle
+    assert err[:, 0].max() < 1e-6
