@@ -13,6 +13,7 @@ from agvnav.guidance import (
     SeedGeneralController,
     SeedSimpleController,
     StanleyController,
+    linearised_loop,
     loop_convergence_distance,
     lookahead_for_distance,
     make_controller,
@@ -124,13 +125,31 @@ def test_tuning_reaches_the_requested_convergence_distance(name, point):
         assert x == pytest.approx(lookahead_for_distance(2.0), rel=0.3)  # near the ideal-servo formula
 
 
-@pytest.mark.parametrize("name, params", [("seed_general", {"point": "C"}), ("seed_general", {"point": "O"}),
-                                          ("seed_simple", {}), ("pure_pursuit", {"point": "O"}), ("stanley", {})])
-@pytest.mark.parametrize("v", [0.2, 1.0])
-def test_every_controller_is_tuned_to_the_same_convergence_distance(name, params, v):
+@pytest.mark.parametrize("name, params, direction", [
+    ("seed_general", {"point": "C"}, 1), ("seed_general", {"point": "O"}, 1), ("seed_simple", {}, 1),
+    ("pure_pursuit", {"point": "O"}, 1), ("pure_pursuit", {"point": "C"}, 1), ("stanley", {}, 1),
+    ("seed_general", {"point": "O"}, -1), ("seed_general", {"point": "C"}, -1), ("pure_pursuit", {"point": "O"}, -1),
+])
+@pytest.mark.parametrize("speed", [0.2, 1.0])
+def test_every_controller_is_tuned_to_the_same_convergence_distance(name, params, direction, speed):
+    v = speed * direction
     extra = {"v_nominal": v} if name in ("pure_pursuit", "stanley") else {}
-    c = make_controller(name, straight(), L, convergence_distance=2.5, **params, **extra)
+    c = make_controller(name, straight(direction), L, convergence_distance=2.5, **params, **extra)
     assert loop_convergence_distance(c, v, L) == pytest.approx(2.5, rel=1e-6)
+
+
+@pytest.mark.parametrize("point, v", [("O", 0.5), ("C", 0.5), ("O", -0.5), ("C", -0.5)])
+def test_linearised_residues_reproduce_the_simulated_response(point, v):
+    """The modal residues of linearised_loop give the nonlinear loop's response to a small offset."""
+    d = 1 if v > 0 else -1
+    c = SeedGeneralController(straight(d), L, convergence_distance=2.0, point=point)
+    lam, res = linearised_loop(c, v, L)
+    y0 = 0.002
+    _, errs, travelled = run(c, start_state(straight(d), y0, point), v, L, distance=3.0, dt=0.005)
+    eps = np.array([e["eps_o" if point == "O" else "eps_c"] for e in errs])
+    assert eps[0] == pytest.approx(d * y0, abs=1e-12)  # start_state offsets left of the tangent
+    lin = eps[0] * np.real(np.exp(np.outer(travelled, lam)) @ res)
+    assert np.max(np.abs(eps - lin)) < 0.03 * y0
 
 
 def test_envelope_distance_bounds_the_simulated_error():

@@ -165,7 +165,8 @@ def _design_choice(
     wheelbase: float,
     law: str,
     point: str,
-) -> Any:
+    direction: int = 1,
+) -> NDArray[np.complex128] | None:
     """Poles per metre from the user's choice (None for fixed gains)."""
     given = [x is not None for x in (poles_per_m, convergence_distance, gains)]
     if sum(given) > 1:
@@ -175,16 +176,17 @@ def _design_choice(
     if poles_per_m is not None:
         return np.asarray(poles_per_m, dtype=np.complex128)
     d = DEFAULT_CONVERGENCE_DISTANCE_M if convergence_distance is None else convergence_distance
-    return seed_poles_for_distance(d, wheelbase, law, point)
+    return seed_poles_for_distance(d, wheelbase, law, point, direction=direction)
 
 
 class SeedGeneralController(_PathFollower):
     """General three-parameter law of seed 000 (eqs 11-13) with curvature feed-forward.
 
-    Gains from closed-loop poles per metre (``poles_per_m`` or
-    ``convergence_distance``; a, b, c recomputed from |v| at every command so
-    the convergence distance does not change with speed and b follows the sign
-    of v), or fixed ``gains=(a, |b|, c)`` checked by Routh-Hurwitz (eqs 18-19)
+    Gains from closed-loop poles per metre (``poles_per_m``, or
+    ``convergence_distance``, designed for each direction of travel:
+    attributes ``poles_per_m`` and ``poles_per_m_reverse``; a, b, c are
+    recomputed from |v| at every command so the convergence distance does not
+    change with speed and b follows the sign of v), or fixed ``gains=(a, |b|, c)`` checked by Routh-Hurwitz (eqs 18-19)
     up to ``v_max`` (m/s) in both directions. ``point`` "O" (manoeuvres, default
     form eq. 11) or "C" (cruising, default form eq. 13). At v = 0 the command is 0.
     With ``curvature_compensation`` (and designed poles) the gains on an arc
@@ -221,13 +223,20 @@ class SeedGeneralController(_PathFollower):
         self.form = (11 if point == "O" else 13) if form is None else form
         if self.form not in GENERAL_FORMS:
             raise ValueError(f"form must be one of {GENERAL_FORMS} (seed 000 eqs 11-13), got {form!r}")
-        self.poles_per_m = _design_choice(poles_per_m, convergence_distance, gains, self.wheelbase, "general", point)
+        choice = (poles_per_m, convergence_distance, gains, self.wheelbase, "general", point)
+        self.poles_per_m = _design_choice(*choice)  # forward (v > 0)
+        self.poles_per_m_reverse = _design_choice(*choice, direction=-1)  # differs from forward for C only
         self.v_max: float | None = None
         self.fixed_gains: tuple[float, float, float] | None = None
         if self.poles_per_m is not None:
-            self._coeffs = characteristic_coefficients(self.poles_per_m, 3)  # validates the poles
-            g = general_gains_from_coefficients(self._coeffs, 1.0, self.wheelbase)
-            check_routh_hurwitz(g.a, g.b, g.c, 1.0)
+            assert self.poles_per_m_reverse is not None
+            self._coeffs = {  # validates the poles
+                1.0: characteristic_coefficients(self.poles_per_m, 3),
+                -1.0: characteristic_coefficients(self.poles_per_m_reverse, 3),
+            }
+            for sign, coeffs in self._coeffs.items():
+                g = general_gains_from_coefficients(coeffs, sign, self.wheelbase)
+                check_routh_hurwitz(g.a, g.b, g.c, sign)
         else:
             assert gains is not None
             a, b, c = (float(x) for x in gains)
@@ -239,12 +248,14 @@ class SeedGeneralController(_PathFollower):
     def gains_at(self, v: float, kappa_ref: float = 0.0) -> tuple[float, float, float]:
         """(a, b, c) used at speed ``v`` (m/s) on curvature ``kappa_ref`` = d kappa (1/m); b ~ sign of v."""
         if self.fixed_gains is None:
+            sign = math.copysign(1.0, v)
             if kappa_ref == 0.0 or not self.curvature_compensation:
-                g = general_gains_from_coefficients(self._coeffs, v, self.wheelbase)
+                g = general_gains_from_coefficients(self._coeffs[sign], v, self.wheelbase)
                 return g.a, g.b, g.c
-            key = (kappa_ref, math.copysign(1.0, v))
+            key = (kappa_ref, sign)
             if key not in self._arc_gains:  # per unit |v|: the gains scale with |v|
-                g = general_gains_on_arc(self.poles_per_m, key[1], self.wheelbase, kappa_ref, self.point)
+                poles = self.poles_per_m if sign > 0 else self.poles_per_m_reverse
+                g = general_gains_on_arc(poles, sign, self.wheelbase, kappa_ref, self.point)
                 self._arc_gains[key] = (g.a, g.b, g.c)
             a, b, c = self._arc_gains[key]
             return a * abs(v), b * abs(v), c * abs(v)
@@ -465,8 +476,8 @@ def linearised_loop(
             jac[:, j] = (f(dz) - f(-dz)) / (2.0 * eps)
     finally:
         controller.set_path(original)
-    # lateral error of the tracked point in the reference frame: d (y_O + L psi for C)
-    out = d * np.array([1.0, L if getattr(controller, "point", "C") == "C" else 0.0, 0.0])
+    # lateral error of the tracked point in the reference frame: eps_o = d y_O, eps_c = d y_O + L psi
+    out = np.array([float(d), L if getattr(controller, "point", "C") == "C" else 0.0, 0.0])
     lam, residues = modal_response(jac, out, np.array([d, 0.0, 0.0]))
     return lam / abs(v), residues
 

@@ -272,18 +272,21 @@ def general_gains_on_arc(
     return GeneralGains(a=float(a) * s, b=float(b) * s, c=float(c) * s)
 
 
-def seed_loop_matrix(poles_per_m: ArrayLike, wheelbase: float, law: str, point: str) -> NDArray[np.float64]:
-    """Closed-loop matrix per metre (v = 1 m/s) on a line, state (eps, heading error, gamma) of ``point``.
+def seed_loop_matrix(
+    poles_per_m: ArrayLike, wheelbase: float, law: str, point: str, direction: int = 1
+) -> NDArray[np.float64]:
+    """Closed-loop matrix per metre (v = direction m/s) on a line, state (eps, heading error, gamma) of ``point``.
 
-    ``law`` "general" (eqs 11-13, eq. 17) or "simple" (eq. 20, point C).
+    ``law`` "general" (eqs 11-13, eq. 17) or "simple" (eq. 20, point C, forward).
     """
-    a0, bvec, rows = arc_linear_model(point, 0.0, 1.0, wheelbase)
+    v = 1.0 if direction > 0 else -1.0
+    a0, bvec, rows = arc_linear_model(point, 0.0, v, wheelbase)
     if law == "general":
-        g = general_gains(poles_per_m, 1.0, wheelbase)
+        g = general_gains(poles_per_m, v, wheelbase)
         return a0 - np.outer(bvec, np.array([g.a, g.b, g.c]) @ rows)
     if law == "simple":
-        if point != "C":
-            raise ValueError("the simple law guides point C (seed 000 §3.3)")
+        if point != "C" or v < 0:
+            raise ValueError("the simple law guides point C forward (seed 000 §3.3)")
         g2 = simple_gains(poles_per_m, 1.0)
         return a0 - np.outer(bvec, [g2.a, g2.b, 1.0 / wheelbase])
     raise ValueError(f"law must be 'general' or 'simple', got {law!r}")
@@ -296,19 +299,22 @@ def seed_poles_for_distance(
     point: str = "C",
     damping: float = 1.0 / math.sqrt(2.0),
     real_ratio: float = 1.0,
+    direction: int = 1,
 ) -> NDArray[np.complex128]:
     """Poles per metre (shape of :func:`poles_for_convergence`) whose :func:`envelope_distance` is ``distance``.
 
     The tracked point's lateral error after a unit lateral offset (the seed's
     110 mm start, scaled) stays within 2 % beyond ``distance`` (m), in the
-    linearised loop on a line. Found by bisection on the pole scale.
+    linearised loop on a line, driving in ``direction`` (+1/-1: for point C
+    the response differs with the direction, for O it does not). Found by
+    bisection on the pole scale.
     """
     d = require_positive("distance", distance)
     order = 3 if law == "general" else 2
     shape = poles_for_convergence(1.0, damping=damping, order=order, real_ratio=real_ratio)
 
     def dist(log_k: float) -> float:
-        a_cl = seed_loop_matrix(math.exp(log_k) * shape, wheelbase, law, point)
+        a_cl = seed_loop_matrix(math.exp(log_k) * shape, wheelbase, law, point, direction)
         lam, res = modal_response(a_cl, [1, 0, 0], [1, 0, 0])
         return envelope_distance(lam, res)
 
