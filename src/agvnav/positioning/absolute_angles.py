@@ -56,6 +56,7 @@ from agvnav.positioning._three import (
     intersect,
     layout_scale2,
     line_directions,
+    norm,
     order_pairs,
     wrap,
 )
@@ -161,8 +162,8 @@ def weighted_position(x: Three, y: Three, tx: Three, ty: Three, sin_a: Three, xp
     y0 = 0.5 * (ty[0] + ty[1])
     w = []
     for (i, j), s in zip(((0, 1), (1, 2), (2, 0)), (sin_a[0], sin_a[1], s31), strict=True):
-        length = xp.hypot(x[j] - x[i], y[j] - y[i])
-        rho = xp.hypot(0.5 * (x[i] + x[j]) - x0, 0.5 * (y[i] + y[j]) - y0)
+        length = norm(x[j] - x[i], y[j] - y[i], xp)
+        rho = norm(0.5 * (x[i] + x[j]) - x0, 0.5 * (y[i] + y[j]) - y0, xp)
         w.append(s / xp.maximum(length, 2.0 * rho))
     total = w[0] + w[1] + w[2]
     return (w[0] * tx[0] + w[1] * tx[1] + w[2] * tx2) / total, (w[0] * ty[0] + w[1] * ty[1] + w[2] * ty2) / total
@@ -195,11 +196,12 @@ def absolute_angles_kernel(
     heading_from_estimate``; ``quality`` is ``|C_12 C_23|`` over the layout scale (0 on
     the critical circle).
     """
+    scale = xp.sqrt(layout_scale2(x, y))  # order-invariant: before reordering (scalar for one layout)
     x, y, theta, tan_ab = order_pairs(x, y, theta, xp)
     sin_a = tuple(xp.abs(t) / xp.sqrt(1.0 + t * t) for t in tan_ab)
     aligned = xp.abs(tan_ab[2]) < ALIGN_TOL
     cx, cy = centres(x, y, tan_ab)
-    quality = xp.hypot(cx[1] - cx[0], cy[1] - cy[0]) / xp.sqrt(layout_scale2(x, y))
+    quality = norm(cx[1] - cx[0], cy[1] - cy[0], xp) / scale
     critical = xp.logical_not(quality > CRITICAL_TOL)
     psi_est = heading_estimate
     tx0, ty0 = _error_triangle(x, y, theta, psi_est, xp)  # lines at the estimate (Fig. 2b)

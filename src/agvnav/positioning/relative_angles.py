@@ -35,6 +35,7 @@ def relative_angles_kernel(x: Three, y: Three, theta: Three, xp: Any = np) -> di
     Returns ``x, y, heading, quality, valid``; ``quality`` is ``|C_12 C_23|`` over the
     layout scale and ``valid`` is False below ``CRITICAL_TOL`` (on the critical circle).
     """
+    scale2 = layout_scale2(x, y)  # order-invariant: before reordering
     x, y, theta, tan_ab = order_pairs(x, y, theta, xp)
     cx, cy = centres(x, y, tan_ab)
     ex, ey = cx[1] - cx[0], cy[1] - cy[0]
@@ -43,7 +44,7 @@ def relative_angles_kernel(x: Three, y: Three, theta: Three, xp: Any = np) -> di
     s = ((x[1] - cx[0]) * ex + (y[1] - cy[0]) * ey) / e2
     px = 2.0 * (cx[0] + s * ex) - x[1]
     py = 2.0 * (cy[0] + s * ey) - y[1]
-    quality = xp.sqrt(e2 / layout_scale2(x, y))
+    quality = xp.sqrt(e2 / scale2)
     heading = heading_from_position(px, py, x, y, theta, xp)
     valid = (quality > CRITICAL_TOL) & xp.isfinite(px) & xp.isfinite(py)
     return {"x": px, "y": py, "heading": heading, "quality": quality, "valid": valid}

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from agvnav.positioning._three import CRITICAL_TOL, Arr, Three, heading_from_position, order_pairs
+from agvnav.positioning._three import CRITICAL_TOL, Arr, Three, heading_from_position, layout_scale2, order_pairs
 
 
 def total_kernel(x: Three, y: Three, theta: Three, xp: Any = np) -> dict[str, Arr]:
@@ -38,6 +38,7 @@ def total_kernel(x: Three, y: Three, theta: Three, xp: Any = np) -> dict[str, Ar
     Returns ``x, y, heading, quality, valid`` arrays of the broadcast batch shape
     (``xp``: ``numpy`` or ``_three.ScalarMath`` for one fix in floats).
     """
+    scale2 = layout_scale2(x, y)  # order-invariant: before reordering
     x, y, theta, tan_ab = order_pairs(x, y, theta, xp)
     t12 = 1.0 / tan_ab[0]
     t23 = 1.0 / tan_ab[1]
@@ -58,7 +59,6 @@ def total_kernel(x: Three, y: Three, theta: Three, xp: Any = np) -> dict[str, Ar
     py = y[1] + f * b
     quality = xp.abs(d / dd)
     # |C_12 C_23| = |(a, b)| / 2: the same critical-circle test as relative_angles
-    scale2 = (x1 * x1 + y1 * y1 + x3 * x3 + y3 * y3 + (x1 - x3) ** 2 + (y1 - y3) ** 2) / 3.0
     off_circle = a * a + b * b > (2.0 * CRITICAL_TOL) ** 2 * scale2
     valid = xp.isfinite(px) & xp.isfinite(py) & off_circle
     heading = heading_from_position(px, py, x, y, theta, xp)
