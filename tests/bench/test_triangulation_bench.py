@@ -1,0 +1,31 @@
+"""Benchmark pieces (accuracy and the C baseline's correctness; speed is never asserted)."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+
+from agvnav.bench import triangulation as bench
+from agvnav.geometry import bearing_to
+
+
+@pytest.mark.parametrize(("method", "limit"), [("least_squares", 1.1), ("absolute_angles", 1.5), ("total", 1.5)])
+def test_grid_accuracy_against_the_crlb(method, limit):
+    rng = np.random.default_rng(0)
+    grid = bench._grid(quick=True, rng=rng)
+    rec = bench._accuracy(method, bench.REFLECTORS_3, grid, rng)
+    assert rec["valid_fraction"] == 1.0
+    assert rec["rms_position_m"] < limit * rec["crlb_rms_position_m"]
+    assert rec["rms_heading_rad"] < limit * rec["crlb_rms_heading_rad"]
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc not installed")
+def test_c_baseline_compiles_and_solves(tmp_path):
+    fn, note = bench._compile_c_total(tmp_path)
+    assert fn is not None, note
+    rng = np.random.default_rng(1)
+    poses = bench._random_poses(2000, rng)
+    ns = bench._c_ns_per_fix(fn, bearing_to(poses[:, None, :], bench.REFLECTORS_3), poses, with_heading=True)
+    assert ns > 0.0  # the call checks the C solution against the truth (raises otherwise)
