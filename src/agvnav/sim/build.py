@@ -216,6 +216,10 @@ def build(sc: Scenario) -> Built:
     from agvnav.sim.engine import ClosedLoop
     from agvnav.sim.tricycle import GoniometerSensor, TricycleAutopilot, TricyclePlant, TruthErrors
 
+    if hasattr(sc, "route"):  # issue 6: the tracked robot is checked and wired by sim.tracked_build
+        from agvnav.sim.tracked_build import prepare_tracked
+
+        return prepare_tracked(sc)  # type: ignore[arg-type,return-value]
     world = build_world(sc)
     path = build_path(sc)
     veh = sc.vehicle

@@ -53,6 +53,10 @@ def simulate(
     """
     from agvnav.sim.build import build
 
+    if hasattr(scenario, "route"):  # issue 6: the seed-004 tracked robot
+        from agvnav.sim.tracked_build import simulate_tracked
+
+        return simulate_tracked(scenario, progress)  # type: ignore[arg-type,return-value]
     built = build(scenario)
     out = built.loop.run(built.duration, scenario.end_hold_s, progress)
     series = out.series
@@ -100,6 +104,10 @@ def save_result(result: SimResult, out_dir: str | FsPath, plots: bool = True) ->
 
     Returns the written paths. Units: SI, radians (column names carry no degrees).
     """
+    if hasattr(result, "runs"):  # issue 6: the seed-004 tracked robot
+        from agvnav.sim.tracked_build import save_tracked
+
+        return save_tracked(result, out_dir, plots)  # type: ignore[arg-type]
     out = FsPath(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = []

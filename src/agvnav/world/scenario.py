@@ -350,6 +350,10 @@ def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = 
         raise ScenarioError(f"invalid YAML: {problem}", (), line, source) from None
     if not isinstance(data, Mapping):
         raise ScenarioError("a scenario must be a YAML mapping of keys", (), 1, source)
+    from agvnav.world.tracked_scenario import is_tracked, parse_tracked
+
+    if is_tracked(data):  # issue 6: the seed-004 tracked robot has its own schema
+        return parse_tracked(data, nodes, source, base_dir)  # type: ignore[return-value]
     try:
         sc = Scenario.model_validate(data)
     except ValidationError as exc:

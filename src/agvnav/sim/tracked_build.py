@@ -1,0 +1,194 @@
+"""From a :class:`~agvnav.world.tracked_scenario.TrackedScenario` to runs and outputs (seed 004).
+
+:func:`prepare_tracked` does the cross-part checks (map loads, walls have
+length, sensors are outside the body, the route passes a landmark) and returns
+the arguments of :func:`agvnav.sim.laps.run_tracked`; :func:`simulate_tracked`
+runs the scenario (both modes, same seed, when ``compare_landmarks``);
+:func:`save_tracked` writes ``laps.json``, ``laps.csv``, the time series and the
+plot of the driven squares.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path as FsPath
+from typing import Any
+
+import numpy as np
+
+from agvnav.sim.laps import TrackedRun, run_tracked
+from agvnav.world.tracked_scenario import TerrainFigures, TrackedScenario
+
+__all__ = ["TrackedResult", "prepare_tracked", "save_tracked", "simulate_tracked"]
+
+
+def _guard(sc: TrackedScenario, key: tuple[str | int, ...], func: Any, *args: Any, **kwargs: Any) -> Any:
+    try:
+        return func(*args, **kwargs)
+    except ValueError as exc:
+        if hasattr(exc, "key"):
+            raise
+        raise sc.error(key, " ".join(str(exc).split())) from None
+
+
+def _terrain(ref: Any) -> Any:
+    from agvnav.kinematics.tracked import TrackTerrain, terrain_preset
+
+    if isinstance(ref, TerrainFigures):
+        return TrackTerrain(ref.slip_left, ref.slip_right, ref.icr_left, ref.icr_right, ref.x_icr_m, "scenario")
+    return terrain_preset(ref)
+
+
+def _layout(sc: TrackedScenario) -> Any:
+    from agvnav.sensors.ultrasonic import UltrasonicArray, UltrasonicSensor, seed_004_layout
+
+    us, veh = sc.ultrasonic, sc.vehicle
+    base = UltrasonicSensor(
+        half_angle=math.radians(us.half_angle_deg), max_incidence=math.radians(us.max_incidence_deg),
+        min_range=us.min_range_m, max_range=us.max_range_m, noise_std=us.noise_std_m, p_miss=us.p_miss,
+        rate_hz=us.rate_hz,
+    )
+    if us.sensors is None:
+        return seed_004_layout(us.spacing_m, veh.body_length_m, veh.body_width_m, base)
+    fields = {k: getattr(base, k) for k in base.__dataclass_fields__}
+    q = 0.25 / us.rate_hz
+    sensors = {
+        s.name: UltrasonicSensor(**{**fields, "mount": (s.mount[0], s.mount[1], math.radians(s.mount[2])),
+                                    "phase": (i % 4) * q})
+        for i, s in enumerate(us.sensors)
+    }
+    return UltrasonicArray(sensors, veh.body_length_m, veh.body_width_m)
+
+
+def _world(sc: TrackedScenario) -> Any:
+    from agvnav.world import builtin_map_names, load_builtin_map, load_map
+    from agvnav.world.map import WorldMap
+
+    spec = sc.map
+    if isinstance(spec, dict):
+        return _guard(sc, ("map",), WorldMap.from_dict, spec)
+    if spec in builtin_map_names():
+        return load_builtin_map(spec)
+    p = FsPath(spec)
+    if not p.is_absolute() and sc.base_dir is not None:
+        p = sc.base_dir / p
+    if not p.is_file():
+        raise sc.error(("map",), f"{spec!r} is neither a shipped map nor a file")
+    return _guard(sc, ("map",), load_map, p)
+
+
+def _wall_ids(world: Any) -> list[str]:
+    ids = []
+    for w in world.walls:
+        n = w.segments.shape[0]
+        ids += [w.id] if n == 1 else [f"{w.id}[{i}]" for i in range(n)]
+    return ids
+
+
+def prepare_tracked(sc: TrackedScenario) -> dict[str, Any]:
+    """Validate ``sc`` across its parts and return the keyword arguments of :func:`run_tracked`."""
+    from agvnav.actuators import DriveGeometry
+    from agvnav.guidance.hybrid import HybridController, HybridParams, PolygonRoute
+
+    veh, r = sc.vehicle, sc.route
+    world = _world(sc)
+    if world.wall_segments.shape[0] == 0:
+        raise sc.error(("map",), "the map has no walls: the ultrasonic landmarks are walls")
+    layout = _guard(sc, ("ultrasonic",), _layout, sc)
+    route = _guard(sc, ("route",), PolygonRoute.square, r.side_m, (r.start[0], r.start[1], math.radians(r.start[2])),
+                   r.turn)
+    params = _guard(sc, ("controller", "params"), lambda: HybridParams(**sc.hybrid_params_kwargs()))
+    geometry = DriveGeometry(veh.sprocket_radius_m, veh.gauge_m)
+    if sc.controller.landmarks or sc.controller.compare_landmarks:  # the route must pass a landmark
+        _guard(sc, ("map",), HybridController, route, layout, world.wall_segments, geometry, params, 1, True)
+    truth = _guard(sc, ("terrain", "truth"), _terrain, sc.terrain.truth)
+    odometry = _guard(sc, ("terrain", "odometry"), _terrain, sc.terrain.odometry)
+    return dict(
+        route=route, walls=world.wall_segments, layout=layout, truth_terrain=truth, odometry_terrain=odometry,
+        geometry=geometry,
+        motor={"tau": veh.motor.time_constant_s, "asymmetry": veh.motor.asymmetry, "u_max": veh.motor.supply_v,
+               "gain": (45.0 * 2.0 * math.pi / 60.0) / veh.motor.supply_v},
+        pid={"kp": veh.pid.kp, "ki": veh.pid.ki, "kd": veh.pid.kd, "derivative_tau": veh.pid.derivative_time_constant_s},
+        params=params, laps=sc.controller.laps, step=sc.step_s, substep=veh.substep_s,
+        counts_per_rev=veh.encoder_counts_per_rev, slip_noise_std=sc.terrain.slip_noise_std, seed=sc.seed,
+        wall_ids=_wall_ids(world), duration=sc.duration_s, world=world,
+    )
+
+
+@dataclass
+class TrackedResult:
+    """The runs of one tracked scenario: ``runs[True]`` with landmarks, ``runs[False]`` without."""
+
+    scenario: TrackedScenario
+    runs: dict[bool, TrackedRun]
+    world: Any
+    route: Any
+
+    def lap_rows(self) -> list[dict[str, Any]]:
+        """One row per lap: ``lap``, then per mode ``error_per_lap_m`` and ``error_from_start_m``."""
+        n = max(run.laps.laps for run in self.runs.values())
+        rows = []
+        for k in range(n):
+            row: dict[str, Any] = {"lap": k + 1}
+            for mode, run in sorted(self.runs.items(), reverse=True):
+                tag = "with" if mode else "without"
+                ok = k < run.laps.laps
+                row[f"{tag}_landmarks_per_lap_m"] = float(run.laps.per_lap_m[k]) if ok else None
+                row[f"{tag}_landmarks_from_start_m"] = float(run.laps.error_m[k]) if ok else None
+            rows.append(row)
+        return rows
+
+
+def simulate_tracked(
+    sc: TrackedScenario, progress: Callable[[float], None] | None = None
+) -> TrackedResult:
+    """Run ``sc`` (both modes with the same seed if ``compare_landmarks``); deterministic for its seed."""
+    kwargs = prepare_tracked(sc)
+    world = kwargs.pop("world")
+    modes = [True, False] if sc.controller.compare_landmarks else [sc.controller.landmarks]
+    runs = {mode: run_tracked(**kwargs, use_landmarks=mode, progress=progress) for mode in modes}
+    return TrackedResult(sc, runs, world, kwargs["route"])
+
+
+def save_tracked(result: TrackedResult, out_dir: str | FsPath, plots: bool = True) -> list[FsPath]:
+    """Write ``laps.json``, ``laps.csv``, ``timeseries_<mode>.csv`` and (optionally) ``laps.png``."""
+    from agvnav.sim.run import _write_csv
+
+    out = FsPath(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = result.lap_rows()
+    summary = {
+        "scenario": result.scenario.name,
+        "seed": result.scenario.seed,
+        "per_lap": "distance between consecutive true lap end points (the route start before lap 1)",
+        "from_start": "distance of the true lap end point from the route start",
+        "laps": rows,
+        "modes": {
+            ("with_landmarks" if mode else "without_landmarks"): {
+                "mean_error_per_lap_m": float(np.mean(run.laps.per_lap_m)) if run.laps.laps else None,
+                "max_error_per_lap_m": float(np.max(run.laps.per_lap_m)) if run.laps.laps else None,
+                "final_error_m": float(run.laps.error_m[-1]) if run.laps.laps else None,
+                "laps_completed": run.laps.laps,
+                "wall_time_s": run.wall_time_s,
+                "transitions": [[tr.t, tr.source.value, tr.target.value, tr.cause] for tr in run.controller.transitions],
+            }
+            for mode, run in result.runs.items()
+        },
+    }
+    written = []
+    p = out / "laps.json"
+    p.write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    written.append(p)
+    cols = list(rows[0]) if rows else ["lap"]
+    table = {c: np.array([np.nan if r[c] is None else r[c] for r in rows], dtype=np.float64) for c in cols}
+    written.append(_write_csv(out / "laps.csv", table))
+    for mode, run in result.runs.items():
+        written.append(_write_csv(out / f"timeseries_{'with' if mode else 'without'}_landmarks.csv", run.series))
+    if plots:
+        from agvnav.report.laps import plot_laps
+
+        written.append(plot_laps(result, out / "laps.png"))
+    return written
