@@ -77,18 +77,18 @@ def _summary(result) -> Table:  # type: ignore[no-untyped-def]
     t.add_column("value", justify="right")
     t.add_column("seed 000", justify="right")
     rows = [
-        ("initial lateral error [mm]", _fmt(m.initial_lateral_error_m, 1e3), "110"),
-        ("max |lateral error| after transient [mm]", _fmt(m.max_abs_lateral_error_m, 1e3), "16.5"),
-        ("RMS lateral error after transient [mm]", _fmt(m.rms_lateral_error_m, 1e3), ""),
-        ("max |wheel heading error| after transient [deg]", _fmt(m.max_abs_wheel_heading_error_rad, 180 / math.pi, 2), "3.8"),
-        ("settling distance [m]", _fmt(m.settling_distance_m, 1.0, 3), ""),
-        ("positioning RMS [mm]", _fmt(m.positioning_rms_m, 1e3), ""),
-        ("positioning mean |e_lat| [mm]", _fmt(m.positioning_lateral_mean_abs_m, 1e3), "9.7"),
-        ("positioning std e_lat [mm]", _fmt(m.positioning_lateral_std_m, 1e3), "6.6"),
-        ("positioning max |e_lat| [mm]", _fmt(m.positioning_lateral_max_abs_m, 1e3), "23"),
+        ("initial lateral error (mm)", _fmt(m.initial_lateral_error_m, 1e3), "110"),
+        ("max |lateral error| after transient (mm)", _fmt(m.max_abs_lateral_error_m, 1e3), "16.5"),
+        ("RMS lateral error after transient (mm)", _fmt(m.rms_lateral_error_m, 1e3), ""),
+        ("max |wheel heading error| after transient (deg)", _fmt(m.max_abs_wheel_heading_error_rad, 180 / math.pi, 2), "3.8"),
+        ("settling distance (m)", _fmt(m.settling_distance_m, 1.0, 3), ""),
+        ("positioning RMS (mm)", _fmt(m.positioning_rms_m, 1e3), ""),
+        ("positioning mean |e_lat| (mm)", _fmt(m.positioning_lateral_mean_abs_m, 1e3), "9.7"),
+        ("positioning std e_lat (mm)", _fmt(m.positioning_lateral_std_m, 1e3), "6.6"),
+        ("positioning max |e_lat| (mm)", _fmt(m.positioning_lateral_max_abs_m, 1e3), "23"),
         ("path completed", "yes" if m.path_completed else "no", ""),
-        ("simulated time [s]", _fmt(m.sim_time_s, 1.0, 2), ""),
-        ("wall time [s]", _fmt(m.wall_time_s, 1.0, 3), ""),
+        ("simulated time (s)", _fmt(m.sim_time_s, 1.0, 2), ""),
+        ("wall time (s)", _fmt(m.wall_time_s, 1.0, 3), ""),
         ("real-time factor", _fmt(m.real_time_factor, 1.0, 0), ""),
     ]
     for r in rows:
