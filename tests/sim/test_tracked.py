@@ -1,0 +1,129 @@
+"""Issue 6: the tracked robot, its ultrasonic rangers and the hybrid automaton in the closed loop."""
+
+import math
+
+import numpy as np
+import pytest
+
+from agvnav.actuators import PID, MotorPair, WheelSpeedLoop
+from agvnav.guidance.hybrid import PolygonRoute
+from agvnav.kinematics.tracked import TrackedVehicle, TrackTerrain, terrain_preset
+from agvnav.sensors import seed_004_layout
+from agvnav.sim.laps import lap_errors, run_tracked
+from agvnav.sim.tracked import ScalarSpeedLoop, TrackedPlant, UltrasonicSensorRole, square_landmarks
+
+ROUTE = PolygonRoute.square(3.5)
+WALLS = square_landmarks(ROUTE)
+ODO_CONCRETE = TrackTerrain(slip_left=0.016, slip_right=0.016, icr_left=1.12, icr_right=1.12)
+
+
+def test_scalar_speed_loop_matches_wheel_speed_loop():
+    ref = WheelSpeedLoop(MotorPair(asymmetry=0.05), PID())
+    fast = ScalarSpeedLoop(WheelSpeedLoop(MotorPair(asymmetry=0.05), PID()))
+    rng = np.random.default_rng(0)
+    for k in range(300):
+        sp = rng.uniform(-6, 6, 2) if k % 50 == 0 else sp
+        a = ref.step(sp, 0.01)
+        b = fast.step(tuple(sp), 0.01)
+        np.testing.assert_allclose(b, a, rtol=0, atol=1e-12)
+
+
+def test_plant_motion_matches_tracked_vehicle_and_pose_at_is_continuous():
+    veh = TrackedVehicle(0.33, 0.05, "concrete")
+    plant = TrackedPlant(veh, WheelSpeedLoop(), veh.terrain, 1440, (1.0, 2.0, 0.3))
+    rng = np.random.default_rng(1)
+    for _ in range(100):
+        plant.advance((3.0, 2.0), 0.0, 0.1, rng)
+    # at steady state the sprocket speeds reach the set-point (PID integral), and the
+    # truth moves as TrackedVehicle.step with the mean sprocket speeds of each sub-step
+    np.testing.assert_allclose(plant.signals()[3:5], (3.0, 2.0), atol=1e-3)
+    start = plant.pose.copy()
+    plant.advance((3.0, 2.0), 10.0, 0.1, rng)
+    w = np.array(plant.speed_loop.omega)
+    expected = veh.step(start, w * 0.05, 0.1)
+    np.testing.assert_allclose(plant.pose, expected, atol=1e-6)
+    ends = plant.pose_at(np.array([10.0, 10.1]))
+    np.testing.assert_allclose(ends[0], start, atol=1e-12)
+    np.testing.assert_allclose(ends[1], plant.pose, atol=1e-12)
+    mid = plant.pose_at(np.array([10.05]))[0]
+    np.testing.assert_allclose(mid, veh.step(start, w * 0.05, 0.05), atol=1e-6)
+
+
+def test_odometry_with_true_terrain_follows_truth_and_with_wrong_terrain_drifts():
+    for odo, small in ((terrain_preset("concrete"), True), (ODO_CONCRETE, False)):
+        veh = TrackedVehicle(0.33, 0.05, "concrete")
+        plant = TrackedPlant(veh, WheelSpeedLoop(), odo, 100000, (0.0, 0.0, 0.0))
+        rng = np.random.default_rng(2)
+        heading = 0.0
+        for _ in range(200):  # an in-place turn
+            plant.advance((2.0, -2.0), 0.0, 0.1, rng)
+            heading += plant.odometry()[1]
+        err = abs(heading - plant.pose[2])
+        assert (err < 1e-3) if small else (err > 0.02 * abs(plant.pose[2]))
+
+
+def test_ultrasonic_role_groups_simultaneous_pings_and_reports_the_wall_distance():
+    layout = seed_004_layout()
+    wall = np.array([[[-5.0, -0.5], [5.0, -0.5]]])  # 0.3 m right of the right sensors
+    role = UltrasonicSensorRole(layout, wall)
+    pose_at = lambda t: np.tile([0.0, 0.0, 0.0], (np.size(t), 1))  # noqa: E731
+    rows = role.observe(pose_at, 0.0, 0.1, np.random.default_rng(0))
+    assert rows.shape[1] == 1 + 5 and np.all(np.diff(rows[:, 0]) > 0)
+    names = layout.names
+    rf = rows[:, 1 + names.index("right_front")]
+    assert np.all(np.isinf(rf) | (np.abs(rf - 0.3) < 0.02))
+    assert np.sum(np.isfinite(rf)) == 2  # 20 Hz over 0.1 s
+    lf = rows[:, 1 + names.index("left_front")]
+    assert np.all(np.isinf(lf) | np.isnan(lf))  # nothing on the left
+
+
+def test_lap_errors_per_lap_and_from_start():
+    t = np.arange(5.0)
+    xy = np.array([[0, 0], [1, 0], [0.3, 0.4], [2, 2], [0.6, 0.8]])
+    le = lap_errors([2.0, 4.0], t, xy, (0.0, 0.0))
+    np.testing.assert_allclose(le.error_m, [0.5, 1.0])
+    np.testing.assert_allclose(le.per_lap_m, [0.5, 0.5])
+    with pytest.raises(ValueError, match="samples"):
+        lap_errors([1.0], t, xy[:3], (0, 0))
+
+
+def test_automaton_closed_loop_visits_e0_side_e3_four_times_e4():
+    r = run_tracked(ROUTE, WALLS, seed_004_layout(), terrain_preset("concrete"), ODO_CONCRETE, laps=1,
+                    use_landmarks=True, slip_noise_std=0.003, seed=3)
+    seq = r.controller.visited()
+    assert r.finished and seq[0] == "E0" and seq[-1] == "E4"
+    assert seq.count("E3") == 4 and seq.count("E4") == 1
+    legs = "".join(s[-1] for s in seq).split("3")
+    assert all("1" in leg for leg in legs[:4])  # a right landmark on every leg (CCW square, walls outside)
+    assert "E2" not in seq
+    kinds = {c.kind for c in r.controller.localizer.history}
+    assert kinds == {"heading", "side_offset", "front_offset"}
+
+
+def test_landmarks_beat_dead_reckoning_two_laps():
+    common = dict(laps=2, slip_noise_std=0.003, seed=5)
+    with_lm = run_tracked(ROUTE, WALLS, seed_004_layout(), terrain_preset("concrete"), ODO_CONCRETE,
+                          use_landmarks=True, **common)
+    without = run_tracked(ROUTE, WALLS, seed_004_layout(), terrain_preset("concrete"), ODO_CONCRETE,
+                          use_landmarks=False, **common)
+    assert with_lm.laps.laps == without.laps.laps == 2
+    assert np.all(with_lm.laps.per_lap_m < 0.10)  # the seed's 10 cm per lap
+    assert np.all(without.laps.per_lap_m > 0.25)  # calibrated to the seed's ~50 cm order
+    assert without.laps.error_m[1] > without.laps.error_m[0]  # dead reckoning grows
+    assert with_lm.laps.error_m[1] < 0.10  # landmarks keep it bounded
+
+
+def test_same_seed_same_run():
+    a = run_tracked(ROUTE, WALLS, seed_004_layout(), terrain_preset("concrete"), ODO_CONCRETE, laps=1,
+                    slip_noise_std=0.003, seed=7, duration=30.0)
+    b = run_tracked(ROUTE, WALLS, seed_004_layout(), terrain_preset("concrete"), ODO_CONCRETE, laps=1,
+                    slip_noise_std=0.003, seed=7, duration=30.0)
+    for key in a.series:
+        np.testing.assert_array_equal(a.series[key], b.series[key])
+
+
+def test_square_landmarks_geometry():
+    w = square_landmarks(ROUTE)
+    assert w.shape == (8, 2, 2)
+    np.testing.assert_allclose(w[0], [[0.5, -0.5], [3.0, -0.5]])  # leg 0 wall on the right (outside)
+    assert math.isclose(float(np.hypot(*(w[1, 1] - w[1, 0]))), 0.36)

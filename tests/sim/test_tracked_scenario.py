@@ -1,0 +1,87 @@
+"""Issue 6: tracked scenarios through the loader, sim.simulate and `agvnav simulate` (incl. bad input)."""
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from agvnav.cli import app
+from agvnav.sim import simulate
+from agvnav.world.scenario import ScenarioError, builtin_scenario, builtin_scenario_names, load_scenario
+from agvnav.world.tracked_scenario import TrackedScenario
+
+runner = CliRunner()
+SHIPPED = ["tracked_square_3p5_concrete", "tracked_square_3p5_grass", "tracked_square_4_concrete",
+           "tracked_square_4_grass"]
+
+
+def _short(tmp_path, old=None, new=None, laps=1):
+    text = builtin_scenario("tracked_square_3p5_concrete").read_text().replace("laps: 10", f"laps: {laps}", 1)
+    if old is not None:
+        assert old in text
+        text = text.replace(old, new, 1)
+    p = tmp_path / "t.yaml"
+    p.write_text(text)
+    return p
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_tracked_scenarios_load(name):
+    assert name in builtin_scenario_names()
+    sc = load_scenario(name)
+    assert isinstance(sc, TrackedScenario)
+    assert sc.controller.laps == 10 and sc.controller.compare_landmarks
+    assert sc.route.side_m in (3.5, 4.0) and sc.controller.params == {}
+    from agvnav.sim.build import build
+
+    kwargs = build(sc)  # cross-part checks pass
+    assert kwargs["walls"].shape == (8, 2, 2)
+
+
+def test_simulate_tracked_one_lap_both_modes(tmp_path):
+    sc = load_scenario(_short(tmp_path))
+    res = simulate(sc)
+    assert set(res.runs) == {True, False}
+    rows = res.lap_rows()
+    assert len(rows) == 1
+    assert rows[0]["with_landmarks_per_lap_m"] < 0.1 < rows[0]["without_landmarks_per_lap_m"]
+
+
+def test_cli_prints_the_per_lap_table_and_writes_outputs(tmp_path):
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["simulate", str(_short(tmp_path)), "--out", str(out), "--seed", "2"])
+    assert res.exit_code == 0, res.output
+    assert "error per lap" in res.output and "with landmarks" in res.output and "mean" in res.output
+    names = {p.name for p in out.iterdir()}
+    assert {"laps.json", "laps.csv", "laps.png", "timeseries_with_landmarks.csv",
+            "timeseries_without_landmarks.csv"} <= names
+    summary = json.loads((out / "laps.json").read_text())
+    assert summary["seed"] == 2 and len(summary["laps"]) == 1
+    trans = summary["modes"]["with_landmarks"]["transitions"]
+    assert [t[2] for t in trans].count("E3") == 4 and trans[-1][2] == "E4"
+
+
+BAD = [
+    ("  spacing_m: 0.30          # distance between the side pair (dist of eqs 6-7), assumption",
+     "  spacing_m: 0.30\n  sensors: [{name: front, mount: [0.1, 0.0, 0.0]}]", "inside the vehicle body"),
+    ("    - {id: leg0, points: [[0.500, -0.500], [3.000, -0.500]]}",
+     "    - {id: leg0, points: [[0.500, -0.500], [0.500, -0.500]]}", "zero length"),
+    ("  start: [0.0, 0.0, 0.0]", "  start: [10.0, 10.0, 0.0]", "never passes a landmark"),
+    ("  truth: concrete", "  truth: mud", "truth"),
+    ("  laps: 1", "  laps: 1\n  spin: true", "unknown key"),
+]
+
+
+@pytest.mark.parametrize("old, new, message", BAD)
+def test_bad_input_one_line_message_and_exit_code(tmp_path, old, new, message):
+    p = _short(tmp_path, old, new)
+    with pytest.raises(ScenarioError, match=message):
+        sc = load_scenario(p)
+        from agvnav.sim.build import build
+
+        build(sc)
+    res = runner.invoke(app, ["simulate", str(p), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2
+    err = res.stderr if hasattr(res, "stderr") else res.output
+    lines = [ln for ln in err.strip().splitlines() if ln]
+    assert len(lines) == 1 and lines[0].startswith("error:") and "t.yaml" in lines[0], err
