@@ -44,6 +44,7 @@ from agvnav.guidance.gains import (
     general_gains_from_coefficients,
     envelope_distance,
     general_gains_on_arc,
+    hidden_real_pole,
     modal_response,
     seed_poles_for_distance,
     simple_gains,
@@ -179,6 +180,10 @@ def _design_choice(
     return seed_poles_for_distance(d, wheelbase, law, point, direction=direction)
 
 
+def _has_real_pole_at(poles: NDArray[np.complex128], pole: float) -> bool:
+    return bool(np.any(np.abs(poles - pole) <= 1e-9 * abs(pole)))
+
+
 class SeedGeneralController(_PathFollower):
     """General three-parameter law of seed 000 (eqs 11-13) with curvature feed-forward.
 
@@ -196,10 +201,15 @@ class SeedGeneralController(_PathFollower):
     that loop can lose its damping or even its stability).
 
     For point C the law answers a lateral offset of C with an immediate
-    steering rate ``-a eps_c`` and eps_c overshoots (eq. 17 started from
-    eps_c'' != 0); from large offsets on tight arcs the wheel can swing to its
-    +/-90 deg limit. The seed cruises with the simple law (§4.3); the general
-    law is meant above all for point O in manoeuvres.
+    steering rate ``-a eps_c`` (eq. 17 started from eps_c'' != 0), and with a
+    real pole away from ``-1/L`` eps_c swings far past zero. The design from
+    ``convergence_distance`` therefore puts the forward real pole at
+    :func:`~agvnav.guidance.gains.hidden_real_pole`, where eq. 13 reduces to
+    the simple law and the real mode does not show in eps_c (see
+    :mod:`agvnav.guidance.gains`). Whenever the forward poles on C have their
+    real pole there (designed, or given at ``-1/L`` in ``poles_per_m``;
+    attribute ``hides_real_pole``), the arc gains move it to the arc's
+    ``-cos(gamma_ss)/L`` so it stays hidden on arcs.
     """
 
     def __init__(
@@ -228,6 +238,7 @@ class SeedGeneralController(_PathFollower):
         self.poles_per_m_reverse = _design_choice(*choice, direction=-1)  # differs from forward for C only
         self.v_max: float | None = None
         self.fixed_gains: tuple[float, float, float] | None = None
+        self.hides_real_pole = False
         if self.poles_per_m is not None:
             assert self.poles_per_m_reverse is not None
             self._coeffs = {  # validates the poles
@@ -237,6 +248,8 @@ class SeedGeneralController(_PathFollower):
             for sign, coeffs in self._coeffs.items():
                 g = general_gains_from_coefficients(coeffs, sign, self.wheelbase)
                 check_routh_hurwitz(g.a, g.b, g.c, sign)
+            hidden = hidden_real_pole(self.wheelbase)
+            self.hides_real_pole = point == "C" and _has_real_pole_at(self.poles_per_m, hidden)
         else:
             assert gains is not None
             a, b, c = (float(x) for x in gains)
@@ -254,8 +267,7 @@ class SeedGeneralController(_PathFollower):
                 return g.a, g.b, g.c
             key = (kappa_ref, sign)
             if key not in self._arc_gains:  # per unit |v|: the gains scale with |v|
-                poles = self.poles_per_m if sign > 0 else self.poles_per_m_reverse
-                g = general_gains_on_arc(poles, sign, self.wheelbase, kappa_ref, self.point)
+                g = general_gains_on_arc(self._arc_poles(sign, kappa_ref), sign, self.wheelbase, kappa_ref, self.point)
                 self._arc_gains[key] = (g.a, g.b, g.c)
             a, b, c = self._arc_gains[key]
             return a * abs(v), b * abs(v), c * abs(v)
@@ -263,6 +275,17 @@ class SeedGeneralController(_PathFollower):
         if self.v_max is not None and abs(v) > self.v_max:
             raise ValueError(f"|v| = {abs(v):g} m/s exceeds v_max = {self.v_max:g} m/s checked for these gains")
         return a, math.copysign(b, v), c
+
+    def _arc_poles(self, sign: float, kappa_ref: float) -> NDArray[np.complex128]:
+        """Designed poles per metre for the arc; the hidden real pole follows the curvature (class doc)."""
+        poles = self.poles_per_m if sign > 0 else self.poles_per_m_reverse
+        assert poles is not None
+        if sign > 0 and self.hides_real_pole:
+            line = hidden_real_pole(self.wheelbase)
+            j = int(np.argmin(np.abs(poles - line)))
+            poles = poles.copy()
+            poles[j] = hidden_real_pole(self.wheelbase, kappa_ref)
+        return poles
 
     def command(self, pose_o: ArrayLike, gamma: float, v: float) -> float:
         """Steering rate (rad/s) from seed 000 eq. 11, 12 or 13 (see class doc)."""

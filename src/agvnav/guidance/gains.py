@@ -43,10 +43,47 @@ Here every controller is tuned by one measure (:func:`envelope_distance`):
 the distance beyond which the envelope ``sum |r_i| exp(Re(p_i) s)`` of the
 linearised lateral error of the tracked point, after a unit lateral offset,
 stays below 2 %. :func:`seed_poles_for_distance` scales the seed's pole
-pattern (one real pole and a complex pair) to a given distance. For point C
-the general law reacts to a lateral offset of C with an immediate steering
-rate ``-a eps_c`` and eps_c swings past zero (large residues), so its poles
-come out faster than for point O at the same distance.
+pattern (one real pole and a complex pair) to a given distance.
+
+Pole pattern of the general law on point C (cruising, v > 0). Per metre
+(v = 1) with ``chi(s) = s^3 + e1 s^2 + e2 s + e3``, a lateral offset of C
+(``eps_c(0) = eps0``, ``xi_r = gamma = 0``) is not a "natural" initial
+condition of eq. 17: ``eps_c''(0) = -v a eps0``. Its Laplace transform is
+``eps_c(s) / eps0 = N(s) / chi(s)`` with ``N(s) = s^2 + e1 s + (e2 - L e3)``
+(time domain: ``s^2 + c s + (v b/L - v a)``), and ``chi(s) = s N(s) + e3 (L s + 1)``.
+So N and chi share a root only at ``s = -1/L``: a real pole ``lambda_r`` away
+from ``-1/L`` always shows in eps_c with a residue that grows with
+``|L lambda_r - 1|``. The old pattern (real pole = real part of the pair,
+damping 0.707) placed at 1.5 m (L = 1 m) swung eps_c to -126 % of the
+offset; the 2 % envelope then asked for even faster poles (the residues grow
+with the pole scale), a vicious circle that ended with the wheel at its
++/-90 deg stop. Scanning ratio and damping does not cure it (overshoot
+> 100 % for every ratio in 0.2-1.5 and damping in 0.5-1 at 1.5 m); only the
+real pole at ``-1/L`` does. There ``c - b + a L = 1/L`` (i.e. ``v/L``), eq. 13
+becomes ``gamma' = -a eps_c - (b - a L) xi_r - (v/L) gamma``: the simple law
+eq. 20 (linearised) with ``a_s = a``, ``b_s = b - a L``. The pair (eps_c,
+xi_r) is then a closed second-order loop (eq. 23) and the real mode lives
+only in eps_o, xi, gamma (eq. 24): hidden from eps_c for *every* initial
+condition, a steering error at the start included. eps_c then follows
+``q'' + 2 zeta w q' + w^2 q = 0`` from ``(1, 0)``, whose undershoot is
+``exp(-pi zeta / sqrt(1 - zeta^2))``; :data:`BAND_DAMPING` = 0.78 makes it
+exactly the 2 % convergence band, so once inside the band eps_c stays there.
+On an arc the hidden pole is ``-cos(gamma_ss)/L`` (same argument on the arc
+model: ``c - b + a L = v cos(gamma_ss)/L``), see :func:`hidden_real_pole`.
+Hence :func:`seed_poles_for_distance` for the general law on C, forward:
+real pole at :func:`hidden_real_pole`, pair with damping
+:data:`BAND_DAMPING` scaled to the distance (the real pole does not count
+in the eps_c envelope, so the envelope measure no longer forces fast poles:
+the pair comes out as the simple law's). The real pole per metre is fixed
+by L, so in time it is ``-v/L``: it scales with v as the pair does.
+
+Point O (manoeuvres, either direction) needs no such care: a lateral offset
+of O is a natural initial condition of eq. 17 (eps_o' = v xi = 0, eps_o'' =
+(v^2/L) gamma = 0), the response is the free response of chi with
+``(s^2 + e1 s + e2) / chi(s)``, and the seed-like pattern (real pole = real
+part of the pair, damping 0.707) has no undershoot. Reverse driving on C
+cannot hide the real pole (the common root would be ``+1/L``): it keeps the
+ratio pattern.
 
 Simple law (seed 000 §3.3, eq. 23): ``q'' + b q' + a v q = 0`` for
 ``q = eps_c, xi_r``; with poles per metre ``mu_i``: ``b = v f1``, ``a = v f2``
@@ -67,6 +104,8 @@ __all__ = [
     "GeneralGains",
     "SimpleGains",
     "SETTLING_FRACTION",
+    "BAND_DAMPING",
+    "hidden_real_pole",
     "poles_for_convergence",
     "convergence_distance",
     "envelope_distance",
@@ -88,6 +127,13 @@ __all__ = [
 
 SETTLING_FRACTION = 0.02
 """Convergence means an error down to 2 % of its initial value."""
+
+BAND_DAMPING = math.log(1.0 / SETTLING_FRACTION) / math.hypot(math.pi, math.log(1.0 / SETTLING_FRACTION))
+"""Damping ratio (0.7797) whose second-order free response from (1, 0) undershoots by exactly 2 %.
+
+``exp(-pi zeta / sqrt(1 - zeta^2)) = SETTLING_FRACTION``; the pair of the
+general law on point C (module docstring).
+"""
 
 
 @dataclass(frozen=True)
@@ -292,29 +338,67 @@ def seed_loop_matrix(
     raise ValueError(f"law must be 'general' or 'simple', got {law!r}")
 
 
+def hidden_real_pole(wheelbase: float, kappa_ref: float = 0.0) -> float:
+    """Real pole per metre (1/m) that the general law on point C, forward, hides from eps_c and xi_r.
+
+    ``-cos(gamma_ss) / L`` with ``sin(gamma_ss) = L kappa_ref`` (``-1/L`` on a
+    line). With this real pole eq. 13 reduces to the simple law eq. 20 (module
+    docstring): ``c - b + a L = v cos(gamma_ss) / L``.
+    """
+    L = require_positive("wheelbase", wheelbase)
+    lk = L * float(kappa_ref)
+    if not abs(lk) < 1.0:
+        raise ValueError(f"point C cannot follow curvature {kappa_ref:g} 1/m with wheelbase {L:g} m")
+    return -math.sqrt(1.0 - lk * lk) / L
+
+
+def _hides_real_pole(law: str, point: str, direction: int, real_ratio: float | None) -> bool:
+    return law == "general" and point == "C" and direction > 0 and real_ratio is None
+
+
 def seed_poles_for_distance(
     distance: float,
     wheelbase: float,
     law: str = "general",
     point: str = "C",
-    damping: float = 1.0 / math.sqrt(2.0),
-    real_ratio: float = 1.0,
+    damping: float | None = None,
+    real_ratio: float | None = None,
     direction: int = 1,
 ) -> NDArray[np.complex128]:
-    """Poles per metre (shape of :func:`poles_for_convergence`) whose :func:`envelope_distance` is ``distance``.
+    """Poles per metre (1/m) whose :func:`envelope_distance` is ``distance`` (m).
 
     The tracked point's lateral error after a unit lateral offset (the seed's
-    110 mm start, scaled) stays within 2 % beyond ``distance`` (m), in the
-    linearised loop on a line, driving in ``direction`` (+1/-1: for point C
-    the response differs with the direction, for O it does not). Found by
-    bisection on the pole scale.
+    110 mm start, scaled) stays within 2 % beyond ``distance``, in the
+    linearised loop on a line, driving in ``direction`` (+1/-1). Patterns
+    (module docstring):
+
+    * general law, point C, forward, ``real_ratio`` None: real pole at
+      :func:`hidden_real_pole` (-1/L), complex pair of damping ``damping``
+      (default :data:`BAND_DAMPING`) scaled to the distance;
+    * otherwise (point O, reverse on C, or an explicit ``real_ratio``): the
+      shape of :func:`poles_for_convergence` (damping default 0.707, real pole
+      ``real_ratio`` (default 1) times the pair's real part) scaled as a whole;
+    * simple law: the pair alone (damping default 0.707).
+
+    Found by bisection on the scale. Raises ValueError if not reachable.
     """
     d = require_positive("distance", distance)
     order = 3 if law == "general" else 2
-    shape = poles_for_convergence(1.0, damping=damping, order=order, real_ratio=real_ratio)
+    hide = _hides_real_pole(law, point, direction, real_ratio)
+    if damping is None:
+        damping = BAND_DAMPING if hide else 1.0 / math.sqrt(2.0)
+    if hide:
+        fixed = np.array([complex(hidden_real_pole(wheelbase), 0.0)])
+        shape = poles_for_convergence(1.0, damping=damping, order=2)
+    else:
+        fixed = np.zeros(0, dtype=np.complex128)
+        shape = poles_for_convergence(1.0, damping=damping, order=order, real_ratio=real_ratio or 1.0)
+
+    def poles(log_k: float) -> NDArray[np.complex128]:
+        return np.concatenate([fixed, math.exp(log_k) * shape])
 
     def dist(log_k: float) -> float:
-        a_cl = seed_loop_matrix(math.exp(log_k) * shape, wheelbase, law, point, direction)
+        a_cl = seed_loop_matrix(poles(log_k), wheelbase, law, point, direction)
         lam, res = modal_response(a_cl, [1, 0, 0], [1, 0, 0])
         return envelope_distance(lam, res)
 
@@ -327,7 +411,7 @@ def seed_poles_for_distance(
             lo = mid
         else:
             hi = mid
-    return math.exp(hi) * shape
+    return poles(hi)
 
 
 def general_characteristic(a: float, b: float, c: float, v: float, wheelbase: float) -> NDArray[np.float64]:
