@@ -85,3 +85,38 @@ def test_bad_input_one_line_message_and_exit_code(tmp_path, old, new, message):
     err = res.stderr if hasattr(res, "stderr") else res.output
     lines = [ln for ln in err.strip().splitlines() if ln]
     assert len(lines) == 1 and lines[0].startswith("error:") and "t.yaml" in lines[0], err
+
+
+KANAYAMA = """
+name: tracked_kanayama
+step_s: 0.05
+vehicle: {model: tracked}
+terrain: {truth: concrete, odometry: concrete}
+map: {walls: []}
+path:
+  start: [1.0, 2.0, 90.0]
+  segments:
+    - {type: line, length_m: 1.5}
+    - {type: arc, radius_m: 0.8, sweep_deg: -90.0}
+    - {type: line, length_m: 1.0}
+controller: {name: kanayama, params: {cruise_speed: 0.15, convergence_distance: 0.5}}
+"""
+
+
+def test_kanayama_follows_a_line_arc_path_on_the_tracked_plant(tmp_path):
+    p = tmp_path / "k.yaml"
+    p.write_text(KANAYAMA)
+    res = simulate(load_scenario(p))
+    m = res.metrics()
+    assert m["path_completed"] == 1.0
+    assert m["max_lateral_error_m"] < 0.05 and m["final_position_error_m"] < 0.03  # track lag at the arc
+    assert abs(m["distance_m"] - (2.5 + 0.8 * 3.14159 / 2)) < 0.1
+    res2 = runner.invoke(app, ["simulate", str(p), "--out", str(tmp_path / "o"), "--no-plots"])
+    assert res2.exit_code == 0 and "Kanayama" in res2.output
+
+
+def test_kanayama_needs_a_path(tmp_path):
+    p = tmp_path / "k.yaml"
+    p.write_text(KANAYAMA.split("path:")[0] + "controller: {name: kanayama}\n")
+    with pytest.raises(ScenarioError, match="give the path key"):
+        load_scenario(p)

@@ -55,10 +55,10 @@ def simulate(
         task = bar.add_task("simulate", total=None, t=0.0)
         result = run_scenario(sc, progress=lambda t: bar.update(task, t=t))
     written = save_result(result, out, plots=plots)
-    if hasattr(result, "runs"):  # issue 6: seed 004 Tables I-II for the tracked robot
-        from agvnav.report.laps import lap_table
+    if hasattr(result, "scenario") and hasattr(result.scenario, "route"):  # issue 6: the tracked robot
+        from agvnav.report.laps import summary_table
 
-        console.print(lap_table(result))
+        console.print(summary_table(result))  # seed 004 Tables I-II, or the Kanayama path table
     else:
         console.print(_summary(result))
     console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))

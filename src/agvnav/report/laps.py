@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["lap_table", "plot_laps"]
+__all__ = ["lap_table", "path_table", "plot_laps", "plot_path_follow", "summary_table"]
 
 
 def _cm(value: float | None) -> str:
@@ -65,6 +65,55 @@ def plot_laps(result: Any, out: str | Path) -> Path:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(f"{result.scenario.name}: driven squares (walls grey)")
+    ax.legend(loc="best", fontsize=8)
+    ax.grid(True, lw=0.3)
+    path = Path(out)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def path_table(result: Any) -> Any:
+    """A rich Table of a Kanayama path-following run (true errors to the path)."""
+    from rich.table import Table
+
+    m = result.metrics()
+    t = Table(title=f"{result.scenario.name}: tracked robot, Kanayama path follower (seed {result.scenario.seed})")
+    t.add_column("metric")
+    t.add_column("value", justify="right")
+    t.add_row("max |lateral error| (mm)", f"{1e3 * m['max_lateral_error_m']:.1f}")
+    t.add_row("RMS lateral error (mm)", f"{1e3 * m['rms_lateral_error_m']:.1f}")
+    t.add_row("final position error (mm)", f"{1e3 * m['final_position_error_m']:.1f}")
+    t.add_row("final heading error (deg)", f"{np.degrees(m['final_heading_error_rad']):.2f}")
+    t.add_row("path completed", "yes" if m["path_completed"] else "no")
+    t.add_row("simulated time (s)", f"{m['sim_time_s']:.1f}")
+    t.add_row("wall time (s)", f"{m['wall_time_s']:.2f}")
+    return t
+
+
+def summary_table(result: Any) -> Any:
+    """The per-lap table (hybrid automaton) or the path-following table (Kanayama)."""
+    return lap_table(result) if hasattr(result, "runs") else path_table(result)
+
+
+def plot_path_follow(result: Any, out: str | Path) -> Path:
+    """PNG of the planned path and the true driven path of a Kanayama run."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 6.5))
+    s = np.linspace(0.0, result.path.length, max(2, int(result.path.length / 0.02)))
+    planned = result.path.point_at(s)
+    ax.plot(planned[:, 0], planned[:, 1], "k--", lw=1.0, label="path")
+    ax.plot(result.series["x"], result.series["y"], color="tab:blue", lw=0.8, label="driven (truth)")
+    ax.plot(result.series["est_x"], result.series["est_y"], color="tab:orange", lw=0.8, label="dead reckoning")
+    for seg in result.world.wall_segments:
+        ax.plot(seg[:, 0], seg[:, 1], color="0.4", lw=3.0, solid_capstyle="butt")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
     ax.legend(loc="best", fontsize=8)
     ax.grid(True, lw=0.3)
     path = Path(out)

@@ -104,7 +104,7 @@ def save_result(result: SimResult, out_dir: str | FsPath, plots: bool = True) ->
 
     Returns the written paths. Units: SI, radians (column names carry no degrees).
     """
-    if hasattr(result, "runs"):  # issue 6: the seed-004 tracked robot
+    if hasattr(result.scenario, "route"):  # issue 6: the seed-004 tracked robot
         from agvnav.sim.tracked_build import save_tracked
 
         return save_tracked(result, out_dir, plots)  # type: ignore[arg-type]

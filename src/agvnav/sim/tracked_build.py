@@ -22,7 +22,7 @@ import numpy as np
 from agvnav.sim.laps import TrackedRun, run_tracked
 from agvnav.world.tracked_scenario import TerrainFigures, TrackedScenario
 
-__all__ = ["TrackedResult", "prepare_tracked", "save_tracked", "simulate_tracked"]
+__all__ = ["PathFollowResult", "TrackedResult", "prepare_tracked", "save_tracked", "simulate_tracked"]
 
 
 def _guard(sc: TrackedScenario, key: tuple[str | int, ...], func: Any, *args: Any, **kwargs: Any) -> Any:
@@ -95,14 +95,17 @@ def prepare_tracked(sc: TrackedScenario) -> dict[str, Any]:
 
     veh, r = sc.vehicle, sc.route
     world = _world(sc)
-    if world.wall_segments.shape[0] == 0:
+    if sc.controller.name == "hybrid" and world.wall_segments.shape[0] == 0:
         raise sc.error(("map",), "the map has no walls: the ultrasonic landmarks are walls")
     layout = _guard(sc, ("ultrasonic",), _layout, sc)
     route = _guard(sc, ("route",), PolygonRoute.square, r.side_m, (r.start[0], r.start[1], math.radians(r.start[2])),
                    r.turn)
-    params = _guard(sc, ("controller", "params"), lambda: HybridParams(**sc.hybrid_params_kwargs()))
+    params = HybridParams()
+    if sc.controller.name == "hybrid":
+        params = _guard(sc, ("controller", "params"), lambda: HybridParams(**sc.hybrid_params_kwargs()))
     geometry = DriveGeometry(veh.sprocket_radius_m, veh.gauge_m)
-    if sc.controller.landmarks or sc.controller.compare_landmarks:  # the route must pass a landmark
+    hybrid = sc.controller.name == "hybrid"
+    if hybrid and (sc.controller.landmarks or sc.controller.compare_landmarks):  # the route must pass a landmark
         _guard(sc, ("map",), HybridController, route, layout, world.wall_segments, geometry, params, 1, True)
     truth = _guard(sc, ("terrain", "truth"), _terrain, sc.terrain.truth)
     odometry = _guard(sc, ("terrain", "odometry"), _terrain, sc.terrain.odometry)
@@ -142,10 +145,76 @@ class TrackedResult:
         return rows
 
 
+@dataclass
+class PathFollowResult:
+    """A tracked robot following a line/arc path with Kanayama's law (dead-reckoned pose)."""
+
+    scenario: TrackedScenario
+    series: dict[str, Any]
+    path: Any
+    world: Any
+    finished: bool
+    wall_time_s: float
+
+    def metrics(self) -> dict[str, float]:
+        """True lateral error to the path (max, RMS; m), final position and heading error, distance driven."""
+        xy = np.column_stack([self.series["x"], self.series["y"]])
+        proj = self.path.project(xy)
+        lat = np.abs(np.asarray(proj.lateral, dtype=np.float64))
+        end = np.asarray(self.path.point_at(self.path.length), dtype=np.float64).reshape(2)
+        from agvnav.geometry import angle_diff
+
+        end_heading = float(self.path.heading_at(self.path.length))
+        return {
+            "max_lateral_error_m": float(np.max(lat)),
+            "rms_lateral_error_m": float(np.sqrt(np.mean(lat**2))),
+            "final_position_error_m": float(np.hypot(*(xy[-1] - end))),
+            "final_heading_error_rad": abs(float(angle_diff(self.series["psi"][-1], end_heading))),
+            "distance_m": float(self.series["distance"][-1]),
+            "path_completed": float(self.finished),
+            "sim_time_s": float(self.series["t"][-1]),
+            "wall_time_s": self.wall_time_s,
+        }
+
+
+def _simulate_path(sc: TrackedScenario, progress: Callable[[float], None] | None) -> PathFollowResult:
+    """The Kanayama path follower on the tracked plant, positioned by dead reckoning (eqs 3-5)."""
+    from agvnav.actuators import PID, MotorPair, WheelSpeedLoop
+    from agvnav.guidance.kanayama import KanayamaController, KanayamaGains
+    from agvnav.kinematics.tracked import TrackedVehicle
+    from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
+    from agvnav.sim.build import build_path
+    from agvnav.sim.engine import ClosedLoop
+    from agvnav.sim.tracked import KanayamaAutopilot, TrackedPlant
+
+    kwargs = prepare_tracked(sc)
+    path = build_path(sc)  # type: ignore[arg-type]
+    params = sc.hybrid_params_kwargs()
+    gains = KanayamaGains.from_distance(float(params.pop("convergence_distance", 0.5)))
+    ctrl = _guard(sc, ("controller", "params"), KanayamaController, gains, geometry=kwargs["geometry"], **params)
+    ctrl.set_path(path)
+    g = kwargs["geometry"]
+    start = np.asarray(path.start_pose, dtype=np.float64)
+    vehicle = TrackedVehicle(g.track_width, g.wheel_radius, kwargs["truth_terrain"])
+    m = kwargs["motor"]
+    loop = WheelSpeedLoop(MotorPair(**m), PID(u_min=-m["u_max"], u_max=m["u_max"], **kwargs["pid"]))
+    plant = TrackedPlant(vehicle, loop, kwargs["odometry_terrain"], kwargs["counts_per_rev"], start,
+                         kwargs["substep"], kwargs["slip_noise_std"])
+    engine = ClosedLoop(plant, [], WallLandmarkLocalizer(pose=start), KanayamaAutopilot(ctrl), sc.step_s, sc.seed)
+    duration = sc.duration_s or 1.5 * path.length / ctrl.cruise_speed + 10.0
+    out = engine.run(duration, sc.end_hold_s, progress)
+    return PathFollowResult(sc, out.series, path, kwargs["world"], out.finished, out.wall_time_s)
+
+
 def simulate_tracked(
     sc: TrackedScenario, progress: Callable[[float], None] | None = None
-) -> TrackedResult:
-    """Run ``sc`` (both modes with the same seed if ``compare_landmarks``); deterministic for its seed."""
+) -> TrackedResult | PathFollowResult:
+    """Run ``sc`` (both modes with the same seed if ``compare_landmarks``); deterministic for its seed.
+
+    With ``controller.name: kanayama`` the robot follows ``path`` instead (:class:`PathFollowResult`).
+    """
+    if sc.controller.name == "kanayama":
+        return _simulate_path(sc, progress)
     kwargs = prepare_tracked(sc)
     world = kwargs.pop("world")
     modes = [True, False] if sc.controller.compare_landmarks else [sc.controller.landmarks]
@@ -159,6 +228,16 @@ def save_tracked(result: TrackedResult, out_dir: str | FsPath, plots: bool = Tru
 
     out = FsPath(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    if isinstance(result, PathFollowResult):
+        p = out / "metrics.json"
+        meta = {"scenario": result.scenario.name, "seed": result.scenario.seed}
+        p.write_text(json.dumps({**result.metrics(), **meta}, indent=2) + "\n", encoding="utf-8")
+        written = [p, _write_csv(out / "timeseries.csv", result.series)]
+        if plots:
+            from agvnav.report.laps import plot_path_follow
+
+            written.append(plot_path_follow(result, out / "path.png"))
+        return written
     rows = result.lap_rows()
     summary = {
         "scenario": result.scenario.name,

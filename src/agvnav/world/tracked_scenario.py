@@ -18,11 +18,12 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, ValidationError
+from pydantic import Field, ValidationError, model_validator
 
 from agvnav.world.scenario import (
     Finite,
     NonNegFloat,
+    PathSpec,
     PosFloat,
     ScenarioError,
     _first_error,
@@ -118,9 +119,14 @@ class RouteSpec(_Strict):
 
 
 class HybridSpec(_Strict):
-    """Seed 004 Fig. 7 automaton; ``params`` are HybridParams fields (``*_deg`` / ``*_deg_s`` in degrees)."""
+    """The guidance: ``hybrid`` (seed 004 Fig. 7 automaton on ``route``) or ``kanayama`` (follows ``path``).
 
-    name: Literal["hybrid"] = "hybrid"
+    ``params``: HybridParams fields for ``hybrid``, KanayamaController keywords for
+    ``kanayama`` (plus ``convergence_distance``, m); keys ending ``_deg`` /
+    ``_deg_s`` are in degrees. ``laps`` and the landmark flags apply to ``hybrid`` only.
+    """
+
+    name: Literal["hybrid", "kanayama"] = "hybrid"
     laps: Annotated[int, Field(ge=1, le=100)] = 10
     landmarks: bool = True
     compare_landmarks: bool = False
@@ -141,7 +147,14 @@ class TrackedScenario(_Strict):
     ultrasonic: UltrasonicSpec = UltrasonicSpec()
     map: str | dict[str, Any]
     route: RouteSpec = RouteSpec()
+    path: PathSpec | None = None
     controller: HybridSpec = HybridSpec()
+
+    @model_validator(mode="after")
+    def _path_for_kanayama(self) -> TrackedScenario:
+        if self.controller.name == "kanayama" and self.path is None:
+            raise ValueError("controller kanayama follows a path: give the path key")
+        return self
 
     _source: str = ""
     _nodes: Any = None
