@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav.geometry import wrap_angle
+from agvnav.positioning import _fast
 from agvnav.positioning.estimator import StreamingEstimator
 
 __all__ = ["EkfEstimator", "ekf_predict", "ekf_update"]
@@ -93,7 +94,9 @@ class EkfEstimator(StreamingEstimator):
         self.last_reflector = -1
 
     def _accept(self, t: float, bearing: float, assoc: Any) -> None:
-        self._x, self._P = ekf_update(self._x, self._P, assoc.innovation, assoc.H, assoc.R)
+        # scalar fast path of ekf_update (Joseph form), tested against it to 1e-12
+        H = (float(assoc.H[0]), float(assoc.H[1]), float(assoc.H[2]))
+        self._x_t, self._P_t = _fast.joseph_update(self._x_t, self._P_t, assoc.innovation, H, assoc.R)
         self.last_innovation = assoc.innovation
         self.last_nis = assoc.nis
         self.last_reflector = assoc.index

@@ -13,6 +13,11 @@ start-up pose search when no initial pose is given, and the degraded
 ``"dead_reckoning"`` state. What differs -- how an identified reflection corrects the
 pose -- is the subclass's ``_accept``.
 
+Speed: one call handles one increment or one reflection, so the inner loop runs the
+scalar fast paths of :mod:`agvnav.positioning._fast` (the same equations as the
+vectorised kernels, tested against them to 1e-12) on state kept as Python floats;
+``_x``, ``_P`` and ``_odom`` give it to subclasses as arrays.
+
 Reflections usually fall between two odometry samples. The estimator then extrapolates
 the odometry to the reflection instant at the rate of the last increment, and deducts
 that advance from the next increment, so the odometric path is never counted twice and
@@ -21,6 +26,7 @@ never jumps.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -28,9 +34,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import as_float_array, require_finite, require_nonnegative, require_positive
 from agvnav.geometry import wrap_angle
-from agvnav.odometry import OdometryNoise, integrate_pose, motion_covariance, pose_jacobian
+from agvnav.odometry import OdometryNoise
+from agvnav.positioning import _fast
 from agvnav.positioning.bounds import encoder_bearing_std
-from agvnav.positioning.identification import CHI2_1DOF_999, gate_reflection, initial_pose_search
+from agvnav.positioning.identification import CHI2_1DOF_999, Association, initial_pose_search
 
 __all__ = ["METHODS", "STATUSES", "StreamingEstimator", "make_estimator"]
 
@@ -120,17 +127,44 @@ class StreamingEstimator:
         self.last_search = None
         self._t: float | None = None
         self._t_odometry: float | None = None
-        self._rate = np.zeros(2)
-        self._advance = np.zeros(2)
-        self._odom = np.zeros(3)  # odometric pose of base_link in the odom frame
+        self._rate = (0.0, 0.0)  # odometry rate (m/s, rad/s) of the last increment
+        self._advance = (0.0, 0.0)  # extrapolated odometry not yet covered by an increment
+        self._odom_t = (0.0, 0.0, 0.0)  # odometric pose of base_link in the odom frame
         self._t_first: float | None = None
         self._t_last_accept: float | None = None
-        self._claimed = np.full(self.reflector_xy.shape[0], -np.inf)
+        self._claimed = [-math.inf] * self.reflector_xy.shape[0]
         self._init_buffer: list[tuple[float, float]] = []
-        self._x = np.full(3, np.nan)
-        self._P = np.full((3, 3), np.nan)
+        self._rows = _fast.reflector_rows(self.reflector_xy, self.reflector_radius)
+        self._mount_t = tuple(float(v) for v in self.mount)
+        self._x_t: tuple[float, ...] = (math.nan,) * 3  # pose [x, y, psi]
+        self._P_t: tuple[float, ...] = (math.nan,) * 9  # covariance, flat row-major
         if initial_pose is not None:
             self._start(initial_pose, initial_covariance)
+
+    # ------------------------------------------------------------------ state as arrays
+    @property
+    def _x(self) -> NDArray[np.float64]:
+        return np.array(self._x_t)
+
+    @_x.setter
+    def _x(self, value: ArrayLike) -> None:
+        self._x_t = tuple(np.asarray(value, dtype=np.float64).reshape(3).tolist())
+
+    @property
+    def _P(self) -> NDArray[np.float64]:
+        return np.array(self._P_t).reshape(3, 3)
+
+    @_P.setter
+    def _P(self, value: ArrayLike) -> None:
+        self._P_t = tuple(np.asarray(value, dtype=np.float64).reshape(9).tolist())
+
+    @property
+    def _odom(self) -> NDArray[np.float64]:
+        return np.array(self._odom_t)
+
+    def _has_pose(self) -> bool:
+        x, y, psi = self._x_t
+        return math.isfinite(x) and math.isfinite(y) and math.isfinite(psi)
 
     # ------------------------------------------------------------------ read
     @property
@@ -141,17 +175,17 @@ class StreamingEstimator:
     @property
     def pose(self) -> NDArray[np.float64]:
         """``(3,)`` base_link pose ``[x, y, psi]`` in ``map`` at :attr:`t` (NaN while initialising)."""
-        return self._x.copy()
+        return self._x
 
     @property
     def covariance(self) -> NDArray[np.float64]:
         """``(3, 3)`` covariance of :attr:`pose` (m², rad²; NaN while initialising)."""
-        return self._P.copy()
+        return self._P
 
     @property
     def status(self) -> str:
         """``"initialising"``, ``"tracking"`` or ``"dead_reckoning"`` (see the class docstring)."""
-        if not np.all(np.isfinite(self._x)):
+        if not self._has_pose():
             return "initialising"
         since = self._t_last_accept if self._t_last_accept is not None else self._t_first
         if self._t is not None and since is not None and self._t - since > self.dead_reckoning_after:
@@ -167,15 +201,17 @@ class StreamingEstimator:
         cos(gamma)``, ``delta_theta = ds_C sin(gamma) / L``, seed 000 eq. 8).
         """
         t = self._check_time(t, "odometry")
-        inc = require_finite("odometry increment", [delta_d, delta_theta])
+        dd = _finite_float("odometry increment", delta_d)
+        dth = _finite_float("odometry increment", delta_theta)
         if self._t_odometry is not None and t > self._t_odometry:
-            self._rate = inc / (t - self._t_odometry)
-        rest = inc - self._advance
-        self._advance = np.zeros(2)
+            span = t - self._t_odometry
+            self._rate = (dd / span, dth / span)
+        rest_d, rest_th = dd - self._advance[0], dth - self._advance[1]
+        self._advance = (0.0, 0.0)
         self._t_odometry = t
         self._t = t
-        self._move(float(rest[0]), float(rest[1]))
-        if self.status == "initialising" and np.any(np.abs(inc) > 1e-9):
+        self._move(rest_d, rest_th)
+        if not self._has_pose() and (abs(dd) > 1e-9 or abs(dth) > 1e-9):
             self._init_buffer.clear()  # the start-up search needs a standing vehicle
 
     def update(self, t: float, bearing: float) -> bool:
@@ -185,21 +221,18 @@ class StreamingEstimator:
         (spurious, ambiguous, already claimed in this sweep) or buffered for start-up.
         """
         t = self._check_time(t, "reflection")
-        z = float(wrap_angle(float(require_finite("bearing", bearing)) + self.bearing_offset))
+        z = _fast.wrap(_finite_float("bearing", bearing) + self.bearing_offset)
         if self._t_odometry is not None and t > self._t:
-            ahead = self._rate * (t - self._t)
-            self._advance += ahead
-            self._move(float(ahead[0]), float(ahead[1]))
+            span = t - self._t
+            ahead_d, ahead_th = self._rate[0] * span, self._rate[1] * span
+            self._advance = (self._advance[0] + ahead_d, self._advance[1] + ahead_th)
+            self._move(ahead_d, ahead_th)
         self._t = t
-        if self.status == "initialising":
+        if not self._has_pose():
             self._init_buffer.append((t, z))
             self._try_start()
             return False
-        assoc = gate_reflection(
-            z, self._x, self._P, self.mount, self.reflector_xy, self.reflector_radius, self.bearing_std**2,
-            max_range=self.max_range, excluded=t - self._claimed < 0.75 / self.rate_hz, gate=self.gate,
-            map_std=self.map_std,
-        )
+        assoc = self._gate(t, z)
         self._watch_lockout(t, assoc.index >= 0)
         if assoc.index < 0:
             self.n_rejected += 1
@@ -219,8 +252,22 @@ class StreamingEstimator:
         return np.array([self.update(float(a), float(b)) for a, b in zip(tt, zz)], dtype=bool)
 
     # ------------------------------------------------------------------ internals
+    def _gate(self, t: float, z: float) -> Association:
+        """:func:`~agvnav.positioning.identification.gate_reflection` on the current estimate.
+
+        Scalar fast path (:func:`agvnav.positioning._fast.gate_one`, same gate); a
+        reflector claimed less than 3/4 of a revolution ago is excluded.
+        """
+        sweep = 0.75 / self.rate_hz
+        allowed = [not (t - c < sweep) for c in self._claimed]
+        j, y, nis, n_in, H, S, R = _fast.gate_one(
+            z, self._x_t, self._P_t, self._mount_t, self._rows, self.bearing_std**2,
+            self.max_range, allowed, self.gate, self.map_std,
+        )
+        return Association(j, y, nis, n_in, np.array(H), S, R)
+
     def _check_time(self, t: float, what: str) -> float:
-        t = float(require_finite("t", t))
+        t = _finite_float("t", t)
         if self._t is not None and t < self._t:
             raise ValueError(
                 f"{what} at t={t!r} s is earlier than the previous input at t={self._t!r} s; "
@@ -245,22 +292,27 @@ class StreamingEstimator:
         self._recent.append((t, accepted))
         n_ok = sum(ok for _, ok in self._recent)
         n_bad = len(self._recent) - n_ok
-        room = self._P[0, 0] + self._P[1, 1] < MAX_INFLATED_POSITION_VAR
+        room = self._P_t[0] + self._P_t[4] < MAX_INFLATED_POSITION_VAR
         if n_bad >= 4 and 2 * n_ok < n_bad and room:
-            self._P = 4.0 * self._P
+            self._P_t = tuple(4.0 * v for v in self._P_t)
             self.n_inflations += 1
             self._recent.clear()
 
     def _move(self, delta_d: float, delta_theta: float) -> None:
-        """Dead-reckon the odom pose, and the map pose with ``P' = F P F^T + Q`` (seed 002)."""
-        self._odom = integrate_pose(self._odom, delta_d, delta_theta, rule="arc")
-        if np.all(np.isfinite(self._x)):
-            F = pose_jacobian(self._x, delta_d, delta_theta)
-            Q = motion_covariance(self._x, delta_d, delta_theta, self.odometry_noise)
-            self._x = integrate_pose(self._x, delta_d, delta_theta, rule="arc")
-            self._x[2] = wrap_angle(self._x[2])
-            self._P = F @ self._P @ F.T + Q
-            self._P = 0.5 * (self._P + self._P.T)
+        """Dead-reckon the odom pose, and the map pose with ``P' = F P F^T + Q`` (seed 002).
+
+        Scalar fast path of :func:`~agvnav.odometry.integrate_pose` (arc rule, eq. 25),
+        :func:`~agvnav.odometry.pose_jacobian` and :func:`~agvnav.odometry.motion_covariance`.
+        """
+        ox, oy, opsi = self._odom_t
+        self._odom_t = _fast.arc_step(ox, oy, opsi, delta_d, delta_theta)[:3]
+        if self._has_pose():
+            x, y, psi = self._x_t
+            nx, ny, npsi, f02, f12 = _fast.arc_step(x, y, psi, delta_d, delta_theta)
+            k = self.odometry_noise
+            Q = _fast.process_noise(psi, delta_d, delta_theta, k.k_d, k.k_dtheta, k.k_theta)
+            self._x_t = (nx, ny, _fast.wrap(npsi))
+            self._P_t = _fast.predict_covariance(self._P_t, f02, f12, Q)
 
     def _start(self, pose: ArrayLike, covariance: ArrayLike | None) -> None:
         x = require_finite("initial_pose", pose)
@@ -269,8 +321,7 @@ class StreamingEstimator:
         P = np.diag([0.05, 0.05, 0.02]) ** 2 if covariance is None else require_finite("initial_covariance", covariance)
         if P.shape != (3, 3):
             raise ValueError(f"initial_covariance must have shape (3, 3), got {P.shape}")
-        self._x = x.copy()
-        self._x[2] = wrap_angle(x[2])
+        self._x = (x[0], x[1], wrap_angle(x[2]))
         self._P = 0.5 * (P + P.T)
         self._t_last_accept = self._t  # None before the first input: counted from the first one
 
@@ -295,6 +346,17 @@ class StreamingEstimator:
 
     def _accept(self, t: float, bearing: float, assoc: Any) -> None:  # pragma: no cover - abstract
         raise NotImplementedError
+
+
+def _finite_float(name: str, value: Any) -> float:
+    """``value`` as a finite float, else ValueError naming ``name`` (scalar fast path of ``require_finite``)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be numeric: {exc}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{name} contains NaN or inf")
+    return v
 
 
 def make_estimator(method: str = "ekf", world: Any = None, mount: ArrayLike = (0.0, 0.0, 0.0), **kwargs: Any) -> StreamingEstimator:
