@@ -225,10 +225,12 @@ class SeedGeneralController(_PathFollower):
         form: int | None = None,
         feedforward: bool = True,
         curvature_compensation: bool = True,
+        exact_rotation: bool = True,
         window: float = 1.0,
     ):
         super().__init__(path, wheelbase, point, window, feedforward)
         self.curvature_compensation = bool(curvature_compensation)
+        self.exact_rotation = bool(exact_rotation)
         self._arc_gains: dict[tuple[float, float], tuple[float, float, float]] = {}
         self.form = (11 if point == "O" else 13) if form is None else form
         if self.form not in GENERAL_FORMS:
@@ -296,7 +298,10 @@ class SeedGeneralController(_PathFollower):
         kappa_ref = e.direction * e.kappa if self.feedforward else 0.0
         a, b, c = self.gains_at(v, kappa_ref)
         dgamma = gamma - e.gamma_ss
-        return float(general_law(self.form, e.eps_c, e.eps_o, e.xi, e.xi_r, dgamma, a, b, c, self.wheelbase))
+        exact = {"v": v, "gamma_ss": e.gamma_ss} if self.exact_rotation else {}
+        return float(
+            general_law(self.form, e.eps_c, e.eps_o, e.xi, e.xi_r, dgamma, a, b, c, self.wheelbase, **exact)
+        )
 
 
 class SeedSimpleController(_PathFollower):

@@ -33,6 +33,10 @@ def _sin(x: NDArray[np.float64] | float) -> NDArray[np.float64] | float:
     return math.sin(x) if isinstance(x, float) else np.sin(x)
 
 
+def _cos(x: NDArray[np.float64] | float) -> NDArray[np.float64] | float:
+    return math.cos(x) if isinstance(x, float) else np.cos(x)
+
+
 def general_law(
     form: int,
     eps_c: ArrayLike,
@@ -44,6 +48,9 @@ def general_law(
     b: ArrayLike,
     c: ArrayLike,
     wheelbase: float,
+    *,
+    v: ArrayLike | None = None,
+    gamma_ss: ArrayLike | None = None,
 ) -> NDArray[np.float64]:
     """General three-parameter law, seed 000 eqs 11-13 (rad/s).
 
@@ -54,8 +61,23 @@ def general_law(
     The three are the same law rewritten with eqs 9-10 (linearised); their
     closed loop obeys eq. 17 (see :mod:`agvnav.guidance.gains`).
     Only the errors a form uses are read.
+
+    Exact body rotation (form 13 only, when ``v`` (m/s) and ``gamma_ss`` (rad)
+    are given): the part ``(v cos(gamma_ss) / L) dgamma`` of the last term is
+    replaced by ``(v/L) (sin(gamma) - sin(gamma_ss))``, equal to first order,
+    so eq. 17 and the poles are unchanged. Deviation, as in :func:`simple_law`:
+    that part cancels the body rotation ``psi' = (v/L) sin(gamma)`` (eq. 8) in
+    ``xi_r'``; with the real pole at ``-cos(gamma_ss)/L``
+    (:func:`agvnav.guidance.gains.hidden_real_pole`) the whole last term is
+    that part and eq. 13 is then eq. 20 exactly, also far from the linear
+    range (e.g. the wheel straight at the start of an arc).
     """
     a, b, c, L = _f(a), _f(b), _f(c), float(wheelbase)
+    if form == 13 and v is not None and gamma_ss is not None:
+        vv, gss, dg = _f(v), _f(gamma_ss), _f(dgamma)
+        lin = c - b + a * L - (vv / L) * _cos(gss)
+        rot = (vv / L) * (_sin(dg + gss) - _sin(gss))
+        return -a * _f(eps_c) - (b - a * L) * _f(xi_r) - lin * dg - rot
     if form == 11:
         return -a * _f(eps_o) - b * _f(xi) - c * _f(dgamma)
     if form == 12:
