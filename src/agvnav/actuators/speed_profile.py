@@ -59,6 +59,26 @@ def profile_speed(
     return direction * along
 
 
+def _sign(a: float) -> float:
+    return 1.0 if a > 0.0 else (-1.0 if a < 0.0 else 0.0)
+
+
+def _profile_speed_scalar(
+    v: float, v_target: float, remaining: float, dt: float, max_accel: float, max_decel: float
+) -> float:
+    """Scalar fast path of :func:`profile_speed` (same arithmetic, no NumPy call overhead)."""
+    rem = max(remaining, 0.0)
+    direction = _sign(v_target) if v_target != 0.0 else _sign(v)
+    cap = max_decel * (math.sqrt(2.25 * dt * dt + 2.0 * rem / max_decel) - 1.5 * dt)
+    goal = direction * min(abs(v_target), cap)
+    speed_along = v * direction
+    if goal * direction >= speed_along:
+        along = min(goal * direction, speed_along + max_accel * dt)
+    else:
+        along = max(goal * direction, speed_along - max_decel * dt)
+    return direction * along
+
+
 @dataclass
 class SpeedProfile:
     """Stateful traction speed profile (seed 000 §4 loop, issue 5 §3).
@@ -97,5 +117,5 @@ class SpeedProfile:
         if remaining <= self.stop_tolerance:
             self.v = 0.0
             return 0.0
-        self.v = float(profile_speed(self.v, target, remaining, dt, self.max_accel, self.max_decel))
+        self.v = _profile_speed_scalar(self.v, target, remaining, dt, self.max_accel, self.max_decel)
         return self.v

@@ -58,6 +58,16 @@ def steering_step(
     return g_next, (g_next - g) / dt
 
 
+def _steering_step_scalar(
+    gamma: float, rate: float, rate_cmd: float, dt: float, tau: float, max_rate: float, max_angle: float
+) -> tuple[float, float]:
+    """Scalar fast path of :func:`steering_step` (same arithmetic, no NumPy call overhead)."""
+    alpha = 1.0 if tau <= 0.0 else -math.expm1(-dt / tau)
+    r_lag = min(max(rate + alpha * (rate_cmd - rate), -max_rate), max_rate)
+    g_next = min(max(gamma + r_lag * dt, -max_angle), max_angle)
+    return g_next, (g_next - gamma) / dt
+
+
 @dataclass
 class SteeringActuator:
     """Stateful steering servo: rate and angle limits, first-order lag.
@@ -93,8 +103,7 @@ class SteeringActuator:
         u = float(as_float_array("rate_cmd", rate_cmd))
         if not math.isfinite(u):
             raise ValueError("rate_cmd must be finite")
-        g, r = steering_step(self.gamma, self.rate, u, dt, self.tau, self.max_rate, self.max_angle)
-        self.gamma, self.rate = float(g), float(r)
+        self.gamma, self.rate = _steering_step_scalar(self.gamma, self.rate, u, dt, self.tau, self.max_rate, self.max_angle)
         return self.gamma, self.rate
 
     def step_angle(self, gamma_cmd: float, dt: float) -> tuple[float, float]:

@@ -534,7 +534,7 @@ def _call_pose(pose_at: PoseFunction, t: NDArray[np.float64]) -> NDArray[np.floa
     pose = np.asarray(pose_at(t), dtype=np.float64)
     if pose.shape != (t.size, 3):
         raise ValueError(f"pose_at(t) must return shape ({t.size}, 3), got {pose.shape}")
-    if not np.all(np.isfinite(pose)):
+    if not np.isfinite(pose).all():  # the method: np.all's dispatch costs more on 3x3
         raise ValueError("pose_at(t) returned NaN or inf")
     return pose
 

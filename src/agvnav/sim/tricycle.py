@@ -16,6 +16,7 @@ pulses.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -23,8 +24,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-
-from agvnav.odometry import tricycle_increments
 
 __all__ = ["GoniometerSensor", "TricycleAutopilot", "TricyclePlant", "TruthErrors"]
 
@@ -71,6 +70,28 @@ def stacker_rk4(
     ]
     end = _stacker_rate(new[2], new[3], v, gamma_dot, wheelbase)
     return np.array(new), np.array([k1, end])
+
+
+def wheel_count(wheel_angle: float, resolution: float) -> int:
+    """Scalar fast path of :meth:`agvnav.sensors.WheelEncoder.counts`: ``floor(phi / res + 1e-9)``."""
+    if not math.isfinite(wheel_angle):
+        raise ValueError("wheel_angle contains NaN or inf")
+    return math.floor(wheel_angle / resolution + 1e-9)
+
+
+def steering_reading(angle: float, offset: float, resolution: float) -> float:
+    """Scalar fast path of ``SteeringEncoder.angle(SteeringEncoder.counts(angle))`` (rad).
+
+    ``rint((angle - offset) / res) * res``; Python's ``round`` rounds half to even like ``rint``.
+    """
+    if not math.isfinite(angle):
+        raise ValueError("steering_angle contains NaN or inf")
+    return round((angle - offset) / resolution) * resolution
+
+
+def tricycle_increments_scalar(ds_c: float, gamma: float, wheelbase: float) -> tuple[float, float]:
+    """Scalar fast path of :func:`agvnav.odometry.tricycle_increments` (seed 000 eq. 8 over a step)."""
+    return ds_c * math.cos(gamma), ds_c * math.sin(gamma) / wheelbase
 
 
 class TricyclePlant:
@@ -134,6 +155,7 @@ class TricyclePlant:
         self._state = np.array([x0[0], x0[1], x0[2], x0[3] + errors.steering_offset])
         self._start = self._state.copy()
         self._deriv = np.zeros((2, 4))
+        self._hermite = (self._start[:3], np.zeros(3), self._state[:3], np.zeros(3))
         self._u = np.zeros(2)
         self._dt = 1.0
         self._t0 = 0.0
@@ -149,7 +171,7 @@ class TricyclePlant:
     def _read_steering(self, gamma_servo: float) -> float:
         """Steering encoder reading (rad) with the wheel at ``gamma_servo + offset``."""
         enc = self.steering_encoder
-        g = float(enc.angle(enc.counts(gamma_servo + enc.offset)))
+        g = steering_reading(gamma_servo + enc.offset, enc.offset, enc.resolution)
         limit = math.pi / 2 - enc.resolution  # the reading stays inside (-90, 90) deg, seed 000 §3.1
         return max(-limit, min(limit, g))
 
@@ -181,16 +203,18 @@ class TricyclePlant:
         self._u = np.array([ds_true / dt, rate])
         self._dt = dt
         self._state, self._deriv = stacker_rk4(start, self._u[0], self._u[1], self.L_true, dt)
+        # end poses and scaled end derivatives of the step, for pose_at's Hermite cubic
+        self._hermite = (self._start[:3], self._deriv[0, :3] * dt, self._state[:3], self._deriv[1, :3] * dt)
         self.v = ds_true / dt
         self.distance_C += abs(ds_true)
         # encoders (nominal parameters)
         self._wheel_angle += wheel_rate * dt
-        count = int(self.traction_encoder.counts(self._wheel_angle))
-        self.ds_meas = float(self.traction_encoder.distance(count - self._count))
+        enc = self.traction_encoder
+        count = wheel_count(self._wheel_angle, enc.angle_resolution)
+        self.ds_meas = (count - self._count) * enc.angle_resolution * enc.wheel_radius  # WheelEncoder.distance
         self._count = count
         self._gamma_meas_prev, self.gamma_meas = self.gamma_meas, self._read_steering(g1)
-        dd, dth = tricycle_increments(self.ds_meas, 0.5 * (self._gamma_meas_prev + self.gamma_meas), self.L)
-        self._odo = (float(dd), float(dth))
+        self._odo = tricycle_increments_scalar(self.ds_meas, 0.5 * (self._gamma_meas_prev + self.gamma_meas), self.L)
 
     def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
         """True base_link (O) pose ``(k, 3)`` at instants ``t (k,)`` inside the last step.
@@ -204,14 +228,13 @@ class TricyclePlant:
         sensor's root finder.
         """
         t = np.asarray(t, dtype=np.float64)
-        h = self._dt
-        u = np.clip((t - self._t0) / h, 0.0, 1.0)[..., None]
+        # np.minimum/np.maximum: np.clip's dispatch cost more than the arithmetic here
+        u = np.minimum(np.maximum((t - self._t0) / self._dt, 0.0), 1.0)[..., None]
         u2 = u * u
         u3 = u2 * u
         h00, h10 = 2.0 * u3 - 3.0 * u2 + 1.0, u3 - 2.0 * u2 + u
         h01, h11 = 3.0 * u2 - 2.0 * u3, u3 - u2
-        p0, p1 = self._start[:3], self._state[:3]
-        d0, d1 = self._deriv[0, :3] * h, self._deriv[1, :3] * h
+        p0, d0, p1, d1 = self._hermite
         return h00 * p0 + h10 * d0 + h01 * p1 + h11 * d1
 
     def odometry(self) -> tuple[float, float]:
@@ -282,10 +305,16 @@ class TricycleAutopilot:
         self.finished = False
         self._s = 0.0
         self._length = float(path.length)
+        # segment starts and directions as Python values: direction_at without NumPy per step
+        self._seg_starts = [float(v) for v in path.segment_starts[:-1]]
+        self._seg_dirs = [int(seg.direction) for seg in path.segments]
         self._sig = (0.0, 0.0, 0.0, math.nan, math.nan, self._length)
 
     def _direction(self, s: float) -> int:
-        return int(self.path.direction_at(s))
+        """``path.direction_at(s)`` (a joint belongs to the next segment), by bisection on cached starts."""
+        s = min(max(s, 0.0), self._length)
+        i = bisect.bisect_right(self._seg_starts, s) - 1
+        return self._seg_dirs[min(max(i, 0), len(self._seg_dirs) - 1)]
 
     def command(self, t: float, estimator: Any, plant: Any, dt: float) -> tuple[float, float]:
         pose = estimator.pose

@@ -1,0 +1,52 @@
+"""The plant's and the autopilot's scalar fast paths equal the package kernels they mirror."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from agvnav.guidance.paths import path_from_moves
+from agvnav.odometry import tricycle_increments
+from agvnav.sensors.encoders import SteeringEncoder, WheelEncoder
+from agvnav.sim.tricycle import TricycleAutopilot, steering_reading, tricycle_increments_scalar, wheel_count
+
+
+@given(st.floats(-1e4, 1e4))
+def test_wheel_count_equals_encoder(angle: float) -> None:
+    enc = WheelEncoder(4096, 0.1)
+    assert wheel_count(angle, enc.angle_resolution) == int(enc.counts(angle))
+
+
+@given(st.floats(-1.6, 1.6), st.floats(-0.01, 0.01))
+def test_steering_reading_equals_encoder(angle: float, offset: float) -> None:
+    enc = SteeringEncoder(16384, offset=offset)
+    assert steering_reading(angle, offset, enc.resolution) == float(enc.angle(enc.counts(angle)))
+
+
+def test_encoder_fast_paths_refuse_nan() -> None:
+    with pytest.raises(ValueError, match="wheel_angle"):
+        wheel_count(math.nan, 0.001)
+    with pytest.raises(ValueError, match="steering_angle"):
+        steering_reading(math.inf, 0.0, 0.001)
+
+
+@given(st.floats(-0.1, 0.1), st.floats(-1.6, 1.6))
+def test_tricycle_increments_scalar_equals_kernel(ds: float, gamma: float) -> None:
+    ref = tricycle_increments(ds, gamma, 1.3)
+    got = tricycle_increments_scalar(ds, gamma, 1.3)
+    np.testing.assert_allclose(got, [float(ref[0]), float(ref[1])], rtol=1e-15, atol=1e-18)
+
+
+def test_autopilot_direction_equals_path_direction_at() -> None:
+    path = path_from_moves(
+        [0.0, 0.0, 0.0], [("line", 1.0), ("arc", 2.0, 0.5, -1), ("line", 0.5), ("line", 1.5, -1), ("arc", 1.0, -0.3)]
+    )
+    pilot = TricycleAutopilot(controller=None, path=path, profile=None, wheelbase=1.0)
+    starts = path.segment_starts
+    probes = np.concatenate([np.linspace(-1.0, path.length + 1.0, 401), starts, np.nextafter(starts, -np.inf)])
+    for s in probes:
+        assert pilot._direction(float(s)) == int(path.direction_at(s)), s
