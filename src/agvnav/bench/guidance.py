@@ -13,6 +13,11 @@ the same random seed, each tuned for the same convergence distance
   The simple law and Stanley are defined for forward driving only, so only the
   general law and pure pursuit run it.
 
+The general law on point C is designed with its real pole at -1/L per metre
+(hidden from eps_c, see :mod:`agvnav.guidance.gains`): with the earlier
+seed-like pattern (real pole = real part of the pair) at 1.5 m it overshot
+to -140 mm on the line and saturated the wheel on ``seed_test``.
+
 Metrics use the transient definition of :mod:`agvnav.sim.metrics`. The last
 records give the real-time factor of the default scenario (best of a few runs)
 and, in the full run, the peak memory of a one-hour simulated drive.
