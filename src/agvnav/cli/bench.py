@@ -18,7 +18,7 @@ bench_app = typer.Typer(help="Benchmarks: speed and accuracy tables (--json for 
 
 JSON_OPT = typer.Option(False, "--json", help="Print {\"benchmark\": NAME, \"records\": [...]} instead of a table.")
 QUICK_OPT = typer.Option(False, "--quick", help="Smaller problem sizes, for a fast look (figures are noisier).")
-SEED_OPT = typer.Option(0, "--seed", help="Random seed; the same seed reproduces the same figures.")
+SEED_OPT = typer.Option(0, "--seed", min=0, help="Random seed; the same seed reproduces the same figures.")
 
 
 def _run(name: str, as_json: bool, quick: bool, seed: int) -> None:

@@ -22,7 +22,7 @@ SCENARIO_ARG = typer.Argument(
     None, help="Scenario YAML file or shipped scenario name (default: guidance_test, seed 000 §4.3)."
 )
 OUT_OPT = typer.Option(Path("sim_out"), "--out", "-o", help="Output folder for metrics.json, CSV series and PNG plots.")
-SEED_OPT = typer.Option(None, "--seed", help="Random seed (overrides the scenario's); same seed, same run.")
+SEED_OPT = typer.Option(None, "--seed", min=0, help="Random seed (overrides the scenario's); same seed, same run.")
 PLOTS_OPT = typer.Option(True, "--plots/--no-plots", help="Write the PNG plots.")
 
 
