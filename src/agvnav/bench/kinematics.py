@@ -1,7 +1,9 @@
 """``agvnav bench kinematics``: batch stepping speed of every model; odometry integrators' errors.
 
 Speed: ``steps_per_s`` = vehicle-steps per second when stepping a batch of
-10,000 vehicles in one call. Accuracy: the maximum position error of the
+10,000 vehicles in one call of the unchecked kernel ``step_unchecked`` (what a
+simulator's hot loop uses); ``validated_steps_per_s`` is the same through the
+validated ``step`` (shape, finiteness, limits before and after the step). Accuracy: the maximum position error of the
 three seed-002 update rules (eqs. 20, 25, 26) against the exact path, on a
 circle (where the arc rule is exact) and on a slalom (curvature varying).
 """
@@ -17,12 +19,14 @@ from scipy.integrate import solve_ivp
 from agvnav.bench.common import best_time
 from agvnav.kinematics import (
     Ackermann,
+    AckermannSimple,
     DifferentialDrive,
     KinematicModel,
     MecanumBase,
     TrackedVehicle,
     TractorTrailer,
     TricycleRearDrive,
+    TricycleRearDriveSimple,
     TricycleStacker,
     TricycleStackerSimple,
 )
@@ -38,9 +42,14 @@ MODELS: dict[str, tuple[Callable[[], KinematicModel], str, bool]] = {
     "tricycle_stacker (gamma_dot=0)": (lambda: TricycleStacker(wheelbase=1.3), "exact", True),
     "tricycle_stacker_simple": (lambda: TricycleStackerSimple(wheelbase=1.3), "exact", False),
     "tricycle_model_a": (lambda: TricycleRearDrive(wheelbase=1.3, max_steer=1.2), "RK4 x4", False),
+    "tricycle_model_a_simple": (lambda: TricycleRearDriveSimple(wheelbase=1.3, max_steer=1.2), "exact", False),
     "ackermann": (lambda: Ackermann(wheelbase=2.5, track=1.5), "RK4 x4", False),
+    "ackermann_simple": (lambda: AckermannSimple(wheelbase=2.5, track=1.5), "exact", False),
     "tractor_trailer": (lambda: TractorTrailer(trailer_length=2.0, hitch_offset=0.5), "RK4 x4", False),
-    "mecanum": (lambda: MecanumBase(0.05, 0.3, 0.25), "exact", False),
+    "mecanum (X)": (lambda: MecanumBase(0.05, 0.3, 0.25), "exact", False),
+    # Layout O moves (rank 3) because a != b; a square O base (a == b) could not rotate.
+    "mecanum (O)": (lambda: MecanumBase(0.05, 0.3, 0.25, layout="O"), "exact", False),
+    "tracked (concrete)": (lambda: TrackedVehicle(0.4, terrain="concrete"), "exact", False),
     "tracked (artificial_grass)": (lambda: TrackedVehicle(0.4, terrain="artificial_grass"), "exact", False),
 }
 
@@ -52,8 +61,11 @@ def _speed_record(name: str, rng: np.random.Generator, repeat: int) -> dict[str,
     u = rng.uniform(-0.5, 0.5, (BATCH, model.n_input))
     if hold_steering:
         u[:, 1] = 0.0
-    t = best_time(lambda: model.step(state, u, 0.01), repeat=repeat)
-    return {"model": name, "step": method, "steps_per_s": BATCH / t}
+    if not (np.all(model.state_valid(state)) and np.all(model.input_valid(u))):
+        raise RuntimeError(f"bench kinematics: {name} sample outside the model's limits")
+    t = best_time(lambda: model.step_unchecked(state, u, 0.01), repeat=repeat)
+    t_checked = best_time(lambda: model.step(state, u, 0.01), repeat=repeat)
+    return {"model": name, "step": method, "steps_per_s": BATCH / t, "validated_steps_per_s": BATCH / t_checked}
 
 
 def _slalom(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -3,6 +3,28 @@
 Every model implements ``KinematicModel``: ``derivative``, ``jacobian_state``,
 ``jacobian_input``, ``step`` and the checks, vectorised over leading batch
 dimensions.
+
+Validated path and kernels
+--------------------------
+The public methods are the validated path, the default for users: ``step``
+checks the shapes, that state and input are finite and within the model's
+limits, that ``dt`` is a positive finite number, and that the *resulting* state
+is still within its limits (e.g. γ pushed past ``max_steer`` raises a ValueError;
+no silent clamping). ``derivative`` and the Jacobians check shapes and
+finiteness. Every bad case is a ValueError naming ``state``/``u``/``dt`` or the
+variable, never an IndexError or a silent NaN. ``checked_step`` is an alias of
+``step``.
+
+Hot loops (benchmarks, simulators stepping thousands of vehicles) call the
+unchecked kernels ``step_unchecked``, ``derivative_unchecked``,
+``jacobian_state_unchecked`` and ``jacobian_input_unchecked``, which do no
+checking; pair them with the batch flags ``input_valid``/``state_valid``.
+
+The free functions (``wheel_speeds``, ``body_speeds``, ``ackermann_wheel_angles``,
+``odometry.tricycle_increments``/``differential_increments``) require positive
+geometry (ValueError); on scalar inputs a NaN/inf (or a steering angle at/beyond
+±90°) raises a ValueError naming it, on batch inputs those elements come out NaN
+(the flag) and never touch their neighbours.
 """
 
 from agvnav.kinematics.ackermann import Ackermann, AckermannSimple, ackermann_wheel_angles

@@ -12,20 +12,30 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from agvnav._validate import require_positive
-from agvnav.kinematics.base import FloatArray
+from agvnav.kinematics.base import FloatArray, scalar_inputs_or_flag
 from agvnav.kinematics.tricycle import TricycleRearDrive, TricycleRearDriveSimple
 
 
 def ackermann_wheel_angles(phi: ArrayLike, wheelbase: float, track: float) -> tuple[FloatArray, FloatArray]:
     """Left and right front wheel angles (rad) for bicycle angle ``φ`` (rad).
 
-    The virtual middle wheel turns about ``R = l / tan φ`` on the rear-axle
-    line; the left wheel is ``t/2`` closer to that centre for ``φ > 0``:
-    ``tan φ_L = l tan φ / (l − (t/2) tan φ)``, ``tan φ_R = l tan φ / (l + (t/2) tan φ)``.
+    Source: seed 003 §3.2.6 (Ackermann configuration: the two front-wheel angles φ₁, φ₂ are
+    mechanically linked and the model is that of the tricycle with one virtual middle wheel);
+    the seed gives no formula for the link, so it is derived here from the Ackermann condition
+    (every wheel axis through the instantaneous centre on the rear-axle line). The virtual
+    middle wheel turns about ``R = l / tan φ``; the left wheel is ``t/2`` closer to that centre
+    for ``φ > 0``: ``tan φ_L = l tan φ / (l − (t/2) tan φ)``, ``tan φ_R = l tan φ / (l + (t/2) tan φ)``.
     Written with ``atan2`` so an inner wheel past 90° (centre between the front wheels) keeps
     a continuous angle instead of flipping sign.
+
+    ``wheelbase`` l and ``track`` t (m) must be positive (ValueError). ``|φ| < π/2``: a scalar φ
+    at/beyond ±90° or NaN raises a ValueError naming ``phi``; in a batch those elements come
+    out NaN (the flag), neighbours untouched.
     """
-    t = np.tan(np.asarray(phi, dtype=np.float64))
+    wheelbase = require_positive("wheelbase", wheelbase)
+    track = require_positive("track", track)
+    (phi_arr,), ok = scalar_inputs_or_flag(angles={"phi": phi})
+    t = np.tan(np.where(ok, phi_arr, np.nan))
     num = wheelbase * t
     left = np.arctan2(num, wheelbase - 0.5 * track * t)
     right = np.arctan2(num, wheelbase + 0.5 * track * t)

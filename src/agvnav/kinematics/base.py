@@ -2,10 +2,15 @@
 
 A model maps a state ``(..., n)`` and an input ``(..., m)`` to the state
 derivative ``(..., n)``; everything is vectorised over leading batch dimensions.
-The kernels (``derivative``, Jacobians, ``step``) do not validate, so a batch of
-10,000 vehicles steps in one NumPy call; ``check_state``/``check_input`` raise a
-``ValueError`` naming the parameter, and ``input_valid`` flags bad elements of a
-batch without raising.
+Two layers (see ``agvnav.kinematics``):
+
+* the public methods ``derivative``, ``jacobian_state``, ``jacobian_input`` and
+  ``step`` validate: a wrong trailing length, NaN/inf, ``dt <= 0`` or a limit
+  violated (before *or after* the step) raises a ``ValueError`` naming the
+  state/input variable, never a silent NaN;
+* the ``*_unchecked`` kernels (``derivative_unchecked``, ``step_unchecked``, ...)
+  do no checking at all, so a batch of 10,000 vehicles steps in one NumPy call;
+  pair them with ``input_valid``/``state_valid`` to flag bad batch elements.
 """
 
 from __future__ import annotations
@@ -132,21 +137,62 @@ class KinematicModel(ABC):
         state = np.asarray(state, dtype=np.float64)
         return np.zeros(state.shape[:-1] + (0, self.n_state))
 
+    # ------------------------------------------------- kernels (no checking)
     @abstractmethod
+    def derivative_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+        """Kernel of ``derivative``: no validation (hot loops, batches pre-flagged with ``input_valid``)."""
+
+    @abstractmethod
+    def jacobian_state_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+        """Kernel of ``jacobian_state``: no validation."""
+
+    @abstractmethod
+    def jacobian_input_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+        """Kernel of ``jacobian_input``: no validation."""
+
+    def step_unchecked(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
+        """Kernel of ``step``: RK4 with ``substeps`` sub-steps, input held, no validation and no limits."""
+        return rk4_step(self.derivative_unchecked, np.asarray(state, np.float64), np.asarray(u, np.float64), dt,
+                        self.substeps)
+
+    # ------------------------------------------------- validated public API
     def derivative(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
-        """State derivative ``(..., n)`` for state ``(..., n)`` and input ``(..., m)``."""
+        """State derivative ``(..., n)`` for state ``(..., n)`` and input ``(..., m)``.
 
-    @abstractmethod
+        Raises ValueError naming ``state``/``u`` (wrong trailing length) or the variable (NaN/inf).
+        """
+        return self.derivative_unchecked(*self._finite_pair(state, u))
+
     def jacobian_state(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
-        """``∂derivative/∂state``, shape ``(..., n, n)``."""
+        """``∂derivative/∂state``, shape ``(..., n, n)`` (validated like ``derivative``)."""
+        return self.jacobian_state_unchecked(*self._finite_pair(state, u))
 
-    @abstractmethod
     def jacobian_input(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
-        """``∂derivative/∂u``, shape ``(..., n, m)``."""
+        """``∂derivative/∂u``, shape ``(..., n, m)`` (validated like ``derivative``)."""
+        return self.jacobian_input_unchecked(*self._finite_pair(state, u))
 
     def step(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
-        """State after ``dt`` s with the input held (RK4, ``substeps`` sub-steps)."""
-        return rk4_step(self.derivative, np.asarray(state, np.float64), np.asarray(u, np.float64), dt, self.substeps)
+        """State after ``dt`` s with the input held: the validated API path.
+
+        Checks the shapes, finiteness and limits of ``state`` and ``u``, that ``dt`` is a positive
+        finite number, and the resulting state: a step that ends beyond a state limit (e.g. a
+        steering angle pushed past ``max_steer`` by an unlimited steering rate) raises ValueError
+        rather than clamping, because clamping would silently change the commanded motion.
+        Use ``step_unchecked`` in hot loops.
+        """
+        dt = _check_dt(dt)
+        new = self.step_unchecked(self.check_state(state), self.check_input(u), dt)
+        try:
+            return self.check_state(new)
+        except ValueError as exc:
+            raise ValueError(f"after a step of dt={dt!r} s: {exc}") from None
+
+    def _finite_pair(self, state: ArrayLike, u: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        state = require_last_dim("state", as_float_array("state", state), self.n_state)
+        u = require_last_dim("u", as_float_array("u", u), self.n_input)
+        _raise_nonfinite(state, self.state_names, "state")
+        _raise_nonfinite(u, self.input_names, "input")
+        return state, u
 
     # ------------------------------------------------------------------ checks
     def input_violations(self, u: FloatArray) -> list[tuple[str, NDArray[np.bool_]]]:
@@ -194,10 +240,18 @@ class KinematicModel(ABC):
         return state
 
     def checked_step(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
-        """``step`` after ``check_state``, ``check_input`` and a positive finite ``dt`` (the API path)."""
-        if not np.isfinite(dt) or dt <= 0.0:
-            raise ValueError(f"dt must be a positive finite number, got {dt!r}")
-        return self.step(self.check_state(state), self.check_input(u), dt)
+        """Alias of ``step`` (kept for callers of the earlier API; ``step`` now validates)."""
+        return self.step(state, u, dt)
+
+
+def _check_dt(dt: float) -> float:
+    try:
+        value = float(dt)
+    except (TypeError, ValueError):
+        raise ValueError(f"dt must be a positive finite number, got {dt!r}") from None
+    if not np.isfinite(value) or value <= 0.0:
+        raise ValueError(f"dt must be a positive finite number, got {dt!r}")
+    return value
 
 
 def _raise_nonfinite(arr: FloatArray, names: tuple[str, ...], what: str) -> None:
@@ -205,6 +259,30 @@ def _raise_nonfinite(arr: FloatArray, names: tuple[str, ...], what: str) -> None
     if not np.all(finite):
         bad = [names[j] for j in range(arr.shape[-1]) if not np.all(finite[..., j])]
         raise ValueError(f"{what} {', '.join(bad)} contains NaN or inf")
+
+
+def scalar_inputs_or_flag(
+    angles: dict[str, ArrayLike] | None = None, **values: ArrayLike
+) -> tuple[list[FloatArray], NDArray[np.bool_]]:
+    """Convert the inputs of a free kinematics function; validate the scalar path, flag the batch path.
+
+    ``values`` are finite quantities; ``angles`` (rad) must also satisfy ``|angle| < π/2``.
+    When every input is a scalar (0-d), a NaN/inf or an angle at/beyond ±90° raises a ValueError
+    naming it. Otherwise returns the arrays and a broadcast ``ok`` mask; the caller writes NaN
+    into the elements where ``ok`` is False (the batch flag), leaving neighbours untouched.
+    """
+    angles = angles or {}
+    arrays = {name: as_float_array(name, v) for name, v in {**values, **angles}.items()}
+    ok = np.ones(np.broadcast_shapes(*(a.shape for a in arrays.values())), dtype=bool)
+    for name, a in arrays.items():
+        with np.errstate(invalid="ignore"):
+            bad = ~np.isfinite(a) | ((np.abs(a) >= np.pi / 2) if name in angles else False)
+        if np.any(bad) and ok.ndim == 0:
+            what = "NaN or inf" if not np.all(np.isfinite(a)) else f"|{name}| >= pi/2 rad"
+            raise ValueError(f"{name} must be finite" + ("" if name not in angles else " with |angle| < pi/2 rad")
+                             + f", got {float(a)!r} ({what})")
+        ok = ok & ~bad
+    return [arrays[n] for n in (*values, *angles)], ok
 
 
 def check_angle_limit(name: str, value: float, upper: float = np.pi / 2) -> float:

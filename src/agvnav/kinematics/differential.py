@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import require_positive
-from agvnav.kinematics.base import FloatArray, KinematicModel, twist_step
+from agvnav.kinematics.base import FloatArray, KinematicModel, scalar_inputs_or_flag, twist_step
 
 
 def unicycle_derivative(state: ArrayLike, u: ArrayLike) -> FloatArray:
@@ -25,17 +25,24 @@ def unicycle_derivative(state: ArrayLike, u: ArrayLike) -> FloatArray:
 def wheel_speeds(v: ArrayLike, omega: ArrayLike, track: float) -> tuple[FloatArray, FloatArray]:
     """Wheel ground speeds ``(v_R, v_L)`` (m/s) for body speed ``v`` (m/s) and yaw rate ``ω`` (rad/s).
 
-    Inverse of seed 002 eq. 4: ``v_R = v + ωL/2``, ``v_L = v − ωL/2``.
+    Inverse of seed 002 eqs. 6 (``v = (v_R + v_L)/2``) and 4 (``ω = (v_R − v_L)/L``):
+    ``v_R = v + ωL/2``, ``v_L = v − ωL/2``. ``track`` L (m) must be positive; scalar NaN/inf
+    inputs raise a ValueError naming them, batch elements come out NaN (the flag).
     """
-    v = np.asarray(v, dtype=np.float64)
-    half = 0.5 * track * np.asarray(omega, dtype=np.float64)
+    track = require_positive("track", track)
+    (v, omega), _ = scalar_inputs_or_flag(v=v, omega=omega)
+    half = 0.5 * track * omega
     return v + half, v - half
 
 
 def body_speeds(v_right: ArrayLike, v_left: ArrayLike, track: float) -> tuple[FloatArray, FloatArray]:
-    """``(v, ω)`` from wheel ground speeds: ``v = (v_R+v_L)/2``, ``ω = (v_R−v_L)/L`` (seed 002 eq. 4)."""
-    vr = np.asarray(v_right, dtype=np.float64)
-    vl = np.asarray(v_left, dtype=np.float64)
+    """``(v, ω)`` from wheel ground speeds: ``v = (v_R+v_L)/2`` (seed 002 eq. 6), ``ω = (v_R−v_L)/L`` (eq. 4).
+
+    ``track`` L (m) must be positive; scalar NaN/inf speeds
+    raise a ValueError naming them, batch elements come out NaN (the flag).
+    """
+    track = require_positive("track", track)
+    (vr, vl), _ = scalar_inputs_or_flag(v_right=v_right, v_left=v_left)
     return 0.5 * (vr + vl), (vr - vl) / track
 
 
@@ -94,11 +101,11 @@ class DifferentialDrive(KinematicModel):
         th = np.asarray(state, dtype=np.float64)[..., 2]
         return np.stack([np.sin(th), -np.cos(th), np.zeros_like(th)], axis=-1)[..., None, :]
 
-    def derivative(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def derivative_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """Seed 002 eq. 11."""
         return unicycle_derivative(state, u)
 
-    def jacobian_state(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def jacobian_state_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """``∂f/∂[x, y, θ]`` ``(..., 3, 3)``: only the θ column is non-zero."""
         th = np.asarray(state, dtype=np.float64)[..., 2]
         v = np.asarray(u, dtype=np.float64)[..., 0]
@@ -107,7 +114,7 @@ class DifferentialDrive(KinematicModel):
         jac[..., 1, 2] = v * np.cos(th)
         return jac
 
-    def jacobian_input(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def jacobian_input_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """``∂f/∂[v, ω]`` ``(..., 3, 2)`` = ``[[cosθ, 0], [sinθ, 0], [0, 1]]`` (seed 002 eq. 11)."""
         th = np.asarray(state, dtype=np.float64)[..., 2]
         shape = np.broadcast_shapes(th.shape, np.asarray(u).shape[:-1])
@@ -117,7 +124,7 @@ class DifferentialDrive(KinematicModel):
         jac[..., 2, 1] = 1.0
         return jac
 
-    def step(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
+    def step_unchecked(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
         """Exact arc for constant ``(v, ω)`` (seed 002 eq. 25)."""
         u = np.asarray(u, dtype=np.float64)
         return twist_step(state, u[..., 0], 0.0, u[..., 1], dt)
@@ -134,7 +141,7 @@ class DifferentialDrive(KinematicModel):
         return np.stack(wheel_speeds(u[..., 0], u[..., 1], self.track), axis=-1)
 
     def input_from_wheel_speeds(self, wheel: ArrayLike) -> FloatArray:
-        """``[v, ω]`` ``(..., 2)`` from ``[v_R, v_L]`` (seed 002 eq. 4)."""
+        """``[v, ω]`` ``(..., 2)`` from ``[v_R, v_L]`` (seed 002 eqs. 6 and 4)."""
         wheel = np.asarray(wheel, dtype=np.float64)
         return np.stack(body_speeds(wheel[..., 0], wheel[..., 1], self.track), axis=-1)
 

@@ -78,7 +78,7 @@ class MecanumBase(KinematicModel):
             raise ValueError(f"layout {self.layout!r} with a == b cannot resolve the yaw rate (rank {self.rank})")
         return np.asarray(rates, dtype=np.float64) @ np.linalg.pinv(self.inverse_matrix).T
 
-    def derivative(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def derivative_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """World velocity: body twist rotated by θ."""
         state = np.asarray(state, dtype=np.float64)
         u = np.asarray(u, dtype=np.float64)
@@ -86,7 +86,7 @@ class MecanumBase(KinematicModel):
         vx, vy, w = u[..., 0], u[..., 1], u[..., 2]
         return np.stack([c * vx - s * vy, s * vx + c * vy, w + 0.0 * c], axis=-1)
 
-    def jacobian_state(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def jacobian_state_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """``∂f/∂state`` ``(..., 3, 3)``."""
         state = np.asarray(state, dtype=np.float64)
         u = np.asarray(u, dtype=np.float64)
@@ -97,7 +97,7 @@ class MecanumBase(KinematicModel):
         jac[..., 1, 2] = c * vx - s * vy
         return jac
 
-    def jacobian_input(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def jacobian_input_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """``∂f/∂u`` ``(..., 3, 3)``: the rotation by θ, with 1 for ω."""
         th = np.asarray(state, dtype=np.float64)[..., 2]
         c, s = np.cos(th), np.sin(th)
@@ -107,7 +107,7 @@ class MecanumBase(KinematicModel):
         jac[..., 2, 2] = 1.0
         return jac
 
-    def step(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
+    def step_unchecked(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
         """Exact for a constant body twist (SE(2) exponential)."""
         u = np.asarray(u, dtype=np.float64)
         return twist_step(state, u[..., 0], u[..., 1], u[..., 2], dt)

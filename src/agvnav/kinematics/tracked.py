@@ -146,7 +146,7 @@ class TrackedVehicle(KinematicModel):
         """Sprocket angular speeds ``[ω_R, ω_L]`` (rad/s); with ``compensate=False`` exactly seed 004 eqs. 1-2."""
         return self.track_speeds(v, omega, compensate) / self.sprocket_radius
 
-    def derivative(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def derivative_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """World velocity from the body twist."""
         state = np.asarray(state, dtype=np.float64)
         tw = self.body_twist(u)
@@ -154,7 +154,7 @@ class TrackedVehicle(KinematicModel):
         return np.stack([c * tw[..., 0] - s * tw[..., 1], s * tw[..., 0] + c * tw[..., 1], tw[..., 2] + 0.0 * c],
                         axis=-1)
 
-    def jacobian_state(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def jacobian_state_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """``∂f/∂state`` ``(..., 3, 3)``."""
         state = np.asarray(state, dtype=np.float64)
         tw = self.body_twist(u)
@@ -164,7 +164,7 @@ class TrackedVehicle(KinematicModel):
         jac[..., 1, 2] = c * tw[..., 0] - s * tw[..., 1]
         return jac
 
-    def jacobian_input(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def jacobian_input_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """``∂f/∂[v_R, v_L]`` ``(..., 3, 2)`` = ``[[R(θ), 0], [0, 1]] @ twist_matrix``."""
         th = np.asarray(state, dtype=np.float64)[..., 2]
         c, s = np.cos(th), np.sin(th)
@@ -174,7 +174,7 @@ class TrackedVehicle(KinematicModel):
         rot[..., 2, 2] = 1.0
         return rot @ self.twist_matrix
 
-    def step(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
+    def step_unchecked(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
         """Exact for constant track speeds (constant body twist)."""
         tw = self.body_twist(u)
         return twist_step(state, tw[..., 0], tw[..., 1], tw[..., 2], dt)

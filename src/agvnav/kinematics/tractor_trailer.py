@@ -37,7 +37,7 @@ class TractorTrailer(KinematicModel):
         self.hitch_offset = require_nonnegative("hitch_offset", hitch_offset)
         self.max_hitch_angle = check_angle_limit("max_hitch_angle", max_hitch_angle, np.pi)
 
-    def derivative(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def derivative_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """Seed 003 §3.2.7 kinematic model."""
         state = np.asarray(state, dtype=np.float64)
         u = np.asarray(u, dtype=np.float64)
@@ -47,7 +47,7 @@ class TractorTrailer(KinematicModel):
         phi_dot = -np.sin(phi) * v / D + (1.0 + d * np.cos(phi) / D) * w
         return np.stack([v * np.cos(th), v * np.sin(th), w + 0.0 * phi_dot, phi_dot], axis=-1)
 
-    def jacobian_state(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def jacobian_state_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """``∂f/∂state`` ``(..., 4, 4)``."""
         state = np.asarray(state, dtype=np.float64)
         u = np.asarray(u, dtype=np.float64)
@@ -61,7 +61,7 @@ class TractorTrailer(KinematicModel):
         jac[..., 3, 3] = -np.cos(phi) * v / D - d * np.sin(phi) * w / D
         return jac
 
-    def jacobian_input(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def jacobian_input_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """``∂f/∂[v, ω]`` ``(..., 4, 2)``."""
         state = np.asarray(state, dtype=np.float64)
         th, phi = state[..., 2], state[..., 3]
@@ -104,7 +104,7 @@ class TractorTrailer(KinematicModel):
     def trailer_velocity(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """Time derivative ``(..., 3)`` of ``trailer_pose`` (for checking the trailer wheels' constraint)."""
         state = np.asarray(state, dtype=np.float64)
-        qd = self.derivative(state, u)
+        qd = self.derivative_unchecked(state, u)
         th, th_t = state[..., 2], state[..., 2] - state[..., 3]
         w, w_t = qd[..., 2], qd[..., 2] - qd[..., 3]
         d, D = self.hitch_offset, self.trailer_length

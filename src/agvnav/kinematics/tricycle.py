@@ -85,7 +85,7 @@ class _Tricycle(KinematicModel):
         steer = state[..., 3] if self.steer_is_state else u[..., 1]
         return state, u, steer
 
-    def derivative(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def derivative_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """``[x', y', ψ'(, γ')]`` (seed 000 eq. 8 / seed 003 §3.2.5)."""
         state, u, steer = self._split(state, u)
         speed, omega = self._twist(u[..., 0], steer)
@@ -95,7 +95,7 @@ class _Tricycle(KinematicModel):
             cols.append(np.broadcast_to(u[..., 1], omega.shape))
         return np.stack(cols, axis=-1)
 
-    def jacobian_state(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def jacobian_state_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """``∂f/∂state`` ``(..., n, n)``."""
         state, u, steer = self._split(state, u)
         speed, _ = self._twist(u[..., 0], steer)
@@ -111,7 +111,7 @@ class _Tricycle(KinematicModel):
             jac[..., 2, 3] = dw_dg
         return jac
 
-    def jacobian_input(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
+    def jacobian_input_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
         """``∂f/∂u`` ``(..., n, 2)``."""
         state, u, steer = self._split(state, u)
         du_dv, du_dg, dw_dv, dw_dg = self._twist_partials(u[..., 0], steer)
@@ -130,7 +130,7 @@ class _Tricycle(KinematicModel):
             jac[..., 2, 1] = dw_dg
         return jac
 
-    def step(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
+    def step_unchecked(self, state: ArrayLike, u: ArrayLike, dt: float) -> FloatArray:
         """Exact arc while the steering angle is constant, sub-stepped RK4 where it changes.
 
         The kernel does not clamp γ at ``max_steer``: limits belong to the steering actuator;
@@ -145,7 +145,7 @@ class _Tricycle(KinematicModel):
         turning = u[..., 1] != 0.0
         if not np.any(turning):
             return arc
-        rk = rk4_step(self.derivative, state, u, dt, self.substeps)
+        rk = rk4_step(self.derivative_unchecked, state, u, dt, self.substeps)
         return np.where(turning[..., None], rk, arc)
 
     # ----------------------------------------------------------- geometry

@@ -5,13 +5,20 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agvnav._validate import require_positive
+from agvnav.kinematics.base import scalar_inputs_or_flag
+
 FloatArray = NDArray[np.float64]
 
 
 def differential_increments(d_right: ArrayLike, d_left: ArrayLike, track: float) -> tuple[FloatArray, FloatArray]:
-    """``ΔD = (ΔD_R + ΔD_L)/2``, ``Δθ = (ΔD_R − ΔD_L)/L`` (seed 002 eq. 16); distances in m, track L in m."""
-    dr = np.asarray(d_right, dtype=np.float64)
-    dl = np.asarray(d_left, dtype=np.float64)
+    """``ΔD = (ΔD_R + ΔD_L)/2``, ``Δθ = (ΔD_R − ΔD_L)/L`` (seed 002 eq. 16); distances in m, track L in m.
+
+    ``track`` must be positive (ValueError). Scalar distances that are NaN/inf raise a ValueError
+    naming them; in a batch the bad elements come out NaN (the flag) and never touch neighbours.
+    """
+    track = require_positive("track", track)
+    (dr, dl), _ = scalar_inputs_or_flag(d_right=d_right, d_left=d_left)
     return 0.5 * (dr + dl), (dr - dl) / track
 
 
@@ -28,7 +35,12 @@ def tricycle_increments(ds_c: ArrayLike, gamma: ArrayLike, wheelbase: float) -> 
     ``ΔD = ds_C cos γ``, ``Δθ = ds_C sin γ / L`` (seed 000 eq. 8 integrated over
     the step); pass the mid-step γ (mean of the readings at both ends), which
     makes the increments second-order accurate while γ changes.
+
+    ``wheelbase`` must be positive (ValueError). The stacker's steering range is
+    −90° < γ < 90° (seed 000 §3.1): a scalar γ at/beyond ±90° or a NaN/inf input raises a
+    ValueError naming it; in a batch those elements come out NaN (the flag).
     """
-    ds = np.asarray(ds_c, dtype=np.float64)
-    g = np.asarray(gamma, dtype=np.float64)
+    wheelbase = require_positive("wheelbase", wheelbase)
+    (ds, g), ok = scalar_inputs_or_flag(angles={"gamma": gamma}, ds_c=ds_c)
+    g = np.where(ok, g, np.nan)
     return ds * np.cos(g), ds * np.sin(g) / wheelbase
