@@ -64,44 +64,53 @@ def process_noise(psi: float, dd: float, dth: float, k_d: float, k_dtheta: float
 
 
 def predict_covariance(P: Sequence[float], f02: float, f12: float, Q: Sequence[float]) -> Mat3:
-    """``P' = F P F^T + Q``, symmetrised, for ``F = I`` except ``F[0,2], F[1,2]``.
+    """``P' = F P F^T + Q`` for ``F = I`` except ``F[0,2], F[1,2]``; ``P`` symmetric.
 
     Mirrors :func:`agvnav.positioning.ekf.ekf_predict` (and the estimator's
-    prediction) with the Jacobian of :func:`arc_step`: row ``i`` of ``F P`` is
+    prediction) with the Jacobian of :func:`arc_step`: rows 0 and 1 of ``F P`` are
     ``P[i] + F[i,2] P[2]``, and ``(F P F^T)[i, j] = (F P)[i, j] + (F P)[i, 2] F[j, 2]``.
+    Only the upper triangle is computed and mirrored (symmetric by construction,
+    where the kernel averages ``A`` and ``A^T``).
     """
-    f = (f02, f12, 0.0)
-    fp = [P[3 * i + j] + f[i] * P[6 + j] for i in range(3) for j in range(3)]
-    full = [fp[3 * i + j] + fp[3 * i + 2] * f[j] + Q[3 * i + j] for i in range(3) for j in range(3)]
-    return _symmetrise(full)
-
-
-def _symmetrise(A: Sequence[float]) -> Mat3:
-    """``(A + A^T) / 2`` of a flat 3x3."""
-    return tuple(0.5 * (A[3 * i + j] + A[3 * j + i]) for i in range(3) for j in range(3))
+    p00, p01, p02, _, p11, p12, _, _, p22 = P
+    a00, a01, a02 = p00 + f02 * p02, p01 + f02 * p12, p02 + f02 * p22  # row 0 of F P
+    a11, a12 = p11 + f12 * p12, p12 + f12 * p22  # row 1 of F P (a10 = a01 by symmetry)
+    c00 = a00 + a02 * f02 + Q[0]
+    c01 = a01 + a02 * f12 + Q[1]
+    c11 = a11 + a12 * f12 + Q[4]
+    c02, c12, c22 = a02 + Q[2], a12 + Q[5], p22 + Q[8]
+    return (c00, c01, c02, c01, c11, c12, c02, c12, c22)
 
 
 def joseph_update(
     x: Sequence[float], P: Sequence[float], innovation: float, H: Sequence[float], R: float
 ) -> tuple[tuple[float, float, float], Mat3]:
-    """Scalar-measurement EKF update in Joseph form for one state.
+    """Scalar-measurement EKF update in Joseph form for one state; ``P`` symmetric.
 
     Mirrors :func:`agvnav.positioning.ekf.ekf_update`: ``S = H P H^T + R``,
     ``K = P H^T / S``, ``x' = x + K y`` (heading wrapped),
-    ``P' = (I - K H) P (I - K H)^T + R K K^T``, symmetrised.
+    ``P' = (I - K H) P (I - K H)^T + R K K^T`` with ``(I - K H) P = P - K (P H^T)^T``;
+    only the upper triangle is computed and mirrored.
     """
-    pht = [P[3 * i] * H[0] + P[3 * i + 1] * H[1] + P[3 * i + 2] * H[2] for i in range(3)]
-    S = H[0] * pht[0] + H[1] * pht[1] + H[2] * pht[2] + R
-    K = [v / S for v in pht]
-    xn = (x[0] + K[0] * innovation, x[1] + K[1] * innovation, wrap(x[2] + K[2] * innovation))
-    A = [(1.0 if i == j else 0.0) - K[i] * H[j] for i in range(3) for j in range(3)]
-    AP = [A[3 * i] * P[j] + A[3 * i + 1] * P[3 + j] + A[3 * i + 2] * P[6 + j] for i in range(3) for j in range(3)]
-    full = [
-        AP[3 * i] * A[3 * j] + AP[3 * i + 1] * A[3 * j + 1] + AP[3 * i + 2] * A[3 * j + 2] + R * K[i] * K[j]
-        for i in range(3)
-        for j in range(3)
-    ]
-    return xn, _symmetrise(full)
+    p00, p01, p02, _, p11, p12, _, _, p22 = P
+    h0, h1, h2 = H
+    b0 = p00 * h0 + p01 * h1 + p02 * h2  # P H^T
+    b1 = p01 * h0 + p11 * h1 + p12 * h2
+    b2 = p02 * h0 + p12 * h1 + p22 * h2
+    S = h0 * b0 + h1 * b1 + h2 * b2 + R
+    k0, k1, k2 = b0 / S, b1 / S, b2 / S
+    xn = (x[0] + k0 * innovation, x[1] + k1 * innovation, wrap(x[2] + k2 * innovation))
+    # rows of M = (I - K H) P: M[i, j] = P[i, j] - K[i] b[j]
+    m = (
+        (p00 - k0 * b0, p01 - k0 * b1, p02 - k0 * b2),
+        (p01 - k1 * b0, p11 - k1 * b1, p12 - k1 * b2),
+        (p02 - k2 * b0, p12 - k2 * b1, p22 - k2 * b2),
+    )
+    k = (k0, k1, k2)
+    # (M (I - K H)^T)[i, j] = M[i, j] - (M H^T)[i] K[j], plus R K[i] K[j]
+    mh = [row[0] * h0 + row[1] * h1 + row[2] * h2 for row in m]
+    c = [[m[i][j] - mh[i] * k[j] + R * k[i] * k[j] for j in range(i, 3)] for i in range(3)]
+    return xn, (c[0][0], c[0][1], c[0][2], c[0][1], c[1][0], c[1][1], c[0][2], c[1][1], c[2][0])
 
 
 def reflector_rows(reflector_xy: Sequence[Sequence[float]], radius: Sequence[float]) -> tuple[tuple[float, float, float], ...]:

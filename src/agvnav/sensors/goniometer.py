@@ -59,6 +59,34 @@ _MAX_ITER = 60
 _CHORD_ITER = 6
 
 PoseFunction = Callable[[NDArray[np.float64]], ArrayLike]
+_EPS = float(np.finfo(np.float64).eps)
+
+
+@dataclass(frozen=True, eq=False)
+class _MapArrays:
+    """Per-map constants of the scan, sliced once: reflector columns and wall start/direction.
+
+    The map never changes during a run; slicing it on every scan cost more than the
+    arithmetic on a handful of reflectors and walls.
+    """
+
+    world: WorldMap
+    rx: NDArray[np.float64]  # (N,) reflector centres x, y (m) and radii (m)
+    ry: NDArray[np.float64]
+    r: NDArray[np.float64]
+    wall_x0: NDArray[np.float64]  # (M,) wall segment starts (m) and directions (m)
+    wall_y0: NDArray[np.float64]
+    wall_vx: NDArray[np.float64]
+    wall_vy: NDArray[np.float64]
+
+    @classmethod
+    def of(cls, world: WorldMap) -> _MapArrays:
+        xy, seg = world.reflector_xy, world.wall_segments
+        return cls(
+            world, xy[:, 0].copy(), xy[:, 1].copy(), world.reflector_radius,
+            seg[:, 0, 0].copy(), seg[:, 0, 1].copy(),
+            seg[:, 1, 0] - seg[:, 0, 0], seg[:, 1, 1] - seg[:, 0, 1],
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -231,6 +259,7 @@ class Goniometer:
     jitter_std: float = 0.0
     phase: float = 0.0
     direction: int = 1
+    _maps: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "rate_hz", require_positive("rate_hz", self.rate_hz))
@@ -351,6 +380,15 @@ class Goniometer:
 
     # -- exact crossings -------------------------------------------------
 
+    def _map_arrays(self, world: WorldMap) -> _MapArrays:
+        """:class:`_MapArrays` of ``world``, built on first use (a few maps at most are kept)."""
+        cached = self._maps.get(id(world))
+        if cached is None or cached.world is not world:
+            if len(self._maps) >= 8:
+                self._maps.clear()
+            cached = self._maps[id(world)] = _MapArrays.of(world)
+        return cached
+
     def _offsets(
         self, world: WorldMap, pose_at: PoseFunction, t: NDArray[np.float64], index: NDArray[np.intp] | None
     ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]:
@@ -361,6 +399,21 @@ class Goniometer:
         head-to-centre distance.
         Written out by hand (no stacking, no wrapping): this is the simulator's hot path.
         """
+        m = self._map_arrays(world)
+        if index is None:
+            return self._offsets_to(pose_at, t, m.rx, m.ry, m.r, True)
+        return self._offsets_to(pose_at, t, m.rx[index], m.ry[index], m.r[index], False)
+
+    def _offsets_to(
+        self,
+        pose_at: PoseFunction,
+        t: NDArray[np.float64],
+        rx: NDArray[np.float64],
+        ry: NDArray[np.float64],
+        r: NDArray[np.float64],
+        every: bool,
+    ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]:
+        """:meth:`_offsets` on reflector columns: every one at every instant (``every``), or one per instant."""
         pose = _call_pose(pose_at, t)
         mx, my, mth = self.mount
         heading = pose[:, 2]
@@ -372,12 +425,9 @@ class Goniometer:
         # this loses ~3e-11 rad, far below the 1e-10 rad root tolerance and the encoder step.
         beam = heading + (self.phase + mth) + (self.direction * TWO_PI * self.rate_hz) * t
         head = (px, py)
-        if index is None:
-            xy, r = world.reflector_xy, world.reflector_radius
+        if every:
             px, py, beam = px[:, None], py[:, None], beam[:, None]
-        else:
-            xy, r = world.reflector_xy[index], world.reflector_radius[index]
-        dx, dy = xy[..., 0] - px, xy[..., 1] - py
+        dx, dy = rx - px, ry - py
         d = np.hypot(dx, dy)
         # asin(r/d) saturates at pi/2 inside a cylinder (d <= r); _visible rejects those.
         half_width = np.arcsin(np.minimum(r / np.maximum(d, 1e-300), 1.0))
@@ -432,17 +482,19 @@ class Goniometer:
         tol = self._tolerance(hi)
         slope = (f_hi - f_lo) / (hi - lo)  # > 0: f_hi >= 0 > f_lo
         t = lo - f_lo / slope
+        m = self._map_arrays(world)
+        rx, ry, r = m.rx[refl], m.ry[refl], m.r[refl]  # the same reflectors at every iteration
         for _ in range(_CHORD_ITER):
-            raw, head, d = self._offsets(world, pose_at, t, refl)
+            raw, head, d = self._offsets_to(pose_at, t, rx, ry, r, False)
             f = np.mod(raw + math.pi, TWO_PI) - math.pi  # continuous on the bracket (see _BRACKETS_PER_REV)
-            if np.all(np.abs(f) <= tol):
+            if np.abs(f).max() <= tol:
                 return t, np.column_stack(head), d
-            t = np.clip(t - f / slope, lo, hi)
+            t = np.minimum(np.maximum(t - f / slope, lo), hi)  # np.clip, without its dispatch cost
         return self._illinois(world, pose_at, lo, hi, f_lo, f_hi, refl, tol)
 
     def _tolerance(self, t: NDArray[np.float64]) -> float:
         """Root tolerance (rad): 1e-10, or the float noise of t itself if larger (t ~ 1 h: ~2e-11 rad)."""
-        return max(_ANGLE_TOL, 8.0 * np.finfo(float).eps * float(np.max(np.abs(t))) * TWO_PI * self.rate_hz)
+        return max(_ANGLE_TOL, 8.0 * _EPS * float(np.abs(t).max()) * TWO_PI * self.rate_hz)
 
     def _illinois(
         self,
@@ -493,7 +545,8 @@ class Goniometer:
             return ok
         scale = (d - r) / np.maximum(d, 1e-300) * (1.0 - 1e-9)
         ray = (world.reflector_xy[refl] - head_xy) * scale[:, None]
-        blocked = _ray_hits_segments(head_xy, ray, world.wall_segments)
+        m = self._map_arrays(world)
+        blocked = _ray_hits_walls(head_xy, ray, m)
         blocked |= _ray_hits_discs(head_xy, ray, world.reflector_xy, world.reflector_radius, refl)
         return ok & ~blocked
 
@@ -555,6 +608,22 @@ def _ray_hits_segments(
     ux, uy = ray[:, 0:1], ray[:, 1:2]
     ax, ay = segments[:, 0, 0] - ox, segments[:, 0, 1] - oy  # (c, M)
     vx, vy = segments[:, 1, 0] - segments[:, 0, 0], segments[:, 1, 1] - segments[:, 0, 1]  # (M,)
+    den = ux * vy - uy * vx
+    sign = np.sign(den)
+    num_s = (ax * vy - ay * vx) * sign
+    num_w = (ax * uy - ay * ux) * sign
+    den = np.abs(den)
+    hit = (num_s >= 0.0) & (num_s <= den) & (num_w >= 0.0) & (num_w <= den) & (den > 0.0)
+    return hit.any(axis=1)
+
+
+def _ray_hits_walls(origin: NDArray[np.float64], ray: NDArray[np.float64], m: _MapArrays) -> NDArray[np.bool_]:
+    """:func:`_ray_hits_segments` against the map's walls, on the cached wall columns (same arithmetic)."""
+    if m.wall_x0.shape[0] == 0:
+        return np.zeros(origin.shape[0], dtype=bool)
+    ux, uy = ray[:, 0:1], ray[:, 1:2]  # (c, 1)
+    ax, ay = m.wall_x0 - origin[:, 0:1], m.wall_y0 - origin[:, 1:2]  # (c, M)
+    vx, vy = m.wall_vx, m.wall_vy
     den = ux * vy - uy * vx
     sign = np.sign(den)
     num_s = (ax * vy - ay * vx) * sign
