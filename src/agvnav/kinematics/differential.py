@@ -131,7 +131,8 @@ class DifferentialDrive(KinematicModel):
 
     def input_violations(self, u: FloatArray) -> list[tuple[str, NDArray[np.bool_]]]:
         """Wheel ground speeds beyond ``max_wheel_speed``."""
-        vr, vl = wheel_speeds(u[..., 0], u[..., 1], self.track)
+        half = 0.5 * self.track * u[..., 1]  # inline: flags must not raise on NaN (batch path)
+        vr, vl = u[..., 0] + half, u[..., 0] - half
         return [("wheel speed (v ± omega*track/2)", (np.abs(vr) > self.max_wheel_speed) | (np.abs(vl) > self.max_wheel_speed))]
 
     # ---------------------------------------------------------------- wheels
