@@ -34,7 +34,7 @@ def test_encoder_fast_paths_refuse_nan() -> None:
         steering_reading(math.inf, 0.0, 0.001)
 
 
-@given(st.floats(-0.1, 0.1), st.floats(-1.6, 1.6))
+@given(st.floats(-0.1, 0.1), st.floats(-1.5707, 1.5707))
 def test_tricycle_increments_scalar_equals_kernel(ds: float, gamma: float) -> None:
     ref = tricycle_increments(ds, gamma, 1.3)
     got = tricycle_increments_scalar(ds, gamma, 1.3)
@@ -50,3 +50,11 @@ def test_autopilot_direction_equals_path_direction_at() -> None:
     probes = np.concatenate([np.linspace(-1.0, path.length + 1.0, 401), starts, np.nextafter(starts, -np.inf)])
     for s in probes:
         assert pilot._direction(float(s)) == int(path.direction_at(s)), s
+
+
+@pytest.mark.parametrize("ds, gamma", [(0.01, 0.5 * math.pi), (0.01, -2.0), (math.nan, 0.1), (0.01, math.nan)])
+def test_tricycle_increments_scalar_refuses_like_kernel(ds: float, gamma: float) -> None:
+    with pytest.raises(ValueError):
+        tricycle_increments(ds, gamma, 1.3)
+    with pytest.raises(ValueError):
+        tricycle_increments_scalar(ds, gamma, 1.3)

@@ -90,7 +90,12 @@ def steering_reading(angle: float, offset: float, resolution: float) -> float:
 
 
 def tricycle_increments_scalar(ds_c: float, gamma: float, wheelbase: float) -> tuple[float, float]:
-    """Scalar fast path of :func:`agvnav.odometry.tricycle_increments` (seed 000 eq. 8 over a step)."""
+    """Scalar fast path of :func:`agvnav.odometry.tricycle_increments` (seed 000 eq. 8 over a step).
+
+    Like the kernel, refuses a steering angle at or beyond ±90° (seed 000 §3.1) or a NaN/inf input.
+    """
+    if not (math.isfinite(ds_c) and abs(gamma) < 0.5 * math.pi):
+        raise ValueError(f"tricycle increments need finite ds_c and |gamma| < 90 deg, got {ds_c!r}, {gamma!r}")
     return ds_c * math.cos(gamma), ds_c * math.sin(gamma) / wheelbase
 
 
