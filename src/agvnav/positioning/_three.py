@@ -38,6 +38,8 @@ class ScalarMath:
     """
 
     tan = staticmethod(math.tan)
+    cos = staticmethod(math.cos)
+    sin = staticmethod(math.sin)
     arctan2 = staticmethod(math.atan2)
     sqrt = staticmethod(math.sqrt)
     copysign = staticmethod(math.copysign)

@@ -227,9 +227,10 @@ def absolute_angles_kernel(
                 tx[k][keep] = tx0[k][keep]
                 ty[k][keep] = ty0[k][keep]
     px, py = weighted_position(x, y, tx, ty, sin_a, xp)
-    # delta is known modulo 180°: keep the half-turn that puts reflector 1 ahead of P.
-    ahead = xp.arctan2(y[0] - py, x[0] - px) - theta[0]
-    psi = xp.where(critical, psi, psi + np.pi * xp.rint(wrap(ahead - psi, xp) / np.pi))
+    # delta is known modulo 180°: keep the half-turn that puts the reflectors ahead of P along
+    # their rays. Majority vote of the three signs of (R_k - P)·ray_k, so one reflector whose
+    # ray is nearly perpendicular (or noisy) cannot flip the heading alone.
+    psi = xp.where(critical, psi, psi + np.pi * (_ahead_votes(x, y, theta, px, py, psi, xp) < 0))
     valid = xp.isfinite(px) & xp.isfinite(py) & xp.isfinite(psi)
     return {
         "x": px,
@@ -239,3 +240,15 @@ def absolute_angles_kernel(
         "valid": valid,
         "heading_from_estimate": critical & valid,
     }
+
+
+def _ahead_votes(x: Three, y: Three, theta: Three, px: Arr, py: Arr, psi: Arr, xp: Any) -> Arr:
+    """Sum over k of sign((R_k − P)·u_k), u_k the ray at world angle ψ + θ_k: +3 all ahead, −3 all behind."""
+    c, s = xp.cos(psi), xp.sin(psi)
+    votes = 0.0
+    for k in range(3):
+        dx, dy = x[k] - px, y[k] - py
+        ck, sk = xp.cos(theta[k]), xp.sin(theta[k])
+        dot = (dx * ck + dy * sk) * c + (dy * ck - dx * sk) * s
+        votes = votes + xp.where(dot > 0.0, 1.0, 0.0) - xp.where(dot < 0.0, 1.0, 0.0)
+    return votes

@@ -91,16 +91,37 @@ def crlb(reflectors: ArrayLike, pose: ArrayLike, bearing_std: ArrayLike) -> NDAr
     ``reflectors`` ``(..., N, 2)`` (m), ``pose`` ``(..., 3)``, ``bearing_std`` (rad) broadcasting
     against ``(..., N)``. Unobservable geometry (fewer than three usable bearings, or
     the head on the critical circle through three reflectors) gives NaN.
+
+    Bad input raises ValueError naming it: ``reflectors`` not ``(..., N, 2)``, ``pose`` not
+    ``(..., 3)``, NaN/inf in either, ``bearing_std`` not positive and finite.
     """
-    info = fisher_information(reflectors, pose, bearing_std)
+    r, p = _check_geometry(reflectors, pose)
+    std = as_float_array("bearing_std", bearing_std)
+    if not np.all(np.isfinite(std)) or not np.all(std > 0.0):
+        raise ValueError(f"bearing_std must be positive and finite, got {bearing_std!r}")
+    info = fisher_information(r, p, std)
     cov, _ = inv_sym3(info)
     return cov
+
+
+def _check_geometry(reflectors: ArrayLike, pose: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    r = as_float_array("reflectors", reflectors)
+    p = as_float_array("pose", pose)
+    if r.ndim < 2 or r.shape[-1] != 2:
+        raise ValueError(f"reflectors must have shape (..., N, 2), got {r.shape}")
+    if p.ndim < 1 or p.shape[-1] != 3:
+        raise ValueError(f"pose must have shape (..., 3) = [x, y, heading], got {p.shape}")
+    for name, arr in (("reflectors", r), ("pose", p)):
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name} contains NaN or inf")
+    return r, p
 
 
 def pdop(reflectors: ArrayLike, pose: ArrayLike) -> NDArray[np.float64]:
     """Position dilution of precision (m/rad): ``sqrt(trace of the CRLB position block)`` for unit bearing std.
 
     Multiply by the bearing std (rad) to get the best achievable RMS position error (m).
+    Validates ``reflectors`` and ``pose`` like :func:`crlb` (ValueError naming them).
     """
     cov = crlb(reflectors, pose, 1.0)
     return np.sqrt(cov[..., 0, 0] + cov[..., 1, 1])

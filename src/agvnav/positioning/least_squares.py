@@ -26,6 +26,10 @@ MAX_ITER = 30
 STEP_TOL = 1e-10
 #: A step this small that fails to lower the cost means the cost is flat to rounding: done.
 ROUNDING_STEP = 1e-7
+#: Damping beyond which the iteration stops. Stopping there is convergence only if the
+#: *undamped* Gauss-Newton step is below ROUNDING_STEP too (a minimum); otherwise the
+#: damping blew up away from one (e.g. no descent direction found): ``valid=False``.
+LAM_MAX = 1e8
 
 
 def _normal_equations(
@@ -166,14 +170,19 @@ def least_squares_kernel(
             a, g, cost = _normal_equations(s, *args)
             inv, _ = inv_sym3(a + lam[active, None, None] * np.eye(3) * a)
             step = np.einsum("mij,mj->mi", inv, g)
-            rel = np.max(np.abs(step) / (1.0 + np.abs(s)), axis=-1)
+            # Undamped size: the damped step is ~ the Gauss-Newton step / (1 + lam), so a tiny
+            # step under heavy damping is not mistaken for convergence.
+            rel = np.max(np.abs(step) / (1.0 + np.abs(s)), axis=-1) * (1.0 + lam[active])
             trial = s + step
             better = _cost(trial, *args) <= cost
             state[active] = np.where(better[:, None], trial, s)
             lam[active] = np.where(better, lam[active] * 0.1, lam[active] * 10.0)
-            finished = (rel < STEP_TOL) | (~better & (rel < ROUNDING_STEP)) | (lam[active] > 1e8)
-            finished |= ~np.all(np.isfinite(step), axis=-1)
-            done[active[finished]] = True
+            converged = (rel < STEP_TOL) | (~better & (rel < ROUNDING_STEP))
+            converged |= ~np.all(np.isfinite(step), axis=-1)
+            stalled = ~converged & (lam[active] > LAM_MAX)
+            converged |= stalled & _at_minimum(a, g, s)
+            finished = converged | stalled
+            done[active[converged]] = True
             active = active[~finished]
             if active.size == 0:
                 break
@@ -193,6 +202,13 @@ def least_squares_kernel(
         "valid": valid,
         "information": info,
     }
+
+
+def _at_minimum(a: Arr, g: Arr, s: Arr) -> NDArray[np.bool_]:
+    """True where the undamped Gauss-Newton step ``a⁻¹ g`` is below ROUNDING_STEP (relative)."""
+    inv, ok = inv_sym3(a)
+    gn = np.einsum("mij,mj->mi", inv, g)
+    return ok & (np.max(np.abs(gn) / (1.0 + np.abs(s)), axis=-1) < ROUNDING_STEP)
 
 
 def _solve3(a: list[list[float]], g: list[float]) -> list[float]:
@@ -294,15 +310,19 @@ def least_squares_single(
         damped = [[a[i][j] * (1.0 + lam) if i == j else a[i][j] for j in range(3)] for i in range(3)]
         step = _solve3(damped, g)
         trial = [s + d for s, d in zip(state, step, strict=True)]
-        rel = max(abs(d) / (1.0 + abs(s)) for d, s in zip(step, state, strict=True))
+        rel = max(abs(d) / (1.0 + abs(s)) for d, s in zip(step, state, strict=True)) * (1.0 + lam)
         better = _cost_single(trial, pts, theta, w, prior) <= cost
         if better:
             state = trial
             lam *= 0.1
         else:
             lam *= 10.0
-        if rel < STEP_TOL or (not better and rel < ROUNDING_STEP) or lam > 1e8:
+        if rel < STEP_TOL or (not better and rel < ROUNDING_STEP):
             converged = True
+            break
+        if lam > LAM_MAX:  # converged only at a minimum: the undamped step is negligible there
+            gn = _solve3(a, g)
+            converged = max(abs(d) / (1.0 + abs(v)) for d, v in zip(gn, state, strict=True)) < ROUNDING_STEP
             break
     info = _normal_equations_single(state, pts, theta, w, prior)[0]
     return state, converged, info

@@ -112,6 +112,20 @@ def triangulate(
         covariance from the linearisation at the solution (and weights least squares).
     heading_std : std (rad) of ``heading_estimate``; with it, least squares uses the
         estimate as a prior, and absolute_angles' covariance on the critical circle uses it.
+        Without it, a critical-circle absolute_angles fix (``heading_from_estimate``) with
+        ``bearing_std`` gets the covariance ``diag(inf, inf, inf)``: valid fix, unbounded
+        uncertainty (the bearings alone do not bound it, see Notes), never NaN.
+
+    Notes
+    -----
+    On (or near) the critical circle through the three reflectors, three bearings do not
+    determine the pose: every point of the circle sees the reflectors under the same
+    relative angles. Without the true heading the position cannot be recovered:
+    ``absolute_angles`` keeps the estimate's lines, so with a heading-estimate error δ it
+    returns P rotated by 2δ about the circle's centre (the inscribed angle turns by δ, the
+    central angle by 2δ), and ``heading = heading_estimate``. That is why the
+    estimator's seed falls back on odometry there, and why ``relative_angles``/``total``
+    return ``valid=False``.
 
     Returns
     -------
@@ -394,4 +408,9 @@ def _covariance(
             info[:, 2, 2] += np.where(res["heading_from_estimate"], 1.0 / hs**2, 0.0)
     cov, ok = inv_sym3(info)
     cov[~ok] = np.nan
+    if method == "absolute_angles" and hs is None:
+        # Critical circle without heading_std: three bearings do not bound the fix (the
+        # position turns with the heading error), so say so with infinite variances.
+        unbounded = np.asarray(res["heading_from_estimate"], dtype=bool)
+        cov[unbounded] = np.diag([np.inf, np.inf, np.inf])
     return cov
