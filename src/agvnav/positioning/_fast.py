@@ -181,6 +181,7 @@ def gate_one(
     c, s = math.cos(psi), math.sin(psi)
     px, py = x + c * mx - s * my, y + s * mx + c * my
     dpx, dpy = -s * mx - c * my, c * mx - s * my
+    p00, p01, p02, _, p11, p12, _, _, p22 = P
     n_in, best = 0, None
     for j, (rx, ry, r) in enumerate(rows):
         if not allowed[j]:
@@ -189,7 +190,8 @@ def gate_one(
         if not d <= max_range:
             continue
         R = bearing_var + (map_std / d if d > 0.0 else 0.0) ** 2
-        S = quadratic_form((h0, h1, h2), P) + R
+        # quadratic_form(H, P) written out: this loop is the estimator's hottest
+        S = h0 * h0 * p00 + h1 * h1 * p11 + h2 * h2 * p22 + 2.0 * (h0 * h1 * p01 + h0 * h2 * p02 + h1 * h2 * p12) + R
         innov = wrap(z - h)
         nis = innov * innov / S
         if nis < gate:

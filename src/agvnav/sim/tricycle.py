@@ -161,6 +161,7 @@ class TricyclePlant:
         self._start = self._state.copy()
         self._deriv = np.zeros((2, 4))
         self._hermite = (self._start[:3], np.zeros(3), self._state[:3], np.zeros(3))
+        self._hermite_t = tuple(tuple(a.tolist()) for a in self._hermite)
         self._u = np.zeros(2)
         self._dt = 1.0
         self._t0 = 0.0
@@ -210,6 +211,7 @@ class TricyclePlant:
         self._state, self._deriv = stacker_rk4(start, self._u[0], self._u[1], self.L_true, dt)
         # end poses and scaled end derivatives of the step, for pose_at's Hermite cubic
         self._hermite = (self._start[:3], self._deriv[0, :3] * dt, self._state[:3], self._deriv[1, :3] * dt)
+        self._hermite_t = tuple(tuple(a.tolist()) for a in self._hermite)
         self.v = ds_true / dt
         self.distance_C += abs(ds_true)
         # encoders (nominal parameters)
@@ -233,6 +235,8 @@ class TricyclePlant:
         sensor's root finder.
         """
         t = np.asarray(t, dtype=np.float64)
+        if t.ndim == 1 and t.shape[0] <= 4:  # the goniometer's usual few instants
+            return np.array([self._pose_at_scalar(float(ti)) for ti in t]).reshape(-1, 3)
         # np.minimum/np.maximum: np.clip's dispatch cost more than the arithmetic here
         u = np.minimum(np.maximum((t - self._t0) / self._dt, 0.0), 1.0)[..., None]
         u2 = u * u
@@ -241,6 +245,16 @@ class TricyclePlant:
         h01, h11 = 3.0 * u2 - 2.0 * u3, u3 - u2
         p0, d0, p1, d1 = self._hermite
         return h00 * p0 + h10 * d0 + h01 * p1 + h11 * d1
+
+    def _pose_at_scalar(self, t: float) -> tuple[float, float, float]:
+        """:meth:`pose_at` for one instant, element by element in the same order (bit-identical)."""
+        u = min(max((t - self._t0) / self._dt, 0.0), 1.0)
+        u2 = u * u
+        u3 = u2 * u
+        h00, h10 = 2.0 * u3 - 3.0 * u2 + 1.0, u3 - 2.0 * u2 + u
+        h01, h11 = 3.0 * u2 - 2.0 * u3, u3 - u2
+        p0, d0, p1, d1 = self._hermite_t
+        return tuple(h00 * p0[i] + h10 * d0[i] + h01 * p1[i] + h11 * d1[i] for i in range(3))  # type: ignore[return-value]
 
     def odometry(self) -> tuple[float, float]:
         """``(delta_d, delta_theta)`` of O over the last step from the encoders (nominal L, R)."""
