@@ -27,5 +27,23 @@ def test_c_baseline_compiles_and_solves(tmp_path):
     assert fn is not None, note
     rng = np.random.default_rng(1)
     poses = bench._random_poses(2000, rng)
-    ns = bench._c_ns_per_fix(fn, bearing_to(poses[:, None, :], bench.REFLECTORS_3), poses, with_heading=True)
-    assert ns > 0.0  # the call checks the C solution against the truth (raises otherwise)
+    bearings = bearing_to(poses[:, None, :], bench.REFLECTORS_3)
+    call = bench._c_call(fn, bearings, poses, with_heading=True)  # checks the C solution (raises otherwise)
+    with pytest.raises(RuntimeError, match="disagrees"):
+        bench._c_call(fn, bearings + 0.01, poses, with_heading=True)
+    assert bench.interleaved_best([call, call], rounds=2)[0] > 0.0
+
+
+def test_interleaved_best_alternates_and_keeps_each_minimum():
+    order: list[str] = []
+    times = bench.interleaved_best([lambda: order.append("a"), lambda: order.append("b")], rounds=3)
+    assert order == ["a", "b", "a", "b", "a", "b"] and len(times) == 2
+
+
+def test_quick_run_reports_both_c_ratios():
+    recs = bench.run(quick=True, seed=0)
+    for r in recs:
+        if r["c_total_ns_per_fix"] is not None:
+            assert r["batch_over_c_position_only"] == pytest.approx(
+                r["batch_ns_per_fix"] / r["c_total_position_only_ns_per_fix"])
+            assert r["batch_over_c_total"] == pytest.approx(r["batch_ns_per_fix"] / r["c_total_ns_per_fix"])

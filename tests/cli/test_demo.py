@@ -43,7 +43,7 @@ def test_demo_critical_pose_shows_each_method_behaviour():
 def test_demo_bad_option_is_a_one_line_error():
     result = runner.invoke(app, ["demo", "--pulses-per-rev", "0"])
     assert result.exit_code == 2
-    assert "pulses_per_rev" in result.output
+    assert "--pulses-per-rev" in result.output
 
 
 def test_demo_help():

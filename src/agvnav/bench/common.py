@@ -17,7 +17,6 @@ def emit(benchmark: str, records: Sequence[dict[str, Any]], as_json: bool, title
     if as_json:
         print(json.dumps({"benchmark": benchmark, "records": list(records)}, default=_jsonable))
         return
-    console = Console(highlight=False)
     table = Table(title=title or benchmark)
     columns: list[str] = []
     for rec in records:
@@ -26,6 +25,19 @@ def emit(benchmark: str, records: Sequence[dict[str, Any]], as_json: bool, title
         table.add_column(col, justify="left" if _is_text_column(records, col) else "right")
     for rec in records:
         table.add_row(*(_format(rec.get(col)) for col in columns))
+    print_table(table)
+
+
+def print_table(table: Table) -> None:
+    """Print ``table`` at its natural width, never truncated ("…") or folded.
+
+    The console is as wide as the terminal or as the table needs, whichever is larger, so
+    ``agvnav ... | cat`` (no terminal: rich would assume 80 columns) shows every value whole.
+    """
+    console = Console(highlight=False)
+    needed = Console(highlight=False, width=100_000).measure(table).maximum
+    if needed > console.width:
+        console = Console(highlight=False, width=needed)
     console.print(table)
 
 

@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 import typer
-from rich.console import Console
 from rich.table import Table
 
+from agvnav.bench.common import print_table
 from agvnav.cli.errors import user_errors
 from agvnav.geometry import angle_diff, bearing_to, circumcentre
 from agvnav.positioning import METHODS, encoder_bearing_std, triangulate
@@ -74,10 +74,24 @@ def demo_rows(pulses_per_rev: int = 65535, heading_error_deg: float = 1.0) -> li
     return rows
 
 
-def _status(fix: Any) -> str:
-    if not fix.valid:
-        return "[red]invalid (critical circle)[/red]"
-    return "heading from estimate" if fix.heading_from_estimate else "ok"
+def _status(row: dict[str, Any]) -> str:
+    """Status label; an invalid fix names its reason, derived from the geometry and the method."""
+    fix = row["fix"]
+    if fix.valid:
+        return "heading from estimate" if fix.heading_from_estimate else "ok"
+    return f"[red]invalid ({_invalid_reason(row)})[/red]"
+
+
+def _invalid_reason(row: dict[str, Any]) -> str:
+    truth = row["truth"]
+    centre, ok = circumcentre(LAYOUT[0], LAYOUT[1], LAYOUT[2])
+    radius = float(np.linalg.norm(LAYOUT[0] - centre))
+    on_circle = bool(ok) and abs(float(np.linalg.norm(truth[:2] - centre)) - radius) < 1e-3 * radius
+    if on_circle and row["reflectors"] == 3:
+        return "critical circle"
+    if row["method"] == "least_squares":
+        return "no convergence"
+    return "degenerate geometry"
 
 
 def _table(rows: list[dict[str, Any]], pulses_per_rev: int, heading_error_deg: float) -> Table:
@@ -109,7 +123,7 @@ def _table(rows: list[dict[str, Any]], pulses_per_rev: int, heading_error_deg: f
             f"{row['position_error_m'] * 1e3:.3f}" if ok else "-",
             f"{math.degrees(row['heading_error_rad']):.4f}" if ok else "-",
             f"{row['std_position_m'] * 1e3:.3f}" if ok and math.isfinite(row["std_position_m"]) else "-",
-            _status(fix),
+            _status(row),
             end_section=row["method"] == METHODS[-1],
         )
     return table
@@ -123,5 +137,14 @@ def demo(
     ),
 ) -> None:
     """Triangulate a vehicle on a built-in reflector layout and print a table."""
+    _check_options(pulses_per_rev, heading_error_deg)
     rows = demo_rows(pulses_per_rev, heading_error_deg)
-    Console(highlight=False).print(_table(rows, pulses_per_rev, heading_error_deg))
+    print_table(_table(rows, pulses_per_rev, heading_error_deg))
+
+
+def _check_options(pulses_per_rev: int, heading_error_deg: float) -> None:
+    """Validate the options at the edge, naming them as the user typed them."""
+    if pulses_per_rev < 3:
+        raise ValueError(f"--pulses-per-rev must be an integer >= 3, got {pulses_per_rev}")
+    if not math.isfinite(heading_error_deg) or abs(heading_error_deg) > 90.0:
+        raise ValueError(f"--heading-error-deg must be a finite number in [-90, 90] degrees, got {heading_error_deg}")
