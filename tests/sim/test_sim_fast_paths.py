@@ -58,3 +58,16 @@ def test_tricycle_increments_scalar_refuses_like_kernel(ds: float, gamma: float)
         tricycle_increments(ds, gamma, 1.3)
     with pytest.raises(ValueError):
         tricycle_increments_scalar(ds, gamma, 1.3)
+
+
+def test_scalar_pose_at_is_bit_identical_to_the_vectorised_branch(short_scenario) -> None:
+    from agvnav.sim.build import build
+
+    built = build(short_scenario)
+    built.loop.run(1.0)
+    plant = built.loop.plant
+    t = plant._t0 + plant._dt * np.array([-0.1, 0.0, 0.37, 0.5, 0.91, 1.0, 1.2])
+    ref = plant.pose_at(np.concatenate([t, t]))  # > 4 instants: the vectorised branch
+    for k in range(1, 5):
+        np.testing.assert_array_equal(plant.pose_at(t[:k]), ref[:k])
+    np.testing.assert_array_equal(plant.pose_at(t[3:7]), ref[3:7])

@@ -444,7 +444,7 @@ class Goniometer:
         if world.reflector_xy.shape[0] == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
         n_int = max(1, math.ceil((t1 - t0) * self.rate_hz * _BRACKETS_PER_REV))
-        grid = np.array([t0, t1]) if n_int == 1 else np.linspace(t0, t1, n_int + 1)
+        grid = _bracket_grid(t0, t1, n_int)
         offset, _, _ = self._offsets(world, pose_at, grid, None)
         w = np.mod(offset, TWO_PI)  # in [0, 2*pi)
         # A crossing: the wrapped offset drops by more than pi over one bracket
@@ -550,6 +550,23 @@ class Goniometer:
         blocked |= _ray_hits_discs(head_xy, ray, world.reflector_xy, world.reflector_radius, refl)
         return ok & ~blocked
 
+    def _encoder_bearing_few(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """:meth:`encoder_bearing`, element by element in ``math`` for the few instants of one scan.
+
+        Same operations in the same order as :meth:`head_angle` and :meth:`encoder_bearing`
+        (bit-identical, tested); NumPy's per-call overhead dominated for a handful of values.
+        """
+        if t.size > 8:
+            return self.encoder_bearing(t)
+        n, res = self.pulses_per_rev, self.resolution
+        u0, rate = self.phase / TWO_PI, self.direction * self.rate_hz
+        out = []
+        for ti in t.tolist():
+            u = u0 + rate * ti
+            count = math.floor(TWO_PI * (u - math.floor(u)) * (n / TWO_PI)) % n
+            out.append((count * res + math.pi) % TWO_PI - math.pi)  # wrap_angle
+        return np.array(out, dtype=np.float64)
+
     # -- noise -------------------------------------------------------------
 
     def _add_noise(
@@ -573,13 +590,21 @@ class Goniometer:
             t_spur = t1 - (t1 - t0) * rng.random(n_spur)  # type: ignore[union-attr]  # in (t0, t1]
             t_true = np.concatenate([t_true, t_spur])
             index = np.concatenate([index, np.full(n_spur, -1, dtype=np.int64)])
-        bearing = self.encoder_bearing(t_true)
+        bearing = self._encoder_bearing_few(t_true)
         t_report = t_true
         if self.jitter_std > 0.0 and t_true.size:
             jitter = rng.normal(0.0, self.jitter_std, t_true.size)  # type: ignore[union-attr]
             t_report = np.clip(t_true + jitter, t0, t1)
         order = np.argsort(t_report, kind="stable")
         return Reflections._trusted(t_report[order], bearing[order], index[order])
+
+
+def _bracket_grid(t0: float, t1: float, n_int: int) -> NDArray[np.float64]:
+    """``np.linspace(t0, t1, n_int + 1)`` built from Python floats (same values: ``i * step + t0``, end exact)."""
+    if n_int == 1:
+        return np.array([t0, t1])
+    step = (t1 - t0) / n_int
+    return np.array([i * step + t0 for i in range(n_int)] + [t1])
 
 
 def _call_pose(pose_at: PoseFunction, t: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -1,0 +1,26 @@
+"""The goniometer scan's scalar fast paths are bit-identical to the vectorised forms."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from agvnav.sensors import Goniometer
+
+
+@pytest.mark.parametrize("t0, t1", [(0.0, 0.05), (12.35, 12.4), (3599.95, 3600.0), (1.0, 1.7), (0.2, 0.2000001)])
+def test_bracket_grid_equals_linspace(t0: float, t1: float) -> None:
+    from agvnav.sensors.goniometer import _bracket_grid
+
+    for n in (1, 2, 3, 7, 23):
+        ref = np.array([t0, t1]) if n == 1 else np.linspace(t0, t1, n + 1)
+        np.testing.assert_array_equal(_bracket_grid(t0, t1, n), ref)
+
+
+@pytest.mark.parametrize("direction, phase", [(1, 0.0), (-1, 1.3), (1, -2.0)])
+def test_encoder_bearing_few_equals_vectorised(direction: int, phase: float) -> None:
+    g = Goniometer(rate_hz=8.0, pulses_per_rev=65535, direction=direction, phase=phase)
+    t = np.random.default_rng(3).uniform(0.0, 3600.0, 8)
+    t[:2] = [0.0, 1.0 / 8.0]
+    np.testing.assert_array_equal(g._encoder_bearing_few(t), g.encoder_bearing(t))
+    np.testing.assert_array_equal(g._encoder_bearing_few(t[:0]), g.encoder_bearing(t[:0]))
