@@ -24,3 +24,30 @@ def test_encoder_bearing_few_equals_vectorised(direction: int, phase: float) -> 
     t[:2] = [0.0, 1.0 / 8.0]
     np.testing.assert_array_equal(g._encoder_bearing_few(t), g.encoder_bearing(t))
     np.testing.assert_array_equal(g._encoder_bearing_few(t[:0]), g.encoder_bearing(t[:0]))
+
+
+def _scan_drive(monkeypatch, few: int):
+    """A moving, turning head scanned in 50 ms windows; ``few`` selects the root finder's branch."""
+    from agvnav.sensors import goniometer as gmod
+    from agvnav.world import load_builtin_map
+
+    monkeypatch.setattr(gmod, "_FEW", few)
+    world = load_builtin_map("lab")
+    g = Goniometer(mount=(0.3, 0.05, 0.02))
+
+    def pose_at(t):
+        t = np.asarray(t, dtype=np.float64)
+        return np.stack([4.0 + 0.8 * t, 3.0 + 0.5 * np.sin(t), 0.3 + 0.4 * t], axis=-1)
+
+    parts = [g.scan(world, pose_at, 0.05 * k, 0.05 * (k + 1)) for k in range(60)]
+    return parts
+
+
+def test_scalar_root_finder_matches_the_vectorised_one(monkeypatch) -> None:
+    few = _scan_drive(monkeypatch, 8)
+    vec = _scan_drive(monkeypatch, 0)
+    assert sum(len(p) for p in few) > 100
+    for a, b in zip(few, vec):
+        np.testing.assert_array_equal(a.reflector_index, b.reflector_index)
+        np.testing.assert_allclose(a.t, b.t, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(a.bearing, b.bearing)

@@ -57,6 +57,7 @@ _BRACKETS_PER_REV = 4
 _ANGLE_TOL = 1e-10  # rad: root-finding tolerance on the beam-edge offset (1e-6 of a 65535 encoder step)
 _MAX_ITER = 60
 _CHORD_ITER = 6
+_FEW = 8  # up to this many crossings per scan, the root finder iterates in ``math`` (see _chord_few)
 
 PoseFunction = Callable[[NDArray[np.float64]], ArrayLike]
 _EPS = float(np.finfo(np.float64).eps)
@@ -484,6 +485,9 @@ class Goniometer:
         t = lo - f_lo / slope
         m = self._map_arrays(world)
         rx, ry, r = m.rx[refl], m.ry[refl], m.r[refl]  # the same reflectors at every iteration
+        if t.size <= _FEW:
+            done = self._chord_few(pose_at, t, slope, lo, hi, (rx, ry, r), tol)
+            return done if done is not None else self._illinois(world, pose_at, lo, hi, f_lo, f_hi, refl, tol)
         for _ in range(_CHORD_ITER):
             raw, head, d = self._offsets_to(pose_at, t, rx, ry, r, False)
             f = np.mod(raw + math.pi, TWO_PI) - math.pi  # continuous on the bracket (see _BRACKETS_PER_REV)
@@ -491,6 +495,50 @@ class Goniometer:
                 return t, np.column_stack(head), d
             t = np.minimum(np.maximum(t - f / slope, lo), hi)  # np.clip, without its dispatch cost
         return self._illinois(world, pose_at, lo, hi, f_lo, f_hi, refl, tol)
+
+    def _chord_few(
+        self,
+        pose_at: PoseFunction,
+        t: NDArray[np.float64],
+        slope: NDArray[np.float64],
+        lo: NDArray[np.float64],
+        hi: NDArray[np.float64],
+        targets: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+        tol: float,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None:
+        """The chord iterations of :meth:`_refine` in ``math`` for a few crossings, in lockstep.
+
+        Same updates as the vectorised loop (all crossings step until all have converged);
+        NumPy's per-call overhead dominated on three or four elements. None if not converged.
+        """
+        t_l, s_l, lo_l, hi_l = t.tolist(), slope.tolist(), lo.tolist(), hi.tolist()
+        rows = list(zip(*(a.tolist() for a in targets)))
+        for _ in range(_CHORD_ITER):
+            pose = _call_pose(pose_at, np.array(t_l)).tolist()
+            res = [self._offset_one(p, ti, row) for p, ti, row in zip(pose, t_l, rows)]
+            f = [(o[0] + math.pi) % TWO_PI - math.pi for o in res]
+            if max(abs(v) for v in f) <= tol:
+                return np.array(t_l), np.array([(o[1], o[2]) for o in res]), np.array([o[3] for o in res])
+            t_l = [min(max(ti - fi / si, a), b) for ti, fi, si, a, b in zip(t_l, f, s_l, lo_l, hi_l)]
+        return None
+
+    def _offset_one(
+        self, pose: Sequence[float], t: float, target: tuple[float, float, float]
+    ) -> tuple[float, float, float, float]:
+        """:meth:`_offsets_to` for one instant and one reflector: ``(offset, head x, head y, d)``."""
+        x, y, heading = pose
+        mx, my, mth = self.mount
+        if mx != 0.0 or my != 0.0:
+            c, s = math.cos(heading), math.sin(heading)
+            x, y = x + c * mx - s * my, y + s * mx + c * my
+        beam = heading + (self.phase + mth) + (self.direction * TWO_PI * self.rate_hz) * t
+        rx, ry, r = target
+        dx, dy = rx - x, ry - y
+        d = math.hypot(dx, dy)
+        half_width = math.asin(min(r / max(d, 1e-300), 1.0))
+        if self.direction == 1:
+            return beam - math.atan2(dy, dx) + half_width, x, y, d
+        return math.atan2(dy, dx) + half_width - beam, x, y, d
 
     def _tolerance(self, t: NDArray[np.float64]) -> float:
         """Root tolerance (rad): 1e-10, or the float noise of t itself if larger (t ~ 1 h: ~2e-11 rad)."""
