@@ -27,6 +27,7 @@ never jumps.
 from __future__ import annotations
 
 import math
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -123,7 +124,7 @@ class StreamingEstimator:
         self.n_accepted = 0
         self.n_rejected = 0
         self.n_inflations = 0
-        self._recent: list[tuple[float, bool]] = []
+        self._recent: deque[tuple[float, bool]] = deque()
         self.last_search = None
         self._t: float | None = None
         self._t_odometry: float | None = None
@@ -288,8 +289,10 @@ class StreamingEstimator:
         (counted in :attr:`n_inflations`), up to ``MAX_INFLATED_POSITION_VAR``.
         """
         window = 1.5 / self.rate_hz
-        self._recent = [(tr, ok) for (tr, ok) in self._recent if t - tr <= window]
-        self._recent.append((t, accepted))
+        recent = self._recent
+        while recent and not t - recent[0][0] <= window:  # times never decrease: the old ones lead
+            recent.popleft()
+        recent.append((t, accepted))
         n_ok = sum(ok for _, ok in self._recent)
         n_bad = len(self._recent) - n_ok
         room = self._P_t[0] + self._P_t[4] < MAX_INFLATED_POSITION_VAR

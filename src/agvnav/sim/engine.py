@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import time
+from itertools import repeat
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -168,7 +169,8 @@ class ClosedLoop:
                 ev = sensor.observe(plant.pose_at, t, t1, rng)
                 if ev.shape[0]:
                     log.extend(ev)
-                    batches.extend((row[0], sensor, row) for row in ev)
+                    # times as Python floats: the splitting arithmetic below stays off NumPy scalars
+                    batches.extend(zip(ev[:, 0].tolist(), repeat(sensor), ev))
             if batches:
                 batches.sort(key=lambda item: item[0])
                 t_prev = t
