@@ -145,3 +145,27 @@ def test_estimator_fast_path_matches_the_kernels_over_a_drive() -> None:
         np.testing.assert_allclose(est.pose, x, rtol=0, atol=1e-11)
         np.testing.assert_allclose(est.covariance, P, rtol=0, atol=1e-14)
     assert est.n_accepted >= 40  # the update path was exercised
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_surely_outside_never_rejects_a_reflector_inside_the_gate(seed: int) -> None:
+    """The cheap pre-test is a sound bound: when it says outside, the exact NIS is >= gate."""
+    rng = np.random.default_rng(400 + seed)
+    gate, var, map_std = 10.8, 1e-7, 0.002
+    mount = rng.uniform([-0.6, -0.3, -0.2], [0.6, 0.3, 0.2])
+    checked = 0
+    for _ in range(200):
+        pose = rng.uniform([0, 0, -math.pi], [20, 12, math.pi])
+        xy = rng.uniform([0, 0], [20, 12], 2)
+        radius = rng.choice([0.0, 0.04, 0.3])
+        P = _spd(rng, scale=10.0 ** rng.uniform(-3, 0))
+        h, H, d = bearing_model(pose, mount, xy, radius)
+        if d <= radius:
+            continue
+        R = var + (map_std / d) ** 2
+        S = float(H @ P @ H) + R
+        y = rng.normal(0.0, math.sqrt(S) * rng.uniform(0.5, 20.0))  # around and beyond the gate threshold
+        if _fast.surely_outside(y, float(d) ** 2, radius, R, float(np.trace(P)), math.hypot(*mount[:2]), gate):
+            checked += 1
+            assert y * y / S >= gate
+    assert checked > 40

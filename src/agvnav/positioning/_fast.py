@@ -122,29 +122,62 @@ def reflector_rows(reflector_xy: Sequence[Sequence[float]], radius: Sequence[flo
     return tuple((float(p[0]), float(p[1]), float(r)) for p, r in zip(reflector_xy, radius, strict=True))
 
 
-def bearing_row(
-    px: float, py: float, psi: float, mount_theta: float, dpx_dpsi: float, dpy_dpsi: float,
-    rx: float, ry: float, r: float,
+def edge_bearing(
+    px: float, py: float, psi: float, mount_theta: float, rx: float, ry: float, r: float
 ) -> tuple[float, float, float, float, float]:
-    """Leading-edge bearing of one reflector from head centre ``(px, py)`` and its Jacobian row.
+    """Leading-edge bearing of one reflector from head centre ``(px, py)`` (seed 000 §2.1).
 
-    Mirrors :func:`agvnav.positioning.identification.bearing_model` for one reflector
-    (seed 000 §2.1): ``h = wrap(atan2(dy, dx) - psi - mount_theta - asin(r / d))``;
-    ``dpx_dpsi, dpy_dpsi`` are the derivatives of the head position with respect to
-    psi. Returns ``(h, H0, H1, H2, d)``.
+    ``h = wrap(atan2(dy, dx) - psi - mount_theta - asin(r / d))`` as in
+    :func:`agvnav.positioning.identification.bearing_model`. Returns ``(h, dx, dy, d^2, d)``.
     """
     dx, dy = rx - px, ry - py
     d2 = dx * dx + dy * dy
     d = math.sqrt(d2)
+    edge = -math.asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * _PI
+    return wrap(math.atan2(dy, dx) - psi - mount_theta + edge), dx, dy, d2, d
+
+
+def bearing_jacobian(
+    dx: float, dy: float, d2: float, d: float, r: float, dpx_dpsi: float, dpy_dpsi: float
+) -> tuple[float, float, float]:
+    """Row ``dh/d[x, y, psi]`` of :func:`edge_bearing`, as in ``bearing_model`` (d -> inf limits at d = 0).
+
+    ``dpx_dpsi, dpy_dpsi`` are the derivatives of the head position with respect to psi.
+    """
     if d > 0.0:
-        edge = -math.asin(min(max(r / d, 0.0), 1.0))
         ratio = min(max(r / d, 0.0), 1.0 - 1e-12)
         edge_gain = r / (d**3 * math.sqrt(1.0 - ratio**2))
         h0, h1 = dy / d2 - edge_gain * dx, -dx / d2 - edge_gain * dy
-    else:  # head on the reflector centre: the kernel's d -> inf limits
-        edge, h0, h1 = -0.5 * _PI, 0.0, 0.0
-    h = wrap(math.atan2(dy, dx) - psi - mount_theta + edge)
-    return h, h0, h1, h0 * dpx_dpsi + h1 * dpy_dpsi - 1.0, d
+    else:  # head on the reflector centre
+        h0, h1 = 0.0, 0.0
+    return h0, h1, h0 * dpx_dpsi + h1 * dpy_dpsi - 1.0
+
+
+def bearing_row(
+    px: float, py: float, psi: float, mount_theta: float, dpx_dpsi: float, dpy_dpsi: float,
+    rx: float, ry: float, r: float,
+) -> tuple[float, float, float, float, float]:
+    """:func:`edge_bearing` and :func:`bearing_jacobian` of one reflector: ``(h, H0, H1, H2, d)``.
+
+    Mirrors :func:`agvnav.positioning.identification.bearing_model` for one reflector.
+    """
+    h, dx, dy, d2, d = edge_bearing(px, py, psi, mount_theta, rx, ry, r)
+    return (h, *bearing_jacobian(dx, dy, d2, d, r, dpx_dpsi, dpy_dpsi), d)  # type: ignore[return-value]
+
+
+def surely_outside(innovation: float, d2: float, r: float, R: float, trace_P: float, mount_norm: float, gate: float) -> bool:
+    """True when ``y^2 / S >= gate`` is certain without the Jacobian (a cheap pre-test of the gate).
+
+    ``|dh/d(x, y)|^2 = 1 / (d^2 - r^2)`` for the edge bearing (the centre and edge terms
+    are orthogonal) and ``|dh/dpsi| <= |dh/d(x, y)| |mount| + 1``, so
+    ``S <= R + trace(P) |H|^2`` for a covariance ``P``. A factor 2 of margin keeps
+    rounding from ever rejecting a reflector the exact test would admit.
+    """
+    if d2 <= r * r:
+        return False
+    g2 = 1.0 / (d2 - r * r)
+    s_max = R + trace_P * (g2 + (math.sqrt(g2) * mount_norm + 1.0) ** 2)
+    return innovation * innovation >= 2.0 * gate * s_max
 
 
 def quadratic_form(H: Sequence[float], P: Sequence[float]) -> float:
@@ -182,17 +215,21 @@ def gate_one(
     px, py = x + c * mx - s * my, y + s * mx + c * my
     dpx, dpy = -s * mx - c * my, c * mx - s * my
     p00, p01, p02, _, p11, p12, _, _, p22 = P
+    trace_P, mount_norm = p00 + p11 + p22, math.hypot(mx, my)
     n_in, best = 0, None
     for j, (rx, ry, r) in enumerate(rows):
         if not allowed[j]:
             continue
-        h, h0, h1, h2, d = bearing_row(px, py, psi, mth, dpx, dpy, rx, ry, r)
+        h, dx, dy, d2, d = edge_bearing(px, py, psi, mth, rx, ry, r)
         if not d <= max_range:
             continue
         R = bearing_var + (map_std / d if d > 0.0 else 0.0) ** 2
+        innov = wrap(z - h)
+        if surely_outside(innov, d2, r, R, trace_P, mount_norm, gate):
+            continue  # most reflectors: far from this bearing, no Jacobian needed
+        h0, h1, h2 = bearing_jacobian(dx, dy, d2, d, r, dpx, dpy)
         # quadratic_form(H, P) written out: this loop is the estimator's hottest
         S = h0 * h0 * p00 + h1 * h1 * p11 + h2 * h2 * p22 + 2.0 * (h0 * h1 * p01 + h0 * h2 * p02 + h1 * h2 * p12) + R
-        innov = wrap(z - h)
         nis = innov * innov / S
         if nis < gate:
             n_in += 1
