@@ -24,7 +24,7 @@ def _setup(refl, p, psi, delta):
     x, y, t = tuple(r[:, 0]), tuple(r[:, 1]), tuple(th)
     x, y, t, tan_ab = order_pairs(x, y, t)
     cx, cy = centres(x, y, tan_ab)
-    tx, ty = _error_triangle(x, y, t, psi + delta, np)
+    (tx, ty), _ = _error_triangle(x, y, t, psi + delta, np)
     return np.array(pose[:2]), x, y, t, cx, cy, tx, ty
 
 

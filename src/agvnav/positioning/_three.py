@@ -43,6 +43,7 @@ class ScalarMath:
     arctan2 = staticmethod(math.atan2)
     sqrt = staticmethod(math.sqrt)
     copysign = staticmethod(math.copysign)
+    sign = staticmethod(lambda a: float((a > 0) - (a < 0)))
     isfinite = staticmethod(math.isfinite)
     abs = staticmethod(abs)
     any = staticmethod(bool)

@@ -85,8 +85,13 @@ def _tri_area(ax: Arr, ay: Arr, bx: Arr, by: Arr, cx: Arr, cy: Arr, xp: Any) -> 
     return 0.5 * xp.abs((bx - ax) * (cy - ay) - (by - ay) * (cx - ax))
 
 
-def _error_triangle(x: Three, y: Three, theta: Three, heading: Arr, xp: Any) -> tuple[Three, Three]:
-    """Vertices ``T_12, T_23, T_31`` of the error triangle for a heading estimate (seed 000, Fig. 2b)."""
+def _error_triangle(
+    x: Three, y: Three, theta: Three, heading: Arr, xp: Any
+) -> tuple[tuple[Three, Three], tuple[Three, Three]]:
+    """Error-triangle vertices ``T_12, T_23, T_31`` for a heading estimate (seed 000, Fig. 2b).
+
+    Returns ``((tx, ty), (ux, uy))``: the vertices and the unit directions of the three lines.
+    """
     ux, uy = line_directions(heading, theta, xp)
     t12 = intersect(x[0], y[0], ux[0], uy[0], x[1], y[1], ux[1], uy[1])
     t23 = intersect(x[1], y[1], ux[1], uy[1], x[2], y[2], ux[2], uy[2])
@@ -94,7 +99,7 @@ def _error_triangle(x: Three, y: Three, theta: Three, heading: Arr, xp: Any) -> 
         t31 = (math.inf, math.inf)  # eq. 5 case: this vertex is not used
     else:
         t31 = intersect(x[2], y[2], ux[2], uy[2], x[0], y[0], ux[0], uy[0])
-    return (t12[0], t23[0], t31[0]), (t12[1], t23[1], t31[1])
+    return ((t12[0], t23[0], t31[0]), (t12[1], t23[1], t31[1])), (ux, uy)
 
 
 def _similarity(tx: Three, ty: Three, cx: Three, cy: Three, aligned: Arr, xp: Any) -> tuple[Arr, Arr]:
@@ -123,7 +128,7 @@ def heading_error(
     The error triangle of the lines at ``heading`` (seed 000, Fig. 2b), then eqs 4-6:
     ``|delta| = arcsin(sqrt(A_e / A_c) / 2)``, evaluated as ``atan2(sin, cos)``.
     """
-    tx, ty = _error_triangle(x, y, theta, heading, xp)
+    (tx, ty), _ = _error_triangle(x, y, theta, heading, xp)
     sin_d, cos_d = _similarity(tx, ty, cx, cy, aligned, xp)
     return xp.arctan2(sin_d, cos_d)
 
@@ -207,7 +212,7 @@ def absolute_angles_kernel(
     quality = norm(cx[1] - cx[0], cy[1] - cy[0], xp) / scale
     critical = xp.logical_not(quality > CRITICAL_TOL)
     psi_est = heading_estimate
-    tx0, ty0 = _error_triangle(x, y, theta, psi_est, xp)  # lines at the estimate (Fig. 2b)
+    (tx0, ty0), rays = _error_triangle(x, y, theta, psi_est, xp)  # lines at the estimate (Fig. 2b)
     sin_d, cos_d = _similarity(tx0, ty0, cx, cy, aligned, xp)  # eqs 4-6
     psi = psi_est - xp.arctan2(sin_d, cos_d)
     tx, ty = _turn(tx0, ty0, cx, cy, sin_d, cos_d)
@@ -230,7 +235,8 @@ def absolute_angles_kernel(
     # delta is known modulo 180°: keep the half-turn that puts the reflectors ahead of P along
     # their rays. Majority vote of the three signs of (R_k - P)·ray_k, so one reflector whose
     # ray is nearly perpendicular (or noisy) cannot flip the heading alone.
-    psi = xp.where(critical, psi, psi + np.pi * (_ahead_votes(x, y, theta, px, py, psi, xp) < 0))
+    behind = _behind(x, y, theta, psi_est, rays, psi - psi_est, px, py, xp)
+    psi = xp.where(critical, psi, psi + np.pi * behind)
     valid = xp.isfinite(px) & xp.isfinite(py) & xp.isfinite(psi)
     return {
         "x": px,
@@ -242,13 +248,40 @@ def absolute_angles_kernel(
     }
 
 
-def _ahead_votes(x: Three, y: Three, theta: Three, px: Arr, py: Arr, psi: Arr, xp: Any) -> Arr:
-    """Sum over k of sign((R_k − P)·u_k), u_k the ray at world angle ψ + θ_k: +3 all ahead, −3 all behind."""
-    c, s = xp.cos(psi), xp.sin(psi)
+def _ray_dot(
+    k: int, x: Three, y: Three, theta: Three, psi_est: Arr, rays: tuple[Three, Three], c: Arr, s: Arr,
+    px: Arr, py: Arr, xp: Any,
+) -> Arr:
+    """``(R_k − P)·u_k`` for the ray ``u_k`` (unnormalised) at the corrected heading.
+
+    ``rays`` are the estimate's line directions (undirected, reduced modulo pi by
+    ``line_directions``: their orientation is restored from the parity of the half-turns
+    removed), turned by the correction whose cosine and sine are ``c, s``.
+    """
+    half_turns = 0.5 * xp.rint((psi_est + theta[k]) / np.pi)
+    orient = 1.0 - 4.0 * xp.abs(half_turns - xp.rint(half_turns))  # +1 even, -1 odd
+    ux, uy = orient * rays[0][k], orient * rays[1][k]
+    return (x[k] - px) * (ux * c - uy * s) + (y[k] - py) * (ux * s + uy * c)
+
+
+def _behind(
+    x: Three, y: Three, theta: Three, psi_est: Arr, rays: tuple[Three, Three], turn: Arr, px: Arr, py: Arr, xp: Any
+) -> Arr:
+    """True where the reflectors lie behind P along their rays: the heading is off by a half-turn.
+
+    Majority vote of the three reflectors (each must lie ahead along its ray), so one
+    reflector whose ray is noisy or mirrored cannot flip the heading alone.
+    ``turn = psi - psi_est``.
+    """
+    return _votes(x, y, theta, psi_est, rays, xp.cos(turn), xp.sin(turn), px, py, xp) < 0
+
+
+def _votes(
+    x: Three, y: Three, theta: Three, psi_est: Arr, rays: tuple[Three, Three], c: Arr, s: Arr, px: Arr, py: Arr, xp: Any
+) -> Arr:
+    """Sum over k of sign((R_k − P)·u_k): +3 all reflectors ahead along their rays, −3 all behind."""
     votes = 0.0
     for k in range(3):
-        dx, dy = x[k] - px, y[k] - py
-        ck, sk = xp.cos(theta[k]), xp.sin(theta[k])
-        dot = (dx * ck + dy * sk) * c + (dy * ck - dx * sk) * s
-        votes = votes + xp.where(dot > 0.0, 1.0, 0.0) - xp.where(dot < 0.0, 1.0, 0.0)
+        dot = _ray_dot(k, x, y, theta, psi_est, rays, c, s, px, py, xp)
+        votes = votes + xp.sign(dot)
     return votes
