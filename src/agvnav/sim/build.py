@@ -9,6 +9,8 @@ be in view (in range and line of sight) all along the path. Every failure is a
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 from dataclasses import dataclass
 from pathlib import Path as FsPath
@@ -279,9 +281,28 @@ def build(sc: Scenario) -> Built:
     )
     pilot = TricycleAutopilot(ctrl, path, profile, L, point)
     estimator = _estimator(sc, world, mount, x0)
-    loop = ClosedLoop(plant, [GoniometerSensor(gonio, world)], estimator, pilot, sc.step_s, sc.seed)
+    true_world = surveyed_truth(world, tr.reflector_survey_std_m, sc.seed)
+    loop = ClosedLoop(plant, [GoniometerSensor(gonio, true_world)], estimator, pilot, sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else _default_duration(sc, path)
     return Built(loop, world, path, plant, pilot, estimator, duration, point)
+
+
+def surveyed_truth(world: Any, survey_std: float, seed: int) -> Any:
+    """The world as it really is: reflectors moved from their surveyed map positions.
+
+    Each reflector is displaced by an independent Gaussian error of ``survey_std`` (m)
+    per axis, drawn from a generator of its own derived from the scenario ``seed``
+    (so the survey error does not shift any other random stream). ``survey_std = 0``
+    returns ``world`` itself.
+    """
+    if survey_std <= 0.0:
+        return world
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0x5EED,)))
+    moved = [
+        dataclasses.replace(r, x=r.x + dx, y=r.y + dy)
+        for r, (dx, dy) in zip(world.reflectors, rng.normal(0.0, survey_std, (len(world.reflectors), 2)), strict=True)
+    ]
+    return dataclasses.replace(world, reflectors=tuple(moved))
 
 
 def _estimator(sc: Scenario, world: Any, mount: tuple[float, float, float], x0: NDArray[np.float64]) -> Any:
@@ -304,6 +325,8 @@ def _estimator(sc: Scenario, world: Any, mount: tuple[float, float, float], x0: 
         "initial_pose": x0[:3] + err,
         "initial_covariance": np.diag(np.maximum(std, 1e-6) ** 2),
     }
+    if sc.truth.reflector_survey_std_m > 0.0:
+        kwargs["map_std"] = sc.truth.reflector_survey_std_m
     kwargs.update(ps.params)
     return _guard(sc, ("positioning",), make_estimator, ps.method, world, mount, **kwargs)
 

@@ -100,7 +100,9 @@ class TruthErrorSpec(_Strict):
     ``steering_offset_deg``: the wheel points this much off what the steering
     encoder reads; ``slip_std``: random relative error of each traction
     increment (non-systematic slip); ``steering_noise_std_deg``: random error of
-    the steering angle per step.
+    the steering angle per step; ``reflector_survey_std_m``: the true reflector
+    positions differ from the surveyed map the positioning uses by this Gaussian
+    error per axis (m; seed 000 §4.1 surveyed its reflectors topographically).
     """
 
     wheel_radius_error: Annotated[float, Field(gt=-0.5, lt=0.5)] = 0.0
@@ -108,6 +110,7 @@ class TruthErrorSpec(_Strict):
     steering_offset_deg: Annotated[float, Field(ge=-10.0, le=10.0)] = 0.0
     slip_std: NonNegFloat = 0.0
     steering_noise_std_deg: NonNegFloat = 0.0
+    reflector_survey_std_m: Annotated[float, Field(ge=0.0, le=0.5)] = 0.0
 
 
 class SteeringSpec(_Strict):
