@@ -180,6 +180,29 @@ def _design_choice(
     return seed_poles_for_distance(d, wheelbase, law, point, direction=direction)
 
 
+def _gain_or_tuned(
+    gain_name: str,
+    gain: float | None,
+    convergence_distance: float | None,
+    law: str,
+    wheelbase: float,
+    v_nominal: float,
+    **params: Any,
+) -> float:
+    """A servo law's gain (lookahead m, or gain 1/m): as given, else tuned.
+
+    Tuned by :func:`tune_for_convergence` for ``convergence_distance`` (m,
+    default DEFAULT_CONVERGENCE_DISTANCE_M) at ``v_nominal`` (m/s); giving
+    both raises ValueError.
+    """
+    if gain is not None and convergence_distance is not None:
+        raise ValueError(f"give {gain_name} or convergence_distance, not both")
+    if gain is None:
+        d = DEFAULT_CONVERGENCE_DISTANCE_M if convergence_distance is None else convergence_distance
+        gain = tune_for_convergence(law, d, wheelbase, v_nominal, **params)
+    return require_positive(gain_name, gain)
+
+
 def _has_real_pole_at(poles: NDArray[np.complex128], pole: float) -> bool:
     return bool(np.any(np.abs(poles - pole) <= 1e-9 * abs(pole)))
 
@@ -385,12 +408,9 @@ class PurePursuitController(_PathFollower):
     ):
         super().__init__(path, wheelbase, point, window)
         self.servo_tau = require_positive("servo_tau", servo_tau)
-        if lookahead is not None and convergence_distance is not None:
-            raise ValueError("give lookahead or convergence_distance, not both")
-        if lookahead is None:
-            d = DEFAULT_CONVERGENCE_DISTANCE_M if convergence_distance is None else convergence_distance
-            lookahead = tune_for_convergence("pure_pursuit", d, wheelbase, v_nominal, servo_tau=servo_tau, point=point)
-        self.lookahead = require_positive("lookahead", lookahead)
+        tuning = ("pure_pursuit", wheelbase, v_nominal)
+        servo = {"servo_tau": servo_tau, "point": point}
+        self.lookahead = _gain_or_tuned("lookahead", lookahead, convergence_distance, *tuning, **servo)
 
     def command(self, pose_o: ArrayLike, gamma: float, v: float) -> float:
         """Steering rate (rad/s): servo towards the pure-pursuit steering angle."""
@@ -429,12 +449,8 @@ class StanleyController(_PathFollower):
     ):
         super().__init__(path, wheelbase, "C", window)
         self.servo_tau = require_positive("servo_tau", servo_tau)
-        if gain_per_m is not None and convergence_distance is not None:
-            raise ValueError("give gain_per_m or convergence_distance, not both")
-        if gain_per_m is None:
-            d = DEFAULT_CONVERGENCE_DISTANCE_M if convergence_distance is None else convergence_distance
-            gain_per_m = tune_for_convergence("stanley", d, wheelbase, v_nominal, servo_tau=servo_tau)
-        self.gain_per_m = require_positive("gain_per_m", gain_per_m)
+        tuning = ("stanley", wheelbase, v_nominal)
+        self.gain_per_m = _gain_or_tuned("gain_per_m", gain_per_m, convergence_distance, *tuning, servo_tau=servo_tau)
 
     def command(self, pose_o: ArrayLike, gamma: float, v: float) -> float:
         """Steering rate (rad/s): servo towards the Stanley steering angle."""
