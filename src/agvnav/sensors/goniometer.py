@@ -668,33 +668,15 @@ def _call_pose(pose_at: PoseFunction, t: NDArray[np.float64]) -> NDArray[np.floa
     return pose
 
 
-def _ray_hits_segments(
-    origin: NDArray[np.float64], ray: NDArray[np.float64], segments: NDArray[np.float64]
-) -> NDArray[np.bool_]:
-    """``(c,)`` True where the segment ``origin -> origin + ray`` ``(c, 2)`` crosses any wall segment ``(M, 2, 2)``.
+def _ray_hits_walls(origin: NDArray[np.float64], ray: NDArray[np.float64], m: _MapArrays) -> NDArray[np.bool_]:
+    """``(c,)`` True where the segment ``origin -> origin + ray`` ``(c, 2)`` crosses any of the map's walls.
 
-    With ``a`` the wall start relative to the origin, ``v`` the wall direction and
-    ``u`` the ray, the crossing is at ``s = (a x v) / (u x v)`` along the ray and
+    On the cached wall columns (start ``(M,)``, direction ``(M,)``). With ``a`` the
+    wall start relative to the origin, ``v`` the wall direction and ``u`` the ray,
+    the crossing is at ``s = (a x v) / (u x v)`` along the ray and
     ``w = (a x u) / (u x v)`` along the wall; both in [0, 1] means blocked (signs
     folded into the numerators to avoid dividing). Parallel (grazing) pairs do not block.
     """
-    if segments.shape[0] == 0:
-        return np.zeros(origin.shape[0], dtype=bool)
-    ox, oy = origin[:, 0:1], origin[:, 1:2]  # (c, 1)
-    ux, uy = ray[:, 0:1], ray[:, 1:2]
-    ax, ay = segments[:, 0, 0] - ox, segments[:, 0, 1] - oy  # (c, M)
-    vx, vy = segments[:, 1, 0] - segments[:, 0, 0], segments[:, 1, 1] - segments[:, 0, 1]  # (M,)
-    den = ux * vy - uy * vx
-    sign = np.sign(den)
-    num_s = (ax * vy - ay * vx) * sign
-    num_w = (ax * uy - ay * ux) * sign
-    den = np.abs(den)
-    hit = (num_s >= 0.0) & (num_s <= den) & (num_w >= 0.0) & (num_w <= den) & (den > 0.0)
-    return hit.any(axis=1)
-
-
-def _ray_hits_walls(origin: NDArray[np.float64], ray: NDArray[np.float64], m: _MapArrays) -> NDArray[np.bool_]:
-    """:func:`_ray_hits_segments` against the map's walls, on the cached wall columns (same arithmetic)."""
     if m.wall_x0.shape[0] == 0:
         return np.zeros(origin.shape[0], dtype=bool)
     ux, uy = ray[:, 0:1], ray[:, 1:2]  # (c, 1)
