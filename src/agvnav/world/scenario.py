@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, Self
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -227,7 +227,45 @@ class PositioningSpec(_Strict):
     )
 
 
-class Scenario(_Strict):
+class _Sourced(_Strict):
+    """A scenario document that remembers where it came from, for errors naming key and line.
+
+    Shared by :class:`Scenario` and the tracked-robot scenario; subclasses have a
+    ``seed`` field.
+    """
+
+    # Not part of the schema: where the scenario came from, for error messages.
+    _source: str = ""
+    _nodes: Any = None
+    _base_dir: Path | None = None
+
+    def locate(self, key: KeyPath) -> int | None:
+        """1-based file line of the key path ``key`` (None if unknown)."""
+        return node_line(self._nodes, key)
+
+    def error(self, key: KeyPath, message: str) -> ScenarioError:
+        """A :class:`ScenarioError` for ``key`` with its file line."""
+        return ScenarioError(message, key, self.locate(key), self._source)
+
+    @property
+    def base_dir(self) -> Path | None:
+        """Folder of the scenario file (relative map paths resolve against it)."""
+        return self._base_dir
+
+    def with_seed(self, seed: int) -> Self:
+        """A copy with another random seed (keeps the source and line map)."""
+        if seed < 0:
+            raise ValueError(f"seed must be >= 0, got {seed}")
+        return self._copy_attached({"seed": int(seed)})
+
+    def _copy_attached(self, update: dict[str, Any]) -> Self:
+        """``model_copy(update=...)`` that keeps the source, line map and folder."""
+        new = self.model_copy(update=update)
+        _attach(new, self._source, self._nodes, self._base_dir)
+        return new
+
+
+class Scenario(_Sourced):
     """A closed-loop run (issue 5 §4). All lengths in m, times in s, angles in deg."""
 
     name: str = "scenario"
@@ -248,34 +286,8 @@ class Scenario(_Strict):
     positioning: PositioningSpec = PositioningSpec()
     min_reflectors_in_view: Annotated[int, Field(ge=3)] = 3
 
-    # Not part of the schema: where the scenario came from, for error messages.
-    _source: str = ""
-    _nodes: Any = None
-    _base_dir: Path | None = None
 
-    def locate(self, key: KeyPath) -> int | None:
-        """1-based file line of the key path ``key`` (None if unknown)."""
-        return node_line(self._nodes, key)
-
-    def error(self, key: KeyPath, message: str) -> ScenarioError:
-        """A :class:`ScenarioError` for ``key`` with its file line."""
-        return ScenarioError(message, key, self.locate(key), self._source)
-
-    @property
-    def base_dir(self) -> Path | None:
-        """Folder of the scenario file (relative map paths resolve against it)."""
-        return self._base_dir
-
-    def with_seed(self, seed: int) -> Scenario:
-        """A copy with another random seed (keeps the source and line map)."""
-        if seed < 0:
-            raise ValueError(f"seed must be >= 0, got {seed}")
-        new = self.model_copy(update={"seed": int(seed)})
-        _attach(new, self._source, self._nodes, self._base_dir)
-        return new
-
-
-def _attach(sc: Scenario, source: str, nodes: Any, base_dir: Path | None) -> None:
+def _attach(sc: _Sourced, source: str, nodes: Any, base_dir: Path | None) -> None:
     object.__setattr__(sc, "__pydantic_private__", {"_source": source, "_nodes": nodes, "_base_dir": base_dir})
 
 

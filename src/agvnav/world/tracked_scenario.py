@@ -26,7 +26,9 @@ from agvnav.world.scenario import (
     PathSpec,
     PosFloat,
     ScenarioError,
+    _attach,
     _first_error,
+    _Sourced,
     _Strict,
     node_line,
 )
@@ -133,7 +135,7 @@ class HybridSpec(_Strict):
     params: dict[str, Any] = Field(default_factory=dict)
 
 
-class TrackedScenario(_Strict):
+class TrackedScenario(_Sourced):
     """A closed-loop run of the seed-004 tracked robot. Lengths m, times s, angles deg."""
 
     name: str = "tracked"
@@ -156,36 +158,9 @@ class TrackedScenario(_Strict):
             raise ValueError("controller kanayama follows a path: give the path key")
         return self
 
-    _source: str = ""
-    _nodes: Any = None
-    _base_dir: Path | None = None
-
-    def locate(self, key: tuple[str | int, ...]) -> int | None:
-        """1-based file line of ``key`` (None if unknown)."""
-        return node_line(self._nodes, key)
-
-    def error(self, key: tuple[str | int, ...], message: str) -> ScenarioError:
-        """A :class:`ScenarioError` for ``key`` with its file line."""
-        return ScenarioError(message, key, self.locate(key), self._source)
-
-    @property
-    def base_dir(self) -> Path | None:
-        """Folder of the scenario file."""
-        return self._base_dir
-
-    def with_seed(self, seed: int) -> TrackedScenario:
-        """A copy with another random seed (keeps the source and line map)."""
-        if seed < 0:
-            raise ValueError(f"seed must be >= 0, got {seed}")
-        new = self.model_copy(update={"seed": int(seed)})
-        _attach(new, self._source, self._nodes, self._base_dir)
-        return new
-
     def with_updates(self, **controller: Any) -> TrackedScenario:
         """A copy with controller fields replaced (e.g. ``laps=2, landmarks=False``)."""
-        new = self.model_copy(update={"controller": self.controller.model_copy(update=controller)})
-        _attach(new, self._source, self._nodes, self._base_dir)
-        return new
+        return self._copy_attached({"controller": self.controller.model_copy(update=controller)})
 
     def hybrid_params_kwargs(self) -> dict[str, float]:
         """``controller.params`` with degree keys converted to radians (HybridParams names)."""
@@ -198,10 +173,6 @@ class TrackedScenario(_Strict):
             else:
                 out[key] = value
         return out
-
-
-def _attach(sc: TrackedScenario, source: str, nodes: Any, base_dir: Path | None) -> None:
-    object.__setattr__(sc, "__pydantic_private__", {"_source": source, "_nodes": nodes, "_base_dir": base_dir})
 
 
 def is_tracked(data: Any) -> bool:
