@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav.world.scenario import KeyPath, PathSpec, Scenario, ScenarioError
+from agvnav.world.tracked_scenario import TrackedScenario
 
 __all__ = ["Built", "build", "build_path", "build_world", "reflectors_in_view"]
 
@@ -38,7 +39,7 @@ class Built:
     point: str
 
 
-def _guard(sc: Scenario, key: KeyPath, func: Any, *args: Any, **kwargs: Any) -> Any:
+def _guard(sc: Scenario | TrackedScenario, key: KeyPath, func: Any, *args: Any, **kwargs: Any) -> Any:
     """Call ``func``; a ValueError becomes a ScenarioError at ``key``."""
     try:
         return func(*args, **kwargs)
@@ -48,8 +49,11 @@ def _guard(sc: Scenario, key: KeyPath, func: Any, *args: Any, **kwargs: Any) -> 
         raise sc.error(key, " ".join(str(exc).split())) from None
 
 
-def build_world(sc: Scenario) -> Any:
-    """The map: a shipped name (``lab``), a file path (relative to the scenario), or inline."""
+def build_world(sc: Scenario | TrackedScenario) -> Any:
+    """The map: a shipped name (``lab``), a file path (relative to the scenario), or inline.
+
+    Either scenario kind (the tracked robot's map key has the same forms).
+    """
     from agvnav.world import builtin_map_names, load_builtin_map, load_map
     from agvnav.world.map import WorldMap
 

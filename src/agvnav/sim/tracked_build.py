@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from agvnav.sim.build import build_world
 from agvnav.sim.laps import TrackedRun, run_tracked
 from agvnav.world.tracked_scenario import TerrainFigures, TrackedScenario
 
@@ -63,23 +64,6 @@ def _layout(sc: TrackedScenario) -> Any:
     return UltrasonicArray(sensors, veh.body_length_m, veh.body_width_m)
 
 
-def _world(sc: TrackedScenario) -> Any:
-    from agvnav.world import builtin_map_names, load_builtin_map, load_map
-    from agvnav.world.map import WorldMap
-
-    spec = sc.map
-    if isinstance(spec, dict):
-        return _guard(sc, ("map",), WorldMap.from_dict, spec)
-    if spec in builtin_map_names():
-        return load_builtin_map(spec)
-    p = FsPath(spec)
-    if not p.is_absolute() and sc.base_dir is not None:
-        p = sc.base_dir / p
-    if not p.is_file():
-        raise sc.error(("map",), f"{spec!r} is neither a shipped map nor a file")
-    return _guard(sc, ("map",), load_map, p)
-
-
 def _wall_ids(world: Any) -> list[str]:
     ids = []
     for w in world.walls:
@@ -94,7 +78,7 @@ def prepare_tracked(sc: TrackedScenario) -> dict[str, Any]:
     from agvnav.guidance.hybrid import HybridController, HybridParams, PolygonRoute
 
     veh, r = sc.vehicle, sc.route
-    world = _world(sc)
+    world = build_world(sc)
     if sc.controller.name == "hybrid" and world.wall_segments.shape[0] == 0:
         raise sc.error(("map",), "the map has no walls: the ultrasonic landmarks are walls")
     layout = _guard(sc, ("ultrasonic",), _layout, sc)
