@@ -421,17 +421,24 @@ def _refine_distinct(
     seeds = [r[0] for r in _distinct([(p, 0, 0.0) for p in cand[:400]], position_tol, heading_tol)]
     out = []
     var = bearing_std**2
+
+    def label(pose: NDArray[np.float64], cov: NDArray[np.float64]) -> NDArray[np.int64]:
+        return associate_sweep(z, pose, cov, mount, xy, rad, var, max_range=max_range, gate=gate, map_std=map_std)
+
+    def fit(pose: NDArray[np.float64], labels: NDArray[np.int64]) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+        seen = labels >= 0
+        return _gauss_newton(pose, z[seen], xy[labels[seen]], rad[labels[seen]], mount, var, map_std)
+
     for pose in seeds[:32]:
-        loose = np.diag([0.05, 0.05, 0.01]) ** 2
-        labels = associate_sweep(z, pose, loose, mount, xy, rad, var, max_range=max_range, gate=gate, map_std=map_std)
+        labels = label(pose, np.diag([0.05, 0.05, 0.01]) ** 2)  # loose: the hypothesis is only a start
         for _ in range(3):
             if np.count_nonzero(labels >= 0) < 3:
                 break
-            pose, cov, ssr = _gauss_newton(pose, z[labels >= 0], xy[labels[labels >= 0]], rad[labels[labels >= 0]], mount, var, map_std)
-            labels = associate_sweep(z, pose, cov, mount, xy, rad, var, max_range=max_range, gate=gate, map_std=map_std)
+            pose, cov, ssr = fit(pose, labels)
+            labels = label(pose, cov)
         n = int(np.count_nonzero(labels >= 0))
         if n >= 3:
-            pose, cov, ssr = _gauss_newton(pose, z[labels >= 0], xy[labels[labels >= 0]], rad[labels[labels >= 0]], mount, var, map_std)
+            pose, cov, ssr = fit(pose, labels)
             out.append((pose, n, ssr, labels, cov))
     return out
 
