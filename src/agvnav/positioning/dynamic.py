@@ -222,11 +222,15 @@ class _FixEstimator(StreamingEstimator):
             best = triples[0]
         return sorted(best, key=lambda e: e[0])
 
+    def _reflectors(self, entries: list) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Map centres ``(n, 2)`` (m) and radii ``(n,)`` (m) of the entries' reflectors."""
+        idx = [e[2] for e in entries]
+        return self.reflector_xy[idx], self.reflector_radius[idx]
+
     def _fix_covariance(self, pose: NDArray[np.float64], entries: list, rel: NDArray[np.float64]) -> NDArray[np.float64]:
         """Bearing-noise covariance ``(A^T A / sigma^2)^-1`` of a fix from ``entries``."""
-        idx = [e[2] for e in entries]
         z = np.array([e[1] for e in entries])
-        A, _ = _ml_system(pose, z, self.reflector_xy[idx], self.reflector_radius[idx], rel, self.mount)
+        A, _ = _ml_system(pose, z, *self._reflectors(entries), rel, self.mount)
         N = A.T @ (A / self._variances(pose, entries, rel)[:, None])
         if np.linalg.cond(N) > 1e12:
             return self._P
@@ -269,9 +273,8 @@ class NaiveEstimator(_FixEstimator):
         entries = self._best_triple()
         if not entries:
             return None
-        idx = [e[2] for e in entries]
-        xy = self.reflector_xy[idx]
-        z = centre_bearings([e[1] for e in entries], self._x, self.mount, xy, self.reflector_radius[idx])
+        xy, radius = self._reflectors(entries)
+        z = centre_bearings([e[1] for e in entries], self._x, self.mount, xy, radius)
         head_est = compose(self._x, self.mount)[2]
         head, ok = _triangulate_head(xy, z, head_est, self.triangulation_method)
         if not ok:
@@ -318,14 +321,13 @@ class AnglePropagationEstimator(_FixEstimator):
         entries = self._best_triple()
         if not entries:
             return None
-        idx = [e[2] for e in entries]
-        xy = self.reflector_xy[idx]
+        xy, radius = self._reflectors(entries)
         rel = self._relative(entries)
         odom_i = np.array([e[3] for e in entries])
         pose = self._x.copy()
         ok = False
         for _ in range(max(self.iterations, 1)):
-            z = centre_bearings([e[1] for e in entries], compose(pose, rel), self.mount, xy, self.reflector_radius[idx])
+            z = centre_bearings([e[1] for e in entries], compose(pose, rel), self.mount, xy, radius)
             z_f = propagate_bearings(z, odom_i, self._odom, pose, self.mount, xy)
             head_pred = compose(pose, self.mount)
             method = self.triangulation_method
@@ -353,10 +355,9 @@ class BatchMLEstimator(_FixEstimator):
         entries = [e for e in self._entries if t_f - e[0] < 1.0 / self.rate_hz]
         if len({e[2] for e in entries}) < 3:
             return None
-        idx = [e[2] for e in entries]
         rel = self._relative(entries)
         pose, cov, ok = batch_ml_fix(
-            self._x, np.array([e[1] for e in entries]), self.reflector_xy[idx], self.reflector_radius[idx],
+            self._x, np.array([e[1] for e in entries]), *self._reflectors(entries),
             rel, self.mount, self._variances(self._x, entries, rel),
         )
         return (pose, cov) if ok else None
