@@ -52,8 +52,7 @@ def plot_laps(result: Any, out: str | Path) -> Path:
     fig, ax = plt.subplots(figsize=(6.5, 6.5))
     corners = np.vstack([result.route.corners, result.route.corners[:1]])
     ax.plot(corners[:, 0], corners[:, 1], "k--", lw=1.0, label="route")
-    for seg in result.world.wall_segments:
-        ax.plot(seg[:, 0], seg[:, 1], color="0.4", lw=3.0, solid_capstyle="butt")
+    _draw_walls(ax, result.world)
     colours = {True: "tab:blue", False: "tab:red"}
     for mode, run in sorted(result.runs.items(), reverse=True):
         xy = run.true_xy
@@ -61,16 +60,8 @@ def plot_laps(result: Any, out: str | Path) -> Path:
         ax.plot(xy[:, 0], xy[:, 1], color=colours[mode], lw=0.8, label=label)
         if run.laps.laps:
             ax.plot(run.laps.end_xy[:, 0], run.laps.end_xy[:, 1], "o", color=colours[mode], ms=3)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
     ax.set_title(f"{result.scenario.name}: driven squares (walls grey)")
-    ax.legend(loc="best", fontsize=8)
-    ax.grid(True, lw=0.3)
-    path = Path(out)
-    fig.savefig(path, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return _save_plan_view(plt, fig, ax, out)
 
 
 def path_table(result: Any) -> Any:
@@ -109,8 +100,18 @@ def plot_path_follow(result: Any, out: str | Path) -> Path:
     ax.plot(planned[:, 0], planned[:, 1], "k--", lw=1.0, label="path")
     ax.plot(result.series["x"], result.series["y"], color="tab:blue", lw=0.8, label="driven (truth)")
     ax.plot(result.series["est_x"], result.series["est_y"], color="tab:orange", lw=0.8, label="dead reckoning")
-    for seg in result.world.wall_segments:
+    _draw_walls(ax, result.world)
+    return _save_plan_view(plt, fig, ax, out)
+
+
+def _draw_walls(ax: Any, world: Any) -> None:
+    """The map's wall segments (the seed-004 landmarks) as thick grey lines, in m."""
+    for seg in world.wall_segments:
         ax.plot(seg[:, 0], seg[:, 1], color="0.4", lw=3.0, solid_capstyle="butt")
+
+
+def _save_plan_view(plt: Any, fig: Any, ax: Any, out: str | Path) -> Path:
+    """Finish a plan view (equal axes in m, legend, grid), write it as PNG to ``out`` and close it."""
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
