@@ -19,11 +19,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from agvnav.sim.engine import ClosedLoop, LoopOutput
 
 __all__ = ["LapErrors", "TrackedRun", "lap_errors", "run_tracked"]
 
@@ -68,18 +70,13 @@ def lap_errors(
     return LapErrors(tt, ends, error, per_lap)
 
 
-@dataclass
-class TrackedRun:
-    """One closed-loop run of the tracked robot: series, events, automaton and lap errors."""
+@dataclass(kw_only=True)
+class TrackedRun(LoopOutput):
+    """One closed-loop run of the tracked robot: the loop's output plus the automaton and lap errors."""
 
-    series: dict[str, NDArray[np.float64]]
-    events: dict[str, dict[str, NDArray[np.float64]]]
     controller: Any
     laps: LapErrors
     use_landmarks: bool
-    finished: bool
-    wall_time_s: float
-    extra: dict[str, Any] = field(default_factory=dict)
 
     @property
     def true_xy(self) -> NDArray[np.float64]:
@@ -122,7 +119,6 @@ def run_tracked(
     from agvnav.guidance.hybrid import HybridController, HybridParams
     from agvnav.kinematics.tracked import TrackedVehicle
     from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
-    from agvnav.sim.engine import ClosedLoop
     from agvnav.sim.tracked import HybridAutopilot, TrackedPlant, UltrasonicSensorRole
 
     geometry = geometry or DriveGeometry()
@@ -143,7 +139,8 @@ def run_tracked(
     e4 = [tr.t for tr in ctrl.transitions if tr.target.value == "E4"]
     xy = np.column_stack([out.series["x"], out.series["y"]])
     le = lap_errors(e4, out.series["t"], xy, route.start_pose[:2])
-    return TrackedRun(out.series, out.events, ctrl, le, bool(use_landmarks), out.finished, out.wall_time_s)
+    return TrackedRun(series=out.series, events=out.events, wall_time_s=out.wall_time_s, finished=out.finished,
+                      controller=ctrl, laps=le, use_landmarks=bool(use_landmarks))
 
 
 def nominal_lap_time(route: Any, params: Any) -> float:
