@@ -1,4 +1,7 @@
+import math
+
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -10,6 +13,7 @@ from agvnav.geometry import (
     compose,
     intersect_lines,
     inverse,
+    lateral_position_error,
     to_body,
     transform_points,
     wrap_angle,
@@ -68,3 +72,16 @@ def test_circumcentre_known_and_collinear():
     assert ok and np.allclose(c, [0, 0])
     _, ok = circumcentre([0, 0], [1, 1], [2, 2])
     assert not ok
+
+
+def test_lateral_position_error_sign_and_rotation():
+    true = np.array([[1.0, 2.0, math.pi / 2]])
+    est = np.array([[0.99, 2.5, 0.0]])  # 1 cm to the left of a vehicle heading +y is -x
+    assert lateral_position_error(true, est)[0] == pytest.approx(0.01)
+
+
+def test_lateral_position_error_is_body_y_of_the_estimate():
+    rng = np.random.default_rng(3)
+    true = rng.uniform(-5, 5, (50, 3))
+    est = rng.uniform(-5, 5, (50, 3))
+    np.testing.assert_allclose(lateral_position_error(true, est), to_body(true, est[:, :2])[:, 1], atol=1e-12)

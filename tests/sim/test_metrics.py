@@ -6,7 +6,6 @@ import pytest
 from agvnav.sim.metrics import (
     TransientSpec,
     compute_metrics,
-    lateral_position_error,
     transient_end_index,
 )
 from agvnav.sim.recorder import EventLog, Recorder
@@ -81,12 +80,6 @@ def test_metrics_none_when_undefined():
     m = compute_metrics(t, e, e, dist, pose, pose, np.zeros(t.size, bool), path_completed=False, wall_time_s=0.0)
     assert m.max_abs_lateral_error_m is None and m.settling_distance_m is None
     assert m.positioning_rms_m is None and m.real_time_factor is None
-
-
-def test_lateral_position_error_sign_and_rotation():
-    true = np.array([[1.0, 2.0, math.pi / 2]])
-    est = np.array([[0.99, 2.5, 0.0]])  # 1 cm to the left of a vehicle heading +y is -x
-    assert lateral_position_error(true, est)[0] == pytest.approx(0.01)
 
 
 def test_recorder_and_event_log():

@@ -7,7 +7,15 @@ from agvnav.geometry.intersect import (
     intersect_lines,
     triangle_signed_area,
 )
-from agvnav.geometry.se2 import between, bearing_to, compose, inverse, to_body, transform_points
+from agvnav.geometry.se2 import (
+    between,
+    bearing_to,
+    compose,
+    inverse,
+    lateral_position_error,
+    to_body,
+    transform_points,
+)
 
 __all__ = [
     "angle_diff",
@@ -19,6 +27,7 @@ __all__ = [
     "deg2rad",
     "intersect_lines",
     "inverse",
+    "lateral_position_error",
     "rad2deg",
     "to_body",
     "transform_points",

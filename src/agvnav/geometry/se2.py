@@ -62,3 +62,17 @@ def bearing_to(pose: ArrayLike, points: ArrayLike) -> NDArray[np.float64]:
     p = np.asarray(points, dtype=np.float64)
     absolute = np.arctan2(p[..., 1] - pose[..., 1], p[..., 0] - pose[..., 0])
     return wrap_angle(absolute - pose[..., 2])
+
+
+def lateral_position_error(true_pose: ArrayLike, est_pose: ArrayLike) -> NDArray[np.float64]:
+    """Position error of an estimate across the true heading (m), ``(...)`` from poses ``(..., 3)``.
+
+    ``e_lat = -(x_e - x) sin(psi) + (y_e - y) cos(psi)``: the body-frame ``y`` of the
+    estimate seen from the true pose (positive to the left, REP-103). Seed 000 measures
+    positioning accuracy by this lateral component because the longitudinal one is
+    dominated by the marker delay (seed 000 §4.2, Fig. 8).
+    """
+    p = np.asarray(true_pose, dtype=np.float64)
+    q = np.asarray(est_pose, dtype=np.float64)
+    dx, dy = q[..., 0] - p[..., 0], q[..., 1] - p[..., 1]
+    return -dx * np.sin(p[..., 2]) + dy * np.cos(p[..., 2])

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.sim.metrics import lateral_position_error
+from agvnav.geometry import lateral_position_error
 
 __all__ = ["plot_errors", "plot_map", "plot_positioning_histogram", "write_plots"]
 

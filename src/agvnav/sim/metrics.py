@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav.geometry import wrap_angle
+from agvnav.geometry import lateral_position_error, wrap_angle
 
 
 @dataclass(frozen=True)
@@ -49,19 +49,6 @@ def transient_end_index(lateral_error: ArrayLike, spec: TransientSpec = Transien
     band = spec.band(float(e[0]) if np.isfinite(e[0]) else 0.0)
     inside = np.flatnonzero(np.abs(e) <= band)
     return int(inside[0]) if inside.size else None
-
-
-def lateral_position_error(true_pose: ArrayLike, est_pose: ArrayLike) -> NDArray[np.float64]:
-    """Position error of an estimate across the vehicle's heading (m), ``(...)``.
-
-    ``e_lat = -(x_e - x) sin(psi) + (y_e - y) cos(psi)``: the seed measures the
-    positioning accuracy by this lateral component because the longitudinal one
-    is dominated by the marker delay (seed 000 §4.2, Fig. 8).
-    """
-    p = np.asarray(true_pose, dtype=np.float64)
-    q = np.asarray(est_pose, dtype=np.float64)
-    dx, dy = q[..., 0] - p[..., 0], q[..., 1] - p[..., 1]
-    return -dx * np.sin(p[..., 2]) + dy * np.cos(p[..., 2])
 
 
 def _nan_to_none(value: float) -> float | None:
