@@ -25,6 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.sensors.encoders import steering_reading, wheel_count
+
 __all__ = ["GoniometerSensor", "TricycleAutopilot", "TricyclePlant", "TruthErrors"]
 
 TWO_PI = 2.0 * math.pi
@@ -70,23 +72,6 @@ def stacker_rk4(
     ]
     end = _stacker_rate(new[2], new[3], v, gamma_dot, wheelbase)
     return np.array(new), np.array([k1, end])
-
-
-def wheel_count(wheel_angle: float, resolution: float) -> int:
-    """Scalar fast path of :meth:`agvnav.sensors.WheelEncoder.counts`: ``floor(phi / res + 1e-9)``."""
-    if not math.isfinite(wheel_angle):
-        raise ValueError("wheel_angle contains NaN or inf")
-    return math.floor(wheel_angle / resolution + 1e-9)
-
-
-def steering_reading(angle: float, offset: float, resolution: float) -> float:
-    """Scalar fast path of ``SteeringEncoder.angle(SteeringEncoder.counts(angle))`` (rad).
-
-    ``rint((angle - offset) / res) * res``; Python's ``round`` rounds half to even like ``rint``.
-    """
-    if not math.isfinite(angle):
-        raise ValueError("steering_angle contains NaN or inf")
-    return round((angle - offset) / resolution) * resolution
 
 
 def tricycle_increments_scalar(ds_c: float, gamma: float, wheelbase: float) -> tuple[float, float]:
@@ -311,11 +296,27 @@ class TricycleAutopilot:
     then the law gives the steering-rate command from the estimated pose, the
     measured steering angle and that speed. Until the estimator has a fix the
     vehicle waits at standstill.
+
+    Progress ``s`` along the path advances only through a projection of the
+    estimated tracked point searched within ``progress_window`` metres of the
+    previous ``s`` (starting from 0): a start far off the path cannot project
+    onto the path end. The path counts as completed only when ``s`` reached the
+    end and the tracked point is within ``end_tolerance`` metres of the path's
+    end point.
     """
 
     signal_names = ("v_cmd", "gamma_dot_cmd", "s_est", "eps_c_est", "xi_r_est", "remaining")
 
-    def __init__(self, controller: Any, path: Any, profile: Any, wheelbase: float, point: str = "C") -> None:
+    def __init__(
+        self,
+        controller: Any,
+        path: Any,
+        profile: Any,
+        wheelbase: float,
+        point: str = "C",
+        progress_window: float = 1.0,
+        end_tolerance: float = 0.1,
+    ) -> None:
         self.controller = controller
         self.path = path
         self.profile = profile
@@ -328,6 +329,27 @@ class TricycleAutopilot:
         self._seg_starts = [float(v) for v in path.segment_starts[:-1]]
         self._seg_dirs = [int(seg.direction) for seg in path.segments]
         self._sig = (0.0, 0.0, 0.0, math.nan, math.nan, self._length)
+        self.progress_window = float(progress_window)
+        self.end_tolerance = float(end_tolerance)
+        self._end = tuple(float(c) for c in path.point_at(self._length)) if path is not None else (0.0, 0.0)
+
+    def _tracked_point(self, pose: Any) -> tuple[float, float]:
+        """The tracked point (O, or C one wheelbase ahead along the heading) of an estimated pose (m)."""
+        x, y, psi = float(pose[0]), float(pose[1]), float(pose[2])
+        if self.point == "C":
+            return x + self.L * math.cos(psi), y + self.L * math.sin(psi)
+        return x, y
+
+    def _advance(self, pose: Any) -> None:
+        """Advance ``s`` to the windowed projection of the tracked point (never backwards, never a jump)."""
+        x, y = self._tracked_point(pose)
+        pr = self.path.project_point(x, y, self._s, self.progress_window)
+        self._s = max(self._s, min(float(pr.s), self._s + self.progress_window))
+
+    def _at_end(self, pose: Any) -> bool:
+        """True when the tracked point is within ``end_tolerance`` (m) of the path's end point."""
+        x, y = self._tracked_point(pose)
+        return math.hypot(x - self._end[0], y - self._end[1]) <= self.end_tolerance
 
     def _direction(self, s: float) -> int:
         """``path.direction_at(s)`` (a joint belongs to the next segment), by bisection on cached starts."""
@@ -341,18 +363,18 @@ class TricycleAutopilot:
             self.profile.reset(0.0)
             self._sig = (0.0, 0.0, self._s, math.nan, math.nan, self._length - self._s)
             return 0.0, 0.0
+        self._advance(pose)
         remaining = self._length - self._s
         direction = self._direction(self._s)
         v = self.profile.command(remaining, dt, direction * abs(self.profile.cruise_speed))
         gamma = plant.gamma_meas
         rate = float(self.controller.command(pose, gamma, v))
         if v == 0.0 and remaining <= self.profile.stop_tolerance + 1e-9:
-            self.finished = True
+            self.finished = self.finished or self._at_end(pose)
             rate = 0.0
         err = getattr(self.controller, "last_errors", None)
         eps_c = xi_r = math.nan
         if err is not None:
-            self._s = max(self._s, float(err.s))
             eps_c, xi_r = float(err.eps_c), float(err.xi_r)
         self._sig = (v, rate, self._s, eps_c, xi_r, self._length - self._s)
         return v, rate

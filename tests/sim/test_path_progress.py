@@ -1,0 +1,89 @@
+"""Path progress and completion of the tricycle autopilot (review finding: false ``path_completed``)."""
+
+import math
+from types import SimpleNamespace
+
+import pytest
+
+from agvnav.actuators import SpeedProfile
+from agvnav.guidance.paths import path_from_moves
+from agvnav.sim import simulate
+from agvnav.sim.tricycle import TricycleAutopilot
+from agvnav.world.scenario import ScenarioError, parse_scenario
+from tests.sim.conftest import scenario_text
+
+# A U turn: 3 m east, half circle of radius 1 m to the left, 3 m west. Its end is 2 m left of its start.
+U_SEGMENTS = (
+    "    - {type: arc, radius_m: 1.24, sweep_deg: 90.0}\n    - {type: line, length_m: 3.0}",
+    "    - {type: line, length_m: 3.0}\n    - {type: arc, radius_m: 1.0, sweep_deg: 180.0}\n"
+    "    - {type: line, length_m: 3.0}",
+)
+
+
+class _Estimator:
+    def __init__(self, pose):
+        self.pose = pose
+
+
+class _Plant:
+    gamma_meas = 0.0
+
+
+class _Controller:
+    """Projects C globally, as a controller does on its first call: the end of a U path for this start."""
+
+    def __init__(self, path):
+        self.path = path
+        self.last_errors = None
+
+    def command(self, pose, gamma, v):
+        pr = self.path.project_point(pose[0] + math.cos(pose[2]), pose[1] + math.sin(pose[2]))
+        self.last_errors = SimpleNamespace(s=pr.s, eps_c=pr.lateral, xi_r=0.0)
+        return 0.0
+
+
+def test_start_at_the_path_end_does_not_jump_there():
+    """C placed on the end point of a U path, 2 m left of its start: progress stays at the start."""
+    path = path_from_moves([0.0, 0.0, 0.0], [("line", 3.0), ("arc", 1.0, math.pi), ("line", 3.0)])
+    pilot = TricycleAutopilot(_Controller(path), path, SpeedProfile(cruise_speed=0.2, max_accel=0.3, max_decel=0.3), 1.0)
+    est = _Estimator((-1.0, 2.0, 0.0))  # O one wheelbase behind C = (0, 2), the path end
+    for k in range(50):
+        v, _ = pilot.command(0.05 * k, est, _Plant(), 0.05)
+    assert pilot.controller.last_errors.s == pytest.approx(path.length)  # the trap
+    assert pilot.signals()[2] < 1.0  # s near the start, not path.length
+    assert v > 0.0 and not pilot.finished
+
+
+def test_far_start_on_a_u_path_completes_only_by_driving_it():
+    text = scenario_text(**{U_SEGMENTS[0]: U_SEGMENTS[1], "lateral_offset_m: 0.110": "lateral_offset_m: 1.0"})
+    r = simulate(parse_scenario(text, "u.yaml"))
+    end = r.path.end_pose
+    gap = math.hypot(r.series["x_C"][-1] - end[0], r.series["y_C"][-1] - end[1])
+    if r.metrics.path_completed:
+        assert r.series["distance_C"][-1] > r.path.length - 1.5
+        assert gap < 0.15
+        assert r.metrics.max_abs_lateral_error_m is not None
+    else:
+        assert gap > 0.1 or r.series["distance_C"][-1] < r.path.length - 1.5
+
+
+def test_start_50_m_off_the_path_is_refused_with_key_and_line():
+    text = scenario_text(**{"lateral_offset_m: 0.110": "lateral_offset_m: 50.0"})
+    with pytest.raises(ScenarioError) as info:
+        simulate(parse_scenario(text, "far.yaml"))
+    msg = str(info.value)
+    line = next(i + 1 for i, ln in enumerate(text.splitlines()) if "lateral_offset_m: 50.0" in ln)
+    assert "\n" not in msg
+    assert ": start.lateral_offset_m: " in msg and "too far" in msg
+    assert info.value.line == line
+
+
+def test_reaching_the_end_of_s_far_from_the_end_point_is_not_completion():
+    """Progress at the path end but the tracked point 0.5 m beside it: stopped, not completed."""
+    path = path_from_moves([0.0, 0.0, 0.0], [("line", 3.0)])
+    pilot = TricycleAutopilot(_Controller(path), path, SpeedProfile(cruise_speed=0.2, max_accel=0.3, max_decel=0.3), 1.0)
+    pilot._s = path.length
+    v, _ = pilot.command(0.0, _Estimator((2.0, 0.5, 0.0)), _Plant(), 0.05)
+    assert v == 0.0 and not pilot.finished
+    v, _ = pilot.command(0.05, _Estimator((2.0, 0.01, 0.0)), _Plant(), 0.05)
+    assert v == 0.0 and pilot.finished
