@@ -11,27 +11,7 @@ from hypothesis import strategies as st
 
 from agvnav.guidance.paths import path_from_moves
 from agvnav.odometry import tricycle_increments
-from agvnav.sensors.encoders import SteeringEncoder, WheelEncoder
-from agvnav.sim.tricycle import TricycleAutopilot, steering_reading, tricycle_increments_scalar, wheel_count
-
-
-@given(st.floats(-1e4, 1e4))
-def test_wheel_count_equals_encoder(angle: float) -> None:
-    enc = WheelEncoder(4096, 0.1)
-    assert wheel_count(angle, enc.angle_resolution) == int(enc.counts(angle))
-
-
-@given(st.floats(-1.6, 1.6), st.floats(-0.01, 0.01))
-def test_steering_reading_equals_encoder(angle: float, offset: float) -> None:
-    enc = SteeringEncoder(16384, offset=offset)
-    assert steering_reading(angle, offset, enc.resolution) == float(enc.angle(enc.counts(angle)))
-
-
-def test_encoder_fast_paths_refuse_nan() -> None:
-    with pytest.raises(ValueError, match="wheel_angle"):
-        wheel_count(math.nan, 0.001)
-    with pytest.raises(ValueError, match="steering_angle"):
-        steering_reading(math.inf, 0.0, 0.001)
+from agvnav.sim.tricycle import TricycleAutopilot, tricycle_increments_scalar
 
 
 @given(st.floats(-0.1, 0.1), st.floats(-1.5707, 1.5707))

@@ -9,6 +9,8 @@ the steering angle γ absolutely, rounded to the nearest count.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -104,3 +106,28 @@ class SteeringEncoder:
     def angle(self, counts: ArrayLike) -> NDArray[np.float64]:
         """Steering angle (rad) the odometry infers from a reading (nominal: zero offset)."""
         return as_float_array("counts", counts) * self.resolution
+
+
+def wheel_count(wheel_angle: float, resolution: float) -> int:
+    """Scalar fast path of :meth:`WheelEncoder.counts`: ``floor(phi / res + 1e-9)`` for one angle (rad).
+
+    ``resolution`` is :attr:`WheelEncoder.angle_resolution` (rad per count). Same
+    arithmetic as the vectorised method without NumPy's per-call overhead, for the
+    simulator's per-step loop (``tests/sensors/test_encoders_fast.py`` checks equality).
+    A NaN/inf angle raises a ValueError naming ``wheel_angle``, like the method.
+    """
+    if not math.isfinite(wheel_angle):
+        raise ValueError("wheel_angle contains NaN or inf")
+    return math.floor(wheel_angle / resolution + 1e-9)
+
+
+def steering_reading(angle: float, offset: float, resolution: float) -> float:
+    """Scalar fast path of ``SteeringEncoder.angle(SteeringEncoder.counts(angle))`` (rad).
+
+    ``rint((angle - offset) / res) * res`` with ``offset`` and ``resolution`` those of the
+    :class:`SteeringEncoder`; Python's ``round`` rounds half to even like ``np.rint``.
+    A NaN/inf angle raises a ValueError naming ``steering_angle``, like the method.
+    """
+    if not math.isfinite(angle):
+        raise ValueError("steering_angle contains NaN or inf")
+    return round((angle - offset) / resolution) * resolution
