@@ -128,6 +128,30 @@ class TrackedResult:
             rows.append(row)
         return rows
 
+    def metrics(self) -> dict[str, Any]:
+        """metrics.json of a hybrid run: per mode the per-lap error summary (m) and timing.
+
+        Per mode (``with_landmarks``/``without_landmarks``): ``mean_error_per_lap_m``,
+        ``max_error_per_lap_m`` (distance between consecutive true lap end points,
+        seed 004 Tables I-II), ``final_error_m``, ``laps``, ``sim_time_s``,
+        ``wall_time_s`` and ``real_time_factor`` (sim time / wall time).
+        """
+        modes: dict[str, Any] = {}
+        for mode, run in sorted(self.runs.items(), reverse=True):
+            per_lap = np.asarray(run.laps.per_lap_m, dtype=np.float64)
+            sim_t = float(run.series["t"][-1]) if len(run.series["t"]) else 0.0
+            wall = float(run.wall_time_s)
+            modes["with_landmarks" if mode else "without_landmarks"] = {
+                "mean_error_per_lap_m": float(np.mean(per_lap)) if run.laps.laps else None,
+                "max_error_per_lap_m": float(np.max(per_lap)) if run.laps.laps else None,
+                "final_error_m": float(run.laps.error_m[-1]) if run.laps.laps else None,
+                "laps": int(run.laps.laps),
+                "sim_time_s": sim_t,
+                "wall_time_s": wall,
+                "real_time_factor": sim_t / wall if wall > 0.0 else None,
+            }
+        return {"scenario": self.scenario.name, "seed": self.scenario.seed, "modes": modes}
+
 
 @dataclass
 class PathFollowResult:
@@ -207,7 +231,7 @@ def simulate_tracked(
 
 
 def save_tracked(result: TrackedResult, out_dir: str | FsPath, plots: bool = True) -> list[FsPath]:
-    """Write ``laps.json``, ``laps.csv``, ``timeseries_<mode>.csv`` and (optionally) ``laps.png``."""
+    """Write ``metrics.json``, ``laps.json``, ``laps.csv``, ``timeseries_<mode>.csv`` and (optionally) ``laps.png``."""
     from agvnav.sim.run import _write_csv
 
     out = FsPath(out_dir)
@@ -242,6 +266,9 @@ def save_tracked(result: TrackedResult, out_dir: str | FsPath, plots: bool = Tru
         },
     }
     written = []
+    p = out / "metrics.json"
+    p.write_text(json.dumps(result.metrics(), indent=2) + "\n", encoding="utf-8")
+    written.append(p)
     p = out / "laps.json"
     p.write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     written.append(p)

@@ -1,0 +1,36 @@
+"""Review findings on `agvnav simulate`: tracked metrics.json, --out checks, directory as SCENARIO, summary table."""
+
+import json
+import math
+import os
+
+import pytest
+from typer.testing import CliRunner
+
+from agvnav.cli import app
+from agvnav.world.scenario import builtin_scenario
+
+runner = CliRunner()
+
+
+def _tracked_one_lap(tmp_path):
+    text = builtin_scenario("tracked_square_3p5_concrete").read_text().replace("laps: 10", "laps: 1", 1)
+    p = tmp_path / "t.yaml"
+    p.write_text(text)
+    return p
+
+
+def test_tracked_hybrid_run_writes_metrics_json(tmp_path):
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["simulate", str(_tracked_one_lap(tmp_path)), "--out", str(out), "--no-plots"])
+    assert res.exit_code == 0, res.output
+    m = json.loads((out / "metrics.json").read_text())
+    laps = json.loads((out / "laps.json").read_text())
+    assert set(m["modes"]) == {"with_landmarks", "without_landmarks"}
+    for name, mode in m["modes"].items():
+        assert mode["laps"] == 1
+        assert mode["mean_error_per_lap_m"] == pytest.approx(laps["modes"][name]["mean_error_per_lap_m"])
+        assert mode["max_error_per_lap_m"] >= mode["mean_error_per_lap_m"] > 0.0
+        assert mode["sim_time_s"] > 10.0 and mode["wall_time_s"] > 0.0
+        assert mode["real_time_factor"] == pytest.approx(mode["sim_time_s"] / mode["wall_time_s"])
+    assert m["modes"]["with_landmarks"]["mean_error_per_lap_m"] < m["modes"]["without_landmarks"]["mean_error_per_lap_m"]
