@@ -34,3 +34,26 @@ def test_tracked_hybrid_run_writes_metrics_json(tmp_path):
         assert mode["sim_time_s"] > 10.0 and mode["wall_time_s"] > 0.0
         assert mode["real_time_factor"] == pytest.approx(mode["sim_time_s"] / mode["wall_time_s"])
     assert m["modes"]["with_landmarks"]["mean_error_per_lap_m"] < m["modes"]["without_landmarks"]["mean_error_per_lap_m"]
+
+
+def test_out_is_a_file_fails_before_the_run(tmp_path):
+    target = tmp_path / "afile"
+    target.write_text("x")
+    res = runner.invoke(app, ["simulate", "--out", str(target), "--no-plots"])
+    assert res.exit_code == 2
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert lines == [f"error: --out {target}: cannot create the output folder (it is a file)"], res.output
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root can write anywhere")
+def test_out_unwritable_fails_before_the_run(tmp_path):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    try:
+        res = runner.invoke(app, ["simulate", "--out", str(ro / "sub"), "--no-plots"])
+    finally:
+        ro.chmod(0o700)
+    assert res.exit_code == 2
+    assert res.output.strip().startswith(f"error: --out {ro / 'sub'}: cannot create the output folder (")
+    assert "\n" not in res.output.strip()

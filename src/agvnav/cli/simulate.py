@@ -16,7 +16,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
-from agvnav.cli.errors import user_errors
+from agvnav.cli.errors import fail, user_errors
 
 SCENARIO_ARG = typer.Argument(
     None, help="Scenario YAML file or shipped scenario name (default: guidance_test, seed 000 §4.3)."
@@ -43,6 +43,7 @@ def simulate(
     if seed is not None:
         sc = sc.with_seed(seed)
     build(sc)  # validate every cross-part rule before the progress bar starts
+    _prepare_out(out)
     console = Console(highlight=False)
     with Progress(
         TextColumn(f"[bold]{sc.name}[/bold]"),
@@ -62,6 +63,20 @@ def simulate(
     else:
         console.print(_summary(result))
     console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+
+
+def _prepare_out(out: Path) -> None:
+    """Create the output folder and check it is writable before the run (exit 2 with one line if not)."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".agvnav_write_check"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        if out.exists() and not out.is_dir():
+            reason = "it is a file"
+        raise fail(f"--out {out}: cannot create the output folder ({reason})") from None
 
 
 def _fmt(value: float | None, scale: float = 1.0, digits: int = 1) -> str:
