@@ -57,3 +57,9 @@ def test_out_unwritable_fails_before_the_run(tmp_path):
     assert res.exit_code == 2
     assert res.output.strip().startswith(f"error: --out {ro / 'sub'}: cannot create the output folder (")
     assert "\n" not in res.output.strip()
+
+
+def test_directory_as_scenario_says_so(tmp_path):
+    res = runner.invoke(app, ["simulate", str(tmp_path), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2
+    assert res.output.strip() == f"error: {tmp_path}: is a directory, not a scenario file"

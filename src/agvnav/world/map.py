@@ -28,6 +28,8 @@ import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
+from agvnav.world.strict_yaml import safe_load_unique, yaml_error_line
+
 __all__ = ["Reflector", "Wall", "WorldMap", "load_map", "save_map"]
 
 _REFLECTOR_KEYS = ("id", "x", "y", "radius")
@@ -294,9 +296,12 @@ def load_map(path: str | Path) -> WorldMap:
     path = Path(path)
     text = path.read_text(encoding="utf-8")
     try:
-        data = yaml.safe_load(text)
+        data = safe_load_unique(text)
     except yaml.YAMLError as exc:
-        raise ValueError(f"{path}: not valid YAML: {exc}") from None
+        line = yaml_error_line(exc)
+        where = f"line {line}: " if line is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise ValueError(" ".join(f"{path}: {where}not valid YAML: {problem}".split())) from None
     if data is None:
         raise ValueError(f"{path}: the map file is empty")
     try:

@@ -22,6 +22,8 @@ from typing import Annotated, Any, Literal, Self
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from agvnav.world.strict_yaml import safe_load_unique
+
 __all__ = [
     "ArcSpec",
     "ControllerSpec",
@@ -357,7 +359,7 @@ def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = 
     """Parse and validate scenario YAML ``text``; ScenarioError names key and line."""
     try:
         nodes = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
+        data = safe_load_unique(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark is not None else None
@@ -383,6 +385,8 @@ def load_scenario(path: str | Path) -> Scenario:
     p = Path(path)
     if not p.is_file() and p.suffix == "" and str(path) in builtin_scenario_names():
         p = builtin_scenario(str(path))
+    if p.is_dir():
+        raise ScenarioError("is a directory, not a scenario file", (), None, str(path))
     if not p.is_file():
         raise ScenarioError(
             f"no such scenario file (shipped scenarios: {', '.join(builtin_scenario_names())})", (), None, str(path)
