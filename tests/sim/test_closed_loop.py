@@ -160,21 +160,6 @@ def test_reflectors_in_view_occlusion():
     np.testing.assert_array_equal(counts, [1, 2, 1])
 
 
-def test_scalar_stacker_step_matches_kinematics_package():
-    from agvnav.kinematics import TricycleStacker
-    from agvnav.sim.tricycle import stacker_rk4
-
-    model = TricycleStacker(1.1)
-    model.substeps = 1
-    rng = np.random.default_rng(3)
-    for _ in range(50):
-        x = np.array([*rng.normal(size=2), rng.uniform(-3, 3), rng.uniform(-1.4, 1.4)])
-        v, gd = rng.normal(), rng.normal()
-        new, der = stacker_rk4(x, v, gd, 1.1, 0.05)
-        np.testing.assert_allclose(new, model.step(x, np.array([v, gd]), 0.05), rtol=0, atol=1e-12)
-        np.testing.assert_allclose(der, model.derivative(np.stack([x, new]), np.array([v, gd])), atol=1e-12)
-
-
 def test_feedforward_start_steering():
     text = scenario_text(**{"steering_deg: 0.0": "steering_deg: feedforward"})
     b = build(parse_scenario(text))

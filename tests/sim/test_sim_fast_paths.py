@@ -10,15 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from agvnav.guidance.paths import path_from_moves
-from agvnav.odometry import tricycle_increments
-from agvnav.sim.tricycle import TricycleAutopilot, tricycle_increments_scalar
-
-
-@given(st.floats(-0.1, 0.1), st.floats(-1.5707, 1.5707))
-def test_tricycle_increments_scalar_equals_kernel(ds: float, gamma: float) -> None:
-    ref = tricycle_increments(ds, gamma, 1.3)
-    got = tricycle_increments_scalar(ds, gamma, 1.3)
-    np.testing.assert_allclose(got, [float(ref[0]), float(ref[1])], rtol=1e-15, atol=1e-18)
+from agvnav.sim.tricycle import TricycleAutopilot
 
 
 def test_autopilot_direction_equals_path_direction_at() -> None:
@@ -30,14 +22,6 @@ def test_autopilot_direction_equals_path_direction_at() -> None:
     probes = np.concatenate([np.linspace(-1.0, path.length + 1.0, 401), starts, np.nextafter(starts, -np.inf)])
     for s in probes:
         assert pilot._direction(float(s)) == int(path.direction_at(s)), s
-
-
-@pytest.mark.parametrize("ds, gamma", [(0.01, 0.5 * math.pi), (0.01, -2.0), (math.nan, 0.1), (0.01, math.nan)])
-def test_tricycle_increments_scalar_refuses_like_kernel(ds: float, gamma: float) -> None:
-    with pytest.raises(ValueError):
-        tricycle_increments(ds, gamma, 1.3)
-    with pytest.raises(ValueError):
-        tricycle_increments_scalar(ds, gamma, 1.3)
 
 
 def test_scalar_pose_at_is_bit_identical_to_the_vectorised_branch(short_scenario) -> None:

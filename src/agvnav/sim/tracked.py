@@ -34,7 +34,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav.geometry import compose
+from agvnav.kinematics._fast import twist_pose
 from agvnav.kinematics.base import twist_step
+from agvnav.odometry._fast import track_increments
 from agvnav.sensors.ultrasonic import UltrasonicArray, cone_echo
 
 __all__ = [
@@ -105,17 +107,6 @@ class ScalarSpeedLoop:
             out.append(self.omega[i])
         self.primed = True
         return out[0], out[1]
-
-
-def _twist_pose(x: float, y: float, th: float, vx: float, vy: float, w: float, h: float) -> tuple[float, float, float]:
-    """Exact pose after ``h`` s of a constant body twist (scalar twin of ``kinematics.base.twist_step``)."""
-    dth = w * h
-    half = 0.5 * dth
-    sinc = 1.0 - half * half / 6.0 if abs(half) < 1e-4 else math.sin(half) / half
-    mid = th + half
-    fwd, lat = sinc * vx * h, sinc * vy * h
-    c, s = math.cos(mid), math.sin(mid)
-    return x + c * fwd - s * lat, y + s * fwd + c * lat, th + dth
 
 
 class TrackedPlant:
@@ -207,7 +198,7 @@ class TrackedPlant:
             vx = T[0][0] * vr + T[0][1] * vl
             vy = T[1][0] * vr + T[1][1] * vl
             w = T[2][0] * vr + T[2][1] * vl
-            x, y, th = _twist_pose(x, y, th, vx, vy, w, h)
+            x, y, th = twist_pose(x, y, th, vx, vy, w, h)
             states.append((x, y, th))
             twists.append((vx, vy, w))
             dist += math.hypot(vx, vy) * h
@@ -227,8 +218,7 @@ class TrackedPlant:
             c = math.floor(self._angle[i] / q)
             ds.append((c - self._counts[i]) * q * self.r)
             self._counts[i] = c
-        To = self._To
-        return To[0][0] * ds[0] + To[0][1] * ds[1], To[2][0] * ds[0] + To[2][1] * ds[1]
+        return track_increments(ds[0], ds[1], self._To)
 
     def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
         """True pose ``(k, 3)`` at instants ``t (k,)`` of the last step (exact per sub-step twist)."""

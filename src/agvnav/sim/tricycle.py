@@ -25,6 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.kinematics._fast import stacker_rk4
+from agvnav.odometry._fast import tricycle_increments_scalar
 from agvnav.sensors.encoders import steering_reading, wheel_count
 
 __all__ = ["GoniometerSensor", "TricycleAutopilot", "TricyclePlant", "TruthErrors"]
@@ -41,47 +43,6 @@ class TruthErrors:
     steering_offset: float = 0.0
     slip_std: float = 0.0
     steering_noise_std: float = 0.0
-
-
-def _stacker_rate(psi: float, gamma: float, v: float, gamma_dot: float, L: float) -> tuple[float, float, float, float]:
-    cg = v * math.cos(gamma)
-    return cg * math.cos(psi), cg * math.sin(psi), v * math.sin(gamma) / L, gamma_dot
-
-
-def stacker_rk4(
-    state: NDArray[np.float64], v: float, gamma_dot: float, wheelbase: float, dt: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """One classical RK4 step of the stacker (seed 000 eq. 8) in scalar ``math``, for the hot loop.
-
-    The same model and integrator as :class:`agvnav.kinematics.TricycleStacker`
-    with one RK4 sub-step (``tests/sim`` checks agreement to 1e-12); written with
-    the ``math`` module because NumPy's per-call overhead on 4-element arrays
-    dominated the simulator's step. Returns the new state ``(4,)`` and the state
-    derivatives at the start and at the end of the step ``(2, 4)`` (for the
-    Hermite interpolation of :meth:`TricyclePlant.pose_at`).
-    """
-    x, y, psi, g = (float(c) for c in state)
-    h = dt
-    k1 = _stacker_rate(psi, g, v, gamma_dot, wheelbase)
-    k2 = _stacker_rate(psi + 0.5 * h * k1[2], g + 0.5 * h * k1[3], v, gamma_dot, wheelbase)
-    k3 = _stacker_rate(psi + 0.5 * h * k2[2], g + 0.5 * h * k2[3], v, gamma_dot, wheelbase)
-    k4 = _stacker_rate(psi + h * k3[2], g + h * k3[3], v, gamma_dot, wheelbase)
-    new = [
-        c + h / 6.0 * (a + 2.0 * b + 2.0 * cc + d)
-        for c, a, b, cc, d in zip((x, y, psi, g), k1, k2, k3, k4, strict=True)
-    ]
-    end = _stacker_rate(new[2], new[3], v, gamma_dot, wheelbase)
-    return np.array(new), np.array([k1, end])
-
-
-def tricycle_increments_scalar(ds_c: float, gamma: float, wheelbase: float) -> tuple[float, float]:
-    """Scalar fast path of :func:`agvnav.odometry.tricycle_increments` (seed 000 eq. 8 over a step).
-
-    Like the kernel, refuses a steering angle at or beyond ±90° (seed 000 §3.1) or a NaN/inf input.
-    """
-    if not (math.isfinite(ds_c) and abs(gamma) < 0.5 * math.pi):
-        raise ValueError(f"tricycle increments need finite ds_c and |gamma| < 90 deg, got {ds_c!r}, {gamma!r}")
-    return ds_c * math.cos(gamma), ds_c * math.sin(gamma) / wheelbase
 
 
 class TricyclePlant:

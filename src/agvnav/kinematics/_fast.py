@@ -1,0 +1,64 @@
+"""Scalar fast paths of the kinematic kernels for one vehicle stepped in a hot loop.
+
+A closed-loop simulator steps one vehicle at a time on 3- and 4-vectors, where
+NumPy's per-call overhead (~1 us per ufunc) dominates. The functions below redo
+*the same equations* as the vectorised kernels with the ``math`` module; each names
+the kernel it mirrors and ``tests/kinematics/test_kinematics_fast.py`` checks it against that
+kernel to 1e-12. The kernels stay the reference and serve every batch use.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+Rate4 = tuple[float, float, float, float]
+
+
+def stacker_rate(psi: float, gamma: float, v: float, gamma_dot: float, wheelbase: float) -> Rate4:
+    """``d/dt [x_O, y_O, psi, gamma]`` of the stacker (seed 000 eq. 8): speed ``v`` of C (m/s), L (m)."""
+    cg = v * math.cos(gamma)
+    return cg * math.cos(psi), cg * math.sin(psi), v * math.sin(gamma) / wheelbase, gamma_dot
+
+
+def stacker_rk4(
+    state: Sequence[float], v: float, gamma_dot: float, wheelbase: float, dt: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """One classical RK4 step of the stacker (seed 000 eq. 8) in scalar ``math``.
+
+    Mirrors :meth:`agvnav.kinematics.TricycleStacker.step` with one RK4 sub-step
+    (``substeps = 1``). ``state`` is ``[x_O, y_O, psi, gamma]`` (m, rad), ``v`` the
+    speed of C (m/s), ``gamma_dot`` the steering rate (rad/s), held for ``dt`` s.
+    Returns the new state ``(4,)`` and the state derivatives at the start and at the
+    end of the step ``(2, 4)`` (for a Hermite interpolation inside the step).
+    """
+    x, y, psi, g = (float(c) for c in state)
+    h = dt
+    k1 = stacker_rate(psi, g, v, gamma_dot, wheelbase)
+    k2 = stacker_rate(psi + 0.5 * h * k1[2], g + 0.5 * h * k1[3], v, gamma_dot, wheelbase)
+    k3 = stacker_rate(psi + 0.5 * h * k2[2], g + 0.5 * h * k2[3], v, gamma_dot, wheelbase)
+    k4 = stacker_rate(psi + h * k3[2], g + h * k3[3], v, gamma_dot, wheelbase)
+    new = [
+        c + h / 6.0 * (a + 2.0 * b + 2.0 * cc + d)
+        for c, a, b, cc, d in zip((x, y, psi, g), k1, k2, k3, k4, strict=True)
+    ]
+    end = stacker_rate(new[2], new[3], v, gamma_dot, wheelbase)
+    return np.array(new), np.array([k1, end])
+
+
+def twist_pose(x: float, y: float, th: float, vx: float, vy: float, w: float, h: float) -> tuple[float, float, float]:
+    """Exact pose after ``h`` s of a constant body twist ``(vx, vy, w)`` (m/s, rad/s).
+
+    Mirrors :func:`agvnav.kinematics.twist_step` (the SE(2) exponential; seed 002
+    eq. 25 when ``vy = 0``), with the same series for ``|w h / 2| < 1e-4``.
+    """
+    dth = w * h
+    half = 0.5 * dth
+    sinc = 1.0 - half * half / 6.0 if abs(half) < 1e-4 else math.sin(half) / half
+    mid = th + half
+    fwd, lat = sinc * vx * h, sinc * vy * h
+    c, s = math.cos(mid), math.sin(mid)
+    return x + c * fwd - s * lat, y + s * fwd + c * lat, th + dth
