@@ -63,3 +63,23 @@ def test_directory_as_scenario_says_so(tmp_path):
     res = runner.invoke(app, ["simulate", str(tmp_path), "--out", str(tmp_path / "o")])
     assert res.exit_code == 2
     assert res.output.strip() == f"error: {tmp_path}: is a directory, not a scenario file"
+
+
+@pytest.mark.parametrize(
+    "poles, shown",
+    [("[3.0, -3.0]", "got [3, -3]"), ("[-3.0, [0.5, 1.25]]", None)],
+)
+def test_unstable_poles_print_plain_numbers(tmp_path, poles, shown):
+    from agvnav.guidance.gains import _format_poles
+    import numpy as np
+
+    assert _format_poles(np.array([3.0, -3.0 + 0j])) == "[3, -3]"
+    assert _format_poles(np.array([0.5 + 1.25j, 0.5 - 1.25j])) == "[0.5+1.25j, 0.5-1.25j]"
+    if shown is None:
+        return
+    text = builtin_scenario("guidance_test").read_text().replace("poles_per_m: [-3.0, -3.0]", f"poles_per_m: {poles}")
+    p = tmp_path / "bad.yaml"
+    p.write_text(text)
+    res = runner.invoke(app, ["simulate", str(p), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2
+    assert shown in res.output and ".j" not in res.output and "+0" not in res.output, res.output

@@ -246,8 +246,19 @@ def _monic_real(poles: ArrayLike, order: int) -> NDArray[np.float64]:
     if np.max(np.abs(coeffs.imag)) > 1e-9 * max(1.0, float(np.max(np.abs(coeffs)))):
         raise ValueError("poles_per_m must be real or come in complex-conjugate pairs")
     if np.any(p.real >= 0.0):
-        raise ValueError(f"poles_per_m must all have negative real parts, got {p}")
+        raise ValueError(f"poles_per_m must all have negative real parts, got {_format_poles(p)}")
     return coeffs.real
+
+
+def _format_poles(p: NDArray[np.complex128]) -> str:
+    """Poles (1/m) as ``[3, -3]`` or ``[-2+1.5j, -2-1.5j]``: 3 significant figures, no ``+0j``."""
+
+    def one(z: complex) -> str:
+        if z.imag == 0.0:
+            return f"{z.real:.3g}"
+        return f"{z.real:.3g}{z.imag:+.3g}j"
+
+    return "[" + ", ".join(one(complex(z)) for z in p) + "]"
 
 
 def characteristic_coefficients(poles_per_m: ArrayLike, order: int) -> NDArray[np.float64]:
