@@ -10,22 +10,11 @@ from agvnav.guidance.hybrid import PolygonRoute
 from agvnav.kinematics.tracked import TrackedVehicle, TrackTerrain, terrain_preset
 from agvnav.sensors import seed_004_layout
 from agvnav.sim.laps import lap_errors, run_tracked
-from agvnav.sim.tracked import ScalarSpeedLoop, TrackedPlant, UltrasonicSensorRole, square_landmarks
+from agvnav.sim.tracked import TrackedPlant, UltrasonicSensorRole, square_landmarks
 
 ROUTE = PolygonRoute.square(3.5)
 WALLS = square_landmarks(ROUTE)
 ODO_CONCRETE = TrackTerrain(slip_left=0.016, slip_right=0.016, icr_left=1.12, icr_right=1.12)
-
-
-def test_scalar_speed_loop_matches_wheel_speed_loop():
-    ref = WheelSpeedLoop(MotorPair(asymmetry=0.05), PID())
-    fast = ScalarSpeedLoop(WheelSpeedLoop(MotorPair(asymmetry=0.05), PID()))
-    rng = np.random.default_rng(0)
-    for k in range(300):
-        sp = rng.uniform(-6, 6, 2) if k % 50 == 0 else sp
-        a = ref.step(sp, 0.01)
-        b = fast.step(tuple(sp), 0.01)
-        np.testing.assert_allclose(b, a, rtol=0, atol=1e-12)
 
 
 def test_plant_motion_matches_tracked_vehicle_and_pose_at_is_continuous():

@@ -64,6 +64,11 @@ class PID:
             raise ValueError(f"size must be >= 1, got {self.size!r}")
         self.reset()
 
+    @property
+    def primed(self) -> bool:
+        """True once a measurement has been filtered (the derivative term is live from the next update)."""
+        return self._primed
+
     def reset(self) -> None:
         """Zero the integrator and forget the derivative history."""
         self.integral = np.zeros(self.size)
