@@ -10,7 +10,8 @@ from agvnav.guidance.hybrid import PolygonRoute
 from agvnav.kinematics.tracked import TrackedVehicle, TrackTerrain, terrain_preset
 from agvnav.sensors import seed_004_layout
 from agvnav.sim.laps import lap_errors, run_tracked
-from agvnav.sim.tracked import TrackedPlant, UltrasonicSensorRole, square_landmarks
+from agvnav.sim.tracked import TrackedPlant, UltrasonicSensorRole
+from agvnav.world.walls import square_landmarks
 
 ROUTE = PolygonRoute.square(3.5)
 WALLS = square_landmarks(ROUTE)
@@ -109,10 +110,3 @@ def test_same_seed_same_run():
                     slip_noise_std=0.003, seed=7, duration=30.0)
     for key in a.series:
         np.testing.assert_array_equal(a.series[key], b.series[key])
-
-
-def test_square_landmarks_geometry():
-    w = square_landmarks(ROUTE)
-    assert w.shape == (8, 2, 2)
-    np.testing.assert_allclose(w[0], [[0.5, -0.5], [3.0, -0.5]])  # leg 0 wall on the right (outside)
-    assert math.isclose(float(np.hypot(*(w[1, 1] - w[1, 0]))), 0.36)
