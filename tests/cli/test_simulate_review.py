@@ -83,3 +83,41 @@ def test_unstable_poles_print_plain_numbers(tmp_path, poles, shown):
     res = runner.invoke(app, ["simulate", str(p), "--out", str(tmp_path / "o")])
     assert res.exit_code == 2
     assert shown in res.output and ".j" not in res.output and "+0" not in res.output, res.output
+
+
+def _table_text(e0):
+    from types import SimpleNamespace
+
+    from rich.console import Console
+
+    from agvnav.cli.simulate import _summary
+
+    m = SimpleNamespace(
+        initial_lateral_error_m=e0, max_abs_lateral_error_m=3.6e-5, rms_lateral_error_m=2e-5,
+        max_abs_wheel_heading_error_rad=math.radians(0.5), settling_distance_m=1.2, positioning_rms_m=0.004,
+        positioning_lateral_mean_abs_m=0.003, positioning_lateral_std_m=0.002, positioning_lateral_max_abs_m=0.01,
+        path_completed=True, sim_time_s=30.0, wall_time_s=0.1, real_time_factor=300.0,
+    )
+    result = SimpleNamespace(metrics=m, scenario=SimpleNamespace(name="x", seed=0))
+    console = Console(width=200, record=True)
+    console.print(_summary(result))
+    return console.export_text()
+
+
+def test_summary_shows_guidance_references_only_for_a_start_off_the_path():
+    with_offset = _table_text(0.110)
+    assert "110" in with_offset and "16.5" in with_offset and "3.8" in with_offset
+    assert "settling distance" in with_offset and "9.7" in with_offset
+    on_path = _table_text(0.0)
+    assert "16.5" not in on_path and "3.8" not in on_path and "110" not in on_path
+    assert "settling distance" not in on_path
+    assert "9.7" in on_path and "6.6" in on_path and "23" in on_path  # positioning references stay
+
+
+def test_summary_small_values_keep_two_significant_figures():
+    from agvnav.cli.simulate import _fmt
+
+    assert _fmt(3.6e-5, 1e3) == "0.036"
+    assert _fmt(0.0, 1e3) == "0.0"
+    assert _fmt(12.345, 1.0, 1) == "12.3"
+    assert "0.036" in _table_text(0.0)
