@@ -16,9 +16,9 @@ mismatch, not motor asymmetry, is what drifts: the PID integral cancels the
 asymmetry at the sprockets, and the encoders see the sprockets, not the ground.
 
 Speed. The speed loop and the vehicle run in ``substep`` sub-steps (10 ms)
-inside every engine step. The hot loop repeats the PID, motor and exact
-constant-twist motion in scalar ``math`` (tests check it against
-``WheelSpeedLoop.step`` and ``TrackedVehicle.step`` to 1e-12), because
+inside every engine step. The hot loop calls the packages' scalar fast paths
+(:class:`agvnav.actuators._fast.ScalarSpeedLoop`, :func:`agvnav.kinematics._fast.twist_pose`,
+:func:`agvnav.odometry._fast.track_increments`, each tested against its kernel to 1e-12), because
 NumPy's per-call overhead on 2-element arrays dominated the run time.
 Within a sub-step each track moves at the mean of its start and end sprocket
 speeds (trapezoidal rule of the first-order motor response).
