@@ -188,3 +188,14 @@ def test_points_on_the_path_project_onto_themselves(moves, fracs):
     pr = p.project(pts)
     np.testing.assert_allclose(pr.distance, 0.0, atol=1e-9)
     np.testing.assert_allclose(pr.lateral, 0.0, atol=1e-9)
+
+
+def test_load_path_refuses_duplicate_keys(tmp_path):
+    import pytest
+
+    from agvnav.guidance.paths import load_path
+
+    f = tmp_path / "p.yaml"
+    f.write_text("path:\n  start: [0, 0, 0]\n  start: [1, 0, 0]\n  segments: []\n")
+    with pytest.raises(ValueError, match="duplicate key 'start'"):
+        load_path(f)

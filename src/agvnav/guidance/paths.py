@@ -27,6 +27,7 @@ import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
+from agvnav._yaml import safe_load_unique
 from agvnav._validate import require_finite, require_last_dim
 from agvnav.geometry.angles import wrap_angle
 
@@ -680,7 +681,7 @@ def load_path(path: str | FsPath) -> Path:
     """Read a path from a YAML file (see :meth:`Path.from_dict`; top-level key ``path`` optional)."""
     with open(path, encoding="utf-8") as fh:
         try:
-            data = yaml.safe_load(fh)
+            data = safe_load_unique(fh.read())
         except yaml.YAMLError as exc:
             raise ValueError(f"{path}: invalid YAML: {exc}") from None
     if isinstance(data, Mapping) and set(data) == {"path"}:

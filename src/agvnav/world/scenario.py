@@ -22,7 +22,7 @@ from typing import Annotated, Any, Literal, Self
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from agvnav.world.strict_yaml import safe_load_unique
+from agvnav._yaml import safe_load_unique
 
 __all__ = [
     "ArcSpec",

@@ -1,4 +1,4 @@
-"""YAML loading that refuses duplicate mapping keys (scenario and map files).
+"""YAML loading that refuses duplicate mapping keys (scenario, map and path files).
 
 PyYAML's ``safe_load`` keeps the last of two equal keys silently, so a scenario
 that sets ``seed`` twice runs with a value the author may not have meant. The
