@@ -119,22 +119,26 @@ def centres(x: Three, y: Three, tan_ab: Three) -> tuple[Three, Three]:
     return (cx[0], cx[1], cx[2]), (cy[0], cy[1], cy[2])
 
 
-def line_directions(heading: Arr, theta: Three, xp: Any = np) -> tuple[Three, Three]:
-    """Unnormalised directions of the lines through each reflector at absolute angle ``heading + theta_i``.
+def line_directions_and_turns(heading: Arr, theta: Three, xp: Any = np) -> tuple[Three, Three, Three]:
+    """Unnormalised directions of the lines at absolute angles ``heading + theta_i``, and their half-turns.
 
-    Lines are undirected, so the angle is reduced modulo pi to [-pi/2, pi/2] and the
-    direction written with the half-angle tangent ``t``: ``(1 - t², 2t)``. This needs one
-    ``tan`` per line instead of a ``sin`` and a ``cos`` (several times faster in NumPy).
+    Lines are undirected, so each angle is reduced modulo pi to [-pi/2, pi/2] (removing
+    ``k_i`` half-turns) and the direction written with the half-angle tangent ``t``:
+    ``(1 - t², 2t)``. This needs one ``tan`` per line instead of a ``sin`` and a ``cos``
+    (several times faster in NumPy). The ray from P towards reflector i points along
+    ``(-1)**k_i * (ux_i, uy_i)``. Returns ``(ux, uy, k)``.
     """
     ux: list[Arr] = []
     uy: list[Arr] = []
+    turns: list[Arr] = []
     for th in theta:
         phi = heading + th
-        phi = phi - np.pi * xp.rint(phi / np.pi)
-        t = xp.tan(0.5 * phi)
+        k = xp.rint(phi / np.pi)
+        t = xp.tan(0.5 * (phi - np.pi * k))
         ux.append(1.0 - t * t)
         uy.append(2.0 * t)
-    return (ux[0], ux[1], ux[2]), (uy[0], uy[1], uy[2])
+        turns.append(k)
+    return (ux[0], ux[1], ux[2]), (uy[0], uy[1], uy[2]), (turns[0], turns[1], turns[2])
 
 
 def intersect(

@@ -58,7 +58,7 @@ from agvnav.positioning._three import (
     centres,
     intersect,
     layout_scale2,
-    line_directions,
+    line_directions_and_turns,
     norm,
     order_pairs,
     wrap,
@@ -90,16 +90,17 @@ def _error_triangle(
 ) -> tuple[tuple[Three, Three], tuple[Three, Three]]:
     """Error-triangle vertices ``T_12, T_23, T_31`` for a heading estimate (seed 000, Fig. 2b).
 
-    Returns ``((tx, ty), (ux, uy))``: the vertices and the unit directions of the three lines.
+    Returns ``((tx, ty), (ux, uy, k))``: the vertices, the (unnormalised) directions of the
+    three lines and the half-turns ``k`` that orient them as rays (see ``line_directions_and_turns``).
     """
-    ux, uy = line_directions(heading, theta, xp)
+    ux, uy, turns = line_directions_and_turns(heading, theta, xp)
     t12 = intersect(x[0], y[0], ux[0], uy[0], x[1], y[1], ux[1], uy[1])
     t23 = intersect(x[1], y[1], ux[1], uy[1], x[2], y[2], ux[2], uy[2])
     if xp is ScalarMath and _parallel(ux[2], uy[2], ux[0], uy[0]):
         t31 = (math.inf, math.inf)  # eq. 5 case: this vertex is not used
     else:
         t31 = intersect(x[2], y[2], ux[2], uy[2], x[0], y[0], ux[0], uy[0])
-    return ((t12[0], t23[0], t31[0]), (t12[1], t23[1], t31[1])), (ux, uy)
+    return ((t12[0], t23[0], t31[0]), (t12[1], t23[1], t31[1])), (ux, uy, turns)
 
 
 def _similarity(tx: Three, ty: Three, cx: Three, cy: Three, aligned: Arr, xp: Any) -> tuple[Arr, Arr]:
@@ -235,7 +236,7 @@ def absolute_angles_kernel(
     # delta is known modulo 180°: keep the half-turn that puts the reflectors ahead of P along
     # their rays. Majority vote of the three signs of (R_k - P)·ray_k, so one reflector whose
     # ray is nearly perpendicular (or noisy) cannot flip the heading alone.
-    behind = _behind(x, y, theta, psi_est, rays, psi - psi_est, px, py, xp)
+    behind = _behind(x, y, rays, psi - psi_est, px, py, xp)
     psi = xp.where(critical, psi, psi + np.pi * behind)
     valid = xp.isfinite(px) & xp.isfinite(py) & xp.isfinite(psi)
     return {
@@ -248,40 +249,33 @@ def absolute_angles_kernel(
     }
 
 
-def _ray_dot(
-    k: int, x: Three, y: Three, theta: Three, psi_est: Arr, rays: tuple[Three, Three], c: Arr, s: Arr,
-    px: Arr, py: Arr, xp: Any,
-) -> Arr:
+def _ray_dot(k: int, x: Three, y: Three, rays: tuple[Three, Three, Three], c: Arr, s: Arr, px: Arr, py: Arr) -> Arr:
     """``(R_k − P)·u_k`` for the ray ``u_k`` (unnormalised) at the corrected heading.
 
-    ``rays`` are the estimate's line directions (undirected, reduced modulo pi by
-    ``line_directions``: their orientation is restored from the parity of the half-turns
-    removed), turned by the correction whose cosine and sine are ``c, s``.
+    ``rays = (ux, uy, turns)`` are the estimate's undirected line directions and the
+    half-turns that orient them (``u = (-1)**turns * (ux, uy)``), turned here by the
+    correction whose cosine and sine are ``c, s``.
     """
-    half_turns = 0.5 * xp.rint((psi_est + theta[k]) / np.pi)
-    orient = 1.0 - 4.0 * xp.abs(half_turns - xp.rint(half_turns))  # +1 even, -1 odd
-    ux, uy = orient * rays[0][k], orient * rays[1][k]
-    return (x[k] - px) * (ux * c - uy * s) + (y[k] - py) * (ux * s + uy * c)
+    ux, uy, turns = rays[0][k], rays[1][k], rays[2][k]
+    half = 0.5 * turns
+    orient = 1.0 - 4.0 * abs(half - np.round(half)) if np.ndim(half) else (-1.0 if turns % 2 else 1.0)
+    return orient * ((x[k] - px) * (ux * c - uy * s) + (y[k] - py) * (ux * s + uy * c))
 
 
-def _behind(
-    x: Three, y: Three, theta: Three, psi_est: Arr, rays: tuple[Three, Three], turn: Arr, px: Arr, py: Arr, xp: Any
-) -> Arr:
+def _behind(x: Three, y: Three, rays: tuple[Three, Three, Three], turn: Arr, px: Arr, py: Arr, xp: Any) -> Arr:
     """True where the reflectors lie behind P along their rays: the heading is off by a half-turn.
 
     Majority vote of the three reflectors (each must lie ahead along its ray), so one
     reflector whose ray is noisy or mirrored cannot flip the heading alone.
     ``turn = psi - psi_est``.
     """
-    return _votes(x, y, theta, psi_est, rays, xp.cos(turn), xp.sin(turn), px, py, xp) < 0
+    return _votes(x, y, rays, xp.cos(turn), xp.sin(turn), px, py, xp) < 0
 
 
-def _votes(
-    x: Three, y: Three, theta: Three, psi_est: Arr, rays: tuple[Three, Three], c: Arr, s: Arr, px: Arr, py: Arr, xp: Any
-) -> Arr:
+def _votes(x: Three, y: Three, rays: tuple[Three, Three, Three], c: Arr, s: Arr, px: Arr, py: Arr, xp: Any) -> Arr:
     """Sum over k of sign((R_k − P)·u_k): +3 all reflectors ahead along their rays, −3 all behind."""
     votes = 0.0
     for k in range(3):
-        dot = _ray_dot(k, x, y, theta, psi_est, rays, c, s, px, py, xp)
+        dot = _ray_dot(k, x, y, rays, c, s, px, py)
         votes = votes + xp.sign(dot)
     return votes
