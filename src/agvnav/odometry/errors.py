@@ -10,6 +10,7 @@ misalignment turns both wheels' rolling direction by a small angle.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -80,16 +81,20 @@ class NonSystematicErrors:
     bump_rate : expected bumps per metre rolled per wheel (1/m), Poisson.
     bump_loss : ground distance lost by a wheel climbing one bump (m): the
         encoder counts the rolled arc, the floor sees less horizontal progress.
+    steering_std : standard deviation (rad) of a random error of a steered
+        wheel's true angle, drawn afresh per simulation step (tricycle only).
     """
 
     slip_k: float = 0.0
     bump_rate: float = 0.0
     bump_loss: float = 0.005
+    steering_std: float = 0.0
 
     def __post_init__(self) -> None:
         require_nonnegative("slip_k", self.slip_k)
         require_nonnegative("bump_rate", self.bump_rate)
         require_nonnegative("bump_loss", self.bump_loss)
+        require_nonnegative("steering_std", self.steering_std)
 
     def perturb(self, distance: ArrayLike, rng: np.random.Generator) -> FloatArray:
         """Ground distance (m) for a rolled distance (m): slip noise, then bump losses against the motion."""
@@ -99,6 +104,36 @@ class NonSystematicErrors:
             bumps = rng.poisson(self.bump_rate * np.abs(d))
             out = out - np.sign(d) * np.minimum(bumps * self.bump_loss, np.abs(d))
         return out
+
+    def perturb_scalar(self, distance: float, rng: np.random.Generator) -> float:
+        """Scalar fast path of :meth:`perturb` for one wheel in a hot loop (m in, m out).
+
+        Same model and draw order (one normal, then one Poisson when ``bump_rate > 0``),
+        except that it draws nothing it does not need: no normal when ``slip_k = 0``,
+        nothing at all for ``distance = 0``. The slip term is computed as
+        ``sqrt(slip_k) * sqrt(|d|)`` (equal to the kernel's ``sqrt(slip_k |d|)`` to
+        rounding; ``sqrt(s**2) == s`` exactly, so a standard deviation ``s`` given as
+        ``slip_k = s**2`` is applied bit for bit).
+        """
+        d = float(distance)
+        if d == 0.0:
+            return d
+        out = d
+        if self.slip_k > 0.0:
+            out += math.sqrt(self.slip_k) * math.sqrt(abs(d)) * float(rng.standard_normal())
+        if self.bump_rate > 0.0:
+            bumps = int(rng.poisson(self.bump_rate * abs(d)))
+            out -= math.copysign(min(bumps * self.bump_loss, abs(d)), d)
+        return out
+
+    def perturb_steering_scalar(self, gamma: float, rng: np.random.Generator) -> float:
+        """True steered-wheel angle (rad) for a nominal one: ``gamma + steering_std·N(0, 1)``.
+
+        One normal draw when ``steering_std > 0``, none otherwise.
+        """
+        if self.steering_std > 0.0:
+            return gamma + self.steering_std * float(rng.standard_normal())
+        return gamma
 
 
 class TrueDifferentialVehicle:
@@ -144,15 +179,20 @@ class TricycleErrors:
 
     radius_scale : true / nominal traction-wheel radius (wear, tyre load).
     wheelbase_scale : true / nominal wheelbase L.
-    A steering-encoder zero error is modelled by ``SteeringEncoder(offset=...)``.
+    steering_offset : angle (rad) the steered wheel truly points beyond what the
+        steering encoder reads (its zero error); the encoder side of it is
+        ``SteeringEncoder(offset=steering_offset)``.
     """
 
     radius_scale: float = 1.0
     wheelbase_scale: float = 1.0
+    steering_offset: float = 0.0
 
     def __post_init__(self) -> None:
         require_positive("radius_scale", self.radius_scale)
         require_positive("wheelbase_scale", self.wheelbase_scale)
+        if not math.isfinite(self.steering_offset) or abs(self.steering_offset) >= math.pi / 4:
+            raise ValueError(f"steering_offset must be finite and below 45°, got {self.steering_offset!r}")
 
 
 class TrueTricycleVehicle:
@@ -179,9 +219,13 @@ class TrueTricycleVehicle:
         """True pose of O after the traction wheel turns ``wheel_rotation`` (rad) at steering angle γ (rad).
 
         Exact arc for γ held over the step (pass the mid-step γ when it changes), seed 000 eq. 8.
+        γ is what the steering encoder reads; the wheel points ``γ + steering_offset``
+        plus the non-systematic steering error (drawn after the slip).
         """
         ds = np.asarray(wheel_rotation, dtype=np.float64) * self.wheel_radius
+        g = np.asarray(gamma, dtype=np.float64) + self.systematic.steering_offset
         if self.nonsystematic is not None:
             ds = self.nonsystematic.perturb(ds, self.rng)
-        g = np.asarray(gamma, dtype=np.float64)
+            if self.nonsystematic.steering_std > 0.0:
+                g = g + self.nonsystematic.steering_std * self.rng.standard_normal(g.shape)
         return twist_step(pose, ds * np.cos(g), 0.0, ds * np.sin(g) / self.wheelbase, 1.0)

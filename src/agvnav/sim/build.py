@@ -236,7 +236,8 @@ def build(sc: Scenario) -> Built:
     from agvnav.actuators import SpeedProfile, SteeringActuator
     from agvnav.sensors.goniometer import Goniometer
     from agvnav.sim.engine import ClosedLoop
-    from agvnav.sim.tricycle import GoniometerSensor, TricycleAutopilot, TricyclePlant, TruthErrors
+    from agvnav.odometry import NonSystematicErrors, TricycleErrors
+    from agvnav.sim.tricycle import GoniometerSensor, TricycleAutopilot, TricyclePlant
 
     if hasattr(sc, "route"):  # issue 6: the tracked robot is checked and wired by sim.tracked_build
         from agvnav.sim.tracked_build import prepare_tracked
@@ -275,12 +276,21 @@ def build(sc: Scenario) -> Built:
         tau=st.time_constant_s,
     )
     tr = sc.truth
-    errors = TruthErrors(
-        wheel_radius_error=tr.wheel_radius_error,
-        wheelbase_error=tr.wheelbase_error,
+    # the scenario's truth: keys in the odometry package's truth-vs-nominal error model
+    systematic = _guard(
+        sc,
+        ("truth",),
+        TricycleErrors,
+        radius_scale=1.0 + tr.wheel_radius_error,
+        wheelbase_scale=1.0 + tr.wheelbase_error,
         steering_offset=math.radians(tr.steering_offset_deg),
-        slip_std=tr.slip_std,
-        steering_noise_std=math.radians(tr.steering_noise_std_deg),
+    )
+    nonsystematic = _guard(
+        sc,
+        ("truth",),
+        NonSystematicErrors,
+        slip_k=tr.slip_std**2,
+        steering_std=math.radians(tr.steering_noise_std_deg),
     )
     x0 = _initial_state(sc, path, point, L)
     plant = _guard(
@@ -292,7 +302,8 @@ def build(sc: Scenario) -> Built:
         veh.traction_counts_per_rev,
         veh.steering_counts_per_rev,
         steering,
-        errors,
+        systematic,
+        nonsystematic,
         x0,
     )
     ctrl = _controller(sc, path, L, sc.traction.speed_m_s)

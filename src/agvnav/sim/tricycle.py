@@ -4,14 +4,14 @@ Wiring only: the motion is :class:`agvnav.kinematics.TricycleStacker`, the
 steering servo and speed profile come from :mod:`agvnav.actuators`, the law from
 :mod:`agvnav.guidance`, the goniometer from :mod:`agvnav.sensors.goniometer`.
 
-Truth versus nominal. The truth vehicle may differ from what odometry and
-guidance believe: a drive wheel of radius ``R (1 + e_R)``, a wheelbase
-``L (1 + e_L)``, a steering offset (the wheel points ``delta`` off what the
-steering encoder reads), random slip of the traction (distance error of
-variance ``slip_std**2 * |ds|``, so it does not depend on the step) and a random
-steering error per step. The encoders quantise: the traction encoder counts
-whole pulses of the wheel's rotation, the steering encoder rounds to whole
-pulses.
+Truth versus nominal is the odometry package's error model
+(:mod:`agvnav.odometry.errors`): :class:`~agvnav.odometry.TricycleErrors` scales
+the drive-wheel radius and the wheelbase and turns the wheel ``steering_offset``
+off what the steering encoder reads; :class:`~agvnav.odometry.NonSystematicErrors`
+slips the traction (variance ``slip_k * |ds|``, so it does not depend on the
+step) and adds a random steering error per step. The encoders quantise: the
+traction encoder counts whole pulses of the wheel's rotation, the steering
+encoder rounds to whole pulses.
 """
 
 from __future__ import annotations
@@ -19,7 +19,6 @@ from __future__ import annotations
 import bisect
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -27,22 +26,12 @@ from numpy.typing import NDArray
 
 from agvnav.kinematics._fast import stacker_rk4
 from agvnav.odometry._fast import tricycle_increments_scalar
+from agvnav.odometry.errors import NonSystematicErrors, TricycleErrors
 from agvnav.sensors.encoders import steering_reading, wheel_count
 
-__all__ = ["GoniometerSensor", "TricycleAutopilot", "TricyclePlant", "TruthErrors"]
+__all__ = ["GoniometerSensor", "TricycleAutopilot", "TricyclePlant"]
 
 TWO_PI = 2.0 * math.pi
-
-
-@dataclass(frozen=True)
-class TruthErrors:
-    """How the truth vehicle differs from the nominal one (see the module docstring)."""
-
-    wheel_radius_error: float = 0.0
-    wheelbase_error: float = 0.0
-    steering_offset: float = 0.0
-    slip_std: float = 0.0
-    steering_noise_std: float = 0.0
 
 
 class TricyclePlant:
@@ -56,8 +45,10 @@ class TricyclePlant:
         Encoder counts per revolution of the drive wheel and of the steering.
     steering
         A :class:`agvnav.actuators.SteeringActuator` (servo limits and lag).
-    errors
-        :class:`TruthErrors`.
+    systematic
+        :class:`agvnav.odometry.TricycleErrors` of the truth vehicle.
+    nonsystematic
+        :class:`agvnav.odometry.NonSystematicErrors` of the traction and steering (None: none).
     initial_state
         True ``[x_O, y_O, psi, gamma]`` (m, rad); ``gamma`` is what the encoder reads
         (the wheel itself points ``steering_offset`` further).
@@ -86,24 +77,26 @@ class TricyclePlant:
         traction_cpr: int,
         steering_cpr: int,
         steering: Any,
-        errors: TruthErrors,
+        systematic: TricycleErrors,
+        nonsystematic: NonSystematicErrors | None,
         initial_state: Sequence[float],
     ) -> None:
         from agvnav.sensors.encoders import SteeringEncoder, WheelEncoder
 
         self.L = float(wheelbase)
         self.R = float(wheel_radius)
-        self.errors = errors
-        self.L_true = self.L * (1.0 + errors.wheelbase_error)
-        self.R_true = self.R * (1.0 + errors.wheel_radius_error)
+        self.systematic = systematic
+        self.nonsystematic = nonsystematic if nonsystematic is not None else NonSystematicErrors()
+        self.L_true = self.L * systematic.wheelbase_scale
+        self.R_true = self.R * systematic.radius_scale
         self.traction_encoder = WheelEncoder(int(traction_cpr), self.R)
         # the encoder reads the servo position: the true wheel angle minus the steering offset
-        self.steering_encoder = SteeringEncoder(int(steering_cpr), offset=errors.steering_offset)
+        self.steering_encoder = SteeringEncoder(int(steering_cpr), offset=systematic.steering_offset)
         self.steering_q = self.steering_encoder.resolution
         self.steering = steering
         x0 = np.asarray(initial_state, dtype=np.float64)
         self.steering.reset(float(x0[3]))
-        self._state = np.array([x0[0], x0[1], x0[2], x0[3] + errors.steering_offset])
+        self._state = np.array([x0[0], x0[1], x0[2], x0[3] + systematic.steering_offset])
         self._start = self._state.copy()
         self._deriv = np.zeros((2, 4))
         self._hermite = (self._start[:3], np.zeros(3), self._state[:3], np.zeros(3))
@@ -141,16 +134,13 @@ class TricyclePlant:
         """
         v_cmd, rate_cmd = float(command[0]), float(command[1])
         self._t0 = float(t0)
-        err = self.errors
         g0 = self.steering.gamma
         g1, rate = self.steering.step_rate(rate_cmd, dt)
         wheel_rate = v_cmd / self.R
-        ds_true = wheel_rate * dt * self.R_true
-        if err.slip_std > 0.0 and ds_true != 0.0:
-            ds_true += err.slip_std * math.sqrt(abs(ds_true)) * float(rng.standard_normal())
-        noise = err.steering_noise_std * float(rng.standard_normal()) if err.steering_noise_std > 0.0 else 0.0
+        ns = self.nonsystematic
+        ds_true = ns.perturb_scalar(wheel_rate * dt * self.R_true, rng)
         start = self._state
-        start[3] = g0 + err.steering_offset + noise
+        start[3] = ns.perturb_steering_scalar(g0 + self.systematic.steering_offset, rng)
         self._start = start.copy()
         self._u = np.array([ds_true / dt, rate])
         self._dt = dt
