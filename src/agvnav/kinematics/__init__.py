@@ -38,7 +38,13 @@ from agvnav.kinematics.differential import (
     wheel_speeds,
 )
 from agvnav.kinematics.omnidirectional import MecanumBase
-from agvnav.kinematics.tracked import TERRAIN_PRESETS, TrackedVehicle, TrackTerrain, terrain_preset
+from agvnav.kinematics.tracked import (
+    TERRAIN_PRESETS,
+    TrackedVehicle,
+    TrackSlipNoise,
+    TrackTerrain,
+    terrain_preset,
+)
 from agvnav.kinematics.tractor_trailer import TractorTrailer
 from agvnav.kinematics.tricycle import (
     TricycleModelA,
@@ -68,6 +74,7 @@ __all__ = [
     "KinematicModel",
     "MecanumBase",
     "TERRAIN_PRESETS",
+    "TrackSlipNoise",
     "TrackTerrain",
     "TrackedVehicle",
     "TractorTrailer",

@@ -62,3 +62,19 @@ def twist_pose(x: float, y: float, th: float, vx: float, vy: float, w: float, h:
     fwd, lat = sinc * vx * h, sinc * vy * h
     c, s = math.cos(mid), math.sin(mid)
     return x + c * fwd - s * lat, y + s * fwd + c * lat, th + dth
+
+
+def track_twist(
+    v_right: float, v_left: float, twist_matrix: Sequence[Sequence[float]]
+) -> tuple[float, float, float]:
+    """Body twist ``(v_x, v_y, omega)`` (m/s, rad/s) of a tracked base for track speeds (m/s).
+
+    Mirrors :meth:`agvnav.kinematics.TrackedVehicle.body_twist`: the ICR model's
+    ``twist_matrix`` ``T (3, 2)`` (as nested floats) applied to ``[v_R, v_L]``.
+    """
+    t0, t1, t2 = twist_matrix[0], twist_matrix[1], twist_matrix[2]
+    return (
+        t0[0] * v_right + t0[1] * v_left,
+        t1[0] * v_right + t1[1] * v_left,
+        t2[0] * v_right + t2[1] * v_left,
+    )

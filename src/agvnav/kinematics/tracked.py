@@ -14,6 +14,7 @@ the track centre lines, plus longitudinal slip ratios. For ``y_l = B/2``,
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,6 +77,47 @@ TERRAIN_PRESETS: dict[str, TrackTerrain] = {
         source="assumption: rubber track on artificial grass, slip 6 %, ICR expansion 1.4",
     ),
 }
+
+
+@dataclass(frozen=True)
+class TrackSlipNoise:
+    """Random (non-systematic) slip of the two tracks on top of the terrain's mean slip.
+
+    Over a step in which the faster track rolls ``distance`` metres, each track's
+    ground speed is multiplied by ``1 + k z`` with ``z ~ N(0, 1)`` independent per
+    track and ``k = std / sqrt(distance / 1 m)``: the ground-distance error has
+    variance ``std**2 * distance`` (``std`` metres after 1 m), so it does not depend
+    on the step length (the random-walk slip of seed 002 §3.1, per track).
+
+    std : standard deviation (m) of a track's ground-distance error per metre rolled, >= 0.
+    """
+
+    std: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.std) and self.std >= 0.0):
+            raise ValueError(f"slip noise std must be a finite number >= 0, got {self.std!r}")
+
+    def factors(self, distance: ArrayLike, rng: np.random.Generator) -> FloatArray:
+        """Speed factors ``[right, left]`` ``(..., 2)`` for steps rolling ``distance (...)`` m.
+
+        Draws ``(..., 2)`` normals when ``std > 0`` (right then left per step), none
+        otherwise; a step with ``distance <= 0`` gets factors 1 (its draws are spent).
+        """
+        d = np.asarray(distance, dtype=np.float64)
+        if self.std <= 0.0:
+            return np.ones(d.shape + (2,))
+        z = rng.standard_normal(d.shape + (2,))
+        k = np.where(d > 0.0, self.std / np.sqrt(np.where(d > 0.0, d, 1.0)), 0.0)
+        return 1.0 + k[..., None] * z
+
+    def factors_scalar(self, distance: float, rng: np.random.Generator) -> tuple[float, float]:
+        """Scalar fast path of :meth:`factors` for one step (same draws, same values)."""
+        if self.std <= 0.0:
+            return 1.0, 1.0
+        z = rng.standard_normal(2)
+        k = self.std / math.sqrt(distance) if distance > 0.0 else 0.0
+        return 1.0 + k * float(z[0]), 1.0 + k * float(z[1])
 
 
 def terrain_preset(name: str) -> TrackTerrain:

@@ -12,13 +12,15 @@ Truth versus nominal. The tracks slip on the ground as the *truth* terrain
 says; odometry (seed 004 eqs 3-5 generalised to the ICR model) converts the
 quantised sprocket-encoder increments with the *odometry* terrain: the figures
 the robot was calibrated with, which need not be the floor it drives on. That
-mismatch, not motor asymmetry, is what drifts: the PID integral cancels the
+mismatch, not motor asymmetry, is what drifts (plus the random slip of
+:class:`agvnav.kinematics.TrackSlipNoise`): the PID integral cancels the
 asymmetry at the sprockets, and the encoders see the sprockets, not the ground.
 
 Speed. The speed loop and the vehicle run in ``substep`` sub-steps (10 ms)
 inside every engine step. The hot loop calls the packages' scalar fast paths
-(:class:`agvnav.actuators._fast.ScalarSpeedLoop`, :func:`agvnav.kinematics._fast.twist_pose`,
-:func:`agvnav.odometry._fast.track_increments`, each tested against its kernel to 1e-12), because
+(:class:`agvnav.actuators._fast.ScalarSpeedLoop`, :func:`agvnav.kinematics._fast.track_twist`,
+:func:`agvnav.kinematics._fast.twist_pose`, :func:`agvnav.odometry._fast.track_increments`,
+each tested against its kernel to 1e-12), because
 NumPy's per-call overhead on 2-element arrays dominated the run time.
 Within a sub-step each track moves at the mean of its start and end sprocket
 speeds (trapezoidal rule of the first-order motor response).
@@ -35,7 +37,7 @@ from numpy.typing import NDArray
 
 from agvnav.actuators._fast import ScalarSpeedLoop
 from agvnav.geometry import compose
-from agvnav.kinematics._fast import twist_pose
+from agvnav.kinematics._fast import track_twist, twist_pose
 from agvnav.kinematics.base import twist_step
 from agvnav.odometry._fast import track_increments
 from agvnav.sensors.ultrasonic import UltrasonicArray, cone_echo
@@ -62,9 +64,8 @@ class TrackedPlant:
     counts_per_rev : sprocket encoder counts per revolution (quantisation).
     initial_pose : true ``[x, y, heading]`` (m, rad).
     substep : speed-loop period (s).
-    slip_noise_std : random slip: each track's ground distance over an engine step gets
-        a relative error of standard deviation ``slip_noise_std / sqrt(|ds| / 1 m)``,
-        i.e. ``slip_noise_std`` m after 1 m (non-systematic, independent per track).
+    slip_noise_std : random slip, ``slip_noise_std`` m after 1 m per track: the
+        :class:`agvnav.kinematics.TrackSlipNoise` model, drawn once per engine step.
 
     The command is the sprocket speed set-point ``[right, left]`` (rad/s).
     """
@@ -81,14 +82,12 @@ class TrackedPlant:
         substep: float = 0.01,
         slip_noise_std: float = 0.0,
     ) -> None:
-        from agvnav.kinematics.tracked import TrackedVehicle
+        from agvnav.kinematics.tracked import TrackedVehicle, TrackSlipNoise
 
         if int(counts_per_rev) < 1:
             raise ValueError(f"counts_per_rev must be >= 1, got {counts_per_rev!r}")
         if not (math.isfinite(substep) and substep > 0):
             raise ValueError(f"substep must be a positive number of seconds, got {substep!r}")
-        if not (math.isfinite(slip_noise_std) and slip_noise_std >= 0):
-            raise ValueError(f"slip_noise_std must be >= 0, got {slip_noise_std!r}")
         self.vehicle = vehicle
         self.r = float(vehicle.sprocket_radius)
         self.speed_loop = ScalarSpeedLoop(loop)
@@ -96,6 +95,7 @@ class TrackedPlant:
         self.counts_per_rev = int(counts_per_rev)
         self.substep = float(substep)
         self.slip_noise_std = float(slip_noise_std)
+        self.slip_noise = TrackSlipNoise(self.slip_noise_std)
         self._T = [[float(v) for v in row] for row in vehicle.twist_matrix]
         self._To = [[float(v) for v in row] for row in self.odometry_model.twist_matrix]
         p = np.asarray(initial_pose, dtype=np.float64).reshape(3)
@@ -119,12 +119,8 @@ class TrackedPlant:
         n = max(1, int(round(dt / self.substep)))
         h = dt / n
         sp = (float(command[0]), float(command[1]))
-        noise = (1.0, 1.0)
-        if self.slip_noise_std > 0.0:
-            ds = max(abs(sp[0]), abs(sp[1])) * self.r * dt
-            z = rng.standard_normal(2)
-            k = self.slip_noise_std / math.sqrt(ds) if ds > 0.0 else 0.0
-            noise = (1.0 + k * float(z[0]), 1.0 + k * float(z[1]))
+        # random slip of the step: the faster sprocket's set-point distance sets its scale
+        noise = self.slip_noise.factors_scalar(max(abs(sp[0]), abs(sp[1])) * self.r * dt, rng)
         T = self._T
         x, y, th = self._pose
         states, twists = [(x, y, th)], []
@@ -136,10 +132,7 @@ class TrackedPlant:
             wr, wl = 0.5 * (w0[0] + w1[0]), 0.5 * (w0[1] + w1[1])
             self._angle[0] += wr * h
             self._angle[1] += wl * h
-            vr, vl = wr * self.r * noise[0], wl * self.r * noise[1]
-            vx = T[0][0] * vr + T[0][1] * vl
-            vy = T[1][0] * vr + T[1][1] * vl
-            w = T[2][0] * vr + T[2][1] * vl
+            vx, vy, w = track_twist(wr * self.r * noise[0], wl * self.r * noise[1], T)
             x, y, th = twist_pose(x, y, th, vx, vy, w, h)
             states.append((x, y, th))
             twists.append((vx, vy, w))
