@@ -340,10 +340,7 @@ def surveyed_truth(world: Any, survey_std: float, seed: int) -> Any:
 def _estimator(sc: Scenario, world: Any, mount: tuple[float, float, float], x0: NDArray[np.float64]) -> Any:
     from agvnav.positioning.estimator import make_estimator
 
-    try:
-        from agvnav.odometry import OdometryNoise
-    except ImportError:  # the odometry package has not landed: the estimator's own stand-in
-        from agvnav.positioning.estimator import OdometryNoise  # type: ignore[attr-defined,no-redef]
+    from agvnav.odometry import OdometryNoise
 
     ps = sc.positioning
     err = np.array([ps.initial_error[0], ps.initial_error[1], math.radians(ps.initial_error[2])])
