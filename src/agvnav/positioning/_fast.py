@@ -220,11 +220,16 @@ def gate_one(
     for j, (rx, ry, r) in enumerate(rows):
         if not allowed[j]:
             continue
-        h, dx, dy, d2, d = edge_bearing(px, py, psi, mth, rx, ry, r)
+        # edge_bearing written out, the range test before the trigonometry (same values)
+        dx, dy = rx - px, ry - py
+        d2 = dx * dx + dy * dy
+        d = math.sqrt(d2)
         if not d <= max_range:
             continue
+        edge = -math.asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * _PI
+        h = (math.atan2(dy, dx) - psi - mth + edge + _PI) % _TWO_PI - _PI
         R = bearing_var + (map_std / d if d > 0.0 else 0.0) ** 2
-        innov = wrap(z - h)
+        innov = (z - h + _PI) % _TWO_PI - _PI  # wrap
         if surely_outside(innov, d2, r, R, trace_P, mount_norm, gate):
             continue  # most reflectors: far from this bearing, no Jacobian needed
         h0, h1, h2 = bearing_jacobian(dx, dy, d2, d, r, dpx, dpy)

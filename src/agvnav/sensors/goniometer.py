@@ -78,6 +78,8 @@ class _MapArrays:
     rx: NDArray[np.float64]  # (N,) reflector centres x, y (m) and radii (m)
     ry: NDArray[np.float64]
     r: NDArray[np.float64]
+    xy: NDArray[np.float64]  # (N, 2) reflector centres (m)
+    r2: NDArray[np.float64]  # (N,) squared radii (m^2)
     wall_x0: NDArray[np.float64]  # (M,) wall segment starts (m) and directions (m)
     wall_y0: NDArray[np.float64]
     wall_vx: NDArray[np.float64]
@@ -87,7 +89,8 @@ class _MapArrays:
     def of(cls, world: WorldMap) -> _MapArrays:
         xy, seg = world.reflector_xy, world.wall_segments
         return cls(
-            world, xy[:, 0].copy(), xy[:, 1].copy(), world.reflector_radius,
+            world, xy[:, 0].copy(), xy[:, 1].copy(), world.reflector_radius, xy,
+            world.reflector_radius * world.reflector_radius,
             seg[:, 0, 0].copy(), seg[:, 0, 1].copy(),
             seg[:, 1, 0] - seg[:, 0, 0], seg[:, 1, 1] - seg[:, 0, 1],
         )
@@ -516,32 +519,21 @@ class Goniometer:
         """
         t_l, s_l, lo_l, hi_l = t.tolist(), slope.tolist(), lo.tolist(), hi.tolist()
         rows = list(zip(*(a.tolist() for a in targets)))
+        consts = self._offset_constants()  # hoisted out of the per-element calls
         for _ in range(_CHORD_ITER):
             pose = _call_pose(pose_at, np.array(t_l)).tolist()
-            res = [self._offset_one(p, ti, row) for p, ti, row in zip(pose, t_l, rows)]
+            res = [_offset_one(p, ti, row, consts) for p, ti, row in zip(pose, t_l, rows)]
             f = [(o[0] + math.pi) % TWO_PI - math.pi for o in res]
             if max(abs(v) for v in f) <= tol:
                 return np.array(t_l), np.array([(o[1], o[2]) for o in res]), np.array([o[3] for o in res])
             t_l = [min(max(ti - fi / si, a), b) for ti, fi, si, a, b in zip(t_l, f, s_l, lo_l, hi_l)]
         return None
 
-    def _offset_one(
-        self, pose: Sequence[float], t: float, target: tuple[float, float, float]
-    ) -> tuple[float, float, float, float]:
-        """:meth:`_offsets_to` for one instant and one reflector: ``(offset, head x, head y, d)``."""
-        x, y, heading = pose
+    def _offset_constants(self) -> tuple[float, float, float, float, bool]:
+        """Per-scan constants of :func:`_offset_one`: mount offset ``(mx, my)`` (m), the beam phase
+        ``phase + mount_theta`` (rad), ``direction * 2 pi f`` (rad/s) and whether the head turns positively."""
         mx, my, mth = self.mount
-        if mx != 0.0 or my != 0.0:
-            c, s = math.cos(heading), math.sin(heading)
-            x, y = x + c * mx - s * my, y + s * mx + c * my
-        beam = heading + (self.phase + mth) + (self.direction * TWO_PI * self.rate_hz) * t
-        rx, ry, r = target
-        dx, dy = rx - x, ry - y
-        d = math.hypot(dx, dy)
-        half_width = math.asin(min(r / max(d, 1e-300), 1.0))
-        if self.direction == 1:
-            return beam - math.atan2(dy, dx) + half_width, x, y, d
-        return math.atan2(dy, dx) + half_width - beam, x, y, d
+        return mx, my, self.phase + mth, self.direction * TWO_PI * self.rate_hz, self.direction == 1
 
     def _tolerance(self, t: NDArray[np.float64]) -> float:
         """Root tolerance (rad): 1e-10, or the float noise of t itself if larger (t ~ 1 h: ~2e-11 rad)."""
@@ -589,16 +581,16 @@ class Goniometer:
         ``d - r`` along the centre line): the cylinder is small, so testing the tangent
         ray itself would change nothing but make wall-mounted reflectors graze their wall.
         """
-        r = world.reflector_radius[refl]
+        m = self._map_arrays(world)
+        r = m.r[refl]
         range2 = d * d - r * r  # squared beam range to the tangent point; <= 0 inside the cylinder
         ok = (range2 > 0.0) & (range2 >= self.min_range**2) & (range2 <= self.max_range**2)
         if not ok.any():
             return ok
         scale = (d - r) / np.maximum(d, 1e-300) * (1.0 - 1e-9)
-        ray = (world.reflector_xy[refl] - head_xy) * scale[:, None]
-        m = self._map_arrays(world)
+        ray = (m.xy[refl] - head_xy) * scale[:, None]
         blocked = _ray_hits_walls(head_xy, ray, m)
-        blocked |= _ray_hits_discs(head_xy, ray, world.reflector_xy, world.reflector_radius, refl)
+        blocked |= _ray_hits_discs(head_xy, ray, m, refl)
         return ok & ~blocked
 
     def _encoder_bearing_few(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -658,6 +650,30 @@ def _bracket_grid(t0: float, t1: float, n_int: int) -> NDArray[np.float64]:
     return np.array([i * step + t0 for i in range(n_int)] + [t1])
 
 
+def _offset_one(
+    pose: Sequence[float], t: float, target: tuple[float, float, float],
+    consts: tuple[float, float, float, float, bool],
+) -> tuple[float, float, float, float]:
+    """:meth:`Goniometer._offsets_to` for one instant and one reflector: ``(offset, head x, head y, d)``.
+
+    Same operations in the same order as the vectorised kernel (bit-identical), on the
+    constants of :meth:`Goniometer._offset_constants`.
+    """
+    x, y, heading = pose
+    mx, my, phase, omega, forward = consts
+    if mx != 0.0 or my != 0.0:
+        c, s = math.cos(heading), math.sin(heading)
+        x, y = x + c * mx - s * my, y + s * mx + c * my
+    beam = heading + phase + omega * t
+    rx, ry, r = target
+    dx, dy = rx - x, ry - y
+    d = math.hypot(dx, dy)
+    half_width = math.asin(min(r / max(d, 1e-300), 1.0))
+    if forward:
+        return beam - math.atan2(dy, dx) + half_width, x, y, d
+    return math.atan2(dy, dx) + half_width - beam, x, y, d
+
+
 def _call_pose(pose_at: PoseFunction, t: NDArray[np.float64]) -> NDArray[np.float64]:
     """``pose_at(t)`` as a finite ``(k, 3)`` array, else ValueError."""
     pose = np.asarray(pose_at(t), dtype=np.float64)
@@ -694,16 +710,18 @@ def _ray_hits_walls(origin: NDArray[np.float64], ray: NDArray[np.float64], m: _M
 def _ray_hits_discs(
     origin: NDArray[np.float64],
     ray: NDArray[np.float64],
-    centres: NDArray[np.float64],
-    radius: NDArray[np.float64],
+    m: _MapArrays,
     target: NDArray[np.intp],
 ) -> NDArray[np.bool_]:
-    """``(c,)`` True where the segment ``origin -> origin + ray`` passes within another reflector's radius."""
+    """``(c,)`` True where the segment ``origin -> origin + ray`` passes within another reflector's radius.
+
+    On the cached reflector columns of ``m`` (centres ``rx, ry (N,)``, squared radii ``r2 (N,)``).
+    """
     ux, uy = ray[:, 0:1], ray[:, 1:2]  # (c, 1)
-    cx, cy = centres[:, 0] - origin[:, 0:1], centres[:, 1] - origin[:, 1:2]  # (c, N)
+    cx, cy = m.rx - origin[:, 0:1], m.ry - origin[:, 1:2]  # (c, N)
     length2 = np.maximum(ux * ux + uy * uy, 1e-300)
     tau = np.clip((cx * ux + cy * uy) / length2, 0.0, 1.0)
     gx, gy = cx - tau * ux, cy - tau * uy
-    hit = gx * gx + gy * gy < radius * radius
+    hit = gx * gx + gy * gy < m.r2
     hit[np.arange(target.size), target] = False
     return hit.any(axis=1)

@@ -172,7 +172,7 @@ class TricyclePlant:
         """
         t = np.asarray(t, dtype=np.float64)
         if t.ndim == 1 and t.shape[0] <= 4:  # the goniometer's usual few instants
-            return np.array([self._pose_at_scalar(float(ti)) for ti in t]).reshape(-1, 3)
+            return np.array([self._pose_at_scalar(ti) for ti in t.tolist()]).reshape(-1, 3)
         # np.minimum/np.maximum: np.clip's dispatch cost more than the arithmetic here
         u = np.minimum(np.maximum((t - self._t0) / self._dt, 0.0), 1.0)[..., None]
         u2 = u * u
@@ -189,8 +189,12 @@ class TricyclePlant:
         u3 = u2 * u
         h00, h10 = 2.0 * u3 - 3.0 * u2 + 1.0, u3 - 2.0 * u2 + u
         h01, h11 = 3.0 * u2 - 2.0 * u3, u3 - u2
-        p0, d0, p1, d1 = self._hermite_t
-        return tuple(h00 * p0[i] + h10 * d0[i] + h01 * p1[i] + h11 * d1[i] for i in range(3))  # type: ignore[return-value]
+        (x0, y0, a0), (dx0, dy0, da0), (x1, y1, a1), (dx1, dy1, da1) = self._hermite_t
+        return (
+            h00 * x0 + h10 * dx0 + h01 * x1 + h11 * dx1,
+            h00 * y0 + h10 * dy0 + h01 * y1 + h11 * dy1,
+            h00 * a0 + h10 * da0 + h01 * a1 + h11 * da1,
+        )
 
     def odometry(self) -> tuple[float, float]:
         """``(delta_d, delta_theta)`` of O over the last step from the encoders (nominal L, R)."""
