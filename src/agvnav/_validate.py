@@ -43,3 +43,11 @@ def require_last_dim(name: str, arr: NDArray[np.float64], size: int) -> NDArray[
     if arr.ndim == 0 or arr.shape[-1] != size:
         raise ValueError(f"{name} must have shape (..., {size}), got {arr.shape}")
     return arr
+
+
+def require_angle_below(name: str, value: float, limit: float) -> float:
+    """Return ``value`` (rad) as float if finite with ``|value| < limit``, else raise ValueError."""
+    a = float(value)
+    if not np.isfinite(a) or abs(a) >= limit:
+        raise ValueError(f"{name} must be finite and below {np.degrees(limit):g}°, got {value!r}")
+    return a

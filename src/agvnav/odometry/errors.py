@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav._validate import require_nonnegative, require_positive
+from agvnav._validate import require_angle_below, require_nonnegative, require_positive
 from agvnav.kinematics.base import twist_step
 from agvnav.odometry.increments import differential_increments
 
@@ -63,8 +63,7 @@ class SystematicErrors:
     def __post_init__(self) -> None:
         require_positive("e_d", self.e_d)
         require_positive("e_b", self.e_b)
-        if not np.isfinite(self.misalignment) or abs(self.misalignment) >= np.pi / 4:
-            raise ValueError(f"misalignment must be finite and below 45°, got {self.misalignment!r}")
+        require_angle_below("misalignment", self.misalignment, np.pi / 4)
 
     def true_geometry(self, nominal: DifferentialGeometry) -> DifferentialGeometry:
         """Actual geometry: ``r_R = 2/(1/E_d + 1)·r_a``, ``r_L = 2/(E_d + 1)·r_a``, ``b = E_b·b_n`` (Borenstein & Feng)."""
@@ -191,8 +190,7 @@ class TricycleErrors:
     def __post_init__(self) -> None:
         require_positive("radius_scale", self.radius_scale)
         require_positive("wheelbase_scale", self.wheelbase_scale)
-        if not math.isfinite(self.steering_offset) or abs(self.steering_offset) >= math.pi / 4:
-            raise ValueError(f"steering_offset must be finite and below 45°, got {self.steering_offset!r}")
+        require_angle_below("steering_offset", self.steering_offset, math.pi / 4)
 
 
 class TrueTricycleVehicle:
