@@ -1,10 +1,12 @@
 """Differential (tracked) drive: unicycle <-> wheel speeds, and the wheel speed loop.
 
-Seed 004, eqs (1)-(2): ``omega_R = (2 V + omega L) / (2 r)``,
+[seed004 eq1], [seed004 eq2]: ``omega_R = (2 V + omega L) / (2 r)``,
 ``omega_L = (2 V - omega L) / (2 r)`` with V the linear speed, omega the yaw
-rate, r the sprocket (wheel) radius and L the distance between the tracks.
-The seed writes V in cm/s; here everything is SI. Arrays of wheel speeds are
-ordered ``[..., right, left]`` everywhere in agvnav.actuators.
+rate, r the sprocket (wheel) radius and L the track (distance between the
+tracks). They are the differential-drive equations of
+:func:`agvnav.kinematics.wheel_speeds_unchecked` divided by r, and are computed
+through it. The seed writes V in cm/s; here everything is SI. Arrays of wheel
+speeds are ordered ``[..., right, left]`` everywhere in agvnav.actuators.
 """
 
 from __future__ import annotations
@@ -17,59 +19,62 @@ from numpy.typing import ArrayLike, NDArray
 from agvnav._validate import require_finite, require_positive
 from agvnav.actuators.motor import MotorPair
 from agvnav.actuators.pid import PID
+from agvnav.kinematics.differential import body_speeds_unchecked, wheel_speeds_unchecked
 
 
-def unicycle_to_wheels(
-    v: ArrayLike, omega: ArrayLike, wheel_radius: float, track_width: float
-) -> NDArray[np.float64]:
-    """Wheel angular speeds ``(..., 2)`` = [right, left] (rad/s) (seed 004, eqs 1-2).
+def unicycle_to_wheels(v: ArrayLike, omega: ArrayLike, wheel_radius: float, track: float) -> NDArray[np.float64]:
+    """Wheel angular speeds ``(..., 2)`` = [right, left] (rad/s) [seed004 eq1] [seed004 eq2].
 
     ``v`` in m/s, ``omega`` in rad/s (CCW positive, REP-103), ``wheel_radius``
-    and ``track_width`` in m.
+    and ``track`` (distance between the wheels/tracks) in m. The wheel ground speeds
+    come from :func:`agvnav.kinematics.wheel_speeds_unchecked`.
     """
-    v = np.asarray(v, dtype=np.float64)
-    w = np.asarray(omega, dtype=np.float64)
-    right = (2.0 * v + w * track_width) / (2.0 * wheel_radius)
-    left = (2.0 * v - w * track_width) / (2.0 * wheel_radius)
-    return np.stack(np.broadcast_arrays(right, left), axis=-1)
+    right, left = wheel_speeds_unchecked(np.asarray(v, dtype=np.float64), np.asarray(omega, dtype=np.float64), track)
+    return np.stack(np.broadcast_arrays(right / wheel_radius, left / wheel_radius), axis=-1)
 
 
 def wheels_to_unicycle(
-    wheel_speeds: ArrayLike, wheel_radius: float, track_width: float
+    wheel_speeds: ArrayLike, wheel_radius: float, track: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(v, omega) from wheel speeds ``(..., 2)`` = [right, left] (rad/s); inverse of eqs 1-2.
+    """(v, omega) (m/s, rad/s) from wheel speeds ``(..., 2)`` = [right, left] (rad/s).
 
-    The same combination appears in seed 004, eqs (3)-(5).
+    Inverse of [seed004 eq1] [seed004 eq2]; the same combination appears in
+    [seed004 eq3], [seed004 eq4], [seed004 eq5]. Computed by
+    :func:`agvnav.kinematics.body_speeds_unchecked` on the wheel ground speeds ``r ω``.
     """
     w = np.asarray(wheel_speeds, dtype=np.float64)
-    v = wheel_radius * (w[..., 0] + w[..., 1]) / 2.0
-    omega = wheel_radius * (w[..., 0] - w[..., 1]) / track_width
-    return v, omega
+    return body_speeds_unchecked(wheel_radius * w[..., 0], wheel_radius * w[..., 1], track)
 
 
 @dataclass(frozen=True)
 class DriveGeometry:
-    """Sprocket radius and track separation of a differential/tracked robot (m).
+    """Sprocket radius and track of a differential/tracked robot (m).
 
     Defaults: the seed-004 robot is 0.40 m wide; tracks 0.33 m apart centre to
     centre and a 0.05 m sprocket radius are assumptions (not in the seed) that
     give 0.24 m/s at the motors' 45 rpm, above the 0.15 m/s of the tests.
+    ``track_width`` is the former name of ``track`` (read-only alias).
     """
 
     wheel_radius: float = 0.05
-    track_width: float = 0.33
+    track: float = 0.33
 
     def __post_init__(self) -> None:
         require_positive("wheel_radius", self.wheel_radius)
-        require_positive("track_width", self.track_width)
+        require_positive("track", self.track)
+
+    @property
+    def track_width(self) -> float:
+        """Former name of :attr:`track` (m), kept for callers not yet renamed."""
+        return self.track
 
     def to_wheels(self, v: ArrayLike, omega: ArrayLike) -> NDArray[np.float64]:
-        """Seed 004 eqs 1-2, see :func:`unicycle_to_wheels`."""
-        return unicycle_to_wheels(v, omega, self.wheel_radius, self.track_width)
+        """[seed004 eq1] [seed004 eq2], see :func:`unicycle_to_wheels`."""
+        return unicycle_to_wheels(v, omega, self.wheel_radius, self.track)
 
     def to_unicycle(self, wheel_speeds: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Inverse of eqs 1-2, see :func:`wheels_to_unicycle`."""
-        return wheels_to_unicycle(wheel_speeds, self.wheel_radius, self.track_width)
+        """Inverse of [seed004 eq1] [seed004 eq2], see :func:`wheels_to_unicycle`."""
+        return wheels_to_unicycle(wheel_speeds, self.wheel_radius, self.track)
 
 
 @dataclass

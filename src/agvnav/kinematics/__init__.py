@@ -32,10 +32,12 @@ from agvnav.kinematics.base import KinematicModel, numerical_jacobian, rk4_step,
 from agvnav.kinematics.differential import (
     DifferentialDrive,
     body_speeds,
+    body_speeds_unchecked,
     instantaneous_centre,
     turning_radius,
     unicycle_derivative,
     wheel_speeds,
+    wheel_speeds_unchecked,
 )
 from agvnav.kinematics.omnidirectional import MecanumBase
 from agvnav.kinematics.tracked import (
@@ -68,12 +70,12 @@ from agvnav.kinematics.wheels import (
 )
 
 __all__ = [
+    "TERRAIN_PRESETS",
     "Ackermann",
     "AckermannSimple",
     "DifferentialDrive",
     "KinematicModel",
     "MecanumBase",
-    "TERRAIN_PRESETS",
     "TrackSlipNoise",
     "TrackTerrain",
     "TrackedVehicle",
@@ -86,6 +88,7 @@ __all__ = [
     "TricycleStackerSimple",
     "ackermann_wheel_angles",
     "body_speeds",
+    "body_speeds_unchecked",
     "castor_heading_rate",
     "castor_wheel_residual",
     "fixed_wheel_residual",
@@ -104,4 +107,5 @@ __all__ = [
     "twist_step",
     "unicycle_derivative",
     "wheel_speeds",
+    "wheel_speeds_unchecked",
 ]

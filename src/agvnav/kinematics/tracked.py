@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import require_positive
 from agvnav.kinematics.base import FloatArray, KinematicModel, twist_step
+from agvnav.kinematics.differential import wheel_speeds_unchecked
 
 
 @dataclass(frozen=True)
@@ -179,7 +180,7 @@ class TrackedVehicle(KinematicModel):
         v = np.asarray(v, dtype=np.float64)
         w = np.asarray(omega, dtype=np.float64)
         if not compensate:
-            return np.stack([v + 0.5 * self.gauge * w, v - 0.5 * self.gauge * w], axis=-1)
+            return np.stack(wheel_speeds_unchecked(v, w, self.gauge), axis=-1)
         t = self.terrain
         return np.stack([(v - w * self.y_right) / (1.0 - t.slip_right), (v - w * self.y_left) / (1.0 - t.slip_left)],
                         axis=-1)
