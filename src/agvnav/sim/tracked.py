@@ -1,5 +1,7 @@
 """The seed-004 tracked robot as plant, sensor and autopilot roles of the closed loop.
 
+The plant lives in :mod:`agvnav.vehicles.tracked` (re-exported here until sim is
+restructured).
 Wiring only: the truth motion is :class:`agvnav.kinematics.TrackedVehicle`
 (ICR slip model), the speed loops are :class:`agvnav.actuators.WheelSpeedLoop`
 (seed 004 PID, Kp = 10, Ki = 20, Kd = 0.5, on a motor pair with asymmetry),
@@ -29,19 +31,14 @@ speeds (trapezoidal rule of the first-order motor response).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.actuators._fast import ScalarSpeedLoop
 from agvnav.geometry import compose
-from agvnav.kinematics._fast import track_twist, twist_pose
-from agvnav.kinematics.base import twist_step
-from agvnav.odometry._fast import track_increments
 from agvnav.sensors.ultrasonic import UltrasonicArray, cone_echo
-from agvnav.world.walls import square_landmarks
+from agvnav.vehicles.tracked import TrackedPlant
 
 __all__ = [
     "HybridAutopilot",
@@ -51,128 +48,6 @@ __all__ = [
 ]
 
 TWO_PI = 2.0 * math.pi
-
-
-class TrackedPlant:
-    """Truth tracked robot: speed loops, ICR slip, sprocket encoders, nominal odometry.
-
-    Parameters
-    ----------
-    vehicle : :class:`agvnav.kinematics.TrackedVehicle` with the *truth* terrain.
-    loop : :class:`agvnav.actuators.WheelSpeedLoop` (its state is copied at construction).
-    odometry_terrain : the :class:`~agvnav.kinematics.tracked.TrackTerrain` odometry believes.
-    counts_per_rev : sprocket encoder counts per revolution (quantisation).
-    initial_pose : true ``[x, y, heading]`` (m, rad).
-    substep : speed-loop period (s).
-    slip_noise_std : random slip, ``slip_noise_std`` m after 1 m per track: the
-        :class:`agvnav.kinematics.TrackSlipNoise` model, drawn once per engine step.
-
-    The command is the sprocket speed set-point ``[right, left]`` (rad/s).
-    """
-
-    signal_names = ("x", "y", "psi", "omega_right", "omega_left", "v", "yaw_rate", "odo_dd", "odo_dtheta", "distance")
-
-    def __init__(
-        self,
-        vehicle: Any,
-        loop: Any,
-        odometry_terrain: Any,
-        counts_per_rev: int,
-        initial_pose: Sequence[float],
-        substep: float = 0.01,
-        slip_noise_std: float = 0.0,
-    ) -> None:
-        from agvnav.kinematics.tracked import TrackedVehicle, TrackSlipNoise
-
-        if int(counts_per_rev) < 1:
-            raise ValueError(f"counts_per_rev must be >= 1, got {counts_per_rev!r}")
-        if not (math.isfinite(substep) and substep > 0):
-            raise ValueError(f"substep must be a positive number of seconds, got {substep!r}")
-        self.vehicle = vehicle
-        self.r = float(vehicle.sprocket_radius)
-        self.speed_loop = ScalarSpeedLoop(loop)
-        self.odometry_model = TrackedVehicle(vehicle.gauge, self.r, odometry_terrain)
-        self.counts_per_rev = int(counts_per_rev)
-        self.substep = float(substep)
-        self.slip_noise_std = float(slip_noise_std)
-        self.slip_noise = TrackSlipNoise(self.slip_noise_std)
-        self._T = [[float(v) for v in row] for row in vehicle.twist_matrix]
-        self._To = [[float(v) for v in row] for row in self.odometry_model.twist_matrix]
-        p = np.asarray(initial_pose, dtype=np.float64).reshape(3)
-        self._pose = [float(p[0]), float(p[1]), float(p[2])]
-        self._angle = [0.0, 0.0]  # true sprocket rotations (rad)
-        self._counts = [0, 0]
-        self._t0, self._h = 0.0, self.substep
-        self._states = p[None, :].copy()
-        self._twists = np.zeros((1, 3))
-        self._odo = (0.0, 0.0)
-        self._v = self._w = 0.0
-        self.distance = 0.0
-
-    @property
-    def pose(self) -> NDArray[np.float64]:
-        """True base_link pose now ``(3,)``."""
-        return np.array(self._pose)
-
-    def advance(self, command: Sequence[float], t0: float, dt: float, rng: np.random.Generator) -> None:
-        """Hold sprocket set-points ``[right, left]`` (rad/s) from ``t0`` for ``dt`` s."""
-        n = max(1, int(round(dt / self.substep)))
-        h = dt / n
-        sp = (float(command[0]), float(command[1]))
-        # random slip of the step: the faster sprocket's set-point distance sets its scale
-        noise = self.slip_noise.factors_scalar(max(abs(sp[0]), abs(sp[1])) * self.r * dt, rng)
-        T = self._T
-        x, y, th = self._pose
-        states, twists = [(x, y, th)], []
-        loop = self.speed_loop
-        dist = 0.0
-        for _ in range(n):
-            w0 = loop.omega[0], loop.omega[1]
-            w1 = loop.step(sp, h)
-            wr, wl = 0.5 * (w0[0] + w1[0]), 0.5 * (w0[1] + w1[1])
-            self._angle[0] += wr * h
-            self._angle[1] += wl * h
-            vx, vy, w = track_twist(wr * self.r * noise[0], wl * self.r * noise[1], T)
-            x, y, th = twist_pose(x, y, th, vx, vy, w, h)
-            states.append((x, y, th))
-            twists.append((vx, vy, w))
-            dist += math.hypot(vx, vy) * h
-        self._pose = [x, y, th]
-        self._t0, self._h = float(t0), h
-        self._states = np.array(states)
-        self._twists = np.array(twists)
-        self._v, self._w = twists[-1][0], twists[-1][2]
-        self.distance += dist
-        self._odo = self._odometry_increment()
-
-    def _odometry_increment(self) -> tuple[float, float]:
-        """Nominal ``(delta_d, delta_theta)`` from the encoder counts (seed 004 eqs 3-5, ICR-generalised)."""
-        q = TWO_PI / self.counts_per_rev
-        ds = []
-        for i in (0, 1):
-            c = math.floor(self._angle[i] / q)
-            ds.append((c - self._counts[i]) * q * self.r)
-            self._counts[i] = c
-        return track_increments(ds[0], ds[1], self._To)
-
-    def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """True pose ``(k, 3)`` at instants ``t (k,)`` of the last step (exact per sub-step twist)."""
-        t = np.asarray(t, dtype=np.float64).reshape(-1)
-        n = self._twists.shape[0]
-        rel = np.clip(t - self._t0, 0.0, n * self._h)
-        i = np.minimum((rel / self._h).astype(np.int64), n - 1)
-        tau = rel - i * self._h
-        tw = self._twists[i] * tau[:, None]
-        return twist_step(self._states[i], tw[:, 0], tw[:, 1], tw[:, 2], 1.0)
-
-    def odometry(self) -> tuple[float, float]:
-        """``(delta_d, delta_theta)`` of base_link over the last step (nominal model)."""
-        return self._odo
-
-    def signals(self) -> tuple[float, ...]:
-        x, y, th = self._pose
-        w = self.speed_loop.omega
-        return (x, y, th, w[0], w[1], self._v, self._w, self._odo[0], self._odo[1], self.distance)
 
 
 class UltrasonicSensorRole:

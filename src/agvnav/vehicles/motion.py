@@ -1,0 +1,79 @@
+"""Helpers shared by the wheeled plants: the piecewise-constant-twist trajectory of one step.
+
+A plant that moves with a constant body twist inside each sub-step records the
+pose at every sub-step start and the twist of every sub-step; the pose at any
+instant of the step is then exact: the SE(2) exponential
+(:func:`agvnav.kinematics.twist_step`, seed 002 eq. 25 for ``v_y = 0``) of the
+sub-step's twist for the time elapsed in it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvnav.kinematics.base import twist_step
+
+__all__ = ["differential_twist_matrix", "hermite_pose", "piecewise_twist_pose"]
+
+
+def piecewise_twist_pose(
+    t: NDArray[np.float64],
+    t0: float,
+    h: float,
+    states: NDArray[np.float64],
+    twists: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Pose ``(k, 3)`` at instants ``t (k,)`` (s) of a step made of constant-twist sub-steps [seed002 eq25].
+
+    Parameters
+    ----------
+    t : query instants (s); clipped to the step ``[t0, t0 + n h]``.
+    t0 : step start (s). h : sub-step length (s).
+    states : ``(n + 1, 3)`` poses ``[x, y, heading]`` at the sub-step boundaries (m, rad).
+    twists : ``(n, 3)`` body twists ``[v_x, v_y, omega]`` of the sub-steps (m/s, rad/s).
+    """
+    t = np.asarray(t, dtype=np.float64).reshape(-1)
+    n = twists.shape[0]
+    rel = np.clip(t - t0, 0.0, n * h)
+    i = np.minimum((rel / h).astype(np.int64), n - 1)
+    tau = rel - i * h
+    tw = twists[i] * tau[:, None]
+    return twist_step(states[i], tw[:, 0], tw[:, 1], tw[:, 2], 1.0)
+
+
+def differential_twist_matrix(track: float, misalignment: float = 0.0) -> list[list[float]]:
+    """Body twist ``[v_x, v_y, omega]`` per wheel ground speed ``[v_R, v_L]`` of a differential base, ``(3, 2)``.
+
+    ``v = (v_R + v_L)/2``, ``omega = (v_R - v_L)/b`` [seed002 eq16], the midpoint moving
+    along the wheels' rolling direction turned by ``misalignment`` (rad; seed 002
+    §3.1 systematic errors). Applied to wheel *distances* of a step it gives the
+    odometry increments ``(ΔD, Δθ)`` of seed 002 eq. 16. Nested floats, the form
+    :func:`agvnav.kinematics._fast.track_twist` takes.
+    """
+    if not (math.isfinite(track) and track > 0.0):
+        raise ValueError(f"track must be a positive number of metres, got {track!r}")
+    c, s = math.cos(misalignment), math.sin(misalignment)
+    return [[0.5 * c, 0.5 * c], [0.5 * s, 0.5 * s], [1.0 / track, -1.0 / track]]
+
+
+def hermite_pose(
+    t: NDArray[np.float64],
+    t0: float,
+    dt: float,
+    ends: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+) -> NDArray[np.float64]:
+    """Cubic Hermite pose ``(k, 3)`` at instants ``t (k,)`` inside a step ``[t0, t0 + dt]`` (s).
+
+    ``ends = (p0, dt·p0', p1, dt·p1')``: the exact poses at both ends of the step
+    and their time derivatives scaled by the step. The error is
+    ``dt^4/384 max|p''''|``; instants outside the step are clipped to it.
+    """
+    t = np.asarray(t, dtype=np.float64).reshape(-1)
+    u = np.minimum(np.maximum((t - t0) / dt, 0.0), 1.0)[:, None]
+    u2 = u * u
+    u3 = u2 * u
+    p0, d0, p1, d1 = ends
+    return (2.0 * u3 - 3.0 * u2 + 1.0) * p0 + (u3 - 2.0 * u2 + u) * d0 + (3.0 * u2 - 2.0 * u3) * p1 + (u3 - u2) * d1
