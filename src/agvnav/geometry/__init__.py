@@ -1,6 +1,6 @@
 """Plane geometry: angles, SE(2) poses, intersections."""
 
-from agvnav.geometry.angles import angle_diff, deg2rad, rad2deg, wrap_angle
+from agvnav.geometry.angles import PI, TWO_PI, angle_diff, deg2rad, rad2deg, wrap_angle, wrap_angle_scalar
 from agvnav.geometry.intersect import (
     circumcentre,
     cross2,
@@ -8,8 +8,8 @@ from agvnav.geometry.intersect import (
     triangle_signed_area,
 )
 from agvnav.geometry.se2 import (
-    between,
     bearing_to,
+    between,
     compose,
     inverse,
     lateral_position_error,
@@ -18,6 +18,8 @@ from agvnav.geometry.se2 import (
 )
 
 __all__ = [
+    "PI",
+    "TWO_PI",
     "angle_diff",
     "bearing_to",
     "between",
@@ -33,4 +35,5 @@ __all__ = [
     "transform_points",
     "triangle_signed_area",
     "wrap_angle",
+    "wrap_angle_scalar",
 ]

@@ -1,22 +1,97 @@
-"""Angles: wrapping and differences. Every angle residual in agvnav goes through here."""
+"""Angles: wrapping and differences. Every angle residual in agvnav goes through here.
+
+One convention everywhere: angles are wrapped to the half-open interval ``[-pi, pi)``, so
+``pi`` itself maps to ``-pi`` (``math.remainder`` or ``atan2(sin, cos)`` would keep ``+pi``).
+The reduction is exact: the result is ``a - k * TWO_PI`` for an integer ``k`` with no
+rounding (``fmod`` is exact and the one correction step is exact by Sterbenz's lemma), so
+an angle already in ``[-pi, pi)`` comes back bit for bit, however small. ``TWO_PI`` is the
+double nearest ``2 pi``; for ``|a|`` far beyond ``2 pi`` the result is the exact remainder
+modulo that double, which differs from the true remainder modulo ``2 pi`` by about
+``|a| * 2.4e-16``. ``wrap_angle`` is the vectorised form, ``wrap_angle_scalar`` the one-float
+fast path of the scalar loops; both give the same bits.
+"""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+__all__ = ["PI", "TWO_PI", "angle_diff", "deg2rad", "rad2deg", "wrap_angle", "wrap_angle_scalar"]
+
+#: ``pi`` (rad), the double nearest it; the open end of the wrap interval.
+PI = math.pi
+#: ``2 pi`` (rad), the double nearest it (exactly ``2 * PI``); the wrap modulus.
+TWO_PI = 2.0 * math.pi
+
 
 def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
-    """Wrap angles (rad) to the half-open interval [-pi, pi).
+    """Wrap angles to the half-open interval ``[-pi, pi)`` (rad).
 
-    Vectorised over any shape; returns a float64 array (0-d for a scalar).
+    Parameters
+    ----------
+    angle : array_like
+        Angles (rad), any shape.
+
+    Returns
+    -------
+    ndarray of float64
+        Same shape, in ``[-pi, pi)``; ``a - k * TWO_PI`` exactly for an integer ``k``
+        (a NumPy float64 scalar for a scalar input, as NumPy ufuncs return). NaN and
+        ``+-inf`` give NaN (NumPy warns "invalid value" for an infinite array element).
+
+    Examples
+    --------
+    >>> float(wrap_angle(math.pi)), float(wrap_angle(-math.pi))
+    (-3.141592653589793, -3.141592653589793)
+    >>> wrap_angle([1e-300, 3 * math.pi / 2]).tolist() == [1e-300, -math.pi / 2]
+    True
     """
     a = np.asarray(angle, dtype=np.float64)
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
+    if a.ndim == 0:  # one value: the scalar path is about 20 times faster than the ufuncs
+        return np.float64(wrap_angle_scalar(float(a)))  # type: ignore[return-value]  # 0-d: NumPy's scalar
+    r = np.fmod(a, TWO_PI)  # exact, in (-2 pi, 2 pi), sign of a
+    r[r >= PI] -= TWO_PI  # exact: Sterbenz, r within a factor 2 of TWO_PI
+    r[r < -PI] += TWO_PI
+    return r
+
+
+def wrap_angle_scalar(angle: float) -> float:
+    """:func:`wrap_angle` for one Python float (rad): the same ``[-pi, pi)`` result, bit for bit.
+
+    About ten times faster than the array form on one value; for the scalar loops of the
+    simulator and the single-fix kernels. NaN and ``+-inf`` give NaN.
+
+    Examples
+    --------
+    >>> wrap_angle_scalar(math.pi), wrap_angle_scalar(7.0) == 7.0 - TWO_PI
+    (-3.141592653589793, True)
+    """
+    try:
+        r = math.fmod(angle, TWO_PI)
+    except ValueError:  # +-inf: math.fmod raises where np.fmod returns NaN
+        return math.nan
+    if r >= PI:
+        return r - TWO_PI
+    if r < -PI:
+        return r + TWO_PI
+    return r
 
 
 def angle_diff(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
-    """Smallest signed difference ``a - b`` (rad), in [-pi, pi)."""
+    """Smallest signed difference ``a - b`` (rad), wrapped to ``[-pi, pi)``.
+
+    Parameters
+    ----------
+    a, b : array_like
+        Angles (rad); broadcast against each other.
+
+    Returns
+    -------
+    ndarray of float64
+        ``wrap_angle(a - b)``; a difference of exactly ``pi`` gives ``-pi``.
+    """
     return wrap_angle(np.asarray(a, dtype=np.float64) - np.asarray(b, dtype=np.float64))
 
 
