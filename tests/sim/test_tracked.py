@@ -1,55 +1,18 @@
 """Issue 6: the tracked robot, its ultrasonic rangers and the hybrid automaton in the closed loop."""
 
-import math
-
 import numpy as np
 import pytest
 
-from agvnav.actuators import PID, MotorPair, WheelSpeedLoop
 from agvnav.guidance.hybrid import PolygonRoute
-from agvnav.kinematics.tracked import TrackedVehicle, TrackTerrain, terrain_preset
+from agvnav.kinematics.tracked import TrackTerrain, terrain_preset
 from agvnav.sensors import seed_004_layout
 from agvnav.sim.laps import lap_errors, run_tracked
-from agvnav.sim.tracked import TrackedPlant, UltrasonicSensorRole
+from agvnav.sim.tracked import UltrasonicSensorRole
 from agvnav.world.walls import square_landmarks
 
 ROUTE = PolygonRoute.square(3.5)
 WALLS = square_landmarks(ROUTE)
 ODO_CONCRETE = TrackTerrain(slip_left=0.016, slip_right=0.016, icr_left=1.12, icr_right=1.12)
-
-
-def test_plant_motion_matches_tracked_vehicle_and_pose_at_is_continuous():
-    veh = TrackedVehicle(0.33, 0.05, "concrete")
-    plant = TrackedPlant(veh, WheelSpeedLoop(), veh.terrain, 1440, (1.0, 2.0, 0.3))
-    rng = np.random.default_rng(1)
-    for _ in range(100):
-        plant.advance((3.0, 2.0), 0.0, 0.1, rng)
-    # at steady state the sprocket speeds reach the set-point (PID integral), and the
-    # truth moves as TrackedVehicle.step with the mean sprocket speeds of each sub-step
-    np.testing.assert_allclose(plant.signals()[3:5], (3.0, 2.0), atol=1e-3)
-    start = plant.pose.copy()
-    plant.advance((3.0, 2.0), 10.0, 0.1, rng)
-    w = np.array(plant.speed_loop.omega)
-    expected = veh.step(start, w * 0.05, 0.1)
-    np.testing.assert_allclose(plant.pose, expected, atol=1e-6)
-    ends = plant.pose_at(np.array([10.0, 10.1]))
-    np.testing.assert_allclose(ends[0], start, atol=1e-12)
-    np.testing.assert_allclose(ends[1], plant.pose, atol=1e-12)
-    mid = plant.pose_at(np.array([10.05]))[0]
-    np.testing.assert_allclose(mid, veh.step(start, w * 0.05, 0.05), atol=1e-6)
-
-
-def test_odometry_with_true_terrain_follows_truth_and_with_wrong_terrain_drifts():
-    for odo, small in ((terrain_preset("concrete"), True), (ODO_CONCRETE, False)):
-        veh = TrackedVehicle(0.33, 0.05, "concrete")
-        plant = TrackedPlant(veh, WheelSpeedLoop(), odo, 100000, (0.0, 0.0, 0.0))
-        rng = np.random.default_rng(2)
-        heading = 0.0
-        for _ in range(200):  # an in-place turn
-            plant.advance((2.0, -2.0), 0.0, 0.1, rng)
-            heading += plant.odometry()[1]
-        err = abs(heading - plant.pose[2])
-        assert (err < 1e-3) if small else (err > 0.02 * abs(plant.pose[2]))
 
 
 def test_ultrasonic_role_groups_simultaneous_pings_and_reports_the_wall_distance():
