@@ -146,7 +146,10 @@ pair of the general law on point C (module docstring; the default is 0.707).
 
 @dataclass(frozen=True)
 class GeneralGains:
-    """Gains of the general law (seed 000 eqs 11-13): a (1/(m s)), b (1/s, sign of v), c (1/s)."""
+    """Gains a (1/(m s)), b (1/s, sign of v), c (1/s) of the general law.
+
+    [seed000 eq11] [seed000 eq12] [seed000 eq13].
+    """
 
     a: float
     b: float
@@ -155,7 +158,7 @@ class GeneralGains:
 
 @dataclass(frozen=True)
 class SimpleGains:
-    """Gains a (1/(m s)) and b (1/s) of the simple law (seed 000 eqs 20-22)."""
+    """Gains a (1/(m s)) and b (1/s) of the simple law [seed000 eq20] [seed000 eq21] [seed000 eq22]."""
 
     a: float
     b: float
@@ -212,7 +215,7 @@ def envelope_distance(poles_per_m: ArrayLike, residues: ArrayLike, fraction: flo
     linearised error: the convergence distance every controller is tuned to.
     One mode of residue 1 gives ``ln(1/fraction) / sigma``, as
     :func:`convergence_distance`; modes hidden from the error (zero residue,
-    like the -1/L pole of eq. 24 in eps_c) do not count. inf if a visible mode
+    like the -1/L pole of [seed000 eq24] in eps_c) do not count. inf if a visible mode
     is not decaying.
     """
     p = np.asarray(poles_per_m, dtype=np.complex128)
@@ -277,7 +280,7 @@ def general_gains_from_coefficients(coeffs: NDArray[np.float64], v: float, wheel
 
 
 def general_gains(poles_per_m: ArrayLike, v: float, wheelbase: float) -> GeneralGains:
-    """a, b, c of the general law placing the eq.-17 poles at ``poles_per_m`` (1/m) at speed ``v`` (m/s).
+    """a, b, c of the general law placing the poles of [seed000 eq17] at ``poles_per_m`` (1/m), speed ``v`` (m/s).
 
     ``c = |v| e1``, ``b = L v e2``, ``a = L |v| e3`` (module docstring). At
     ``v = 0`` all gains are 0 (nothing moves, nothing to correct).
@@ -290,6 +293,9 @@ def arc_linear_model(
     point: str, kappa_ref: float, v: float, wheelbase: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Linearised error dynamics about the steady turn (module docstring): ``(A0, B, R)``.
+
+    On a line (``kappa_ref = 0``) ``A0`` is [seed000 eq14] or [seed000 eq15] with [seed000 eq16],
+    and ``R`` is [seed000 eq9] [seed000 eq10] linearised.
 
     ``x' = A0 x + B u`` with ``x`` = (eps_o, xi, dgamma) for point O or
     (eps_c, xi_r, dgamma) for point C, ``u = dgamma'``; ``R`` (3, 3) holds the
@@ -342,7 +348,7 @@ def seed_loop_matrix(
 ) -> NDArray[np.float64]:
     """Closed-loop matrix per metre (v = direction m/s) on a line, state (eps, heading error, gamma) of ``point``.
 
-    ``law`` "general" (eqs 11-13, eq. 17) or "simple" (eq. 20, point C, forward).
+    ``law`` "general" ([seed000 eq17]) or "simple" ([seed000 eq20], point C, forward).
     """
     v = 1.0 if direction > 0 else -1.0
     a0, bvec, rows = arc_linear_model(point, 0.0, v, wheelbase)
@@ -361,7 +367,7 @@ def hidden_real_pole(wheelbase: float, kappa_ref: float = 0.0) -> float:
     """Real pole per metre (1/m) that the general law on point C, forward, hides from eps_c and xi_r.
 
     ``-cos(gamma_ss) / L`` with ``sin(gamma_ss) = L kappa_ref`` (``-1/L`` on a
-    line). With this real pole eq. 13 reduces to the simple law eq. 20 (module
+    line). With this real pole [seed000 eq13] reduces to the simple law [seed000 eq20] (module
     docstring): ``c - b + a L = v cos(gamma_ss) / L``.
     """
     L = require_positive("wheelbase", wheelbase)
@@ -435,19 +441,19 @@ def seed_poles_for_distance(
 
 
 def general_characteristic(a: float, b: float, c: float, v: float, wheelbase: float) -> NDArray[np.float64]:
-    """Coefficients ``[1, c, v b / L, v^2 a / L]`` of eq. 17's characteristic polynomial (time domain)."""
+    """Coefficients ``[1, c, v b / L, v^2 a / L]`` of the characteristic polynomial of [seed000 eq17]."""
     L = require_positive("wheelbase", wheelbase)
     return np.array([1.0, c, v * b / L, v * v * a / L])
 
 
 def routh_hurwitz_ok(a: ArrayLike, b: ArrayLike, c: ArrayLike, v: ArrayLike) -> NDArray[np.bool_]:
-    """Vectorised Routh-Hurwitz test of eq. 17 (seed 000 eqs 18-19); False at v = 0."""
+    """Vectorised Routh-Hurwitz test of eq 17, [seed000 eq18] [seed000 eq19]; False at v = 0."""
     a, b, c, v = (np.asarray(x, dtype=np.float64) for x in (a, b, c, v))
     return (a > 0) & (c > 0) & (v * b > 0) & (c * np.abs(b) > np.abs(v) * a)
 
 
 def check_routh_hurwitz(a: float, b: float, c: float, v: float) -> None:
-    """Raise ValueError naming the violated condition of seed 000 eq. 18 (v > 0) or 19 (v < 0)."""
+    """Raise ValueError naming the violated condition of [seed000 eq18] (v > 0) or [seed000 eq19] (v < 0)."""
     if v == 0:
         raise ValueError("Routh-Hurwitz check needs v != 0 (eq. 17 degenerates at standstill)")
     eq = "18" if v > 0 else "19"
@@ -466,7 +472,7 @@ def check_routh_hurwitz(a: float, b: float, c: float, v: float) -> None:
 
 
 def simple_gains(poles_per_m: ArrayLike, v: float) -> SimpleGains:
-    """a, b of the simple law placing the eq.-23 poles at ``poles_per_m`` (1/m) for ``v`` > 0 (m/s)."""
+    """a, b of the simple law placing the poles of [seed000 eq23] at ``poles_per_m`` (1/m), ``v`` > 0 (m/s)."""
     if v < 0:
         raise ValueError(f"the simple law is for v > 0 (seed 000 §3.3), got v = {v:g} m/s")
     _, f1, f2 = _monic_real(poles_per_m, 2)
@@ -474,12 +480,12 @@ def simple_gains(poles_per_m: ArrayLike, v: float) -> SimpleGains:
 
 
 def simple_characteristic(a: float, b: float, v: float) -> NDArray[np.float64]:
-    """Coefficients ``[1, b, a v]`` of eq. 23's characteristic polynomial (time domain)."""
+    """Coefficients ``[1, b, a v]`` of the characteristic polynomial of [seed000 eq23] (time domain)."""
     return np.array([1.0, b, a * v])
 
 
 def check_simple_stability(a: float, b: float, v: float) -> None:
-    """Raise ValueError unless v > 0 and a, b > 0 (seed 000 §3.3, stability of eq. 23 and 24)."""
+    """Raise ValueError unless v > 0 and a, b > 0: stability of [seed000 eq23] and [seed000 eq24]."""
     if not v > 0:
         raise ValueError(
             f"the simple law is stable only for v > 0 (seed 000 §3.3); got v = {v:g} m/s: use the general law"

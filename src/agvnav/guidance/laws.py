@@ -52,24 +52,24 @@ def general_law(
     v: ArrayLike | None = None,
     gamma_ss: ArrayLike | None = None,
 ) -> NDArray[np.float64]:
-    """General three-parameter law, seed 000 eqs 11-13 (rad/s).
+    """General three-parameter law of seed 000 (rad/s), ``form`` 11, 12 or 13.
 
-    * 11 (point O, manoeuvres, v of either sign): ``-a eps_o - b xi - c dgamma``
-    * 12 (point C): ``-a eps_c - (b - a L) xi - c dgamma``
-    * 13 (point C): ``-a eps_c - (b - a L) xi_r - (c - b + a L) dgamma``
+    * [seed000 eq11] (point O, manoeuvres, v of either sign): ``-a eps_o - b xi - c dgamma``
+    * [seed000 eq12] (point C): ``-a eps_c - (b - a L) xi - c dgamma``
+    * [seed000 eq13] (point C): ``-a eps_c - (b - a L) xi_r - (c - b + a L) dgamma``
 
-    The three are the same law rewritten with eqs 9-10 (linearised); their
-    closed loop obeys eq. 17 (see :mod:`agvnav.guidance.gains`).
+    The three are the same law rewritten with [seed000 eq9] and [seed000 eq10] (linearised);
+    their closed loop obeys [seed000 eq17] (see :mod:`agvnav.guidance.gains`).
     Only the errors a form uses are read.
 
     Exact body rotation (form 13 only, when ``v`` (m/s) and ``gamma_ss`` (rad)
     are given): the part ``(v cos(gamma_ss) / L) dgamma`` of the last term is
     replaced by ``(v/L) (sin(gamma) - sin(gamma_ss))``, equal to first order,
-    so eq. 17 and the poles are unchanged. Deviation, as in :func:`simple_law`:
-    that part cancels the body rotation ``psi' = (v/L) sin(gamma)`` (eq. 8) in
+    so eq 17 and the poles are unchanged. Deviation, as in :func:`simple_law`:
+    that part cancels the body rotation ``psi' = (v/L) sin(gamma)`` [seed000 eq8] in
     ``xi_r'``; with the real pole at ``-cos(gamma_ss)/L``
     (:func:`agvnav.guidance.gains.hidden_real_pole`) the whole last term is
-    that part and eq. 13 is then eq. 20 exactly, also far from the linear
+    that part and eq 13 is then eq 20 exactly, also far from the linear
     range (e.g. the wheel straight at the start of an arc).
     """
     a, b, c, L = _f(a), _f(b), _f(c), float(wheelbase)
@@ -100,18 +100,18 @@ def simple_law(
     v: ArrayLike,
     wheelbase: float,
 ) -> NDArray[np.float64]:
-    """Simple two-parameter law for v > 0, seed 000 eqs 20-22 (rad/s).
+    """Simple two-parameter law of seed 000 for v > 0 (rad/s), ``form`` 20, 21 or 22.
 
-    * 20: ``-a eps_c - b xi_r - (v/L) dsin``
-    * 21: ``-a eps_c - b xi - b dgamma - (v/L) dsin``
-    * 22: ``-a eps_o - (b + a L) xi - b dgamma - (v/L) dsin``
+    * [seed000 eq20]: ``-a eps_c - b xi_r - (v/L) dsin``
+    * [seed000 eq21]: ``-a eps_c - b xi - b dgamma - (v/L) dsin``
+    * [seed000 eq22]: ``-a eps_o - (b + a L) xi - b dgamma - (v/L) dsin``
 
     with ``dgamma = gamma - gamma_ss`` and ``dsin = sin(gamma) - sin(gamma_ss)``.
     Deviation: the seed writes ``(v/L) gamma``; the term is there to cancel the
-    body rotation ``psi' = (v/L) sin(gamma)`` of eq. 8 in ``xi_r'``, so we use
+    body rotation ``psi' = (v/L) sin(gamma)`` of [seed000 eq8] in ``xi_r'``, so we use
     the sine (equal to first order on a line, and exact on an arc, where the
     cancellation leaves ``xi_r' = -a eps_c - b xi_r`` plus the curvature term
-    ``-kappa^2 v eps_c``). Linearised: eq. 23 ``q'' + b q' + a v q = 0``.
+    ``-kappa^2 v eps_c``). Linearised: [seed000 eq23] ``q'' + b q' + a v q = 0``.
     """
     a, b, v, L = _f(a), _f(b), _f(v), float(wheelbase)
     dgamma = _f(gamma) - _f(gamma_ss)

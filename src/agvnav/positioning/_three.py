@@ -13,6 +13,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
+
 Arr = NDArray[np.float64]
 Three = tuple[Arr, Arr, Arr]
 
@@ -61,8 +63,8 @@ class ScalarMath:
 
 
 def wrap(a: Arr, xp: Any = np) -> Arr:
-    """Fast wrap to [-pi, pi] (internal; public outputs go through ``geometry.wrap_angle``)."""
-    return a - TWO_PI * xp.rint(a / TWO_PI)
+    """``geometry.wrap_angle`` to ``[-pi, pi)`` for either namespace (NumPy arrays or ``ScalarMath`` floats)."""
+    return wrap_angle(a) if xp is np else wrap_angle_scalar(a)  # type: ignore[arg-type]  # xp=ScalarMath: float
 
 
 def order_pairs(x: Three, y: Three, theta: Three, xp: Any = np) -> tuple[Three, Three, Three, Three]:
@@ -71,7 +73,7 @@ def order_pairs(x: Three, y: Three, theta: Three, xp: Any = np) -> tuple[Three, 
     Returns ``x, y, theta`` reordered and ``tan_ab = (tan(theta2-theta1), tan(theta3-theta2),
     tan(theta1-theta3))`` in the new order. ``|tan|`` is monotone in ``|sin|`` of the
     relative angle, so the pair with the smallest ``|tan|`` is the one whose circle
-    centre is nearest infinity (P aligned with both reflectors, seed 000 eq. 5 case).
+    centre is nearest infinity (P aligned with both reflectors, the [seed000 eq5] case).
     A cyclic shift keeps the orientation, so all later formulas hold unchanged; pairs
     (1, 2) and (2, 3) then have ``|tan| >= REORDER_TOL`` or are the better conditioned
     ones. Only fixes near alignment are reordered; a chunk without any is left untouched.

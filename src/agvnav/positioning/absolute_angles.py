@@ -90,6 +90,8 @@ def _error_triangle(
 ) -> tuple[tuple[Three, Three], tuple[Three, Three]]:
     """Error-triangle vertices ``T_12, T_23, T_31`` for a heading estimate (seed 000, Fig. 2b).
 
+    A vertex at infinity is the [seed000 eq3] [seed000 eq5] case (P aligned with two reflectors).
+
     Returns ``((tx, ty), (ux, uy, k))``: the vertices, the (unnormalised) directions of the
     three lines and the half-turns ``k`` that orient them as rays (see ``line_directions_and_turns``).
     """
@@ -104,10 +106,11 @@ def _error_triangle(
 
 
 def _similarity(tx: Three, ty: Three, cx: Three, cy: Three, aligned: Arr, xp: Any) -> tuple[Arr, Arr]:
-    """``(sin delta, cos delta)`` from the error and centres triangles (seed 000, eqs 1-6).
+    """``(sin delta, cos delta)`` from the error and centres triangles.
 
-    ``sin²|delta| = A_e / (4 A_c)`` (eqs 1, 2, 4) or ``|T_12 T_23|² / (4 |C_12 C_23|²)`` where
-    ``aligned`` (eqs 3, 5); the sign of ``[T_12T_23 ∧ C_12C_23]_z`` (eq. 6); ``cos delta >= 0``.
+    ``sin²|delta| = A_e / (4 A_c)`` ([seed000 eq1] [seed000 eq2] [seed000 eq4], told in one line as
+    [seed001 eq1]) or ``|T_12 T_23|² / (4 |C_12 C_23|²)`` where ``aligned`` ([seed000 eq3]
+    [seed000 eq5]); the sign of ``[T_12T_23 ∧ C_12C_23]_z`` [seed000 eq6]; ``cos delta >= 0``.
     """
     sx, sy = tx[1] - tx[0], ty[1] - ty[0]  # side T_12 -> T_23
     kx, ky = cx[1] - cx[0], cy[1] - cy[0]  # homologous side C_12 -> C_23
@@ -126,8 +129,9 @@ def heading_error(
 ) -> Arr:
     """Signed heading error ``delta = psi_est - psi`` (rad, in [-90°, 90°]) of a heading estimate.
 
-    The error triangle of the lines at ``heading`` (seed 000, Fig. 2b), then eqs 4-6:
-    ``|delta| = arcsin(sqrt(A_e / A_c) / 2)``, evaluated as ``atan2(sin, cos)``.
+    The error triangle of the lines at ``heading`` (seed 000, Fig. 2b), then [seed000 eq4]
+    [seed000 eq5] [seed000 eq6]: ``|delta| = arcsin(sqrt(A_e / A_c) / 2)``, evaluated as
+    ``atan2(sin, cos)``.
     """
     (tx, ty), _ = _error_triangle(x, y, theta, heading, xp)
     sin_d, cos_d = _similarity(tx, ty, cx, cy, aligned, xp)
@@ -154,7 +158,7 @@ def _turn(tx: Three, ty: Three, cx: Three, cy: Three, sin_d: Arr, cos_d: Arr) ->
 
 
 def weighted_position(x: Three, y: Three, tx: Three, ty: Three, sin_a: Three, xp: Any = np) -> tuple[Arr, Arr]:
-    """Eq. 7: mean of the pairwise intersections ``P_ij`` weighted ``W_ij = sin a_ij / max(L_ij, 2 rho_ij)``.
+    """Mean of the pairwise intersections ``P_ij`` weighted ``W_ij = sin a_ij / max(L_ij, 2 rho_ij)`` [seed000 eq7].
 
     ``tx, ty`` are the intersections of the corrected lines, in pair order (12, 23, 31);
     after ``order_pairs`` only pair (3, 1) can be nearly parallel, and below ``SIN_TOL`` it
@@ -179,7 +183,7 @@ def weighted_position(x: Three, y: Three, tx: Three, ty: Three, sin_a: Three, xp
 
 
 def _refine(idx: NDArray[np.intp], tx: Three, ty: Three, cx: Three, cy: Three, aligned: Arr, psi: Arr) -> None:
-    """Second pass of eqs 4-6 for the fixes ``idx`` (in place on ``tx, ty, psi``)."""
+    """Second pass of [seed000 eq4] [seed000 eq5] [seed000 eq6] for the fixes ``idx`` (in place on ``tx, ty, psi``)."""
     if idx.size == 0:
         return
 
@@ -199,6 +203,9 @@ def absolute_angles_kernel(
     x: Three, y: Three, theta: Three, heading_estimate: Arr, xp: Any = np
 ) -> dict[str, Arr]:
     """Absolute-angle triangulation on component arrays (m, rad); see the module docstring.
+
+    Seed 000 §2.3 in one pass: the heading error from the similar triangles (as in
+    :func:`heading_error`), then the weighted position of :func:`weighted_position`.
 
     ``xp`` is ``numpy`` (batches; run under ``np.errstate(all="ignore")``) or
     ``_three.ScalarMath`` (one fix in floats). Returns ``x, y, heading, quality, valid,
