@@ -18,6 +18,7 @@ reported at its own line in the campaign file, not half-way through the runs.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
+from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -28,7 +29,7 @@ from agvnav.campaign.task import metric_names
 from agvnav.world.scenario import KeyPath, ScenarioError, format_key, parse_scenario
 from agvnav.world.strict import Finite, SourcedModel, StrictModel, load_yaml_document, validate_document
 
-__all__ = ["CampaignSpec", "Distribution", "load_campaign", "parse_campaign"]
+__all__ = ["CampaignSpec", "Distribution", "builtin_campaign_names", "is_number", "load_campaign", "parse_campaign"]
 
 Scalar = bool | int | float | str
 Value = Scalar | list[Any] | dict[str, Any]
@@ -134,13 +135,25 @@ def parse_campaign(text: str, source: str = "<string>", base_dir: Path | None = 
     return spec
 
 
+def _campaigns_dir() -> Path:
+    return Path(str(resources.files("agvnav") / "data" / "campaigns"))
+
+
+def builtin_campaign_names() -> list[str]:
+    """Names of the campaigns shipped in ``agvnav/data/campaigns``, sorted."""
+    return sorted(p.stem for p in _campaigns_dir().glob("*.yaml"))
+
+
 def load_campaign(path: str | Path) -> CampaignSpec:
-    """Load and check a campaign file (relative ``base`` paths resolve against its folder)."""
+    """Load and check a campaign file, or a shipped one by name (relative ``base`` paths: from its folder)."""
     p = Path(path)
+    if not p.is_file() and p.suffix == "" and str(path) in builtin_campaign_names():
+        p = _campaigns_dir() / f"{path}.yaml"
     if p.is_dir():
         raise ScenarioError("is a directory, not a campaign file", (), None, str(path))
     if not p.is_file():
-        raise ScenarioError("no such campaign file", (), None, str(path))
+        shipped = ", ".join(builtin_campaign_names())
+        raise ScenarioError(f"no such campaign file (shipped campaigns: {shipped})", (), None, str(path))
     try:
         text = p.read_text(encoding="utf-8")
     except UnicodeDecodeError:

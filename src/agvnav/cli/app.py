@@ -8,6 +8,7 @@ import typer
 
 from agvnav import __version__
 from agvnav.cli.bench import bench_app
+from agvnav.cli.campaign import campaign
 from agvnav.cli.demo import demo
 from agvnav.cli.errors import USER_ERROR_EXIT, err_console
 from agvnav.cli.simulate import simulate
@@ -21,6 +22,7 @@ app = typer.Typer(
 app.add_typer(bench_app, name="bench")
 app.command("demo")(demo)
 app.command("simulate")(simulate)
+app.command("campaign")(campaign)
 
 
 def _version(value: bool) -> None:

@@ -1,0 +1,115 @@
+"""``agvnav campaign SPEC.yaml [--out DIR] [--scheduler ADDRESS] [--workers N] [--json]``: Monte Carlo campaigns.
+
+Runs every run of the campaign on a Dask cluster (a local one of ``--workers``
+processes, default 2, or the existing ``--scheduler``), streaming results to
+``DIR/runs/*.parquet``; started again on the same ``--out`` it runs only what
+is missing. Prints the summary table (or ``--json``) and writes
+``DIR/summary.json`` and ``DIR/plots/campaign_<metric>.png``. ``--replay N``
+writes run N's whole scenario to ``DIR/replay/`` for ``agvnav simulate``
+instead of running the campaign. Argument parsing and printing only: the work
+is :func:`agvnav.campaign.run_campaign`, imported when the command runs so
+``agvnav --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from agvnav.cli.errors import fail, user_errors
+
+SPEC_ARG = typer.Argument(..., help="Campaign YAML file, or a shipped campaign name (default_seeds).")
+OUT_OPT = typer.Option(Path("campaign_out"), "--out", "-o", help="Output folder (Parquet runs, summary.json, plots).")
+SCHED_OPT = typer.Option(None, "--scheduler", help="Address of an existing Dask scheduler (default: a local cluster).")
+WORKERS_OPT = typer.Option(None, "--workers", min=1, help="Worker processes of the local cluster (default 2).")
+JSON_OPT = typer.Option(False, "--json", help="Print the run counts, speed and summary as JSON.")
+PLOTS_OPT = typer.Option(True, "--plots/--no-plots", help="Write the PNG plots.")
+REPLAY_OPT = typer.Option(
+    None, "--replay", min=0, help="Write run N's scenario to DIR/replay/ for `agvnav simulate`, and run nothing."
+)
+
+
+def _library() -> Any:
+    try:
+        import agvnav.campaign as lib  # noqa: PLC0415 - lazy: Dask and pyarrow load only for campaigns
+    except ImportError as exc:
+        raise fail(f"agvnav campaign needs the campaign extra: pip install 'agvnav[campaign]' ({exc})") from None
+    return lib
+
+
+@user_errors
+def campaign(
+    spec: str = SPEC_ARG,
+    out: Path = OUT_OPT,
+    scheduler: str | None = SCHED_OPT,
+    workers: int | None = WORKERS_OPT,
+    json_out: bool = JSON_OPT,
+    plots: bool = PLOTS_OPT,
+    replay: int | None = REPLAY_OPT,
+) -> None:
+    """Run a Monte Carlo campaign on Dask; write Parquet results, summary.json and plots."""
+    lib = _library()
+    camp = lib.load_campaign(spec)
+    console = Console(highlight=False)
+    if replay is not None:
+        path = lib.write_replay(camp, replay, out)
+        console.print(f"wrote {path}; replay run {replay} alone with: agvnav simulate {path}", markup=False)
+        return
+    result = lib.run_campaign(camp, out, scheduler=scheduler, workers=workers)
+    written = []
+    if plots:
+        from agvnav.report.campaign import plot_campaign  # noqa: PLC0415 - lazy: matplotlib only when plotting
+
+        columns = lib.read_results(out).to_pydict()
+        written = plot_campaign(columns, result.summary["metrics"], camp.swept, Path(out) / "plots", camp.name)
+    if json_out:
+        print(json.dumps(_json(camp.name, result), indent=2))
+        return
+    console.print(_table(camp.name, result.summary))
+    speed = f", {result.runs_per_s:.2f} runs/s" if result.runs_per_s else ""
+    console.print(
+        f"{result.ran} runs done, {result.skipped} already there, on {result.workers} workers in "
+        f"{result.wall_s:.1f} s{speed}; wrote {out}/runs, {out}/summary.json and {len(written)} plots",
+        markup=False,
+    )
+
+
+def _json(name: str, result: Any) -> dict[str, Any]:
+    return {
+        "campaign": name,
+        "out": str(result.out_dir),
+        "runs": result.total,
+        "ran": result.ran,
+        "skipped": result.skipped,
+        "workers": result.workers,
+        "wall_s": result.wall_s,
+        "runs_per_s": result.runs_per_s,
+        "summary": result.summary,
+    }
+
+
+def _fmt(value: float | None) -> str:
+    return "-" if value is None or not math.isfinite(value) else f"{value:.4g}"
+
+
+def _table(name: str, summary: dict[str, Any]) -> Table:
+    t = Table(title=f"campaign {name}: {summary['runs']} runs (statistics over completed runs)")
+    for col in ("group", "metric", "n", "mean", "std", "median", "5 %", "95 %", "95 % CI of mean"):
+        t.add_column(col, justify="left" if col in ("group", "metric") else "right")
+    for group in summary["groups"]:
+        label = ", ".join(f"{k}={v}" for k, v in group["params"].items()) or "all"
+        counts = " ".join(f"{k} {v}" for k, v in group["outcomes"].items())
+        t.add_row(label, f"({counts})", *[""] * 7, end_section=not group["metrics"])
+        for j, (metric, s) in enumerate(group["metrics"].items()):
+            ci = "-" if s["ci95"] is None else f"[{_fmt(s['ci95'][0])}, {_fmt(s['ci95'][1])}]"
+            t.add_row(
+                "", metric, str(s["n"]), _fmt(s["mean"]), _fmt(s["std"]), _fmt(s["median"]), _fmt(s["q05"]),
+                _fmt(s["q95"]), ci, end_section=j == len(group["metrics"]) - 1,
+            )
+    return t
