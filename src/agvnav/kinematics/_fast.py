@@ -19,7 +19,7 @@ Rate4 = tuple[float, float, float, float]
 
 
 def stacker_rate(psi: float, gamma: float, v: float, gamma_dot: float, wheelbase: float) -> Rate4:
-    """``d/dt [x_O, y_O, psi, gamma]`` of the stacker (seed 000 eq. 8): speed ``v`` of C (m/s), L (m)."""
+    """``d/dt [x_O, y_O, psi, gamma]`` of the stacker [seed000 eq8]: speed ``v`` of C (m/s), L (m)."""
     cg = v * math.cos(gamma)
     return cg * math.cos(psi), cg * math.sin(psi), v * math.sin(gamma) / wheelbase, gamma_dot
 
@@ -27,7 +27,7 @@ def stacker_rate(psi: float, gamma: float, v: float, gamma_dot: float, wheelbase
 def stacker_rk4(
     state: Sequence[float], v: float, gamma_dot: float, wheelbase: float, dt: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """One classical RK4 step of the stacker (seed 000 eq. 8) in scalar ``math``.
+    """One classical RK4 step of the stacker [seed000 eq8] in scalar ``math``.
 
     Mirrors :meth:`agvnav.kinematics.TricycleStacker.step` with one RK4 sub-step
     (``substeps = 1``). ``state`` is ``[x_O, y_O, psi, gamma]`` (m, rad), ``v`` the
@@ -52,8 +52,8 @@ def stacker_rk4(
 def twist_pose(x: float, y: float, th: float, vx: float, vy: float, w: float, h: float) -> tuple[float, float, float]:
     """Exact pose after ``h`` s of a constant body twist ``(vx, vy, w)`` (m/s, rad/s).
 
-    Mirrors :func:`agvnav.kinematics.twist_step` (the SE(2) exponential; seed 002
-    eq. 25 when ``vy = 0``), with the same series for ``|w h / 2| < 1e-4``.
+    Mirrors :func:`agvnav.kinematics.twist_step` (the SE(2) exponential; [seed002 eq25]
+    when ``vy = 0``), with the same series for ``|w h / 2| < 1e-4``.
     """
     dth = w * h
     half = 0.5 * dth

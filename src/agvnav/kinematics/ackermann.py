@@ -19,7 +19,7 @@ from agvnav.kinematics.tricycle import TricycleRearDrive, TricycleRearDriveSimpl
 def ackermann_wheel_angles(phi: ArrayLike, wheelbase: float, track: float) -> tuple[FloatArray, FloatArray]:
     """Left and right front wheel angles (rad) for bicycle angle ``φ`` (rad).
 
-    Source: seed 003 §3.2.6 (Ackermann configuration: the two front-wheel angles φ₁, φ₂ are
+    Source: [seed003 §3.2.6] (Ackermann configuration: the two front-wheel angles φ₁, φ₂ are
     mechanically linked and the model is that of the tricycle with one virtual middle wheel);
     the seed gives no formula for the link, so it is derived here from the Ackermann condition
     (every wheel axis through the instantaneous centre on the rear-axle line). The virtual
@@ -47,7 +47,7 @@ class _AckermannMixin:
     track: float
 
     def wheel_angles(self, phi: ArrayLike) -> tuple[FloatArray, FloatArray]:
-        """``(φ_left, φ_right)`` (rad) for bicycle angle φ (Ackermann condition)."""
+        """``(φ_left, φ_right)`` (rad) for bicycle angle φ (Ackermann condition) [seed003 §3.2.6]."""
         return ackermann_wheel_angles(phi, self.wheelbase, self.track)
 
     def wheel_positions(self) -> FloatArray:
@@ -58,6 +58,8 @@ class _AckermannMixin:
 
 class Ackermann(_AckermannMixin, TricycleRearDrive):
     """Ackermann car, state ``[x, y, theta, phi]`` (rear-axle midpoint), input ``[V, phi_dot]``.
+
+    [seed003 §3.2.6]: the kinematics of the rear-traction tricycle on the bicycle angle.
 
     Parameters
     ----------
@@ -74,7 +76,10 @@ class Ackermann(_AckermannMixin, TricycleRearDrive):
 
 
 class AckermannSimple(_AckermannMixin, TricycleRearDriveSimple):
-    """Ackermann car with the bicycle angle commanded directly: state ``[x, y, theta]``, input ``[V, phi]``."""
+    """Ackermann car with the bicycle angle commanded directly: state ``[x, y, theta]``, input ``[V, phi]``.
+
+    [seed003 §3.2.6], simplified like the tricycle's model A.
+    """
 
     def __init__(self, wheelbase: float, track: float, max_steer: float = np.deg2rad(40.0)) -> None:
         super().__init__(wheelbase, max_steer)

@@ -42,8 +42,8 @@ def twist_step(pose: ArrayLike, v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike
 
     Notes
     -----
-    The SE(2) exponential. With ``v_y = 0`` it is the exact arc of seed 002,
-    eq. 25 (chord ``ΔD·sin(Δθ/2)/(Δθ/2)`` along the mid heading); a series
+    The SE(2) exponential. With ``v_y = 0`` it is the exact arc [seed002 eq25]: the chord
+    ``ΔD·sin(Δθ/2)/(Δθ/2)`` [seed002 eq23] [seed002 eq24] along the mid heading; a series
     expansion is used for ``|Δθ| < 1e-4`` so straight lines lose no precision.
     """
     pose = np.asarray(pose, dtype=np.float64)

@@ -150,7 +150,7 @@ class DifferentialDrive(KinematicModel):
         return 1
 
     def constraint_matrix(self, state: ArrayLike) -> FloatArray:
-        """``[[sinθ, −cosθ, 0]]`` ``(..., 1, 3)`` [seed003 §3.2.4] [seed002 eq1]."""
+        """``[[sinθ, −cosθ, 0]]`` ``(..., 1, 3)`` [seed003 §3.2.4] (also seed 002's non-holonomy condition)."""
         th = np.asarray(state, dtype=np.float64)[..., 2]
         return np.stack([np.sin(th), -np.cos(th), np.zeros_like(th)], axis=-1)[..., None, :]
 

@@ -21,7 +21,7 @@ ROLLER_HANDS = {"X": np.array([-1.0, 1.0, 1.0, -1.0]), "O": np.array([1.0, -1.0,
 
 
 class MecanumBase(KinematicModel):
-    """Four-wheel mecanum base, forward and inverse kinematics.
+    """Four-wheel mecanum base, forward and inverse kinematics [seed003 §3.2.3].
 
     Parameters
     ----------

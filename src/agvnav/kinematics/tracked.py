@@ -138,7 +138,7 @@ class TrackedVehicle(KinematicModel):
     Parameters
     ----------
     gauge : B, distance between the track centre lines (m), > 0.
-    sprocket_radius : r (m), > 0 (for wheel-rate conversions, seed 004 eqs. 1-2).
+    sprocket_radius : r (m), > 0 (for wheel-rate conversions, [seed004 eq1] [seed004 eq2]).
     terrain : a ``TrackTerrain`` or a preset name.
     max_track_speed : |v_R|, |v_L| limit (m/s).
     """
@@ -173,9 +173,9 @@ class TrackedVehicle(KinematicModel):
     def track_speeds(self, v: ArrayLike, omega: ArrayLike, compensate: bool = True) -> FloatArray:
         """Inverse kinematics: track speeds ``[v_R, v_L]`` ``(..., 2)`` for forward speed v and yaw rate ω.
 
-        ``compensate=False`` is seed 004 eqs. 1-2 times r (ideal tracks):
-        ``v_R = v + ωB/2``, ``v_L = v − ωB/2``. ``compensate=True`` inverts the
-        slip model: ``v_R = (v − ω y_r)/(1 − s_R)``, ``v_L = (v − ω y_l)/(1 − s_L)``.
+        ``compensate=False`` is [seed004 eq1] [seed004 eq2] times r (ideal tracks):
+        ``v_R = v + ωB/2``, ``v_L = v − ωB/2``, by :func:`agvnav.kinematics.wheel_speeds_unchecked`.
+        ``compensate=True`` inverts the slip model: ``v_R = (v − ω y_r)/(1 − s_R)``, ``v_L = (v − ω y_l)/(1 − s_L)``.
         """
         v = np.asarray(v, dtype=np.float64)
         w = np.asarray(omega, dtype=np.float64)
@@ -186,7 +186,7 @@ class TrackedVehicle(KinematicModel):
                         axis=-1)
 
     def sprocket_rates(self, v: ArrayLike, omega: ArrayLike, compensate: bool = False) -> FloatArray:
-        """Sprocket angular speeds ``[ω_R, ω_L]`` (rad/s); with ``compensate=False`` exactly seed 004 eqs. 1-2."""
+        """Sprocket angular speeds ``[ω_R, ω_L]`` (rad/s); ``compensate=False``: [seed004 eq1] [seed004 eq2]."""
         return self.track_speeds(v, omega, compensate) / self.sprocket_radius
 
     def derivative_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:

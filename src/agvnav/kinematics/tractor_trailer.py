@@ -16,7 +16,7 @@ from agvnav.kinematics.base import FloatArray, KinematicModel, check_angle_limit
 
 
 class TractorTrailer(KinematicModel):
-    """Tractor with one off-axle trailer (seed 003 §3.2.7).
+    """Tractor with one off-axle trailer [seed003 §3.2.7].
 
     ``φ' = −(sin φ / D) v + (1 + (d/D) cos φ) ω``, from the seed's constraint
     ``[cosθ sinφ, sinθ sinφ, −D − d cosφ, D]·q' = 0``.
@@ -38,7 +38,7 @@ class TractorTrailer(KinematicModel):
         self.max_hitch_angle = check_angle_limit("max_hitch_angle", max_hitch_angle, np.pi)
 
     def derivative_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
-        """Seed 003 §3.2.7 kinematic model."""
+        """``[v cosθ, v sinθ, ω, φ']`` with the hitch rate above: [seed003 §3.2.7]."""
         state = np.asarray(state, dtype=np.float64)
         u = np.asarray(u, dtype=np.float64)
         th, phi = state[..., 2], state[..., 3]
@@ -77,11 +77,11 @@ class TractorTrailer(KinematicModel):
 
     @property
     def n_constraints(self) -> int:
-        """Tractor axle and trailer axle: 4 − 2 = 2 DOF (seed 003 §3.2.7)."""
+        """Tractor axle and trailer axle: 4 − 2 = 2 DOF [seed003 §3.2.7]."""
         return 2
 
     def constraint_matrix(self, state: ArrayLike) -> FloatArray:
-        """``[[−sinθ, cosθ, 0, 0], [cosθ sinφ, sinθ sinφ, −D − d cosφ, D]]`` (seed 003 §3.2.7)."""
+        """``[[−sinθ, cosθ, 0, 0], [cosθ sinφ, sinθ sinφ, −D − d cosφ, D]]`` [seed003 §3.2.7]."""
         state = np.asarray(state, dtype=np.float64)
         th, phi = state[..., 2], state[..., 3]
         zero = np.zeros_like(th)

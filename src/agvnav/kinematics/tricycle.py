@@ -37,14 +37,17 @@ from agvnav.kinematics.base import (
 
 
 def front_drive_twist(v: ArrayLike, gamma: ArrayLike, wheelbase: float) -> tuple[FloatArray, FloatArray]:
-    """Speed of O and yaw rate ``(v cos γ, v sin γ / L)`` for a front drive wheel (seed 000 eq. 8)."""
+    """Speed of O and yaw rate ``(v cos γ, v sin γ / L)`` for a front drive wheel.
+
+    [seed000 eq8]; seed 003 model B [seed003 §3.2.5] with ``v = V_d``.
+    """
     v = np.asarray(v, dtype=np.float64)
     g = np.asarray(gamma, dtype=np.float64)
     return v * np.cos(g), v * np.sin(g) / wheelbase
 
 
 def rear_drive_twist(v: ArrayLike, phi: ArrayLike, wheelbase: float) -> tuple[FloatArray, FloatArray]:
-    """Speed of O and yaw rate ``(V, V tan φ / L)`` for rear traction (seed 003 model A)."""
+    """Speed of O and yaw rate ``(V, V tan φ / L)`` for rear traction (seed 003 model A) [seed003 §3.2.5]."""
     v = np.asarray(v, dtype=np.float64)
     return v, v * np.tan(np.asarray(phi, dtype=np.float64)) / wheelbase
 
@@ -86,7 +89,7 @@ class _Tricycle(KinematicModel):
         return state, u, steer
 
     def derivative_unchecked(self, state: ArrayLike, u: ArrayLike) -> FloatArray:
-        """``[x', y', ψ'(, γ')]`` (seed 000 eq. 8 / seed 003 §3.2.5)."""
+        """``[x', y', ψ'(, γ')]`` [seed000 eq8] [seed003 §3.2.5]."""
         state, u, steer = self._split(state, u)
         speed, omega = self._twist(u[..., 0], steer)
         psi = state[..., 2]
@@ -158,7 +161,10 @@ class _Tricycle(KinematicModel):
         )
 
     def steer_for_curvature(self, curvature: ArrayLike) -> FloatArray:
-        """Steering angle ``atan(κ L)`` (rad) that makes O follow a path of curvature κ (1/m) (seed 003: R = l/tan φ)."""
+        """Steering angle ``atan(κ L)`` (rad) that makes O follow a path of curvature κ (1/m).
+
+        The turn radius of O is ``R = l / tan φ`` [seed003 §3.2.5].
+        """
         return np.arctan(np.asarray(curvature, dtype=np.float64) * self.wheelbase)
 
     def inverse(self, speed_o: ArrayLike, omega: ArrayLike) -> tuple[FloatArray, FloatArray]:
@@ -177,11 +183,11 @@ class _Tricycle(KinematicModel):
     # ------------------------------------------------------- constraints
     @property
     def n_constraints(self) -> int:
-        """Rear axle and steered wheel when γ is a state (4 − 2 = 2 DOF, seed 003 §3.2.5); rear axle only otherwise."""
+        """Rear axle and steered wheel when γ is a state (4 − 2 = 2 DOF, [seed003 §3.2.5]); rear axle only otherwise."""
         return 2 if self.steer_is_state else 1
 
     def constraint_matrix(self, state: ArrayLike) -> FloatArray:
-        """Seed 003 §3.2.5: ``ẋ sinθ − ẏ cosθ = 0``, ``ẋ sin(φ+θ) − ẏ cos(φ+θ) − θ' l cos φ = 0``."""
+        """[seed003 §3.2.5]: ``ẋ sinθ − ẏ cosθ = 0``, ``ẋ sin(φ+θ) − ẏ cos(φ+θ) − θ' l cos φ = 0``."""
         state = np.asarray(state, dtype=np.float64)
         th = state[..., 2]
         zero = np.zeros_like(th)
@@ -216,7 +222,7 @@ class TricycleStacker(_Tricycle):
 
     State ``[x_O, y_O, psi, gamma]``, input ``[v, gamma_dot]`` with ``v`` the
     speed of the drive-wheel centre C:
-    ``x_O' = v cosγ cosψ``, ``y_O' = v cosγ sinψ``, ``ψ' = v sinγ / L`` (seed 000 eq. 8), ``γ' = γ̇``.
+    ``x_O' = v cosγ cosψ``, ``y_O' = v cosγ sinψ``, ``ψ' = v sinγ / L`` [seed000 eq8], ``γ' = γ̇``.
 
     Parameters
     ----------

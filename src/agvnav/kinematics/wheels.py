@@ -21,7 +21,7 @@ FloatArray = NDArray[np.float64]
 def point_velocity(pose: ArrayLike, pose_dot: ArrayLike, offset: ArrayLike) -> FloatArray:
     """World velocity ``(..., 2)`` of a body point ``offset (..., 2)`` (m) of a rigid body.
 
-    ``V_P = V_O + ω ∧ l`` (seed 003 §3.2.2/§3.2.4), with ``pose (..., 3)`` and
+    ``V_P = V_O + ω ∧ l`` ([seed003 §3.2.2] [seed003 §3.2.4]), with ``pose (..., 3)`` and
     ``pose_dot (..., 3)`` = ``[ẋ, ẏ, θ']`` of the body reference point O.
     """
     pose = np.asarray(pose, dtype=np.float64)
@@ -34,14 +34,14 @@ def point_velocity(pose: ArrayLike, pose_dot: ArrayLike, offset: ArrayLike) -> F
 
 
 def lateral_residual(velocity: ArrayLike, wheel_heading: ArrayLike) -> FloatArray:
-    """No-slip residual ``ẋ sinθ − ẏ cosθ`` (m/s) of a wheel contact (seed 003 §3.2.1)."""
+    """No-slip residual ``ẋ sinθ − ẏ cosθ`` (m/s) of a wheel contact [seed003 §3.2.1]."""
     v = np.asarray(velocity, dtype=np.float64)
     th = np.asarray(wheel_heading, dtype=np.float64)
     return v[..., 0] * np.sin(th) - v[..., 1] * np.cos(th)
 
 
 def rolling_residual(velocity: ArrayLike, wheel_heading: ArrayLike, spin_rate: ArrayLike, radius: float) -> FloatArray:
-    """Pure-rolling residual ``ẋ cosθ + ẏ sinθ − r α̇`` (m/s) (seed 003 §3.2.1)."""
+    """Pure-rolling residual ``ẋ cosθ + ẏ sinθ − r α̇`` (m/s) [seed003 §3.2.1]."""
     v = np.asarray(velocity, dtype=np.float64)
     th = np.asarray(wheel_heading, dtype=np.float64)
     return v[..., 0] * np.cos(th) + v[..., 1] * np.sin(th) - radius * np.asarray(spin_rate, dtype=np.float64)
@@ -56,7 +56,7 @@ def fixed_wheel_residual(pose: ArrayLike, pose_dot: ArrayLike, mount: ArrayLike)
     mount : (..., 3) wheel contact ``[x_b, y_b, β]`` in the body frame (m, m, rad);
         ``β`` is the wheel-plane heading relative to the body x-axis.
 
-    Seed 003 §3.2.1 with the contact velocity from ``V_P = V_O + ω ∧ l``.
+    [seed003 §3.2.1] with the contact velocity from ``V_P = V_O + ω ∧ l``.
     """
     mount = np.asarray(mount, dtype=np.float64)
     vel = point_velocity(pose, pose_dot, mount[..., :2])
@@ -69,7 +69,7 @@ def steered_wheel_residual(
     """No-slip residual (m/s) of a steered standard wheel at body ``position (..., 2)``, steer angle ``steer (...)``.
 
     The steering axis passes through the contact point, so only the plane
-    heading ``θ + steer`` changes (seed 003 §3.2.5, second constraint).
+    heading ``θ + steer`` changes ([seed003 §3.2.5], second constraint).
     """
     vel = point_velocity(pose, pose_dot, position)
     return lateral_residual(vel, np.asarray(pose, dtype=np.float64)[..., 2] + np.asarray(steer, dtype=np.float64))
@@ -78,7 +78,7 @@ def steered_wheel_residual(
 def castor_wheel_residual(
     axis_velocity: ArrayLike, castor_heading: ArrayLike, castor_heading_rate: ArrayLike, offset: float
 ) -> FloatArray:
-    """No-slip residual (m/s) of a castor wheel (seed 003 §3.2.2).
+    """No-slip residual (m/s) of a castor wheel [seed003 §3.2.2].
 
     ``ẋ sinθ − ẏ cosθ + l θ̇ = 0`` where ``(ẋ, ẏ)`` is the world velocity of the
     steering-axis point, ``θ`` the wheel-plane heading (world) and ``l`` the
@@ -98,7 +98,7 @@ def castor_heading_rate(axis_velocity: ArrayLike, castor_heading: ArrayLike, off
 def swedish_wheel_residual(
     velocity: ArrayLike, wheel_heading: ArrayLike, spin_rate: ArrayLike, radius: float, roller_angle: float
 ) -> FloatArray:
-    """Residual (m/s) of the one constraint of a Swedish (mecanum/omni) wheel (seed 003 §3.2.3).
+    """Residual (m/s) of the one constraint of a Swedish (mecanum/omni) wheel [seed003 §3.2.3].
 
     The contact velocity minus the part produced by the wheel spin,
     ``v − r α̇ e``, must lie along the free-rolling direction of the rollers
