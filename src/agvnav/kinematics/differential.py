@@ -125,6 +125,8 @@ def instantaneous_centre(state: ArrayLike, radius: ArrayLike) -> FloatArray:
 class DifferentialDrive(KinematicModel):
     """Differential-drive vehicle, equivalently a unicycle with ``[v, ω]`` input.
 
+    State ``[x, y, θ]`` of the axle midpoint [seed002 eq5], model [seed003 §3.2.4].
+
     Parameters
     ----------
     track : distance L between the two wheel contact points (m), > 0.

@@ -52,7 +52,7 @@ class OdometryNoise:
 
 def motion_covariance(pose: ArrayLike, delta_d: ArrayLike, delta_theta: ArrayLike,
                       noise: OdometryNoise | None = None) -> FloatArray:
-    """Process noise ``Q (..., 3, 3)`` of one odometry increment (seed 002 eq. 17, corrected; see module doc)."""
+    """Process noise ``Q (..., 3, 3)`` of one odometry increment ([seed002 eq17], corrected; see module doc)."""
     noise = noise or OdometryNoise()
     pose = np.asarray(pose, dtype=np.float64)
     dth = np.asarray(delta_theta, dtype=np.float64)
@@ -66,7 +66,7 @@ def motion_covariance(pose: ArrayLike, delta_d: ArrayLike, delta_theta: ArrayLik
 
 def propagate(pose: ArrayLike, covariance: ArrayLike, delta_d: ArrayLike, delta_theta: ArrayLike,
               noise: OdometryNoise | None = None, rule: str = "arc") -> tuple[FloatArray, FloatArray]:
-    """One dead-reckoning prediction: ``(pose', P' = F P Fᵀ + Q)`` (seed 002 eq. 14 with eq. 17's Q)."""
+    """One dead-reckoning prediction: ``(pose', P' = F P Fᵀ + Q)`` ([seed002 eq14] with the Q of [seed002 eq17])."""
     pose = np.asarray(pose, dtype=np.float64)
     F = pose_jacobian(pose, delta_d, delta_theta, rule)
     P = F @ np.asarray(covariance, dtype=np.float64) @ np.swapaxes(F, -1, -2)

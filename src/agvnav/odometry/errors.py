@@ -42,7 +42,7 @@ class DifferentialGeometry:
         return cls(wheel_radius, wheel_radius, track)
 
     def increments(self, phi_right: ArrayLike, phi_left: ArrayLike) -> tuple[FloatArray, FloatArray]:
-        """``(ΔD, Δθ)`` for wheel rotations (rad) with this geometry (seed 002 eq. 16)."""
+        """``(ΔD, Δθ)`` for wheel rotations (rad) with this geometry [seed002 eq16]."""
         return differential_increments(np.asarray(phi_right) * self.radius_right,
                                        np.asarray(phi_left) * self.radius_left, self.track)
 
@@ -216,7 +216,7 @@ class TrueTricycleVehicle:
     def advance(self, pose: ArrayLike, wheel_rotation: ArrayLike, gamma: ArrayLike) -> FloatArray:
         """True pose of O after the traction wheel turns ``wheel_rotation`` (rad) at steering angle γ (rad).
 
-        Exact arc for γ held over the step (pass the mid-step γ when it changes), seed 000 eq. 8.
+        Exact arc for γ held over the step (pass the mid-step γ when it changes), [seed000 eq8].
         γ is what the steering encoder reads; the wheel points ``γ + steering_offset``
         plus the non-systematic steering error (drawn after the slip).
         """

@@ -16,9 +16,12 @@ def differential_increments(d_right: ArrayLike, d_left: ArrayLike, track: float)
     """``ΔD = (ΔD_R + ΔD_L)/2``, ``Δθ = (ΔD_R − ΔD_L)/L`` [seed002 eq16]; distances in m, track L in m.
 
     The differential-drive equations of :func:`agvnav.kinematics.body_speeds_unchecked` on
-    distances instead of speeds. ``track`` must be positive (ValueError). Scalar distances
-    that are NaN/inf raise a ValueError naming them; in a batch the bad elements come out
-    NaN (the flag) and never touch neighbours.
+    distances instead of speeds. On the wheel distances of a translation T followed by a
+    rotation it gives ``ΔD = T`` [seed002 eq19]; on an arc of radius R, ``ΔD = Δθ R`` [seed002 eq22].
+
+    ``track`` must be positive (ValueError). Scalar distances that are NaN/inf raise a
+    ValueError naming them; in a batch the bad elements come out NaN (the flag) and never
+    touch neighbours.
     """
     track = require_positive("track", track)
     (dr, dl), _ = scalar_inputs_or_flag(d_right=d_right, d_left=d_left)

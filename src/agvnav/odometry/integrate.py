@@ -35,7 +35,7 @@ def _dsinc(h: FloatArray) -> FloatArray:
 
 
 def _chord_and_heading(pose: FloatArray, dd: FloatArray, dth: FloatArray, rule: str) -> tuple[FloatArray, FloatArray]:
-    """Length of the displacement and its direction for each rule."""
+    """Length of the displacement and its direction for each rule (chord: [seed002 eq24])."""
     if rule == "euler":
         return dd + 0.0 * dth, pose[..., 2] + 0.0 * dth
     heading = pose[..., 2] + 0.5 * dth
@@ -45,11 +45,12 @@ def _chord_and_heading(pose: FloatArray, dd: FloatArray, dth: FloatArray, rule: 
 
 
 def integrate_pose(pose: ArrayLike, delta_d: ArrayLike, delta_theta: ArrayLike, rule: str = "arc") -> FloatArray:
-    """Dead-reckoned pose after one increment ``(ΔD, Δθ)``.
+    """Dead-reckoned pose after one increment ``(ΔD, Δθ)``: ``f(X(k), U(k))`` of [seed002 eq14].
 
-    ``rule="euler"``: ``x += ΔD cos θ`` (seed 002 eq. 20, translation then rotation).
-    ``rule="arc"``: ``x += ΔD · sin(Δθ/2)/(Δθ/2) · cos(θ + Δθ/2)`` (eq. 25, exact on arcs).
-    ``rule="midpoint"``: ``x += ΔD cos(θ + Δθ/2)`` (eq. 26). Same for y with sin.
+    ``rule="euler"``: ``x += ΔD cos θ`` ([seed002 eq20], translation then rotation).
+    ``rule="arc"``: ``x += ΔD · sin(Δθ/2)/(Δθ/2) · cos(θ + Δθ/2)`` ([seed002 eq25], exact on arcs;
+    the chord of [seed002 eq23] [seed002 eq24]).
+    ``rule="midpoint"``: ``x += ΔD cos(θ + Δθ/2)`` [seed002 eq26]. Same for y with sin.
     """
     _check_rule(rule)
     pose = np.asarray(pose, dtype=np.float64)

@@ -31,9 +31,11 @@ class _Odometer:
 
 
 class DifferentialOdometer(_Odometer):
-    """Differential-drive odometer: cumulative wheel counts -> ``(ΔD, Δθ)`` (seed 002 eq. 16) -> pose, P.
+    """Differential-drive odometer: cumulative wheel counts -> ``(ΔD, Δθ)`` [seed002 eq16] -> pose, P.
 
-    The first ``update`` only latches the counts (no motion is assumed before it).
+    The input of each step is ``U(k) = [ΔD, Δθ]`` [seed002 eq15]; the pose is their running
+    sum from the start pose, the discrete form of [seed002 eq10]. The first ``update`` only
+    latches the counts (no motion is assumed before it).
     """
 
     def __init__(self, right: WheelEncoder, left: WheelEncoder, track: float, noise: OdometryNoise | None = None,
