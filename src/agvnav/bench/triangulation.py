@@ -44,8 +44,12 @@ REFLECTORS_5 = np.vstack([REFLECTORS_3, [[-9.0, 6.0], [9.0, 6.5]]])
 
 C_SOURCE = r"""
 #include <math.h>
-static const double TWO_PI = 6.283185307179586;
-static double wrap(double a) { return a - TWO_PI * nearbyint(a / TWO_PI); }
+static const double PI = 3.141592653589793, TWO_PI = 6.283185307179586;
+/* agvnav.geometry.wrap_angle_scalar: [-pi, pi), exact (fmod, then one Sterbenz-exact step) */
+static double wrap(double a) {
+    double r = fmod(a, TWO_PI);
+    return r >= PI ? r - TWO_PI : (r < -PI ? r + TWO_PI : r);
+}
 
 /* ToTal (Pierlot & Van Droogenbroeck 2014) for n fixes with one layout r[6] = x1 y1 x2 y2 x3 y3.
    theta[3n] bearings; out[3n] = x, y, heading (heading only if with_heading). The pair most

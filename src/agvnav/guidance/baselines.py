@@ -17,7 +17,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav.geometry.angles import wrap_angle
+from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 
 __all__ = [
     "MAX_STEERING_RAD",
@@ -100,7 +100,7 @@ def stanley_steering(
     if not (math.isfinite(gain_per_m) and gain_per_m > 0.0):
         raise ValueError(f"Stanley gain must be a positive finite number (1/m), got {gain_per_m!r}")
     if isinstance(heading_error, float) and isinstance(eps_c, float):  # controllers' fast path
-        g = math.remainder(-heading_error - math.atan(gain_per_m * eps_c), 2.0 * math.pi)
+        g = wrap_angle_scalar(-heading_error - math.atan(gain_per_m * eps_c))
         return min(max(g, -MAX_STEERING_RAD), MAX_STEERING_RAD)
     g = -np.asarray(heading_error, dtype=np.float64) - np.arctan(gain_per_m * np.asarray(eps_c, dtype=np.float64))
     return np.clip(wrap_angle(g), -MAX_STEERING_RAD, MAX_STEERING_RAD)

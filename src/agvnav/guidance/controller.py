@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import require_positive
+from agvnav.geometry.angles import wrap_angle_scalar
 from agvnav.guidance.baselines import (
     lookahead_for_distance,
     pure_pursuit_steering,
@@ -422,7 +423,7 @@ class PurePursuitController(_PathFollower):
             x, y = x + self.wheelbase * math.cos(psi), y + self.wheelbase * math.sin(psi)
         gx, gy = self._path.extrapolate_point(e.s + self.lookahead)
         psi_motion = psi + (math.pi if d < 0 else 0.0)
-        beta = math.remainder(math.atan2(gy - y, gx - x) - psi_motion, 2.0 * math.pi)
+        beta = wrap_angle_scalar(math.atan2(gy - y, gx - x) - psi_motion)
         target = pure_pursuit_steering(beta, self.lookahead, self.wheelbase, self.point, d)
         return float(servo_rate(target, gamma, self.servo_tau))
 

@@ -54,7 +54,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import require_finite, require_last_dim, require_positive
-from agvnav.geometry.angles import wrap_angle
+from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 from agvnav.guidance.paths import Path
 
 __all__ = [
@@ -190,10 +190,6 @@ def tracking_errors(
     return TrackingErrors(eps_c, eps_o, xi, xi_r, proj.s, gamma_ss, proj.curvature, proj.direction, valid)
 
 
-def _wrap(a: float) -> float:
-    return math.remainder(a, 2.0 * math.pi)
-
-
 def tracking_errors_scalar(
     path: Path,
     pose_o: tuple[float, float, float],
@@ -207,7 +203,7 @@ def tracking_errors_scalar(
     """Scalar fast path of :func:`tracking_errors` (plain floats in and out), for controllers.
 
     Same equations (seed 000 eqs 9-10 relative to the feed-forward); wrapping
-    to [-pi, pi] by ``math.remainder``. No input checks: the caller validates.
+    to ``[-pi, pi)`` by :func:`agvnav.geometry.wrap_angle_scalar`. No input checks: the caller validates.
     """
     x, y, psi = pose_o
     L = wheelbase
@@ -226,11 +222,11 @@ def tracking_errors_scalar(
     psi_ref = pr.heading + (math.pi if d < 0 else 0.0)
     eps = d * pr.lateral
     if point == "O":
-        eps_o, xi = eps, _wrap(psi - psi_ref)
-        xi_r = _wrap(xi + gamma - gamma_ss)
+        eps_o, xi = eps, wrap_angle_scalar(psi - psi_ref)
+        xi_r = wrap_angle_scalar(xi + gamma - gamma_ss)
         eps_c = eps_o + L * math.sin(xi)
     else:
-        eps_c, xi_r = eps, _wrap(psi + gamma - psi_ref)
-        xi = _wrap(xi_r - (gamma - gamma_ss))
+        eps_c, xi_r = eps, wrap_angle_scalar(psi + gamma - psi_ref)
+        xi = wrap_angle_scalar(xi_r - (gamma - gamma_ss))
         eps_o = eps_c - L * math.sin(xi)
     return TrackingErrors(eps_c, eps_o, xi, xi_r, pr.s, gamma_ss, pr.curvature, d, valid)

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav._yaml import safe_load_unique
 from agvnav._validate import require_finite, require_last_dim
-from agvnav.geometry.angles import wrap_angle
+from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 
 __all__ = [
     "LineSegment",
@@ -247,7 +247,7 @@ class ArcSegment:
             d_hi = min(abs(u - u_hi), circ - abs(u - u_hi))
             u = u_lo if d_lo <= d_hi else u_hi
         h = self.heading + sg * u / r
-        return u, cx + sg * r * math.sin(h), cy - sg * r * math.cos(h), math.remainder(h, 2.0 * math.pi)
+        return u, cx + sg * r * math.sin(h), cy - sg * r * math.cos(h), wrap_angle_scalar(h)
 
 
 Segment = LineSegment | ArcSegment

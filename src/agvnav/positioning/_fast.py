@@ -17,6 +17,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from agvnav.geometry.angles import wrap_angle_scalar
+
 Mat3 = tuple[float, ...]
 
 _PI = math.pi
@@ -24,8 +26,8 @@ _TWO_PI = 2.0 * math.pi
 
 
 def wrap(a: float) -> float:
-    """:func:`agvnav.geometry.wrap_angle` for one float: ``(a + pi) mod 2 pi - pi`` (rad)."""
-    return (a + _PI) % _TWO_PI - _PI
+    """:func:`agvnav.geometry.wrap_angle` for one float, to ``[-pi, pi)`` (rad)."""
+    return wrap_angle_scalar(a)
 
 
 def _sinc(h: float) -> float:
@@ -227,9 +229,9 @@ def gate_one(
         if not d <= max_range:
             continue
         edge = -math.asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * _PI
-        h = (math.atan2(dy, dx) - psi - mth + edge + _PI) % _TWO_PI - _PI
+        h = wrap_angle_scalar(math.atan2(dy, dx) - psi - mth + edge)
         R = bearing_var + (map_std / d if d > 0.0 else 0.0) ** 2
-        innov = (z - h + _PI) % _TWO_PI - _PI  # wrap
+        innov = wrap_angle_scalar(z - h)
         if surely_outside(innov, d2, r, R, trace_P, mount_norm, gate):
             continue  # most reflectors: far from this bearing, no Jacobian needed
         h0, h1, h2 = bearing_jacobian(dx, dy, d2, d, r, dpx, dpy)

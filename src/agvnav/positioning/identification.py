@@ -245,7 +245,7 @@ def resect_three(
     p = 2.0 * foot - R[..., 1, :]
     absolute = np.arctan2(R[..., 1] - p[..., None, 1], R[..., 0] - p[..., None, 0])
     diff = wrap_angle(absolute - th)
-    heading = np.arctan2(np.mean(np.sin(diff), -1), np.mean(np.cos(diff), -1))
+    heading = wrap_angle(np.arctan2(np.mean(np.sin(diff), -1), np.mean(np.cos(diff), -1)))
     spread = np.max(np.abs(angle_diff(diff, heading[..., None])), axis=-1)
     valid &= np.all(np.isfinite(p), axis=-1) & (spread < 1e-3)
     pose = np.concatenate([p, heading[..., None]], axis=-1)

@@ -15,6 +15,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.geometry.angles import wrap_angle_scalar
 from agvnav.positioning._three import TWO_PI, Arr, wrap
 from agvnav.positioning.bounds import inv_sym3
 from agvnav.positioning.total import total_kernel
@@ -249,12 +250,10 @@ def _cost_single(
     x, y, psi = state
     cost = 0.0
     for (rx, ry), th, wi in zip(pts, theta, w, strict=True):
-        r = th - (math.atan2(ry - y, rx - x) - psi)
-        r -= TWO_PI * round(r / TWO_PI)
+        r = wrap_angle_scalar(th - (math.atan2(ry - y, rx - x) - psi))
         cost += wi * r * r
     if prior is not None:
-        rp = prior[0] - psi
-        rp -= TWO_PI * round(rp / TWO_PI)
+        rp = wrap_angle_scalar(prior[0] - psi)
         cost += prior[1] * rp * rp
     return cost
 
@@ -270,8 +269,7 @@ def _normal_equations_single(
     for (rx, ry), th, wi in zip(pts, theta, w, strict=True):
         dx, dy = rx - x, ry - y
         d2 = dx * dx + dy * dy
-        r = th - (math.atan2(dy, dx) - psi)
-        r -= TWO_PI * round(r / TWO_PI)
+        r = wrap_angle_scalar(th - (math.atan2(dy, dx) - psi))
         j0, j1 = dy / d2, -dx / d2  # third Jacobian entry is -1
         a[0][0] += wi * j0 * j0
         a[0][1] += wi * j0 * j1
@@ -285,8 +283,7 @@ def _normal_equations_single(
         cost += wi * r * r
     a[1][0], a[2][0], a[2][1] = a[0][1], a[0][2], a[1][2]
     if prior is not None:
-        rp = prior[0] - psi
-        rp -= TWO_PI * round(rp / TWO_PI)
+        rp = wrap_angle_scalar(prior[0] - psi)
         a[2][2] += prior[1]
         g[2] += prior[1] * rp
         cost += prior[1] * rp * rp

@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import require_finite, require_nonnegative, require_positive
-from agvnav.geometry.angles import wrap_angle
+from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 from agvnav.world.map import WorldMap
 
 __all__ = [
@@ -496,7 +496,7 @@ class Goniometer:
             return done if done is not None else self._illinois(world, pose_at, lo, hi, f_lo, f_hi, refl, tol)
         for _ in range(_CHORD_ITER):
             raw, head, d = self._offsets_to(pose_at, t, rx, ry, r, False)
-            f = np.mod(raw + math.pi, TWO_PI) - math.pi  # continuous on the bracket (see _BRACKETS_PER_REV)
+            f = wrap_angle(raw)  # continuous on the bracket (see _BRACKETS_PER_REV)
             if np.abs(f).max() <= tol:
                 return t, np.column_stack(head), d
             t = np.minimum(np.maximum(t - f / slope, lo), hi)  # np.clip, without its dispatch cost
@@ -523,7 +523,7 @@ class Goniometer:
         for _ in range(_CHORD_ITER):
             pose = _call_pose(pose_at, np.array(t_l)).tolist()
             res = [_offset_one(p, ti, row, consts) for p, ti, row in zip(pose, t_l, rows)]
-            f = [(o[0] + math.pi) % TWO_PI - math.pi for o in res]
+            f = [wrap_angle_scalar(o[0]) for o in res]
             if max(abs(v) for v in f) <= tol:
                 return np.array(t_l), np.array([(o[1], o[2]) for o in res]), np.array([o[3] for o in res])
             t_l = [min(max(ti - fi / si, a), b) for ti, fi, si, a, b in zip(t_l, f, s_l, lo_l, hi_l)]
@@ -555,7 +555,7 @@ class Goniometer:
         t = hi - f_hi * (hi - lo) / (f_hi - f_lo)
         for _ in range(_MAX_ITER):
             raw, head, d = self._offsets(world, pose_at, t, refl)
-            f = np.mod(raw + math.pi, TWO_PI) - math.pi
+            f = wrap_angle(raw)
             if np.all(np.abs(f) <= tol):
                 break
             upper = f >= 0.0
@@ -607,7 +607,7 @@ class Goniometer:
         for ti in t.tolist():
             u = u0 + rate * ti
             count = math.floor(TWO_PI * (u - math.floor(u)) * (n / TWO_PI)) % n
-            out.append((count * res + math.pi) % TWO_PI - math.pi)  # wrap_angle
+            out.append(wrap_angle_scalar(count * res))
         return np.array(out, dtype=np.float64)
 
     # -- noise -------------------------------------------------------------
