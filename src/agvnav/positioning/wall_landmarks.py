@@ -61,7 +61,7 @@ SIDES = ("right", "left")
 def dead_reckoning_step(
     pose: ArrayLike, omega_right: ArrayLike, omega_left: ArrayLike, wheel_radius: float, track_width: float, dt: float
 ) -> NDArray[np.float64]:
-    """Pose ``(..., 3)`` after ``dt`` s of wheel speeds (rad/s) (seed 004, eqs 3-5).
+    """Pose ``(..., 3)`` after ``dt`` s of wheel speeds (rad/s) [seed004 eq3] [seed004 eq4] [seed004 eq5].
 
     ``x += r/2 (wR + wL) cos(theta) dt``, ``y += r/2 (wR + wL) sin(theta) dt``,
     ``theta += r/L (wR - wL) dt`` (Euler rule, evaluated at the old heading).
@@ -81,7 +81,7 @@ def heading_from_side_pair(
     wall_heading: ArrayLike = 0.0,
     beam: str = "cone",
 ) -> NDArray[np.float64]:
-    """Robot heading (rad) from a side sensor pair beside a wall (seed 004, eqs 6-7).
+    """Robot heading (rad) from a side sensor pair beside a wall [seed004 eq6] [seed004 eq7].
 
     Parameters
     ----------
@@ -123,7 +123,7 @@ def wall_line(segment: ArrayLike, toward: ArrayLike) -> tuple[NDArray[np.float64
 def distance_from_wall(
     ranges: ArrayLike, mounts: ArrayLike, heading: float, normal: ArrayLike, beam: str = "cone"
 ) -> NDArray[np.float64]:
-    """Signed distance (m) of base_link from a wall line, one value per reading (seed 004, eq 8 generalised).
+    """Signed distance (m) of base_link from a wall line, one value per reading ([seed004 eq8] generalised).
 
     Parameters
     ----------
@@ -204,7 +204,10 @@ class WallLandmarkLocalizer:
         self.history.clear()
 
     def predict(self, t: float, delta_d: float, delta_theta: float) -> None:
-        """Dead reckoning by an odometry increment (m, rad) (seed 004, eqs 3-5 with ``rule="euler"``)."""
+        """Dead reckoning by an odometry increment (m, rad).
+
+        [seed004 eq3] [seed004 eq4] [seed004 eq5] with ``rule="euler"``.
+        """
         if not (math.isfinite(delta_d) and math.isfinite(delta_theta)):
             raise ValueError("delta_d and delta_theta must be finite")
         self.pose = integrate_pose(self.pose, delta_d, delta_theta, rule=self.rule)
@@ -220,7 +223,7 @@ class WallLandmarkLocalizer:
         wall: ArrayLike,
         wall_index: int = -1,
     ) -> float:
-        """Correct the heading from a side pair beside ``wall (2, 2)`` (eqs 6-7); return it (rad).
+        """Correct the heading from a side pair beside ``wall (2, 2)`` [seed004 eq6] [seed004 eq7]; return it (rad).
 
         The wall direction is taken along the current heading estimate (the
         wall is parallel to the route leg), so it is unambiguous.
@@ -245,7 +248,7 @@ class WallLandmarkLocalizer:
         kind: str = "front_offset",
         wall_index: int = -1,
     ) -> float:
-        """Correct the position along ``wall``'s normal from ranges of sensors facing it (eq 8).
+        """Correct the position along ``wall``'s normal from ranges of sensors facing it [seed004 eq8].
 
         ``ranges (k,)`` (m) from sensors with ``mounts (k, 3)``; the implied
         signed distances are averaged. Returns the measured distance (m).

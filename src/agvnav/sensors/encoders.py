@@ -65,7 +65,7 @@ class WheelEncoder:
         return as_float_array("counts", counts) * self.angle_resolution
 
     def distance(self, counts: ArrayLike) -> NDArray[np.float64]:
-        """Rolled distance (m) of a count at the nominal radius (seed 002 eq. 16 inputs ΔD_R, ΔD_L)."""
+        """Rolled distance (m) of a count at the nominal radius (the inputs ΔD_R, ΔD_L of [seed002 eq16])."""
         return self.angle(counts) * self.wheel_radius
 
     def counts_for_distance(self, distance: ArrayLike) -> NDArray[np.int64]:
