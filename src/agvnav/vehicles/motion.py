@@ -62,18 +62,22 @@ def differential_twist_matrix(track: float, misalignment: float = 0.0) -> list[l
 def hermite_pose(
     t: NDArray[np.float64],
     t0: float,
-    dt: float,
-    ends: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    h: float,
+    poses: NDArray[np.float64],
+    rates: NDArray[np.float64],
 ) -> NDArray[np.float64]:
-    """Cubic Hermite pose ``(k, 3)`` at instants ``t (k,)`` inside a step ``[t0, t0 + dt]`` (s).
+    """Piecewise cubic Hermite pose ``(k, 3)`` at instants ``t (k,)`` (s) of a step of sub-steps of ``h`` s.
 
-    ``ends = (p0, dt·p0', p1, dt·p1')``: the exact poses at both ends of the step
-    and their time derivatives scaled by the step. The error is
-    ``dt^4/384 max|p''''|``; instants outside the step are clipped to it.
+    ``poses (n + 1, 3)`` are the exact poses at the sub-step boundaries (from ``t0``)
+    and ``rates (n + 1, 3)`` their time derivatives. The error on a sub-step is
+    ``h^4/384 max|d4p/dt4|``; instants outside the step are clipped to it.
     """
     t = np.asarray(t, dtype=np.float64).reshape(-1)
-    u = np.minimum(np.maximum((t - t0) / dt, 0.0), 1.0)[:, None]
+    n = poses.shape[0] - 1
+    rel = np.clip(t - t0, 0.0, n * h)
+    i = np.minimum((rel / h).astype(np.int64), n - 1)
+    u = ((rel - i * h) / h)[:, None]
     u2 = u * u
     u3 = u2 * u
-    p0, d0, p1, d1 = ends
-    return (2.0 * u3 - 3.0 * u2 + 1.0) * p0 + (u3 - 2.0 * u2 + u) * d0 + (3.0 * u2 - 2.0 * u3) * p1 + (u3 - u2) * d1
+    return ((2.0 * u3 - 3.0 * u2 + 1.0) * poses[i] + (u3 - 2.0 * u2 + u) * h * rates[i]
+            + (3.0 * u2 - 2.0 * u3) * poses[i + 1] + (u3 - u2) * h * rates[i + 1])

@@ -15,9 +15,11 @@ error per step); a rear-wheel traction :class:`~agvnav.sensors.encoders.WheelEnc
 and an absolute :class:`~agvnav.sensors.encoders.SteeringEncoder` feed the nominal
 odometry ``ΔD = ds_O``, ``Δθ = ds_O tan φ / L`` with the mean steering reading.
 
-Motion: one RK4 step of the model per engine step (the steering angle changes
-linearly inside it); :meth:`SteeredPlant.pose_at` interpolates with the cubic
-Hermite of the exact end states and derivatives (error ``dt^4/384 max|p''''|``).
+Motion: RK4 of the model in ``substep`` sub-steps of the engine step (the steering
+angle changes linearly inside it); :meth:`SteeredPlant.pose_at` interpolates each
+sub-step with the cubic Hermite of its end states and derivatives (error
+``h^4/384 max|d4p/dt4|``: about 1e-10 rad for 10 ms at 1 m/s and 60 deg/s steering,
+where one 50 ms cubic is off by 5e-8 rad, half the goniometer's resolution).
 """
 
 from __future__ import annotations
@@ -84,6 +86,7 @@ class SteeredPlant:
     nonsystematic : :class:`~agvnav.odometry.NonSystematicErrors` (default none).
     initial_state : true ``[x_O, y_O, theta, phi]`` (m, rad); ``phi`` is what the encoder reads.
     track : distance between the front wheels (m), required for ``"ackermann"``.
+    substep : integration and interpolation sub-step (s), > 0.
     footprint : body polygon ``(k, 2)`` (m, base_link); default a box from ``0.15 L`` behind
         O to ``1.15 L`` ahead, ``max(0.4 L, track/2 + 0.1)`` to each side (an assumption).
 
@@ -107,9 +110,13 @@ class SteeredPlant:
         initial_state: Sequence[float] = (0.0, 0.0, 0.0, 0.0),
         *,
         track: float | None = None,
+        substep: float = 0.01,
         footprint: ArrayLike | None = None,
     ) -> None:
         self._check_model(model, track)
+        if not (math.isfinite(substep) and substep > 0.0):
+            raise ValueError(f"substep must be a positive number of seconds, got {substep!r}")
+        self.substep = float(substep)
         self.model = model
         self.systematic = systematic if systematic is not None else TricycleErrors()
         self.nonsystematic = nonsystematic if nonsystematic is not None else NonSystematicErrors()
@@ -145,9 +152,9 @@ class SteeredPlant:
             raise ValueError(f"initial_state must be finite, got {initial_state!r}")
         self.steering.reset(float(x0[3]))
         self._state = [float(x0[0]), float(x0[1]), float(x0[2]), float(x0[3]) + self.systematic.steering_offset]
-        p = np.array(self._state[:3])
-        self._hermite = (p, np.zeros(3), p.copy(), np.zeros(3))
-        self._t0, self._dt = 0.0, 1.0
+        self._knots = np.array([self._state[:3], self._state[:3]])
+        self._rates = np.zeros((2, 3))
+        self._t0, self._h = 0.0, 1.0
         self._wheel_angle, self._count = 0.0, 0
         self.v = 0.0
         self.gamma_meas = self._read_steering(self.steering.gamma)
@@ -188,14 +195,28 @@ class SteeredPlant:
         wheel_rate = v_cmd / self.R
         ns = self.nonsystematic
         ds_true = ns.perturb_scalar(wheel_rate * dt * self.R_true, rng)
-        start = list(self._state)
-        start[3] = ns.perturb_steering_scalar(g0 + self.systematic.steering_offset, rng)
-        self._state, d0, d1 = rear_drive_rk4(start, ds_true / dt, rate, self.L_true, dt)
-        self._hermite = (np.array(start[:3]), np.array(d0[:3]) * dt, np.array(self._state[:3]), np.array(d1[:3]) * dt)
-        self._t0, self._dt = float(t0), float(dt)
+        state = list(self._state)
+        state[3] = ns.perturb_steering_scalar(g0 + self.systematic.steering_offset, rng)
+        self._integrate(state, ds_true / dt, rate, dt)
+        self._t0 = float(t0)
         self.v = ds_true / dt
         self.distance_O += abs(ds_true)
         self._read_encoders(wheel_rate * dt, g1)
+
+    def _integrate(self, state: list[float], v: float, rate: float, dt: float) -> None:
+        """RK4 sub-steps of model A over ``dt`` s; keeps the knots and rates for :meth:`pose_at`."""
+        n = max(1, round(dt / self.substep))
+        h = dt / n
+        knots: list[Sequence[float]] = [state[:3]]
+        rates: list[Sequence[float]] = []
+        d1: Sequence[float] = (0.0, 0.0, 0.0)
+        for _ in range(n):
+            state, d0, d1 = rear_drive_rk4(state, v, rate, self.L_true, h)
+            knots.append(state[:3])
+            rates.append(d0[:3])
+        rates.append(d1[:3])
+        self._state = state
+        self._knots, self._rates, self._h = np.array(knots), np.array(rates), h
 
     def _read_encoders(self, wheel_turn: float, phi_servo: float) -> None:
         """Traction count and steering reading, then the nominal odometry of O [seed003 §3.2.5]."""
@@ -209,7 +230,7 @@ class SteeredPlant:
 
     def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
         """True base_link pose ``(k, 3)`` at instants ``t (k,)`` (s) inside the last step (cubic Hermite)."""
-        return hermite_pose(t, self._t0, self._dt, self._hermite)
+        return hermite_pose(t, self._t0, self._h, self._knots, self._rates)
 
     def odometry(self) -> tuple[float, float, float]:
         """``(delta_d, delta_theta, 0.0)`` of O over the last step: ``ds_O``, ``ds_O tan φ / L`` (nominal)."""
