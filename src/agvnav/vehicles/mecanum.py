@@ -121,6 +121,11 @@ class MecanumPlant:
         return np.array(self._pose)
 
     @property
+    def substep_twists(self) -> NDArray[np.float64]:
+        """Body twists ``(n, 3)`` ``[v_x, v_y, omega]`` (m/s, rad/s) of the last step's sub-steps (a copy)."""
+        return self._twists.copy()
+
+    @property
     def wheel_rates(self) -> tuple[float, float, float, float]:
         """True wheel rates now ``(FL, FR, RL, RR)`` (rad/s)."""
         f, r = self.loops[0].omega, self.loops[1].omega
