@@ -5,7 +5,11 @@
 * :mod:`.laws` - general law (eqs 11-13) and simple law (eqs 20-22) kernels;
 * :mod:`.gains` - poles per metre -> a, b, c; Routh-Hurwitz (eqs 17-19);
 * :mod:`.baselines` - pure pursuit, Stanley, steering servo;
-* :mod:`.controller` - stateful controllers and ``make_controller``.
+* :mod:`.controller` - stateful controllers and ``make_controller``;
+* :mod:`.follower` - the path-follower role (``PathFollower``), its failures
+  (``GuidanceError``, ``InfeasiblePathError``) and errors (``FollowErrors``);
+* :mod:`.steered`, :mod:`.unicycle`, :mod:`.holonomic` - followers per family;
+* :mod:`.followers` - ``FOLLOWERS``, ``make_follower``, ``check_path_feasible``.
 """
 
 from agvnav.guidance.baselines import (
@@ -39,6 +43,20 @@ from agvnav.guidance.errors import (
     tracking_errors,
     tracking_errors_scalar,
 )
+from agvnav.guidance.follower import (
+    FAMILIES,
+    FollowErrors,
+    GuidanceError,
+    InfeasiblePathError,
+    PathFollower,
+)
+from agvnav.guidance.followers import (
+    FOLLOWERS,
+    GEOMETRY_FIELDS,
+    check_path_feasible,
+    make_follower,
+    min_turning_radius,
+)
 from agvnav.guidance.gains import (
     SETTLING_FRACTION,
     GeneralGains,
@@ -61,6 +79,8 @@ from agvnav.guidance.gains import (
     simple_characteristic,
     simple_gains,
 )
+from agvnav.guidance.holonomic import HolonomicFollower, holonomic_body_twist
+from agvnav.guidance.kanayama import CRITICAL_SETTLING_PER_DISTANCE, KanayamaGains, kanayama_path_rate
 from agvnav.guidance.laws import GENERAL_FORMS, SIMPLE_FORMS, general_law, simple_law
 from agvnav.guidance.paths import (
     GAP_TOLERANCE_M,
@@ -75,8 +95,36 @@ from agvnav.guidance.paths import (
     save_path,
     seed_test_path,
 )
+from agvnav.guidance.steered import SteeredFollower, drive_speed
+from agvnav.guidance.unicycle import (
+    KanayamaPathFollower,
+    UnicyclePurePursuit,
+    UnicycleStanley,
+    pure_pursuit_lookahead_for_distance,
+)
 
 __all__ = [
+    "CRITICAL_SETTLING_PER_DISTANCE",
+    "FAMILIES",
+    "FOLLOWERS",
+    "FollowErrors",
+    "GEOMETRY_FIELDS",
+    "GuidanceError",
+    "HolonomicFollower",
+    "InfeasiblePathError",
+    "KanayamaGains",
+    "KanayamaPathFollower",
+    "PathFollower",
+    "SteeredFollower",
+    "UnicyclePurePursuit",
+    "UnicycleStanley",
+    "check_path_feasible",
+    "drive_speed",
+    "holonomic_body_twist",
+    "kanayama_path_rate",
+    "make_follower",
+    "min_turning_radius",
+    "pure_pursuit_lookahead_for_distance",
     "ArcSegment",
     "CONTROLLERS",
     "DEFAULT_CONVERGENCE_DISTANCE_M",

@@ -38,9 +38,31 @@ from numpy.typing import ArrayLike, NDArray
 from agvnav._validate import require_finite, require_positive
 from agvnav.actuators import DriveGeometry, profile_speed
 from agvnav.geometry import wrap_angle
+from agvnav.guidance.gains import SETTLING_FRACTION
 from agvnav.guidance.paths import Path
 
-__all__ = ["DriveCommand", "KanayamaController", "KanayamaGains", "kanayama_law", "tracking_error"]
+__all__ = [
+    "CRITICAL_SETTLING_PER_DISTANCE",
+    "DriveCommand",
+    "KanayamaController",
+    "KanayamaGains",
+    "kanayama_law",
+    "kanayama_path_rate",
+    "tracking_error",
+]
+
+
+def _critical_settling(fraction: float = SETTLING_FRACTION) -> float:
+    """x with ``(1 + x) exp(-x) = fraction`` (Newton on the log form, from x = 5)."""
+    x = 5.0
+    for _ in range(30):
+        x -= (math.log1p(x) - x - math.log(fraction)) / (1.0 / (1.0 + x) - 1.0)
+    return x
+
+
+CRITICAL_SETTLING_PER_DISTANCE = _critical_settling()
+"""x = 5.834: a critically damped loop with double pole -1/D per metre, started from a
+lateral offset with zero slope, has error ``(1 + s/D) exp(-s/D)``, below 2 % beyond x D."""
 
 
 @dataclass(frozen=True)
@@ -77,6 +99,17 @@ class KanayamaGains:
         require_positive("distance", distance)
         return cls(k_x=k_x, k_y=1.0 / distance**2, k_theta=2.0 / distance)
 
+    @classmethod
+    def from_convergence_distance(cls, distance: float, k_x: float = 1.0) -> KanayamaGains:
+        """Critically damped gains whose lateral error falls below 2 % within ``distance`` (m).
+
+        The characteristic distance is ``distance / CRITICAL_SETTLING_PER_DISTANCE``
+        (see :data:`CRITICAL_SETTLING_PER_DISTANCE`), the same 2 % measure the
+        tricycle controllers are tuned to.
+        """
+        require_positive("convergence_distance", distance)
+        return cls.from_distance(distance / CRITICAL_SETTLING_PER_DISTANCE, k_x)
+
 
 def tracking_error(pose: ArrayLike, ref_pose: ArrayLike) -> NDArray[np.float64]:
     """Kanayama's error ``(..., 3)`` = [e_x, e_y, e_theta]: the reference seen from the robot."""
@@ -104,6 +137,30 @@ def kanayama_law(
     v = vr * np.cos(e[..., 2]) + gains.k_x * e[..., 0]
     omega = np.asarray(omega_ref) + vr * gains.k_y * e[..., 1] + np.abs(vr) * gains.k_theta * np.sin(e[..., 2])
     return v, omega
+
+
+def kanayama_path_rate(
+    lateral: float, heading_error: float, curvature: float, speed: float, gains: KanayamaGains
+) -> float:
+    """Yaw rate (rad/s) of Kanayama's law with the reference at the robot's projection on the path.
+
+    Path-following form of Kanayama et al. 1990 eq. (5), in the frame of the
+    direction of motion (the body heading, + pi when reversing, so a reverse
+    segment is the forward law mirrored). The reference is the foot of the
+    perpendicular from the robot, moving at the caller's ``speed`` = |v| (m/s)
+    along the tangent, so ``omega_r = curvature * speed``. With ``lateral`` = d
+    (m, robot left of the tangent positive) and ``heading_error`` = h (rad,
+    motion heading minus tangent), the robot-frame error to the foot is
+    ``e_y = -d cos h``, ``e_theta = -h`` and
+
+        omega = kappa |v| - |v| K_y d cos(h) - |v| K_theta sin(h).
+
+    Linearised on a line, per metre travelled: ``d'' + K_theta d' + K_y d = 0``
+    (critically damped with :meth:`KanayamaGains.from_distance`). The speed
+    part of the law is not used: the caller sets the speed.
+    """
+    u = abs(speed)
+    return u * (curvature - gains.k_y * lateral * math.cos(heading_error) - gains.k_theta * math.sin(heading_error))
 
 
 class KanayamaController:
@@ -149,7 +206,8 @@ class KanayamaController:
 
     def reset(self) -> None:
         """Put the reference back at the path start, at rest."""
-        self.s_ref, self.speed_ref, self._t = 0.0, 0.0, None
+        self.s_ref, self.speed_ref = 0.0, 0.0
+        self._t: float | None = None
 
     @property
     def finished(self) -> bool:
@@ -171,9 +229,9 @@ class KanayamaController:
         p = require_finite("pose", pose).reshape(3)
         self._advance_reference(float(t))
         ref, v_r, omega_r = self.reference()
-        v, omega = kanayama_law(tracking_error(p, ref), v_r, omega_r, self.gains)
-        v = float(np.clip(v, -self.max_speed, self.max_speed))
-        omega = float(np.clip(omega, -self.max_omega, self.max_omega))
+        v_law, omega_law = kanayama_law(tracking_error(p, ref), v_r, omega_r, self.gains)
+        v = float(np.clip(v_law, -self.max_speed, self.max_speed))
+        omega = float(np.clip(omega_law, -self.max_omega, self.max_omega))
         state = "finished" if self.finished else "tracking"
         return DriveCommand(v, omega, self.geometry.to_wheels(v, omega), state)
 

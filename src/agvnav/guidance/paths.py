@@ -7,6 +7,10 @@ carries a ``direction``: +1 when the vehicle drives forward along it (body
 x-axis along the path tangent, v > 0) and -1 when it drives in reverse (forks
 first, body x-axis opposite the tangent, v < 0). The path is generic: any
 vehicle whose point moves along it can use it (tricycle, tracked robot).
+Each segment also carries an optional ``yaw_offset`` (rad, default 0): the
+vehicle heading minus the path tangent wanted on that segment, for holonomic
+vehicles whose heading is independent of the tangent (e.g. pi/2 for sideways
+travel to the left). Non-holonomic followers ignore it.
 
 Conventions (docs/ARCHITECTURE.md): SI units and radians, REP-103 (x forward,
 y left, CCW positive). The signed lateral distance is positive to the *left*
@@ -49,6 +53,13 @@ GAP_TOLERANCE_M = 1e-6
 """Largest distance (m) between one segment's end and the next one's start."""
 
 
+def _check_yaw_offset(yaw_offset: float) -> float:
+    y = float(yaw_offset)
+    if not math.isfinite(y):
+        raise ValueError(f"yaw_offset must be a finite angle (rad), got {yaw_offset!r}")
+    return float(wrap_angle(y))
+
+
 def _check_direction(direction: int) -> int:
     if direction not in (1, -1):
         raise ValueError(f"direction must be +1 (forward) or -1 (reverse), got {direction!r}")
@@ -73,13 +84,16 @@ def _cross(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64
 class LineSegment:
     """Straight segment from ``start`` (m, shape (2,)) with tangent ``heading`` (rad).
 
-    ``length`` (m, > 0); ``direction`` +1 forward / -1 reverse (see module doc).
+    ``length`` (m, > 0); ``direction`` +1 forward / -1 reverse; ``yaw_offset``
+    (rad, wrapped to [-pi, pi)): heading minus tangent for holonomic vehicles
+    (see module doc).
     """
 
     start: NDArray[np.float64]
     heading: float
     length: float
     direction: int = 1
+    yaw_offset: float = 0.0
 
     def __post_init__(self) -> None:
         p, h = _check_start(self.start, self.heading)
@@ -89,6 +103,7 @@ class LineSegment:
         object.__setattr__(self, "heading", h)
         object.__setattr__(self, "length", float(self.length))
         object.__setattr__(self, "direction", _check_direction(self.direction))
+        object.__setattr__(self, "yaw_offset", _check_yaw_offset(self.yaw_offset))
 
     @property
     def curvature(self) -> float:
@@ -141,7 +156,8 @@ class ArcSegment:
     """Circular arc from ``start`` (m, (2,)) with initial tangent ``heading`` (rad).
 
     ``radius`` (m, > 0) and signed ``sweep`` (rad, 0 < |sweep| <= 2 pi; > 0
-    turns left/CCW). Curvature is ``sign(sweep) / radius``.
+    turns left/CCW). Curvature is ``sign(sweep) / radius``. ``direction`` and
+    ``yaw_offset`` as for :class:`LineSegment`.
     """
 
     start: NDArray[np.float64]
@@ -149,6 +165,7 @@ class ArcSegment:
     radius: float
     sweep: float
     direction: int = 1
+    yaw_offset: float = 0.0
 
     def __post_init__(self) -> None:
         p, h = _check_start(self.start, self.heading)
@@ -162,6 +179,7 @@ class ArcSegment:
         object.__setattr__(self, "radius", float(self.radius))
         object.__setattr__(self, "sweep", sw)
         object.__setattr__(self, "direction", _check_direction(self.direction))
+        object.__setattr__(self, "yaw_offset", _check_yaw_offset(self.yaw_offset))
         c = self.centre
         object.__setattr__(self, "_centre", (float(c[0]), float(c[1])))
         object.__setattr__(self, "_phi0", math.atan2(p[1] - c[1], p[0] - c[0]))
@@ -320,6 +338,7 @@ class Path:
         self._s0 = np.concatenate([[0.0], np.cumsum(lengths)])
         self._curv = np.array([s.curvature for s in segs])
         self._dir = np.array([s.direction for s in segs], dtype=np.int64)
+        self._yaw = np.array([s.yaw_offset for s in segs])
 
     # ---------------------------------------------------------------- access
     @property
@@ -386,6 +405,10 @@ class Path:
     def direction_at(self, s: ArrayLike) -> NDArray[np.int64]:
         """Direction of travel (+1/-1) at arclength ``s``."""
         return self._dir[self.segment_index(np.clip(s, 0.0, self.length))]
+
+    def yaw_offset_at(self, s: ArrayLike) -> NDArray[np.float64]:
+        """Wanted heading minus tangent (rad) at arclength ``s`` (m): the segment's ``yaw_offset``."""
+        return self._yaw[self.segment_index(np.clip(s, 0.0, self.length))]
 
     def extrapolate(self, s: ArrayLike) -> NDArray[np.float64]:
         """Point (..., 2) at arclength ``s``, continuing along the end tangents beyond [0, length]."""
@@ -534,6 +557,8 @@ class Path:
             if abs(float(wrap_angle(seg.heading - prev_heading))) > 1e-12:
                 d["heading_deg"] = math.degrees(seg.heading)  # a corner (G1 break)
             d["direction"] = "forward" if seg.direction > 0 else "reverse"
+            if seg.yaw_offset != 0.0:
+                d["yaw_offset_deg"] = math.degrees(seg.yaw_offset)
             out["segments"].append(d)
             prev_heading = seg.end_heading
         return out
@@ -545,8 +570,10 @@ class Path:
         ``start: {x, y, heading_deg}`` then ``segments``: each ``{type: line, length}``
         or ``{type: arc, radius, sweep_deg}`` with optional ``direction``
         (forward/reverse or +1/-1, default forward), optional ``heading_deg`` (a
-        corner: the segment's own initial heading) and optional ``x``/``y`` (its
-        start, which must coincide with the previous end: a gap is an error).
+        corner: the segment's own initial heading), optional ``yaw_offset_deg``
+        (heading minus tangent for holonomic vehicles, default 0) and optional
+        ``x``/``y`` (its start, which must coincide with the previous end: a gap
+        is an error).
         """
         if not isinstance(data, Mapping):
             raise ValueError("path: expected a mapping with keys 'start' and 'segments'")
@@ -606,7 +633,7 @@ def _segment_from_dict(i: int, item: Any, pos: NDArray[np.float64], heading: flo
     if not isinstance(item, Mapping):
         raise ValueError(f"{where}: expected a mapping")
     kind = item.get("type")
-    common = {"type", "direction", "heading_deg", "x", "y"}
+    common = {"type", "direction", "heading_deg", "yaw_offset_deg", "x", "y"}
     if kind == "line":
         _check_keys(where, item, required={"type", "length"}, optional=common)
     elif kind == "arc":
@@ -614,6 +641,7 @@ def _segment_from_dict(i: int, item: Any, pos: NDArray[np.float64], heading: flo
     else:
         raise ValueError(f"{where}.type: expected 'line' or 'arc', got {kind!r}")
     direction = _direction_from(f"{where}.direction", item.get("direction", "forward"))
+    yaw = math.radians(_num(f"{where}.yaw_offset_deg", item["yaw_offset_deg"])) if "yaw_offset_deg" in item else 0.0
     if "heading_deg" in item:
         heading = math.radians(_num(f"{where}.heading_deg", item["heading_deg"]))
     if ("x" in item) != ("y" in item):
@@ -625,9 +653,9 @@ def _segment_from_dict(i: int, item: Any, pos: NDArray[np.float64], heading: flo
             raise ValueError(f"{where}: starts {gap:.6g} m from the end of the previous segment (gap in the path)")
     try:
         if kind == "line":
-            return LineSegment(pos, heading, _num(f"{where}.length", item["length"]), direction)
+            return LineSegment(pos, heading, _num(f"{where}.length", item["length"]), direction, yaw)
         sweep = math.radians(_num(f"{where}.sweep_deg", item["sweep_deg"]))
-        return ArcSegment(pos, heading, _num(f"{where}.radius", item["radius"]), sweep, direction)
+        return ArcSegment(pos, heading, _num(f"{where}.radius", item["radius"]), sweep, direction, yaw)
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from None
 
@@ -637,8 +665,9 @@ def path_from_moves(
 ) -> Path:
     """Build a G1 path from a start pose ``[x, y, heading]`` (m, m, rad) and a list of moves.
 
-    Each move is ``("line", length[, direction])`` or ``("arc", radius, sweep[, direction])``
-    with length/radius in m and sweep in rad (> 0 turns left); direction +1/-1.
+    Each move is ``("line", length[, direction[, yaw_offset]])`` or
+    ``("arc", radius, sweep[, direction[, yaw_offset]])`` with length/radius in
+    m, sweep and yaw_offset in rad (sweep > 0 turns left); direction +1/-1.
     """
     p = require_finite("start_pose", start_pose)
     if p.shape != (3,):
@@ -648,12 +677,16 @@ def path_from_moves(
     for i, mv in enumerate(moves):
         try:
             kind, *args = mv
-            if kind == "line":
-                seg: Segment = LineSegment(pos, heading, float(args[0]), int(args[1]) if len(args) > 1 else 1)
-            elif kind == "arc":
-                seg = ArcSegment(pos, heading, float(args[0]), float(args[1]), int(args[2]) if len(args) > 2 else 1)
-            else:
+            if kind not in ("line", "arc"):
                 raise ValueError(f"unknown move kind {kind!r} (expected 'line' or 'arc')")
+            n = 1 if kind == "line" else 2  # leading geometric arguments
+            if len(args) > n + 2:
+                raise ValueError(f"too many values in move {mv!r}")
+            extra = (int(args[n]) if len(args) > n else 1, float(args[n + 1]) if len(args) > n + 1 else 0.0)
+            if kind == "line":
+                seg: Segment = LineSegment(pos, heading, float(args[0]), *extra)
+            else:
+                seg = ArcSegment(pos, heading, float(args[0]), float(args[1]), *extra)
         except (TypeError, IndexError) as exc:
             raise ValueError(f"move {i}: malformed {mv!r}: {exc}") from None
         except ValueError as exc:
