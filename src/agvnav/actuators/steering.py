@@ -1,7 +1,8 @@
 """Steering actuator of the tricycle's front drive wheel (seed 000, Fig. 9 loop).
 
 The guidance laws of seed 000 output a steering *rate* command ``gamma_dot``
-(seed 000, eqs 11-13 and 20-22); the real servo realises it with a lag and
+([seed000 eq11] [seed000 eq12] [seed000 eq13] [seed000 eq20] [seed000 eq21]
+[seed000 eq22]); the real servo realises it with a lag and
 within its limits. Model (an assumption, the seed gives no servo data):
 
 * the realised rate follows the commanded rate as a first-order lag of time

@@ -93,7 +93,7 @@ def lab_drive(speed: float, segments: tuple[tuple[float, float], ...] = SEGMENTS
     """Open-loop drive of the stacker at drive-wheel speed ``speed`` (m/s) along ``segments``.
 
     The steering of each segment is ``atan(kappa L)``; the pose at each segment end comes
-    from :meth:`TricycleStacker.step` (exact arc at constant steering, seed 000 eq. 8).
+    from :meth:`TricycleStacker.step` (exact arc at constant steering, [seed000 eq8]).
     """
     model = TricycleStacker(WHEELBASE)
     state = np.array([*START, 0.0])

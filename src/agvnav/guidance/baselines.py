@@ -53,7 +53,7 @@ def pure_pursuit_steering(
     direction of motion (psi, or psi + pi in reverse). The arc through P,
     tangent to P's velocity and through G, has curvature
     ``kappa = 2 sin(alpha) / lookahead`` with alpha the bearing from P's
-    velocity. From eq. 8 (see :mod:`agvnav.guidance.errors`):
+    velocity. From [seed000 eq8] (see :mod:`agvnav.guidance.errors`):
 
     * P = O (velocity along the body): ``alpha = beta``,
       ``tan(gamma) = d L kappa`` -> ``gamma = atan(2 d L sin(beta) / l)``;

@@ -1,7 +1,8 @@
 """Tracked / skid-steer vehicle: the differential model with track slip (seed 004 §II.A).
 
-Seed 004 drives its tracked robot with the unicycle inverse kinematics (eqs.
-1-2) and dead-reckons with the ideal differential model (eqs. 3-5); on the
+Seed 004 drives its tracked robot with the unicycle inverse kinematics ([seed004 eq1]
+[seed004 eq2]) and dead-reckons with the ideal differential model ([seed004 eq3]
+[seed004 eq4] [seed004 eq5]); on the
 ground the tracks slip, which is where its ~50 cm per lap drift comes from.
 Here the truth uses the instantaneous-centre-of-rotation (ICR) model of
 tracked vehicles (Martínez et al. 2005, "Approximating kinematics for tracked
@@ -9,7 +10,7 @@ mobile robots", IJRR 24(10); the model reviewed in seed 004's reference [1],
 González et al. 2015): each track's ground contact turns about its own ICR at
 lateral body coordinate ``y_l`` (left) or ``y_r`` (right), further out than
 the track centre lines, plus longitudinal slip ratios. For ``y_l = B/2``,
-``y_r = −B/2`` and no slip it is exactly seed 004 eqs. 3-5.
+``y_r = −B/2`` and no slip it is exactly [seed004 eq3] [seed004 eq4] [seed004 eq5].
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ class                           traction  state                       input
 ``TricycleRearDriveSimple``     rear      ``[x, y, theta]``           ``[V, phi]``
 ==============================  ========  ==========================  ==================
 
-Front traction (seed 000 eq. 8; seed 003 model B with ``v = V_d``): O moves at
+Front traction ([seed000 eq8]; seed 003 model B with ``v = V_d``): O moves at
 ``v cos γ`` along the heading and ``ψ' = v sin γ / L``. Rear traction (seed
 003 model A): O moves at ``V`` and ``θ' = V tan φ / L``.
 """

@@ -1,4 +1,4 @@
-"""Odometry noise model of seed 002 eq. 17 (after Crowley 1992), made positive semi-definite.
+"""Odometry noise model [seed002 eq17] (after Crowley 1992), made positive semi-definite.
 
 Seed 002 prints ``Q11 = K_D ΔD cos θ``, ``Q22 = K_D ΔD sin θ`` — which is
 negative for half the headings, so it cannot be a covariance. The intended

@@ -1,4 +1,4 @@
-"""Pose update from odometry increments: seed 002 eqs. 20 (Euler), 25 (exact arc), 26 (midpoint).
+"""Pose update from odometry increments: [seed002 eq20] (Euler), [seed002 eq25] (exact arc), [seed002 eq26] (midpoint).
 
 ``pose (..., 3)`` = ``[x, y, θ]``, increments ``ΔD`` (m, distance travelled by
 the reference point along its path) and ``Δθ`` (rad), all broadcasting. The

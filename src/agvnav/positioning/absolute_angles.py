@@ -1,4 +1,4 @@
-"""Absolute-angle triangulation of Font-Llagunes & Batlle (seed 000, §2.3, eqs 1-7; seed 001, §3).
+"""Absolute-angle triangulation of Font-Llagunes & Batlle (seed 000 §2.3; seed 001 §3).
 
 With a heading estimate ``psi_est = psi + delta``, the line through reflector ``R_i`` at the
 absolute angle ``Phi_i,est = psi_est + theta_i`` is the true ray rotated by ``delta`` about
@@ -8,18 +8,20 @@ the circumcentre of ``R_i, R_j, T_ij``. ``T_ij`` is ``P`` rotated by ``2 delta``
 
     T_ij - T_ik = (1 - e^{2 i delta}) (C_ij - C_ik) = 2 sin|delta| e^{∓i(90° - |delta|)} (C_ij - C_ik):
 
-the error triangle is the *centres triangle* scaled by ``r = 2 sin|delta|`` (eq. 1) and turned
-clockwise by ``90° - |delta|`` when ``delta > 0``. Hence ``|delta|`` from the area ratio
-(eqs 2, 4) or, when P is aligned with two reflectors and one vertex is at infinity, from the
-ratio of finite sides (eqs 3, 5); the sign from the cross product of homologous sides (eq. 6);
-the corrected absolute angles give three pairwise intersections ``P_ij`` averaged with the
-weights of eq. 7.
+the error triangle is the *centres triangle* scaled by ``r = 2 sin|delta|`` [seed000 eq1] and
+turned clockwise by ``90° - |delta|`` when ``delta > 0``. Hence ``|delta|`` from the area ratio
+([seed000 eq2] [seed000 eq4]; both in one line in [seed001 eq1]) or, when P is aligned with two
+reflectors and one vertex is at infinity, from the ratio of finite sides ([seed000 eq3]
+[seed000 eq5]); the sign from the cross product of homologous sides [seed000 eq6]; the
+corrected absolute angles give three pairwise intersections ``P_ij`` averaged with the
+weights of [seed000 eq7].
 
 Deviations, each for a stated reason:
 
 * ``arcsin`` is evaluated as ``atan2(s, sqrt(1 - s²))`` (same value; cheaper and defined when
   noise pushes ``s`` slightly past 1, where it is clipped).
-* Refinement: where the first pass finds ``|delta| > 45°``, eqs 2-6 are applied a second
+* Refinement: where the first pass finds ``|delta| > 45°``, the construction above
+  ([seed000 eq2] [seed000 eq3] [seed000 eq4] [seed000 eq5] [seed000 eq6]) is applied a second
   time from the corrected heading. Near ``|delta| = 90°`` ``arcsin`` is flat, so one pass
   loses half the significant digits (error ~ sqrt(eps)); the second pass has ``delta ≈ 0``
   where ``arcsin`` is linear. This is the seed's own construction repeated, not a
@@ -35,7 +37,7 @@ Deviations, each for a stated reason:
   each vertex is turned about its centre ``C_ij`` by ``-2 delta`` (inscribed-angle theorem).
   ``C_ij`` comes from the *measured* relative angle, so this is exactly the intersection of
   the corrected noisy lines, with no trigonometry (speed).
-* The distance ``rho_ij`` of eq. 7 needs P; it is measured from the midpoint of the two
+* The distance ``rho_ij`` of [seed000 eq7] needs P; it is measured from the midpoint of the two
   intersections that are never nearly parallel (``P_12``, ``P_23`` after reordering).
 * On or near the critical circle (``|C_12 C_23|`` below ``CRITICAL_TOL`` of the layout
   scale) the heading is unobservable: the heading estimate is kept, the position is the

@@ -2,7 +2,7 @@
 
 State ``x = [x, y, psi]`` of base_link in ``map``, covariance ``P``.
 
-* predict (odometry, seed 002 eqs 20-26): ``x <- f(x, dD, dtheta)`` (arc rule),
+* predict (odometry, [seed002 eq14] with the arc rule [seed002 eq25]): ``x <- f(x, dD, dtheta)``,
   ``P <- F P F^T + Q`` with ``F`` = :func:`agvnav.odometry.pose_jacobian`,
   ``Q`` = :func:`agvnav.odometry.motion_covariance`;
 * update (one reflection, at its own instant): ``y = wrap(z - h(x))`` with ``h`` the

@@ -6,8 +6,8 @@ reflections (:meth:`StreamingEstimator.update`) in time order; read ``t``, ``pos
 ``covariance`` and ``status`` of the latest estimate at any moment.
 
 What the methods share lives here: time ordering, the odometric prediction of the pose
-and its covariance between absolute corrections (``P' = F P F^T + Q``, seed 002 eqs
-20-26 via :mod:`agvnav.odometry`), the identification of each reflection by a
+and its covariance between absolute corrections (``P' = F P F^T + Q``, [seed002 eq14]
+[seed002 eq17] via :mod:`agvnav.odometry`), the identification of each reflection by a
 chi-square gate (:func:`~agvnav.positioning.identification.gate_reflection`), the
 start-up pose search when no initial pose is given, and the degraded
 ``"dead_reckoning"`` state. What differs -- how an identified reflection corrects the
@@ -199,7 +199,7 @@ class StreamingEstimator:
 
         ``delta_d`` (m) along the path, ``delta_theta`` (rad) heading change, both from
         the previous :meth:`predict` time to ``t`` (s) (for the tricycle ``delta_d = ds_C
-        cos(gamma)``, ``delta_theta = ds_C sin(gamma) / L``, seed 000 eq. 8).
+        cos(gamma)``, ``delta_theta = ds_C sin(gamma) / L``, [seed000 eq8]).
         """
         t = self._check_time(t, "odometry")
         dd = _finite_float("odometry increment", delta_d)
@@ -304,7 +304,7 @@ class StreamingEstimator:
     def _move(self, delta_d: float, delta_theta: float) -> None:
         """Dead-reckon the odom pose, and the map pose with ``P' = F P F^T + Q`` (seed 002).
 
-        Scalar fast path of :func:`~agvnav.odometry.integrate_pose` (arc rule, eq. 25),
+        Scalar fast path of :func:`~agvnav.odometry.integrate_pose` (arc rule, [seed002 eq25]),
         :func:`~agvnav.odometry.pose_jacobian` and :func:`~agvnav.odometry.motion_covariance`.
         """
         ox, oy, opsi = self._odom_t

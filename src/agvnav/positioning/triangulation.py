@@ -7,7 +7,7 @@ result is the pose ``[x, y, heading]`` of the head centre P in the world frame
 
 Methods (see each module):
 
-* ``"absolute_angles"`` (``absolute_angles``): seed 000 eqs 1-7, needs a heading
+* ``"absolute_angles"`` (``absolute_angles``): seed 000 §2.3, needs a heading
   estimate (``None`` means 0: the method corrects any heading error away from the
   critical circle, but on it no estimate means no fix, so ``valid=False`` there);
 * ``"relative_angles"`` (``relative_angles``): circle intersection, heading-free;
