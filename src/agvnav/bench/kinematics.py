@@ -4,7 +4,7 @@ Speed: ``steps_per_s`` = vehicle-steps per second when stepping a batch of
 10,000 vehicles in one call of the unchecked kernel ``step_unchecked`` (what a
 simulator's hot loop uses); ``validated_steps_per_s`` is the same through the
 validated ``step`` (shape, finiteness, limits before and after the step). Accuracy: the maximum position error of the
-three seed-002 update rules (eqs. 20, 25, 26) against the exact path, on a
+three seed-002 update rules ([seed002 eq20] [seed002 eq25] [seed002 eq26]) against the exact path, on a
 circle (where the arc rule is exact) and on a slalom (curvature varying).
 """
 
