@@ -31,7 +31,7 @@ track = st.floats(0.05, 2.0)
 radius = st.floats(0.01, 0.5)
 
 
-def test_analytic_cases():
+def test_analytic_cases() -> None:
     # spin in place: wheels opposite, v = 0, ω = 2 v_R / L
     assert body_speeds_unchecked(0.5, -0.5, 0.4) == (0.0, 2.5)
     # straight: equal wheels
@@ -43,7 +43,7 @@ def test_analytic_cases():
 
 
 @given(speed, speed, track)
-def test_round_trip_and_checked_equals_unchecked(vr, vl, b):
+def test_round_trip_and_checked_equals_unchecked(vr: float, vl: float, b: float) -> None:
     v, w = body_speeds_unchecked(vr, vl, b)
     assert isinstance(v, float) and isinstance(w, float)  # the hot-loop form stays in floats
     back = wheel_speeds_unchecked(v, w, b)
@@ -53,7 +53,7 @@ def test_round_trip_and_checked_equals_unchecked(vr, vl, b):
 
 
 @given(speed, st.floats(-5.0, 5.0), radius, track)
-def test_actuators_are_seed_004_eqs_1_2_bit_for_bit(v, w, r, b):
+def test_actuators_are_seed_004_eqs_1_2_bit_for_bit(v: float, w: float, r: float, b: float) -> None:
     # seed 004 eqs 1-2 as printed: ω_R = (2V + ωL)/(2r), ω_L = (2V − ωL)/(2r)
     seed = [(2.0 * v + w * b) / (2.0 * r), (2.0 * v - w * b) / (2.0 * r)]
     got = unicycle_to_wheels(v, w, r, b)
@@ -63,7 +63,7 @@ def test_actuators_are_seed_004_eqs_1_2_bit_for_bit(v, w, r, b):
     np.testing.assert_allclose([v2, w2], [v, w], rtol=0, atol=1e-12)
 
 
-def test_drive_geometry_track_and_former_name():
+def test_drive_geometry_track_and_former_name() -> None:
     g = DriveGeometry(0.05, 0.33)
     assert g.track == g.track_width == 0.33
     with pytest.raises(ValueError, match="track"):
@@ -71,7 +71,7 @@ def test_drive_geometry_track_and_former_name():
 
 
 @given(st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), track)
-def test_odometry_increments_are_body_speeds_on_distances(dr, dl, b):
+def test_odometry_increments_are_body_speeds_on_distances(dr: float, dl: float, b: float) -> None:
     ref = body_speeds_unchecked(dr, dl, b)
     assert tuple(map(float, differential_increments(dr, dl, b))) == ref
     assert differential_increments_scalar(dr, dl, b) == ref
@@ -82,14 +82,14 @@ def test_odometry_increments_are_body_speeds_on_distances(dr, dl, b):
 
 
 @given(speed, st.floats(-5.0, 5.0), track)
-def test_models_use_the_one_formulation(v, w, b):
+def test_models_use_the_one_formulation(v: float, w: float, b: float) -> None:
     ref = np.array(wheel_speeds_unchecked(v, w, b))
     assert TrackedVehicle(b, 0.05, "ideal").track_speeds(v, w, compensate=False).tolist() == ref.tolist()
     assert DifferentialDrive(b).wheel_speeds([v, w]).tolist() == ref.tolist()
     np.testing.assert_allclose(DifferentialDrive(b).input_from_wheel_speeds(ref), [v, w], rtol=0, atol=1e-12)
 
 
-def test_arrays_broadcast():
+def test_arrays_broadcast() -> None:
     vr, vl = wheel_speeds_unchecked(np.array([0.0, 1.0]), np.array([1.0, 0.0]), 0.5)
     np.testing.assert_array_equal(vr, [0.25, 1.0])
     np.testing.assert_array_equal(vl, [-0.25, 1.0])
@@ -99,11 +99,23 @@ def test_arrays_broadcast():
     ("args", "word"),
     [((0.1, 0.2, 0.0), "track"), ((0.1, math.nan, 0.5), "d_right, d_left"), ((0.1, 0.2, math.inf), "track")],
 )
-def test_scalar_increments_refuse_bad_input(args, word):
+def test_scalar_increments_refuse_bad_input(args: tuple[float, float, float], word: str) -> None:
     with pytest.raises(ValueError, match=word):
         differential_increments_scalar(*args)
 
 
-def test_wheel_distances_refuse_bad_track():
+def test_wheel_distances_refuse_bad_track() -> None:
     with pytest.raises(ValueError, match="track"):
         differential_wheel_distances(0.1, 0.2, -1.0)
+
+
+def test_tracked_vehicle_track_and_former_gauge_keyword() -> None:
+    by_track, by_gauge = TrackedVehicle(track=0.4), TrackedVehicle(gauge=0.4)
+    assert by_track.track == by_gauge.track == by_gauge.gauge == 0.4
+    np.testing.assert_array_equal(by_track.twist_matrix, by_gauge.twist_matrix)
+    with pytest.raises(ValueError, match="track"):
+        TrackedVehicle()
+    with pytest.raises(ValueError, match="track"):
+        TrackedVehicle(track=0.4, gauge=0.4)
+    with pytest.raises(ValueError, match="track"):
+        TrackedVehicle(gauge=-1.0)

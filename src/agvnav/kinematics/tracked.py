@@ -138,7 +138,8 @@ class TrackedVehicle(KinematicModel):
 
     Parameters
     ----------
-    gauge : B, distance between the track centre lines (m), > 0.
+    track : B, distance between the track centre lines (m), > 0 (``gauge=`` is its former
+        keyword, still accepted; ``gauge`` also reads it back).
     sprocket_radius : r (m), > 0 (for wheel-rate conversions, [seed004 eq1] [seed004 eq2]).
     terrain : a ``TrackTerrain`` or a preset name.
     max_track_speed : |v_R|, |v_L| limit (m/s).
@@ -147,17 +148,20 @@ class TrackedVehicle(KinematicModel):
     state_names = ("x", "y", "theta")
     input_names = ("v_R", "v_L")
 
-    def __init__(self, gauge: float, sprocket_radius: float = 0.05, terrain: TrackTerrain | str = "ideal",
-                 max_track_speed: float = np.inf) -> None:
-        self.gauge = require_positive("gauge", gauge)
+    def __init__(self, track: float | None = None, sprocket_radius: float = 0.05, terrain: TrackTerrain | str = "ideal",
+                 max_track_speed: float = np.inf, *, gauge: float | None = None) -> None:
+        value = track if gauge is None else gauge
+        if value is None or (track is not None and gauge is not None):
+            raise ValueError(f"give the track (m) once, as track= (gauge= is its former name): {track!r}, {gauge!r}")
+        self.track = require_positive("track", value)
         self.sprocket_radius = require_positive("sprocket_radius", sprocket_radius)
         self.terrain = terrain_preset(terrain) if isinstance(terrain, str) else terrain
         if np.isnan(max_track_speed) or max_track_speed <= 0.0:
             raise ValueError(f"max_track_speed must be > 0, got {max_track_speed!r}")
         self.max_track_speed = float(max_track_speed)
         t = self.terrain
-        self.y_left = t.icr_left * 0.5 * self.gauge
-        self.y_right = -t.icr_right * 0.5 * self.gauge
+        self.y_left = t.icr_left * 0.5 * self.track
+        self.y_right = -t.icr_right * 0.5 * self.track
         span = self.y_left - self.y_right
         g_r, g_l = 1.0 - t.slip_right, 1.0 - t.slip_left
         # Body twist [v_x, v_y, ω] = twist_matrix @ [v_R, v_L] (Martínez et al. 2005, with slip ratios).
@@ -166,6 +170,11 @@ class TrackedVehicle(KinematicModel):
             [-t.x_icr * g_r / span, t.x_icr * g_l / span],
             [g_r / span, -g_l / span],
         ])
+
+    @property
+    def gauge(self) -> float:
+        """Former name of :attr:`track` (m), kept for callers not yet renamed."""
+        return self.track
 
     def body_twist(self, u: ArrayLike) -> FloatArray:
         """Body twist ``[v_x, v_y, ω]`` ``(..., 3)`` for track speeds ``[v_R, v_L]``."""
@@ -181,7 +190,7 @@ class TrackedVehicle(KinematicModel):
         v = np.asarray(v, dtype=np.float64)
         w = np.asarray(omega, dtype=np.float64)
         if not compensate:
-            return np.stack(wheel_speeds_unchecked(v, w, self.gauge), axis=-1)
+            return np.stack(wheel_speeds_unchecked(v, w, self.track), axis=-1)
         t = self.terrain
         return np.stack([(v - w * self.y_right) / (1.0 - t.slip_right), (v - w * self.y_left) / (1.0 - t.slip_left)],
                         axis=-1)
