@@ -73,13 +73,18 @@ def _slalom(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.ones_like(t), 1.6 * (1.0 - np.cos(0.5 * t))
 
 
+def _slalom_velocity(tt: float, _xy: np.ndarray) -> np.ndarray:
+    """``(x', y')`` (m/s) of the slalom at time ``tt`` (s), for the ODE solver."""
+    th = _slalom(np.array([tt]))[1][0]
+    return np.array([np.cos(th), np.sin(th)])
+
+
 def _exact_path(kind: str, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Exact poses (len(t), 3) and heading, circle (R = 2 m) or slalom (ODE to 1e-12)."""
     if kind == "circle":
         th = 0.5 * t
         return np.stack([2.0 * np.sin(th), 2.0 * (1.0 - np.cos(th)), th], axis=-1), th
-    sol = solve_ivp(lambda tt, p: [np.cos(_slalom(tt)[1]), np.sin(_slalom(tt)[1])], (t[0], t[-1]), [0.0, 0.0],
-                    t_eval=t, rtol=1e-12, atol=1e-12)
+    sol = solve_ivp(_slalom_velocity, (t[0], t[-1]), [0.0, 0.0], t_eval=t, rtol=1e-12, atol=1e-12)
     th = _slalom(t)[1]
     return np.stack([sol.y[0], sol.y[1], th], axis=-1), th
 

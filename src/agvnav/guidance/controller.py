@@ -319,7 +319,7 @@ class SeedGeneralController(_PathFollower):
         e = self._errors(pose, gamma)
         if v == 0.0:
             return 0.0
-        kappa_ref = e.direction * e.kappa if self.feedforward else 0.0
+        kappa_ref = float(e.direction * e.kappa) if self.feedforward else 0.0
         a, b, c = self.gains_at(v, kappa_ref)
         dgamma = gamma - e.gamma_ss
         exact = {"v": v, "gamma_ss": e.gamma_ss} if self.exact_rotation else {}
@@ -410,8 +410,9 @@ class PurePursuitController(_PathFollower):
         super().__init__(path, wheelbase, point, window)
         self.servo_tau = require_positive("servo_tau", servo_tau)
         tuning = ("pure_pursuit", wheelbase, v_nominal)
-        servo = {"servo_tau": servo_tau, "point": point}
-        self.lookahead = _gain_or_tuned("lookahead", lookahead, convergence_distance, *tuning, **servo)
+        self.lookahead = _gain_or_tuned(
+            "lookahead", lookahead, convergence_distance, *tuning, servo_tau=servo_tau, point=point
+        )
 
     def command(self, pose_o: ArrayLike, gamma: float, v: float) -> float:
         """Steering rate (rad/s): servo towards the pure-pursuit steering angle."""
@@ -421,7 +422,7 @@ class PurePursuitController(_PathFollower):
         x, y, psi = pose
         if self.point == "C":
             x, y = x + self.wheelbase * math.cos(psi), y + self.wheelbase * math.sin(psi)
-        gx, gy = self._path.extrapolate_point(e.s + self.lookahead)
+        gx, gy = self._path.extrapolate_point(float(e.s) + self.lookahead)
         psi_motion = psi + (math.pi if d < 0 else 0.0)
         beta = wrap_angle_scalar(math.atan2(gy - y, gx - x) - psi_motion)
         target = pure_pursuit_steering(beta, self.lookahead, self.wheelbase, self.point, d)

@@ -135,7 +135,10 @@ def errors_from_projection(
     direction: ArrayLike,
     wheelbase: float,
     point: str,
-) -> tuple[NDArray[np.float64], ...]:
+) -> tuple[
+    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+    NDArray[np.bool_],
+]:
     """Errors (eps_c, eps_o, xi, xi_r, gamma_ss, valid) from the tracked point's projection.
 
     Pure kernel, vectorised over the batch. ``psi``, ``gamma`` (rad) of the

@@ -221,16 +221,16 @@ def envelope_distance(poles_per_m: ArrayLike, residues: ArrayLike, fraction: flo
     p = np.asarray(poles_per_m, dtype=np.complex128)
     r = np.abs(np.asarray(residues, dtype=np.complex128))
     keep = r > 1e-9 * max(1.0, float(np.max(r)))
-    p, r = p[keep].real, r[keep]
-    if np.any(p >= 0.0):
+    sigma, r = p[keep].real, r[keep]  # decay rates (1/m) of the visible modes
+    if np.any(sigma >= 0.0):
         return math.inf
     total = float(np.sum(r))
     if total <= fraction:
         return 0.0
-    lo, hi = 0.0, float(np.max(np.log(total / fraction) / -p))  # envelope(hi) <= fraction
+    lo, hi = 0.0, float(np.max(np.log(total / fraction) / -sigma))  # envelope(hi) <= fraction
     for _ in range(200):
         mid = 0.5 * (lo + hi)
-        if float(np.sum(r * np.exp(p * mid))) > fraction:
+        if float(np.sum(r * np.exp(sigma * mid))) > fraction:
             lo = mid
         else:
             hi = mid
@@ -250,7 +250,7 @@ def _monic_real(poles: ArrayLike, order: int) -> NDArray[np.float64]:
         raise ValueError("poles_per_m must be real or come in complex-conjugate pairs")
     if np.any(p.real >= 0.0):
         raise ValueError(f"poles_per_m must all have negative real parts, got {_format_poles(p)}")
-    return coeffs.real
+    return np.asarray(coeffs.real, dtype=np.float64)
 
 
 def _format_poles(p: NDArray[np.complex128]) -> str:
@@ -334,7 +334,7 @@ def general_gains_on_arc(
     a0, bvec, rows = arc_linear_model(point, kappa_ref, sv, wheelbase)  # unit speed, then scale
 
     def charpoly(k: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.poly(a0 - np.outer(bvec, k @ rows)).real[1:]
+        return np.asarray(np.poly(a0 - np.outer(bvec, k @ rows)).real[1:], dtype=np.float64)
 
     base = charpoly(np.zeros(3))
     m = np.column_stack([charpoly(e) - base for e in np.eye(3)])

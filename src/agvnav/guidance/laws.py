@@ -23,17 +23,21 @@ __all__ = ["GENERAL_FORMS", "SIMPLE_FORMS", "general_law", "simple_law"]
 GENERAL_FORMS = (11, 12, 13)
 SIMPLE_FORMS = (20, 21, 22)
 
+#: What the laws return: a float when every input is a Python float (the controllers'
+#: one-vehicle fast path, no NumPy), else a float64 array of the broadcast shape.
+LawValue = NDArray[np.float64] | float
 
-def _f(x: ArrayLike) -> NDArray[np.float64] | float:
+
+def _f(x: ArrayLike) -> LawValue:
     """Plain floats pass through (the controllers' fast path); anything else becomes an array."""
     return x if isinstance(x, float) else np.asarray(x, dtype=np.float64)
 
 
-def _sin(x: NDArray[np.float64] | float) -> NDArray[np.float64] | float:
+def _sin(x: LawValue) -> LawValue:
     return math.sin(x) if isinstance(x, float) else np.sin(x)
 
 
-def _cos(x: NDArray[np.float64] | float) -> NDArray[np.float64] | float:
+def _cos(x: LawValue) -> LawValue:
     return math.cos(x) if isinstance(x, float) else np.cos(x)
 
 
@@ -51,7 +55,7 @@ def general_law(
     *,
     v: ArrayLike | None = None,
     gamma_ss: ArrayLike | None = None,
-) -> NDArray[np.float64]:
+) -> LawValue:
     """General three-parameter law of seed 000 (rad/s), ``form`` 11, 12 or 13.
 
     * [seed000 eq11] (point O, manoeuvres, v of either sign): ``-a eps_o - b xi - c dgamma``
@@ -99,7 +103,7 @@ def simple_law(
     b: ArrayLike,
     v: ArrayLike,
     wheelbase: float,
-) -> NDArray[np.float64]:
+) -> LawValue:
     """Simple two-parameter law of seed 000 for v > 0 (rad/s), ``form`` 20, 21 or 22.
 
     * [seed000 eq20]: ``-a eps_c - b xi_r - (v/L) dsin``

@@ -26,7 +26,9 @@ from agvnav._validate import as_float_array, require_last_dim
 FloatArray = NDArray[np.float64]
 
 
-def twist_step(pose: ArrayLike, v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike, dt: float) -> FloatArray:
+def twist_step(
+    pose: ArrayLike, v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike, dt: float | FloatArray
+) -> FloatArray:
     """Exact pose after moving with a constant body twist for ``dt`` seconds.
 
     Parameters
@@ -34,7 +36,7 @@ def twist_step(pose: ArrayLike, v_x: ArrayLike, v_y: ArrayLike, omega: ArrayLike
     pose : (..., 3) ``[x, y, heading]`` (m, m, rad).
     v_x, v_y : (...) body-frame velocity of the reference point (m/s).
     omega : (...) yaw rate (rad/s).
-    dt : time step (s).
+    dt : time step (s), a float or ``(...)`` broadcast with the twist.
 
     Returns
     -------

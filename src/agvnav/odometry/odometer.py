@@ -25,7 +25,7 @@ class _Odometer:
         if self.covariance.shape != (3, 3):
             raise ValueError(f"covariance must have shape (3, 3), got {self.covariance.shape}")
 
-    def _apply(self, delta_d: float, delta_theta: float) -> tuple[float, float]:
+    def _apply(self, delta_d: FloatArray | float, delta_theta: FloatArray | float) -> tuple[float, float]:
         self.pose, self.covariance = propagate(self.pose, self.covariance, delta_d, delta_theta, self.noise, self.rule)
         return float(delta_d), float(delta_theta)
 

@@ -704,7 +704,7 @@ def _ray_hits_walls(origin: NDArray[np.float64], ray: NDArray[np.float64], m: _M
     num_w = (ax * uy - ay * ux) * sign
     den = np.abs(den)
     hit = (num_s >= 0.0) & (num_s <= den) & (num_w >= 0.0) & (num_w <= den) & (den > 0.0)
-    return hit.any(axis=1)
+    return np.any(hit, axis=1)
 
 
 def _ray_hits_discs(
@@ -724,4 +724,4 @@ def _ray_hits_discs(
     gx, gy = cx - tau * ux, cy - tau * uy
     hit = gx * gx + gy * gy < m.r2
     hit[np.arange(target.size), target] = False
-    return hit.any(axis=1)
+    return np.any(hit, axis=1)

@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -402,11 +402,7 @@ def seed_004_layout(
         "left_rear": ((-spacing / 2, hy, math.pi / 2), q),
         "front": ((hx, 0.0, 0.0), 2 * q),
     }
-    sensors = {
-        name: UltrasonicSensor(**{**_fields(base), "mount": m, "phase": ph}) for name, (m, ph) in mounts.items()
-    }
+    sensors = {name: replace(base, mount=m, phase=ph) for name, (m, ph) in mounts.items()}
     return UltrasonicArray(sensors, body_length, body_width)
 
 
-def _fields(sensor: UltrasonicSensor) -> dict[str, float]:
-    return {k: getattr(sensor, k) for k in sensor.__dataclass_fields__}
