@@ -20,9 +20,11 @@ from agvnav.kinematics import (
     TrackedVehicle,
     body_speeds,
     body_speeds_unchecked,
+    body_twist_matrix,
     wheel_speeds,
     wheel_speeds_unchecked,
 )
+from agvnav.kinematics._fast import track_twist
 from agvnav.odometry import differential_increments, differential_wheel_distances
 from agvnav.odometry._fast import differential_increments_scalar, track_increments
 
@@ -119,3 +121,13 @@ def test_tracked_vehicle_track_and_former_gauge_keyword() -> None:
         TrackedVehicle(track=0.4, gauge=0.4)
     with pytest.raises(ValueError, match="track"):
         TrackedVehicle(gauge=-1.0)
+
+
+@given(speed, speed, track)
+def test_twist_matrix_is_body_speeds_in_matrix_form(vr: float, vl: float, b: float) -> None:
+    m = body_twist_matrix(b)
+    v, w = body_speeds_unchecked(vr, vl, b)
+    np.testing.assert_allclose(track_twist(vr, vl, m), [v, 0.0, w], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(m, TrackedVehicle(b, 0.05, "ideal").twist_matrix, rtol=0, atol=1e-15)
+    with pytest.raises(ValueError, match="track"):
+        body_twist_matrix(0.0)

@@ -75,6 +75,28 @@ def body_speeds_unchecked(v_right: Speed, v_left: Speed, track: float) -> tuple[
     return 0.5 * (v_right + v_left), (v_right - v_left) / track
 
 
+TwistMatrix = tuple[tuple[float, float], tuple[float, float], tuple[float, float]]
+
+
+def body_twist_matrix(track: float) -> TwistMatrix:
+    """Body twist ``[v_x, v_y, ω]`` per wheel ground speed ``[v_R, v_L]``: ``(3, 2)`` nested floats.
+
+    ``[[1/2, 1/2], [0, 0], [1/L, −1/L]]``, [seed002 eq8] per unit wheel radius: the columns
+    are :func:`body_speeds_unchecked` of a unit speed of each wheel, so it is the same
+    formulation in matrix form, for hot loops that apply a (possibly perturbed) matrix, such
+    as :func:`agvnav.kinematics._fast.track_twist`. Applied to the wheel distances of a
+    step it gives ``(ΔD, 0, Δθ)`` of [seed002 eq16].
+
+    Parameters
+    ----------
+    track : L, distance between the wheel contact points (m), > 0 (ValueError otherwise).
+    """
+    track = require_positive("track", track)
+    v_r, w_r = body_speeds_unchecked(1.0, 0.0, track)
+    v_l, w_l = body_speeds_unchecked(0.0, 1.0, track)
+    return (v_r, v_l), (0.0, 0.0), (w_r, w_l)
+
+
 def wheel_speeds(v: ArrayLike, omega: ArrayLike, track: float) -> tuple[FloatArray, FloatArray]:
     """Wheel ground speeds ``(v_R, v_L)`` (m/s) for body speed ``v`` (m/s) and yaw rate ``ω`` (rad/s).
 
