@@ -1,9 +1,10 @@
 """guidance: paths, the seed-000 guidance laws (seed 000 §3) and baseline controllers.
 
 * :mod:`.paths` - line/arc paths, projection, YAML in/out;
-* :mod:`.errors` - errors of Fig. 5 (eqs 9-10) and the curvature feed-forward;
-* :mod:`.laws` - general law (eqs 11-13) and simple law (eqs 20-22) kernels;
-* :mod:`.gains` - poles per metre -> a, b, c; Routh-Hurwitz (eqs 17-19);
+* :mod:`.errors` - errors of Fig. 5 ([seed000 eq9] [seed000 eq10]) and the curvature feed-forward;
+* :mod:`.laws` - general law ([seed000 eq11] [seed000 eq12] [seed000 eq13]) and simple law
+  ([seed000 eq20] [seed000 eq21] [seed000 eq22]) kernels;
+* :mod:`.gains` - poles per metre -> a, b, c; Routh-Hurwitz ([seed000 eq17] [seed000 eq18] [seed000 eq19]);
 * :mod:`.baselines` - pure pursuit, Stanley, steering servo;
 * :mod:`.controller` - stateful controllers and ``make_controller``;
 * :mod:`.follower` - the path-follower role (``PathFollower``), its failures

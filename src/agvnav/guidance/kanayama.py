@@ -70,8 +70,8 @@ class DriveCommand:
     """Set-points for a differential/tracked drive.
 
     ``v`` (m/s) and ``omega`` (rad/s, CCW positive) of base_link, and the same
-    as wheel (sprocket) speeds ``wheel_speeds = [right, left]`` (rad/s, seed 004
-    eqs 1-2). ``state`` names the controller state that produced it.
+    as wheel (sprocket) speeds ``wheel_speeds = [right, left]`` (rad/s, [seed004 eq1]
+    [seed004 eq2]). ``state`` names the controller state that produced it.
     """
 
     v: float
@@ -125,7 +125,7 @@ def kanayama_law(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(v, omega) from the error ``(..., 3)`` and the reference speeds ``(...)``.
 
-    Kanayama et al. 1990, eq. (5), with ``|v_r|`` in the heading term. Proof
+    Kanayama et al. 1990, their control rule (5), with ``|v_r|`` in the heading term. Proof
     sketch: the error dynamics are ``e_x' = omega e_y - v + v_r cos e_theta``,
     ``e_y' = -omega e_x + v_r sin e_theta``, ``e_theta' = omega_r - omega``; so
     ``V' = 2 e_x (v_r cos e_theta - v) + 2 e_y v_r sin e_theta
@@ -144,7 +144,7 @@ def kanayama_path_rate(
 ) -> float:
     """Yaw rate (rad/s) of Kanayama's law with the reference at the robot's projection on the path.
 
-    Path-following form of Kanayama et al. 1990 eq. (5), in the frame of the
+    Path-following form of Kanayama et al. 1990, control rule (5), in the frame of the
     direction of motion (the body heading, + pi when reversing, so a reverse
     segment is the forward law mirrored). The reference is the foot of the
     perpendicular from the robot, moving at the caller's ``speed`` = |v| (m/s)
@@ -171,7 +171,7 @@ class KanayamaController:
     gains : :class:`KanayamaGains` (default: critically damped over 0.5 m).
     cruise_speed : reference speed along the path (m/s, > 0).
     max_accel : reference acceleration/deceleration limit (m/s^2).
-    geometry : converts (v, omega) to wheel speeds (seed 004 eqs 1-2).
+    geometry : converts (v, omega) to wheel speeds ([seed004 eq1] [seed004 eq2]).
     max_speed, max_omega : saturation of the commands (m/s, rad/s).
     """
 

@@ -69,11 +69,11 @@ def general_law(
     Exact body rotation (form 13 only, when ``v`` (m/s) and ``gamma_ss`` (rad)
     are given): the part ``(v cos(gamma_ss) / L) dgamma`` of the last term is
     replaced by ``(v/L) (sin(gamma) - sin(gamma_ss))``, equal to first order,
-    so eq 17 and the poles are unchanged. Deviation, as in :func:`simple_law`:
+    so the closed loop [seed000 eq17] and its poles are unchanged. Deviation, as in :func:`simple_law`:
     that part cancels the body rotation ``psi' = (v/L) sin(gamma)`` [seed000 eq8] in
     ``xi_r'``; with the real pole at ``-cos(gamma_ss)/L``
     (:func:`agvnav.guidance.gains.hidden_real_pole`) the whole last term is
-    that part and eq 13 is then eq 20 exactly, also far from the linear
+    that part and [seed000 eq13] is then [seed000 eq20] exactly, also far from the linear
     range (e.g. the wheel straight at the start of an arc).
     """
     a, b, c, L = _f(a), _f(b), _f(c), float(wheelbase)
