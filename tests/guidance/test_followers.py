@@ -98,7 +98,8 @@ def model_for(family: str, drive_point: str = "C") -> KinematicModel:
     return MecanumBase(0.05, 0.3, 0.25)
 
 
-PAIRS = [(fam, name, dp) for fam, names in FOLLOWERS.items() for name in names for dp in (("C", "O") if fam == "steered" else ("-",))]
+DRIVE_POINTS = {"steered": ("C", "O"), "unicycle": ("-",), "holonomic": ("-",)}
+PAIRS = [(fam, name, dp) for fam, names in FOLLOWERS.items() for name in names for dp in DRIVE_POINTS[fam]]
 
 
 @pytest.mark.parametrize(("family", "name", "drive_point"), PAIRS)
@@ -138,11 +139,10 @@ def test_unicycle_followers_back_along_reverse_segments(name):
 
 
 def test_mecanum_follows_a_sideways_segment_with_its_heading_profile():
-    """Forward, then sideways to the left along a line and an arc (yaw_offset = -pi/2: the path is on the body's left)."""
+    """Forward, then sideways along a line and an arc (yaw_offset = -pi/2: the body's left leads)."""
     side = -math.pi / 2
-    path = path_from_moves(
-        (0.0, 0.0, 0.0), [("line", 1.5), ("line", 2.0, 1, side), ("arc", 2.0, math.pi / 2, 1, side), ("line", 2.0, 1, side)]
-    )
+    moves = [("line", 1.5), ("line", 2.0, 1, side), ("arc", 2.0, math.pi / 2, 1, side), ("line", 2.0, 1, side)]
+    path = path_from_moves((0.0, 0.0, 0.0), moves)
     follower = make_follower("holonomic", "holonomic", path, Holonomic(), convergence_distance=1.0)
     model = model_for("holonomic")
     state, twists, lateral = np.array([0.0, 0.1, 0.0]), [], []

@@ -46,7 +46,6 @@ __all__ = [
     "PathFollower",
     "ProjectingFollower",
     "check_pose",
-    "wrap_scalar",
 ]
 
 FAMILIES = ("steered", "unicycle", "holonomic")
@@ -189,7 +188,7 @@ class ProjectingFollower:
         err = FollowErrors(
             s=pr.s,
             lateral=pr.lateral,
-            heading_error=wrap_scalar(psi - wanted),
+            heading_error=wrap_angle_scalar(psi - wanted),
             path_heading=pr.heading,
             curvature=pr.curvature,
             direction=int(pr.direction),
@@ -198,8 +197,3 @@ class ProjectingFollower:
         self._s = pr.s
         self._last = err
         return err
-
-
-def wrap_scalar(angle: float) -> float:
-    """Wrap one angle (rad) to [-pi, pi): :func:`agvnav.geometry.wrap_angle_scalar`."""
-    return wrap_angle_scalar(angle)

@@ -16,7 +16,8 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from agvnav.guidance.follower import FAMILIES, GuidanceError, InfeasiblePathError, PathFollower, wrap_scalar
+from agvnav.geometry.angles import wrap_angle_scalar
+from agvnav.guidance.follower import FAMILIES, GuidanceError, InfeasiblePathError, PathFollower
 from agvnav.guidance.holonomic import HolonomicFollower
 from agvnav.guidance.paths import ArcSegment, Path
 from agvnav.guidance.steered import SteeredFollower
@@ -103,7 +104,7 @@ def _body_heading_jump(path: Path, i: int) -> float:
     a, b = path.segments[i - 1], path.segments[i]
     before = a.end_heading + (math.pi if a.direction < 0 else 0.0)
     after = b.heading + (math.pi if b.direction < 0 else 0.0)
-    return wrap_scalar(after - before)
+    return wrap_angle_scalar(after - before)
 
 
 def _check_steered(path: Path, i: int, geo: dict[str, Any], point: str, tol: float) -> None:

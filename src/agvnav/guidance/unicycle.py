@@ -32,9 +32,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from agvnav._validate import require_positive
+from agvnav.geometry.angles import wrap_angle_scalar
 from agvnav.guidance.baselines import MAX_STEERING_RAD
 from agvnav.guidance.controller import DEFAULT_CONVERGENCE_DISTANCE_M
-from agvnav.guidance.follower import FollowErrors, GuidanceError, ProjectingFollower, check_pose, wrap_scalar
+from agvnav.guidance.follower import FollowErrors, GuidanceError, ProjectingFollower, check_pose
 from agvnav.guidance.gains import envelope_distance, modal_response
 from agvnav.guidance.kanayama import CRITICAL_SETTLING_PER_DISTANCE, KanayamaGains, kanayama_path_rate
 from agvnav.guidance.paths import Path
@@ -157,7 +158,7 @@ class UnicyclePurePursuit(UnicycleFollower):
         """``|v| 2 sin(alpha) / l`` (see class doc)."""
         gx, gy = self._path.extrapolate_point(e.s + self.lookahead)
         psi_motion = psi + (math.pi if e.direction < 0 else 0.0)
-        alpha = wrap_scalar(math.atan2(gy - y, gx - x) - psi_motion)
+        alpha = wrap_angle_scalar(math.atan2(gy - y, gx - x) - psi_motion)
         return speed * 2.0 * math.sin(alpha) / self.lookahead
 
 

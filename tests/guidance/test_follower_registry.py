@@ -1,0 +1,241 @@
+"""make_follower refusals, path feasibility, and the follower kernels against their other formulations."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from agvnav.guidance import (
+    FOLLOWERS,
+    ArcSegment,
+    GuidanceError,
+    InfeasiblePathError,
+    KanayamaGains,
+    LineSegment,
+    Path,
+    PathFollower,
+    check_path_feasible,
+    drive_speed,
+    holonomic_body_twist,
+    kanayama_path_rate,
+    make_follower,
+    min_turning_radius,
+    path_from_moves,
+)
+from agvnav.guidance.kanayama import kanayama_law, tracking_error
+
+
+@dataclass(frozen=True)
+class Steered:
+    wheelbase: float = 1.0
+    drive_point: str = "O"
+    max_steer: float = math.radians(45.0)
+
+
+@dataclass(frozen=True)
+class Unicycle:
+    track: float = 0.5
+    wheel_radius: float = 0.1
+
+
+@dataclass(frozen=True)
+class Holonomic:
+    wheel_radius: float = 0.05
+    half_length: float = 0.3
+    half_width: float = 0.25
+
+
+GEOMETRY = {"steered": Steered(), "unicycle": Unicycle(), "holonomic": Holonomic()}
+LINE_ARC = path_from_moves((0.0, 0.0, 0.0), [("line", 2.0), ("arc", 2.0, math.pi / 2), ("line", 3.0)])
+ALL_NAMES = sorted({n for names in FOLLOWERS.values() for n in names})
+
+
+# ------------------------------------------------------------------ registry
+def test_registry_holds_the_contract_names():
+    assert FOLLOWERS == {
+        "steered": ("seed_general", "seed_simple", "pure_pursuit", "stanley"),
+        "unicycle": ("kanayama", "pure_pursuit", "stanley"),
+        "holonomic": ("holonomic",),
+    }
+
+
+@pytest.mark.parametrize("family", list(FOLLOWERS))
+@pytest.mark.parametrize("name", ALL_NAMES)
+def test_a_name_that_does_not_fit_the_family_is_refused_listing_the_valid_ones(family, name):
+    if name in FOLLOWERS[family]:
+        assert make_follower(name, family, LINE_ARC, GEOMETRY[family]).family == family
+        return
+    with pytest.raises(GuidanceError) as info:
+        make_follower(name, family, LINE_ARC, GEOMETRY[family])
+    assert str(info.value) == f"{name} does not fit a {family} vehicle; choose from: {', '.join(FOLLOWERS[family])}"
+
+
+def test_seed_law_on_mecanum_message():
+    with pytest.raises(GuidanceError, match="seed_simple does not fit a holonomic vehicle; choose from: holonomic"):
+        make_follower("seed_simple", "holonomic", LINE_ARC, Holonomic())
+
+
+def test_unknown_family_geometry_and_parameter_are_refused():
+    with pytest.raises(GuidanceError, match="unknown vehicle family 'boat'; choose from: steered, unicycle, holonomic"):
+        make_follower("kanayama", "boat", LINE_ARC, Unicycle())
+    with pytest.raises(GuidanceError, match="geometry needs wheelbase, drive_point, max_steer"):
+        make_follower("seed_general", "steered", LINE_ARC, Unicycle())
+    with pytest.raises(GuidanceError, match="lookahed"):
+        make_follower("pure_pursuit", "unicycle", LINE_ARC, Unicycle(), lookahed=0.3)
+    with pytest.raises(GuidanceError, match="not both"):
+        make_follower("stanley", "unicycle", LINE_ARC, Unicycle(), gain_per_m=2.0, convergence_distance=1.0)
+    with pytest.raises(GuidanceError, match="convergence_distance"):
+        make_follower("holonomic", "holonomic", LINE_ARC, Holonomic(), convergence_distance=-1.0)
+    with pytest.raises(GuidanceError, match="drive_point"):
+        make_follower("seed_general", "steered", LINE_ARC, Steered(drive_point="X"))
+    with pytest.raises(GuidanceError, match="max_steer"):
+        make_follower("seed_general", "steered", LINE_ARC, Steered(max_steer=2.0))
+
+
+@pytest.mark.parametrize("family", list(FOLLOWERS))
+def test_every_follower_takes_a_convergence_distance(family):
+    for name in FOLLOWERS[family]:
+        make_follower(name, family, LINE_ARC, GEOMETRY[family], convergence_distance=1.2)
+
+
+def test_steered_law_failures_are_guidance_errors():
+    follower = make_follower("seed_simple", "steered", LINE_ARC, Steered())
+    with pytest.raises(GuidanceError):
+        follower.command(np.array([0.0, 0.1, 0.0]), -0.2, 0.0)  # the simple law is unstable in reverse
+
+
+# --------------------------------------------------------------- feasibility
+def test_reverse_segment_refused_for_a_vehicle_that_cannot_reverse_naming_it():
+    forward = path_from_moves((0.0, 0.0, 0.0), [("line", 1.0), ("line", 1.0)])
+    path = Path([*forward.segments, LineSegment(forward.segments[-1].end, math.pi, 1.0, -1)])  # a cusp
+    for family in FOLLOWERS:
+        with pytest.raises(InfeasiblePathError, match=r"path segment 2: reverse segment") as info:
+            check_path_feasible(path, family, GEOMETRY[family], reverse_allowed=False)
+        assert info.value.segment == 2
+        check_path_feasible(path, family, GEOMETRY[family], reverse_allowed=True)  # a cusp on one line
+
+
+def test_arc_tighter_than_the_steering_limit_is_refused_naming_it():
+    geo = Steered(wheelbase=1.0, max_steer=math.radians(45.0))  # O turns on >= 1 m, C on >= sqrt(2) m
+    assert min_turning_radius(1.0, math.radians(45.0), "O") == pytest.approx(1.0)
+    assert min_turning_radius(1.0, math.radians(45.0), "C") == pytest.approx(math.sqrt(2.0))
+    path = path_from_moves((0.0, 0.0, 0.0), [("line", 1.0), ("arc", 1.2, 1.0), ("arc", 0.9, -1.0)])
+    with pytest.raises(InfeasiblePathError, match=r"path segment 2: arc radius 0\.9 m is below .* 1 m of point O"):
+        check_path_feasible(path, "steered", geo, reverse_allowed=False)
+    with pytest.raises(InfeasiblePathError, match=r"path segment 1: .* 1\.414 m of point C") as info:
+        check_path_feasible(path, "steered", geo, reverse_allowed=False, point="C")
+    assert isinstance(info.value, GuidanceError) and info.value.segment == 1
+    for family in ("unicycle", "holonomic"):  # they turn on the spot
+        check_path_feasible(path, family, GEOMETRY[family], reverse_allowed=False)
+
+
+def test_corner_refused_for_steered_vehicles_only():
+    first = LineSegment(np.zeros(2), 0.0, 1.0)
+    corner = Path([first, LineSegment(first.end, 0.5, 1.0)])
+    with pytest.raises(InfeasiblePathError, match=r"path segment 1: the body heading jumps by 28\.65 deg"):
+        check_path_feasible(corner, "steered", Steered(), reverse_allowed=True)
+    check_path_feasible(corner, "unicycle", Unicycle(), reverse_allowed=True)
+    # a cusp (reversing back, tangent turned by pi) keeps the body heading: allowed
+    cusp = Path([first, ArcSegment(first.end, math.pi, 2.0, -1.0, -1)])
+    check_path_feasible(cusp, "steered", Steered(), reverse_allowed=True)
+    # driving on in the same direction but backwards would need a turn on the spot
+    flip = path_from_moves((0.0, 0.0, 0.0), [("line", 1.0), ("line", 1.0, -1)])
+    with pytest.raises(InfeasiblePathError, match=r"path segment 1: the body heading jumps by -180 deg"):
+        check_path_feasible(flip, "steered", Steered(), reverse_allowed=True)
+    check_path_feasible(flip, "unicycle", Unicycle(), reverse_allowed=True)
+
+
+def test_feasibility_refuses_bad_arguments():
+    with pytest.raises(GuidanceError, match="family"):
+        check_path_feasible(LINE_ARC, "hovercraft", Unicycle(), reverse_allowed=True)
+    with pytest.raises(GuidanceError, match="Path"):
+        check_path_feasible("not a path", "unicycle", Unicycle(), reverse_allowed=True)  # type: ignore[arg-type]
+
+
+# ------------------------------------------------------------------- kernels
+@settings(max_examples=200, deadline=None)
+@given(
+    d=st.floats(-0.5, 0.5),
+    h=st.floats(-3.0, 3.0),
+    kappa=st.floats(-2.0, 2.0),
+    speed=st.floats(0.01, 2.0),
+    theta=st.floats(-math.pi, math.pi),
+)
+def test_kanayama_path_rate_is_kanayamas_law_with_the_reference_at_the_projection(d, h, kappa, speed, theta):
+    gains = KanayamaGains.from_distance(0.7)
+    foot = np.array([1.0, -2.0])
+    normal = np.array([-math.sin(theta), math.cos(theta)])
+    robot = np.array([*(foot + d * normal), theta + h])
+    error = tracking_error(robot, np.array([*foot, theta]))
+    _, omega = kanayama_law(error, speed, kappa * speed, gains)
+    assert kanayama_path_rate(d, h, kappa, speed, gains) == pytest.approx(float(omega), abs=1e-12)
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    speed=st.floats(0.0, 2.0),
+    normal=st.floats(-1.0, 1.0),
+    tangent=st.floats(-math.pi, math.pi),
+    psi=st.floats(-math.pi, math.pi),
+)
+def test_holonomic_body_twist_rotates_the_world_velocity_into_the_body(speed, normal, tangent, psi):
+    vx, vy = holonomic_body_twist(speed, normal, tangent, psi)
+    world = speed * np.array([math.cos(tangent), math.sin(tangent)]) + normal * np.array(
+        [-math.sin(tangent), math.cos(tangent)]
+    )
+    back = np.array([vx * math.cos(psi) - vy * math.sin(psi), vx * math.sin(psi) + vy * math.cos(psi)])
+    np.testing.assert_allclose(back, world, atol=1e-12)
+
+
+def test_drive_speed_between_o_and_c():
+    """v_O = v_C cos(gamma) [seed000 eq8]."""
+    g = 0.4
+    assert drive_speed(1.0, g, "C", "O") == pytest.approx(math.cos(g))
+    assert drive_speed(math.cos(g), g, "O", "C") == pytest.approx(1.0)
+    assert drive_speed(-0.3, g, "O", "O") == -0.3
+    with pytest.raises(GuidanceError, match="tracked_point"):
+        drive_speed(1.0, 0.0, "A", "O")
+
+
+PATHS = {
+    "forward": LINE_ARC,
+    "reverse": path_from_moves((0.0, 0.0, 0.0), [("line", 2.0, -1), ("arc", 2.0, -math.pi / 2, -1)]),
+    "sideways": path_from_moves((0.0, 0.0, 0.0), [("line", 2.0, 1, math.pi / 2), ("arc", 2.0, 1.0, 1, math.pi / 2)]),
+}
+CASES = [(fam, name, key) for fam, names in FOLLOWERS.items() for name in names for key in PATHS
+         if not (fam == "steered" and key == "reverse") and (fam == "holonomic" or key != "sideways")]
+
+_BUILT: dict[tuple[str, str, str], PathFollower] = {}
+
+
+@pytest.mark.parametrize(("family", "name", "key"), CASES)
+@settings(max_examples=40, deadline=None)
+@given(
+    s=st.floats(0.0, 1.0),
+    offset=st.floats(-0.4, 0.4),
+    heading=st.floats(-0.6, 0.6),
+    speed=st.floats(0.0, 1.5),
+    steering=st.floats(-0.7, 0.7),
+)
+def test_follower_output_is_finite_for_poses_near_the_path(family, name, key, s, offset, heading, speed, steering):
+    path = PATHS[key]
+    if (family, name, key) not in _BUILT:  # steered designs take a while: build once, reset per example
+        _BUILT[family, name, key] = make_follower(name, family, path, GEOMETRY[family])
+    follower = _BUILT[family, name, key]
+    follower.reset()
+    at = s * path.length
+    xy = path.point_at(at)
+    tangent = float(path.heading_at(at))
+    direction = int(path.direction_at(at))
+    psi = tangent + heading + (math.pi if direction < 0 else 0.0)
+    pose = np.array([xy[0] - offset * math.sin(tangent), xy[1] + offset * math.cos(tangent), psi])
+    v_lateral, rate = follower.command(pose, direction * speed, steering if family == "steered" else 0.0)
+    assert math.isfinite(v_lateral) and math.isfinite(rate)
+    assert follower.last_errors is not None
+    if family != "holonomic":
+        assert v_lateral == 0.0
