@@ -188,7 +188,7 @@ def _scan(package_dir: Path | None, pattern: re.Pattern[str], strip_tags: bool) 
         parts = rel.with_suffix("").parts
         module = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
         tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-        for where, line, is_def, doc in _docstrings(tree, module):
+        for where, line, is_def, doc in sorted(_docstrings(tree, module), key=lambda d: d[1]):
             text = TAG_RE.sub("", doc) if strip_tags else doc
             found += [Citation(m.group(0), where, rel.as_posix(), line, is_def) for m in pattern.finditer(text)]
     return found
