@@ -68,8 +68,8 @@ def fingerprint(spec: CampaignSpec, base: BaseScenario) -> str:
 
 
 def numeric_params(spec: CampaignSpec) -> dict[str, bool]:
-    """Swept key -> True when all its values are numbers (a float64 column)."""
-    out = {k: all(is_number(v) for v in values) for k, values in spec.grid.items()}
+    """Swept key -> True when all its values are numbers or null (a float64 column)."""
+    out = {k: all(v is None or is_number(v) for v in values) for k, values in spec.grid.items()}
     out.update({k: d.is_numeric() for k, d in spec.random.items()})
     return out
 

@@ -31,7 +31,7 @@ from agvnav.world.strict import Finite, SourcedModel, StrictModel, load_yaml_doc
 
 __all__ = ["CampaignSpec", "Distribution", "builtin_campaign_names", "is_number", "load_campaign", "parse_campaign"]
 
-Scalar = bool | int | float | str
+Scalar = bool | int | float | str | None
 Value = Scalar | list[Any] | dict[str, Any]
 
 
@@ -66,7 +66,7 @@ class Distribution(StrictModel):
 
     def is_numeric(self) -> bool:
         """True when every value this distribution yields is a real number (not a bool)."""
-        return self.kind != "choice" or all(is_number(v) for v in self.choice or [])
+        return self.kind != "choice" or all(v is None or is_number(v) for v in self.choice or [])
 
 
 def is_number(value: Any) -> bool:

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 from numpy.typing import NDArray
-from scipy.stats import t as student_t
+from scipy.special import stdtrit
 
 __all__ = ["OUTCOMES", "column_values", "describe", "summarize"]
 
@@ -49,7 +49,7 @@ def describe(values: NDArray[np.float64]) -> dict[str, Any]:
     out.update(mean=mean, median=float(median), q05=float(q05), q95=float(q95))
     if n >= 2:
         std = float(np.std(x, ddof=1))
-        half = float(student_t.ppf(0.975, n - 1)) * std / math.sqrt(n)
+        half = float(stdtrit(n - 1, 0.975)) * std / math.sqrt(n)
         out.update(std=std, ci95=[_num(mean - half), _num(mean + half)])
     return out
 

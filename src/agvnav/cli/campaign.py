@@ -95,21 +95,24 @@ def _json(name: str, result: Any) -> dict[str, Any]:
 
 
 def _fmt(value: float | None) -> str:
-    return "-" if value is None or not math.isfinite(value) else f"{value:.4g}"
+    return "-" if value is None or not math.isfinite(value) else f"{value:.3g}"
 
 
 def _table(name: str, summary: dict[str, Any]) -> Table:
-    t = Table(title=f"campaign {name}: {summary['runs']} runs (statistics over completed runs)")
+    t = Table(title=f"campaign {name}: {summary['runs']} runs; statistics over the completed runs")
     for col in ("group", "metric", "n", "mean", "std", "median", "5 %", "95 %", "95 % CI of mean"):
         t.add_column(col, justify="left" if col in ("group", "metric") else "right")
     for group in summary["groups"]:
         label = ", ".join(f"{k}={v}" for k, v in group["params"].items()) or "all"
-        counts = " ".join(f"{k} {v}" for k, v in group["outcomes"].items())
-        t.add_row(label, f"({counts})", *[""] * 7, end_section=not group["metrics"])
-        for j, (metric, s) in enumerate(group["metrics"].items()):
+        counts = ", ".join(f"{v} {k}" for k, v in group["outcomes"].items() if v)
+        items = list(group["metrics"].items()) or [("-", None)]
+        for j, (metric, s) in enumerate(items):
+            head = (f"{label}\n({counts})" if j == 0 else "", metric)
+            last = j == len(items) - 1
+            if s is None:
+                t.add_row(*head, *[""] * 7, end_section=last)
+                continue
             ci = "-" if s["ci95"] is None else f"[{_fmt(s['ci95'][0])}, {_fmt(s['ci95'][1])}]"
-            t.add_row(
-                "", metric, str(s["n"]), _fmt(s["mean"]), _fmt(s["std"]), _fmt(s["median"]), _fmt(s["q05"]),
-                _fmt(s["q95"]), ci, end_section=j == len(group["metrics"]) - 1,
-            )
+            stats = (s["mean"], s["std"], s["median"], s["q05"], s["q95"])
+            t.add_row(*head, str(s["n"]), *map(_fmt, stats), ci, end_section=last)
     return t

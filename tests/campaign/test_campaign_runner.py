@@ -1,0 +1,82 @@
+"""A small campaign on a 2-worker LocalCluster: Parquet rows, resume after an interruption, summary."""
+
+import json
+
+import pyarrow.parquet as pq
+import pytest
+
+from agvnav.campaign import finished_runs, load_campaign, read_results, run_campaign
+from agvnav.campaign.runner import batch_plans
+
+BODY = """\
+seed: 21
+seeds: 3
+grid:
+  duration_s: [null, 0.5]
+metrics: [positioning_rms_m, path_completed]
+"""
+
+
+def test_small_campaign_writes_parquet(write_campaign, scheduler, tmp_path):
+    spec = load_campaign(write_campaign(BODY))
+    out = tmp_path / "out"
+    res = run_campaign(spec, out, scheduler=scheduler, progress=False)
+    assert (res.total, res.ran, res.skipped, res.workers) == (6, 6, 0, 2)
+    table = read_results(out)
+    assert table["run"].to_pylist() == list(range(6))
+    cols = set(table.column_names)
+    assert {"seed", "outcome", "reason", "cpu_time_s", "sim_time_s", "param.duration_s",
+            "metric.positioning_rms_m", "metric.path_completed"} <= cols
+    assert table["outcome"].to_pylist() == ["completed"] * 3 + ["failed"] * 3
+    assert table["param.duration_s"].to_pylist() == [None] * 3 + [0.5] * 3
+    summary = json.loads((out / "summary.json").read_text())
+    assert [g["params"] for g in summary["groups"]] == [{}, {"duration_s": None}, {"duration_s": 0.5}]
+    assert summary["groups"][0]["outcomes"] == {"completed": 3, "failed": 3, "error": 0}
+    assert summary["groups"][1]["metrics"]["path_completed"]["mean"] == 1.0
+    parts = list((out / "runs").glob("part-*.parquet"))
+    assert sum(pq.read_metadata(p).num_rows for p in parts) == 6
+
+
+def test_interrupted_campaign_resumes_without_redoing(write_campaign, scheduler, tmp_path):
+    spec = load_campaign(write_campaign(BODY))
+    out = tmp_path / "out"
+
+    def stop_after_first(done, total):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_campaign(spec, out, scheduler=scheduler, progress=stop_after_first, batch_size=2)
+    first = finished_runs(out)
+    assert len(first) == 2
+    stamps = {p.name: p.stat().st_mtime_ns for p in (out / "runs").glob("part-*.parquet")}
+    res = run_campaign(spec, out, scheduler=scheduler, progress=False, batch_size=2)
+    assert (res.ran, res.skipped) == (4, 2)
+    assert read_results(out)["run"].to_pylist() == list(range(6))  # every run exactly once
+    assert all((out / "runs" / name).stat().st_mtime_ns == t for name, t in stamps.items())
+    again = run_campaign(spec, out, scheduler=scheduler, progress=False)
+    assert (again.ran, again.skipped, again.workers) == (0, 6, 0)
+
+
+def test_other_campaign_in_same_folder_is_refused(write_campaign, scheduler, tmp_path):
+    out = tmp_path / "out"
+    run_campaign(load_campaign(write_campaign("runs: 1\n")), out, scheduler=scheduler, progress=False)
+    other = load_campaign(write_campaign("runs: 1\nseed: 5\n", name="other.yaml"))
+    with pytest.raises(ValueError, match="another campaign"):
+        run_campaign(other, out, scheduler=scheduler, progress=False)
+
+
+def test_more_runs_extend_a_gridless_campaign(write_campaign, scheduler, tmp_path):
+    out = tmp_path / "out"
+    run_campaign(load_campaign(write_campaign("runs: 1\n")), out, scheduler=scheduler, progress=False)
+    res = run_campaign(load_campaign(write_campaign("runs: 2\n", name="more.yaml")), out, scheduler=scheduler,
+                       progress=False)
+    assert (res.ran, res.skipped) == (1, 1)
+
+
+def test_batches():
+    plans = list(range(10))
+    assert [len(b) for b in batch_plans(plans, 2)] == [2, 2, 2, 2, 2]
+    assert [len(b) for b in batch_plans(list(range(10_000)), 2)] == [20] * 500
+    assert [len(b) for b in batch_plans(plans, 2, batch_size=4)] == [4, 4, 2]
+    with pytest.raises(ValueError, match="batch_size"):
+        batch_plans(plans, 2, batch_size=0)

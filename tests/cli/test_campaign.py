@@ -1,0 +1,77 @@
+"""``agvnav campaign``: a small campaign end to end on a default 2-worker LocalCluster; one-line errors."""
+
+import json
+
+from typer.testing import CliRunner
+
+from agvnav.campaign import load_campaign, plan_runs
+from agvnav.cli import app
+from agvnav.world.scenario import load_scenario
+
+runner = CliRunner()
+
+SPEC = """\
+name: cli_tiny
+base: guidance_test
+seed: 3
+seeds: 2
+overrides:
+  path.segments: [{type: line, length_m: 0.4}]
+  start.lateral_offset_m: 0.02
+grid:
+  traction.speed_m_s: [0.2, 0.3]
+metrics: [positioning_rms_m, max_abs_lateral_error_m]
+"""
+
+
+def _spec(tmp_path, text=SPEC):
+    p = tmp_path / "c.yaml"
+    p.write_text(text)
+    return p
+
+
+def test_campaign_runs_and_writes_everything(tmp_path):
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(out), "--workers", "2", "--json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.output)
+    assert (doc["runs"], doc["ran"], doc["workers"]) == (4, 4, 2) and doc["runs_per_s"] > 0
+    groups = doc["summary"]["groups"]
+    assert [g["params"] for g in groups] == [{}, {"traction.speed_m_s": 0.2}, {"traction.speed_m_s": 0.3}]
+    assert groups[0]["outcomes"]["completed"] == 4 and groups[0]["metrics"]["positioning_rms_m"]["n"] == 4
+    assert json.loads((out / "summary.json").read_text()) == doc["summary"]
+    assert {p.name for p in (out / "plots").iterdir()} == {
+        "campaign_positioning_rms_m.png", "campaign_max_abs_lateral_error_m.png"
+    }
+    args = ["campaign", str(_spec(tmp_path)), "--out", str(out), "--no-plots"]
+    again = runner.invoke(app, args, env={"COLUMNS": "200"})
+    assert again.exit_code == 0, again.output
+    text = " ".join(again.output.split())
+    assert "0 runs done, 4 already there" in text and "positioning_rms_m" in text and "(4 completed)" in text
+
+
+def test_replay_writes_a_scenario_for_simulate(tmp_path):
+    res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(tmp_path), "--replay", "3"])
+    assert res.exit_code == 0, res.output
+    path = tmp_path / "replay" / "run_000003.yaml"
+    assert f"agvnav simulate {path}" in res.output.replace("\n", "")
+    sc = load_scenario(path)
+    assert sc.traction.speed_m_s == 0.3 and sc.start.lateral_offset_m == 0.02
+    assert sc.seed == plan_runs(load_campaign(_spec(tmp_path)))[3].seed
+
+
+def test_bad_spec_is_one_line_exit_2(tmp_path):
+    bad = _spec(tmp_path, SPEC.replace("[0.2, 0.3]", "[0.2, -0.3]"))
+    res = runner.invoke(app, ["campaign", str(bad), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2
+    line = SPEC.splitlines().index("  traction.speed_m_s: [0.2, 0.3]") + 1
+    assert f"c.yaml:{line}: grid.traction.speed_m_s[1]:" in res.output
+    assert len(res.output.strip().splitlines()) == 1
+    assert not (tmp_path / "o").exists()
+
+
+def test_missing_file_and_bad_replay(tmp_path):
+    res = runner.invoke(app, ["campaign", str(tmp_path / "none.yaml")])
+    assert res.exit_code == 2 and "no such campaign file" in res.output
+    res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(tmp_path), "--replay", "4"])
+    assert res.exit_code == 2 and "run must be in 0..3" in res.output
