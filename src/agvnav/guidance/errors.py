@@ -1,14 +1,14 @@
-"""Guidance errors of seed 000 Fig. 5 (eqs 9-10) on lines and arcs, and the curvature feed-forward.
+"""Guidance errors of seed 000 Fig. 5 ([seed000 eq9] [seed000 eq10]) on lines and arcs, and the feed-forward.
 
-Vehicle (seed 000 §3.1, eq. 8): point O midway between the fork wheels, point
+Vehicle (seed 000 §3.1, [seed000 eq8]): point O midway between the fork wheels, point
 C the drive/steer wheel centre at distance L ahead of O on the body x-axis,
 heading psi, steering angle gamma, v the (signed) speed of C::
 
     x_O' = v cos(gamma) cos(psi),  y_O' = v cos(gamma) sin(psi),  psi' = v sin(gamma) / L.
 
 Errors (all measured in the *reference body frame* of the path: x along the
-tangent for a forward segment and against it for a reverse one, so that eqs
-14-16 hold for both signs of v):
+tangent for a forward segment and against it for a reverse one, so that [seed000 eq14]
+[seed000 eq15] [seed000 eq16] hold for both signs of v):
 
 * ``eps_o``, ``eps_c``: lateral deviation (m) of O and C, left positive;
 * ``xi``: vehicle heading error (rad);
@@ -17,7 +17,7 @@ tangent for a forward segment and against it for a reverse one, so that eqs
 Curvature feed-forward (derivation). In steady motion with constant gamma the
 body turns about the instantaneous centre of rotation, where the normals to
 the velocities of O (along the body x-axis) and C (along the wheel) meet.
-From eq. 8, psi' = v sin(gamma) / L, |v_O| = |v| cos(gamma), |v_C| = |v|, so
+From [seed000 eq8], psi' = v sin(gamma) / L, |v_O| = |v| cos(gamma), |v_C| = |v|, so
 with the path tangent ``theta`` and arclength ``s`` along the motion
 (ds/dt = |v_P|) the curvature of the path of each point is
 ``kappa_P = d(theta)/ds = psi' / |v_P|``:
@@ -35,8 +35,8 @@ reference body heading on an arc is the one of the steady turn, so that
 * tracked point C: ``xi_r = psi + gamma - psi_ref`` (the wheel is tangent at
   steady state), ``xi = xi_r - (gamma - gamma_ss)``;
 
-with ``psi_ref`` the path tangent (+ pi when reversing). Eq. 9 becomes
-``xi_r = xi + (gamma - gamma_ss)`` and eq. 10 ``eps_c = eps_o + L sin(xi)``
+with ``psi_ref`` the path tangent (+ pi when reversing). [seed000 eq9] becomes
+``xi_r = xi + (gamma - gamma_ss)`` and [seed000 eq10] ``eps_c = eps_o + L sin(xi)``
 (exact, used to derive the error of the untracked point). On a line both are
 the seed's relations and the derived lateral error is the true lateral
 deviation of the other point; on an arc it is its first-order equivalent. At
@@ -108,7 +108,7 @@ def feedforward_steering(
     """Steady-state steering angle gamma_ss (rad) holding the tracked point on curvature ``kappa``.
 
     ``tan(gamma_ss) = d L kappa`` for O and ``sin(gamma_ss) = d L kappa`` for C
-    (derived from seed 000 eq. 8 in the module docstring); ``d`` = direction of
+    (derived from [seed000 eq8] in the module docstring); ``d`` = direction of
     travel. Returns ``(gamma_ss, valid)``; for C with ``L |kappa| > 1`` the
     angle saturates at +/- pi/2 and ``valid`` is False.
     """
@@ -144,7 +144,7 @@ def errors_from_projection(
     Pure kernel, vectorised over the batch. ``psi``, ``gamma`` (rad) of the
     vehicle; ``lateral`` (m, left of the tangent), ``path_heading`` (rad),
     ``kappa`` (1/m), ``direction`` (+1/-1) of the path at the projection of the
-    tracked ``point`` ("O" or "C"). Seed 000 eqs 9-10 relative to the
+    tracked ``point`` ("O" or "C"). [seed000 eq9] and [seed000 eq10] relative to the
     feed-forward (see module docstring).
     """
     L = require_positive("wheelbase", wheelbase)
@@ -205,7 +205,7 @@ def tracking_errors_scalar(
 ) -> TrackingErrors:
     """Scalar fast path of :func:`tracking_errors` (plain floats in and out), for controllers.
 
-    Same equations (seed 000 eqs 9-10 relative to the feed-forward); wrapping
+    Same equations ([seed000 eq9] [seed000 eq10] relative to the feed-forward); wrapping
     to ``[-pi, pi)`` by :func:`agvnav.geometry.wrap_angle_scalar`. No input checks: the caller validates.
     """
     x, y, psi = pose_o
