@@ -27,7 +27,15 @@ from agvnav.guidance.gains import envelope_distance, modal_response
 from agvnav.guidance.holonomic import HolonomicFollower
 from agvnav.guidance.steered import SteeredFollower
 from agvnav.guidance.unicycle import UnicycleFollower, pure_pursuit_lookahead_for_distance
-from agvnav.kinematics import DifferentialDrive, KinematicModel, MecanumBase, TricycleRearDrive, TricycleStacker
+from agvnav.kinematics import (
+    Ackermann,
+    DifferentialDrive,
+    KinematicModel,
+    MecanumBase,
+    TractorTrailer,
+    TricycleRearDrive,
+    TricycleStacker,
+)
 
 
 @dataclass(frozen=True)
@@ -62,10 +70,15 @@ def tracked_xy(follower: PathFollower, state: np.ndarray) -> tuple[float, float]
     return x, y
 
 
-def plant_input(follower: PathFollower, state: np.ndarray, v: float, rate: float) -> np.ndarray:
-    """The family's conversion of (v, v_lateral, rate) into the kinematic model's input."""
+def plant_input(follower: PathFollower, state: np.ndarray, v: float, rate: float, dt: float) -> np.ndarray:
+    """The family's conversion of (v, v_lateral, rate) into the kinematic model's input.
+
+    Steered: the steering actuator holds its angle limit (the rate is cut so one step stops at it).
+    """
     if isinstance(follower, SteeredFollower):
-        return np.array([follower.drive_speed(v, state[3]), rate])
+        limit, gamma = follower.max_steer * (1 - 1e-9), float(state[3])
+        rate = min(max(rate, (-limit - gamma) / dt), (limit - gamma) / dt)
+        return np.array([follower.drive_speed(v, gamma), rate])
     if isinstance(follower, HolonomicFollower):
         assert follower.last_twist is not None
         return np.array(follower.last_twist)
@@ -73,15 +86,15 @@ def plant_input(follower: PathFollower, state: np.ndarray, v: float, rate: float
 
 
 def drive(
-    follower: PathFollower, model: KinematicModel, state0: np.ndarray, v: float, dt: float = 0.02
+    follower: PathFollower, model: KinematicModel, state0: np.ndarray, v: float, dt: float = 0.04
 ) -> tuple[np.ndarray, list[float]]:
     """Drive until the tracked point's projection reaches 5 cm before the path end; return states and |lateral|."""
     path = follower.path
     state, states, lateral = np.asarray(state0, dtype=float), [], []
     for _ in range(int(1.5 * path.length / (abs(v) * dt))):
-        steering = float(state[3]) if state.size == 4 else 0.0
+        steering = float(state[3]) if isinstance(follower, SteeredFollower) else 0.0
         _, rate = follower.command(state[:3], v, steering)
-        state = model.step(state, plant_input(follower, state, v, rate), dt)
+        state = model.step(state, plant_input(follower, state, v, rate, dt), dt)
         states.append(state)
         pr = path.project_point(*tracked_xy(follower, state))
         lateral.append(abs(pr.lateral))
@@ -121,11 +134,42 @@ def test_model_a_rear_drive_reproduces_the_stacker_loop_on_an_arc(name):
     runs = []
     for dp in ("C", "O"):
         follower = make_follower(name, "steered", arc, Steered(drive_point=dp), convergence_distance=1.5)
-        states, lateral = drive(follower, model_for("steered", dp), np.array([0.0, 0.1, 0.0, 0.0]), v=0.3)
+        states, lateral = drive(follower, model_for("steered", dp), np.array([0.0, 0.1, 0.0, 0.0]), v=0.3, dt=0.02)
         assert lateral[-1] < 0.002, (dp, lateral[-1])
         runs.append(states)
     n = min(len(r) for r in runs)
     np.testing.assert_allclose(runs[0][:n, :3], runs[1][:n, :3], atol=1e-3)
+
+
+@pytest.mark.parametrize("name", FOLLOWERS["steered"])
+def test_ackermann_bicycle_equivalent_follows_with_the_steered_laws(name):
+    """Seed 003 §3.2.6: the Ackermann car moves as the rear-drive tricycle on its bicycle angle."""
+    geometry = Steered(wheelbase=1.2, drive_point="O", max_steer=math.radians(40.0))
+    follower = make_follower(name, "steered", LINE_ARC, geometry, convergence_distance=1.5)
+    model = Ackermann(1.2, 0.8, max_steer=math.radians(40.0))
+    _, lateral = drive(follower, model, np.array([0.0, 0.1, 0.0, 0.0]), v=0.3)
+    assert lateral[-1] < 0.003
+
+
+@pytest.mark.parametrize("name", FOLLOWERS["unicycle"])
+def test_tractor_of_a_tractor_trailer_follows_and_the_trailer_straightens(name):
+    """The unicycle followers steer the differential tractor; the trailer (not controlled) settles behind it."""
+    follower = make_follower(name, "unicycle", LINE_ARC, Unicycle(), convergence_distance=1.5)
+    model = TractorTrailer(trailer_length=1.0, hitch_offset=0.3, max_hitch_angle=math.radians(80.0))
+    states, lateral = drive(follower, model, np.array([0.0, 0.1, 0.0, 0.0]), v=0.3)
+    assert lateral[-1] < 0.003
+    assert np.max(np.abs(states[:, 3])) < math.radians(45.0)  # far from a jackknife
+    assert abs(states[-1, 3]) < math.radians(5.0)  # straightening on the final line
+
+
+def test_steered_general_law_on_o_reverses_a_model_a_vehicle():
+    """Reversing where the vehicle can (seed 000 §3.3: the general law on point O)."""
+    path = path_from_moves((0.0, 0.0, 0.0), [("line", 2.0, -1), ("arc", 3.0, math.pi / 3, -1), ("line", 2.0, -1)])
+    follower = make_follower(
+        "seed_general", "steered", path, Steered(drive_point="O"), convergence_distance=1.5, point="O"
+    )
+    _, lateral = drive(follower, model_for("steered", "O"), np.array([0.0, 0.1, math.pi, 0.0]), v=-0.2)
+    assert lateral[0] > 0.05 and lateral[-1] < 0.003
 
 
 @pytest.mark.parametrize("name", FOLLOWERS["unicycle"])

@@ -12,6 +12,14 @@ the same motion for the same path: with ``v_C = V / cos(phi)``,
 So every law carries over as it is once it is given the speed of C, whichever
 wheel drives; only the plant command differs (:meth:`SteeredFollower.drive_speed`).
 
+Where it does not carry over: the Ackermann car's two front wheels turn by
+different angles; the laws command the *bicycle* angle (the plant maps it to
+the two wheels), and the equivalence is kinematic (no tyre slip). A steering
+limit below 90 deg (model A, Ackermann) bounds the curvature the laws may ask
+for: :func:`agvnav.guidance.check_path_feasible` refuses tighter arcs before a
+run, and the tractor-trailer is a differential tractor (unicycle family,
+:mod:`agvnav.guidance.unicycle`), not a steered vehicle.
+
 Speed conversion: ``command(pose, v, steering)`` takes ``v``, the signed
 speed (m/s) of the *tracked* point (the controller's ``point``, C or O)
 along the path, and hands the wrapped controller the speed of C:

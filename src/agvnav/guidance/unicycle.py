@@ -1,6 +1,7 @@
 """Path followers for unicycle vehicles: differential, tracked, the differential tractor.
 
-A unicycle turns about base_link (the axle midpoint) at any yaw rate, so each
+A unicycle (``x' = v cos(theta)``, ``y' = v sin(theta)``, ``theta' = omega``
+[seed003 §3.2.4]) turns about base_link (the axle midpoint) at any yaw rate, so each
 law here returns a yaw rate ``omega`` (rad/s) for the caller's speed ``v``
 (m/s); ``v_lateral`` is always 0. Every law works in the frame of the
 direction of motion: heading ``psi_m = psi`` on a forward segment and
@@ -21,6 +22,12 @@ controllers, :func:`agvnav.guidance.controller.loop_convergence_distance`):
   point (Coulter 1992), ``omega = |v| kappa``;
 * :class:`UnicycleStanley` - Stanley's law (Thrun et al. 2006) steering a
   virtual front axle ahead of base_link in the direction of motion.
+
+Tractor-trailer [seed003 §3.2.7]: the followers steer the tractor on the path;
+they do not see the hitch angle, so the trailer's off-tracking on arcs is not
+corrected, and backing a trailer is unstable (jackknife): such a plant must
+not allow reverse segments (:func:`agvnav.guidance.check_path_feasible` with
+``reverse_allowed=False``).
 """
 
 from __future__ import annotations
