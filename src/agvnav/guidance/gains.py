@@ -1,19 +1,19 @@
 """Gain design for the seed-000 guidance laws from closed-loop poles per metre travelled.
 
-Error dynamics (seed 000 §3.2). Linearised, eqs 14-16 read
+Error dynamics (seed 000 §3.2). Linearised, [seed000 eq14] [seed000 eq15] [seed000 eq16] read
 ``eps_c' = v xi_r``, ``eps_o' = v xi``, ``xi' = (v/L) gamma``; with the
-general law eq. 11, ``gamma' = -a eps_o - b xi - c gamma``, and ``q = eps_o``:
+general law [seed000 eq11], ``gamma' = -a eps_o - b xi - c gamma``, and ``q = eps_o``:
 ``q' = v xi``, ``q'' = (v^2/L) gamma``, ``q''' = (v^2/L) gamma'
 = -(v^2/L) a q - (v/L) b q' - c q''``, i.e.::
 
-    q''' + c q'' + (v/L) b q' + (v^2/L) a q = 0          (eq. 17)
+    q''' + c q'' + (v/L) b q' + (v^2/L) a q = 0          [seed000 eq17]
 
 The extracted text of eq. 17 is garbled (it reads ``q'' + c q' + (v/L) b q' + ...``);
 the derivation above, repeated for eps_c, xi, xi_r and gamma (all linear
 combinations of eps_o and its derivatives), confirms the third-order form.
 Routh-Hurwitz on ``s^3 + c s^2 + (v b/L) s + v^2 a/L`` gives ``c > 0``,
-``v b > 0``, ``a > 0`` and ``c (v b / L) > v^2 a / L``, i.e. eqs 18 (v > 0) and 19
-(v < 0): the sign of b must follow the direction of travel.
+``v b > 0``, ``a > 0`` and ``c (v b / L) > v^2 a / L``, i.e. [seed000 eq18] (v > 0) and
+[seed000 eq19] (v < 0): the sign of b must follow the direction of travel.
 
 Poles per metre. Writing the dynamics against the distance travelled
 ``sigma = |v| t`` makes the poles ``lambda_i = p_i / |v|`` (1/m) independent of
@@ -48,7 +48,7 @@ pattern (one real pole and a complex pair) to a given distance.
 Pole pattern of the general law on point C (cruising, v > 0). Per metre
 (v = 1) with ``chi(s) = s^3 + e1 s^2 + e2 s + e3``, a lateral offset of C
 (``eps_c(0) = eps0``, ``xi_r = gamma = 0``) is not a "natural" initial
-condition of eq. 17: ``eps_c''(0) = -v a eps0``. Its Laplace transform is
+condition of [seed000 eq17]: ``eps_c''(0) = -v a eps0``. Its Laplace transform is
 ``eps_c(s) / eps0 = N(s) / chi(s)`` with ``N(s) = s^2 + e1 s + (e2 - L e3)``
 (time domain: ``s^2 + c s + (v b/L - v a)``), and ``chi(s) = s N(s) + e3 (L s + 1)``.
 So N and chi share a root only at ``s = -1/L``: a real pole ``lambda_r`` away
@@ -59,11 +59,11 @@ offset; the 2 % envelope then asked for even faster poles (the residues grow
 with the pole scale), a vicious circle that ended with the wheel at its
 +/-90 deg stop. Scanning ratio and damping does not cure it (overshoot
 > 100 % for every ratio in 0.2-1.5 and damping in 0.5-1 at 1.5 m); only the
-real pole at ``-1/L`` does. There ``c - b + a L = 1/L`` (i.e. ``v/L``), eq. 13
+real pole at ``-1/L`` does. There ``c - b + a L = 1/L`` (i.e. ``v/L``), [seed000 eq13]
 becomes ``gamma' = -a eps_c - (b - a L) xi_r - (v/L) gamma``: the simple law
-eq. 20 (linearised) with ``a_s = a``, ``b_s = b - a L``. The pair (eps_c,
-xi_r) is then a closed second-order loop (eq. 23) and the real mode lives
-only in eps_o, xi, gamma (eq. 24): hidden from eps_c for *every* initial
+[seed000 eq20] (linearised) with ``a_s = a``, ``b_s = b - a L``. The pair (eps_c,
+xi_r) is then a closed second-order loop [seed000 eq23] and the real mode lives
+only in eps_o, xi, gamma [seed000 eq24]: hidden from eps_c for *every* initial
 condition, a steering error at the start included. eps_c then follows
 ``q'' + 2 zeta w q' + w^2 q = 0`` from ``(1, 0)``, whose undershoot is
 ``exp(-pi zeta / sqrt(1 - zeta^2))``: 4.3 % at the default damping 0.707
@@ -80,20 +80,20 @@ real pole at :func:`hidden_real_pole`, pair with damping
 0.707 scaled to the distance (the real pole does not count
 in the eps_c envelope, so the envelope measure no longer forces fast poles:
 the pair comes out as the simple law's). Far from the linear range (the
-wheel straight at the start of a tight arc) the controller also uses eq. 13
+wheel straight at the start of a tight arc) the controller also uses [seed000 eq13]
 with the body rotation written exactly (:func:`agvnav.guidance.laws.general_law`),
 which keeps the cancellation. The real pole per metre is fixed
 by L, so in time it is ``-v/L``: it scales with v as the pair does.
 
 Point O (manoeuvres, either direction) needs no such care: a lateral offset
-of O is a natural initial condition of eq. 17 (eps_o' = v xi = 0, eps_o'' =
+of O is a natural initial condition of [seed000 eq17] (eps_o' = v xi = 0, eps_o'' =
 (v^2/L) gamma = 0), the response is the free response of chi with
 ``(s^2 + e1 s + e2) / chi(s)``, and the seed-like pattern (real pole = real
 part of the pair, damping 0.707) has no undershoot. Reverse driving on C
 cannot hide the real pole (the common root would be ``+1/L``): it keeps the
 ratio pattern.
 
-Simple law (seed 000 §3.3, eq. 23): ``q'' + b q' + a v q = 0`` for
+Simple law (seed 000 §3.3, [seed000 eq23]): ``q'' + b q' + a v q = 0`` for
 ``q = eps_c, xi_r``; with poles per metre ``mu_i``: ``b = v f1``, ``a = v f2``
 where ``prod(s - mu_i) = s^2 + f1 s + f2``.
 """
@@ -447,7 +447,7 @@ def general_characteristic(a: float, b: float, c: float, v: float, wheelbase: fl
 
 
 def routh_hurwitz_ok(a: ArrayLike, b: ArrayLike, c: ArrayLike, v: ArrayLike) -> NDArray[np.bool_]:
-    """Vectorised Routh-Hurwitz test of eq 17, [seed000 eq18] [seed000 eq19]; False at v = 0."""
+    """Vectorised Routh-Hurwitz test of [seed000 eq17]: [seed000 eq18] [seed000 eq19]; False at v = 0."""
     a, b, c, v = (np.asarray(x, dtype=np.float64) for x in (a, b, c, v))
     return (a > 0) & (c > 0) & (v * b > 0) & (c * np.abs(b) > np.abs(v) * a)
 
