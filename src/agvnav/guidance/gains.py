@@ -8,7 +8,7 @@ general law [seed000 eq11], ``gamma' = -a eps_o - b xi - c gamma``, and ``q = ep
 
     q''' + c q'' + (v/L) b q' + (v^2/L) a q = 0          [seed000 eq17]
 
-The extracted text of eq. 17 is garbled (it reads ``q'' + c q' + (v/L) b q' + ...``);
+The extracted text of that equation is garbled (it reads ``q'' + c q' + (v/L) b q' + ...``);
 the derivation above, repeated for eps_c, xi, xi_r and gamma (all linear
 combinations of eps_o and its derivatives), confirms the third-order form.
 Routh-Hurwitz on ``s^3 + c s^2 + (v b/L) s + v^2 a/L`` gives ``c > 0``,
