@@ -209,15 +209,18 @@ def _has_real_pole_at(poles: NDArray[np.complex128], pole: float) -> bool:
 
 
 class SeedGeneralController(_PathFollower):
-    """General three-parameter law of seed 000 (eqs 11-13) with curvature feed-forward.
+    """General three-parameter law of seed 000 with curvature feed-forward.
+
+    [seed000 eq11] [seed000 eq12] [seed000 eq13].
 
     Gains from closed-loop poles per metre (``poles_per_m``, or
     ``convergence_distance``, designed for each direction of travel:
     attributes ``poles_per_m`` and ``poles_per_m_reverse``; a, b, c are
     recomputed from |v| at every command so the convergence distance does not
-    change with speed and b follows the sign of v), or fixed ``gains=(a, |b|, c)`` checked by Routh-Hurwitz (eqs 18-19)
-    up to ``v_max`` (m/s) in both directions. ``point`` "O" (manoeuvres, default
-    form eq. 11) or "C" (cruising, default form eq. 13). At v = 0 the command is 0.
+    change with speed and b follows the sign of v), or fixed ``gains=(a, |b|, c)`` checked by
+    Routh-Hurwitz ([seed000 eq18] [seed000 eq19]) up to ``v_max`` (m/s) in both directions.
+    ``point`` "O" (manoeuvres, default form [seed000 eq11]) or "C" (cruising, default form
+    [seed000 eq13]). At v = 0 the command is 0.
     With ``curvature_compensation`` (and designed poles) the gains on an arc
     come from :func:`~agvnav.guidance.gains.general_gains_on_arc`, so the
     linearised poles per metre are the designed ones on arcs too; without it
@@ -225,10 +228,10 @@ class SeedGeneralController(_PathFollower):
     that loop can lose its damping or even its stability).
 
     For point C the law answers a lateral offset of C with an immediate
-    steering rate ``-a eps_c`` (eq. 17 started from eps_c'' != 0), and with a
+    steering rate ``-a eps_c`` ([seed000 eq17] started from eps_c'' != 0), and with a
     real pole away from ``-1/L`` eps_c swings far past zero. The design from
     ``convergence_distance`` therefore puts the forward real pole at
-    :func:`~agvnav.guidance.gains.hidden_real_pole`, where eq. 13 reduces to
+    :func:`~agvnav.guidance.gains.hidden_real_pole`, where [seed000 eq13] reduces to
     the simple law and the real mode does not show in eps_c (see
     :mod:`agvnav.guidance.gains`). Whenever the forward poles on C have their
     real pole there (designed, or given at ``-1/L`` in ``poles_per_m``;
@@ -314,7 +317,7 @@ class SeedGeneralController(_PathFollower):
         return poles
 
     def command(self, pose_o: ArrayLike, gamma: float, v: float) -> float:
-        """Steering rate (rad/s) from seed 000 eq. 11, 12 or 13 (see class doc)."""
+        """Steering rate (rad/s) from [seed000 eq11], [seed000 eq12] or [seed000 eq13] (see class doc)."""
         pose, gamma, v = self._inputs(pose_o, gamma, v)
         e = self._errors(pose, gamma)
         if v == 0.0:
@@ -329,7 +332,7 @@ class SeedGeneralController(_PathFollower):
 
 
 class SeedSimpleController(_PathFollower):
-    """Simple two-parameter law of seed 000 (eqs 20-22), point C, v > 0 only.
+    """Simple two-parameter law of seed 000, point C, v > 0 only: [seed000 eq20] [seed000 eq21] [seed000 eq22].
 
     Gains from two poles per metre (``poles_per_m`` or ``convergence_distance``)
     or fixed ``gains=(a, b)``. With ``curvature_compensation`` the gain a is
@@ -370,7 +373,7 @@ class SeedSimpleController(_PathFollower):
             self.fixed_gains = (a, b)
 
     def command(self, pose_o: ArrayLike, gamma: float, v: float) -> float:
-        """Steering rate (rad/s) from seed 000 eq. 20, 21 or 22 (see class doc)."""
+        """Steering rate (rad/s) from [seed000 eq20], [seed000 eq21] or [seed000 eq22] (see class doc)."""
         pose, gamma, v = self._inputs(pose_o, gamma, v)
         e = self._errors(pose, gamma)
         if v == 0.0:
@@ -494,12 +497,12 @@ def linearised_loop(
     """Poles (1/m) and lateral-error residues of the closed loop linearised numerically on a line.
 
     The controller is given a 100 m straight path along x (its segment
-    direction = sign of v) and the nonlinear tricycle (seed 000 eq. 8) with
+    direction = sign of v) and the nonlinear tricycle [seed000 eq8] with
     state ``(y_O, psi, gamma)`` is differentiated by central differences
     about zero error. Returns the eigenvalues divided by |v| and, for each,
     its residue in the tracked point's lateral error after a unit lateral
     offset of that point (:func:`~agvnav.guidance.gains.modal_response`).
-    For the seed's laws the poles are the roots of eq. 17 / eqs 23-24. The
+    For the seed's laws the poles are the roots of [seed000 eq17] or [seed000 eq23] [seed000 eq24]. The
     controller's own path is restored afterwards (and the controller reset).
     """
     d = 1 if v > 0 else -1
