@@ -1,8 +1,8 @@
 """Ultrasonic range sensors (HY-SRF05-like) measuring walls, for seed 004.
 
 Seed 004 (§II) mounts HY-SRF05 ultrasonic rangers on a tracked robot: pairs
-on the sides measure wall landmarks alongside (eqs 6-7), a front one the wall
-ahead at a corner (eq 8). It quotes an optimal range of 3-60 cm. The model:
+on the sides measure wall landmarks alongside ([seed004 eq6] [seed004 eq7]), a front one
+the wall ahead at a corner [seed004 eq8]. It quotes an optimal range of 3-60 cm. The model:
 
 * **Cone beam.** The echo comes from the nearest wall point inside a cone of
   half-angle ``half_angle`` about the sensor axis. Default 15°: HY-SRF05 /
@@ -386,8 +386,8 @@ def seed_004_layout(
 
     Names: ``right_front``, ``right_rear``, ``left_front``, ``left_rear`` (on the
     side faces, ``spacing`` m apart along x, beams perpendicular to the body:
-    the ``dist`` of seed 004 eqs 6-7) and ``front`` (centre of the front face,
-    for eq 8). The 0.30 m spacing is an assumption (the seed gives no value).
+    the ``dist`` of [seed004 eq6] [seed004 eq7]) and ``front`` (centre of the front face,
+    for [seed004 eq8]). The 0.30 m spacing is an assumption (the seed gives no value).
     Pings are staggered by a quarter period to avoid crosstalk.
     """
     base = sensor or UltrasonicSensor()
