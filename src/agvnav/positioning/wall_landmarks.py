@@ -190,111 +190,12 @@ class WallLandmarkLocalizer:
     covariance: None = None
 
     def __post_init__(self) -> None:
-        for name in ("detect_range", "gate", "front_gate", "pair_max_age", "parallel_tolerance"):
-            require_positive(name, getattr(self, name))
-        require_nonnegative("end_margin", self.end_margin)
-        if not 0.0 < self.calibration_gain <= 1.0:
-            raise ValueError(f"calibration_gain must be in (0, 1], got {self.calibration_gain!r}")
-        for side, *_ in self.side_pairs:
-            if side not in SIDES:
-                raise ValueError(f"side_pairs: side must be 'right' or 'left', got {side!r}")
-
-    @property
-    def sensor_names(self) -> set[str]:
-        """Every ranger name the parameters refer to."""
-        return {self.front_sensor, *(n for _, front, rear in self.side_pairs for n in (front, rear))}
-
-
-@dataclass
-class _Reading:
-    t: float = -math.inf
-    range: float = math.nan
-
-
-class WallLandmarkLocalizer:
-    """Dead reckoning recalibrated by ultrasonic wall landmarks: a streaming estimator (seed 004 §II-B).
-
-    Parameters
-    ----------
-    walls : ``(M, 2, 2)`` landmark wall segments (m) in ``map`` (may be empty).
-    rangers : the :class:`~agvnav.sensors.ultrasonic.UltrasonicArray` (names and
-        mounts); it must hold every sensor named in ``params``. Without rangers the
-        localizer is pure dead reckoning (and :meth:`update_ranges` refuses input).
-    params : :class:`LandmarkParams`.
-    pose, t : start pose ``(3,)`` (m, m, rad) and time (s).
-    beam : range geometry, ``"cone"`` (nearest echo) or ``"ray"`` (see module doc).
-    rule : odometry integration rule (``"euler"``: eqs 3-5 as the seed).
-    wall_ids : names of the walls (for the calibration records).
-    odometry_noise : :class:`~agvnav.odometry.OdometryNoise` of the covariance growth.
-    initial_covariance : ``(3, 3)`` covariance of ``pose`` (default 1 mm, 1 mrad std).
-    range_std : std (m) of one range for the covariance of a calibration (default the
-        rangers' mean ``noise_std``, else 3 mm).
-
-    The estimator interface of docs/ARCHITECTURE.md: :meth:`predict` with the odometry
-    increment, :meth:`update_ranges` with the readings of one instant, then ``pose``,
-    ``covariance``, ``status`` and ``t``. ``status`` is ``"tracking"`` right after a
-    calibration and ``"dead_reckoning"`` after a prediction. ``history`` keeps every
-    :class:`Calibration`.
-
-    Association (per call of :meth:`update_ranges`, from the estimated pose): a side
-    pair calibrates when both of its latest readings (at most ``pair_max_age`` old,
-    within ``detect_range``) match the range predicted to the same wall within
-    ``gate``, the wall runs parallel to the estimated heading and both sensors are
-    abreast of it: then the heading (eqs 6-7) and, with ``lateral_calibration``, the
-    distance to the wall. The front sensor fixes the position along the normal of a
-    wall across the heading within ``front_gate`` (eq 8). Each correction is blended
-    by ``calibration_gain`` (a complementary filter; 1 replaces as the seed does).
-
-    Covariance (honest but simple): the odometric growth ``P' = F P F^T + Q`` with
-    ``F`` the Jacobian of the Euler step and ``Q`` Crowley's model
-    (:func:`agvnav.odometry.motion_covariance`, seed 002 eq 17); each correction is a
-    fixed-gain update in Joseph form, ``P' = (I - K H) P (I - K H)^T + K R K^T`` with
-    ``K = g e`` the blend actually applied, ``H`` the direction it corrects and ``R``
-    the variance of the measured heading (``2 range_std^2 / dist^2``) or distance
-    (``range_std^2 / k`` for the mean of ``k`` ranges). It describes the estimator's
-    own error only as well as ``OdometryNoise`` describes the odometry.
-    """
-
-    def __init__(
-        self,
-        walls: ArrayLike = (),
-        rangers: UltrasonicArray | None = None,
-        params: LandmarkParams | None = None,
-        *,
-        pose: ArrayLike = (0.0, 0.0, 0.0),
-        t: float = 0.0,
-        beam: str = "cone",
-        rule: str = "euler",
-        wall_ids: Sequence[str] | None = None,
-        odometry_noise: OdometryNoise | None = None,
-        initial_covariance: ArrayLike | None = None,
-        range_std: float | None = None,
-    ) -> None:
-        self.params = params or LandmarkParams()
-        self.walls = check_wall_segments(walls) if np.size(walls) else np.zeros((0, 2, 2))
-        self.rangers = rangers
-        if rangers is not None:
-            missing = self.params.sensor_names - set(rangers.names)
-            if missing:
-                raise ValueError(f"ranger array lacks {sorted(missing)} (see agvnav.sensors.seed_004_layout)")
-        self.wall_ids = list(wall_ids) if wall_ids is not None else [f"W{i}" for i in range(len(self.walls))]
-        if len(self.wall_ids) != len(self.walls):
-            raise ValueError(f"wall_ids names {len(self.wall_ids)} walls, but there are {len(self.walls)}")
-        _check_beam(beam)
-        if rule not in ("euler", "midpoint", "arc"):
-            raise ValueError(f"rule must be 'euler', 'midpoint' or 'arc', got {rule!r}")
-        self.beam, self.rule = beam, rule
-        self.odometry_noise = odometry_noise or OdometryNoise()
-        default_std = float(np.mean([rangers[n].noise_std for n in rangers.names])) if rangers is not None else 0.003
-        self.range_std = require_positive("range_std", default_std if range_std is None else range_std)
-        self._P0 = np.diag([1e-3, 1e-3, 1e-3]) ** 2 if initial_covariance is None else initial_covariance
-        self.history: list[Calibration] = []
-        self.reset(pose, t)
-
-    @property
-    def gain(self) -> float:
-        """Blend of each correction (``params.calibration_gain``)."""
-        return self.params.calibration_gain
+        self.pose = require_finite("pose", self.pose).reshape(3).copy()
+        if not 0.0 < self.gain <= 1.0:
+            raise ValueError(f"gain must be in (0, 1], got {self.gain!r}")
+        _check_beam(self.beam)
+        if self.rule not in ("euler", "midpoint", "arc"):
+            raise ValueError(f"rule must be 'euler', 'midpoint' or 'arc', got {self.rule!r}")
 
     def reset(self, pose: ArrayLike, t: float = 0.0) -> None:
         """Restart from a known pose (m, m, rad) at time ``t`` (s)."""
@@ -305,8 +206,7 @@ class WallLandmarkLocalizer:
     def predict(self, t: float, delta_d: float, delta_theta: float) -> None:
         """Dead reckoning by an odometry increment (m, rad).
 
-        [seed004 eq3] [seed004 eq4] [seed004 eq5] with ``rule="euler"``;
-        ``delta_lateral`` (body-frame y, holonomic vehicles) is added at the old heading.
+        [seed004 eq3] [seed004 eq4] [seed004 eq5] with ``rule="euler"``.
         """
         if not (math.isfinite(delta_d) and math.isfinite(delta_theta)):
             raise ValueError("delta_d and delta_theta must be finite")
