@@ -24,6 +24,7 @@ regenerate it with ``python -m agvnav.seeds > docs/SEEDS.md``.
 from __future__ import annotations
 
 import ast
+import functools
 import re
 import sys
 from collections.abc import Iterator
@@ -178,6 +179,13 @@ def _docstrings(tree: ast.Module, module: str) -> Iterator[tuple[str, int, bool,
                 stack.append((child, name))
 
 
+@functools.lru_cache(maxsize=4096)
+def _file_docstrings(path: Path, stamp: tuple[int, int], module: str) -> tuple[tuple[str, int, bool, str], ...]:
+    """Docstrings of one file in line order; cached per ``(path, (mtime_ns, size))``."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    return tuple(sorted(_docstrings(tree, module), key=lambda d: d[1]))
+
+
 def _scan(package_dir: Path | None, pattern: re.Pattern[str], strip_tags: bool) -> list[Citation]:
     root = (package_dir or _package_dir()).resolve()
     found: list[Citation] = []
@@ -187,8 +195,8 @@ def _scan(package_dir: Path | None, pattern: re.Pattern[str], strip_tags: bool) 
         rel = path.relative_to(root.parent)
         parts = rel.with_suffix("").parts
         module = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
-        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-        for where, line, is_def, doc in sorted(_docstrings(tree, module), key=lambda d: d[1]):
+        st = path.stat()
+        for where, line, is_def, doc in _file_docstrings(path, (st.st_mtime_ns, st.st_size), module):
             text = TAG_RE.sub("", doc) if strip_tags else doc
             found += [Citation(m.group(0), where, rel.as_posix(), line, is_def) for m in pattern.finditer(text)]
     return found
