@@ -10,9 +10,11 @@ from _plants import differential, drive, integrate_odometry
 from hypothesis import given
 from hypothesis import strategies as st
 
+from agvnav.actuators import WheelSpeedLoop
 from agvnav.kinematics import body_speeds, twist_step
 from agvnav.odometry import DifferentialGeometry, NonSystematicErrors, SystematicErrors
-from agvnav.vehicles import DifferentialPlant
+from agvnav.sensors.encoders import WheelEncoder
+from agvnav.vehicles import DifferentialPlant, UnicycleGeometry, WheelPairPlant
 from agvnav.vehicles.motion import differential_twist_matrix
 
 R, B = 0.1, 0.5
@@ -64,8 +66,8 @@ def test_wheel_diameter_ratio_drifts_as_predicted() -> None:
     plant = differential(errors)
     inc = drive(plant, (3.0, 3.0), 200)
     true_geo = errors.true_geometry(DifferentialGeometry.symmetric(R, B))
-    phi = plant.encoders[0].angle(plant._counts[0])  # the wheel's rotation to within one count
-    expected = (true_geo.radius_right - true_geo.radius_left) * float(phi) / true_geo.track
+    phi = sum(d[0] for d in inc) / R  # both wheels turned this much (rad), to within one count
+    expected = (true_geo.radius_right - true_geo.radius_left) * phi / true_geo.track
     assert plant.pose[2] == pytest.approx(expected, rel=1e-4)
     assert abs(sum(d[1] for d in inc)) < 1e-9
 
@@ -127,3 +129,20 @@ def test_bad_input(kwargs: dict, word: str) -> None:
         DifferentialPlant(**args)
     with pytest.raises(ValueError, match="dt"):
         DifferentialPlant(R, B, 100, (0, 0, 0)).advance((1.0, 1.0), 0.0, 0.0, np.random.default_rng(0))
+
+
+def test_twist_matrices_are_checked() -> None:
+    class Plain(WheelPairPlant):
+        def _begin_step(self, setpoint: tuple[float, float], dt: float, rng: np.random.Generator) -> None:
+            return
+
+        def _ground_speeds(self, wr: float, wl: float, h: float, rng: np.random.Generator) -> tuple[float, float]:
+            return wr * R, wl * R
+
+    args = (WheelSpeedLoop(), WheelEncoder(100, R), differential_twist_matrix(B), differential_twist_matrix(B),
+            (0.0, 0.0, 0.0), 0.01, UnicycleGeometry(B, R), [[1, 1], [-1, 1], [-1, -1]])
+    Plain(*args)  # valid
+    with pytest.raises(ValueError, match="nominal_twist"):
+        Plain(*args[:3], [[0.5, 0.5], [1.0 / B, -1.0 / B]], *args[4:])
+    with pytest.raises(ValueError, match="true_twist"):
+        Plain(args[0], args[1], [[math.nan, 0.5], [0, 0], [2, -2]], *args[3:])

@@ -24,6 +24,7 @@ from agvnav.vehicles.steered import STEERED_MODELS, SteeredPlant
 from agvnav.vehicles.tracked import TrackedPlant
 from agvnav.vehicles.tractor_trailer import TractorTrailerPlant
 from agvnav.vehicles.tricycle import TricyclePlant
+from agvnav.vehicles.wheel_pair import WheelPairPlant
 
 __all__ = [
     "DRIVE_POINTS",
@@ -37,6 +38,7 @@ __all__ = [
     "TractorTrailerPlant",
     "TricyclePlant",
     "UnicycleGeometry",
+    "WheelPairPlant",
     "box_footprint",
     "check_footprint",
 ]

@@ -26,8 +26,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav.kinematics.tractor_trailer import TractorTrailer
-from agvnav.vehicles.differential import DifferentialPlant
 from agvnav.vehicles.geometry import UnicycleGeometry
+from agvnav.vehicles.wheel_pair import WheelPairPlant
 
 __all__ = ["TractorTrailerPlant", "hitch_rate"]
 
@@ -42,11 +42,13 @@ def hitch_rate(phi: float, v_x: float, v_y: float, omega: float, trailer_length:
 
 
 class TractorTrailerPlant:
-    """Truth tractor-trailer: a :class:`DifferentialPlant` tractor and one off-axle trailer.
+    """Truth tractor-trailer: a differential tractor and one off-axle trailer.
 
     Parameters
     ----------
-    tractor : the truth tractor (its pose is base_link; its command, odometry, geometry and footprint are the plant's).
+    tractor : the truth tractor, a :class:`DifferentialPlant` (or any
+        :class:`~agvnav.vehicles.wheel_pair.WheelPairPlant`, e.g. a tracked one): its pose is
+        base_link; its command, odometry, geometry and footprint are the plant's.
     trailer : :class:`agvnav.kinematics.TractorTrailer` with D, d and the jackknife limit.
     initial_hitch_angle : true φ at the start (rad), below the jackknife limit.
 
@@ -57,7 +59,7 @@ class TractorTrailerPlant:
 
     family: ClassVar[str] = "unicycle"
 
-    def __init__(self, tractor: DifferentialPlant, trailer: TractorTrailer, initial_hitch_angle: float = 0.0) -> None:
+    def __init__(self, tractor: WheelPairPlant, trailer: TractorTrailer, initial_hitch_angle: float = 0.0) -> None:
         phi0 = float(initial_hitch_angle)
         if not (math.isfinite(phi0) and abs(phi0) < trailer.max_hitch_angle):
             raise ValueError(
