@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 from agvnav.bench import positioning
+from agvnav.sensors.goniometer import Goniometer
+from agvnav.world import load_builtin_map
 
 KEYS = (
     "method", "speed_mps", "rms_position_m", "max_position_m", "rms_heading_rad",
@@ -46,14 +48,13 @@ def test_figures_are_consistent(records: list[dict]) -> None:
 
 @pytest.mark.parametrize("method", ["naive", "ekf"])
 def test_same_seed_same_figures(method: str) -> None:
-    from agvnav.sensors.goniometer import Goniometer
-    from agvnav.world import load_builtin_map
-
     world = load_builtin_map("lab")
     gon = Goniometer(mount=positioning.MOUNT, p_miss=0.1, spurious_rate=1.0)
     drive = positioning.lab_drive(1.0)
     runs = [
-        positioning._run_one(method, world, world, gon, drive, 1.0, positioning.ODOMETRY_NOISE, np.random.default_rng(3))
+        positioning._run_one(
+            method, world, world, gon, drive, 1.0, positioning.ODOMETRY_NOISE, np.random.default_rng(3)
+        )
         for _ in range(2)
     ]
     np.testing.assert_array_equal(runs[0]["estimate"], runs[1]["estimate"])
@@ -65,6 +66,6 @@ def test_open_loop_drive_is_continuous_and_matches_odometry() -> None:
     poses = drive.pose_at(t)
     steps = np.hypot(*np.diff(poses[:, :2], axis=0).T)
     assert steps.max() < 1.01 * drive.u.max() * (t[1] - t[0])  # no jump at segment joins
-    dd, dth = drive.odometry(t[:-1], t[1:])
+    _, dth = drive.odometry(t[:-1], t[1:])
     np.testing.assert_allclose(np.cumsum(dth), np.unwrap(poses[1:, 2]) - poses[0, 2], atol=1e-9)
     np.testing.assert_allclose(poses[-1], drive.poses[-1], atol=1e-9)

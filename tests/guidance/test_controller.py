@@ -14,8 +14,8 @@ from agvnav.guidance import (
     SeedSimpleController,
     StanleyController,
     linearised_loop,
-    loop_convergence_distance,
     lookahead_for_distance,
+    loop_convergence_distance,
     make_controller,
     path_from_moves,
     tune_for_convergence,
@@ -47,7 +47,7 @@ def test_factory_names_and_errors():
         assert c.path is p and c.last_errors is None
     with pytest.raises(ValueError, match="unknown controller 'lqr'"):
         make_controller("lqr", p, L)
-    with pytest.raises(ValueError, match="seed_general.*lookahead"):
+    with pytest.raises(ValueError, match=r"seed_general.*lookahead"):
         make_controller("seed_general", p, L, lookahead=1.0)
     with pytest.raises(ValueError, match="only one"):
         make_controller("seed_general", p, L, convergence_distance=1.0, poles_per_m=[-1, -1, -1])

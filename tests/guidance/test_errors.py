@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from _guidance_sim import rk4_step
+from _guidance_sim import rk4_step, tricycle_derivative
 
 from agvnav.guidance import (
     LineSegment,
@@ -15,6 +15,7 @@ from agvnav.guidance import (
     tracking_errors,
     tracking_errors_scalar,
 )
+from agvnav.kinematics.tricycle import TricycleStacker
 
 L = 1.1
 
@@ -105,7 +106,7 @@ def test_feedforward_holds_the_tracked_point_on_its_circle(point, v, kappa):
     gamma_ss, valid = feedforward_steering(kappa, L, point, d)
     assert valid
     state = np.array([0.0, 0.0, 0.0 if d > 0 else math.pi, float(gamma_ss)])
-    pts, headings = [], []
+    pts = []
     for _ in range(400):
         state = rk4_step(state, v, 0.0, L, 0.01)
         q = state[:2] if point == "O" else point_c(state[:3], L)
@@ -153,10 +154,6 @@ def test_scalar_fast_path_equals_the_vectorised_kernel(point, feedforward):
 
 def test_local_plant_matches_the_kinematics_package():
     """The tests' RK4 helper integrates the same eq. 8 as agvnav.kinematics.TricycleStacker."""
-    from _guidance_sim import tricycle_derivative
-
-    from agvnav.kinematics.tricycle import TricycleStacker
-
     model = TricycleStacker(wheelbase=L)
     rng = np.random.default_rng(3)
     for _ in range(20):

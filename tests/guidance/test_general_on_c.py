@@ -14,7 +14,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy import signal
 
-from agvnav.guidance import LineSegment, Path, SeedGeneralController, path_from_moves
+from agvnav.guidance import LineSegment, Path, SeedGeneralController, SeedSimpleController, path_from_moves
 from agvnav.guidance.gains import (
     BAND_DAMPING,
     arc_linear_model,
@@ -167,8 +167,6 @@ def test_110_mm_converges_without_saturation(moves, length):
 
 def test_general_on_c_matches_simple_law_in_the_nonlinear_loop():
     """With the hidden real pole, eq. 13 (exact rotation) drives C exactly as eq. 20 with the same pair."""
-    from agvnav.guidance import SeedSimpleController
-
     path = path_from_moves([0.0, 0.0, 0.0], [("arc", 1.24, math.pi / 2), ("line", 3.0)])
     gen = SeedGeneralController(path, L, convergence_distance=1.5, point="C")
     simple = SeedSimpleController(path, L, convergence_distance=1.5)
@@ -180,9 +178,9 @@ def test_unstable_designs_are_still_refused():
     path = Path([LineSegment(np.array([0.0, 0.0]), 0.0, 10.0, 1)])
     with pytest.raises(ValueError, match="negative real parts"):
         SeedGeneralController(path, L, poles_per_m=[0.5, -1 + 1j, -1 - 1j], point="C")
-    with pytest.raises(ValueError, match="eq. 18"):
+    with pytest.raises(ValueError, match=r"eq\. 18"):
         SeedGeneralController(path, L, gains=(10.0, 1.0, 1.0), v_max=0.5, point="C")  # b c / a < v
-    with pytest.raises(ValueError, match="eq. 19"):
+    with pytest.raises(ValueError, match=r"eq\. 19"):
         check_routh_hurwitz(1.0, 1.0, 1.0, -0.2)  # b must follow the direction of travel
     p = seed_poles_for_distance(1.5, L)
     assert np.all(characteristic_coefficients(p, 3) > 0)

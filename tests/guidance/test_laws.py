@@ -24,6 +24,7 @@ from agvnav.guidance import (
     poles_for_convergence,
     simple_law,
 )
+from agvnav.kinematics.tricycle import TricycleStacker
 
 L = 1.1
 
@@ -154,10 +155,11 @@ def test_seed_guidance_experiment_corrects_110_mm(plant):
     Lw = 1.0
     step = None
     if plant != "local_rk4":
-        from agvnav.kinematics.tricycle import TricycleStacker
-
         model = TricycleStacker(wheelbase=Lw)
-        step = lambda s, v, u, dt: model.step(s, np.array([v, u]), dt)  # noqa: E731
+
+        def step(s, v, u, dt):
+            return model.step(s, np.array([v, u]), dt)
+
     p = path_from_moves([0.0, 0.0, 0.0], [("arc", 1.24, -math.pi / 2), ("line", 3.0)])
     ctrl = SeedSimpleController(p, Lw, convergence_distance=1.0)
     gamma0 = math.asin(-Lw / 1.24)

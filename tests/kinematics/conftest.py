@@ -11,12 +11,12 @@ from agvnav.kinematics import (
     DifferentialDrive,
     MecanumBase,
     TrackedVehicle,
+    TrackTerrain,
     TractorTrailer,
     TricycleRearDrive,
     TricycleRearDriveSimple,
     TricycleStacker,
     TricycleStackerSimple,
-    TrackTerrain,
 )
 
 MODELS = {

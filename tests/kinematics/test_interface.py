@@ -52,7 +52,7 @@ def test_constraints_hold_along_trajectory(model, sampler):
     """Seed 003: A(q)·q' = 0 at every point of a simulated trajectory (1e-9)."""
     rng = np.random.default_rng(5)
     x, _ = sampler(model, rng, 8)
-    for k in range(50):
+    for _ in range(50):
         _, u = sampler(model, rng, 8)
         u *= 0.3
         a = model.constraint_matrix(x)

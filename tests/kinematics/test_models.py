@@ -13,8 +13,8 @@ from agvnav.kinematics import (
     DifferentialDrive,
     MecanumBase,
     TrackedVehicle,
-    TractorTrailer,
     TrackTerrain,
+    TractorTrailer,
     TricycleRearDrive,
     TricycleStacker,
     TricycleStackerSimple,
@@ -196,7 +196,7 @@ def test_trailer_settles_to_equilibrium_and_jackknife_check():
     assert x[3] == pytest.approx(tt.equilibrium_hitch_angle(kappa), abs=1e-6)
     # Reversing straight from a bent hitch folds the trailer until it jackknifes.
     # The validated step refuses to end in a jackknife; the unchecked kernel integrates into it.
-    with pytest.raises(ValueError, match="after a step.*jackknife"):
+    with pytest.raises(ValueError, match=r"after a step.*jackknife"):
         for _ in range(400):
             x = tt.step(x, [-1.0, 0.0], 0.05)
     x = tt.step_unchecked(x, [-1.0, 0.0], 0.05)

@@ -34,9 +34,9 @@ def test_step_rejects_nan_wrong_shapes_and_bad_dt():
 
 def test_step_checks_the_resulting_state():
     tri = TricycleStacker(1.3)
-    with pytest.raises(ValueError, match="after a step.*gamma"):
+    with pytest.raises(ValueError, match=r"after a step.*gamma"):
         tri.step([0, 0, 0, 0], [1, 100], 0.1)
-    with pytest.raises(ValueError, match="after a step.*gamma"):
+    with pytest.raises(ValueError, match=r"after a step.*gamma"):
         tri.checked_step([0, 0, 0, 0], [1, 100], 0.1)
     # The kernel does no checking (hot loops): it integrates past the limit.
     assert tri.step_unchecked([0, 0, 0, 0], [1, 100], 0.1)[3] == pytest.approx(10.0)

@@ -9,9 +9,13 @@ from agvnav.odometry import (
     DifferentialGeometry,
     NonSystematicErrors,
     SystematicErrors,
+    TricycleErrors,
     TrueDifferentialVehicle,
+    TrueTricycleVehicle,
     estimate_errors,
+    integrate_pose,
     square_run,
+    tricycle_increments,
     umbmark,
 )
 
@@ -83,7 +87,7 @@ def test_umbmark_with_random_errors_still_calibrates():
     """Averaging 5 runs each way with slip and bumps, the systematic part is still found (looser band)."""
     true = SystematicErrors(e_d=1.005, e_b=1.02).true_geometry(NOMINAL)
     ns = NonSystematicErrors(slip_k=1e-6)
-    res, corrected = umbmark(true, NOMINAL, side=4.0, runs=5, nonsystematic=ns, seed=4)
+    res, _ = umbmark(true, NOMINAL, side=4.0, runs=5, nonsystematic=ns, seed=4)
     assert abs(res.e_b - 1.02) < 0.2 * 0.02 and abs(res.e_d - 1.005) < 0.3 * 0.005
     res2, _ = umbmark(true, NOMINAL, side=4.0, runs=5, nonsystematic=ns, seed=4)
     assert (res2.e_d, res2.e_b) == (res.e_d, res.e_b)  # same seed, same result
@@ -92,8 +96,6 @@ def test_umbmark_with_random_errors_still_calibrates():
 
 def test_tricycle_truth_vs_nominal_odometry():
     """A 1 % larger traction wheel: the odometry (nominal radius) under-reports a straight run by 1 %."""
-    from agvnav.odometry import TricycleErrors, TrueTricycleVehicle, integrate_pose, tricycle_increments
-
     truth = TrueTricycleVehicle(1.3, 0.125, TricycleErrors(radius_scale=1.01, wheelbase_scale=0.98))
     pose_true, pose_odo = np.zeros(3), np.zeros(3)
     for _ in range(100):

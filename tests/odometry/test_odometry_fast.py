@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from agvnav.kinematics.tracked import TrackedVehicle
+from agvnav.kinematics.tracked import TrackedVehicle, TrackTerrain
 from agvnav.odometry import differential_increments, tricycle_increments
 from agvnav.odometry._fast import track_increments, tricycle_increments_scalar
 
@@ -39,8 +39,6 @@ def test_track_increments_equal_body_twist_of_the_model(dr: float, dl: float, te
 
 @given(st.floats(-0.2, 0.2), st.floats(-0.2, 0.2))
 def test_track_increments_without_slip_are_seed_002_eq_16(dr: float, dl: float) -> None:
-    from agvnav.kinematics.tracked import TrackTerrain
-
     veh = TrackedVehicle(0.33, 0.05, TrackTerrain(slip_left=0.0, slip_right=0.0, icr_left=1.0, icr_right=1.0))
     ref = differential_increments(dr, dl, 0.33)
     np.testing.assert_allclose(track_increments(dr, dl, veh.twist_matrix.tolist()), [ref[0], ref[1]], atol=1e-12)

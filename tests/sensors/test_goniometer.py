@@ -1,6 +1,7 @@
 """Laser goniometer sensor model (seed 000 §2.1, §4.1) against independent references."""
 
 import math
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -10,6 +11,7 @@ from hypothesis import strategies as st
 from scipy import stats
 
 from agvnav.sensors import Goniometer, Reflections, leading_edge_bearing, reflector_centre_bearing
+from agvnav.sensors import goniometer as gmod
 from agvnav.world import Reflector, Wall, WorldMap, load_builtin_map
 
 RES = 2 * math.pi / 65535
@@ -45,7 +47,7 @@ def ring_world(n=8, radius=0.04, seed=3):
     ang = np.sort(rng.uniform(-np.pi, np.pi, n))
     dist = rng.uniform(1.5, 12.0, n)
     refl = [Reflector(f"R{i}", d * np.cos(a), d * np.sin(a), radius if i else 0.0) for i, (a, d) in
-            enumerate(zip(ang, dist))]
+            enumerate(zip(ang, dist, strict=True))]
     return WorldMap(refl, [])
 
 
@@ -58,7 +60,7 @@ def brute_force(world, pose_at, mount, rate_hz, phase, direction, t0, t1, dt=2e-
     py = q[:, 1] + np.sin(q[:, 2]) * mx + np.cos(q[:, 2]) * my
     beam = q[:, 2] + mth + phase + direction * 2 * np.pi * rate_hz * t
     times, index = [], []
-    for j, (xy, r) in enumerate(zip(world.reflector_xy, world.reflector_radius)):
+    for j, (xy, r) in enumerate(zip(world.reflector_xy, world.reflector_radius, strict=True)):
         d = np.hypot(xy[0] - px, xy[1] - py)
         edge = np.arctan2(xy[1] - py, xy[0] - px) - direction * np.arcsin(r / d)
         g = np.angle(np.exp(1j * direction * (beam - edge)))  # wrapped independently of agvnav
@@ -72,7 +74,7 @@ def brute_force(world, pose_at, mount, rate_hz, phase, direction, t0, t1, dt=2e-
 
 def windows(gonio, world, pose_at, t0, t1, step, rng=None):
     edges = np.unique(np.concatenate([np.arange(t0, t1, step), [t1]]))
-    return Reflections.concatenate([gonio.scan(world, pose_at, a, b, rng) for a, b in zip(edges[:-1], edges[1:])])
+    return Reflections.concatenate([gonio.scan(world, pose_at, a, b, rng) for a, b in pairwise(edges)])
 
 
 # --- static vehicle ------------------------------------------------------------------
@@ -81,9 +83,12 @@ def windows(gonio, world, pose_at, t0, t1, step, rng=None):
 def _lab_visible(world, head_xy):
     """Shapely reference: reflectors whose line of sight to the cylinder is clear."""
     walls = [shapely.LineString(np.vstack([w.points, w.points[:1]]) if w.closed else w.points) for w in world.walls]
-    discs = [shapely.Point(*xy).buffer(r, quad_segs=64) for xy, r in zip(world.reflector_xy, world.reflector_radius)]
+    discs = [
+        shapely.Point(*xy).buffer(r, quad_segs=64)
+        for xy, r in zip(world.reflector_xy, world.reflector_radius, strict=True)
+    ]
     visible = set()
-    for j, (xy, r) in enumerate(zip(world.reflector_xy, world.reflector_radius)):
+    for j, (xy, r) in enumerate(zip(world.reflector_xy, world.reflector_radius, strict=True)):
         d = np.hypot(*(xy - head_xy))
         end = head_xy + (xy - head_xy) * (d - r - 1e-6) / d
         sight = shapely.LineString([head_xy, end])
@@ -184,8 +189,6 @@ def test_split_windows_give_the_same_reflections_as_one_window():
 
 
 def test_bracketed_fallback_solver_agrees_with_the_fast_path(monkeypatch):
-    import agvnav.sensors.goniometer as gmod
-
     world = ring_world()
     pose_at = arc(0.0, 0.5, -1.0, 2.0, 0.8)
     gonio = Goniometer(mount=(0.9, 0.15, 0.3), phase=1.1)
@@ -221,7 +224,7 @@ def test_any_split_of_the_time_axis_gives_the_same_reflections(motion, cuts, pha
     gonio = Goniometer(phase=phase, mount=(0.3, 0.1, 0.0))
     whole = gonio.scan(world, pose_at, 0.0, 0.3)
     edges = np.unique(np.concatenate([[0.0, 0.3], cuts]))
-    parts = Reflections.concatenate([gonio.scan(world, pose_at, a, b) for a, b in zip(edges[:-1], edges[1:])])
+    parts = Reflections.concatenate([gonio.scan(world, pose_at, a, b) for a, b in pairwise(edges)])
     np.testing.assert_array_equal(parts.reflector_index, whole.reflector_index)
     np.testing.assert_allclose(parts.t, whole.t, rtol=0, atol=1e-11)
     # each reflector at most once per revolution (0.125 s) plus one: 0.3 s spans < 3 revolutions
@@ -266,7 +269,8 @@ def test_vehicle_inside_a_reflector_cylinder_sees_nothing_of_it():
 
 
 def square_world():
-    return WorldMap([Reflector(f"R{i}", 6 * np.cos(a), 6 * np.sin(a), 0.04) for i, a in enumerate([0.3, 1.9, 3.4, 5.0])])
+    angles = [0.3, 1.9, 3.4, 5.0]
+    return WorldMap([Reflector(f"R{i}", 6 * np.cos(a), 6 * np.sin(a), 0.04) for i, a in enumerate(angles)])
 
 
 def test_missed_detection_rate():

@@ -144,12 +144,15 @@ def test_seed_layout_reads_side_walls_and_scan():
     readings = layout.measure([0.0, 0.0, 0.0], walls, np.random.default_rng(3))
     assert readings["right_front"] == pytest.approx(0.3, abs=0.015)
     # moving along +x at 0.1 m/s: the front sensor sees the end wall approaching
-    scan = layout["front"].scan(walls, lambda t: np.stack([0.1 * t, 0 * t, 0 * t], -1), 0.0, 1.0, np.random.default_rng(0))
+    def pose_at(t):
+        return np.stack([0.1 * t, 0 * t, 0 * t], -1)
+
+    scan = layout["front"].scan(walls, pose_at, 0.0, 1.0, np.random.default_rng(0))
     assert scan.t.size == 20 and np.all(np.diff(scan.range) < 0.02)
 
 
 def test_mount_inside_body_is_refused():
-    with pytest.raises(ValueError, match="'bad' mount .* inside the vehicle body"):
+    with pytest.raises(ValueError, match=r"'bad' mount .* inside the vehicle body"):
         UltrasonicArray({"bad": UltrasonicSensor(mount=(0.1, 0.0, 0.0))}, 0.45, 0.40)
     with pytest.raises(ValueError, match="points into the vehicle body"):
         UltrasonicArray({"inward": UltrasonicSensor(mount=(0.225, 0.0, math.pi))}, 0.45, 0.40)

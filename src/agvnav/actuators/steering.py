@@ -104,7 +104,9 @@ class SteeringActuator:
         u = float(as_float_array("rate_cmd", rate_cmd))
         if not math.isfinite(u):
             raise ValueError("rate_cmd must be finite")
-        self.gamma, self.rate = _steering_step_scalar(self.gamma, self.rate, u, dt, self.tau, self.max_rate, self.max_angle)
+        self.gamma, self.rate = _steering_step_scalar(
+            self.gamma, self.rate, u, dt, self.tau, self.max_rate, self.max_angle
+        )
         return self.gamma, self.rate
 
     def step_angle(self, gamma_cmd: float, dt: float) -> tuple[float, float]:

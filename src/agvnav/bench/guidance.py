@@ -27,12 +27,13 @@ from __future__ import annotations
 
 import copy
 import math
-import time
 import resource
+import time
 from typing import Any
 
 import yaml
 
+from agvnav.sim import simulate
 from agvnav.world.scenario import Scenario, builtin_scenario, default_scenario, parse_scenario
 
 TITLE = "Guidance laws in the closed loop (start 110 mm off the path): seed 000 vs pure pursuit and Stanley"
@@ -80,8 +81,6 @@ def _supports(controller: str, path: str) -> bool:
 
 
 def _row(controller: str, path: str, seed: int) -> dict[str, Any]:
-    from agvnav.sim import simulate
-
     sc = scenario_for(controller, path, seed)
     m = simulate(sc).metrics
     return {
@@ -100,8 +99,6 @@ def _row(controller: str, path: str, seed: int) -> dict[str, Any]:
 
 def real_time_factor(seed: int, repeat: int = 3) -> dict[str, Any]:
     """Best real-time factor of the default scenario over ``repeat`` runs (simulated s per wall s)."""
-    from agvnav.sim import simulate
-
     sc = default_scenario().with_seed(seed)
     best = None
     for _ in range(repeat):
@@ -125,8 +122,6 @@ def one_hour_memory(seed: int, hours: float = 1.0) -> dict[str, Any]:
     The default scenario's vehicle drives laps of a closed 4 m x 2 m loop in the lab
     for the given time; every signal is recorded as in any run.
     """
-    from agvnav.sim import simulate
-
     d = _base()
     d["name"] = "one_hour"
     d["seed"] = seed
@@ -137,7 +132,7 @@ def one_hour_memory(seed: int, hours: float = 1.0) -> dict[str, Any]:
         {"type": "line", "length_m": 4.0},
         {"type": "arc", "radius_m": 1.5, "sweep_deg": 180.0},
     ]
-    laps = int(math.ceil(3600.0 * hours * d["traction"]["speed_m_s"] / (8.0 + 3.0 * math.pi))) + 1
+    laps = math.ceil(3600.0 * hours * d["traction"]["speed_m_s"] / (8.0 + 3.0 * math.pi)) + 1
     d["path"] = {"start": [4.0, 2.5, 0.0], "segments": lap * laps}
     sc = parse_scenario(yaml.safe_dump(d, sort_keys=False), source="one_hour")
     start = time.perf_counter()

@@ -78,9 +78,12 @@ class Drive:
         k = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.u) - 1)
         return twist_step(self.poses[k], self.u[k], 0.0, self.omega[k], t - self.t[k])
 
-    def odometry(self, t0: NDArray[np.float64], t1: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def odometry(
+        self, t0: NDArray[np.float64], t1: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Exact increments ``(delta_d, delta_theta)`` of O between instants ``t0`` and ``t1``."""
-        return self._integral(t1, self.u) - self._integral(t0, self.u), self._integral(t1, self.omega) - self._integral(t0, self.omega)
+        delta_d = self._integral(t1, self.u) - self._integral(t0, self.u)
+        return delta_d, self._integral(t1, self.omega) - self._integral(t0, self.omega)
 
     def _integral(self, t: NDArray[np.float64], rate: NDArray[np.float64]) -> NDArray[np.float64]:
         t = np.clip(t, 0.0, self.t[-1])
@@ -111,13 +114,17 @@ def lab_drive(speed: float, segments: tuple[tuple[float, float], ...] = SEGMENTS
     return Drive(np.array(t), np.array(poses), np.array(u), np.array(omega))
 
 
-def _noisy_increments(dd: NDArray[np.float64], dth: NDArray[np.float64], noise: OdometryNoise, rng: np.random.Generator) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _noisy_increments(
+    dd: NDArray[np.float64], dth: NDArray[np.float64], noise: OdometryNoise, rng: np.random.Generator
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Odometry increments with the errors the EKF's covariance model assumes (see OdometryNoise)."""
     sd_d, sd_th = _increment_std(dd, dth, noise)
     return dd + rng.normal(0.0, 1.0, dd.shape) * sd_d, dth + rng.normal(0.0, 1.0, dth.shape) * sd_th
 
 
-def _increment_std(dd: NDArray[np.float64], dth: NDArray[np.float64], noise: OdometryNoise) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _increment_std(
+    dd: NDArray[np.float64], dth: NDArray[np.float64], noise: OdometryNoise
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Std of the distance and heading increments (m, rad) under ``noise``."""
     cov = noise.increment_covariance(dd, dth)
     return np.sqrt(cov[..., 0, 0]), np.sqrt(cov[..., 1, 1])
@@ -126,12 +133,21 @@ def _increment_std(dd: NDArray[np.float64], dth: NDArray[np.float64], noise: Odo
 def surveyed(world: WorldMap, std: float, rng: np.random.Generator) -> WorldMap:
     """The real world behind a surveyed map: each reflector displaced by N(0, std^2) per axis (m)."""
     shift = rng.normal(0.0, std, (len(world.reflectors), 2))
-    moved = tuple(Reflector(r.id, r.x + dx, r.y + dy, r.radius) for r, (dx, dy) in zip(world.reflectors, shift))
+    moved = tuple(
+        Reflector(r.id, r.x + dx, r.y + dy, r.radius) for r, (dx, dy) in zip(world.reflectors, shift, strict=True)
+    )
     return WorldMap(moved, world.walls)
 
 
 def _run_one(
-    method: str, world: WorldMap, true_world: WorldMap, gon: Goniometer, drive: Drive, t_end: float, noise: OdometryNoise, rng: np.random.Generator
+    method: str,
+    world: WorldMap,
+    true_world: WorldMap,
+    gon: Goniometer,
+    drive: Drive,
+    t_end: float,
+    noise: OdometryNoise,
+    rng: np.random.Generator,
 ) -> dict[str, NDArray[np.float64]]:
     """Feed one estimator; return truth and estimate at every odometry sample after settling."""
     refl = gon.scan(true_world, drive.pose_at, 0.0, t_end, rng)
@@ -156,7 +172,13 @@ def _run_one(
             times.append(ticks[i])
             poses.append(est.pose)
     times_a = np.array(times)
-    return {"t": times_a, "estimate": np.array(poses), "truth": drive.pose_at(times_a), "refl_t": refl.t, "refl_index": refl.reflector_index}
+    return {
+        "t": times_a,
+        "estimate": np.array(poses),
+        "truth": drive.pose_at(times_a),
+        "refl_t": refl.t,
+        "refl_index": refl.reflector_index,
+    }
 
 
 def _errors(runs: list[dict[str, NDArray[np.float64]]]) -> dict[str, float]:
@@ -177,7 +199,9 @@ def _errors(runs: list[dict[str, NDArray[np.float64]]]) -> dict[str, float]:
     }
 
 
-def _static_crlb(world: WorldMap, gon: Goniometer, runs: list[dict[str, NDArray[np.float64]]], bearing_std: float) -> float:
+def _static_crlb(
+    world: WorldMap, gon: Goniometer, runs: list[dict[str, NDArray[np.float64]]], bearing_std: float
+) -> float:
     """RMS over the evaluated poses of the position CRLB of one static fix from the reflectors seen.
 
     Every bearing's std combines the encoder quantisation and the map survey error at its
@@ -186,7 +210,7 @@ def _static_crlb(world: WorldMap, gon: Goniometer, runs: list[dict[str, NDArray[
     var = []
     period = 1.0 / gon.rate_hz
     for r in runs:
-        for t, pose in zip(r["t"][::10], r["truth"][::10]):
+        for t, pose in zip(r["t"][::10], r["truth"][::10], strict=True):
             seen = np.unique(r["refl_index"][(r["refl_t"] > t - period) & (r["refl_t"] <= t) & (r["refl_index"] >= 0)])
             if seen.size < 3:
                 continue
@@ -225,7 +249,15 @@ def run(quick: bool, seed: int) -> list[dict[str, Any]]:
     return records
 
 
-def _static_runs(method: str, world: WorldMap, true_world: WorldMap, gon: Goniometer, noise: OdometryNoise, rng: np.random.Generator, n: int) -> list[dict[str, NDArray[np.float64]]]:
+def _static_runs(
+    method: str,
+    world: WorldMap,
+    true_world: WorldMap,
+    gon: Goniometer,
+    noise: OdometryNoise,
+    rng: np.random.Generator,
+    n: int,
+) -> list[dict[str, NDArray[np.float64]]]:
     """Standstill at ``n`` poses spread along the path, ``STATIC_SECONDS`` each."""
     moving = lab_drive(1.0)
     runs = []

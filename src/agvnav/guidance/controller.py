@@ -39,11 +39,11 @@ from agvnav.guidance.baselines import (
 )
 from agvnav.guidance.errors import TrackingErrors, tracking_errors_scalar
 from agvnav.guidance.gains import (
-    check_routh_hurwitz,
     characteristic_coefficients,
+    check_routh_hurwitz,
     check_simple_stability,
-    general_gains_from_coefficients,
     envelope_distance,
+    general_gains_from_coefficients,
     general_gains_on_arc,
     hidden_real_pole,
     modal_response,
@@ -54,17 +54,17 @@ from agvnav.guidance.laws import GENERAL_FORMS, SIMPLE_FORMS, general_law, simpl
 from agvnav.guidance.paths import LineSegment, Path
 
 __all__ = [
-    "GuidanceController",
-    "SeedGeneralController",
-    "SeedSimpleController",
-    "PurePursuitController",
-    "StanleyController",
     "CONTROLLERS",
     "DEFAULT_CONVERGENCE_DISTANCE_M",
-    "make_controller",
+    "GuidanceController",
+    "PurePursuitController",
+    "SeedGeneralController",
+    "SeedSimpleController",
+    "StanleyController",
     "linearised_loop",
     "linearised_poles_per_metre",
     "loop_convergence_distance",
+    "make_controller",
     "tune_for_convergence",
 ]
 

@@ -58,11 +58,11 @@ from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 from agvnav.guidance.paths import Path
 
 __all__ = [
-    "TrackingErrors",
     "POINTS",
+    "TrackingErrors",
+    "errors_from_projection",
     "feedforward_steering",
     "point_c",
-    "errors_from_projection",
     "tracking_errors",
     "tracking_errors_scalar",
 ]

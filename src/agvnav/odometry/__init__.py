@@ -15,11 +15,11 @@ from agvnav.odometry.odometer import DifferentialOdometer, TricycleOdometer
 from agvnav.odometry.umbmark import UMBmarkResult, estimate_errors, square_run, umbmark
 
 __all__ = [
+    "RULES",
     "DifferentialGeometry",
     "DifferentialOdometer",
     "NonSystematicErrors",
     "OdometryNoise",
-    "RULES",
     "SystematicErrors",
     "TricycleErrors",
     "TricycleOdometer",

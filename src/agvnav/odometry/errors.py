@@ -66,7 +66,10 @@ class SystematicErrors:
         require_angle_below("misalignment", self.misalignment, np.pi / 4)
 
     def true_geometry(self, nominal: DifferentialGeometry) -> DifferentialGeometry:
-        """Actual geometry: ``r_R = 2/(1/E_d + 1)·r_a``, ``r_L = 2/(E_d + 1)·r_a``, ``b = E_b·b_n`` (Borenstein & Feng)."""
+        """Actual geometry (Borenstein & Feng): ``r_R = 2/(1/E_d + 1)·r_a``, ``r_L = 2/(E_d + 1)·r_a``, ``b = E_b·b_n``.
+
+        ``r_a`` is the mean nominal radius (m), ``b_n`` the nominal track (m).
+        """
         r_a = 0.5 * (nominal.radius_right + nominal.radius_left)
         return DifferentialGeometry(2.0 / (1.0 / self.e_d + 1.0) * r_a, 2.0 / (self.e_d + 1.0) * r_a,
                                     self.e_b * nominal.track)

@@ -57,17 +57,17 @@ def integrate_pose(pose: ArrayLike, delta_d: ArrayLike, delta_theta: ArrayLike, 
     dd = np.asarray(delta_d, dtype=np.float64)
     dth = np.asarray(delta_theta, dtype=np.float64)
     chord, heading = _chord_and_heading(pose, dd, dth, rule)
-    return np.stack(
-        [pose[..., 0] + chord * np.cos(heading), pose[..., 1] + chord * np.sin(heading), wrap_angle(pose[..., 2] + dth)],
-        axis=-1,
-    )
+    x = pose[..., 0] + chord * np.cos(heading)
+    y = pose[..., 1] + chord * np.sin(heading)
+    return np.stack([x, y, wrap_angle(pose[..., 2] + dth)], axis=-1)
 
 
 def pose_jacobian(pose: ArrayLike, delta_d: ArrayLike, delta_theta: ArrayLike, rule: str = "arc") -> FloatArray:
     """``F = ∂pose'/∂pose`` ``(..., 3, 3)`` of ``integrate_pose``, for ``P' = F P Fᵀ + Q``."""
     _check_rule(rule)
     pose = np.asarray(pose, dtype=np.float64)
-    chord, heading = _chord_and_heading(pose, np.asarray(delta_d, np.float64), np.asarray(delta_theta, np.float64), rule)
+    dd, dth = np.asarray(delta_d, np.float64), np.asarray(delta_theta, np.float64)
+    chord, heading = _chord_and_heading(pose, dd, dth, rule)
     F = np.zeros(chord.shape + (3, 3))
     F[..., 0, 0] = F[..., 1, 1] = F[..., 2, 2] = 1.0
     F[..., 0, 2] = -chord * np.sin(heading)

@@ -32,10 +32,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import require_positive
+from agvnav.kinematics.base import twist_step
 from agvnav.odometry.errors import DifferentialGeometry, NonSystematicErrors
 from agvnav.odometry.increments import differential_increments
 from agvnav.odometry.integrate import integrate_pose
-from agvnav.kinematics.base import twist_step
 
 FloatArray = NDArray[np.float64]
 
@@ -63,8 +63,9 @@ class UMBmarkResult:
         return float(max(np.hypot(*self.centroid_cw), np.hypot(*self.centroid_ccw)))
 
     def corrected(self, nominal: DifferentialGeometry) -> DifferentialGeometry:
-        """``nominal`` corrected by ``E_d`` and ``E_b``: radius ratio times ``E_d``, mean radius kept, track times ``E_b``.
+        """``nominal`` corrected by ``E_d`` and ``E_b``.
 
+        The radius ratio is multiplied by ``E_d`` with the mean radius kept, the track by ``E_b``.
         For equal nominal radii this is Borenstein and Feng's ``D_R = 2/(1/E_d + 1) D_a``, ``D_L = 2/(E_d + 1) D_a``.
         """
         r_a = 0.5 * (nominal.radius_right + nominal.radius_left)

@@ -6,6 +6,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rich.table import Table
+
+from agvnav.report.plots import pyplot
 
 __all__ = ["lap_table", "path_table", "plot_laps", "plot_path_follow", "summary_table"]
 
@@ -19,8 +22,6 @@ def lap_table(result: Any) -> Any:
 
     Also the distance of each lap end from the route start (cumulative), and the mean row.
     """
-    from rich.table import Table
-
     sc = result.scenario
     terrain = sc.terrain.truth if isinstance(sc.terrain.truth, str) else "custom"
     t = Table(title=f"{sc.name}: error per lap, {sc.route.side_m:g} m square, {terrain} (seed {sc.seed})")
@@ -44,11 +45,7 @@ def lap_table(result: Any) -> Any:
 
 def plot_laps(result: Any, out: str | Path) -> Path:
     """PNG of the driven squares (true paths per mode), the route and the landmark walls (seed 004 Figs. 10-11)."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 6.5))
     corners = np.vstack([result.route.corners, result.route.corners[:1]])
     ax.plot(corners[:, 0], corners[:, 1], "k--", lw=1.0, label="route")
@@ -66,8 +63,6 @@ def plot_laps(result: Any, out: str | Path) -> Path:
 
 def path_table(result: Any) -> Any:
     """A rich Table of a Kanayama path-following run (true errors to the path)."""
-    from rich.table import Table
-
     m = result.metrics()
     t = Table(title=f"{result.scenario.name}: tracked robot, Kanayama path follower (seed {result.scenario.seed})")
     t.add_column("metric")
@@ -89,11 +84,7 @@ def summary_table(result: Any) -> Any:
 
 def plot_path_follow(result: Any, out: str | Path) -> Path:
     """PNG of the planned path and the true driven path of a Kanayama run."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 6.5))
     s = np.linspace(0.0, result.path.length, max(2, int(result.path.length / 0.02)))
     planned = result.path.point_at(s)

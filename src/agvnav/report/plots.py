@@ -15,14 +15,19 @@ from numpy.typing import NDArray
 
 from agvnav.geometry import lateral_position_error
 
-__all__ = ["plot_errors", "plot_map", "plot_positioning_histogram", "write_plots"]
+__all__ = ["plot_errors", "plot_map", "plot_positioning_histogram", "pyplot", "write_plots"]
 
 
-def _pyplot() -> Any:
-    import matplotlib
+def pyplot() -> Any:
+    """``matplotlib.pyplot`` with the non-interactive Agg backend, imported on first use.
+
+    Every plotting function of :mod:`agvnav.report` starts here, so importing agvnav
+    (or its CLI) never imports matplotlib nor changes the caller's backend.
+    """
+    import matplotlib  # noqa: PLC0415  (lazy on purpose: see the docstring)
 
     matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # noqa: PLC0415
 
     return plt
 
@@ -42,7 +47,7 @@ def plot_map(
     ``reflector_xy`` ``(N, 2)``, ``wall_segments`` ``(M, 2, 2)``. Two panels: the
     whole map and a close-up of the path.
     """
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(12, 5.5))
     for ax in axes:
         for seg in np.asarray(wall_segments).reshape(-1, 2, 2):
@@ -77,7 +82,7 @@ def plot_errors(
     title: str = "",
 ) -> Path:
     """Lateral error eps_c (mm) and wheel heading error xi_r (deg) against time (seed 000 Fig. 11)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
     a1.plot(t, 1000.0 * lateral_error, color="tab:blue")
     a1.set_ylabel("lateral error ε_c [mm]")
@@ -97,7 +102,7 @@ def plot_errors(
 
 def plot_positioning_histogram(e_lat: NDArray[np.float64], out: str | Path, title: str = "") -> Path:
     """Histogram of the positioning lateral error e_lat (mm), as seed 000 Fig. 8."""
-    plt = _pyplot()
+    plt = pyplot()
     e = 1000.0 * np.asarray(e_lat, dtype=np.float64)
     e = e[np.isfinite(e)]
     fig, ax = plt.subplots(figsize=(7, 4.5))

@@ -1,13 +1,13 @@
 """Sensors: wheel/steering encoders, the rotating laser goniometer, ultrasonic rangers."""
 
-from agvnav.sensors.encoders import SteeringEncoder, WheelEncoder  # noqa: E402  (issue 3)
-from agvnav.sensors.goniometer import (  # noqa: E402  (laser goniometer, issue 4)
+from agvnav.sensors.encoders import SteeringEncoder, WheelEncoder
+from agvnav.sensors.goniometer import (
     Goniometer,
     Reflections,
     leading_edge_bearing,
     reflector_centre_bearing,
 )
-from agvnav.sensors.ultrasonic import (  # noqa: E402  (ultrasonic rangers, issue 6)
+from agvnav.sensors.ultrasonic import (
     ConeEcho,
     UltrasonicArray,
     UltrasonicReadings,
@@ -16,3 +16,19 @@ from agvnav.sensors.ultrasonic import (  # noqa: E402  (ultrasonic rangers, issu
     cone_echo,
     seed_004_layout,
 )
+
+__all__ = [
+    "ConeEcho",
+    "Goniometer",
+    "Reflections",
+    "SteeringEncoder",
+    "UltrasonicArray",
+    "UltrasonicReadings",
+    "UltrasonicSensor",
+    "WheelEncoder",
+    "check_wall_segments",
+    "cone_echo",
+    "leading_edge_bearing",
+    "reflector_centre_bearing",
+    "seed_004_layout",
+]

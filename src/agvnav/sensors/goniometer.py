@@ -518,15 +518,15 @@ class Goniometer:
         NumPy's per-call overhead dominated on three or four elements. None if not converged.
         """
         t_l, s_l, lo_l, hi_l = t.tolist(), slope.tolist(), lo.tolist(), hi.tolist()
-        rows = list(zip(*(a.tolist() for a in targets)))
+        rows = list(zip(*(a.tolist() for a in targets), strict=True))
         consts = self._offset_constants()  # hoisted out of the per-element calls
         for _ in range(_CHORD_ITER):
             pose = _call_pose(pose_at, np.array(t_l)).tolist()
-            res = [_offset_one(p, ti, row, consts) for p, ti, row in zip(pose, t_l, rows)]
+            res = [_offset_one(p, ti, row, consts) for p, ti, row in zip(pose, t_l, rows, strict=True)]
             f = [wrap_angle_scalar(o[0]) for o in res]
             if max(abs(v) for v in f) <= tol:
                 return np.array(t_l), np.array([(o[1], o[2]) for o in res]), np.array([o[3] for o in res])
-            t_l = [min(max(ti - fi / si, a), b) for ti, fi, si, a, b in zip(t_l, f, s_l, lo_l, hi_l)]
+            t_l = [min(max(ti - fi / si, a), b) for ti, fi, si, a, b in zip(t_l, f, s_l, lo_l, hi_l, strict=True)]
         return None
 
     def _offset_constants(self) -> tuple[float, float, float, float, bool]:

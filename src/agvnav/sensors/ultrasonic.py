@@ -57,6 +57,11 @@ __all__ = [
     "seed_004_layout",
 ]
 
+#: Default half-angle of a ranger's beam cone (rad): 15 degrees.
+HALF_ANGLE_RAD = math.radians(15.0)
+#: Default largest incidence on a wall (rad) that still echoes back: 20 degrees.
+MAX_INCIDENCE_RAD = math.radians(20.0)
+
 
 @dataclass(frozen=True)
 class ConeEcho:
@@ -112,8 +117,8 @@ def _clip_to_cone(
 def cone_echo(
     sensor_pose: ArrayLike,
     segments: ArrayLike,
-    half_angle: ArrayLike = math.radians(15.0),
-    max_incidence: ArrayLike = math.radians(20.0),
+    half_angle: ArrayLike = HALF_ANGLE_RAD,
+    max_incidence: ArrayLike = MAX_INCIDENCE_RAD,
     min_range: ArrayLike = 0.02,
     max_range: ArrayLike = 4.0,
 ) -> ConeEcho:
@@ -197,8 +202,8 @@ class UltrasonicSensor:
     """
 
     mount: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    half_angle: float = math.radians(15.0)
-    max_incidence: float = math.radians(20.0)
+    half_angle: float = HALF_ANGLE_RAD
+    max_incidence: float = MAX_INCIDENCE_RAD
     min_range: float = 0.02
     max_range: float = 4.0
     optimal_max: float = 0.60
@@ -370,7 +375,7 @@ class UltrasonicArray:
         )
         noisy = finite + std * noise
         valid = e.valid & ~drop & (noisy >= self._per_sensor("min_range")) & (noisy <= self._per_sensor("max_range"))
-        return dict(zip(self.names, np.where(valid, noisy, np.nan).tolist()))
+        return dict(zip(self.names, np.where(valid, noisy, np.nan).tolist(), strict=True))
 
     def _per_sensor(self, attr: str) -> NDArray[np.float64]:
         return self._params[attr]
