@@ -36,6 +36,7 @@ def write_campaign(tmp_path):
 def scheduler():
     """Address of a 2-worker, 1-thread-each LocalCluster shared by the campaign tests."""
     with LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR,
+        scheduler_kwargs={"dashboard_address": ":0"},
     ) as cluster:
         yield cluster.scheduler_address

@@ -31,15 +31,21 @@ def test_bad_keys(key, needle):
         set_dotted(BASE, key, 0)
 
 
-names = st.text(alphabet="abcdefgh_", min_size=1, max_size=4)
+names = st.text(alphabet="wxyz_", min_size=1, max_size=4)  # never an existing key of BASE
 
 
-@given(st.lists(names, min_size=1, max_size=4), st.one_of(st.integers(), st.floats(allow_nan=False), names))
-def test_set_then_get(parts, value):
+@given(
+    st.sampled_from([[], ["a"], ["a", "c", "0"]]),
+    st.lists(names, min_size=1, max_size=3),
+    st.one_of(st.integers(), st.floats(allow_nan=False), names, st.lists(st.integers(), max_size=2)),
+)
+def test_set_then_get(prefix, new, value):
+    parts = prefix + new
     out = set_dotted(BASE, ".".join(parts), value)
     node = out
     for p in parts:
-        node = node[p]
+        node = node[int(p)] if isinstance(node, list) else node[p]
     assert node == value
+    assert BASE == {"a": {"b": 1, "c": [{"d": 2}, {"d": 3}]}, "e": 4}  # the input is never mutated
     untouched = {k: v for k, v in BASE.items() if k != parts[0]}
     assert {k: out[k] for k in untouched} == untouched

@@ -5,7 +5,8 @@ import json
 import pyarrow.parquet as pq
 import pytest
 
-from agvnav.campaign import finished_runs, load_campaign, read_results, run_campaign
+from agvnav.campaign import finished_runs, load_base, load_campaign, plan_runs, read_results, run_campaign, run_one
+from agvnav.campaign.overrides import apply_overrides, dump_yaml
 from agvnav.campaign.runner import batch_plans
 
 BODY = """\
@@ -35,6 +36,11 @@ def test_small_campaign_writes_parquet(write_campaign, scheduler, tmp_path):
     assert summary["groups"][1]["metrics"]["path_completed"]["mean"] == 1.0
     parts = list((out / "runs").glob("part-*.parquet"))
     assert sum(pq.read_metadata(p).num_rows for p in parts) == 6
+    # a worker's record is the record of the same run in this process (pure, seeded task)
+    plan = plan_runs(spec)[1]
+    base = load_base(spec.resolve_base())
+    alone = run_one(dump_yaml(apply_overrides(base.mapping, spec.overrides)), plan.params, plan.seed, spec.metrics)
+    assert alone["metric.positioning_rms_m"] == table["metric.positioning_rms_m"].to_pylist()[1]
 
 
 def test_interrupted_campaign_resumes_without_redoing(write_campaign, scheduler, tmp_path):

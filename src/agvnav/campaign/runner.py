@@ -99,6 +99,7 @@ def _client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
             threads_per_worker=1,
             processes=True,
             dashboard_address=None,
+            scheduler_kwargs={"dashboard_address": ":0"},  # no dashboard; health routes on a free port
             silence_logs=logging.ERROR,
         ) as cluster,
         Client(cluster) as client,
