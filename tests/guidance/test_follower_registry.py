@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from agvnav.guidance import (
     FOLLOWERS,
     ArcSegment,
+    FollowErrors,
     GuidanceError,
     InfeasiblePathError,
     KanayamaGains,
@@ -239,3 +240,30 @@ def test_follower_output_is_finite_for_poses_near_the_path(family, name, key, s,
     assert follower.last_errors is not None
     if family != "holonomic":
         assert v_lateral == 0.0
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    phi=st.floats(0.05, 1.45),
+    d=st.floats(-0.5, 0.5),
+    heading=st.floats(-3.0, 3.0),
+    reverse=st.booleans(),
+    yaw=st.floats(-3.0, 3.0),
+)
+def test_follow_errors_on_an_arc_match_the_geometry(phi, d, heading, reverse, yaw):
+    """Left arc of radius 2 about the origin from (2, 0): a point at polar angle phi, radius 2 - d, is d left of it."""
+    direction = -1 if reverse else 1
+    arc = Path([ArcSegment(np.array([2.0, 0.0]), math.pi / 2, 2.0, math.pi / 2, direction, yaw)])
+    tangent = phi + math.pi / 2
+    pose = np.array([(2.0 - d) * math.cos(phi), (2.0 - d) * math.sin(phi), tangent + heading])
+    for family, name in (("unicycle", "kanayama"), ("holonomic", "holonomic")):
+        follower = make_follower(name, family, arc, GEOMETRY[family])
+        follower.command(pose, 0.2)
+        e = follower.last_errors
+        assert isinstance(e, FollowErrors)
+        offset = (math.pi if reverse else 0.0) + (yaw if family == "holonomic" else 0.0)
+        assert e.s == pytest.approx(2.0 * phi, abs=1e-9)
+        assert e.lateral == pytest.approx(d, abs=1e-9)
+        assert math.remainder(e.heading_error - (heading - offset), 2 * math.pi) == pytest.approx(0.0, abs=1e-9)
+        assert -math.pi <= e.heading_error < math.pi
+        assert e.curvature == pytest.approx(0.5) and e.direction == direction and e.segment == 0
