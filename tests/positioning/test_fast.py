@@ -10,6 +10,7 @@ import pytest
 from agvnav.odometry import OdometryNoise, integrate_pose, motion_covariance, pose_jacobian
 from agvnav.positioning import _fast, make_estimator
 from agvnav.positioning.ekf import ekf_predict, ekf_update
+from agvnav.positioning.gating import GateSpec
 from agvnav.positioning.identification import bearing_model, gate_reflection
 from agvnav.world import load_builtin_map
 
@@ -26,14 +27,14 @@ def _flat(P: np.ndarray) -> tuple[float, ...]:
 
 
 @pytest.mark.parametrize("seed", range(20))
-def test_arc_step_and_covariance_match_odometry_kernels(seed: int) -> None:
+def test_twist_step_without_lateral_and_covariance_match_odometry_kernels(seed: int) -> None:
     rng = np.random.default_rng(seed)
     pose = rng.uniform([-10, -10, -math.pi], [10, 10, math.pi])
     dd = rng.normal(0.0, 0.05)
     dth = rng.normal(0.0, 0.05) if seed % 3 else rng.normal(0.0, 1e-6)  # both sinc branches
     noise = OdometryNoise(0.002, 0.004, 0.003)
     P = _spd(rng)
-    x, y, psi, f02, f12 = _fast.arc_step(*pose.tolist(), dd, dth)
+    x, y, psi, f02, f12 = _fast.twist_step(*pose.tolist(), dd, dth)
     np.testing.assert_allclose([x, y, psi], integrate_pose(pose, dd, dth, rule="arc"), rtol=0, atol=TOL)
     F = pose_jacobian(pose, dd, dth)
     np.testing.assert_allclose([f02, f12], [F[0, 2], F[1, 2]], rtol=0, atol=TOL)
@@ -100,12 +101,12 @@ def test_gate_one_matches_gate_reflection(seed: int) -> None:
     z = float(_fast.wrap(h[j_true] + rng.normal(0.0, 3e-3)))
     excluded = rng.random(xy.shape[0]) < 0.2
     max_range = float(rng.choice([np.inf, 8.0]))
-    kwargs = dict(max_range=max_range, excluded=excluded, gate=10.8, map_std=0.002)
+    kwargs = {"max_range": max_range, "excluded": excluded, "gate": 10.8, "map_std": 0.002}
     ref = gate_reflection(z, pose, P, mount, xy, radius, 1e-7, **kwargs)
-    got = _fast.gate_one(
-        z, tuple(pose.tolist()), _flat(P), mount, _fast.reflector_rows(xy, radius), 1e-7,
-        max_range, [not e for e in excluded], 10.8, 0.002,
-    )
+    spec = GateSpec(bearing_var=1e-7, max_range=max_range, gate=10.8, map_std=0.002, sweep=0.1)
+    claimed = [1.0 if e else -math.inf for e in excluded]  # claimed 0.05 s before t = 1.05: excluded
+    rows = _fast.reflector_rows(xy, radius)
+    got = _fast.gate_one(z, tuple(pose.tolist()), _flat(P), mount, rows, spec, claimed, 1.05)
     assert got[0] == ref.index and got[3] == ref.n_in_gate
     if ref.index >= 0:
         np.testing.assert_allclose(got[1:3], [ref.innovation, ref.nis], rtol=1e-10, atol=TOL)
@@ -159,7 +160,7 @@ def test_surely_outside_never_rejects_a_reflector_inside_the_gate(seed: int) -> 
         xy = rng.uniform([0, 0], [20, 12], 2)
         radius = rng.choice([0.0, 0.04, 0.3])
         P = _spd(rng, scale=10.0 ** rng.uniform(-3, 0))
-        h, H, d = bearing_model(pose, mount, xy, radius)
+        _, H, d = bearing_model(pose, mount, xy, radius)
         if d <= radius:
             continue
         R = var + (map_std / d) ** 2

@@ -15,9 +15,10 @@ Matrices are flat row-major tuples of 9 floats: ``P[3 * i + j]``.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 from agvnav.geometry.angles import wrap_angle_scalar
+from agvnav.positioning.gating import GateSpec
 
 Mat3 = tuple[float, ...]
 
@@ -35,34 +36,71 @@ def _sinc(h: float) -> float:
     return 1.0 - h * h / 6.0 if abs(h) < 1e-4 else math.sin(h) / h
 
 
-def arc_step(
-    x: float, y: float, psi: float, dd: float, dth: float
+def twist_step(
+    x: float, y: float, psi: float, dd: float, dth: float, dl: float = 0.0
 ) -> tuple[float, float, float, float, float]:
-    """Dead-reckoned pose by the exact arc rule (seed 002 eq. 25).
+    """Dead-reckoned pose after the body-twist increment ``(dd, dth, dl)`` (m, rad, m).
 
-    Mirrors :func:`agvnav.odometry.integrate_pose` with ``rule="arc"``. Returns the
-    new ``(x, y, psi)`` (psi wrapped) and ``(F02, F12)``, the only non-identity
-    entries of :func:`agvnav.odometry.pose_jacobian` (``-chord sin``, ``chord cos``
-    of the mid heading).
+    ``dd = integral v_x dt``, ``dth = integral omega dt``, ``dl = integral v_y dt`` (the
+    lateral increment, 0 for non-holonomic vehicles). The pose moves by the SE(2)
+    exponential of the increment, exact for a constant twist over the step:
+
+        [x', y'] = [x, y] + sinc(dth/2) R(psi + dth/2) [dd, dl],  psi' = psi + dth,
+
+    with ``sinc(h) = sin(h)/h``. For ``dl = 0`` this is the seed-002 arc rule, the chord
+    ``dd sin(dth/2)/(dth/2)`` along the mid heading [seed002 eq25] [seed002 eq24], computed
+    with the same floating-point operations as :func:`agvnav.odometry.integrate_pose`
+    (``rule="arc"``), which it mirrors; :func:`agvnav.kinematics.base.twist_step` is the
+    same exponential over arrays.
+
+    Returns the new ``(x, y, psi)`` (psi wrapped to ``[-pi, pi)``) and ``(F02, F12)``,
+    the only non-identity entries of the Jacobian ``F = d pose' / d pose``:
+    ``F02 = -(y' - y)``, ``F12 = x' - x``.
     """
-    chord = dd * _sinc(0.5 * dth)
+    k = _sinc(0.5 * dth)
     heading = psi + 0.5 * dth
     c, s = math.cos(heading), math.sin(heading)
-    return x + chord * c, y + chord * s, wrap(psi + dth), -chord * s, chord * c
+    chord = dd * k
+    if dl == 0.0:  # seed 002's arc: exactly the operations of the non-holonomic rule
+        ex, ey = chord * c, chord * s
+    else:
+        side = dl * k
+        ex, ey = chord * c - side * s, chord * s + side * c
+    return x + ex, y + ey, wrap(psi + dth), -ey, ex
 
 
-def process_noise(psi: float, dd: float, dth: float, k_d: float, k_dtheta: float, k_theta: float) -> Mat3:
-    """``Q = J diag(K_D|dD|, K_Dtheta|dD| + K_theta|dtheta|) J^T`` (seed 002 eq. 17, corrected).
+def process_noise(
+    psi: float, dd: float, dth: float, k_d: float, k_dtheta: float, k_theta: float,
+    dl: float = 0.0, k_lateral: float = 0.0,
+) -> Mat3:
+    """Process noise ``Q = J diag(var_d, var_th, var_l) J^T`` of one increment (flat 3x3).
 
-    Mirrors :func:`agvnav.odometry.motion_covariance`: ``J = [[c, 0], [s, 0], [0, 1]]`` at
-    the mid heading ``psi + dtheta / 2``.
+    The odometry model of seed 002 [seed002 eq17] (corrected to a covariance, see
+    :mod:`agvnav.odometry.covariance`): independent errors on the increments,
+    ``var_d = K_D |dd|`` and ``var_th = K_Dtheta s + K_theta |dth|`` with ``s`` the
+    distance travelled, extended for holonomic vehicles by a lateral error
+    ``var_l = K_lateral |dl|`` (m^2 per metre of sideways travel) and
+    ``s = hypot(dd, dl)``. ``J = [[c, -s], [s, c], [0, 0]]`` plus ``d/d dth = [0, 0, 1]``
+    at the mid heading ``psi + dth/2``: the increment Jacobian of the SE(2) exponential
+    (:func:`twist_step`) to leading order in the increment (``sinc -> 1``; the chord's
+    ``dth`` terms, ``O(|dd| + |dl|)`` times smaller, are dropped as seed 002 does).
+
+    For ``dl = 0`` this is :func:`agvnav.odometry.motion_covariance`, which it mirrors,
+    with the same floating-point operations (seeded runs stay bit-identical).
     """
     heading = psi + 0.5 * dth
     c, s = math.cos(heading), math.sin(heading)
     var_d = k_d * abs(dd)
-    var_th = k_dtheta * abs(dd) + k_theta * abs(dth)
-    cd, sd = c * var_d, s * var_d
-    return (cd * c, cd * s, 0.0, sd * c, sd * s, 0.0, 0.0, 0.0, var_th)
+    if dl == 0.0:
+        var_th = k_dtheta * abs(dd) + k_theta * abs(dth)
+        cd, sd = c * var_d, s * var_d
+        return (cd * c, cd * s, 0.0, sd * c, sd * s, 0.0, 0.0, 0.0, var_th)
+    var_th = k_dtheta * math.hypot(dd, dl) + k_theta * abs(dth)
+    var_l = k_lateral * abs(dl)
+    q00 = c * c * var_d + s * s * var_l
+    q01 = c * s * (var_d - var_l)
+    q11 = s * s * var_d + c * c * var_l
+    return (q00, q01, 0.0, q01, q11, 0.0, 0.0, 0.0, var_th)
 
 
 def predict_covariance(P: Sequence[float], f02: float, f12: float, Q: Sequence[float]) -> Mat3:
@@ -115,7 +153,9 @@ def joseph_update(
     return xn, (c[0][0], c[0][1], c[0][2], c[0][1], c[1][0], c[1][1], c[0][2], c[1][1], c[2][0])
 
 
-def reflector_rows(reflector_xy: Sequence[Sequence[float]], radius: Sequence[float]) -> tuple[tuple[float, float, float], ...]:
+def reflector_rows(
+    reflector_xy: Iterable[Sequence[float]], radius: Iterable[float]
+) -> tuple[tuple[float, float, float], ...]:
     """Per-map constants of the gate, ``(x, y, r)`` per reflector as Python floats.
 
     Built once per estimator (the map does not change during a run), so the inner
@@ -164,10 +204,13 @@ def bearing_row(
     Mirrors :func:`agvnav.positioning.identification.bearing_model` for one reflector.
     """
     h, dx, dy, d2, d = edge_bearing(px, py, psi, mount_theta, rx, ry, r)
-    return (h, *bearing_jacobian(dx, dy, d2, d, r, dpx_dpsi, dpy_dpsi), d)  # type: ignore[return-value]
+    h0, h1, h2 = bearing_jacobian(dx, dy, d2, d, r, dpx_dpsi, dpy_dpsi)
+    return h, h0, h1, h2, d
 
 
-def surely_outside(innovation: float, d2: float, r: float, R: float, trace_P: float, mount_norm: float, gate: float) -> bool:
+def surely_outside(
+    innovation: float, d2: float, r: float, R: float, trace_P: float, mount_norm: float, gate: float
+) -> bool:
     """True when ``y^2 / S >= gate`` is certain without the Jacobian (a cheap pre-test of the gate).
 
     ``|dh/d(x, y)|^2 = 1 / (d^2 - r^2)`` for the edge bearing (the centre and edge terms
@@ -197,31 +240,35 @@ def gate_one(
     P: Sequence[float],
     mount: Sequence[float],
     rows: Sequence[tuple[float, float, float]],
-    bearing_var: float,
-    max_range: float,
-    allowed: Sequence[bool],
-    gate: float,
-    map_std: float,
+    spec: GateSpec,
+    claimed: Sequence[float],
+    t: float,
+    candidates: Iterable[int] | None = None,
 ) -> tuple[int, float, float, int, tuple[float, float, float], float, float]:
-    """Chi-square gate of one bearing against every reflector, for one pose.
+    """Chi-square gate of one bearing against the map's reflectors, for one pose.
 
     Mirrors :func:`agvnav.positioning.identification.gate_reflection`: for each
-    reflector in range and ``allowed`` (not claimed in this sweep), ``y = wrap(z - h)``,
-    ``S = H P H^T + sigma^2 + (map_std / d)^2``, inside when ``y^2 / S < gate``.
-    Returns ``(index, y, nis, n_in_gate, H, S, R)`` of the only reflector inside, or
-    index -1 (and ``n_in_gate``) when none or several are.
+    reflector in range and not claimed in this sweep (``t - claimed[j] < spec.sweep``
+    excludes it), ``y = wrap(z - h)``, ``S = H P H^T + sigma^2 + (map_std / d)^2``,
+    inside when ``y^2 / S < gate``. ``candidates`` restricts the loop to those rows
+    (:meth:`agvnav.positioning.gating.BearingIndex.candidates`, a superset of the rows
+    inside the gate); None loops over every reflector. Returns
+    ``(index, y, nis, n_in_gate, H, S, R)`` of the only reflector inside, or index -1
+    (and ``n_in_gate``) when none or several are.
     """
     x, y, psi = pose
     mx, my, mth = mount
+    bearing_var, max_range, gate, map_std, sweep = spec.bearing_var, spec.max_range, spec.gate, spec.map_std, spec.sweep
     c, s = math.cos(psi), math.sin(psi)
     px, py = x + c * mx - s * my, y + s * mx + c * my
     dpx, dpy = -s * mx - c * my, c * mx - s * my
     p00, p01, p02, _, p11, p12, _, _, p22 = P
     trace_P, mount_norm = p00 + p11 + p22, math.hypot(mx, my)
     n_in, best = 0, None
-    for j, (rx, ry, r) in enumerate(rows):
-        if not allowed[j]:
+    for j in range(len(rows)) if candidates is None else candidates:
+        if t - claimed[j] < sweep:
             continue
+        rx, ry, r = rows[j]
         # edge_bearing written out, the range test before the trigonometry (same values)
         dx, dy = rx - px, ry - py
         d2 = dx * dx + dy * dy

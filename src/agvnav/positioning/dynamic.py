@@ -23,6 +23,7 @@ dead-reckoned from the last fix.
 from __future__ import annotations
 
 import itertools
+import math
 from collections import deque
 from typing import Any
 
@@ -33,6 +34,7 @@ from agvnav.geometry import angle_diff, between, circumcentre, compose, inverse,
 from agvnav.positioning.bounds import crlb
 from agvnav.positioning.estimator import StreamingEstimator
 from agvnav.positioning.identification import bearing_model, edge_offset, measurement_variance
+from agvnav.positioning.triangulation import triangulate
 
 __all__ = [
     "AnglePropagationEstimator",
@@ -133,7 +135,12 @@ def batch_ml_fix(
 
 
 def _ml_system(
-    x: NDArray[np.float64], z: NDArray[np.float64], xy: ArrayLike, radius: ArrayLike, rel: NDArray[np.float64], mount: ArrayLike
+    x: NDArray[np.float64],
+    z: NDArray[np.float64],
+    xy: ArrayLike,
+    radius: ArrayLike,
+    rel: NDArray[np.float64],
+    mount: ArrayLike,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Stacked Jacobian ``(n, 3)`` with respect to ``x_f`` and residuals ``(n,)``."""
     x_i = compose(x, rel)
@@ -163,8 +170,6 @@ def _triangulate_head(
     reflector_xy: NDArray[np.float64], bearings: NDArray[np.float64], heading_estimate: float, method: str
 ) -> tuple[NDArray[np.float64], bool]:
     """Head pose from three (made-)simultaneous centre bearings via the issue-2 triangulation."""
-    from agvnav.positioning import triangulate
-
     res = triangulate(reflector_xy, bearings, method=method, heading_estimate=np.float64(heading_estimate))
     pose = np.array([float(res.x), float(res.y), float(res.heading)])
     return pose, bool(res.valid) and bool(np.all(np.isfinite(pose)))
@@ -227,7 +232,9 @@ class _FixEstimator(StreamingEstimator):
         idx = [e[2] for e in entries]
         return self.reflector_xy[idx], self.reflector_radius[idx]
 
-    def _fix_covariance(self, pose: NDArray[np.float64], entries: list, rel: NDArray[np.float64]) -> NDArray[np.float64]:
+    def _fix_covariance(
+        self, pose: NDArray[np.float64], entries: list, rel: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
         """Bearing-noise covariance ``(A^T A / sigma^2)^-1`` of a fix from ``entries``."""
         z = np.array([e[1] for e in entries])
         A, _ = _ml_system(pose, z, *self._reflectors(entries), rel, self.mount)
@@ -259,13 +266,17 @@ class NaiveEstimator(_FixEstimator):
     and the best-conditioned pair of the last revolution) so the two methods differ only
     by the propagation; "the last three bearings" verbatim would also pick ill-conditioned
     triples at standstill and blur the comparison. Its covariance
-    adds, to the bearing-noise part, the pose change of one revolution (distance and turn
-    driven at the current odometric rate), so that its own gate stays honest at speed.
+    adds, to the bearing-noise part, the pose change of one revolution (distance, forward
+    and sideways, and turn driven at the current odometric rate), so that its own gate
+    stays honest at speed.
     """
 
     method = "naive"
 
-    def __init__(self, world: Any, mount: ArrayLike = (0.0, 0.0, 0.0), *, triangulation_method: str = "absolute_angles", **kwargs: Any) -> None:
+    def __init__(
+        self, world: Any, mount: ArrayLike = (0.0, 0.0, 0.0), *, triangulation_method: str = "absolute_angles",
+        **kwargs: Any,
+    ) -> None:
         super().__init__(world, mount, **kwargs)
         self.triangulation_method = triangulation_method
 
@@ -281,7 +292,7 @@ class NaiveEstimator(_FixEstimator):
             return None
         pose = compose(head, inverse(self.mount))
         cov = self._fix_covariance(pose, entries, np.zeros((3, 3)))
-        per_rev = np.abs(self._rate) / self.rate_hz
+        per_rev = np.array([math.hypot(self._rate[0], self._rate[2]), abs(self._rate[1])]) / self.rate_hz
         return pose, cov + np.diag([per_rev[0] ** 2, per_rev[0] ** 2, per_rev[1] ** 2])
 
 
@@ -312,7 +323,9 @@ class AnglePropagationEstimator(_FixEstimator):
     ) -> None:
         super().__init__(world, mount, **kwargs)
         if triangulation_method not in ("absolute_angles", "relative_angles"):
-            raise ValueError(f"triangulation_method must be 'absolute_angles' or 'relative_angles', got {triangulation_method!r}")
+            raise ValueError(
+                f"triangulation_method must be 'absolute_angles' or 'relative_angles', got {triangulation_method!r}"
+            )
         self.triangulation_method = triangulation_method
         self.iterations = int(iterations)
         self.critical_margin = float(critical_margin)

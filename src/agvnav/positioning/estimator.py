@@ -6,12 +6,20 @@ reflections (:meth:`StreamingEstimator.update`) in time order; read ``t``, ``pos
 ``covariance`` and ``status`` of the latest estimate at any moment.
 
 What the methods share lives here: time ordering, the odometric prediction of the pose
-and its covariance between absolute corrections (``P' = F P F^T + Q``, [seed002 eq14]
-[seed002 eq17] via :mod:`agvnav.odometry`), the identification of each reflection by a
-chi-square gate (:func:`~agvnav.positioning.identification.gate_reflection`), the
-start-up pose search when no initial pose is given, and the degraded
-``"dead_reckoning"`` state. What differs -- how an identified reflection corrects the
-pose -- is the subclass's ``_accept``.
+and its covariance between absolute corrections (``P' = F P F^T + Q`` [seed002 eq14]:
+the SE(2) exponential of the body-twist increment, for a non-holonomic vehicle the
+seed-002 arc rule [seed002 eq25], and seed 002's noise model [seed002 eq17] with a
+lateral term for holonomic vehicles), the identification of each reflection by a
+chi-square gate (:func:`~agvnav.positioning.identification.gate_reflection`; on maps of
+``INDEX_MIN_REFLECTORS`` or more reflectors only the candidates of a vectorised
+:class:`~agvnav.positioning.gating.BearingIndex` are evaluated), the start-up pose
+search when no initial pose is given, and the degraded ``"dead_reckoning"`` state. What
+differs -- how an identified reflection corrects the pose -- is the subclass's
+``_accept``.
+
+The methods are created by name with :func:`make_estimator`: each concrete class names
+itself in its ``method`` attribute and registers when it is defined
+(``__init_subclass__``), so this module never imports the modules that subclass it.
 
 Speed: one call handles one increment or one reflection, so the inner loop runs the
 scalar fast paths of :mod:`agvnav.positioning._fast` (the same equations as the
@@ -28,7 +36,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -38,7 +46,8 @@ from agvnav.geometry import wrap_angle
 from agvnav.odometry import OdometryNoise
 from agvnav.positioning import _fast
 from agvnav.positioning.bounds import encoder_bearing_std
-from agvnav.positioning.identification import CHI2_1DOF_999, Association, initial_pose_search
+from agvnav.positioning.gating import INDEX_MIN_REFLECTORS, BearingIndex, GateSpec
+from agvnav.positioning.identification import CHI2_1DOF_999, Association, InitialPoseResult, initial_pose_search
 
 __all__ = ["METHODS", "STATUSES", "StreamingEstimator", "make_estimator"]
 
@@ -50,6 +59,9 @@ STATUSES = ("initialising", "tracking", "dead_reckoning")
 
 #: Lock-out inflation stops once the position variance trace reaches this (m²).
 MAX_INFLATED_POSITION_VAR = 0.25
+
+#: The concrete estimator classes by method name, filled as they are defined.
+_ESTIMATORS: dict[str, type[StreamingEstimator]] = {}
 
 class StreamingEstimator:
     """Base of the streaming estimators: odometry prediction, gating, status, counters.
@@ -64,6 +76,10 @@ class StreamingEstimator:
         Std (rad) of one bearing; default the encoder quantisation of ``pulses_per_rev``.
     odometry_noise:
         :class:`~agvnav.odometry.OdometryNoise` for the covariance growth ``Q``.
+    k_lateral:
+        Variance of the lateral increment per metre of sideways travel (m²/m), the
+        holonomic extension of ``Q`` (see :meth:`predict`); default ``odometry_noise.k_d``,
+        the same error per metre across as along.
     initial_pose, initial_covariance:
         ``(3,)`` base_link pose in ``map`` and ``(3, 3)`` covariance; without them the
         estimator starts ``"initialising"`` and searches the pose from one revolution of
@@ -87,7 +103,14 @@ class StreamingEstimator:
         lags the beam by half a pulse on average (:meth:`~agvnav.sensors.goniometer.Goniometer.encoder_bearing`).
     """
 
-    method = "base"
+    method: ClassVar[str] = "base"
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Register a concrete estimator under its ``method`` name (one of :data:`METHODS`)."""
+        super().__init_subclass__(**kwargs)
+        name = cls.__dict__.get("method")
+        if name in METHODS and name not in _ESTIMATORS:
+            _ESTIMATORS[name] = cls
 
     def __init__(
         self,
@@ -99,6 +122,7 @@ class StreamingEstimator:
         bearing_offset: float | None = None,
         map_std: float = 0.001,
         odometry_noise: OdometryNoise | None = None,
+        k_lateral: float | None = None,
         initial_pose: ArrayLike | None = None,
         initial_covariance: ArrayLike | None = None,
         rate_hz: float = 8.0,
@@ -117,6 +141,8 @@ class StreamingEstimator:
         self.bearing_offset = float(require_finite("bearing_offset", offset))
         self.map_std = require_nonnegative("map_std", map_std)
         self.odometry_noise = OdometryNoise() if odometry_noise is None else odometry_noise
+        k_lat = self.odometry_noise.k_d if k_lateral is None else k_lateral
+        self.k_lateral = require_nonnegative("k_lateral", k_lat)
         self.rate_hz = require_positive("rate_hz", rate_hz)
         self.max_range = require_positive("max_range", max_range)
         self.dead_reckoning_after = require_positive("dead_reckoning_after", dead_reckoning_after)
@@ -125,11 +151,12 @@ class StreamingEstimator:
         self.n_rejected = 0
         self.n_inflations = 0
         self._recent: deque[tuple[float, bool]] = deque()
-        self.last_search = None
+        self._recent_ok = 0  # accepted reflections in _recent
+        self.last_search: InitialPoseResult | None = None
         self._t: float | None = None
         self._t_odometry: float | None = None
-        self._rate = (0.0, 0.0)  # odometry rate (m/s, rad/s) of the last increment
-        self._advance = (0.0, 0.0)  # extrapolated odometry not yet covered by an increment
+        self._rate = (0.0, 0.0, 0.0)  # odometry rate (m/s, rad/s, lateral m/s) of the last increment
+        self._advance = (0.0, 0.0, 0.0)  # extrapolated odometry not yet covered by an increment
         self._odom_t = (0.0, 0.0, 0.0)  # odometric pose of base_link in the odom frame
         self._t_first: float | None = None
         self._t_last_accept: float | None = None
@@ -137,6 +164,11 @@ class StreamingEstimator:
         self._init_buffer: list[tuple[float, float]] = []
         self._rows = _fast.reflector_rows(self.reflector_xy, self.reflector_radius)
         self._mount_t = tuple(float(v) for v in self.mount)
+        self._spec = GateSpec(self.bearing_std**2, self.max_range, self.gate, self.map_std, 0.75 / self.rate_hz)
+        self._index = (
+            BearingIndex(self.reflector_xy, self.reflector_radius, self.mount, self._spec)
+            if len(self._rows) >= INDEX_MIN_REFLECTORS else None
+        )
         self._x_t: tuple[float, ...] = (math.nan,) * 3  # pose [x, y, psi]
         self._P_t: tuple[float, ...] = (math.nan,) * 9  # covariance, flat row-major
         if initial_pose is not None:
@@ -194,25 +226,47 @@ class StreamingEstimator:
         return "tracking"
 
     # ------------------------------------------------------------------ feed
-    def predict(self, t: float, delta_d: float, delta_theta: float) -> None:
-        """Odometry increment of base_link since the previous call.
+    def predict(self, t: float, delta_d: float, delta_theta: float, delta_lateral: float = 0.0) -> None:
+        """Odometry increment of base_link since the previous call, as a body twist.
 
-        ``delta_d`` (m) along the path, ``delta_theta`` (rad) heading change, both from
-        the previous :meth:`predict` time to ``t`` (s) (for the tricycle ``delta_d = ds_C
-        cos(gamma)``, ``delta_theta = ds_C sin(gamma) / L``, [seed000 eq8]).
+        Parameters
+        ----------
+        t:
+            Time (s) the increment runs to, from the previous :meth:`predict`.
+        delta_d:
+            ``integral v_x dt`` (m): distance along the body x axis (for the tricycle
+            ``ds_C cos(gamma)`` [seed000 eq8]).
+        delta_theta:
+            ``integral omega dt`` (rad): heading change (tricycle: ``ds_C sin(gamma) / L``).
+        delta_lateral:
+            ``integral v_y dt`` (m): sideways distance along the body y axis, for
+            holonomic vehicles (mecanum); 0 for every non-holonomic one.
+
+        Notes
+        -----
+        The pose moves by the SE(2) exponential of the increment, exact for a constant
+        twist over the step (for ``delta_lateral = 0`` the seed-002 arc rule
+        [seed002 eq25]); ``P' = F P F^T + Q`` [seed002 eq14] with ``F`` the exponential's
+        Jacobian with respect to the pose and ``Q = J diag(var_d, var_th, var_l) J^T``
+        [seed002 eq17], ``J`` its Jacobian with respect to the increment to leading order
+        (see :func:`agvnav.positioning._fast.process_noise`): ``var_d = K_D |delta_d|``,
+        ``var_th = K_Dtheta hypot(delta_d, delta_lateral) + K_theta |delta_theta|`` and the
+        holonomic term ``var_l = k_lateral |delta_lateral|``. With ``delta_lateral = 0``
+        the prediction is today's non-holonomic one, bit for bit.
         """
         t = self._check_time(t, "odometry")
         dd = _finite_float("odometry increment", delta_d)
         dth = _finite_float("odometry increment", delta_theta)
+        dl = _finite_float("odometry increment", delta_lateral)
         if self._t_odometry is not None and t > self._t_odometry:
             span = t - self._t_odometry
-            self._rate = (dd / span, dth / span)
-        rest_d, rest_th = dd - self._advance[0], dth - self._advance[1]
-        self._advance = (0.0, 0.0)
+            self._rate = (dd / span, dth / span, dl / span)
+        ahead = self._advance
+        self._advance = (0.0, 0.0, 0.0)
         self._t_odometry = t
         self._t = t
-        self._move(rest_d, rest_th)
-        if not self._has_pose() and (abs(dd) > 1e-9 or abs(dth) > 1e-9):
+        self._move(dd - ahead[0], dth - ahead[1], dl - ahead[2])
+        if not self._has_pose() and (abs(dd) > 1e-9 or abs(dth) > 1e-9 or abs(dl) > 1e-9):
             self._init_buffer.clear()  # the start-up search needs a standing vehicle
 
     def update(self, t: float, bearing: float) -> bool:
@@ -223,11 +277,12 @@ class StreamingEstimator:
         """
         t = self._check_time(t, "reflection")
         z = _fast.wrap(_finite_float("bearing", bearing) + self.bearing_offset)
-        if self._t_odometry is not None and t > self._t:
+        if self._t_odometry is not None and self._t is not None and t > self._t:
             span = t - self._t
-            ahead_d, ahead_th = self._rate[0] * span, self._rate[1] * span
-            self._advance = (self._advance[0] + ahead_d, self._advance[1] + ahead_th)
-            self._move(ahead_d, ahead_th)
+            ahead_d, ahead_th, ahead_l = self._rate[0] * span, self._rate[1] * span, self._rate[2] * span
+            done = self._advance
+            self._advance = (done[0] + ahead_d, done[1] + ahead_th, done[2] + ahead_l)
+            self._move(ahead_d, ahead_th, ahead_l)
         self._t = t
         if not self._has_pose():
             self._init_buffer.append((t, z))
@@ -250,20 +305,20 @@ class StreamingEstimator:
         zz = np.atleast_1d(as_float_array("bearings", bearings))
         if tt.shape != zz.shape:
             raise ValueError(f"t and bearings must have the same shape, got {tt.shape} and {zz.shape}")
-        return np.array([self.update(float(a), float(b)) for a, b in zip(tt, zz)], dtype=bool)
+        return np.array([self.update(float(a), float(b)) for a, b in zip(tt, zz, strict=True)], dtype=bool)
 
     # ------------------------------------------------------------------ internals
     def _gate(self, t: float, z: float) -> Association:
         """:func:`~agvnav.positioning.identification.gate_reflection` on the current estimate.
 
         Scalar fast path (:func:`agvnav.positioning._fast.gate_one`, same gate); a
-        reflector claimed less than 3/4 of a revolution ago is excluded.
+        reflector claimed less than 3/4 of a revolution ago is excluded. On large maps
+        only the :class:`~agvnav.positioning.gating.BearingIndex` candidates are
+        evaluated (a superset of the reflectors inside the gate: same association).
         """
-        sweep = 0.75 / self.rate_hz
-        allowed = [not (t - c < sweep) for c in self._claimed]
+        cand = None if self._index is None else self._index.candidates(z, self._x_t, self._P_t)
         j, y, nis, n_in, H, S, R = _fast.gate_one(
-            z, self._x_t, self._P_t, self._mount_t, self._rows, self.bearing_std**2,
-            self.max_range, allowed, self.gate, self.map_std,
+            z, self._x_t, self._P_t, self._mount_t, self._rows, self._spec, self._claimed, t, cand
         )
         return Association(j, y, nis, n_in, np.array(H), S, R)
 
@@ -291,29 +346,36 @@ class StreamingEstimator:
         window = 1.5 / self.rate_hz
         recent = self._recent
         while recent and not t - recent[0][0] <= window:  # times never decrease: the old ones lead
-            recent.popleft()
+            self._recent_ok -= recent.popleft()[1]
         recent.append((t, accepted))
-        n_ok = sum(ok for _, ok in self._recent)
-        n_bad = len(self._recent) - n_ok
+        self._recent_ok += accepted
+        n_ok = self._recent_ok  # kept as a running count: the window holds ~1.5 N reflections
+        n_bad = len(recent) - n_ok
         room = self._P_t[0] + self._P_t[4] < MAX_INFLATED_POSITION_VAR
         if n_bad >= 4 and 2 * n_ok < n_bad and room:
             self._P_t = tuple(4.0 * v for v in self._P_t)
             self.n_inflations += 1
-            self._recent.clear()
+            recent.clear()
+            self._recent_ok = 0
 
-    def _move(self, delta_d: float, delta_theta: float) -> None:
-        """Dead-reckon the odom pose, and the map pose with ``P' = F P F^T + Q`` (seed 002).
+    def _move(self, delta_d: float, delta_theta: float, delta_lateral: float) -> None:
+        """Dead-reckon the odom pose, and the map pose with ``P' = F P F^T + Q`` (see :meth:`predict`).
 
-        Scalar fast path of :func:`~agvnav.odometry.integrate_pose` (arc rule, [seed002 eq25]),
-        :func:`~agvnav.odometry.pose_jacobian` and :func:`~agvnav.odometry.motion_covariance`.
+        Scalar fast paths: :func:`~agvnav.positioning._fast.twist_step` (the SE(2)
+        exponential; for ``delta_lateral = 0`` :func:`~agvnav.odometry.integrate_pose`'s
+        arc rule [seed002 eq25] and :func:`~agvnav.odometry.pose_jacobian`) and
+        :func:`~agvnav.positioning._fast.process_noise` (for ``delta_lateral = 0``
+        :func:`~agvnav.odometry.motion_covariance` [seed002 eq17]).
         """
         ox, oy, opsi = self._odom_t
-        self._odom_t = _fast.arc_step(ox, oy, opsi, delta_d, delta_theta)[:3]
+        self._odom_t = _fast.twist_step(ox, oy, opsi, delta_d, delta_theta, delta_lateral)[:3]
         if self._has_pose():
             x, y, psi = self._x_t
-            nx, ny, npsi, f02, f12 = _fast.arc_step(x, y, psi, delta_d, delta_theta)
+            nx, ny, npsi, f02, f12 = _fast.twist_step(x, y, psi, delta_d, delta_theta, delta_lateral)
             k = self.odometry_noise
-            Q = _fast.process_noise(psi, delta_d, delta_theta, k.k_d, k.k_dtheta, k.k_theta)
+            Q = _fast.process_noise(
+                psi, delta_d, delta_theta, k.k_d, k.k_dtheta, k.k_theta, delta_lateral, self.k_lateral
+            )
             self._x_t = (nx, ny, _fast.wrap(npsi))
             self._P_t = _fast.predict_covariance(self._P_t, f02, f12, Q)
 
@@ -362,23 +424,18 @@ def _finite_float(name: str, value: Any) -> float:
     return v
 
 
-def make_estimator(method: str = "ekf", world: Any = None, mount: ArrayLike = (0.0, 0.0, 0.0), **kwargs: Any) -> StreamingEstimator:
+def make_estimator(
+    method: str = "ekf", world: Any = None, mount: ArrayLike = (0.0, 0.0, 0.0), **kwargs: Any
+) -> StreamingEstimator:
     """Build a streaming estimator by name: ``"naive"``, ``"angle_propagation"``, ``"batch_ml"`` or ``"ekf"``.
 
     ``world`` is the :class:`~agvnav.world.WorldMap`, ``mount`` the head pose in base_link;
-    other keyword arguments go to the estimator (see :class:`StreamingEstimator`).
+    other keyword arguments go to the estimator (see :class:`StreamingEstimator`). The
+    classes are those registered under :data:`METHODS` (:mod:`agvnav.positioning.ekf`
+    and :mod:`agvnav.positioning.dynamic`, which ``agvnav.positioning`` imports).
     """
-    from agvnav.positioning.dynamic import AnglePropagationEstimator, BatchMLEstimator, NaiveEstimator
-    from agvnav.positioning.ekf import EkfEstimator
-
-    classes = {
-        "naive": NaiveEstimator,
-        "angle_propagation": AnglePropagationEstimator,
-        "batch_ml": BatchMLEstimator,
-        "ekf": EkfEstimator,
-    }
-    if method not in classes:
+    if method not in METHODS:
         raise ValueError(f"unknown positioning method {method!r}; choose one of {list(METHODS)}")
     if world is None:
         raise ValueError("make_estimator needs a world map (world=...)")
-    return classes[method](world, mount, **kwargs)
+    return _ESTIMATORS[method](world, mount, **kwargs)

@@ -27,7 +27,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import linear_sum_assignment
 
 from agvnav.geometry import angle_diff, compose, inverse, wrap_angle
 
@@ -198,11 +197,18 @@ def associate_sweep(
     A global nearest-neighbour assignment (Hungarian algorithm on the NIS) inside the
     chi-square gate, so no two reflections of the sweep claim the same reflector and
     spurious reflections that fit no reflector are left unlabelled.
+
+    ``scipy.optimize`` (``linear_sum_assignment``) is imported here, on the first call,
+    not with the module: it is about 60 % of the start-up time of ``agvnav.cli``, and
+    only the start-up pose search needs it.
     """
+    from scipy.optimize import linear_sum_assignment  # noqa: PLC0415 - heavy third-party import, deferred (issue 11)
+
     z = np.atleast_1d(np.asarray(bearings, dtype=np.float64))
     xy = np.asarray(reflector_xy, dtype=np.float64)
     h, H, d = bearing_model(pose, mount, xy, radius)
-    S = np.einsum("ni,ij,nj->n", H, np.asarray(covariance, dtype=np.float64), H) + measurement_variance(bearing_var, map_std, d)
+    R = measurement_variance(bearing_var, map_std, d)
+    S = np.einsum("ni,ij,nj->n", H, np.asarray(covariance, dtype=np.float64), H) + R
     nis = angle_diff(z[:, None], h[None, :]) ** 2 / S[None, :]
     allowed = (nis < gate) & (d <= max_range)[None, :]
     labels = np.full(z.shape, -1, dtype=np.int64)
@@ -340,7 +346,9 @@ def initial_pose_search(
     visible = d <= max_range
     close = np.abs(angle_diff(z[None, :, None], h[:, None, :])) < coarse_tol
     explained = np.any(close & visible[:, None, :], axis=-1).sum(-1)
-    refined = _refine_distinct(hyps, explained, z, xy, rad, mount, bearing_std, max_range, gate, position_tol, heading_tol, map_std)
+    refined = _refine_distinct(
+        hyps, explained, z, xy, rad, mount, bearing_std, max_range, gate, position_tol, heading_tol, map_std
+    )
     if not refined:
         return _not_found(z.size)
     best_n = max(r[1] for r in refined)
@@ -358,7 +366,8 @@ def initial_pose_search(
 
 def _not_found(k: int) -> InitialPoseResult:
     nan3 = np.full(3, np.nan)
-    return InitialPoseResult(nan3, np.full((3, 3), np.nan), np.full(k, -1, dtype=np.int64), 0, False, False, np.zeros((0, 3)))
+    labels = np.full(k, -1, dtype=np.int64)
+    return InitialPoseResult(nan3, np.full((3, 3), np.nan), labels, 0, False, False, np.zeros((0, 3)))
 
 
 def _observation_triples(k: int, limit: int) -> list[tuple[int, int, int]]:
@@ -370,7 +379,7 @@ def _observation_triples(k: int, limit: int) -> list[tuple[int, int, int]]:
         for i in range(k):
             tri = tuple(sorted({i, (i + a) % k, (i + b) % k}))
             if len(tri) == 3 and tri not in triples:
-                triples.append(tri)  # type: ignore[arg-type]
+                triples.append(tri)
             if len(triples) >= limit:
                 return triples
     return triples
@@ -396,8 +405,7 @@ def _hypotheses(
         head, valid = resect_three(R, zi - edge_offset(dist, rad[ri]))
     dist = np.linalg.norm(R - head[:, None, :2], axis=-1)
     valid &= np.all(dist <= max_range, axis=-1) & np.all(dist > rad[ri], axis=-1)
-    base = compose(head[valid], inverse(np.asarray(mount, dtype=np.float64)))
-    return base
+    return compose(head[valid], inverse(np.asarray(mount, dtype=np.float64)))
 
 
 def _refine_distinct(
@@ -425,7 +433,9 @@ def _refine_distinct(
     def label(pose: NDArray[np.float64], cov: NDArray[np.float64]) -> NDArray[np.int64]:
         return associate_sweep(z, pose, cov, mount, xy, rad, var, max_range=max_range, gate=gate, map_std=map_std)
 
-    def fit(pose: NDArray[np.float64], labels: NDArray[np.int64]) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    def fit(
+        pose: NDArray[np.float64], labels: NDArray[np.int64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
         seen = labels >= 0
         return _gauss_newton(pose, z[seen], xy[labels[seen]], rad[labels[seen]], mount, var, map_std)
 
@@ -467,7 +477,7 @@ def _gauss_newton(
     h, H, d = bearing_model(x, mount, xy, rad)
     r = angle_diff(z, h)
     R = measurement_variance(var, map_std, d)
-    cov = np.linalg.pinv(H.T @ (H / R[:, None]))
+    cov = np.asarray(np.linalg.pinv(H.T @ (H / R[:, None])), dtype=np.float64)
     return x, cov, float(np.sum(r * r / R))
 
 
@@ -477,7 +487,8 @@ def _distinct(items: list[tuple], position_tol: float, heading_tol: float) -> li
     for it in items:
         p = it[0]
         if all(
-            np.hypot(p[0] - k[0][0], p[1] - k[0][1]) > position_tol or abs(float(angle_diff(p[2], k[0][2]))) > heading_tol
+            np.hypot(p[0] - k[0][0], p[1] - k[0][1]) > position_tol
+            or abs(float(angle_diff(p[2], k[0][2]))) > heading_tol
             for k in kept
         ):
             kept.append(it)
