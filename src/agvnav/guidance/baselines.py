@@ -21,11 +21,11 @@ from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 
 __all__ = [
     "MAX_STEERING_RAD",
-    "servo_rate",
-    "pure_pursuit_steering",
-    "stanley_steering",
     "lookahead_for_distance",
+    "pure_pursuit_steering",
+    "servo_rate",
     "stanley_gain_for_distance",
+    "stanley_steering",
 ]
 
 MAX_STEERING_RAD = math.radians(89.0)

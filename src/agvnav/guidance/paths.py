@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path as FsPath
 from typing import Any, NamedTuple
 
@@ -36,17 +36,17 @@ from agvnav._validate import require_finite, require_last_dim
 from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 
 __all__ = [
-    "LineSegment",
+    "GAP_TOLERANCE_M",
     "ArcSegment",
-    "Segment",
+    "LineSegment",
     "Path",
     "PathProjection",
     "PointProjection",
-    "GAP_TOLERANCE_M",
-    "path_from_moves",
-    "seed_test_path",
+    "Segment",
     "load_path",
+    "path_from_moves",
     "save_path",
+    "seed_test_path",
 ]
 
 GAP_TOLERANCE_M = 1e-6
@@ -166,6 +166,8 @@ class ArcSegment:
     sweep: float
     direction: int = 1
     yaw_offset: float = 0.0
+    _centre: tuple[float, float] = field(init=False, repr=False)  # cached for the scalar fast paths
+    _phi0: float = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         p, h = _check_start(self.start, self.heading)
@@ -372,7 +374,7 @@ class Path:
         """True if the tangent heading is continuous (within ``tol`` rad) at every joint."""
         return all(
             abs(float(wrap_angle(b.heading - a.end_heading))) <= tol
-            for a, b in zip(self._segments[:-1], self._segments[1:])
+            for a, b in zip(self._segments[:-1], self._segments[1:], strict=True)
         )
 
     def segment_index(self, s: ArrayLike) -> NDArray[np.int64]:
