@@ -39,14 +39,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from agvnav.geometry.angles import wrap_angle
+
 __all__ = ["INDEX_MIN_REFLECTORS", "BearingIndex", "GateSpec"]
 
 #: Maps with at least this many reflectors use :class:`BearingIndex`; below it the plain
 #: loop over every reflector is cheaper than the ~35 NumPy calls of one vectorised pass
 #: (measured crossover on the development machine: about 10 reflectors).
 INDEX_MIN_REFLECTORS = 12
-
-_TWO_PI = 2.0 * math.pi
 
 
 @dataclass(frozen=True)
@@ -121,6 +121,6 @@ class BearingIndex:
         a4 = 4.0 * spec.gate * (spec.bearing_var + 4.0 * var_psi)  # 4 gate S_max = a4 + b4 g
         b4 = 4.0 * spec.gate * (spec.map_std**2 + 2.0 * var_xy + 4.0 * self._mount_norm**2 * var_psi)
         window = np.sqrt(a4 + b4 / np.maximum(e, 1e-300)) + self._half_pi_r / np.maximum(d, 1e-300)
-        centre = np.abs(np.remainder(z + psi + mth + math.pi - np.arctan2(dy, dx), _TWO_PI) - math.pi)
+        centre = np.abs(wrap_angle(z + psi + mth - np.arctan2(dy, dx)))
         near = (centre < window) | (e <= 0.0)
         return np.flatnonzero(near & (d <= spec.max_range)).tolist()
