@@ -226,6 +226,6 @@ def write_replay(spec: CampaignSpec, run: int, out_dir: str | Path) -> Path:
     mapping = replay_mapping(base, {**spec.overrides, **plan.params}, plan.seed)
     path = Path(out_dir) / "replay" / f"run_{run:06d}.yaml"
     path.parent.mkdir(parents=True, exist_ok=True)
-    head = f"# campaign {spec.name!r} run {run}: base {spec.base}, seed {plan.seed}\n"
+    head = f"# campaign {spec.name!r} run {run}: base {spec.base}, seed {plan.seed}, swept {json.dumps(plan.params)}\n"
     path.write_text(head + dump_yaml(mapping), encoding="utf-8")
     return path

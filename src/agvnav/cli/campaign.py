@@ -56,10 +56,11 @@ def campaign(
     """Run a Monte Carlo campaign on Dask; write Parquet results, summary.json and plots."""
     lib = _library()
     camp = lib.load_campaign(spec)
-    console = Console(highlight=False)
+    console = Console(highlight=False)  # long paths stay on one line (soft_wrap) so they can be copied
     if replay is not None:
         path = lib.write_replay(camp, replay, out)
-        console.print(f"wrote {path}; replay run {replay} alone with: agvnav simulate {path}", markup=False)
+        hint = f"wrote {path}; replay run {replay} alone with: agvnav simulate {path}"
+        console.print(hint, markup=False, soft_wrap=True)
         return
     result = lib.run_campaign(camp, out, scheduler=scheduler, workers=workers)
     written = []
@@ -77,6 +78,7 @@ def campaign(
         f"{result.ran} runs done, {result.skipped} already there, on {result.workers} workers in "
         f"{result.wall_s:.1f} s{speed}; wrote {out}/runs, {out}/summary.json and {len(written)} plots",
         markup=False,
+        soft_wrap=True,
     )
 
 
