@@ -64,7 +64,9 @@ class ScalarMath:
 
 def wrap(a: Arr, xp: Any = np) -> Arr:
     """``geometry.wrap_angle`` to ``[-pi, pi)`` for either namespace (NumPy arrays or ``ScalarMath`` floats)."""
-    return wrap_angle(a) if xp is np else wrap_angle_scalar(a)  # type: ignore[arg-type]  # xp=ScalarMath: float
+    if xp is np:
+        return wrap_angle(a)
+    return wrap_angle_scalar(a)  # type: ignore[arg-type, return-value]  # xp=ScalarMath: a is a float, as the result
 
 
 def order_pairs(x: Three, y: Three, theta: Three, xp: Any = np) -> tuple[Three, Three, Three, Three]:
