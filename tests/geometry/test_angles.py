@@ -1,7 +1,9 @@
 """The one wrap convention, [-pi, pi): range, exactness, ±pi, large multiples, scalar == array bits."""
 
 import math
+import re
 from fractions import Fraction
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,6 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+import agvnav
 from agvnav.geometry import PI, TWO_PI, angle_diff, wrap_angle, wrap_angle_scalar
 
 finite = st.floats(allow_nan=False, allow_infinity=False)
@@ -107,3 +110,38 @@ def test_angle_diff_half_turn_is_minus_pi_both_ways():
     assert float(angle_diff(PI, 0.0)) == -PI
     assert float(angle_diff(0.0, PI)) == -PI
     assert math.isclose(float(angle_diff(PI - 0.1, -PI + 0.1)), -0.2, abs_tol=1e-15)
+
+
+#: Ways of wrapping an angle that do not go through agvnav.geometry (each has its own ±pi convention).
+OTHER_WRAPS = re.compile(
+    r"\bremainder\("  # math.remainder / np.remainder: [-pi, pi] with ties to even
+    r"|(%|\bmod\()[^\n#]*-\s*(np\.|math\.|_)?(pi|PI)\b"  # (a + pi) % 2pi - pi: rounds inside the interval
+    r"|\b(rint|round)\([^)\n]*/\s*\(?(_?TWO_PI|2(\.0)?\s*\*\s*(np|math)\.pi)"  # a - 2pi rint(a / 2pi)
+    r"|\b(atan2|arctan2)\((math|np)\.sin\("  # atan2(sin a, cos a): (-pi, pi]
+    r"|\bangle\(np\.exp\(1j"
+)
+
+
+def test_the_library_wraps_angles_only_through_geometry():
+    src = Path(agvnav.__file__).parent
+    hits = [
+        f"{path.relative_to(src)}:{n}: {line.strip()}"
+        for path in sorted(src.rglob("*.py"))
+        if path.name != "angles.py" or path.parent.name != "geometry"
+        for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+        if OTHER_WRAPS.search(line.split("#")[0])
+    ]
+    assert not hits, "wrap angles with agvnav.geometry.wrap_angle[_scalar]:\n" + "\n".join(hits)
+
+
+@pytest.mark.parametrize("line", [
+    "h = (a + math.pi) % (2.0 * math.pi) - math.pi",
+    "r = math.remainder(x, 2 * math.pi)",
+    "w = a - TWO_PI * xp.rint(a / TWO_PI)",
+    "r -= TWO_PI * round(r / TWO_PI)",
+    "g = np.arctan2(np.sin(a), np.cos(a))",
+    "innov = (z - h + _PI) % _TWO_PI - _PI",
+    "f = np.mod(raw + math.pi, TWO_PI) - math.pi",
+])
+def test_the_guard_recognises_the_usual_wraps(line):
+    assert OTHER_WRAPS.search(line)
