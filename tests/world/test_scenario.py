@@ -33,12 +33,12 @@ def test_shipped_scenarios_parse():
 @pytest.mark.parametrize(
     ("old", "new", "key", "needle", "words"),
     [
-        ("slip_std: 0.01", "slip_sdt: 0.01", "truth.slip_sdt", "slip_sdt", "unknown key"),
+        ("slip_std: 0.01", "slip_sdt: 0.01", "vehicle.truth.slip_sdt", "slip_sdt", "unknown key"),
         ("radius_m: 1.24", "radius_m: -1.24", "path.segments[0].radius_m", "radius_m: -1.24", "greater than 0"),
-        ("type: line", "type: spline", "path.segments[1]", "type: spline", "'line' or 'arc'"),
+        ("type: line", "type: spline", "path.segments[1]", "type: spline", "type must be one of line, arc"),
         ("  rate_hz: 8.0", "  rate_hz: fast", "goniometer.rate_hz", "rate_hz: fast", "number"),
-        ("name: seed_simple", "name: lqr", "controller.name", "name: lqr", "seed_simple"),
         ("map: lab", "map: 3", "map", "map: 3", "shipped map name"),
+        ("model: tricycle", "model: hovercraft", "vehicle.model", "model: hovercraft", "differential, tractor_trailer"),
     ],
 )
 def test_errors_name_key_and_line(old, new, key, needle, words):

@@ -4,7 +4,7 @@ import pytest
 
 from agvnav.world.map import load_map
 from agvnav.world.scenario import ScenarioError, builtin_scenario, load_scenario, parse_scenario
-from agvnav._yaml import safe_load_unique
+from agvnav.world.yaml_strict import safe_load_unique
 
 
 def test_loader_accepts_unique_keys_and_merges():

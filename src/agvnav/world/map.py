@@ -28,7 +28,7 @@ import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav._yaml import safe_load_unique, yaml_error_line
+from agvnav.world.yaml_strict import safe_load_unique, yaml_error_line
 
 __all__ = ["Reflector", "Wall", "WorldMap", "load_map", "save_map"]
 

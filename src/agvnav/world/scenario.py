@@ -1,12 +1,13 @@
-"""Scenario files: one YAML document describing a closed-loop run (issue 5 §4).
+"""Scenario files: one YAML document describing a closed-loop run, for every vehicle.
 
-A scenario names the vehicle, its truth errors, the actuators, the goniometer,
-the map, the path, the controller with its gains (or poles), the positioning
-method, the noise sources, the duration and the seed. The schema is strict:
-unknown keys are rejected, and every error names the offending key *and* the
-line of the file it is on, e.g. ``guidance.yaml:23: controller.poles_per_m:
-...``. Line numbers come from the YAML composer's node marks: the pydantic
-error location (a key path) is walked down the composed node tree.
+A scenario names the vehicle (``vehicle.model``: one of
+:data:`~agvnav.world.vehicle_specs.VEHICLE_MODELS`, with its nominal geometry,
+actuators, encoders and truth errors), the absolute sensors mounted on it (a
+``goniometer`` with the reflector map, ``ultrasonic`` rangers with the wall
+map, either or both), the map, the path (or the seed-004 square ``route``),
+the controller, the positioning, the speed profile, the duration and the seed.
+The schema is strict: unknown keys are rejected, and every error names the
+offending key *and* the line of the file it is on (:mod:`agvnav.world.strict`).
 
 Angles are in degrees at this edge only (keys ending in ``_deg``); the rest of
 agvnav receives radians.
@@ -14,124 +15,61 @@ agvnav receives radians.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal, Self
 
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import Field, field_validator, model_validator
 
-from agvnav._yaml import safe_load_unique
+from agvnav.world.strict import (
+    Finite,
+    KeyPath,
+    NonNegFloat,
+    PosFloat,
+    ScenarioError,
+    SourcedModel,
+    StrictModel,
+    format_key,
+    load_yaml_document,
+    node_line,
+    validate_document,
+)
+from agvnav.world.vehicle_specs import VEHICLE_MODELS, VehicleSpec
 
 __all__ = [
+    "DEFAULT_SCENARIO",
     "ArcSpec",
     "ControllerSpec",
     "GoniometerSpec",
+    "KeyPath",
     "LineSpec",
     "PathSpec",
     "PositioningSpec",
+    "RouteSpec",
     "Scenario",
     "ScenarioError",
+    "SensorMountSpec",
     "StartSpec",
-    "SteeringSpec",
     "TractionSpec",
-    "TruthErrorSpec",
-    "VehicleSpec",
+    "UltrasonicSpec",
+    "WorldTruthSpec",
     "builtin_scenario",
     "builtin_scenario_names",
     "default_scenario",
+    "format_key",
     "load_scenario",
+    "node_line",
     "parse_scenario",
 ]
 
 #: Name of the shipped scenario run when ``agvnav simulate`` is given none.
 DEFAULT_SCENARIO = "guidance_test"
 
-KeyPath = tuple[str | int, ...]
-
-
-class ScenarioError(ValueError):
-    """A scenario problem located by key path and (when known) file line."""
-
-    def __init__(self, message: str, key: KeyPath = (), line: int | None = None, source: str = "") -> None:
-        self.key = tuple(key)
-        self.line = line
-        self.source = source
-        self.detail = message
-        where = source or "scenario"
-        if line is not None:
-            where += f":{line}"
-        keytext = format_key(self.key)
-        super().__init__(f"{where}: {keytext + ': ' if keytext else ''}{message}")
-
-
-def format_key(key: KeyPath) -> str:
-    """``("path", "segments", 1, "radius_m")`` -> ``path.segments[1].radius_m``."""
-    out = ""
-    for part in key:
-        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
-    return out
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-PosFloat = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
-NonNegFloat = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
-Finite = Annotated[float, Field(allow_inf_nan=False)]
 Direction = Literal["forward", "reverse"]
 
 
-class VehicleSpec(_Strict):
-    """Nominal vehicle (what odometry and guidance believe): seed 000 §3.1 tricycle."""
-
-    model: Literal["tricycle"] = "tricycle"
-    wheelbase_m: PosFloat = 1.2
-    drive_wheel_radius_m: PosFloat = 0.1
-    traction_counts_per_rev: Annotated[int, Field(gt=0)] = 4096
-    steering_counts_per_rev: Annotated[int, Field(gt=0)] = 16384
-
-
-class TruthErrorSpec(_Strict):
-    """How the truth vehicle differs from the nominal one (issue 3 error sources).
-
-    ``wheel_radius_error``: relative error of the drive-wheel radius (truth =
-    nominal x (1 + e)); ``wheelbase_error``: relative error of L;
-    ``steering_offset_deg``: the wheel points this much off what the steering
-    encoder reads; ``slip_std``: random relative error of each traction
-    increment (non-systematic slip); ``steering_noise_std_deg``: random error of
-    the steering angle per step; ``reflector_survey_std_m``: the true reflector
-    positions differ from the surveyed map the positioning uses by this Gaussian
-    error per axis (m; seed 000 §4.1 surveyed its reflectors topographically).
-    """
-
-    wheel_radius_error: Annotated[float, Field(gt=-0.5, lt=0.5)] = 0.0
-    wheelbase_error: Annotated[float, Field(gt=-0.5, lt=0.5)] = 0.0
-    steering_offset_deg: Annotated[float, Field(ge=-10.0, le=10.0)] = 0.0
-    slip_std: NonNegFloat = 0.0
-    steering_noise_std_deg: NonNegFloat = 0.0
-    reflector_survey_std_m: Annotated[float, Field(ge=0.0, le=0.5)] = 0.0
-
-
-class SteeringSpec(_Strict):
-    """Steering actuator: rate and angle limits, first-order lag."""
-
-    max_rate_deg_s: PosFloat = 60.0
-    max_angle_deg: Annotated[float, Field(gt=0.0, le=90.0)] = 90.0
-    time_constant_s: NonNegFloat = 0.05
-
-
-class TractionSpec(_Strict):
-    """Traction speed profile: cruise speed of C, acceleration limits, stop at the end."""
-
-    speed_m_s: PosFloat = 0.2
-    max_accel_m_s2: PosFloat = 0.3
-    max_decel_m_s2: PosFloat = 0.3
-
-
-class GoniometerSpec(_Strict):
+class GoniometerSpec(StrictModel):
     """Rotating laser head (seed 000 §4.1: 8 Hz, 65535 pulses/rev, 30 m)."""
 
     rate_hz: PosFloat = 8.0
@@ -144,25 +82,70 @@ class GoniometerSpec(_Strict):
     jitter_std_s: NonNegFloat = 0.0
 
 
-class LineSpec(_Strict):
-    """A straight segment of ``length_m``; ``start``/``heading_deg`` default to the previous end."""
+class SensorMountSpec(StrictModel):
+    """One ranger: ``mount`` x (m), y (m), theta (deg) in base_link."""
+
+    name: str
+    mount: tuple[Finite, Finite, Finite]
+
+
+class UltrasonicSpec(StrictModel):
+    """HY-SRF05-like rangers (see :mod:`agvnav.sensors.ultrasonic`); default the seed-004 layout."""
+
+    spacing_m: PosFloat = 0.30
+    half_angle_deg: Annotated[float, Field(gt=0.0, lt=90.0)] = 15.0
+    max_incidence_deg: Annotated[float, Field(ge=0.0, le=90.0)] = 20.0
+    min_range_m: NonNegFloat = 0.02
+    max_range_m: PosFloat = 4.0
+    noise_std_m: NonNegFloat = 0.003
+    p_miss: Annotated[float, Field(ge=0.0, le=1.0)] = 0.0
+    rate_hz: PosFloat = 20.0
+    sensors: list[SensorMountSpec] | None = None
+
+
+class WorldTruthSpec(StrictModel):
+    """How the real world differs from the map: ``reflector_survey_std_m`` (m per axis, Gaussian).
+
+    Seed 000 §4.1 surveyed its reflectors topographically; the surveyed map is
+    what positioning uses, the displaced one is what the goniometer sees.
+    """
+
+    reflector_survey_std_m: Annotated[float, Field(ge=0.0, le=0.5)] = 0.0
+
+
+class TractionSpec(StrictModel):
+    """Speed profile of the tracked point: cruise speed, acceleration limits, stop at the end."""
+
+    speed_m_s: PosFloat = 0.2
+    max_accel_m_s2: PosFloat = 0.3
+    max_decel_m_s2: PosFloat = 0.3
+
+
+class LineSpec(StrictModel):
+    """A straight segment of ``length_m``; ``start``/``heading_deg`` default to the previous end.
+
+    ``yaw_offset_deg`` (holonomic vehicles only): vehicle heading minus the path
+    tangent along the segment (90: sideways travel to the left).
+    """
 
     type: Literal["line"]
     length_m: PosFloat
     direction: Direction = "forward"
     start: tuple[Finite, Finite] | None = None
     heading_deg: Finite | None = None
+    yaw_offset_deg: Finite = 0.0
 
 
-class ArcSpec(_Strict):
+class ArcSpec(StrictModel):
     """A circular arc of ``radius_m`` turning ``sweep_deg`` (positive = to the left, CCW)."""
 
     type: Literal["arc"]
     radius_m: PosFloat
-    sweep_deg: Annotated[float, Field(allow_inf_nan=False)]
+    sweep_deg: Finite
     direction: Direction = "forward"
     start: tuple[Finite, Finite] | None = None
     heading_deg: Finite | None = None
+    yaw_offset_deg: Finite = 0.0
 
     @model_validator(mode="after")
     def _nonzero(self) -> ArcSpec:
@@ -171,7 +154,7 @@ class ArcSpec(_Strict):
         return self
 
 
-class PathSpec(_Strict):
+class PathSpec(StrictModel):
     """The planned path of the guided point: a start pose and chained segments.
 
     A segment may give its own ``start`` (and ``heading_deg``); it must then
@@ -183,13 +166,22 @@ class PathSpec(_Strict):
     gap_tolerance_m: PosFloat = 1e-3
 
 
-class StartSpec(_Strict):
+class RouteSpec(StrictModel):
+    """The seed-004 square route: ``side_m``, start pose (x, y m, heading deg), turning direction."""
+
+    type: Literal["square"] = "square"
+    side_m: PosFloat = 3.5
+    start: tuple[Finite, Finite, Finite] = (0.0, 0.0, 0.0)
+    turn: Literal["left", "right"] = "left"
+
+
+class StartSpec(StrictModel):
     """Initial placement relative to the path start (seed 000 §4.3: 110 mm off the path).
 
     ``lateral_offset_m`` displaces the guided point to the left of the path
     (negative: right); ``heading_offset_deg`` turns the vehicle;
-    ``steering_deg`` is the initial wheel angle, or ``feedforward`` for the
-    steady-state angle of the first segment's curvature.
+    ``steering_deg`` is the initial wheel angle of a steered vehicle, or
+    ``feedforward`` for the steady-state angle of the first segment's curvature.
     """
 
     lateral_offset_m: Finite = 0.0
@@ -197,14 +189,26 @@ class StartSpec(_Strict):
     steering_deg: Annotated[float, Field(gt=-90.0, lt=90.0)] | Literal["feedforward"] = 0.0
 
 
-class ControllerSpec(_Strict):
-    """Guidance law by name, with either closed-loop poles (per metre) or gains."""
+class ControllerSpec(StrictModel):
+    """Guidance by name (which names fit which vehicle: ``agvnav.guidance`` registry).
 
-    name: Literal["seed_general", "seed_simple", "pure_pursuit", "stanley"] = "seed_simple"
-    point: Literal["C", "O"] = "C"
+    ``name`` None picks the vehicle family's default. Steered vehicles take
+    closed-loop ``poles_per_m`` or ``gains`` and the guided ``point`` (C, the
+    steered wheel, by default, or O, the rear axle midpoint); other vehicles
+    guide base_link (O);
+    ``params`` go to the controller. The seed-004 automaton (``hybrid``) drives
+    the square ``route`` for ``laps``, with or without wall ``landmarks``;
+    ``compare_landmarks`` runs both with the same seed.
+    """
+
+    name: str | None = None
+    point: Literal["C", "O"] | None = None
     poles_per_m: list[Finite] | None = None
     gains: dict[str, Finite] | None = None
     params: dict[str, Any] = Field(default_factory=dict)
+    laps: Annotated[int, Field(ge=1, le=100)] = 10
+    landmarks: bool = True
+    compare_landmarks: bool = False
 
     @model_validator(mode="after")
     def _one_of(self) -> ControllerSpec:
@@ -213,10 +217,14 @@ class ControllerSpec(_Strict):
         return self
 
 
-class PositioningSpec(_Strict):
-    """Positioning method (issue 4) and its initialisation."""
+class PositioningSpec(StrictModel):
+    """Positioning method and its initialisation.
 
-    method: Literal["naive", "angle_propagation", "batch_ml", "ekf"] = "ekf"
+    ``method`` None: ``ekf`` with a goniometer, the seed-004 ``wall_landmarks``
+    localizer with rangers only, else ``dead_reckoning``.
+    """
+
+    method: Literal["naive", "angle_propagation", "batch_ml", "ekf", "wall_landmarks", "dead_reckoning"] | None = None
     params: dict[str, Any] = Field(default_factory=dict)
     initial_error: tuple[Finite, Finite, Finite] = Field(
         (0.0, 0.0, 0.0), description="x (m), y (m), heading (deg) error of the initial estimate"
@@ -229,46 +237,8 @@ class PositioningSpec(_Strict):
     )
 
 
-class _Sourced(_Strict):
-    """A scenario document that remembers where it came from, for errors naming key and line.
-
-    Shared by :class:`Scenario` and the tracked-robot scenario; subclasses have a
-    ``seed`` field.
-    """
-
-    # Not part of the schema: where the scenario came from, for error messages.
-    _source: str = ""
-    _nodes: Any = None
-    _base_dir: Path | None = None
-
-    def locate(self, key: KeyPath) -> int | None:
-        """1-based file line of the key path ``key`` (None if unknown)."""
-        return node_line(self._nodes, key)
-
-    def error(self, key: KeyPath, message: str) -> ScenarioError:
-        """A :class:`ScenarioError` for ``key`` with its file line."""
-        return ScenarioError(message, key, self.locate(key), self._source)
-
-    @property
-    def base_dir(self) -> Path | None:
-        """Folder of the scenario file (relative map paths resolve against it)."""
-        return self._base_dir
-
-    def with_seed(self, seed: int) -> Self:
-        """A copy with another random seed (keeps the source and line map)."""
-        if seed < 0:
-            raise ValueError(f"seed must be >= 0, got {seed}")
-        return self._copy_attached({"seed": int(seed)})
-
-    def _copy_attached(self, update: dict[str, Any]) -> Self:
-        """``model_copy(update=...)`` that keeps the source, line map and folder."""
-        new = self.model_copy(update=update)
-        _attach(new, self._source, self._nodes, self._base_dir)
-        return new
-
-
-class Scenario(_Sourced):
-    """A closed-loop run (issue 5 §4). All lengths in m, times in s, angles in deg."""
+class Scenario(SourcedModel):
+    """A closed-loop run of any vehicle. All lengths in m, times in s, angles in deg."""
 
     name: str = "scenario"
     description: str = ""
@@ -276,108 +246,83 @@ class Scenario(_Sourced):
     step_s: Annotated[float, Field(gt=0.0, le=0.1)] = 0.02
     duration_s: PosFloat | None = None
     end_hold_s: NonNegFloat = 1.0
-    vehicle: VehicleSpec = VehicleSpec()
-    truth: TruthErrorSpec = TruthErrorSpec()
-    steering: SteeringSpec = SteeringSpec()
+    vehicle: VehicleSpec
+    world_truth: WorldTruthSpec = WorldTruthSpec()
     traction: TractionSpec = TractionSpec()
-    goniometer: GoniometerSpec = GoniometerSpec()
+    goniometer: GoniometerSpec | None = None
+    ultrasonic: UltrasonicSpec | None = None
     map: str | dict[str, Any] = "lab"
-    path: PathSpec
+    path: PathSpec | None = None
+    route: RouteSpec | None = None
     start: StartSpec = StartSpec()
     controller: ControllerSpec = ControllerSpec()
     positioning: PositioningSpec = PositioningSpec()
     min_reflectors_in_view: Annotated[int, Field(ge=3)] = 3
 
+    @field_validator("map", mode="before")
+    @classmethod
+    def _map_kind(cls, value: Any) -> Any:
+        if not isinstance(value, (str, Mapping)):
+            raise ValueError("must be a shipped map name (e.g. lab), a map file path, or a mapping of reflectors and walls")
+        return value
 
-def _attach(sc: _Sourced, source: str, nodes: Any, base_dir: Path | None) -> None:
-    object.__setattr__(sc, "__pydantic_private__", {"_source": source, "_nodes": nodes, "_base_dir": base_dir})
+    @model_validator(mode="before")
+    @classmethod
+    def _default_model(cls, data: Any) -> Any:
+        """``vehicle.model`` may be omitted for the seed-000 tricycle (the first scenarios' default)."""
+        if isinstance(data, Mapping):
+            vehicle = data.get("vehicle", {})
+            if isinstance(vehicle, Mapping) and "model" not in vehicle:
+                return {**data, "vehicle": {"model": "tricycle", **vehicle}}
+        return data
+
+    @model_validator(mode="after")
+    def _path_or_route(self) -> Scenario:
+        if self.path is None and self.route is None:
+            raise ValueError("give a path (or, for the seed-004 automaton, a route)")
+        if self.route is not None and self.vehicle.model != "tracked":
+            raise ValueError("route (the seed-004 square) is for the tracked robot; other vehicles follow a path")
+        return self
+
+    @property
+    def model(self) -> str:
+        """The vehicle model name (e.g. ``"tricycle"``)."""
+        return self.vehicle.model
+
+    def with_seed(self, seed: int) -> Self:
+        """A copy with another random seed (keeps the source and line map)."""
+        if seed < 0:
+            raise ValueError(f"seed must be >= 0, got {seed}")
+        return self.copy_attached({"seed": int(seed)})
+
+    def with_controller(self, **fields: Any) -> Self:
+        """A copy with controller fields replaced (e.g. ``laps=2, landmarks=False``)."""
+        return self.copy_attached({"controller": self.controller.model_copy(update=fields)})
 
 
-def node_line(root: Any, key: KeyPath) -> int | None:
-    """Walk a composed YAML node tree along ``key``; return the deepest line reached (1-based).
-
-    For a mapping key that is present, the line of the *key* is returned (that is
-    where the user looks); for an unknown key or index, the line of the deepest
-    node that exists.
-    """
-    node, line = root, None
-    if node is None:
+def _model_error(data: Mapping[str, Any], nodes: Any, source: str) -> ScenarioError | None:
+    """A clear error for an unknown ``vehicle.model``, listing the valid ones."""
+    vehicle = data.get("vehicle")
+    model = vehicle.get("model") if isinstance(vehicle, Mapping) else None
+    if model is None or model in VEHICLE_MODELS:
         return None
-    line = node.start_mark.line + 1
-    for part in key:
-        if isinstance(node, yaml.MappingNode):
-            hit = next(((k, v) for k, v in node.value if getattr(k, "value", None) == str(part)), None)
-            if hit is None:
-                return line
-            line, node = hit[0].start_mark.line + 1, hit[1]
-        elif isinstance(node, yaml.SequenceNode) and isinstance(part, int) and 0 <= part < len(node.value):
-            node = node.value[part]
-            line = node.start_mark.line + 1
-        else:
-            return line
-    return line
-
-
-def _loc_to_key(loc: Sequence[Any], data: Any) -> KeyPath:
-    """Drop pydantic's union/discriminator tags ("line", "arc", "str", ...) from an error location."""
-    key: list[str | int] = []
-    node = data
-    for part in loc:
-        if isinstance(node, Mapping) and isinstance(part, str) and part in node:
-            key.append(part)
-            node = node[part]
-        elif isinstance(node, list) and isinstance(part, int):
-            key.append(part)
-            node = node[part] if 0 <= part < len(node) else None
-        elif isinstance(node, Mapping) and isinstance(part, str) and part not in node:
-            # an unknown/missing key, or a union tag: keep it only if it is the last part
-            if part is loc[-1] and part not in ("line", "arc", "str", "dict[str,any]"):
-                key.append(part)
-        # other tags (function-after[...], etc.) are skipped
-    return tuple(key)
-
-
-def _first_error(exc: ValidationError, data: Any) -> tuple[KeyPath, str]:
-    errors = exc.errors(include_url=False)
-    err = errors[0]
-    key = _loc_to_key(err["loc"], data)
-    msg = err["msg"]
-    if err["type"] == "extra_forbidden":
-        msg = "unknown key"
-    elif err["type"] == "missing":
-        msg = "required key is missing"
-    elif err["type"] == "union_tag_invalid":
-        msg = "type must be 'line' or 'arc'"
-    elif key == ("map",):
-        msg = "must be a shipped map name (e.g. lab), a map file path, or a mapping of reflectors and walls"
-    if len(errors) > 1:
-        msg += f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})"
-    return key, msg
+    key: KeyPath = ("vehicle", "model")
+    return ScenarioError(
+        f"unknown vehicle model {model!r}; valid models: {', '.join(VEHICLE_MODELS)}", key, node_line(nodes, key), source
+    )
 
 
 def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = None) -> Scenario:
-    """Parse and validate scenario YAML ``text``; ScenarioError names key and line."""
-    try:
-        nodes = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = safe_load_unique(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = mark.line + 1 if mark is not None else None
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise ScenarioError(f"invalid YAML: {problem}", (), line, source) from None
-    if not isinstance(data, Mapping):
-        raise ScenarioError("a scenario must be a YAML mapping of keys", (), 1, source)
-    from agvnav.world.tracked_scenario import is_tracked, parse_tracked
+    """Parse and validate scenario YAML ``text``; a ScenarioError names key and line."""
+    data, nodes = load_yaml_document(text, source)
+    err = _model_error(data, nodes, source)
+    if err is not None:
+        raise err
+    from agvnav.world.tracked_scenario import is_tracked, parse_tracked  # transitional: folded in below
 
-    if is_tracked(data):  # issue 6: the seed-004 tracked robot has its own schema
+    if is_tracked(data) and ("route" in data or "terrain" in data):
         return parse_tracked(data, nodes, source, base_dir)  # type: ignore[return-value]
-    try:
-        sc = Scenario.model_validate(data)
-    except ValidationError as exc:
-        key, msg = _first_error(exc, data)
-        raise ScenarioError(msg, key, node_line(nodes, key), source) from None
-    _attach(sc, source, nodes, base_dir)
-    return sc
+    return validate_document(Scenario, data, nodes, source, base_dir)
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -391,7 +336,11 @@ def load_scenario(path: str | Path) -> Scenario:
         raise ScenarioError(
             f"no such scenario file (shipped scenarios: {', '.join(builtin_scenario_names())})", (), None, str(path)
         )
-    return parse_scenario(p.read_text(encoding="utf-8"), source=str(path), base_dir=p.parent)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ScenarioError("is not a UTF-8 text file (a scenario is YAML text)", (), None, str(path)) from None
+    return parse_scenario(text, source=str(path), base_dir=p.parent)
 
 
 def _scenarios_dir() -> Path:

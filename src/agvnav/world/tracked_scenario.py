@@ -20,16 +20,16 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, ValidationError, model_validator
 
-from agvnav.world.scenario import (
+from agvnav.world.scenario import PathSpec
+from agvnav.world.strict import (
     Finite,
     NonNegFloat,
-    PathSpec,
     PosFloat,
     ScenarioError,
-    _attach,
-    _first_error,
-    _Sourced,
-    _Strict,
+    SourcedModel as _Sourced,
+    StrictModel as _Strict,
+    attach_source as _attach,
+    first_error as _first_error,
     node_line,
 )
 
@@ -158,9 +158,15 @@ class TrackedScenario(_Sourced):
             raise ValueError("controller kanayama follows a path: give the path key")
         return self
 
+    def with_seed(self, seed: int) -> TrackedScenario:
+        """A copy with another random seed (keeps the source and line map)."""
+        if seed < 0:
+            raise ValueError(f"seed must be >= 0, got {seed}")
+        return self.copy_attached({"seed": int(seed)})
+
     def with_updates(self, **controller: Any) -> TrackedScenario:
         """A copy with controller fields replaced (e.g. ``laps=2, landmarks=False``)."""
-        return self._copy_attached({"controller": self.controller.model_copy(update=controller)})
+        return self.copy_attached({"controller": self.controller.model_copy(update=controller)})
 
     def hybrid_params_kwargs(self) -> dict[str, float]:
         """``controller.params`` with degree keys converted to radians (HybridParams names)."""

@@ -1,0 +1,169 @@
+"""The scenario reference generated from the schema: every key, its unit, default and meaning.
+
+:func:`schema_rows` walks the pydantic models of :mod:`agvnav.world.scenario`
+(and every vehicle spec of the ``vehicle.model`` union) and returns one
+:class:`KeyDoc` per key; :func:`scenario_reference` renders them as Markdown.
+docs/scenarios.md is this output (a test regenerates it and compares), so the
+reference cannot drift from the schema.
+"""
+
+from __future__ import annotations
+
+import inspect
+import types
+import typing
+from dataclasses import dataclass
+from typing import Any, Literal, get_args, get_origin
+
+from pydantic import BaseModel
+from pydantic.fields import FieldInfo
+
+from agvnav.world.scenario import Scenario
+from agvnav.world.vehicle_specs import (
+    AckermannSpec,
+    DifferentialSpec,
+    MecanumSpec,
+    TrackedSpec,
+    TractorTrailerSpec,
+    TricycleRearSpec,
+    TricycleSpec,
+)
+
+__all__ = ["VEHICLE_SPECS", "KeyDoc", "schema_rows", "scenario_reference", "unit_of"]
+
+#: The vehicle specs in the order the reference lists them.
+VEHICLE_SPECS: tuple[type[BaseModel], ...] = (
+    TricycleSpec,
+    TricycleRearSpec,
+    AckermannSpec,
+    DifferentialSpec,
+    TractorTrailerSpec,
+    MecanumSpec,
+    TrackedSpec,
+)
+
+# key suffix -> unit, longest suffix first
+_UNITS = (
+    ("_deg_s", "deg/s"),
+    ("_m_s2", "m/s²"),
+    ("_m_s", "m/s"),
+    ("_rad_s", "rad/s"),
+    ("_deg", "deg"),
+    ("_hz", "Hz"),
+    ("_rpm", "rpm"),
+    ("_per_rev", "counts/rev"),
+    ("_m", "m"),
+    ("_s", "s"),
+    ("_v", "V"),
+)
+
+
+def unit_of(key: str) -> str:
+    """The unit a key's suffix names (``speed_m_s`` -> ``m/s``), or ``-`` for none."""
+    for suffix, unit in _UNITS:
+        if key.endswith(suffix):
+            return unit
+    return "-"
+
+
+@dataclass(frozen=True)
+class KeyDoc:
+    """One scenario key: dotted ``key``, ``type``, ``unit``, ``default`` and ``meaning``."""
+
+    key: str
+    type: str
+    unit: str
+    default: str
+    meaning: str
+
+
+def _models_in(annotation: Any) -> list[type[BaseModel]]:
+    """The pydantic models inside an annotation (through Optional, unions, Annotated)."""
+    if inspect.isclass(annotation) and issubclass(annotation, BaseModel):
+        return [annotation]
+    out: list[type[BaseModel]] = []
+    for arg in get_args(annotation):
+        out += _models_in(arg)
+    return out
+
+
+def _type_name(annotation: Any) -> str:
+    origin = get_origin(annotation)
+    if origin is Literal:
+        return " | ".join(repr(a) for a in get_args(annotation))
+    if origin is typing.Annotated:
+        return _type_name(get_args(annotation)[0])
+    if origin in (typing.Union, types.UnionType):
+        return " | ".join(_type_name(a) for a in get_args(annotation))
+    if origin is not None:
+        args = ", ".join(_type_name(a) for a in get_args(annotation))
+        return f"{getattr(origin, '__name__', str(origin))}[{args}]"
+    if inspect.isclass(annotation) and issubclass(annotation, BaseModel):
+        return "mapping"
+    return getattr(annotation, "__name__", str(annotation)).replace("NoneType", "null")
+
+
+def _default(info: FieldInfo) -> str:
+    if info.is_required():
+        return "required"
+    value = info.get_default(call_default_factory=True)
+    if isinstance(value, BaseModel):
+        return "(section)"
+    return "null" if value is None else repr(value)
+
+
+def _meaning(info: FieldInfo, models: list[type[BaseModel]]) -> str:
+    if info.description:
+        return info.description
+    if models:
+        return " ".join((inspect.getdoc(models[0]) or "").split("\n\n")[0].split())
+    return ""
+
+
+def schema_rows(model: type[BaseModel], prefix: str = "") -> list[KeyDoc]:
+    """One :class:`KeyDoc` per key of ``model`` and of its sub-sections, depth first."""
+    rows: list[KeyDoc] = []
+    for name, info in model.model_fields.items():
+        key = f"{prefix}{name}"
+        models = [m for m in _models_in(info.annotation) if m not in VEHICLE_SPECS]
+        rows.append(KeyDoc(key, _type_name(info.annotation), unit_of(name), _default(info), _meaning(info, models)))
+        for sub in models:
+            rows += schema_rows(sub, f"{key}.")
+    return rows
+
+
+def _table(rows: list[KeyDoc]) -> list[str]:
+    lines = ["| key | type | unit | default | meaning |", "| --- | --- | --- | --- | --- |"]
+    for r in rows:
+        cells = (f"`{r.key}`", r.type, r.unit, r.default, r.meaning)
+        lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    return lines
+
+
+def scenario_reference(outputs: list[str] | None = None) -> str:
+    """The Markdown scenario reference: top-level keys, then the ``vehicle`` keys of every model.
+
+    ``outputs``: Markdown lines documenting the output files (from :mod:`agvnav.report`),
+    appended as their own section.
+    """
+    lines = [
+        "# Scenario reference",
+        "",
+        "Generated from the schema (`agvnav.world.reference`; regenerate with",
+        "`python -m agvnav.report.reference > docs/scenarios.md`). Units: SI, angles in degrees",
+        "in keys ending `_deg`. Unknown keys are refused; every error names the file, line and key.",
+        "",
+        "## Top-level keys",
+        "",
+        *_table([r for r in schema_rows(Scenario) if r.key != "vehicle"]),
+        "",
+        "## `vehicle`: one section per `vehicle.model`",
+    ]
+    for spec in VEHICLE_SPECS:
+        model = spec.model_fields["model"].annotation
+        name = get_args(model)[0]
+        doc = " ".join((inspect.getdoc(spec) or "").split("\n\n")[0].split())
+        lines += ["", f"### `model: {name}`", "", doc, "", *_table(schema_rows(spec, "vehicle."))]
+    if outputs:
+        lines += ["", *outputs]
+    return "\n".join(lines) + "\n"

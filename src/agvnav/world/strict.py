@@ -1,0 +1,197 @@
+"""Strict, located YAML documents: every error names the file, the line and the key.
+
+The scenario, map-less route and campaign files share this plumbing. The
+schema is a pydantic model that forbids unknown keys (:class:`StrictModel`);
+:func:`validate_document` parses YAML text (duplicate keys refused), validates
+it and turns the first pydantic error into a :class:`ScenarioError` such as
+``guidance.yaml:23: controller.poles_per_m: ...``. Line numbers come from the
+YAML composer's node marks: the error location (a key path) is walked down the
+composed node tree (:func:`node_line`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Annotated, Any, Self, TypeVar
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from agvnav.world.yaml_strict import safe_load_unique, yaml_error_line
+
+__all__ = [
+    "Finite",
+    "KeyPath",
+    "NonNegFloat",
+    "PosFloat",
+    "ScenarioError",
+    "SourcedModel",
+    "StrictModel",
+    "attach_source",
+    "first_error",
+    "format_key",
+    "load_yaml_document",
+    "node_line",
+    "validate_document",
+]
+
+KeyPath = tuple[str | int, ...]
+
+PosFloat = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+NonNegFloat = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+
+
+class ScenarioError(ValueError):
+    """A document problem located by key path and (when known) file line."""
+
+    def __init__(self, message: str, key: KeyPath = (), line: int | None = None, source: str = "") -> None:
+        self.key = tuple(key)
+        self.line = line
+        self.source = source
+        self.detail = message
+        where = source or "scenario"
+        if line is not None:
+            where += f":{line}"
+        keytext = format_key(self.key)
+        super().__init__(f"{where}: {keytext + ': ' if keytext else ''}{message}")
+
+
+def format_key(key: KeyPath) -> str:
+    """``("path", "segments", 1, "radius_m")`` -> ``path.segments[1].radius_m``."""
+    out = ""
+    for part in key:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out
+
+
+class StrictModel(BaseModel):
+    """A frozen pydantic model that refuses unknown keys."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class SourcedModel(StrictModel):
+    """A document that remembers where it came from, for errors naming key and line."""
+
+    # Not part of the schema: where the document came from, for error messages.
+    _source: str = ""
+    _nodes: Any = None
+    _base_dir: Path | None = None
+
+    def locate(self, key: KeyPath) -> int | None:
+        """1-based file line of the key path ``key`` (None if unknown)."""
+        return node_line(self._nodes, key)
+
+    def error(self, key: KeyPath, message: str) -> ScenarioError:
+        """A :class:`ScenarioError` for ``key`` with its file line."""
+        return ScenarioError(message, key, self.locate(key), self._source)
+
+    @property
+    def source(self) -> str:
+        """Where the document came from (file name, or ``<string>``)."""
+        return self._source
+
+    @property
+    def base_dir(self) -> Path | None:
+        """Folder of the document's file (relative paths in it resolve against it)."""
+        return self._base_dir
+
+    def copy_attached(self, update: dict[str, Any]) -> Self:
+        """``model_copy(update=...)`` that keeps the source, line map and folder."""
+        new = self.model_copy(update=update)
+        attach_source(new, self._source, self._nodes, self._base_dir)
+        return new
+
+
+def attach_source(doc: SourcedModel, source: str, nodes: Any, base_dir: Path | None) -> None:
+    """Remember ``source``, its composed YAML ``nodes`` and folder on ``doc`` (outside the schema)."""
+    object.__setattr__(doc, "__pydantic_private__", {"_source": source, "_nodes": nodes, "_base_dir": base_dir})
+
+
+def node_line(root: Any, key: KeyPath) -> int | None:
+    """Walk a composed YAML node tree along ``key``; return the deepest line reached (1-based).
+
+    For a mapping key that is present, the line of the *key* is returned (that is
+    where the user looks); for an unknown key or index, the line of the deepest
+    node that exists.
+    """
+    node = root
+    if node is None:
+        return None
+    line = node.start_mark.line + 1
+    for part in key:
+        if isinstance(node, yaml.MappingNode):
+            hit = next(((k, v) for k, v in node.value if getattr(k, "value", None) == str(part)), None)
+            if hit is None:
+                return int(line)
+            line, node = hit[0].start_mark.line + 1, hit[1]
+        elif isinstance(node, yaml.SequenceNode) and isinstance(part, int) and 0 <= part < len(node.value):
+            node = node.value[part]
+            line = node.start_mark.line + 1
+        else:
+            return int(line)
+    return int(line)
+
+
+def _loc_to_key(loc: Sequence[Any], data: Any) -> KeyPath:
+    """Keep the parts of a pydantic error location that exist in ``data`` (drop union tags)."""
+    key: list[str | int] = []
+    node = data
+    for i, part in enumerate(loc):
+        if isinstance(node, Mapping) and isinstance(part, str) and part in node:
+            key.append(part)
+            node = node[part]
+        elif isinstance(node, list) and isinstance(part, int):
+            key.append(part)
+            node = node[part] if 0 <= part < len(node) else None
+        elif isinstance(node, Mapping) and isinstance(part, str) and i == len(loc) - 1:
+            key.append(part)  # an unknown or missing key is the last part of the location
+        # other parts are union tags ("line", "tricycle", "function-after[...]"): skipped
+    return tuple(key)
+
+
+def first_error(exc: ValidationError, data: Any) -> tuple[KeyPath, str]:
+    """The first pydantic error as ``(key path, one-line message)``."""
+    errors = exc.errors(include_url=False)
+    err = errors[0]
+    key = _loc_to_key(err["loc"], data)
+    msg = str(err["msg"]).removeprefix("Value error, ")
+    if err["type"] == "extra_forbidden":
+        msg = "unknown key"
+    elif err["type"] == "missing":
+        msg = "required key is missing"
+    elif err["type"] == "union_tag_invalid":
+        ctx = err.get("ctx") or {}
+        msg = f"{ctx.get('discriminator', 'type')} must be one of {ctx.get('expected_tags', '')}".replace("'", "")
+    if len(errors) > 1:
+        msg += f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})"
+    return key, msg
+
+
+def load_yaml_document(text: str, source: str) -> tuple[Any, Any]:
+    """``(data, composed nodes)`` of YAML ``text``; a ScenarioError with the line on bad YAML."""
+    try:
+        nodes = yaml.compose(text, Loader=yaml.SafeLoader)
+        data = safe_load_unique(text)
+    except yaml.YAMLError as exc:
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise ScenarioError(f"invalid YAML: {problem}", (), yaml_error_line(exc), source) from None
+    if not isinstance(data, Mapping):
+        raise ScenarioError("the document must be a YAML mapping of keys", (), 1, source)
+    return data, nodes
+
+
+M = TypeVar("M", bound=SourcedModel)
+
+
+def validate_document(model: type[M], data: Any, nodes: Any, source: str, base_dir: Path | None) -> M:
+    """Validate ``data`` against ``model``; the first error becomes a located ScenarioError."""
+    try:
+        doc = model.model_validate(data)
+    except ValidationError as exc:
+        key, msg = first_error(exc, data)
+        raise ScenarioError(msg, key, node_line(nodes, key), source) from None
+    attach_source(doc, source, nodes, base_dir)
+    return doc
