@@ -22,7 +22,9 @@ def _short(tmp_path, extra="duration_s: 4.0", old=None, new=None):
 def test_simulate_writes_all_outputs(tmp_path):
     out = tmp_path / "out"
     res = runner.invoke(app, ["simulate", str(_short(tmp_path)), "--out", str(out), "--seed", "3"])
-    assert res.exit_code == 0, res.output
+    # 4 s do not finish the 5 m path: the files are written, the run is reported failed (timeout), exit 3
+    assert res.exit_code == 3, res.output
+    assert "run FAILED: timeout" in res.output
     assert "max |lateral error| after transient" in res.output
     names = {p.name for p in out.iterdir()}
     assert {"metrics.json", "timeseries.csv", "reflections.csv", "map.png", "errors.png",
@@ -32,6 +34,7 @@ def test_simulate_writes_all_outputs(tmp_path):
                 "settling_distance_m", "positioning_rms_m", "sim_time_s", "wall_time_s"):
         assert key in m
     assert m["seed"] == 3 and m["sim_time_s"] == 4.0
+    assert m["outcome"] == "failed" and m["reason"] == "timeout"
     header = (out / "timeseries.csv").read_text().splitlines()[0].split(",")
     data = np.loadtxt(out / "timeseries.csv", delimiter=",", skiprows=1)
     assert "eps_c" in header and "xi_r" in header and data.shape == (81, len(header))
@@ -41,7 +44,7 @@ def test_simulate_writes_all_outputs(tmp_path):
 def test_simulate_no_plots(tmp_path):
     out = tmp_path / "o"
     res = runner.invoke(app, ["simulate", str(_short(tmp_path, "duration_s: 1.0")), "--out", str(out), "--no-plots"])
-    assert res.exit_code == 0, res.output
+    assert res.exit_code == 3, res.output  # 1 s: the run times out (reported failed)
     assert not list(out.glob("*.png"))
 
 

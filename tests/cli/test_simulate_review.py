@@ -98,7 +98,8 @@ def _table_text(e0):
         positioning_lateral_mean_abs_m=0.003, positioning_lateral_std_m=0.002, positioning_lateral_max_abs_m=0.01,
         path_completed=True, sim_time_s=30.0, wall_time_s=0.1, real_time_factor=300.0,
     )
-    result = SimpleNamespace(metrics=m, scenario=SimpleNamespace(name="x", seed=0))
+    scenario = SimpleNamespace(name="x", seed=0, vehicle=SimpleNamespace(model="tricycle"))
+    result = SimpleNamespace(metrics=m, scenario=scenario, outcome="completed", reason=None)
     console = Console(width=200, record=True)
     console.print(_summary(result))
     return console.export_text()

@@ -27,7 +27,7 @@ def test_every_signal_recorded_once_per_step(short_scenario):
     dt = short_scenario.step_s
     np.testing.assert_allclose(np.diff(r.series["t"]), dt, atol=1e-12)
     assert r.series["t"][-1] == pytest.approx(4.0)
-    for name in ("x", "y", "psi", "gamma", "x_C", "est_x", "v_cmd", "gamma_dot_cmd", "eps_c", "xi_r", "ds_meas"):
+    for name in ("x", "y", "psi", "gamma", "x_C", "est_x", "v_cmd", "rate_cmd", "eps_c", "xi_r", "ds_meas"):
         assert r.series[name].shape == (n,)
     # C is L_true ahead of O, on the body axis
     L = r.scenario.vehicle.wheelbase_m
@@ -97,7 +97,7 @@ class _FakeEstimator:
         self.pose = np.zeros(3)
         self.status = "tracking"
 
-    def predict(self, t, dd, dth):
+    def predict(self, t, dd, dth, dl=0.0):
         self.calls.append(("p", t, dd, dth))
 
     def update(self, t, bearing):

@@ -26,6 +26,6 @@ def test_survey_error_moves_reflectors_deterministically_with_the_given_std():
 def test_survey_std_is_validated_by_the_scenario_schema():
     import pytest
 
-    text = "name: t\ntruth:\n  reflector_survey_std_m: -0.1\n"
+    text = "name: t\nworld_truth:\n  reflector_survey_std_m: -0.1\n"
     with pytest.raises(ValueError, match="reflector_survey_std_m"):
         parse_scenario(text)

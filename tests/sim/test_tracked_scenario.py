@@ -32,9 +32,9 @@ def test_shipped_tracked_scenarios_load(name):
     assert isinstance(sc, TrackedScenario)
     assert sc.controller.laps == 10 and sc.controller.compare_landmarks
     assert sc.route.side_m in (3.5, 4.0) and sc.controller.params == {}
-    from agvnav.sim.build import build
+    from agvnav.sim.tracked_build import prepare_tracked
 
-    kwargs = build(sc)  # cross-part checks pass
+    kwargs = prepare_tracked(sc)  # cross-part checks pass
     assert kwargs["walls"].shape == (8, 2, 2)
 
 
@@ -77,7 +77,7 @@ def test_bad_input_one_line_message_and_exit_code(tmp_path, old, new, message):
     p = _short(tmp_path, old, new)
     with pytest.raises(ScenarioError, match=message):
         sc = load_scenario(p)
-        from agvnav.sim.build import build
+        from agvnav.sim.tracked_build import prepare_tracked as build
 
         build(sc)
     res = runner.invoke(app, ["simulate", str(p), "--out", str(tmp_path / "o")])

@@ -11,6 +11,7 @@ from agvnav.cli.bench import bench_app
 from agvnav.cli.campaign import campaign
 from agvnav.cli.demo import demo
 from agvnav.cli.errors import USER_ERROR_EXIT, err_console
+from agvnav.cli.scenarios import scenarios
 from agvnav.cli.simulate import simulate
 
 app = typer.Typer(
@@ -22,6 +23,7 @@ app = typer.Typer(
 app.add_typer(bench_app, name="bench")
 app.command("demo")(demo)
 app.command("simulate")(simulate)
+app.command("scenarios")(scenarios)
 app.command("campaign")(campaign)
 
 

@@ -60,3 +60,10 @@ def guidance(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OP
 def landmarks(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
     """Tracked robot on the square route: error per lap with and without wall landmarks."""
     _run("landmarks", json, quick, seed)
+
+
+@bench_app.command("vehicles")
+@user_errors
+def vehicles(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+    """Every vehicle configuration on the same loop: completion, lateral and positioning errors (true pose)."""
+    _run("vehicles", json, quick, seed)

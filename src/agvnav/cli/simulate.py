@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -34,14 +35,17 @@ def simulate(
     plots: bool = PLOTS_OPT,
 ) -> None:
     """Run a closed-loop scenario; write metrics.json, time series (CSV) and plots."""
-    from agvnav.sim import save_result
-    from agvnav.sim import simulate as run_scenario
-    from agvnav.sim.build import build
     from agvnav.world.scenario import default_scenario, load_scenario
 
     sc = default_scenario() if scenario is None else load_scenario(scenario)
     if seed is not None:
         sc = sc.with_seed(seed)
+    if sc.route is not None:  # the seed-004 automaton on its square route
+        return _simulate_route(sc, out, plots)
+    from agvnav.report.files import save_result
+    from agvnav.sim import simulate as run_scenario
+    from agvnav.sim.build import build
+
     build(sc)  # validate every cross-part rule before the progress bar starts
     _prepare_out(out)
     console = Console(highlight=False)
@@ -56,12 +60,36 @@ def simulate(
         task = bar.add_task("simulate", total=None, t=0.0)
         result = run_scenario(sc, progress=lambda t: bar.update(task, t=t))
     written = save_result(result, out, plots=plots)
-    if hasattr(result, "scenario") and hasattr(result.scenario, "route"):  # issue 6: the tracked robot
-        from agvnav.report.laps import summary_table
+    console.print(_summary(result))
+    console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+    if not result.completed:
+        console.print(f"run FAILED: {result.reason}")
+        raise typer.Exit(RUN_FAILED_EXIT)
 
-        console.print(summary_table(result))  # seed 004 Tables I-II, or the Kanayama path table
-    else:
-        console.print(_summary(result))
+
+#: Exit code of a run that ran but failed (distinct from a user error's 2).
+RUN_FAILED_EXIT = 3
+
+
+def _simulate_route(sc: Any, out: Path, plots: bool) -> None:
+    """The seed-004 tracked robot on its square route: laps with and without landmarks (Tables I-II)."""
+    from agvnav.report.laps import summary_table
+    from agvnav.sim.tracked_build import prepare_tracked, save_tracked, simulate_tracked
+
+    prepare_tracked(sc)  # validate before the progress bar
+    _prepare_out(out)
+    console = Console(highlight=False)
+    with Progress(
+        TextColumn(f"[bold]{sc.name}[/bold]"),
+        BarColumn(),
+        TextColumn("{task.fields[t]:7.1f} s simulated"),
+        console=console,
+        transient=True,
+    ) as bar:
+        task = bar.add_task("simulate", total=None, t=0.0)
+        result = simulate_tracked(sc, progress=lambda t: bar.update(task, t=t))
+    written = save_tracked(result, out, plots)
+    console.print(summary_table(result))
     console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
 
 
@@ -96,7 +124,7 @@ NO_TRANSIENT_M = 1e-3
 
 def _summary(result) -> Table:  # type: ignore[no-untyped-def]
     m = result.metrics
-    t = Table(title=f"{result.scenario.name} (seed {result.scenario.seed})")
+    t = Table(title=f"{result.scenario.name}: {result.scenario.vehicle.model} (seed {result.scenario.seed})")
     t.add_column("metric")
     t.add_column("value", justify="right")
     t.add_column("seed 000", justify="right")
@@ -117,7 +145,7 @@ def _summary(result) -> Table:  # type: ignore[no-untyped-def]
         ("positioning mean |e_lat| (mm)", _fmt(m.positioning_lateral_mean_abs_m, 1e3), "9.7"),
         ("positioning std e_lat (mm)", _fmt(m.positioning_lateral_std_m, 1e3), "6.6"),
         ("positioning max |e_lat| (mm)", _fmt(m.positioning_lateral_max_abs_m, 1e3), "23"),
-        ("path completed", "yes" if m.path_completed else "no", ""),
+        ("outcome", result.outcome + (f" ({result.reason})" if result.reason else ""), ""),
         ("simulated time (s)", _fmt(m.sim_time_s, 1.0, 2), ""),
         ("wall time (s)", _fmt(m.wall_time_s, 1.0, 3), ""),
         ("real-time factor", _fmt(m.real_time_factor, 1.0, 0), ""),

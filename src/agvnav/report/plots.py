@@ -140,12 +140,13 @@ def write_plots(
 ) -> list[Path]:
     """Write map.png, errors.png and positioning_histogram.png from a run's series.
 
-    ``series`` needs ``t``, ``x_C``, ``y_C``, ``x``, ``y``, ``psi``, ``est_x``,
-    ``est_y``, ``est_psi``, ``est_valid``, ``eps_c``, ``xi_r`` (the columns the
-    simulator records); with ``est_x_C``/``est_y_C`` the estimated path of C is drawn.
+    ``series`` needs ``t``, ``x_tracked``, ``y_tracked`` (the true tracked point), ``x``,
+    ``y``, ``psi``, ``est_x``, ``est_y``, ``est_psi``, ``est_valid``, ``lateral_error``,
+    ``heading_error`` (the columns the simulator records); with ``est_x_C``/``est_y_C``
+    the estimated path of the tracked point is drawn.
     """
     out_dir = Path(out_dir)
-    driven = np.column_stack([series["x_C"], series["y_C"]])
+    driven = np.column_stack([series["x_tracked"], series["y_tracked"]])
     valid = series["est_valid"] > 0.5
     true_pose = np.column_stack([series["x"], series["y"], series["psi"]])
     est_pose = np.column_stack([series["est_x"], series["est_y"], series["est_psi"]])
@@ -157,6 +158,6 @@ def write_plots(
     e_lat = lateral_position_error(true_pose[valid], est_pose[valid])
     return [
         plot_map(path_xy, driven, reflector_xy, wall_segments, out_dir / "map.png", est_xy, title),
-        plot_errors(series["t"], series["eps_c"], series["xi_r"], out_dir / "errors.png", transient_end_s, title),
+        plot_errors(series["t"], series["lateral_error"], series["heading_error"], out_dir / "errors.png", transient_end_s, title),
         plot_positioning_histogram(e_lat, out_dir / "positioning_histogram.png", title),
     ]

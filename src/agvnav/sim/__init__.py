@@ -3,7 +3,7 @@
 from agvnav.sim.engine import Autopilot, ClosedLoop, Estimator, LoopOutput, Plant, Sensor
 from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, lateral_position_error, transient_end_index
 from agvnav.sim.recorder import EventLog, Recorder
-from agvnav.sim.run import SimResult, save_result, simulate
+from agvnav.sim.run import SimResult, simulate
 
 __all__ = [
     "Autopilot",
@@ -19,7 +19,6 @@ __all__ = [
     "TransientSpec",
     "compute_metrics",
     "lateral_position_error",
-    "save_result",
     "simulate",
     "transient_end_index",
 ]

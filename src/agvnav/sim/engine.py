@@ -52,8 +52,11 @@ class Plant(Protocol):
     def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
         """True base_link pose ``(k, 3)`` at instants ``t (k,)`` inside the last step."""
 
-    def odometry(self) -> tuple[float, float]:
-        """Measured ``(delta_d, delta_theta)`` of base_link over the last step (nominal model)."""
+    def odometry(self) -> tuple[float, float, float]:
+        """Measured body-twist increment ``(delta_d, delta_theta, delta_lateral)`` of base_link over the last step."""
+
+    def failure(self) -> str | None:
+        """A physical failure that ends the run (e.g. ``"jackknife"``), else None."""
 
     def signals(self) -> tuple[float, ...]:
         """Current values of ``signal_names`` (truth and raw sensor readings)."""
@@ -76,7 +79,7 @@ class Sensor(Protocol):
 class Estimator(Protocol):
     """Streaming positioning (issue 4 contract)."""
 
-    def predict(self, t: float, delta_d: float, delta_theta: float) -> None: ...
+    def predict(self, t: float, delta_d: float, delta_theta: float, delta_lateral: float = 0.0) -> None: ...
 
     @property
     def pose(self) -> NDArray[np.float64]: ...
@@ -109,6 +112,7 @@ class LoopOutput:
     events: dict[str, dict[str, NDArray[np.float64]]]
     wall_time_s: float
     finished: bool
+    failure: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -156,6 +160,7 @@ class ClosedLoop:
         logs = [EventLog(s.event_names) for s in sensors]
         every = max(1, n_steps // 100)
         t = 0.0
+        failure = None
         hold_left = end_hold
         start = time.perf_counter()
         cmd = pilot.command(t, est, plant, dt)
@@ -163,7 +168,7 @@ class ClosedLoop:
         for k in range(n_steps):
             t1 = (k + 1) * dt
             plant.advance(cmd, t, dt, rng_plant)
-            dd, dth = plant.odometry()
+            dd, dth, dl = plant.odometry()
             batches = []
             for sensor, log, rng in zip(sensors, logs, rng_sensors, strict=True):
                 ev = sensor.observe(plant.pose_at, t, t1, rng)
@@ -176,18 +181,21 @@ class ClosedLoop:
                 t_prev = t
                 for te, sensor, row in batches:
                     frac = (te - t_prev) / dt
-                    est.predict(te, dd * frac, dth * frac)
+                    est.predict(te, dd * frac, dth * frac, dl * frac)
                     sensor.deliver(est, row)
                     t_prev = te
                 frac = (t1 - t_prev) / dt
-                est.predict(t1, dd * frac, dth * frac)
+                est.predict(t1, dd * frac, dth * frac, dl * frac)
             else:
-                est.predict(t1, dd, dth)
+                est.predict(t1, dd, dth, dl)
             t = t1
             cmd = pilot.command(t, est, plant, dt)
             self._record(rec, t, est, plant, pilot)
             if progress is not None and k % every == 0:
                 progress(t)
+            failure = plant.failure()
+            if failure is not None:
+                break
             if pilot.finished:
                 hold_left -= dt
                 if hold_left < -1e-12:
@@ -196,7 +204,9 @@ class ClosedLoop:
         if progress is not None:
             progress(t)
         events = {getattr(s, "name", f"sensor{i}"): log.as_dict() for i, (s, log) in enumerate(zip(sensors, logs))}
-        return LoopOutput(series=rec.as_dict(), events=events, wall_time_s=wall, finished=bool(pilot.finished))
+        return LoopOutput(
+            series=rec.as_dict(), events=events, wall_time_s=wall, finished=bool(pilot.finished), failure=failure
+        )
 
     @staticmethod
     def _record(rec: Recorder, t: float, est: Estimator, plant: Plant, pilot: Autopilot) -> None:

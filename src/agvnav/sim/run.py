@@ -1,45 +1,67 @@
-"""Run a scenario end to end and keep what it produced: series, events, metrics.
+"""Run a scenario end to end and keep what it produced: series, events, outcome, metrics.
 
-The guidance errors reported as truth (``eps_c``, ``xi_r``, ...) are computed
-after the run, in one vectorised call, from the recorded *true* pose and wheel
-angle (seed 000 Fig. 5 via :func:`agvnav.guidance.errors.tracking_errors`); the
-controller's own view of them, from the estimated pose, is recorded as
-``eps_c_est``/``xi_r_est``.
+The guidance errors reported as truth are computed after the run, in one
+vectorised call, from the recorded *true* pose: ``lateral_error`` of the
+tracked point and ``heading_error`` of the vehicle against the path (tangent,
+plus the yaw offset of a holonomic vehicle); for steered vehicles also the
+seed-000 Fig. 5 errors ``eps_c``/``xi_r`` (with the true wheel angle, via
+:func:`agvnav.guidance.errors.tracking_errors`). The controller's own view, from
+the estimated pose, is recorded as ``lateral_error_est``/``heading_error_est``.
+
+The outcome is judged on the truth: ``completed`` when the autopilot finished
+and the true tracked point ended within ``end_tolerance`` of the path's end;
+otherwise ``failed`` with a reason (``jackknife`` or another plant failure,
+``timeout``, ``off_path_at_end``).
 """
 
 from __future__ import annotations
 
-import json
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path as FsPath
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.geometry import wrap_angle
+from agvnav.guidance import Path
+from agvnav.guidance.errors import tracking_errors
+from agvnav.sim.build import Built, build
+from agvnav.sim.tracked_build import simulate_tracked
 from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, transient_end_index
+from agvnav.world import WorldMap
 from agvnav.world.scenario import Scenario
 
-__all__ = ["SimResult", "save_result", "simulate"]
+__all__ = ["END_TOLERANCE_M", "SimResult", "simulate"]
+
+#: How close (m) the true tracked point must end to the path's end for ``completed``.
+END_TOLERANCE_M = 0.1
 
 
 @dataclass
 class SimResult:
-    """One run: the scenario, every recorded series, the sensor events and the metrics."""
+    """One run: the scenario, every recorded series, the sensor events, outcome and metrics."""
 
     scenario: Scenario
     series: dict[str, NDArray[np.float64]]
     events: dict[str, dict[str, NDArray[np.float64]]]
     metrics: RunMetrics
-    path: Any
-    world: Any
+    path: Path
+    world: WorldMap
     transient_end_s: float | None
+    outcome: str
+    reason: str | None
+    extra: dict[str, float]
+
+    @property
+    def completed(self) -> bool:
+        """True when the run completed its path (judged on the true pose)."""
+        return self.outcome == "completed"
 
     def path_polyline(self, spacing: float = 0.02) -> NDArray[np.float64]:
         """The planned path sampled every ``spacing`` m, ``(k, 2)``."""
         n = max(2, int(np.ceil(self.path.length / spacing)) + 1)
-        return self.path.point_at(np.linspace(0.0, self.path.length, n))
+        return np.asarray(self.path.point_at(np.linspace(0.0, self.path.length, n)))
 
 
 def simulate(
@@ -47,100 +69,98 @@ def simulate(
     progress: Callable[[float], None] | None = None,
     spec: TransientSpec = TransientSpec(),
 ) -> SimResult:
-    """Build and run ``scenario``; return the :class:`SimResult` (deterministic for its seed).
+    """Build and run ``scenario`` (a vehicle following a path); deterministic for its seed.
 
     ``progress(t)`` receives the simulated time about a hundred times.
     """
-    from agvnav.sim.build import build
-
-    if hasattr(scenario, "route"):  # issue 6: the seed-004 tracked robot
-        from agvnav.sim.tracked_build import simulate_tracked
-
+    if scenario.route is not None:  # the seed-004 automaton on its square route (laps, both modes)
         return simulate_tracked(scenario, progress)  # type: ignore[arg-type,return-value]
     built = build(scenario)
     out = built.loop.run(built.duration, scenario.end_hold_s, progress)
     series = out.series
     _add_true_errors(series, built)
-    e = series["eps_c"]
+    e = series["lateral_error"]
     k0 = transient_end_index(e, spec)
     true_pose = np.column_stack([series["x"], series["y"], series["psi"]])
     est_pose = np.column_stack([series["est_x"], series["est_y"], series["est_psi"]])
+    outcome, reason = _outcome(out.finished, out.failure, series, built)
     refl = out.events.get("reflections", {})
     metrics = compute_metrics(
         series["t"],
         e,
-        series["xi_r"],
-        series["distance_C"],
+        series["heading_error"],
+        _distance(series),
         true_pose,
         est_pose,
         series["est_status"] >= 1.0,
-        path_completed=out.finished,
+        path_completed=outcome == "completed",
         wall_time_s=out.wall_time_s,
         reflections=len(refl.get("t", ())),
         spec=spec,
     )
     series["est_valid"] = (series["est_status"] >= 1.0).astype(np.float64)
-    L = built.plant.L  # nominal: where the vehicle believes C is
-    series["est_x_C"] = series["est_x"] + L * np.cos(series["est_psi"])
-    series["est_y_C"] = series["est_y"] + L * np.sin(series["est_psi"])
+    off = built.point_offset  # nominal: where the vehicle believes its tracked point is
+    series["est_x_C"] = series["est_x"] + off * np.cos(series["est_psi"])
+    series["est_y_C"] = series["est_y"] + off * np.sin(series["est_psi"])
     t_end = None if k0 is None else float(series["t"][k0])
-    return SimResult(scenario, series, out.events, metrics, built.path, built.world, t_end)
+    extra = _extra_figures(series)
+    return SimResult(scenario, series, out.events, metrics, built.path, built.world, t_end, outcome, reason, extra)
 
 
-def _add_true_errors(series: dict[str, NDArray[np.float64]], built: Any) -> None:
-    from agvnav.guidance.errors import tracking_errors
+def _distance(series: dict[str, NDArray[np.float64]]) -> NDArray[np.float64]:
+    """Distance travelled by the vehicle's reference wheel or point, as its plant records it (m)."""
+    for name in ("distance_C", "distance_O", "distance"):
+        if name in series:
+            return series[name]
+    raise KeyError("the plant records no distance signal")
 
+
+def _add_true_errors(series: dict[str, NDArray[np.float64]], built: Built) -> None:
+    """Lateral and heading errors of the true pose against the path (see the module docstring)."""
     pose = np.column_stack([series["x"], series["y"], series["psi"]])
     hint = np.nan_to_num(series["s_est"], nan=0.0)
-    err = tracking_errors(
-        built.path, pose, series["gamma"], built.plant.L_true, built.point, s_hint=hint, window=1.0
-    )
-    for name in ("eps_c", "eps_o", "xi", "xi_r", "s"):
-        series[name if name != "s" else "s_true"] = np.asarray(getattr(err, name), dtype=np.float64)
+    path, off = built.path, built.point_offset
+    if off and built.plant.family == "steered":  # the true C is the true wheelbase ahead of O
+        off = float(getattr(built.plant, "L_true", off))
+    point = pose[:, :2] + off * np.column_stack([np.cos(pose[:, 2]), np.sin(pose[:, 2])])
+    series["x_tracked"], series["y_tracked"] = point[:, 0].copy(), point[:, 1].copy()
+    if built.plant.family == "steered":
+        L_true = float(getattr(built.plant, "L_true", built.plant.geometry.wheelbase))
+        err = tracking_errors(path, pose, series["gamma"] if "gamma" in series else series["phi"], L_true,
+                              built.point, s_hint=hint, window=1.0)
+        for name in ("eps_c", "eps_o", "xi", "xi_r"):
+            series[name] = np.asarray(getattr(err, name), dtype=np.float64)
+        series["s_true"] = np.asarray(err.s, dtype=np.float64)
+        series["lateral_error"] = series["eps_c"]
+        series["heading_error"] = series["xi_r"]
+        return
+    proj = path.project(point, s_hint=hint, window=1.0)
+    reverse = np.where(np.asarray(proj.direction) < 0, math.pi, 0.0)
+    yaw = np.asarray(path.yaw_offset_at(proj.s)) if built.plant.family == "holonomic" else 0.0
+    series["s_true"] = np.asarray(proj.s, dtype=np.float64)
+    series["lateral_error"] = np.asarray(proj.lateral, dtype=np.float64)
+    series["heading_error"] = np.asarray(wrap_angle(pose[:, 2] - proj.heading - reverse - yaw), dtype=np.float64)
 
 
-def save_result(result: SimResult, out_dir: str | FsPath, plots: bool = True) -> list[FsPath]:
-    """Write metrics.json, timeseries.csv, reflections.csv and (optionally) the PNG plots.
-
-    Returns the written paths. Units: SI, radians (column names carry no degrees).
-    """
-    if hasattr(result.scenario, "route"):  # issue 6: the seed-004 tracked robot
-        from agvnav.sim.tracked_build import save_tracked
-
-        return save_tracked(result, out_dir, plots)  # type: ignore[arg-type]
-    out = FsPath(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    written = []
-    meta = {
-        "scenario": result.scenario.name,
-        "seed": result.scenario.seed,
-        "transient": "ends at the first sample with |eps_c| <= max(10% of |eps_c(0)|, 5 mm)",
-        "transient_end_s": result.transient_end_s,
-    }
-    p = out / "metrics.json"
-    p.write_text(json.dumps({**result.metrics.to_dict(), **meta}, indent=2) + "\n", encoding="utf-8")
-    written.append(p)
-    written.append(_write_csv(out / "timeseries.csv", result.series))
-    refl = result.events.get("reflections")
-    if refl is not None:
-        written.append(_write_csv(out / "reflections.csv", refl))
-    if plots:
-        from agvnav.report import write_plots
-
-        written += write_plots(
-            result.series,
-            result.path_polyline(),
-            result.world.reflector_xy,
-            result.world.wall_segments,
-            out,
-            result.transient_end_s,
-            result.scenario.name,
-        )
-    return written
+def _outcome(
+    finished: bool, failure: str | None, series: dict[str, NDArray[np.float64]], built: Built
+) -> tuple[str, str | None]:
+    """``("completed", None)`` or ``("failed", reason)``, judged on the true pose."""
+    if failure is not None:
+        return "failed", failure
+    if not finished:
+        return "failed", "timeout"
+    end = built.path.point_at(built.path.length)
+    x, y = float(series["x_tracked"][-1]), float(series["y_tracked"][-1])
+    miss = math.hypot(x - float(end[0]), y - float(end[1]))
+    if miss > END_TOLERANCE_M:
+        return "failed", f"off_path_at_end ({miss:.3f} m from the path end)"
+    return "completed", None
 
 
-def _write_csv(path: FsPath, columns: dict[str, NDArray[np.float64]]) -> FsPath:
-    names = list(columns)
-    data = np.column_stack([np.asarray(columns[n], dtype=np.float64) for n in names])
-    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
-    return path
+def _extra_figures(series: dict[str, NDArray[np.float64]]) -> dict[str, float]:
+    """Figures of particular vehicles: the trailer's off-tracking and largest hitch angle."""
+    extra: dict[str, float] = {}
+    if "hitch_angle" in series:
+        extra["max_abs_hitch_angle_rad"] = float(np.max(np.abs(series["hitch_angle"])))
+    return extra

@@ -1,0 +1,119 @@
+"""The output files of a run and every CSV column with its unit: the second half of docs/scenarios.md.
+
+``python -m agvnav.report.reference`` prints the whole scenario reference
+(schema keys from :mod:`agvnav.world.reference`, then the outputs documented
+here). A test runs every shipped scenario briefly and checks that each column
+it writes is in :data:`COLUMNS`, and that docs/scenarios.md equals this output.
+"""
+
+from __future__ import annotations
+
+from agvnav.world.reference import scenario_reference
+
+__all__ = ["COLUMNS", "EVENT_COLUMNS", "outputs_reference", "reference_markdown"]
+
+#: timeseries.csv columns: name -> (unit, meaning). One row per control step.
+COLUMNS: dict[str, tuple[str, str]] = {
+    "t": ("s", "time since the start"),
+    "x": ("m", "true base_link x in map (REP-105)"),
+    "y": ("m", "true base_link y in map"),
+    "psi": ("rad", "true base_link heading in map"),
+    "est_x": ("m", "estimated base_link x"),
+    "est_y": ("m", "estimated base_link y"),
+    "est_psi": ("rad", "estimated base_link heading"),
+    "est_status": ("-", "estimator status: 0 initialising, 1 tracking, 2 dead reckoning, -1 other"),
+    "est_valid": ("-", "1 when the estimator has a fix (status tracking)"),
+    "est_x_C": ("m", "estimated tracked point x (C for a steered vehicle guiding C, else base_link)"),
+    "est_y_C": ("m", "estimated tracked point y"),
+    "x_tracked": ("m", "true tracked point x"),
+    "y_tracked": ("m", "true tracked point y"),
+    "lateral_error": ("m", "true lateral error of the tracked point from the path, left positive"),
+    "heading_error": ("rad", "true heading error: wheel heading error xi_r (steered) or body heading against "
+                      "the path tangent plus yaw offset"),
+    "s_true": ("m", "path abscissa of the true tracked point's projection"),
+    "eps_c": ("m", "seed 000 Fig. 5 lateral error of the tracked point (steered vehicles)"),
+    "eps_o": ("m", "seed 000 Fig. 5 lateral error of O (steered vehicles)"),
+    "xi": ("rad", "seed 000 Fig. 5 heading error of the body (steered vehicles)"),
+    "xi_r": ("rad", "seed 000 eq. 9 wheel heading error relative to the feed-forward (steered vehicles)"),
+    "gamma": ("rad", "true steering angle of the front wheel (tricycle stacker)"),
+    "phi": ("rad", "true steering angle (rear-drive steered vehicles, bicycle equivalent)"),
+    "phi_left": ("rad", "left front wheel angle (Ackermann)"),
+    "phi_right": ("rad", "right front wheel angle (Ackermann)"),
+    "x_C": ("m", "true x of the steered wheel C (tricycle stacker)"),
+    "y_C": ("m", "true y of the steered wheel C"),
+    "v": ("m/s", "true speed of the driven wheel or body"),
+    "gamma_rate": ("rad/s", "steering rate of the servo (tricycle stacker)"),
+    "phi_rate": ("rad/s", "steering rate of the servo (rear-drive steered vehicles)"),
+    "gamma_meas": ("rad", "steering encoder reading"),
+    "ds_meas": ("m", "traction encoder distance of the last step"),
+    "odo_dd": ("m", "odometry increment: forward body-twist distance of the last step"),
+    "odo_dtheta": ("rad", "odometry increment: heading change of the last step"),
+    "odo_dlat": ("m", "odometry increment: lateral body-twist distance of the last step (holonomic)"),
+    "distance_C": ("m", "distance rolled by the drive wheel C"),
+    "distance_O": ("m", "distance rolled by the rear axle midpoint O"),
+    "distance": ("m", "distance travelled by base_link"),
+    "omega_right": ("rad/s", "right wheel or sprocket speed"),
+    "omega_left": ("rad/s", "left wheel or sprocket speed"),
+    "omega_fl": ("rad/s", "front-left mecanum wheel speed"),
+    "omega_fr": ("rad/s", "front-right mecanum wheel speed"),
+    "omega_rl": ("rad/s", "rear-left mecanum wheel speed"),
+    "omega_rr": ("rad/s", "rear-right mecanum wheel speed"),
+    "v_x": ("m/s", "true forward body speed (holonomic)"),
+    "v_y": ("m/s", "true lateral body speed (holonomic)"),
+    "yaw_rate": ("rad/s", "true yaw rate"),
+    "hitch_angle": ("rad", "tractor heading minus trailer heading"),
+    "x_trailer": ("m", "true trailer axle midpoint x"),
+    "y_trailer": ("m", "true trailer axle midpoint y"),
+    "psi_trailer": ("rad", "true trailer heading"),
+    "v_cmd": ("m/s", "speed command of the speed profile (tracked point, signed)"),
+    "rate_cmd": ("rad/s", "follower's rate command: steering rate (steered) or yaw rate"),
+    "v_lateral_cmd": ("m/s", "follower's lateral speed command (holonomic)"),
+    "s_est": ("m", "path progress of the estimated tracked point"),
+    "lateral_error_est": ("m", "lateral error the follower sees (estimated pose; eps_c if steered)"),
+    "heading_error_est": ("rad", "heading error the follower sees (estimated pose; xi_r if steered)"),
+    "remaining": ("m", "path length left"),
+}
+
+#: reflections.csv columns (one row per goniometer reflection).
+EVENT_COLUMNS: dict[str, tuple[str, str]] = {
+    "t": ("s", "instant of the reflection"),
+    "bearing": ("rad", "measured bearing in the head frame, quantised by the encoder"),
+    "reflector_index": ("-", "ground truth: index of the reflector in the true map, -1 spurious (never used by "
+                        "positioning)"),
+}
+
+
+def _column_table(columns: dict[str, tuple[str, str]]) -> list[str]:
+    lines = ["| column | unit | meaning |", "| --- | --- | --- |"]
+    lines += [f"| `{name}` | {unit} | {meaning} |" for name, (unit, meaning) in columns.items()]
+    return lines
+
+
+def outputs_reference() -> list[str]:
+    """Markdown lines: the files a run writes and every column of its CSVs."""
+    return [
+        "## Outputs of `agvnav simulate --out DIR`",
+        "",
+        "- `metrics.json`: outcome (`completed` or `failed` with a reason), the run's figures (SI units), "
+        "the transient definition;",
+        "- `timeseries.csv`: one row per control step, the columns below (a vehicle writes the ones it has);",
+        "- `reflections.csv`: one row per goniometer reflection;",
+        "- `map.png`, `errors.png`, `positioning_histogram.png`: the plots.",
+        "",
+        "### timeseries.csv",
+        "",
+        *_column_table(COLUMNS),
+        "",
+        "### reflections.csv",
+        "",
+        *_column_table(EVENT_COLUMNS),
+    ]
+
+
+def reference_markdown() -> str:
+    """The whole of docs/scenarios.md."""
+    return scenario_reference(outputs_reference())
+
+
+if __name__ == "__main__":  # pragma: no cover - the documented regeneration command
+    print(reference_markdown(), end="")

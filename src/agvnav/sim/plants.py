@@ -1,0 +1,189 @@
+"""The registry from a scenario's ``vehicle.model`` to the truth vehicle (the engine's Plant role).
+
+One builder per model turns the validated ``vehicle:`` spec into an
+:mod:`agvnav.vehicles` plant with its actuators, encoders and truth errors,
+starting at a given true state. Wiring only: the physics lives in
+``vehicles``, ``kinematics``, ``actuators`` and ``odometry``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from agvnav.actuators import MotorPair, PID, SteeringActuator, WheelSpeedLoop
+from agvnav.kinematics import MecanumBase, TractorTrailer, TrackedVehicle, TrackTerrain, terrain_preset
+from agvnav.odometry import NonSystematicErrors, SystematicErrors, TricycleErrors
+from agvnav.vehicles import (
+    DifferentialPlant,
+    MecanumPlant,
+    SteeredPlant,
+    TrackedPlant,
+    TractorTrailerPlant,
+    TricyclePlant,
+)
+from agvnav.world.vehicle_specs import (
+    MecanumSpec,
+    MotorSpec,
+    PidSpec,
+    SteeringSpec,
+    TerrainFigures,
+    TrackedSpec,
+    TractorTrailerSpec,
+    TricycleSpec,
+    SteeredVehicleSpec,
+    WheeledVehicleSpec,
+)
+
+__all__ = ["PLANT_BUILDERS", "FAMILIES", "build_plant", "family_of"]
+
+#: Vehicle model -> family of the Plant contract (docs/ARCHITECTURE.md).
+FAMILIES: dict[str, str] = {
+    "tricycle": "steered",
+    "tricycle_rear": "steered",
+    "ackermann": "steered",
+    "differential": "unicycle",
+    "tractor_trailer": "unicycle",
+    "tracked": "unicycle",
+    "mecanum": "holonomic",
+}
+
+
+def family_of(model: str) -> str:
+    """``"steered"``, ``"unicycle"`` or ``"holonomic"`` for a vehicle model; ValueError if unknown."""
+    try:
+        return FAMILIES[model]
+    except KeyError:
+        raise ValueError(f"unknown vehicle model {model!r}; valid models: {', '.join(FAMILIES)}") from None
+
+
+def steering_actuator(spec: SteeringSpec) -> SteeringActuator:
+    """The servo of a steered vehicle (rate and angle limits, first-order lag)."""
+    return SteeringActuator(
+        max_angle=math.radians(spec.max_angle_deg) - (1e-9 if spec.max_angle_deg >= 90.0 else 0.0),
+        max_rate=math.radians(spec.max_rate_deg_s),
+        tau=spec.time_constant_s,
+    )
+
+
+def _steered_errors(spec: SteeredVehicleSpec) -> tuple[TricycleErrors, NonSystematicErrors]:
+    tr = spec.truth
+    systematic = TricycleErrors(
+        radius_scale=1.0 + tr.wheel_radius_error,
+        wheelbase_scale=1.0 + tr.wheelbase_error,
+        steering_offset=math.radians(tr.steering_offset_deg),
+    )
+    return systematic, NonSystematicErrors(slip_k=tr.slip_std**2, steering_std=math.radians(tr.steering_noise_std_deg))
+
+
+def _tricycle(spec: Any, state: Sequence[float]) -> TricyclePlant:
+    systematic, nonsystematic = _steered_errors(spec)
+    return TricyclePlant(
+        spec.wheelbase_m,
+        spec.drive_wheel_radius_m,
+        spec.traction_counts_per_rev,
+        spec.steering_counts_per_rev,
+        steering_actuator(spec.steering),
+        systematic,
+        nonsystematic,
+        state,
+    )
+
+
+def _steered_rear(spec: Any, state: Sequence[float]) -> SteeredPlant:
+    systematic, nonsystematic = _steered_errors(spec)
+    return SteeredPlant(
+        spec.model,
+        spec.wheelbase_m,
+        spec.drive_wheel_radius_m,
+        spec.traction_counts_per_rev,
+        spec.steering_counts_per_rev,
+        steering_actuator(spec.steering),
+        systematic,
+        nonsystematic,
+        state,
+        track=getattr(spec, "track_m", None),
+    )
+
+
+def speed_loop(motor: MotorSpec, pid: PidSpec) -> WheelSpeedLoop:
+    """Seed 004's PID speed loops on a motor pair, from the scenario's motor and PID specs."""
+    return WheelSpeedLoop(
+        MotorPair(
+            tau=motor.time_constant_s,
+            gain=(motor.no_load_rpm * 2.0 * math.pi / 60.0) / motor.supply_v,
+            asymmetry=motor.asymmetry,
+            u_max=motor.supply_v,
+        ),
+        PID(kp=pid.kp, ki=pid.ki, kd=pid.kd, derivative_tau=pid.derivative_time_constant_s,
+            u_min=-motor.supply_v, u_max=motor.supply_v, size=2),
+    )
+
+
+def _differential(spec: WheeledVehicleSpec, state: Sequence[float]) -> DifferentialPlant:
+    tr = spec.truth
+    return DifferentialPlant(
+        spec.wheel_radius_m * (1.0 + tr.wheel_radius_error),
+        spec.track_m,
+        spec.encoder_counts_per_rev,
+        state[:3],
+        speed_loop(spec.motor, spec.pid),
+        SystematicErrors(e_d=tr.wheel_diameter_ratio, e_b=tr.track_ratio),
+        NonSystematicErrors(slip_k=tr.slip_k),
+        spec.substep_s,
+    )
+
+
+def _tractor_trailer(spec: TractorTrailerSpec, state: Sequence[float]) -> TractorTrailerPlant:
+    trailer = TractorTrailer(spec.trailer_length_m, spec.hitch_offset_m, math.radians(spec.max_hitch_angle_deg))
+    return TractorTrailerPlant(_differential(spec, state), trailer, 0.0)
+
+
+def _mecanum(spec: MecanumSpec, state: Sequence[float]) -> MecanumPlant:
+    base = MecanumBase(spec.wheel_radius_m, spec.half_length_m, spec.half_width_m, spec.layout)
+    scale = 1.0 + spec.truth.wheel_radius_error
+    loop = speed_loop(spec.motor, spec.pid)
+    return MecanumPlant(
+        base, spec.encoder_counts_per_rev, state[:3], loop, (scale,) * 4, spec.truth.roller_slip_std,
+        substep=spec.substep_s,
+    )
+
+
+def terrain(ref: str | TerrainFigures) -> TrackTerrain:
+    """A track-ground terrain from a preset name or explicit figures."""
+    if isinstance(ref, TerrainFigures):
+        return TrackTerrain(ref.slip_left, ref.slip_right, ref.icr_left, ref.icr_right, ref.x_icr_m, "scenario")
+    return terrain_preset(ref)
+
+
+def _tracked(spec: TrackedSpec, state: Sequence[float]) -> TrackedPlant:
+    vehicle = TrackedVehicle(spec.gauge_m, spec.sprocket_radius_m, terrain(spec.terrain.truth))
+    return TrackedPlant(
+        vehicle,
+        speed_loop(spec.motor, spec.pid),
+        terrain(spec.terrain.odometry),
+        spec.encoder_counts_per_rev,
+        state[:3],
+        spec.substep_s,
+        spec.terrain.slip_noise_std,
+    )
+
+
+PlantBuilder = Callable[[Any, Sequence[float]], Any]
+
+#: One builder per vehicle model: ``(vehicle spec, true initial state) -> Plant``.
+PLANT_BUILDERS: dict[str, PlantBuilder] = {
+    "tricycle": _tricycle,
+    "tricycle_rear": _steered_rear,
+    "ackermann": _steered_rear,
+    "differential": _differential,
+    "tractor_trailer": _tractor_trailer,
+    "mecanum": _mecanum,
+    "tracked": _tracked,
+}
+
+
+def build_plant(spec: TricycleSpec | Any, state: Sequence[float]) -> Any:
+    """The truth vehicle of ``spec`` (any vehicle spec) starting at ``state`` (pose, plus steering angle)."""
+    return PLANT_BUILDERS[spec.model](spec, state)
