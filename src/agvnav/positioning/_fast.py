@@ -23,12 +23,10 @@ from agvnav.positioning.gating import GateSpec
 Mat3 = tuple[float, ...]
 
 _PI = math.pi
-_TWO_PI = 2.0 * math.pi
 
 
-def wrap(a: float) -> float:
-    """:func:`agvnav.geometry.wrap_angle` for one float, to ``[-pi, pi)`` (rad)."""
-    return wrap_angle_scalar(a)
+#: :func:`agvnav.geometry.wrap_angle` for one float, to ``[-pi, pi)`` (rad); an alias, no extra call.
+wrap = wrap_angle_scalar
 
 
 def _sinc(h: float) -> float:
