@@ -1,4 +1,4 @@
-"""Seed 004's hybrid automaton (Fig. 7) on the square route, with a scripted robot."""
+"""Seed 004's hybrid automaton (Fig. 7) on the square route, with a scripted robot and the wall-landmark estimator."""
 
 import math
 
@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from agvnav.guidance.hybrid import HybridController, HybridParams, HybridState, PolygonRoute
+from agvnav.positioning.wall_landmarks import LandmarkParams, WallLandmarkLocalizer
 from agvnav.sensors import seed_004_layout
 
 SIDE = 3.5
@@ -30,28 +31,33 @@ def _unicycle(pose, v, omega, dt):
     if abs(omega) < 1e-12:
         return np.array([x + v * dt * math.cos(th), y + v * dt * math.sin(th), th])
     th1 = th + omega * dt
-    return np.array([x + v / omega * (math.sin(th1) - math.sin(th)), y - v / omega * (math.cos(th1) - math.cos(th)), th1])
+    k = v / omega
+    return np.array([x + k * (math.sin(th1) - math.sin(th)), y - k * (math.cos(th1) - math.cos(th)), th1])
 
 
-def _run(ctrl, walls, slip=(0.02, 0.03), dt=0.1, t_max=400.0, noise=0.0, seed=0, via_observe=False):
-    """Truth drives with speed loss and yaw-rate error; odometry sees the commands."""
+def _controller(route, walls, laps=1, params=None):
+    params = params or HybridParams()
+    loc = WallLandmarkLocalizer(walls, LAYOUT, LandmarkParams(**params.landmark_kwargs()), pose=route.start_pose)
+    return HybridController(route, loc, params=params, laps=laps), loc
+
+
+def _run(ctrl, walls, slip=(0.02, 0.03), dt=0.1, t_max=400.0, noise=0.0, seed=0, landmarks=True):
+    """Truth drives with speed loss and yaw-rate error; odometry sees the commands; rangers feed the estimator."""
     rng = np.random.default_rng(seed)
+    loc = ctrl.estimator
     truth = ctrl.route.start_pose.copy()
     lap_truth, t = [], 0.0
     while t < t_max and not ctrl.finished:
-        e = LAYOUT.echo(truth, walls)
-        noisy = np.where(e.valid, e.range + noise * rng.standard_normal(e.range.shape), np.nan)
-        ranges = dict(zip(LAYOUT.names, noisy.tolist()))
+        if landmarks:
+            e = LAYOUT.echo(truth, walls)
+            noisy = np.where(e.valid, e.range + noise * rng.standard_normal(e.range.shape), np.nan)
+            loc.update_ranges(t, dict(zip(LAYOUT.names, noisy.tolist(), strict=True)))
         n_before = len(ctrl.transitions)
-        if via_observe:  # as a simulator delivering each ping at its instant
-            ctrl.observe(t, ranges)
-            cmd = ctrl.command(t)
-        else:
-            cmd = ctrl.command(t, ranges)
+        cmd = ctrl.command(t)
         if any(tr.target is HybridState.E4 for tr in ctrl.transitions[n_before:]):
             lap_truth.append(truth.copy())
         truth = _unicycle(truth, cmd.v * (1 - slip[0]), cmd.omega * (1 + slip[1]), dt)
-        ctrl.localizer.predict(t + dt, cmd.v * dt, cmd.omega * dt)
+        loc.predict(t + dt, cmd.v * dt, cmd.omega * dt)
         t += dt
     return np.array(lap_truth)
 
@@ -60,7 +66,7 @@ def _run(ctrl, walls, slip=(0.02, 0.03), dt=0.1, t_max=400.0, noise=0.0, seed=0,
 def test_automaton_visits_states_on_the_square(turn, outside, side_state):
     route = PolygonRoute.square(SIDE, turn=turn)
     walls = _landmarks(route, outside)
-    ctrl = HybridController(route, LAYOUT, walls, laps=1)
+    ctrl, loc = _controller(route, walls)
     lap_truth = _run(ctrl, walls)
     assert ctrl.finished and ctrl.laps_done == 1 and ctrl.turns == 0  # E4 reset the counter
     seq = ctrl.visited()
@@ -73,8 +79,13 @@ def test_automaton_visits_states_on_the_square(turn, outside, side_state):
     assert all(tr.t >= 0 and tr.cause for tr in ctrl.transitions)
     assert [tr.t for tr in ctrl.transitions] == sorted(tr.t for tr in ctrl.transitions)
     assert ctrl.transitions[-1].cause == "4 turns counted: lap 1 complete"
-    kinds = {c.kind for c in ctrl.localizer.history}
+    kinds = {c.kind for c in loc.history}
     assert kinds == {"heading", "side_offset", "front_offset"}
+    # each E0 -> side state happens at the instant of a side-pair calibration of that side
+    side = "right" if side_state == "E1" else "left"
+    calibrated = {c.t for c in loc.history if c.side == side}
+    entries = [tr for tr in ctrl.transitions if tr.target.value == side_state]
+    assert entries and all(tr.t in calibrated and f"{side} landmark W" in tr.cause for tr in entries)
     # the landmarks keep the lap error to a few centimetres despite 2 % / 3 % slip
     error = np.hypot(*(lap_truth[0, :2] - route.start_pose[:2]))
     assert error < 0.05
@@ -85,32 +96,54 @@ def test_landmarks_beat_dead_reckoning_over_laps():
     walls = _landmarks(route, "right")
     errors = {}
     for use in (True, False):
-        ctrl = HybridController(route, LAYOUT, walls, laps=2, use_landmarks=use, params=HybridParams(dwell=0.5))
-        lap_truth = _run(ctrl, walls, noise=0.003, seed=4, via_observe=use)
+        ctrl, _ = _controller(route, walls, laps=2, params=HybridParams(dwell=0.5))
+        lap_truth = _run(ctrl, walls, noise=0.003, seed=4, landmarks=use)
         assert len(lap_truth) == 2
         errors[use] = np.hypot(*(lap_truth[:, :2] - route.start_pose[:2]).T)
+        assert ("E1" in ctrl.visited()) is use
     assert np.all(errors[True] < 0.06)
     assert errors[False][1] > 3 * errors[True][1]  # dead reckoning drifts
     assert errors[False][1] > errors[False][0]
 
 
-def test_route_that_never_passes_a_landmark_is_refused():
+def test_landmark_lost_after_the_timeout_and_bind_skips_old_records():
     route = PolygonRoute.square(SIDE)
-    far = np.array([[[10.0, 10.0], [12.0, 10.0]]])
-    with pytest.raises(ValueError, match="never passes a landmark"):
-        HybridController(route, LAYOUT, far)
-    HybridController(route, LAYOUT, far, use_landmarks=False)  # fine without landmarks
-    with pytest.raises(ValueError, match="zero length"):
-        HybridController(route, LAYOUT, np.array([[[1.0, -0.5], [1.0, -0.5]]]))
+    walls = _landmarks(route, "right")
+    ctrl, loc = _controller(route, walls, params=HybridParams(loss_timeout=0.5))
+    truth = np.array([1.5, 0.0, 0.0])  # abreast of the first leg's wall
+    loc.reset(truth, 10.0)
+    ctrl.bind(loc)
+    assert loc.update_ranges(10.0, dict(zip(LAYOUT.names, LAYOUT.echo(truth, walls).range.tolist(), strict=True))) == 2
+    ctrl.command(10.0)
+    assert ctrl.state is HybridState.E1 and ctrl.transitions[-1].t == 10.0
+    ctrl.command(10.4)
+    assert ctrl.state is HybridState.E1
+    ctrl.command(10.6)
+    assert ctrl.state is HybridState.E0 and ctrl.transitions[-1].cause == "landmark lost"
+    ctrl.reset()
+    ctrl.bind(loc)  # the records made before binding do not count
+    ctrl.command(10.7)
+    assert ctrl.state is HybridState.E0 and ctrl.transitions == []
+
+
+def test_pure_dead_reckoning_estimator_without_a_record():
+    class Odometry:
+        pose = np.array([0.0, 0.0, 0.0])
+
+    ctrl = HybridController(PolygonRoute.square(1.0), Odometry())
+    cmd = ctrl.command(0.0)
+    assert cmd.state == "E0" and cmd.v > 0.0
+    with pytest.raises(ValueError, match="pose"):
+        HybridController(PolygonRoute.square(1.0), object())
 
 
 def test_stop_state_outputs_zero_and_dwell_restarts():
     route = PolygonRoute.square(1.0)
-    ctrl = HybridController(route, LAYOUT, [], laps=2, use_landmarks=False, params=HybridParams(dwell=2.0))
-    _run(ctrl, np.zeros((0, 2, 2)), slip=(0.0, 0.0), t_max=200.0)
+    ctrl, _ = _controller(route, np.zeros((0, 2, 2)), laps=2, params=HybridParams(dwell=2.0))
+    _run(ctrl, np.zeros((0, 2, 2)), slip=(0.0, 0.0), t_max=200.0, landmarks=False)
     e4 = [tr for tr in ctrl.transitions if tr.target is HybridState.E4]
     restart = [tr for tr in ctrl.transitions if tr.source is HybridState.E4]
     assert len(e4) == 2 and len(restart) == 1
     assert restart[0].t - e4[0].t == pytest.approx(2.0, abs=0.101)  # one 0.1 s step
-    cmd = ctrl.command(1e3, {})
+    cmd = ctrl.command(1e3)
     assert cmd.v == 0.0 and cmd.omega == 0.0 and np.all(cmd.wheel_speeds == 0.0) and cmd.state == "E4"

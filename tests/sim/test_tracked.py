@@ -49,7 +49,7 @@ def test_automaton_closed_loop_visits_e0_side_e3_four_times_e4():
     legs = "".join(s[-1] for s in seq).split("3")
     assert all("1" in leg for leg in legs[:4])  # a right landmark on every leg (CCW square, walls outside)
     assert "E2" not in seq
-    kinds = {c.kind for c in r.controller.localizer.history}
+    kinds = {c.kind for c in r.estimator.history}
     assert kinds == {"heading", "side_offset", "front_offset"}
 
 

@@ -11,10 +11,15 @@ finite state machine of five states:
 
 This module makes that machine explicit and inspectable: :attr:`state`,
 :attr:`leg`, :attr:`turns`, :attr:`laps_done`, and :attr:`transitions`, the
-list of every :class:`Transition` with its time and cause. ``observe(t,
-ranges)`` takes ultrasonic readings at their instant; ``command(t)`` steps
-the machine and returns wheel speed set-points (seed 004 eqs 1-2) for the PID
-speed loops.
+list of every :class:`Transition` with its time and cause. ``command(t)``
+steps the machine on the pose of the estimator it reads and returns wheel
+speed set-points [seed004 eq1] [seed004 eq2] for the PID speed loops.
+
+The landmark corrections themselves (eqs 6-8: which sensor pair sees which
+wall, the corrections, their record) belong to the estimator,
+:class:`agvnav.positioning.wall_landmarks.WallLandmarkLocalizer`, which every navigator
+shares. The automaton only reads its record of calibrations: a side-pair
+calibration is the "landmark alongside" event of E1/E2.
 
 Choices the seed leaves open (each a parameter of :class:`HybridParams`):
 
@@ -24,29 +29,20 @@ Choices the seed leaves open (each a parameter of :class:`HybridParams`):
   3 °/s; speed 15 cm/s, slowing down before the corner.
 * Turns (E3) rotate in place at up to the seed's 10 °/s, proportional near
   the target heading, until within ``turn_tolerance``.
-* A landmark is *detected* when both side sensors of one side read within
-  the seed's optimal range (<= 0.60 m) and both echoes match the same known
-  landmark wall (predicted range from the estimated pose within ``gate``),
-  with both sensors abreast of the wall at least ``end_margin`` from its ends
-  (near an end the cone sees the wall's corner, not its face). While
-  alongside, each new pair recalibrates the heading (eqs 6-7) and, if
-  ``lateral_calibration``, the distance to the wall (an extension). Each
-  correction is blended with ``calibration_gain`` (1 replaces the estimate as
-  the seed does; 0.25 by default averages the ultrasonic noise over a few
-  pings).
-* Eq 8 is applied whenever the front sensor sees a known landmark wall
-  across the leg within the optimal range (the corner walls of Fig. 6); its
-  gate ``front_gate`` is wider because the along-track error grows with the
-  distance driven since the last corner.
+* E1/E2 last while side-pair calibrations keep coming, and fall back to E0
+  ``loss_timeout`` s after the last one. The landmark figures of
+  :class:`HybridParams` (``gate``, ``end_margin``, ``calibration_gain``...)
+  are the estimator's; :meth:`HybridParams.landmark_kwargs` hands them over.
 * After E4 the robot starts the next lap after ``dwell`` s, until ``laps``.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -55,10 +51,16 @@ from agvnav._validate import require_finite, require_nonnegative, require_positi
 from agvnav.actuators import DriveGeometry
 from agvnav.geometry import angle_diff
 from agvnav.guidance.kanayama import DriveCommand
-from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
-from agvnav.sensors.ultrasonic import ConeEcho, UltrasonicArray, check_wall_segments
 
-__all__ = ["HybridController", "HybridParams", "HybridState", "PolygonRoute", "Transition"]
+__all__ = [
+    "LANDMARK_FIELDS",
+    "HybridController",
+    "HybridParams",
+    "HybridState",
+    "LandmarkEstimator",
+    "PolygonRoute",
+    "Transition",
+]
 
 DEG = math.pi / 180.0
 
@@ -74,6 +76,10 @@ class HybridState(str, Enum):
 
 
 SIDE_STATE = {"right": HybridState.E1, "left": HybridState.E2}
+
+#: Fields of :class:`HybridParams` that belong to the wall-landmark estimator.
+LANDMARK_FIELDS = ("detect_range", "gate", "front_gate", "end_margin", "calibration_gain", "pair_max_age",
+                   "lateral_calibration", "parallel_tolerance")
 
 
 @dataclass(frozen=True)
@@ -176,11 +182,28 @@ class HybridParams:
             raise ValueError(f"calibration_gain must be in (0, 1], got {self.calibration_gain!r}")
         require_nonnegative("dwell", self.dwell)
 
+    def landmark_kwargs(self) -> dict[str, Any]:
+        """The fields the wall-landmark estimator takes (``agvnav.positioning.wall_landmarks.LandmarkParams``).
 
-@dataclass
-class _Reading:
-    t: float = -math.inf
-    range: float = math.nan
+        The automaton itself reads only ``loss_timeout`` of the landmark figures; the
+        wiring hands these to the estimator that makes the calibrations.
+        """
+        return {name: getattr(self, name) for name in LANDMARK_FIELDS}
+
+
+class LandmarkEstimator(Protocol):
+    """What the automaton reads from its estimator: the pose and the calibration record.
+
+    ``history`` holds records with ``t`` (s), ``side`` (``"right"``/``"left"`` for a
+    side pair) and ``wall_id``, in time order, as
+    :class:`agvnav.positioning.wall_landmarks.WallLandmarkLocalizer` keeps them.
+    """
+
+    @property
+    def pose(self) -> NDArray[np.float64]: ...
+
+    @property
+    def history(self) -> Sequence[Any]: ...
 
 
 class HybridController:
@@ -189,63 +212,54 @@ class HybridController:
     Parameters
     ----------
     route : the closed route (:class:`PolygonRoute`, e.g. ``PolygonRoute.square(3.5)``).
-    sensors : the :class:`UltrasonicArray`; it must hold ``right_front``,
-        ``right_rear``, ``left_front``, ``left_rear`` and ``front`` (as
-        :func:`agvnav.sensors.seed_004_layout`); only those are read.
-    landmarks : ``(M, 2, 2)`` landmark wall segments (m) in ``map``.
+    estimator : where the automaton reads the pose and the landmark calibrations
+        (:class:`LandmarkEstimator`, e.g. a
+        :class:`~agvnav.positioning.wall_landmarks.WallLandmarkLocalizer` started at the route start).
+        The automaton never changes it: feed it odometry and ranges yourself (the
+        simulator does).
     geometry : sprocket radius and track width for eqs 1-2.
     params : :class:`HybridParams`. laps : laps to drive (E4 -> E0 between laps).
-    use_landmarks : False gives pure dead reckoning (E1/E2 and eq 8 never used).
-    localizer : the pose estimate the automaton reads and recalibrates; by
-        default a :class:`WallLandmarkLocalizer` at the route start. Feed it
-        odometry with ``controller.localizer.predict(t, delta_d, delta_theta)``.
-    landmark_ids : names of the landmark walls for the transition causes.
-    """
 
-    SIDE_SENSORS = {"right": ("right_front", "right_rear"), "left": ("left_front", "left_rear")}
+    The side-landmark states follow the estimator: a side-pair calibration made
+    while in E0 enters E1 (right) or E2 (left) at the calibration's instant, and
+    the state falls back to E0 ("landmark lost") ``loss_timeout`` s after the last
+    calibration from that side. Without landmark calibrations the automaton drives
+    by dead reckoning (E1/E2 never visited).
+    """
 
     def __init__(
         self,
         route: PolygonRoute,
-        sensors: UltrasonicArray,
-        landmarks: ArrayLike,
+        estimator: LandmarkEstimator,
         geometry: DriveGeometry | None = None,
         params: HybridParams | None = None,
         laps: int = 1,
-        use_landmarks: bool = True,
-        localizer: WallLandmarkLocalizer | None = None,
-        landmark_ids: list[str] | None = None,
     ):
         self.route = route
-        self.sensors = sensors
         self.geometry = geometry or DriveGeometry()
         self.params = params or HybridParams()
         if int(laps) < 1:
             raise ValueError(f"laps must be >= 1, got {laps!r}")
         self.laps = int(laps)
-        self.use_landmarks = bool(use_landmarks)
-        missing = {"front", *self.SIDE_SENSORS["right"], *self.SIDE_SENSORS["left"]} - set(sensors.names)
-        if missing:
-            raise ValueError(f"sensor array lacks {sorted(missing)} (see agvnav.sensors.seed_004_layout)")
-        self.landmarks = check_wall_segments(landmarks) if np.size(landmarks) else np.zeros((0, 2, 2))
-        self.landmark_ids = landmark_ids or [f"W{i}" for i in range(len(self.landmarks))]
-        if len(self.landmark_ids) != len(self.landmarks):
-            raise ValueError("landmark_ids must name every landmark segment")
-        if self.use_landmarks:
-            self._check_route_passes_landmarks()
-        self.localizer = localizer or WallLandmarkLocalizer(pose=route.start_pose, gain=self.params.calibration_gain)
+        self.bind(estimator)
         self.reset()
 
     # ------------------------------------------------------------ inspection
+    def bind(self, estimator: LandmarkEstimator) -> None:
+        """Read the pose and the calibrations from ``estimator`` from now on (its past records are ignored)."""
+        if not hasattr(estimator, "pose"):
+            raise ValueError("the estimator must expose 'pose'")
+        self.estimator = estimator
+        self._seen = len(getattr(estimator, "history", ()))
+
     def reset(self) -> None:
-        """Back to E0 on leg 0, counters zeroed, transitions cleared (the localizer is kept)."""
+        """Back to E0 on leg 0, counters zeroed, transitions cleared (the estimator is kept)."""
         self.state = HybridState.E0
         self.leg, self.turns, self.laps_done = 0, 0, 0
         self.transitions: list[Transition] = []
         self._entered = 0.0
-        self._last = {name: _Reading() for name in self.sensors.names}
         self._last_pair_time = -math.inf
-        self._predicted: ConeEcho | None = None
+        self._seen = len(getattr(self.estimator, "history", ()))
 
     @property
     def finished(self) -> bool:
@@ -257,40 +271,32 @@ class HybridController:
         return [HybridState.E0.value] + [tr.target.value for tr in self.transitions]
 
     # --------------------------------------------------------------- control
-    def observe(self, t: float, ranges: Mapping[str, float]) -> None:
-        """Take ultrasonic readings made at time ``t`` (s) and apply eqs 6-8 at once.
-
-        ``ranges`` maps sensor names to ranges (m; nan for a ping without a
-        valid echo). Call it when the localizer has been predicted up to ``t``,
-        so a calibration corrects the pose of the instant of the ping. Readings
-        during a turn (E3) or a stop (E4) are stored but not used.
-        """
-        t = float(t)
-        fresh = self._store(t, ranges)
-        if self.use_landmarks and fresh and self.state in (HybridState.E0, HybridState.E1, HybridState.E2):
-            self._landmark_updates(t, fresh)
-
-    def command(self, t: float, ranges: Mapping[str, float] | None = None) -> DriveCommand:
+    def command(self, t: float) -> DriveCommand:
         """Step the automaton at time ``t`` (s) and return the wheel speed set-points.
 
-        ``ranges`` (optional) are readings made at ``t``, passed to
-        :meth:`observe` first; a simulator that delivers each ping at its own
-        instant calls :meth:`observe` itself and omits them here.
+        First the calibrations the estimator made since the last call (E0 -> E1/E2 at
+        their instants), then the state machine on the estimated pose, then the motion
+        of the state (seed 004 eqs 1-2 give the wheel speeds).
         """
         t = float(t)
-        if ranges:
-            self.observe(t, ranges)
+        self._take_calibrations()
         self._step_machine(t)
         v, omega = self._motion()
         return DriveCommand(v, omega, self.geometry.to_wheels(v, omega), self.state.value)
 
-    def _store(self, t: float, ranges: Mapping[str, float]) -> set[str]:
-        fresh = set()
-        for name, value in ranges.items():
-            if name in self._last:
-                self._last[name] = _Reading(t, float(value))
-                fresh.add(name)
-        return fresh
+    def _take_calibrations(self) -> None:
+        history = getattr(self.estimator, "history", ())
+        if len(history) < self._seen:  # the estimator was reset
+            self._seen = 0
+        for record in history[self._seen:]:
+            side = getattr(record, "side", "")
+            if side not in SIDE_STATE:
+                continue
+            if self.state is HybridState.E0:
+                self._go(record.t, SIDE_STATE[side], f"{side} landmark {record.wall_id} detected")
+            if self.state is SIDE_STATE[side]:
+                self._last_pair_time = record.t
+        self._seen = len(history)
 
     def _go(self, t: float, target: HybridState, cause: str) -> None:
         self.transitions.append(Transition(t, self.state, target, cause))
@@ -337,101 +343,12 @@ class HybridController:
         """Along-leg distance (m), lateral offset (m, left +), heading error (rad), leg length (m)."""
         start, heading, length = self.route.leg(self.leg)
         u = np.array([math.cos(heading), math.sin(heading)])
-        rel = self.localizer.pose[:2] - start
+        pose = self.estimator.pose
+        rel = pose[:2] - start
         along = float(u @ rel)
         e_y = float(u[0] * rel[1] - u[1] * rel[0])
-        return along, e_y, float(angle_diff(self.localizer.pose[2], heading)), length
+        return along, e_y, float(angle_diff(pose[2], heading)), length
 
     def _turn_error(self) -> float:
         _, next_heading, _ = self.route.leg(self.leg + 1)
-        return float(angle_diff(next_heading, self.localizer.pose[2]))
-
-    # ------------------------------------------------------------- landmarks
-    def _associate(self, name: str, gate: float) -> int:
-        """Landmark index that explains the latest reading of ``name``, or -1.
-
-        The reading must be within the detection range and within ``gate`` (m)
-        of the range predicted from the estimated pose to a landmark wall.
-        """
-        reading = self._last[name]
-        if not (math.isfinite(reading.range) and reading.range <= self.params.detect_range):
-            return -1
-        if self._predicted is None:  # one batched prediction for all sensors per pose
-            self._predicted = self.sensors.echo(self.localizer.pose, self.landmarks)
-        i = self.sensors.names.index(name)
-        segment, predicted = int(self._predicted.segment[i]), float(self._predicted.range[i])
-        if segment < 0 or abs(predicted - reading.range) > gate:
-            return -1
-        return segment
-
-    def _landmark_updates(self, t: float, fresh: set[str]) -> None:
-        self._predicted = None
-        for side, (front, rear) in self.SIDE_SENSORS.items():
-            if not fresh & {front, rear}:
-                continue
-            if self.state not in (HybridState.E0, SIDE_STATE[side]):
-                continue
-            ages = t - self._last[front].t, t - self._last[rear].t
-            if max(ages) > self.params.pair_max_age:
-                continue
-            wall = self._associate(front, self.params.gate)
-            if wall < 0 or self._associate(rear, self.params.gate) != wall or not self._is_parallel(wall):
-                continue
-            if not (self._abreast(front, wall) and self._abreast(rear, wall)):
-                continue
-            if self.state is HybridState.E0:
-                self._go(t, SIDE_STATE[side], f"{side} landmark {self.landmark_ids[wall]} detected")
-            self._calibrate_side(t, side, wall)
-            self._last_pair_time = t
-            self._predicted = None
-        if "front" in fresh:
-            wall = self._associate("front", self.params.front_gate)
-            if wall >= 0 and not self._is_parallel(wall):
-                self.localizer.calibrate_offset(
-                    t, [self._last["front"].range], [self.sensors["front"].mount], self.landmarks[wall],
-                    kind="front_offset", wall_index=wall,
-                )
-
-    def _calibrate_side(self, t: float, side: str, wall: int) -> None:
-        front, rear = self.SIDE_SENSORS[side]
-        m_front, m_rear = self.sensors[front].mount, self.sensors[rear].mount
-        r_front, r_rear = self._last[front].range, self._last[rear].range
-        spacing = m_front[0] - m_rear[0]
-        self.localizer.calibrate_heading(t, r_front, r_rear, spacing, side, self.landmarks[wall], wall)
-        if self.params.lateral_calibration:
-            self.localizer.calibrate_offset(
-                t, [r_front, r_rear], [m_front, m_rear], self.landmarks[wall], kind="side_offset", wall_index=wall
-            )
-
-    def _abreast(self, name: str, wall: int) -> bool:
-        """True if the sensor's estimated position projects onto the wall ``end_margin`` inside its ends."""
-        a, b = self.landmarks[wall]
-        u = (b - a) / np.hypot(*(b - a))
-        along = float(u @ (self.sensors[name].sensor_pose(self.localizer.pose)[:2] - a))
-        return self.params.end_margin <= along <= float(np.hypot(*(b - a))) - self.params.end_margin
-
-    def _is_parallel(self, wall: int) -> bool:
-        d = self.landmarks[wall, 1] - self.landmarks[wall, 0]
-        _, heading, _ = self.route.leg(self.leg)
-        across = abs(math.sin(math.atan2(d[1], d[0]) - heading))
-        return across <= math.sin(self.params.parallel_tolerance)
-
-    def _check_route_passes_landmarks(self) -> None:
-        """ValueError unless some landmark runs alongside some leg within the side sensors' reach."""
-        half_width = self.sensors.body_width / 2.0
-        for k in range(self.route.n_legs):
-            start, heading, length = self.route.leg(k)
-            u = np.array([math.cos(heading), math.sin(heading)])
-            for seg in self.landmarks:
-                d = seg[1] - seg[0]
-                if abs(math.sin(math.atan2(d[1], d[0]) - heading)) > math.sin(self.params.parallel_tolerance):
-                    continue
-                along = (seg - start) @ u
-                lateral = abs(float(np.mean((seg - start) @ np.array([-u[1], u[0]]))))
-                overlap = min(along.max(), length) - max(along.min(), 0.0)
-                if overlap > 0.0 and half_width < lateral <= half_width + self.params.detect_range:
-                    return
-        raise ValueError(
-            "the route never passes a landmark: no landmark wall runs alongside a leg within "
-            f"{self.params.detect_range:.2f} m of the side sensors"
-        )
+        return float(angle_diff(next_heading, self.estimator.pose[2]))

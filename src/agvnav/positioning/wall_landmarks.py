@@ -32,23 +32,38 @@ landmarks, measured by HY-SRF05 rangers (agvnav.sensors.ultrasonic):
 
 Dead reckoning uses the Euler rule of [seed004 eq3] [seed004 eq4] [seed004 eq5], as the seed does, through
 agvnav.odometry.integrate_pose (``rule`` selects its exact-arc form instead).
+
+:class:`WallLandmarkLocalizer` is a streaming estimator of its own (the
+interface of docs/ARCHITECTURE.md): odometry through ``predict``, the readings
+of one ping instant through ``update_ranges``, which associates them with the
+walls (which side pair sees which wall, abreast and parallel checks, the front
+wall of eq 8) and applies the corrections above. Any navigator reads the
+corrected pose from it; the seed-004 automaton (agvnav.guidance.hybrid) also
+reads its ``history`` of calibrations to know when a landmark is alongside.
+The EKF fuses the same ranges one by one (agvnav.positioning.wall_ranges).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav._validate import require_finite, require_positive
+from agvnav._validate import require_finite, require_nonnegative, require_positive
 from agvnav.geometry import angle_diff, wrap_angle
-from agvnav.odometry import integrate_pose
+from agvnav.odometry import OdometryNoise, integrate_pose
+from agvnav.positioning._fast import predict_covariance, process_noise
+from agvnav.sensors.ultrasonic import ConeEcho, UltrasonicArray, UltrasonicSensor, check_wall_segments
 
 __all__ = [
+    "SEED_004_PAIRS",
     "Calibration",
+    "LandmarkParams",
     "WallLandmarkLocalizer",
+    "check_route_passes_landmarks",
     "dead_reckoning_step",
     "distance_from_wall",
     "heading_from_side_pair",
@@ -154,65 +169,287 @@ def _check_beam(beam: str) -> None:
 @dataclass(frozen=True)
 class Calibration:
     """One applied correction: time (s), kind (``"heading"``, ``"side_offset"``,
-    ``"front_offset"``), wall index, pose before and after (``(3,)``)."""
+    ``"front_offset"``), wall index, pose before and after (``(3,)``), the ``side``
+    whose sensors made it (``"right"``, ``"left"``, ``"front"``; ``""`` for a direct
+    call) and the wall's name ``wall_id``."""
 
     t: float
     kind: str
     wall: int
     before: NDArray[np.float64]
     after: NDArray[np.float64]
+    side: str = ""
+    wall_id: str = ""
+
+
+SEED_004_PAIRS = (("right", "right_front", "right_rear"), ("left", "left_front", "left_rear"))
+
+
+@dataclass(frozen=True)
+class LandmarkParams:
+    """Association and calibration parameters of :class:`WallLandmarkLocalizer` (SI units).
+
+    detect_range : a reading counts only up to this range (m); 0.60 m is the seed's
+        optimal range of the HY-SRF05.
+    gate, front_gate : largest |measured - predicted| range (m) for a side sensor / the
+        front sensor to be associated with a wall (the front gate is wider: the
+        along-track error grows with the distance driven since the last corner).
+    end_margin : both sensors of a side pair must project onto the wall at least this
+        far (m) inside its ends (near an end the cone sees the corner, not the face).
+    calibration_gain : blend of each correction in (0, 1] (1 replaces, as the seed).
+    pair_max_age : the two readings of a pair must be at most this old (s).
+    lateral_calibration : also fix the distance to a side wall (an extension).
+    parallel_tolerance : a wall is "alongside" when its direction is within this
+        angle (rad) of the estimated heading, and "across" (eq 8) otherwise.
+    side_pairs : ``(side, front sensor, rear sensor)`` names of the side pairs.
+    front_sensor : name of the forward sensor of eq 8.
+    """
+
+    detect_range: float = 0.60
+    gate: float = 0.15
+    front_gate: float = 0.30
+    end_margin: float = 0.05
+    calibration_gain: float = 0.25
+    pair_max_age: float = 0.12
+    lateral_calibration: bool = True
+    parallel_tolerance: float = math.radians(10.0)
+    side_pairs: tuple[tuple[str, str, str], ...] = SEED_004_PAIRS
+    front_sensor: str = "front"
+
+    def __post_init__(self) -> None:
+        for name in ("detect_range", "gate", "front_gate", "pair_max_age", "parallel_tolerance"):
+            require_positive(name, getattr(self, name))
+        require_nonnegative("end_margin", self.end_margin)
+        if not 0.0 < self.calibration_gain <= 1.0:
+            raise ValueError(f"calibration_gain must be in (0, 1], got {self.calibration_gain!r}")
+        for side, *_ in self.side_pairs:
+            if side not in SIDES:
+                raise ValueError(f"side_pairs: side must be 'right' or 'left', got {side!r}")
+
+    @property
+    def sensor_names(self) -> set[str]:
+        """Every ranger name the parameters refer to."""
+        return {self.front_sensor, *(n for _, front, rear in self.side_pairs for n in (front, rear))}
 
 
 @dataclass
+class _Reading:
+    t: float = -math.inf
+    range: float = math.nan
+
+
 class WallLandmarkLocalizer:
-    """Dead-reckoned pose recalibrated by wall landmarks (seed 004 §II-B).
+    """Dead reckoning recalibrated by ultrasonic wall landmarks: a streaming estimator (seed 004 §II-B).
 
-    ``status`` is ``"tracking"`` right after a calibration and
-    ``"dead_reckoning"`` after a prediction without one.
+    Parameters
+    ----------
+    walls : ``(M, 2, 2)`` landmark wall segments (m) in ``map`` (may be empty).
+    rangers : the :class:`~agvnav.sensors.ultrasonic.UltrasonicArray` (names and
+        mounts); it must hold every sensor named in ``params``. Without rangers the
+        localizer is pure dead reckoning (and :meth:`update_ranges` refuses input).
+    params : :class:`LandmarkParams`.
+    pose, t : start pose ``(3,)`` (m, m, rad) and time (s).
+    beam : range geometry, ``"cone"`` (nearest echo) or ``"ray"`` (see module doc).
+    rule : odometry integration rule (``"euler"``: eqs 3-5 as the seed).
+    wall_ids : names of the walls (for the calibration records).
+    odometry_noise : :class:`~agvnav.odometry.OdometryNoise` of the covariance growth.
+    initial_covariance : ``(3, 3)`` covariance of ``pose`` (default 1 mm, 1 mrad std).
+    range_std : std (m) of one range for the covariance of a calibration (default the
+        rangers' mean ``noise_std``, else 3 mm).
 
-    Follows the positioning interface of docs/ARCHITECTURE.md: ``predict(t,
-    delta_d, delta_theta)`` with the odometry increment, then ``pose``/``t``/
-    ``status``. Corrections come from :meth:`calibrate_heading` (eqs 6-7) and
-    :meth:`calibrate_offset` (eq 8). ``gain`` in (0, 1] blends each correction
-    (1 = replace, as the seed does; smaller values average sensor noise over
-    successive readings, a complementary filter). ``beam`` selects the range
-    geometry (see the module docstring). No covariance is kept (``covariance``
-    is None): the seed's method is deterministic.
+    The estimator interface of docs/ARCHITECTURE.md: :meth:`predict` with the odometry
+    increment, :meth:`update_ranges` with the readings of one instant, then ``pose``,
+    ``covariance``, ``status`` and ``t``. ``status`` is ``"tracking"`` right after a
+    calibration and ``"dead_reckoning"`` after a prediction. ``history`` keeps every
+    :class:`Calibration`.
+
+    Association (per call of :meth:`update_ranges`, from the estimated pose): a side
+    pair calibrates when both of its latest readings (at most ``pair_max_age`` old,
+    within ``detect_range``) match the range predicted to the same wall within
+    ``gate``, the wall runs parallel to the estimated heading and both sensors are
+    abreast of it: then the heading (eqs 6-7) and, with ``lateral_calibration``, the
+    distance to the wall. The front sensor fixes the position along the normal of a
+    wall across the heading within ``front_gate`` (eq 8). Each correction is blended
+    by ``calibration_gain`` (a complementary filter; 1 replaces as the seed does).
+
+    Covariance (honest but simple): the odometric growth ``P' = F P F^T + Q`` with
+    ``F`` the Jacobian of the Euler step and ``Q`` Crowley's model
+    (:func:`agvnav.odometry.motion_covariance`, seed 002 eq 17); each correction is a
+    fixed-gain update in Joseph form, ``P' = (I - K H) P (I - K H)^T + K R K^T`` with
+    ``K = g e`` the blend actually applied, ``H`` the direction it corrects and ``R``
+    the variance of the measured heading (``2 range_std^2 / dist^2``) or distance
+    (``range_std^2 / k`` for the mean of ``k`` ranges). It describes the estimator's
+    own error only as well as ``OdometryNoise`` describes the odometry.
     """
 
-    pose: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
-    t: float = 0.0
-    gain: float = 1.0
-    beam: str = "cone"
-    rule: str = "euler"
-    history: list[Calibration] = field(default_factory=list)
-    status: str = "dead_reckoning"
-    covariance: None = None
+    def __init__(
+        self,
+        walls: ArrayLike = (),
+        rangers: UltrasonicArray | None = None,
+        params: LandmarkParams | None = None,
+        *,
+        pose: ArrayLike = (0.0, 0.0, 0.0),
+        t: float = 0.0,
+        beam: str = "cone",
+        rule: str = "euler",
+        wall_ids: Sequence[str] | None = None,
+        odometry_noise: OdometryNoise | None = None,
+        initial_covariance: ArrayLike | None = None,
+        range_std: float | None = None,
+    ) -> None:
+        self.params = params or LandmarkParams()
+        self.walls = check_wall_segments(walls) if np.size(walls) else np.zeros((0, 2, 2))
+        self.rangers = rangers
+        if rangers is not None:
+            missing = self.params.sensor_names - set(rangers.names)
+            if missing:
+                raise ValueError(f"ranger array lacks {sorted(missing)} (see agvnav.sensors.seed_004_layout)")
+        self.wall_ids = list(wall_ids) if wall_ids is not None else [f"W{i}" for i in range(len(self.walls))]
+        if len(self.wall_ids) != len(self.walls):
+            raise ValueError(f"wall_ids names {len(self.wall_ids)} walls, but there are {len(self.walls)}")
+        _check_beam(beam)
+        if rule not in ("euler", "midpoint", "arc"):
+            raise ValueError(f"rule must be 'euler', 'midpoint' or 'arc', got {rule!r}")
+        self.beam, self.rule = beam, rule
+        self.odometry_noise = odometry_noise or OdometryNoise()
+        default_std = float(np.mean([rangers[n].noise_std for n in rangers.names])) if rangers is not None else 0.003
+        self.range_std = require_positive("range_std", default_std if range_std is None else range_std)
+        self._P0 = np.diag([1e-3, 1e-3, 1e-3]) ** 2 if initial_covariance is None else initial_covariance
+        self.history: list[Calibration] = []
+        self.reset(pose, t)
 
-    def __post_init__(self) -> None:
-        self.pose = require_finite("pose", self.pose).reshape(3).copy()
-        if not 0.0 < self.gain <= 1.0:
-            raise ValueError(f"gain must be in (0, 1], got {self.gain!r}")
-        _check_beam(self.beam)
-        if self.rule not in ("euler", "midpoint", "arc"):
-            raise ValueError(f"rule must be 'euler', 'midpoint' or 'arc', got {self.rule!r}")
+    @property
+    def gain(self) -> float:
+        """Blend of each correction (``params.calibration_gain``)."""
+        return self.params.calibration_gain
 
     def reset(self, pose: ArrayLike, t: float = 0.0) -> None:
-        """Restart from a known pose (m, m, rad) at time ``t`` (s)."""
+        """Restart from a known pose (m, m, rad) at time ``t`` (s): history, readings and covariance reset."""
         self.pose = require_finite("pose", pose).reshape(3).copy()
+        self.covariance = require_finite("initial_covariance", self._P0).reshape(3, 3).copy()
         self.t, self.status = float(t), "dead_reckoning"
         self.history.clear()
+        names = self.rangers.names if self.rangers is not None else ()
+        self._last = {name: _Reading() for name in names}
+        self._predicted: ConeEcho | None = None
 
-    def predict(self, t: float, delta_d: float, delta_theta: float) -> None:
-        """Dead reckoning by an odometry increment (m, rad).
+    # ------------------------------------------------------------------ odometry
+    def predict(self, t: float, delta_d: float, delta_theta: float, delta_lateral: float = 0.0) -> None:
+        """Dead reckoning by an odometry increment (m, rad, m) up to time ``t`` (s).
 
-        [seed004 eq3] [seed004 eq4] [seed004 eq5] with ``rule="euler"``.
+        [seed004 eq3] [seed004 eq4] [seed004 eq5] with ``rule="euler"``;
+        ``delta_lateral`` (body-frame y, holonomic vehicles) is added at the old heading.
         """
-        if not (math.isfinite(delta_d) and math.isfinite(delta_theta)):
-            raise ValueError("delta_d and delta_theta must be finite")
+        if not (math.isfinite(delta_d) and math.isfinite(delta_theta) and math.isfinite(delta_lateral)):
+            raise ValueError("delta_d, delta_theta and delta_lateral must be finite")
+        psi = float(self.pose[2])
         self.pose = integrate_pose(self.pose, delta_d, delta_theta, rule=self.rule)
+        if delta_lateral != 0.0:
+            self.pose[:2] += delta_lateral * np.array([-math.sin(psi), math.cos(psi)])
+        self._grow_covariance(psi, delta_d, delta_theta, delta_lateral)
         self.t, self.status = float(t), "dead_reckoning"
 
+    def _grow_covariance(self, psi: float, dd: float, dth: float, dl: float) -> None:
+        """``P' = F P F^T + Q`` of the Euler step (Crowley's ``Q``; lateral variance ``k_d |dl|``)."""
+        k = self.odometry_noise
+        Q = process_noise(psi, dd, dth, k.k_d, k.k_dtheta, k.k_theta)
+        c, s = math.cos(psi), math.sin(psi)
+        f02, f12 = -dd * s - dl * c, dd * c - dl * s
+        P = predict_covariance(tuple(self.covariance.reshape(9).tolist()), f02, f12, Q)
+        self.covariance = np.array(P).reshape(3, 3)
+        if dl != 0.0:
+            n = np.array([-s, c, 0.0])
+            self.covariance += k.k_d * abs(dl) * np.outer(n, n)
+
+    # ------------------------------------------------------------------ ranges
+    def update_ranges(self, t: float, ranges: Mapping[str, float]) -> int:
+        """Ultrasonic readings made at time ``t`` (s); returns the number of corrections applied.
+
+        ``ranges`` maps ranger names to ranges (m; nan for a ping without a valid echo).
+        Call it once the pose has been predicted up to ``t``, so a calibration corrects
+        the pose of the instant of the ping. Readings are kept per sensor: a side pair
+        pairs each new reading with its partner's latest one (see the class doc).
+        """
+        if self.rangers is None:
+            raise ValueError("this localizer was built without rangers: give rangers= to use update_ranges")
+        t = float(t)
+        if not math.isfinite(t) or t < self.t - 1e-12:
+            raise ValueError(f"ranges at t={t!r} s come before the latest input at t={self.t!r} s")
+        unknown = set(ranges) - set(self._last)
+        if unknown:
+            raise ValueError(f"unknown rangers {sorted(unknown)}; the array has {list(self.rangers.names)}")
+        for name, value in ranges.items():
+            self._last[name] = _Reading(t, float(value))
+        n_before = len(self.history)
+        if ranges and self.walls.shape[0]:
+            self._landmark_updates(t, set(ranges))
+        return len(self.history) - n_before
+
+    def _landmark_updates(self, t: float, fresh: set[str]) -> None:
+        """Side pairs first (eqs 6-7 and the lateral offset), then the front sensor (eq 8)."""
+        p = self.params
+        self._predicted = None
+        for side, front, rear in p.side_pairs:
+            if not fresh & {front, rear}:
+                continue
+            if max(t - self._last[front].t, t - self._last[rear].t) > p.pair_max_age:
+                continue
+            wall = self._associate(front, p.gate)
+            if wall < 0 or self._associate(rear, p.gate) != wall or not self._is_parallel(wall):
+                continue
+            if not (self._abreast(front, wall) and self._abreast(rear, wall)):
+                continue
+            self._calibrate_side(t, side, front, rear, wall)
+            self._predicted = None
+        if p.front_sensor in fresh:
+            wall = self._associate(p.front_sensor, p.front_gate)
+            if wall >= 0 and not self._is_parallel(wall):
+                sensor = self._ranger(p.front_sensor)
+                self.calibrate_offset(t, [self._last[p.front_sensor].range], [sensor.mount], self.walls[wall],
+                                      kind="front_offset", wall_index=wall, side="front")
+
+    def _ranger(self, name: str) -> UltrasonicSensor:
+        assert self.rangers is not None  # update_ranges checked it
+        return self.rangers[name]
+
+    def _associate(self, name: str, gate: float) -> int:
+        """Wall index that explains the latest reading of ``name`` (within ``gate`` m of its prediction), or -1."""
+        reading = self._last[name]
+        if not (math.isfinite(reading.range) and reading.range <= self.params.detect_range):
+            return -1
+        if self._predicted is None:  # one batched prediction for all sensors per pose
+            assert self.rangers is not None
+            self._predicted = self.rangers.echo(self.pose, self.walls)
+        assert self.rangers is not None
+        i = self.rangers.names.index(name)
+        segment, predicted = int(self._predicted.segment[i]), float(self._predicted.range[i])
+        if segment < 0 or abs(predicted - reading.range) > gate:
+            return -1
+        return segment
+
+    def _calibrate_side(self, t: float, side: str, front: str, rear: str, wall: int) -> None:
+        m_front, m_rear = self._ranger(front).mount, self._ranger(rear).mount
+        r_front, r_rear = self._last[front].range, self._last[rear].range
+        spacing = m_front[0] - m_rear[0]
+        self.calibrate_heading(t, r_front, r_rear, spacing, side, self.walls[wall], wall)
+        if self.params.lateral_calibration:
+            self.calibrate_offset(t, [r_front, r_rear], [m_front, m_rear], self.walls[wall], kind="side_offset",
+                                  wall_index=wall, side=side)
+
+    def _abreast(self, name: str, wall: int) -> bool:
+        """True if the sensor's estimated position projects onto the wall ``end_margin`` inside its ends."""
+        a, b = self.walls[wall]
+        u = (b - a) / np.hypot(*(b - a))
+        along = float(u @ (self._ranger(name).sensor_pose(self.pose)[:2] - a))
+        return self.params.end_margin <= along <= float(np.hypot(*(b - a))) - self.params.end_margin
+
+    def _is_parallel(self, wall: int) -> bool:
+        """True if the wall runs within ``parallel_tolerance`` of the estimated heading (either way)."""
+        d = self.walls[wall, 1] - self.walls[wall, 0]
+        across = abs(math.sin(math.atan2(d[1], d[0]) - float(self.pose[2])))
+        return across <= math.sin(self.params.parallel_tolerance)
+
+    # ------------------------------------------------------------------ the seed's corrections
     def calibrate_heading(
         self,
         t: float,
@@ -236,7 +473,8 @@ class WallLandmarkLocalizer:
         measured = float(heading_from_side_pair(us_front, us_rear, spacing, side, wall_heading, self.beam))
         after = self.pose.copy()
         after[2] = wrap_angle(self.pose[2] + self.gain * angle_diff(measured, self.pose[2]))
-        self._apply(t, "heading", wall_index, after)
+        variance = 2.0 * self.range_std**2 / spacing**2
+        self._apply(t, "heading", wall_index, after, np.array([0.0, 0.0, 1.0]), variance, side)
         return measured
 
     def calibrate_offset(
@@ -247,6 +485,7 @@ class WallLandmarkLocalizer:
         wall: ArrayLike,
         kind: str = "front_offset",
         wall_index: int = -1,
+        side: str = "",
     ) -> float:
         """Correct the position along ``wall``'s normal from ranges of sensors facing it [seed004 eq8].
 
@@ -259,9 +498,50 @@ class WallLandmarkLocalizer:
         current = float(np.dot(n, self.pose[:2]) - c)
         after = self.pose.copy()
         after[:2] += self.gain * (measured - current) * n
-        self._apply(t, kind, wall_index, after)
+        self._apply(t, kind, wall_index, after, np.array([n[0], n[1], 0.0]), self.range_std**2 / r.size, side)
         return measured
 
-    def _apply(self, t: float, kind: str, wall_index: int, after: NDArray[np.float64]) -> None:
-        self.history.append(Calibration(float(t), kind, int(wall_index), self.pose.copy(), after.copy()))
+    def _apply(
+        self, t: float, kind: str, wall_index: int, after: NDArray[np.float64], direction: NDArray[np.float64],
+        variance: float, side: str,
+    ) -> None:
+        """Record and apply a correction along ``direction`` with its fixed-gain Joseph covariance update."""
+        wall_id = self.wall_ids[wall_index] if 0 <= wall_index < len(self.wall_ids) else ""
+        self.history.append(Calibration(float(t), kind, int(wall_index), self.pose.copy(), after.copy(), side, wall_id))
+        K = self.gain * direction
+        A = np.eye(3) - np.outer(K, direction)
+        P = A @ self.covariance @ A.T + variance * np.outer(K, K)
+        self.covariance = 0.5 * (P + P.T)
         self.pose, self.t, self.status = after, float(t), "tracking"
+
+
+def check_route_passes_landmarks(
+    legs: Iterable[tuple[ArrayLike, float, float]],
+    walls: ArrayLike,
+    body_width: float,
+    detect_range: float = 0.60,
+    parallel_tolerance: float = math.radians(10.0),
+) -> None:
+    """ValueError unless some wall runs alongside some leg within the side rangers' reach.
+
+    ``legs`` yields ``(start (2,), heading (rad), length (m))``; ``walls (M, 2, 2)`` (m);
+    a wall is within reach when its mean lateral offset from the leg line lies in
+    ``(body_width / 2, body_width / 2 + detect_range]`` and it overlaps the leg.
+    """
+    segs = check_wall_segments(walls) if np.size(walls) else np.zeros((0, 2, 2))
+    half_width = body_width / 2.0
+    for start, heading, length in legs:
+        u = np.array([math.cos(heading), math.sin(heading)])
+        for seg in segs:
+            d = seg[1] - seg[0]
+            if abs(math.sin(math.atan2(d[1], d[0]) - heading)) > math.sin(parallel_tolerance):
+                continue
+            along = (seg - np.asarray(start)) @ u
+            lateral = abs(float(np.mean((seg - np.asarray(start)) @ np.array([-u[1], u[0]]))))
+            overlap = min(along.max(), length) - max(along.min(), 0.0)
+            if overlap > 0.0 and half_width < lateral <= half_width + detect_range:
+                return
+    raise ValueError(
+        "the route never passes a landmark: no landmark wall runs alongside a leg within "
+        f"{detect_range:.2f} m of the side sensors"
+    )

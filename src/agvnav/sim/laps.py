@@ -25,7 +25,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agvnav.actuators import PID, DriveGeometry, MotorPair, WheelSpeedLoop
+from agvnav.guidance.hybrid import HybridController, HybridParams
+from agvnav.kinematics.tracked import TrackedVehicle
+from agvnav.positioning.wall_landmarks import LandmarkParams, WallLandmarkLocalizer, check_route_passes_landmarks
 from agvnav.sim.engine import ClosedLoop, LoopOutput
+from agvnav.sim.tracked import HybridAutopilot, TrackedPlant, UltrasonicSensorRole
 
 __all__ = ["LapErrors", "TrackedRun", "lap_errors", "run_tracked"]
 
@@ -72,9 +77,10 @@ def lap_errors(
 
 @dataclass(kw_only=True)
 class TrackedRun(LoopOutput):
-    """One closed-loop run of the tracked robot: the loop's output plus the automaton and lap errors."""
+    """One closed-loop run of the tracked robot: the loop's output, the automaton, its estimator, lap errors."""
 
     controller: Any
+    estimator: Any
     laps: LapErrors
     use_landmarks: bool
 
@@ -114,25 +120,26 @@ def run_tracked(
     ``motor`` / ``pid`` keyword overrides of :class:`~agvnav.actuators.MotorPair` /
     :class:`~agvnav.actuators.PID`. ``duration`` (s) defaults to 1.5 x the nominal lap time
     x laps. Deterministic for ``seed``.
-    """
-    from agvnav.actuators import PID, DriveGeometry, MotorPair, WheelSpeedLoop
-    from agvnav.guidance.hybrid import HybridController, HybridParams
-    from agvnav.kinematics.tracked import TrackedVehicle
-    from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
-    from agvnav.sim.tracked import HybridAutopilot, TrackedPlant, UltrasonicSensorRole
 
+    The estimator of the loop is a
+    :class:`~agvnav.positioning.wall_landmarks.WallLandmarkLocalizer` fed by the
+    rangers (left out when not ``use_landmarks``: pure dead reckoning); the automaton reads it.
+    """
     geometry = geometry or DriveGeometry()
     params = params or HybridParams()
     segs = np.asarray(walls, dtype=np.float64).reshape(-1, 2, 2)
-    localizer = WallLandmarkLocalizer(pose=route.start_pose, gain=params.calibration_gain)
-    ctrl = HybridController(route, layout, segs, geometry, params, laps, use_landmarks, localizer,
-                            list(wall_ids) if wall_ids is not None else None)
+    landmark = LandmarkParams(**params.landmark_kwargs())
+    if use_landmarks:
+        legs = [route.leg(k) for k in range(route.n_legs)]
+        check_route_passes_landmarks(legs, segs, layout.body_width, landmark.detect_range, landmark.parallel_tolerance)
+    localizer = WallLandmarkLocalizer(segs, layout, landmark, pose=route.start_pose, wall_ids=wall_ids)
+    ctrl = HybridController(route, localizer, geometry, params, laps)
     vehicle = TrackedVehicle(geometry.track_width, geometry.wheel_radius, truth_terrain)
     u_max = float((motor or {}).get("u_max", 12.0))
     loop = WheelSpeedLoop(MotorPair(**(motor or {})), PID(**{"u_min": -u_max, "u_max": u_max, **(pid or {})}))
     plant = TrackedPlant(vehicle, loop, odometry_terrain, counts_per_rev, route.start_pose, substep, slip_noise_std)
-    sensor = UltrasonicSensorRole(layout, segs, ctrl)
-    engine = ClosedLoop(plant, [sensor], ctrl.localizer, HybridAutopilot(ctrl), step, seed)
+    sensors = [UltrasonicSensorRole(layout, segs)] if use_landmarks else []
+    engine = ClosedLoop(plant, sensors, localizer, HybridAutopilot(ctrl), step, seed)
     if duration is None:
         duration = 1.5 * laps * nominal_lap_time(route, params) + 10.0
     out = engine.run(duration, end_hold=0.0, progress=progress)
@@ -140,7 +147,7 @@ def run_tracked(
     xy = np.column_stack([out.series["x"], out.series["y"]])
     le = lap_errors(e4, out.series["t"], xy, route.start_pose[:2])
     return TrackedRun(series=out.series, events=out.events, wall_time_s=out.wall_time_s, finished=out.finished,
-                      controller=ctrl, laps=le, use_landmarks=bool(use_landmarks))
+                      controller=ctrl, estimator=localizer, laps=le, use_landmarks=bool(use_landmarks))
 
 
 def nominal_lap_time(route: Any, params: Any) -> float:

@@ -6,9 +6,10 @@ Wiring only: the truth motion is :class:`agvnav.kinematics.TrackedVehicle`
 (ICR slip model), the speed loops are :class:`agvnav.actuators.WheelSpeedLoop`
 (seed 004 PID, Kp = 10, Ki = 20, Kd = 0.5, on a motor pair with asymmetry),
 the rangers are :class:`agvnav.sensors.ultrasonic.UltrasonicArray`, the
-automaton :class:`agvnav.guidance.hybrid.HybridController` (Fig. 7) whose
-:class:`~agvnav.positioning.wall_landmarks.WallLandmarkLocalizer` is the
-estimator role; :class:`KanayamaAutopilot` follows any line/arc path instead.
+estimator role :class:`~agvnav.positioning.wall_landmarks.WallLandmarkLocalizer`
+(dead reckoning corrected by the wall landmarks, seed 004 eqs 6-8), read by
+the automaton :class:`agvnav.guidance.hybrid.HybridController` (Fig. 7) or by
+:class:`KanayamaAutopilot`, which follows any line/arc path instead.
 
 Truth versus nominal. The tracks slip on the ground as the *truth* terrain
 says; odometry (seed 004 eqs 3-5 generalised to the ICR model) converts the
@@ -56,20 +57,17 @@ class UltrasonicSensorRole:
     ``observe`` casts all pings of the window in one batched :func:`cone_echo`
     call and adds the sensor model's noise and dropouts (one normal and one
     uniform draw per ping, in time then sensor order). Rows are ``(t,
-    sensor_index, range)`` grouped by instant (see :meth:`observe`).
-    ``deliver`` hands the reading to the automaton (``controller.observe``),
-    which recalibrates its localizer at that instant (the engine has predicted
-    it up to the ping first). When the automaton does not use landmarks
-    (dead-reckoning runs) the rangers' readings would be discarded, so they
-    are not simulated at all (no rows): the run is faster and otherwise identical.
+    range_0, ..., range_{S-1})`` grouped by instant (see :meth:`observe`).
+    ``deliver`` hands the readings of one instant to the estimator
+    (``estimator.update_ranges``), which the engine has predicted up to that
+    instant first. A run that does not use the landmarks leaves this role out.
     """
 
     name = "ultrasonic"
 
-    def __init__(self, array: UltrasonicArray, segments: NDArray[np.float64], controller: Any = None) -> None:
+    def __init__(self, array: UltrasonicArray, segments: NDArray[np.float64]) -> None:
         self.array = array
         self.segments = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
-        self.controller = controller
         sensors = [array[n] for n in array.names]
         self.names = array.names
         self.event_names = ("t", *array.names)
@@ -87,8 +85,6 @@ class UltrasonicSensorRole:
         the automaton sees them as one simultaneous reading.
         """
         n_s = len(self.names)
-        if self.controller is not None and not getattr(self.controller, "use_landmarks", True):
-            return np.zeros((0, 1 + n_s))
         times, index = [], []
         for i, s in enumerate(self._sensors):
             pt = s.ping_times(t0, t1)
@@ -124,14 +120,17 @@ class UltrasonicSensorRole:
         return np.where(valid, noisy, np.nan)
 
     def deliver(self, estimator: Any, event: NDArray[np.float64]) -> None:
-        if self.controller is None:
-            return
-        ranges = {n: float(r) for n, r in zip(self.names, event[1:]) if r != np.inf}
-        self.controller.observe(float(event[0]), ranges)
+        """Hand the readings of one instant (sensors that pinged then) to ``estimator.update_ranges``."""
+        ranges = {n: float(r) for n, r in zip(self.names, event[1:], strict=True) if r != np.inf}
+        estimator.update_ranges(float(event[0]), ranges)
 
 
 class HybridAutopilot:
-    """Seed 004 Fig. 7: the hybrid automaton's wheel set-points; the estimator is its localizer."""
+    """Seed 004 Fig. 7: the hybrid automaton's wheel set-points.
+
+    The automaton reads the loop's estimator (it was built bound to it, see
+    :meth:`agvnav.guidance.hybrid.HybridController.bind`).
+    """
 
     signal_names = ("v_cmd", "omega_cmd", "omega_right_cmd", "omega_left_cmd", "state", "leg", "laps_done")
 
@@ -145,6 +144,8 @@ class HybridAutopilot:
 
     def command(self, t: float, estimator: Any, plant: Any, dt: float) -> tuple[float, float]:
         c = self.controller
+        if c.estimator is not estimator:
+            c.bind(estimator)
         cmd = c.command(t)
         w = cmd.wheel_speeds
         self._sig = (cmd.v, cmd.omega, float(w[0]), float(w[1]), float(c.state.value[1]), float(c.leg),

@@ -75,7 +75,8 @@ def _wall_ids(world: Any) -> list[str]:
 def prepare_tracked(sc: TrackedScenario) -> dict[str, Any]:
     """Validate ``sc`` across its parts and return the keyword arguments of :func:`run_tracked`."""
     from agvnav.actuators import DriveGeometry
-    from agvnav.guidance.hybrid import HybridController, HybridParams, PolygonRoute
+    from agvnav.guidance.hybrid import HybridParams, PolygonRoute
+    from agvnav.positioning.wall_landmarks import LandmarkParams, WallLandmarkLocalizer, check_route_passes_landmarks
 
     veh, r = sc.vehicle, sc.route
     world = build_world(sc)
@@ -90,7 +91,11 @@ def prepare_tracked(sc: TrackedScenario) -> dict[str, Any]:
     geometry = DriveGeometry(veh.sprocket_radius_m, veh.gauge_m)
     hybrid = sc.controller.name == "hybrid"
     if hybrid and (sc.controller.landmarks or sc.controller.compare_landmarks):  # the route must pass a landmark
-        _guard(sc, ("map",), HybridController, route, layout, world.wall_segments, geometry, params, 1, True)
+        legs = [route.leg(k) for k in range(route.n_legs)]
+        _guard(sc, ("map",), check_route_passes_landmarks, legs, world.wall_segments, layout.body_width,
+               params.detect_range, params.parallel_tolerance)
+        landmark = _guard(sc, ("controller", "params"), LandmarkParams, **params.landmark_kwargs())
+        _guard(sc, ("ultrasonic",), WallLandmarkLocalizer, world.wall_segments, layout, landmark)  # names the pairs
     truth = _guard(sc, ("terrain", "truth"), _terrain, sc.terrain.truth)
     odometry = _guard(sc, ("terrain", "odometry"), _terrain, sc.terrain.odometry)
     return dict(
@@ -186,14 +191,18 @@ class PathFollowResult:
 
 
 def _simulate_path(sc: TrackedScenario, progress: Callable[[float], None] | None) -> PathFollowResult:
-    """The Kanayama path follower on the tracked plant, positioned by dead reckoning (eqs 3-5)."""
+    """The Kanayama path follower on the tracked plant.
+
+    Positioned by dead reckoning (eqs 3-5) corrected by the map's walls as ultrasonic
+    landmarks (eqs 6-8) when the map has walls: the same estimator as the automaton's.
+    """
     from agvnav.actuators import PID, MotorPair, WheelSpeedLoop
     from agvnav.guidance.kanayama import KanayamaController, KanayamaGains
     from agvnav.kinematics.tracked import TrackedVehicle
-    from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
+    from agvnav.positioning.wall_landmarks import LandmarkParams, WallLandmarkLocalizer
     from agvnav.sim.build import build_path
     from agvnav.sim.engine import ClosedLoop
-    from agvnav.sim.tracked import KanayamaAutopilot, TrackedPlant
+    from agvnav.sim.tracked import KanayamaAutopilot, TrackedPlant, UltrasonicSensorRole
 
     kwargs = prepare_tracked(sc)
     path = build_path(sc)  # type: ignore[arg-type]
@@ -208,7 +217,11 @@ def _simulate_path(sc: TrackedScenario, progress: Callable[[float], None] | None
     loop = WheelSpeedLoop(MotorPair(**m), PID(u_min=-m["u_max"], u_max=m["u_max"], **kwargs["pid"]))
     plant = TrackedPlant(vehicle, loop, kwargs["odometry_terrain"], kwargs["counts_per_rev"], start,
                          kwargs["substep"], kwargs["slip_noise_std"])
-    engine = ClosedLoop(plant, [], WallLandmarkLocalizer(pose=start), KanayamaAutopilot(ctrl), sc.step_s, sc.seed)
+    walls, layout = kwargs["walls"], kwargs["layout"]
+    landmark = LandmarkParams(**kwargs["params"].landmark_kwargs())
+    localizer = WallLandmarkLocalizer(walls, layout, landmark, pose=start, wall_ids=kwargs["wall_ids"])
+    sensors = [UltrasonicSensorRole(layout, walls)] if walls.shape[0] else []
+    engine = ClosedLoop(plant, sensors, localizer, KanayamaAutopilot(ctrl), sc.step_s, sc.seed)
     duration = sc.duration_s or 1.5 * path.length / ctrl.cruise_speed + 10.0
     out = engine.run(duration, sc.end_hold_s, progress)
     return PathFollowResult(sc, out.series, path, kwargs["world"], out.finished, out.wall_time_s)
@@ -232,7 +245,7 @@ def simulate_tracked(
 
 def save_tracked(result: TrackedResult, out_dir: str | FsPath, plots: bool = True) -> list[FsPath]:
     """Write ``metrics.json``, ``laps.json``, ``laps.csv``, ``timeseries_<mode>.csv`` and (optionally) ``laps.png``."""
-    from agvnav.sim.run import _write_csv
+    from agvnav.report.files import write_csv as _write_csv
 
     out = FsPath(out_dir)
     out.mkdir(parents=True, exist_ok=True)
