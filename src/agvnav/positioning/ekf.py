@@ -20,6 +20,8 @@ filter never sees those errors, only the bearing noise and the odometry noise.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -28,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 from agvnav.geometry import wrap_angle
 from agvnav.positioning import _fast
 from agvnav.positioning.estimator import StreamingEstimator
+from agvnav.positioning.wall_ranges import WallRangeModel
 
 __all__ = ["EkfEstimator", "ekf_predict", "ekf_update"]
 
@@ -83,15 +86,76 @@ class EkfEstimator(StreamingEstimator):
     Prediction from each odometry increment (base class), sequential update per
     identified reflection at its own instant. Inspectable after each update:
     ``last_innovation`` (rad), ``last_nis`` and ``last_reflector`` (map row).
+
+    Built with ``walls`` ``(M, 2, 2)`` and ``rangers`` (an
+    :class:`~agvnav.sensors.ultrasonic.UltrasonicArray`), it also fuses ultrasonic
+    ranges, one scalar update per associated range (:meth:`update_ranges`,
+    :mod:`agvnav.positioning.wall_ranges`); ``range_beam`` and ``range_end_margin``
+    go to :class:`~agvnav.positioning.wall_ranges.WallRangeModel`. Counters
+    ``n_ranges_accepted`` / ``n_ranges_rejected``; ``last_range`` is the latest
+    :class:`~agvnav.positioning.wall_ranges.RangeAssociation`.
     """
 
     method = "ekf"
 
-    def __init__(self, world: Any, mount: ArrayLike = (0.0, 0.0, 0.0), **kwargs: Any) -> None:
+    def __init__(
+        self,
+        world: Any,
+        mount: ArrayLike = (0.0, 0.0, 0.0),
+        *,
+        walls: ArrayLike | None = None,
+        rangers: Any = None,
+        range_beam: str = "cone",
+        range_end_margin: float = 0.05,
+        **kwargs: Any,
+    ) -> None:
         super().__init__(world, mount, **kwargs)
         self.last_innovation = float("nan")
         self.last_nis = float("nan")
         self.last_reflector = -1
+        self.wall_ranges: WallRangeModel | None = None
+        if walls is not None or rangers is not None:
+            if walls is None:
+                raise ValueError("rangers need the walls they measure: give walls= too")
+            self.wall_ranges = WallRangeModel(walls, rangers, beam=range_beam, end_margin=range_end_margin)
+        self.n_ranges_accepted = 0
+        self.n_ranges_rejected = 0
+        self.last_range: Any = None
+
+    def update_ranges(self, t: float, ranges: Mapping[str, float]) -> int:
+        """Ultrasonic readings ``{sensor: range (m)}`` made at ``t`` (s); returns how many were fused.
+
+        One Joseph-form update per reading whose nearest modelled wall passes the
+        chi-square gate [seed004 eq8] (a side pair's two ranges also fix the heading,
+        as [seed004 eq6] [seed004 eq7] do). nan readings (no echo) are skipped. The
+        ranges must come after :meth:`predict` up to ``t`` (the closed loop does so).
+        """
+        if self.wall_ranges is None:
+            raise ValueError(
+                "this estimator was built without walls and rangers (make_estimator(..., walls=, rangers=))"
+            )
+        self.wall_ranges.check_names(list(ranges))
+        t = self._check_time(t, "ranges")
+        if self._t is not None and t > self._t + 1e-9:
+            raise ValueError(f"ranges at t={t!r} s are ahead of the latest odometry at t={self._t!r} s; predict first")
+        self._t = t
+        if not self._has_pose():
+            return 0
+        fused = 0
+        for name, r in ranges.items():
+            if not math.isfinite(r):
+                continue
+            assoc = self.wall_ranges.associate(name, float(r), self._x_t, self._P_t, self.gate)
+            if assoc is None:
+                self.n_ranges_rejected += 1
+                continue
+            self._x_t, self._P_t = _fast.joseph_update(self._x_t, self._P_t, assoc.innovation, assoc.H, assoc.R)
+            self.last_range = assoc
+            fused += 1
+        self.n_ranges_accepted += fused
+        if fused:
+            self._t_last_accept = t
+        return fused
 
     def _accept(self, t: float, bearing: float, assoc: Any) -> None:
         # scalar fast path of ekf_update (Joseph form), tested against it to 1e-12
