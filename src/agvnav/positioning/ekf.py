@@ -2,9 +2,12 @@
 
 State ``x = [x, y, psi]`` of base_link in ``map``, covariance ``P``.
 
-* predict (odometry, [seed002 eq14] with the arc rule [seed002 eq25]): ``x <- f(x, dD, dtheta)``,
-  ``P <- F P F^T + Q`` with ``F`` = :func:`agvnav.odometry.pose_jacobian`,
-  ``Q`` = :func:`agvnav.odometry.motion_covariance`;
+* predict (odometry, [seed002 eq14]; :meth:`StreamingEstimator.predict`):
+  ``x <- f(x, dD, dtheta, dlateral)``, the SE(2) exponential of the body-twist increment
+  (for ``dlateral = 0`` the arc rule [seed002 eq25]), ``P <- F P F^T + Q`` with ``F`` its
+  pose Jacobian (:func:`agvnav.odometry.pose_jacobian` when ``dlateral = 0``) and ``Q``
+  seed 002's noise model [seed002 eq17] plus a lateral term for holonomic vehicles
+  (:func:`agvnav.odometry.motion_covariance` when ``dlateral = 0``);
 * update (one reflection, at its own instant): ``y = wrap(z - h(x))`` with ``h`` the
   leading-edge bearing of the identified reflector from the head
   (:func:`~agvnav.positioning.identification.bearing_model`, seed 000 §2.1),
