@@ -25,6 +25,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
+from shapely.geometry import Point, Polygon
 
 from agvnav.actuators import SpeedProfile
 from agvnav.guidance import (
@@ -248,6 +249,21 @@ def _check_hitch(sc: Scenario, path: Path) -> None:
             )
 
 
+def _check_mount(sc: Scenario, plant: Any) -> None:
+    """The goniometer head must stand on the vehicle: its mount inside (or on) the body footprint."""
+    g = sc.goniometer
+    if g is None:
+        return
+    body = Polygon(np.asarray(plant.footprint, dtype=np.float64))
+    if not body.covers(Point(g.mount[0], g.mount[1])):
+        lo, hi = np.min(plant.footprint, axis=0), np.max(plant.footprint, axis=0)
+        raise sc.error(
+            ("goniometer", "mount"),
+            f"the head at ({g.mount[0]:g}, {g.mount[1]:g}) m is outside the vehicle body "
+            f"(x {lo[0]:.3g}..{hi[0]:.3g} m, y {lo[1]:.3g}..{hi[1]:.3g} m in base_link)",
+        )
+
+
 def _point(sc: Scenario, family: str) -> str:
     """The tracked point: C (steered wheel) or O (base_link); only steered vehicles may choose."""
     point = sc.controller.point
@@ -397,6 +413,7 @@ def build(sc: Scenario) -> Built:
     _check_start(sc, max(wheelbase, sc.vehicle.body_length_m))
     x0 = _initial_state(sc, path, offset, family)
     plant = guard(sc, ("vehicle",), build_plant, sc.vehicle, x0)
+    _check_mount(sc, plant)
     _check_feasible(sc, path, family, plant.geometry, point)
     _check_visibility(sc, world, path, offset)
     follower = _follower(sc, path, family, plant.geometry)

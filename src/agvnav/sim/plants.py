@@ -22,6 +22,7 @@ from agvnav.vehicles import (
     TrackedPlant,
     TractorTrailerPlant,
     TricyclePlant,
+    box_footprint,
 )
 from agvnav.world.vehicle_specs import (
     MecanumSpec,
@@ -36,7 +37,7 @@ from agvnav.world.vehicle_specs import (
     WheeledVehicleSpec,
 )
 
-__all__ = ["PLANT_BUILDERS", "FAMILIES", "build_plant", "family_of"]
+__all__ = ["FAMILIES", "PLANT_BUILDERS", "build_plant", "family_of", "footprint", "speed_loop", "steering_actuator", "terrain"]
 
 #: Vehicle model -> family of the Plant contract (docs/ARCHITECTURE.md).
 FAMILIES: dict[str, str] = {
@@ -77,6 +78,18 @@ def _steered_errors(spec: SteeredVehicleSpec) -> tuple[TricycleErrors, NonSystem
     return systematic, NonSystematicErrors(slip_k=tr.slip_std**2, steering_std=math.radians(tr.steering_noise_std_deg))
 
 
+def footprint(spec: Any) -> Any:
+    """The body polygon in base_link (m) from ``body_length_m``/``body_width_m``.
+
+    Steered vehicles: 15 % of the length behind O (an assumption), the rest ahead;
+    the others: centred on base_link.
+    """
+    half = 0.5 * spec.body_width_m
+    if FAMILIES[spec.model] == "steered":
+        return box_footprint(0.85 * spec.body_length_m, 0.15 * spec.body_length_m, half)
+    return box_footprint(0.5 * spec.body_length_m, 0.5 * spec.body_length_m, half)
+
+
 def _tricycle(spec: Any, state: Sequence[float]) -> TricyclePlant:
     systematic, nonsystematic = _steered_errors(spec)
     return TricyclePlant(
@@ -88,6 +101,7 @@ def _tricycle(spec: Any, state: Sequence[float]) -> TricyclePlant:
         systematic,
         nonsystematic,
         state,
+        footprint=footprint(spec),
     )
 
 
@@ -104,6 +118,7 @@ def _steered_rear(spec: Any, state: Sequence[float]) -> SteeredPlant:
         nonsystematic,
         state,
         track=getattr(spec, "track_m", None),
+        footprint=footprint(spec),
     )
 
 
@@ -132,6 +147,7 @@ def _differential(spec: WheeledVehicleSpec, state: Sequence[float]) -> Different
         SystematicErrors(e_d=tr.wheel_diameter_ratio, e_b=tr.track_ratio),
         NonSystematicErrors(slip_k=tr.slip_k),
         spec.substep_s,
+        footprint=footprint(spec),
     )
 
 
@@ -146,7 +162,7 @@ def _mecanum(spec: MecanumSpec, state: Sequence[float]) -> MecanumPlant:
     loop = speed_loop(spec.motor, spec.pid)
     return MecanumPlant(
         base, spec.encoder_counts_per_rev, state[:3], loop, (scale,) * 4, spec.truth.roller_slip_std,
-        substep=spec.substep_s,
+        substep=spec.substep_s, footprint=footprint(spec),
     )
 
 
@@ -167,6 +183,7 @@ def _tracked(spec: TrackedSpec, state: Sequence[float]) -> TrackedPlant:
         state[:3],
         spec.substep_s,
         spec.terrain.slip_noise_std,
+        footprint=footprint(spec),
     )
 
 

@@ -127,8 +127,9 @@ def schema_rows(model: type[BaseModel], prefix: str = "") -> list[KeyDoc]:
         key = f"{prefix}{name}"
         models = [m for m in _models_in(info.annotation) if m not in VEHICLE_SPECS]
         rows.append(KeyDoc(key, _type_name(info.annotation), unit_of(name), _default(info), _meaning(info, models)))
+        is_list = "list[" in _type_name(info.annotation)
         for sub in models:
-            rows += schema_rows(sub, f"{key}.")
+            rows += schema_rows(sub, f"{key}[]." if is_list else f"{key}.")
     return rows
 
 

@@ -73,34 +73,53 @@ class GoniometerSpec(StrictModel):
     """Rotating laser head (seed 000 §4.1: 8 Hz, 65535 pulses/rev, 30 m)."""
 
     rate_hz: PosFloat = 8.0
+    """revolutions of the laser head per second."""
     pulses_per_rev: Annotated[int, Field(gt=0)] = 65535
+    """angle encoder pulses per revolution (bearing quantisation)."""
     mount: tuple[Finite, Finite, Finite] = Field((0.0, 0.0, 0.0), description="x (m), y (m), theta (deg) of P")
+    """x (m), y (m), theta (deg) of the head centre P in base_link; must lie on the body."""
     min_range_m: NonNegFloat = 0.3
+    """reflectors nearer than this are not seen."""
     max_range_m: PosFloat = 30.0
+    """reflectors farther than this are not seen."""
     p_miss: Annotated[float, Field(ge=0.0, le=1.0)] = 0.0
+    """probability that a reflection is missed."""
     spurious_rate_hz: NonNegFloat = 0.0
+    """spurious reflections per second (shiny surfaces)."""
     jitter_std_s: NonNegFloat = 0.0
+    """random timing error of each reflection."""
 
 
 class SensorMountSpec(StrictModel):
     """One ranger: ``mount`` x (m), y (m), theta (deg) in base_link."""
 
     name: str
+    """ranger name (e.g. right_front)."""
     mount: tuple[Finite, Finite, Finite]
+    """x (m), y (m), theta (deg) of the ranger in base_link; on the body edge."""
 
 
 class UltrasonicSpec(StrictModel):
     """HY-SRF05-like rangers (see :mod:`agvnav.sensors.ultrasonic`); default the seed-004 layout."""
 
     spacing_m: PosFloat = 0.30
+    """distance between the side pair (seed 004 eqs 6-7 'dist')."""
     half_angle_deg: Annotated[float, Field(gt=0.0, lt=90.0)] = 15.0
+    """half angle of the sound cone."""
     max_incidence_deg: Annotated[float, Field(ge=0.0, le=90.0)] = 20.0
+    """largest incidence on a wall that still returns an echo."""
     min_range_m: NonNegFloat = 0.02
+    """shortest range measured."""
     max_range_m: PosFloat = 4.0
+    """longest range measured."""
     noise_std_m: NonNegFloat = 0.003
+    """range noise inside the optimal range."""
     p_miss: Annotated[float, Field(ge=0.0, le=1.0)] = 0.0
+    """probability that a ping returns no echo."""
     rate_hz: PosFloat = 20.0
+    """pings per second per ranger."""
     sensors: list[SensorMountSpec] | None = None
+    """explicit ranger mounts (default: the seed-004 five-ranger layout)."""
 
 
 class WorldTruthSpec(StrictModel):
@@ -111,14 +130,18 @@ class WorldTruthSpec(StrictModel):
     """
 
     reflector_survey_std_m: Annotated[float, Field(ge=0.0, le=0.5)] = 0.0
+    """std per axis of the true reflector positions around the surveyed map."""
 
 
 class TractionSpec(StrictModel):
     """Speed profile of the tracked point: cruise speed, acceleration limits, stop at the end."""
 
     speed_m_s: PosFloat = 0.2
+    """cruise speed of the tracked point."""
     max_accel_m_s2: PosFloat = 0.3
+    """acceleration limit."""
     max_decel_m_s2: PosFloat = 0.3
+    """deceleration limit (stops at cusps and at the path end)."""
 
 
 class LineSpec(StrictModel):
@@ -129,23 +152,36 @@ class LineSpec(StrictModel):
     """
 
     type: Literal["line"]
+    """segment type."""
     length_m: PosFloat
+    """length of the line."""
     direction: Direction = "forward"
+    """direction of travel: reverse drives backwards along the segment."""
     start: tuple[Finite, Finite] | None = None
+    """x, y (m) of the segment start; default the previous segment's end."""
     heading_deg: Finite | None = None
+    """path tangent at the start; default the previous segment's end tangent."""
     yaw_offset_deg: Finite = 0.0
+    """holonomic vehicles: body heading minus the path tangent (90: sideways to the left)."""
 
 
 class ArcSpec(StrictModel):
     """A circular arc of ``radius_m`` turning ``sweep_deg`` (positive = to the left, CCW)."""
 
     type: Literal["arc"]
+    """segment type."""
     radius_m: PosFloat
+    """radius of the arc."""
     sweep_deg: Finite
+    """turned angle, positive to the left (CCW)."""
     direction: Direction = "forward"
+    """direction of travel: reverse drives backwards along the segment."""
     start: tuple[Finite, Finite] | None = None
+    """x, y (m) of the segment start; default the previous segment's end."""
     heading_deg: Finite | None = None
+    """path tangent at the start; default the previous segment's end tangent."""
     yaw_offset_deg: Finite = 0.0
+    """holonomic vehicles: body heading minus the path tangent."""
 
     @model_validator(mode="after")
     def _nonzero(self) -> ArcSpec:
@@ -163,16 +199,22 @@ class PathSpec(StrictModel):
 
     start: tuple[Finite, Finite, Finite] = Field(description="x (m), y (m), heading (deg)")
     segments: Annotated[list[Annotated[LineSpec | ArcSpec, Field(discriminator="type")]], Field(min_length=1)]
+    """chained line and arc segments (at least one)."""
     gap_tolerance_m: PosFloat = 1e-3
+    """largest allowed gap between a given segment start and the previous end."""
 
 
 class RouteSpec(StrictModel):
     """The seed-004 square route: ``side_m``, start pose (x, y m, heading deg), turning direction."""
 
     type: Literal["square"] = "square"
+    """route type: the seed-004 square."""
     side_m: PosFloat = 3.5
+    """side of the square."""
     start: tuple[Finite, Finite, Finite] = (0.0, 0.0, 0.0)
+    """x (m), y (m), heading (deg) of the start corner."""
     turn: Literal["left", "right"] = "left"
+    """turning direction at the corners."""
 
 
 class StartSpec(StrictModel):
@@ -185,8 +227,11 @@ class StartSpec(StrictModel):
     """
 
     lateral_offset_m: Finite = 0.0
+    """tracked point displaced this far left of the path start (negative: right)."""
     heading_offset_deg: Finite = 0.0
+    """vehicle turned this much from the path tangent."""
     steering_deg: Annotated[float, Field(gt=-90.0, lt=90.0)] | Literal["feedforward"] = 0.0
+    """initial steering angle of a steered vehicle, or feedforward."""
 
 
 class ControllerSpec(StrictModel):
@@ -202,13 +247,21 @@ class ControllerSpec(StrictModel):
     """
 
     name: str | None = None
+    """path follower (null: the vehicle family's default; see agvnav.guidance.FOLLOWERS)."""
     point: Literal["C", "O"] | None = None
+    """tracked point of a steered vehicle: C (steered wheel) or O (rear axle midpoint)."""
     poles_per_m: list[Finite] | None = None
+    """closed-loop poles per metre travelled (seed-000 laws)."""
     gains: dict[str, Finite] | None = None
+    """explicit gains instead of poles (a, b[, c] for the seed-000 laws)."""
     params: dict[str, Any] = Field(default_factory=dict)
+    """further follower parameters, e.g. convergence_distance (m)."""
     laps: Annotated[int, Field(ge=1, le=100)] = 10
+    """hybrid automaton: laps of the square route."""
     landmarks: bool = True
+    """hybrid automaton: use the wall landmarks."""
     compare_landmarks: bool = False
+    """hybrid automaton: run with and without landmarks with the same seed."""
 
     @model_validator(mode="after")
     def _one_of(self) -> ControllerSpec:
@@ -225,7 +278,9 @@ class PositioningSpec(StrictModel):
     """
 
     method: Literal["naive", "angle_propagation", "batch_ml", "ekf", "wall_landmarks", "dead_reckoning"] | None = None
+    """positioning method (null: ekf with a goniometer, wall_landmarks with rangers only, else dead_reckoning)."""
     params: dict[str, Any] = Field(default_factory=dict)
+    """further estimator parameters (see agvnav.positioning.make_estimator)."""
     initial_error: tuple[Finite, Finite, Finite] = Field(
         (0.0, 0.0, 0.0), description="x (m), y (m), heading (deg) error of the initial estimate"
     )
@@ -241,23 +296,41 @@ class Scenario(SourcedModel):
     """A closed-loop run of any vehicle. All lengths in m, times in s, angles in deg."""
 
     name: str = "scenario"
+    """scenario name (used in outputs)."""
     description: str = ""
+    """one-line description (agvnav scenarios lists it)."""
     seed: Annotated[int, Field(ge=0)] = 0
+    """random seed: the same seed reproduces the run bit for bit."""
     step_s: Annotated[float, Field(gt=0.0, le=0.1)] = 0.02
+    """control period of the closed loop."""
     duration_s: PosFloat | None = None
+    """simulated time limit (default: 1.5 x the nominal drive time plus margins)."""
     end_hold_s: NonNegFloat = 1.0
+    """time recorded after the vehicle stops at the path end."""
     vehicle: VehicleSpec
+    """the vehicle: one section per model, below."""
     world_truth: WorldTruthSpec = WorldTruthSpec()
+    """how the real world differs from the map."""
     traction: TractionSpec = TractionSpec()
+    """speed profile of the tracked point."""
     goniometer: GoniometerSpec | None = None
+    """laser goniometer mounted on the vehicle (null: none)."""
     ultrasonic: UltrasonicSpec | None = None
+    """ultrasonic rangers mounted on the vehicle (null: none)."""
     map: str | dict[str, Any] = "lab"
+    """a shipped map name (lab, hall), a map file path (relative to the scenario), or an inline map."""
     path: PathSpec | None = None
+    """the planned path of the tracked point."""
     route: RouteSpec | None = None
+    """the seed-004 square route (tracked robot with the hybrid automaton)."""
     start: StartSpec = StartSpec()
+    """initial placement relative to the path start."""
     controller: ControllerSpec = ControllerSpec()
+    """the path follower."""
     positioning: PositioningSpec = PositioningSpec()
+    """the estimator."""
     min_reflectors_in_view: Annotated[int, Field(ge=3)] = 3
+    """reflectors the goniometer must see all along the path."""
 
     @field_validator("map", mode="before")
     @classmethod

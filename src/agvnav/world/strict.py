@@ -69,7 +69,7 @@ def format_key(key: KeyPath) -> str:
 class StrictModel(BaseModel):
     """A frozen pydantic model that refuses unknown keys."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
 
 
 class SourcedModel(StrictModel):

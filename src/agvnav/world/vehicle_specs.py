@@ -46,8 +46,11 @@ class SteeringSpec(StrictModel):
     """Steering servo: rate and angle limits, first-order lag."""
 
     max_rate_deg_s: PosFloat = 60.0
+    """largest steering rate the servo reaches."""
     max_angle_deg: Annotated[float, Field(gt=0.0, le=90.0)] = 90.0
+    """steering angle limit (either side)."""
     time_constant_s: NonNegFloat = 0.05
+    """first-order lag of the servo (0: ideal)."""
 
 
 class SteeredTruthSpec(StrictModel):
@@ -61,41 +64,59 @@ class SteeredTruthSpec(StrictModel):
     """
 
     wheel_radius_error: RelativeError = 0.0
+    """relative error of the driven wheel radius: truth = nominal x (1 + e)."""
     wheelbase_error: RelativeError = 0.0
+    """relative error of the wheelbase L."""
     steering_offset_deg: Annotated[float, Field(ge=-10.0, le=10.0)] = 0.0
+    """the wheel points this much off what the steering encoder reads."""
     slip_std: NonNegFloat = 0.0
+    """random traction slip: std of the distance error after 1 m rolled (relative, per sqrt(m))."""
     steering_noise_std_deg: NonNegFloat = 0.0
+    """random steering angle error per step."""
 
 
 class SteeredVehicleSpec(StrictModel):
     wheelbase_m: PosFloat = 1.2
+    """L: rear axle midpoint O to the steered wheel centre C."""
     drive_wheel_radius_m: PosFloat = 0.1
+    """nominal radius of the driven wheel (C for the stacker, the rear wheels otherwise)."""
     traction_counts_per_rev: Counts = 4096
+    """traction encoder counts per wheel revolution."""
     steering_counts_per_rev: Counts = 16384
+    """steering encoder counts per revolution."""
     body_length_m: PosFloat = 1.6
+    """body length (footprint: 15 % of it behind O, the rest ahead)."""
     body_width_m: PosFloat = 0.9
+    """body width (footprint, centred on the x-axis)."""
     steering: SteeringSpec = SteeringSpec()
+    """the steering servo."""
     truth: SteeredTruthSpec = SteeredTruthSpec()
+    """how the real vehicle differs from the nominal one."""
 
 
 class TricycleSpec(SteeredVehicleSpec):
     """Seed-000 tricycle stacker (seed 003 model B): the front wheel C drives and steers; base_link is O."""
 
     model: Literal["tricycle"] = "tricycle"
+    """vehicle model name."""
 
 
 class TricycleRearSpec(SteeredVehicleSpec):
     """Seed 003 model A: steered front wheel, driven rear axle (tow tractors); base_link is the rear axle O."""
 
     model: Literal["tricycle_rear"]
+    """vehicle model name."""
 
 
 class AckermannSpec(SteeredVehicleSpec):
     """Seed 003 §3.2.6: car-like, rear drive, bicycle equivalent; ``track_m`` between the front wheels."""
 
     model: Literal["ackermann"]
+    """vehicle model name."""
     track_m: PosFloat = 0.6
+    """distance between the two steered front wheels."""
     steering: SteeringSpec = SteeringSpec(max_angle_deg=35.0)
+    """the steering servo (angle of the bicycle-equivalent wheel)."""
 
 
 class MotorSpec(StrictModel):
@@ -105,18 +126,26 @@ class MotorSpec(StrictModel):
     """
 
     time_constant_s: PosFloat = 0.1
+    """mechanical time constant of each gearmotor."""
     asymmetry: Annotated[float, Field(gt=-1.0, lt=1.0)] = 0.0
+    """relative gain difference, right minus left motor."""
     supply_v: PosFloat = 12.0
+    """supply voltage: the drivers saturate there."""
     no_load_rpm: PosFloat = 45.0
+    """output shaft speed at the supply voltage without load."""
 
 
 class PidSpec(StrictModel):
     """Speed PID per motor (seed 004: Kp = 10, Ki = 20, Kd = 0.5)."""
 
     kp: NonNegFloat = 10.0
+    """proportional gain (V per rad/s)."""
     ki: NonNegFloat = 20.0
+    """integral gain (V per rad)."""
     kd: NonNegFloat = 0.5
+    """derivative gain (V per rad/s^2), on the measurement."""
     derivative_time_constant_s: NonNegFloat = 0.02
+    """filter of the derivative term (0: none)."""
 
 
 class DifferentialTruthSpec(StrictModel):
@@ -128,28 +157,42 @@ class DifferentialTruthSpec(StrictModel):
     """
 
     wheel_diameter_ratio: Annotated[float, Field(gt=0.5, lt=1.5)] = 1.0
+    """E_d: right over left true wheel diameter (UMBmark)."""
     track_ratio: Annotated[float, Field(gt=0.5, lt=1.5)] = 1.0
+    """E_b: true over nominal track."""
     wheel_radius_error: RelativeError = 0.0
+    """relative error of the mean wheel radius."""
     slip_k: NonNegFloat = 0.0
+    """random slip: variance of each wheel's distance per metre rolled (m^2/m)."""
 
 
 class WheeledVehicleSpec(StrictModel):
     track_m: PosFloat = 0.5
+    """distance between the two driven wheels' contact points."""
     wheel_radius_m: PosFloat = 0.08
+    """nominal radius of the driven wheels."""
     encoder_counts_per_rev: Counts = 4096
+    """wheel encoder counts per revolution."""
     body_length_m: PosFloat = 0.9
+    """body length (footprint centred on base_link)."""
     body_width_m: PosFloat = 0.6
+    """body width (footprint centred on base_link)."""
     motor: MotorSpec = MotorSpec(no_load_rpm=150.0)
+    """the wheel gearmotors."""
     #: gains for the faster AGV motor (3.3x seed 004's speed per volt): seed 004's Kd oscillates at 10 ms
     pid: PidSpec = PidSpec(kp=3.0, ki=6.0, kd=0.0)
+    """the wheel speed loops."""
     substep_s: Annotated[float, Field(gt=0.0, le=0.05)] = 0.01
+    """period of the speed loops inside each control step."""
     truth: DifferentialTruthSpec = DifferentialTruthSpec()
+    """how the real vehicle differs from the nominal one."""
 
 
 class DifferentialSpec(WheeledVehicleSpec):
     """Two driven wheels plus castors (seed 002, seed 003 §3.2.4): the common AGV/AMR."""
 
     model: Literal["differential"]
+    """vehicle model name."""
 
 
 class TractorTrailerSpec(WheeledVehicleSpec):
@@ -160,44 +203,68 @@ class TractorTrailerSpec(WheeledVehicleSpec):
     """
 
     model: Literal["tractor_trailer"]
+    """vehicle model name."""
     trailer_length_m: PosFloat = 1.5
+    """D: hitch to trailer axle."""
     hitch_offset_m: NonNegFloat = 0.4
+    """d: tractor axle to hitch, behind the axle."""
     max_hitch_angle_deg: Annotated[float, Field(gt=0.0, lt=180.0)] = 60.0
+    """hitch angle at which the run ends as a jackknife."""
     trailer_width_m: PosFloat = 0.8
+    """trailer body width."""
 
 
 class MecanumTruthSpec(StrictModel):
     """Wheel radius error (relative, common) and random roller slip (relative std per step)."""
 
     wheel_radius_error: RelativeError = 0.0
+    """relative error of the wheel radii."""
     roller_slip_std: NonNegFloat = 0.0
+    """random relative slip of the rollers per step."""
 
 
 class MecanumSpec(StrictModel):
     """Four Swedish (mecanum) wheels, holonomic (seed 003 §3.2.5)."""
 
     model: Literal["mecanum"]
+    """vehicle model name."""
     wheel_radius_m: PosFloat = 0.076
+    """nominal mecanum wheel radius."""
     half_length_m: PosFloat = 0.3
+    """a: half the distance between the front and rear axles."""
     half_width_m: PosFloat = 0.25
+    """b: half the distance between the left and right wheels."""
     layout: Literal["X", "O"] = "X"
+    """roller layout seen from above: X or O."""
     encoder_counts_per_rev: Counts = 4096
+    """wheel encoder counts per revolution."""
     motor: MotorSpec = MotorSpec(no_load_rpm=150.0, time_constant_s=0.08)
+    """the wheel gearmotors."""
     pid: PidSpec = PidSpec(kp=3.0, ki=6.0, kd=0.0)
+    """the wheel speed loops."""
     substep_s: Annotated[float, Field(gt=0.0, le=0.05)] = 0.01
+    """period of the speed loops inside each control step."""
     body_length_m: PosFloat = 0.8
+    """body length (footprint centred on base_link)."""
     body_width_m: PosFloat = 0.65
+    """body width (footprint centred on base_link)."""
     truth: MecanumTruthSpec = MecanumTruthSpec()
+    """how the real vehicle differs from the nominal one."""
 
 
 class TerrainFigures(StrictModel):
     """Explicit track-ground figures (see :class:`agvnav.kinematics.tracked.TrackTerrain`)."""
 
     slip_left: Fraction = 0.0
+    """longitudinal slip of the left track (fraction)."""
     slip_right: Fraction = 0.0
+    """longitudinal slip of the right track (fraction)."""
     icr_left: PosFloat = 1.0
+    """ICR factor of the left track (>= 1: the ICR lies outside the track)."""
     icr_right: PosFloat = 1.0
+    """ICR factor of the right track."""
     x_icr_m: Finite = 0.0
+    """longitudinal offset of the ICRs from base_link."""
 
 
 TerrainRef = Literal["ideal", "concrete", "artificial_grass"] | TerrainFigures
@@ -207,23 +274,36 @@ class TerrainSpec(StrictModel):
     """Truth terrain and what odometry believes; ``slip_noise_std``: m of random slip per metre rolled."""
 
     truth: TerrainRef = "concrete"
+    """the ground the robot really drives on: a preset name or explicit figures."""
     odometry: TerrainRef = "concrete"
+    """the figures odometry was calibrated with."""
     slip_noise_std: NonNegFloat = 0.0
+    """random slip: m of error per metre rolled per track."""
 
 
 class TrackedSpec(StrictModel):
     """Seed-004 tracked robot (45 x 40 cm body; gauge and sprocket radius are assumptions)."""
 
     model: Literal["tracked"]
+    """vehicle model name."""
     gauge_m: PosFloat = 0.33
+    """distance between the track centre lines."""
     sprocket_radius_m: PosFloat = 0.05
+    """radius of the drive sprockets."""
     body_length_m: PosFloat = 0.45
+    """body length (footprint; the rangers mount on its edge)."""
     body_width_m: PosFloat = 0.40
+    """body width (footprint; the rangers mount on its edge)."""
     encoder_counts_per_rev: Counts = 1440
+    """sprocket encoder counts per revolution."""
     motor: MotorSpec = MotorSpec()
+    """the track gearmotors (seed 004: 12 V, 45 rpm)."""
     pid: PidSpec = PidSpec()
+    """the track speed loops (seed 004: Kp 10, Ki 20, Kd 0.5)."""
     substep_s: Annotated[float, Field(gt=0.0, le=0.05)] = 0.01
+    """period of the speed loops inside each control step."""
     terrain: TerrainSpec = TerrainSpec()
+    """track-ground interaction: truth and what odometry believes."""
 
     @model_validator(mode="after")
     def _body_holds_tracks(self) -> TrackedSpec:
