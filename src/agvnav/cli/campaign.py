@@ -22,7 +22,10 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from agvnav.cli.errors import fail, user_errors
+from agvnav.cli.errors import err_console, fail, user_errors
+
+#: Exit code after Ctrl-C (128 + SIGINT), as shells report it.
+INTERRUPTED_EXIT = 130
 
 SPEC_ARG = typer.Argument(..., help="Campaign YAML file, or a shipped campaign name (default_seeds).")
 OUT_OPT = typer.Option(Path("campaign_out"), "--out", "-o", help="Output folder (Parquet runs, summary.json, plots).")
@@ -62,7 +65,12 @@ def campaign(
         hint = f"wrote {path}; replay run {replay} alone with: agvnav simulate {path}"
         console.print(hint, markup=False, soft_wrap=True)
         return
-    result = lib.run_campaign(camp, out, scheduler=scheduler, workers=workers)
+    try:
+        result = lib.run_campaign(camp, out, scheduler=scheduler, workers=workers)
+    except KeyboardInterrupt:
+        saved = len(lib.finished_runs(out))
+        err_console.print(f"interrupted: {saved} runs are saved in {out}/runs; the same command resumes", markup=False)
+        raise typer.Exit(code=INTERRUPTED_EXIT) from None
     written = []
     if plots:
         from agvnav.report.campaign import plot_campaign  # noqa: PLC0415 - lazy: matplotlib only when plotting
