@@ -42,9 +42,12 @@ from agvnav.kinematics import TractorTrailer
 from agvnav.odometry import OdometryNoise
 from agvnav.positioning import make_estimator
 from agvnav.sensors.goniometer import Goniometer
+from agvnav.sim.collision import CollisionWatch, WallCollider
 from agvnav.sim.engine import ClosedLoop
+from agvnav.sim.faults import PLANT_FAULTS, FaultyPlant, FaultySensor, world_with_faults
 from agvnav.sim.plants import build_plant, family_of
 from agvnav.sim.roles import GoniometerSensor, PathAutopilot
+from agvnav.sim.safety import EstimatorWatch, GuardLimits, PositioningGuard
 from agvnav.world import WorldMap, builtin_map_names, load_builtin_map, load_map
 from agvnav.world.scenario import KeyPath, Scenario, ScenarioError
 
@@ -394,6 +397,42 @@ def _estimator(sc: Scenario, world: WorldMap, x0: NDArray[np.float64]) -> Any:
     return guard(sc, ("positioning",), make_estimator, method, world, mount, **kwargs)
 
 
+def _watch(sc: Scenario, estimator: Any) -> EstimatorWatch:
+    """The positioning guard (issue 12): active with the scenario's limits when a goniometer positions the vehicle.
+
+    A vehicle without an absolute sensor is built to dead-reckon: its guard only records.
+    """
+    s = sc.safety
+    limits = guard(
+        sc, ("safety",), GuardLimits, s.lateral_3sigma_slow_m, s.lateral_3sigma_stop_m, s.slow_speed_fraction,
+        s.resume_after_s,
+    )
+    return EstimatorWatch(PositioningGuard(limits, enabled=s.enabled and sc.goniometer is not None), estimator)
+
+
+def _sensors(sc: Scenario, world: WorldMap) -> list[Any]:
+    """The goniometer seeing the true world (survey error, moved reflectors), with the sensor faults."""
+    if sc.goniometer is None:
+        if any(f.kind not in PLANT_FAULTS for f in sc.faults):
+            raise sc.error(("faults",), "goniometer and reflector faults need a goniometer: mount one")
+        return []
+    for i, f in enumerate(sc.faults):
+        if f.reflector is not None and f.reflector not in world.reflector_ids:
+            raise sc.error(("faults", i, "reflector"), f"no reflector {f.reflector!r} in the map")
+    true_world = world_with_faults(surveyed_truth(world, sc.world_truth.reflector_survey_std_m, sc.seed), sc.faults)
+    sensor: Any = GoniometerSensor(_goniometer(sc), true_world)
+    if any(f.kind not in PLANT_FAULTS for f in sc.faults):
+        sensor = FaultySensor(sensor, sc.faults, world, sc.goniometer.rate_hz, sc.seed)
+    return [sensor]
+
+
+def _loop_plant(sc: Scenario, plant: Any, world: WorldMap) -> Any:
+    """The plant the loop drives: odometry faults applied, collisions with the walls ending the run."""
+    if any(f.kind in PLANT_FAULTS for f in sc.faults):
+        plant = FaultyPlant(plant, sc.faults)
+    return CollisionWatch(plant, WallCollider(plant.footprint, world.wall_segments))
+
+
 def _default_duration(sc: Scenario, path: Path) -> float:
     """Time to drive the path at cruise speed with the ramps, plus margin and the end hold."""
     tc = sc.traction
@@ -422,12 +461,9 @@ def build(sc: Scenario) -> Built:
         sc, ("traction",), SpeedProfile, cruise_speed=tc.speed_m_s, max_accel=tc.max_accel_m_s2,
         max_decel=tc.max_decel_m_s2,
     )
-    pilot = PathAutopilot(follower, path, profile, plant, offset)
     estimator = _estimator(sc, world, x0)
-    sensors = []
-    if sc.goniometer is not None:
-        true_world = surveyed_truth(world, sc.world_truth.reflector_survey_std_m, sc.seed)
-        sensors.append(GoniometerSensor(_goniometer(sc), true_world))
-    loop = ClosedLoop(plant, sensors, estimator, pilot, sc.step_s, sc.seed)
+    pilot = PathAutopilot(follower, path, profile, plant, offset, watch=_watch(sc, estimator))
+    sensors = _sensors(sc, world)
+    loop = ClosedLoop(_loop_plant(sc, plant, world), sensors, estimator, pilot, sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else _default_duration(sc, path)
     return Built(loop, world, path, plant, pilot, estimator, duration, point, offset)

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.guidance import GuidanceError
 from agvnav.kinematics.differential import wheel_speeds_unchecked
 
 __all__ = ["GoniometerSensor", "PathAutopilot"]
@@ -79,6 +80,12 @@ class PathAutopilot:
     profile : :class:`agvnav.actuators.SpeedProfile`.
     plant : the truth vehicle, read only for its family, nominal ``geometry`` and ``gamma_meas``.
     point_offset : the tracked point's distance ahead of base_link along the heading (m; L for C).
+    watch : an optional :class:`agvnav.sim.safety.EstimatorWatch`: its guard's speed scale
+        multiplies the profile's target speed (slow down / controlled stop when positioning
+        degrades, issue 12) and its signals are recorded after the autopilot's own.
+
+    A follower failure (:class:`agvnav.guidance.GuidanceError`) stops the vehicle and sets
+    ``failure = "infeasible"``; the run then ends as the autopilot is ``finished``.
     """
 
     signal_names = ("v_cmd", "rate_cmd", "v_lateral_cmd", "s_est", "lateral_error_est", "heading_error_est", "remaining")
@@ -92,7 +99,12 @@ class PathAutopilot:
         point_offset: float = 0.0,
         progress_window: float = 1.0,
         end_tolerance: float = 0.1,
+        watch: Any = None,
     ) -> None:
+        self.watch = watch
+        self.failure: str | None = None
+        if watch is not None:
+            self.signal_names = (*PathAutopilot.signal_names, *watch.signal_names)
         self.follower = follower
         self.path = path
         self.profile = profile
@@ -170,9 +182,16 @@ class PathAutopilot:
             return self._hold()
         self._advance(pose)
         remaining = self._run_end - self._s
-        v = self.profile.command(remaining, dt, self._run_dir * abs(self.profile.cruise_speed))
+        scale = 1.0 if self.watch is None else self.watch.scale(t, estimator)
+        v = self.profile.command(remaining, dt, self._run_dir * abs(self.profile.cruise_speed) * scale)
         steering = float(plant.gamma_meas) if self.family == "steered" else 0.0
-        v_lat, rate = self.follower.command(pose, v, steering)
+        try:
+            v_lat, rate = self.follower.command(pose, v, steering)
+        except GuidanceError:
+            self.failure = self.failure or "infeasible"
+            self.finished = True
+            self.profile.reset(0.0)
+            return self._hold()
         if v == 0.0 and remaining <= self.profile.stop_tolerance + 1e-9:
             if self._run_end < self._length:  # stopped at a cusp: the next run reverses
                 self._s = self._run_end
@@ -206,5 +225,10 @@ class PathAutopilot:
         return tuple(self.follower.last_twist)
 
     def signals(self) -> tuple[float, ...]:
-        """``v_cmd, rate_cmd, v_lateral_cmd, s_est, lateral_error_est, heading_error_est, remaining``."""
+        """``v_cmd, rate_cmd, v_lateral_cmd, s_est, lateral_error_est, heading_error_est, remaining``.
+
+        Followed by the watch's signals when one is given.
+        """
+        if self.watch is not None:
+            return (*self._sig, *self.watch.signals())
         return self._sig

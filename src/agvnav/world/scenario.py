@@ -39,14 +39,17 @@ from agvnav.world.vehicle_specs import VEHICLE_MODELS, VehicleSpec
 
 __all__ = [
     "DEFAULT_SCENARIO",
+    "FAULT_KINDS",
     "ArcSpec",
     "ControllerSpec",
+    "FaultSpec",
     "GoniometerSpec",
     "KeyPath",
     "LineSpec",
     "PathSpec",
     "PositioningSpec",
     "RouteSpec",
+    "SafetySpec",
     "Scenario",
     "ScenarioError",
     "SensorMountSpec",
@@ -292,6 +295,109 @@ class PositioningSpec(StrictModel):
     )
 
 
+class SafetySpec(StrictModel):
+    """How the autopilot reacts to the estimator's status and uncertainty (issue 12).
+
+    The vehicle slows to ``slow_speed_fraction`` of its speed when positioning is
+    degraded (status ``degraded`` or ``dead_reckoning``) or when 3 sigma of the
+    estimated position across the vehicle exceeds ``lateral_3sigma_slow_m``; it
+    stops at its deceleration limit when positioning is ``lost`` (or the status
+    is unknown) or 3 sigma exceeds ``lateral_3sigma_stop_m``. It resumes once
+    positioning has been good again for ``resume_after_s``.
+    """
+
+    enabled: bool = True
+    """false: drive on whatever the estimator says (for experiments only)."""
+    lateral_3sigma_slow_m: PosFloat = 0.10
+    """3 sigma of the estimated lateral position above which the vehicle slows down."""
+    lateral_3sigma_stop_m: PosFloat = 0.30
+    """3 sigma of the estimated lateral position above which the vehicle stops."""
+    slow_speed_fraction: Annotated[float, Field(gt=0.0, le=1.0)] = 0.3
+    """fraction of the planned speed while positioning is degraded."""
+    resume_after_s: NonNegFloat = 1.0
+    """positioning must be good this long before the vehicle resumes (hysteresis)."""
+
+    @model_validator(mode="after")
+    def _ordered(self) -> SafetySpec:
+        if self.lateral_3sigma_stop_m < self.lateral_3sigma_slow_m:
+            raise ValueError("lateral_3sigma_stop_m must be at least lateral_3sigma_slow_m")
+        return self
+
+
+#: Fault kinds of the ``faults:`` list and the fields each one needs (beyond ``kind``/timing).
+FAULT_KINDS: dict[str, tuple[str, ...]] = {
+    "blind": (),
+    "reflector_removed": ("reflector",),
+    "reflector_moved": ("reflector", "offset_m"),
+    "clutter": ("per_revolution",),
+    "wheel_slip": ("slip_fraction",),
+    "encoder_dropout": (),
+    "counter_wrap": ("jump_m",),
+    "odometry_lost": (),
+    "reflection_delay": ("delay_s",),
+}
+
+#: Fault fields that are not timing and belong to a kind (the rest are refused for that kind).
+_FAULT_FIELDS = ("reflector", "offset_m", "per_revolution", "slip_fraction", "jump_m", "delay_s", "stamped")
+
+
+class FaultSpec(StrictModel):
+    """One injected fault (issue 12); active from ``start_s`` for ``duration_s`` (null: to the end).
+
+    Kinds: ``blind`` (the goniometer sees nothing), ``reflector_removed`` (one
+    reflector of the map is gone), ``reflector_moved`` (it stands ``offset_m`` from
+    its surveyed position), ``clutter`` (``per_revolution`` spurious reflections at
+    random bearings per head revolution), ``wheel_slip`` (the odometry over-reads the
+    distance by ``slip_fraction``), ``encoder_dropout`` (the encoders read nothing:
+    the motion is lost), ``counter_wrap`` (one odometry increment jumps by ``jump_m``
+    at ``start_s``), ``odometry_lost`` (odometry messages are lost; the next one
+    carries the whole missed increment), ``reflection_delay`` (reflections reach the
+    estimator ``delay_s`` late, stamped on arrival, or with their measurement time
+    when ``stamped``).
+    """
+
+    kind: Literal[
+        "blind", "reflector_removed", "reflector_moved", "clutter", "wheel_slip",
+        "encoder_dropout", "counter_wrap", "odometry_lost", "reflection_delay",
+    ]
+    """the fault kind (see above)."""
+    start_s: NonNegFloat = 0.0
+    """time the fault begins."""
+    duration_s: PosFloat | None = None
+    """how long it lasts (null: to the end of the run; counter_wrap: ignored)."""
+    reflector: str | None = None
+    """reflector id (reflector_removed, reflector_moved)."""
+    offset_m: tuple[Finite, Finite] | None = None
+    """x, y displacement (m) of the moved reflector from its surveyed position."""
+    per_revolution: Annotated[float, Field(gt=0.0, le=1000.0)] | None = None
+    """clutter: mean spurious reflections per head revolution."""
+    slip_fraction: Annotated[float, Field(gt=-1.0, le=10.0)] | None = None
+    """wheel_slip: odometry distance reads (1 + slip_fraction) times the true one."""
+    jump_m: Finite | None = None
+    """counter_wrap: distance (m) added to one odometry increment (a 32-bit wrap: about 6.5e5 m)."""
+    delay_s: Annotated[float, Field(gt=0.0, le=10.0)] | None = None
+    """reflection_delay: latency of each reflection."""
+    stamped: bool | None = None
+    """reflection_delay: deliver the measurement time (true) or the arrival time (false, default)."""
+
+    @model_validator(mode="after")
+    def _fields_of_kind(self) -> FaultSpec:
+        needed = FAULT_KINDS[self.kind]
+        missing = [f for f in needed if getattr(self, f) is None]
+        if missing:
+            raise ValueError(f"a {self.kind} fault needs {', '.join(missing)}")
+        allowed = set(needed) | ({"stamped"} if self.kind == "reflection_delay" else set())
+        extra = [f for f in _FAULT_FIELDS if f not in allowed and getattr(self, f) is not None]
+        if extra:
+            raise ValueError(f"a {self.kind} fault takes no {', '.join(extra)}")
+        return self
+
+    @property
+    def end_s(self) -> float:
+        """End of the active window (s; inf when it lasts to the end of the run)."""
+        return float("inf") if self.duration_s is None else self.start_s + self.duration_s
+
+
 class Scenario(SourcedModel):
     """A closed-loop run of any vehicle. All lengths in m, times in s, angles in deg."""
 
@@ -331,6 +437,10 @@ class Scenario(SourcedModel):
     """the estimator."""
     min_reflectors_in_view: Annotated[int, Field(ge=3)] = 3
     """reflectors the goniometer must see all along the path."""
+    safety: SafetySpec = SafetySpec()
+    """how the vehicle slows and stops when positioning degrades or is lost."""
+    faults: list[FaultSpec] = Field(default_factory=list)
+    """faults injected into the run (goniometer, reflectors, odometry), for testing integrity."""
 
     @field_validator("map", mode="before")
     @classmethod
