@@ -5,7 +5,7 @@ finite state machine of five states:
 
 * ``E0`` advance along the current leg;
 * ``E1`` / ``E2`` a landmark wall is alongside on the right / left: correct
-  the orientation from the side pair (eqs 6-7) while advancing;
+  the orientation from the side pair ([seed004 eq6] [seed004 eq7]) while advancing;
 * ``E3`` at the end of a leg turn 90° in place and count the turn;
 * ``E4`` after four turns stop and reset the counter (a lap is done).
 
@@ -15,7 +15,7 @@ list of every :class:`Transition` with its time and cause. ``command(t)``
 steps the machine on the pose of the estimator it reads and returns wheel
 speed set-points [seed004 eq1] [seed004 eq2] for the PID speed loops.
 
-The landmark corrections themselves (eqs 6-8: which sensor pair sees which
+The landmark corrections themselves ([seed004 eq6] to [seed004 eq8]: which sensor pair sees which
 wall, the corrections, their record) belong to the estimator,
 :class:`agvnav.positioning.wall_landmarks.WallLandmarkLocalizer`, which every navigator
 shares. The automaton only reads its record of calibrations: a side-pair
@@ -217,7 +217,7 @@ class HybridController:
         :class:`~agvnav.positioning.wall_landmarks.WallLandmarkLocalizer` started at the route start).
         The automaton never changes it: feed it odometry and ranges yourself (the
         simulator does).
-    geometry : sprocket radius and track width for eqs 1-2.
+    geometry : sprocket radius and track width (wheel speeds from ``v``, ``omega``).
     params : :class:`HybridParams`. laps : laps to drive (E4 -> E0 between laps).
 
     The side-landmark states follow the estimator: a side-pair calibration made
@@ -276,7 +276,7 @@ class HybridController:
 
         First the calibrations the estimator made since the last call (E0 -> E1/E2 at
         their instants), then the state machine on the estimated pose, then the motion
-        of the state (seed 004 eqs 1-2 give the wheel speeds).
+        of the state, converted to wheel speeds by ``geometry``.
         """
         t = float(t)
         self._take_calibrations()

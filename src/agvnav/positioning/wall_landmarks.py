@@ -37,7 +37,7 @@ agvnav.odometry.integrate_pose (``rule`` selects its exact-arc form instead).
 interface of docs/ARCHITECTURE.md): odometry through ``predict``, the readings
 of one ping instant through ``update_ranges``, which associates them with the
 walls (which side pair sees which wall, abreast and parallel checks, the front
-wall of eq 8) and applies the corrections above. Any navigator reads the
+wall of [seed004 eq8]) and applies the corrections above. Any navigator reads the
 corrected pose from it; the seed-004 automaton (agvnav.guidance.hybrid) also
 reads its ``history`` of calibrations to know when a landmark is alongside.
 The EKF fuses the same ranges one by one (agvnav.positioning.wall_ranges).
@@ -200,9 +200,9 @@ class LandmarkParams:
     pair_max_age : the two readings of a pair must be at most this old (s).
     lateral_calibration : also fix the distance to a side wall (an extension).
     parallel_tolerance : a wall is "alongside" when its direction is within this
-        angle (rad) of the estimated heading, and "across" (eq 8) otherwise.
+        angle (rad) of the estimated heading, and "across" (the front-wall correction) otherwise.
     side_pairs : ``(side, front sensor, rear sensor)`` names of the side pairs.
-    front_sensor : name of the forward sensor of eq 8.
+    front_sensor : name of the forward sensor (the front-wall correction).
     """
 
     detect_range: float = 0.60
@@ -250,7 +250,7 @@ class WallLandmarkLocalizer:
     params : :class:`LandmarkParams`.
     pose, t : start pose ``(3,)`` (m, m, rad) and time (s).
     beam : range geometry, ``"cone"`` (nearest echo) or ``"ray"`` (see module doc).
-    rule : odometry integration rule (``"euler"``: eqs 3-5 as the seed).
+    rule : odometry integration rule (``"euler"``: the seed's dead reckoning, see :meth:`predict`).
     wall_ids : names of the walls (for the calibration records).
     odometry_noise : :class:`~agvnav.odometry.OdometryNoise` of the covariance growth.
     initial_covariance : ``(3, 3)`` covariance of ``pose`` (default 1 mm, 1 mrad std).
@@ -267,14 +267,14 @@ class WallLandmarkLocalizer:
     pair calibrates when both of its latest readings (at most ``pair_max_age`` old,
     within ``detect_range``) match the range predicted to the same wall within
     ``gate``, the wall runs parallel to the estimated heading and both sensors are
-    abreast of it: then the heading (eqs 6-7) and, with ``lateral_calibration``, the
+    abreast of it: then the heading (:meth:`calibrate_heading`) and, with ``lateral_calibration``, the
     distance to the wall. The front sensor fixes the position along the normal of a
-    wall across the heading within ``front_gate`` (eq 8). Each correction is blended
+    wall across the heading within ``front_gate`` (:meth:`calibrate_offset`). Each correction is blended
     by ``calibration_gain`` (a complementary filter; 1 replaces as the seed does).
 
     Covariance (honest but simple): the odometric growth ``P' = F P F^T + Q`` with
     ``F`` the Jacobian of the Euler step and ``Q`` Crowley's model
-    (:func:`agvnav.odometry.motion_covariance`, seed 002 eq 17); each correction is a
+    (:func:`agvnav.odometry.motion_covariance`); each correction is a
     fixed-gain update in Joseph form, ``P' = (I - K H) P (I - K H)^T + K R K^T`` with
     ``K = g e`` the blend actually applied, ``H`` the direction it corrects and ``R``
     the variance of the measured heading (``2 range_std^2 / dist^2``) or distance
@@ -386,7 +386,7 @@ class WallLandmarkLocalizer:
         return len(self.history) - n_before
 
     def _landmark_updates(self, t: float, fresh: set[str]) -> None:
-        """Side pairs first (eqs 6-7 and the lateral offset), then the front sensor (eq 8)."""
+        """Side pairs first (heading, then lateral offset), then the front sensor (offset along the wall normal)."""
         p = self.params
         self._predicted = None
         for side, front, rear in p.side_pairs:

@@ -1,8 +1,8 @@
 """Ultrasonic ranges to wall lines as scalar EKF measurements (seed 004 landmarks, one range at a time).
 
 Seed 004 corrects dead reckoning with walls measured by ultrasonic rangers:
-the side pair gives the heading (eqs 6-7), the front sensor the position along
-the wall's normal (eq 8). Both are the same measurement taken one range at a
+the side pair gives the heading ([seed004 eq6] [seed004 eq7]), the front sensor the
+position along the wall's normal ([seed004 eq8]). Both are the same measurement taken one range at a
 time: the distance from a sensor to a known wall line. A filter that fuses
 each range by itself needs no pairing, and fuses walls with reflector bearings
 (:class:`agvnav.positioning.ekf.EkfEstimator`).
@@ -17,12 +17,12 @@ is ``d = n . s - c`` (> 0). Then
   the default): ``h(x) = d`` while the foot of the perpendicular lies inside
   the cone and on the wall; ``H = [n_x, n_y, n . R'(psi) [x_s, y_s]]``;
 * ``beam="ray"`` (range measured along the sensor axis, the reading of seed
-  004 eqs 6-8): ``h(x) = d / g`` with ``g = -n . b`` the cosine of the
+  004, [seed004 eq6] to [seed004 eq8]): ``h(x) = d / g`` with ``g = -n . b`` the cosine of the
   incidence; ``H = [n / g, (n . R' m) / g + d (n . b') / g^2]``,
   ``b' = (-sin(psi + phi), cos(psi + phi))``.
 
-Eq 8 (``x = x_lan - US``) is ``h`` for a sensor at base_link facing a wall
-across the x axis; eqs 6-7 are what two such ranges of a side pair imply for
+[seed004 eq8] (``x = x_lan - US``) is ``h`` for a sensor at base_link facing a wall
+across the x axis; [seed004 eq6] [seed004 eq7] are what two such ranges of a side pair imply for
 the heading (the EKF gets it from the ``psi`` column of ``H``).
 
 Association: for one reading the candidate walls are those whose line model

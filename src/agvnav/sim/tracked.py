@@ -7,12 +7,12 @@ Wiring only: the truth motion is :class:`agvnav.kinematics.TrackedVehicle`
 (seed 004 PID, Kp = 10, Ki = 20, Kd = 0.5, on a motor pair with asymmetry),
 the rangers are :class:`agvnav.sensors.ultrasonic.UltrasonicArray`, the
 estimator role :class:`~agvnav.positioning.wall_landmarks.WallLandmarkLocalizer`
-(dead reckoning corrected by the wall landmarks, seed 004 eqs 6-8), read by
+(dead reckoning corrected by the wall landmarks, [seed004 eq6] to [seed004 eq8]), read by
 the automaton :class:`agvnav.guidance.hybrid.HybridController` (Fig. 7) or by
 :class:`KanayamaAutopilot`, which follows any line/arc path instead.
 
 Truth versus nominal. The tracks slip on the ground as the *truth* terrain
-says; odometry (seed 004 eqs 3-5 generalised to the ICR model) converts the
+says; odometry ([seed004 eq3] to [seed004 eq5] generalised to the ICR model) converts the
 quantised sprocket-encoder increments with the *odometry* terrain: the figures
 the robot was calibrated with, which need not be the floor it drives on. That
 mismatch, not motor asymmetry, is what drifts (plus the random slip of

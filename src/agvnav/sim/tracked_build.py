@@ -193,8 +193,8 @@ class PathFollowResult:
 def _simulate_path(sc: TrackedScenario, progress: Callable[[float], None] | None) -> PathFollowResult:
     """The Kanayama path follower on the tracked plant.
 
-    Positioned by dead reckoning (eqs 3-5) corrected by the map's walls as ultrasonic
-    landmarks (eqs 6-8) when the map has walls: the same estimator as the automaton's.
+    Positioned by dead reckoning corrected by the map's walls as ultrasonic landmarks
+    when the map has walls: the same estimator as the automaton's.
     """
     from agvnav.actuators import PID, MotorPair, WheelSpeedLoop
     from agvnav.guidance.kanayama import KanayamaController, KanayamaGains
