@@ -183,3 +183,205 @@ def _positioning_figures(true_pose: ArrayLike, est_pose: ArrayLike, est_valid: A
         np.max(np.abs(lat)),
     )
     return {n: float(v) for n, v in zip(names, values, strict=True)}
+
+
+# --- Figures as the seeds define them (issue 13) -------------------------------------------
+#
+# Seed 000 §4.3 (Figs. 10-11): the path of C is an arc of radius 1.24 m followed by a 3 m
+# straight; "once the initial lateral deviation [110 mm] is corrected, the maximum lateral
+# error observed is 16.5 mm", and the wheel heading error, once "this transient" ends,
+# "stays below 3.8 deg oscillating around zero". The correction happens on the arc (the
+# initial offset is given at the start of the arc), so the part of Fig. 11 "after the
+# correction" is the straight. The figure is therefore read on the straight, from the true
+# path abscissa of C, not from a settling band (a band fixes the answer: the first sample
+# inside a 10 % band is 11 mm in every run). Two readings, both reported:
+#   - ``max_abs_eps_c_after_m``: from GUIDANCE_AFTER_M past the start of the straight
+#     (the reading the seed table compares: the junction's curvature step is a second,
+#     smaller transient the seed's sentence does not single out);
+#   - ``max_abs_eps_c_straight_m``: over the whole straight, junction included.
+# The settling distance is its own figure: the distance C rolled until |eps_c| enters
+# *and stays* within SETTLING_FRACTION of the initial offset.
+
+#: Distance past the start of the straight (m) from which the seed-000 guidance figures are read.
+GUIDANCE_AFTER_M = 0.5
+#: Settling band of the settling-distance figure, as a fraction of the initial lateral offset.
+SETTLING_FRACTION = 0.2
+#: Seed 000 §4.2: the photometric tracer marked one point of the trajectory every second.
+TRACER_PERIOD_S = 1.0
+
+
+def _one_d(name: str, value: ArrayLike) -> NDArray[np.float64]:
+    a = np.asarray(value, dtype=np.float64)
+    if a.ndim != 1 or a.size == 0:
+        raise ValueError(f"{name} must be a non-empty 1-D array, got shape {a.shape}")
+    return a
+
+
+def max_abs_from(signal: ArrayLike, abscissa: ArrayLike, start: float) -> float | None:
+    """Largest ``|signal|`` over the samples whose ``abscissa >= start``; None if there are none.
+
+    Parameters
+    ----------
+    signal : (n,)
+        Any error signal (m or rad); NaN samples are ignored.
+    abscissa : (n,)
+        A monotone progress variable of the same length (path abscissa or distance, m).
+    start : float
+        First abscissa included (same unit as ``abscissa``).
+    """
+    x, s = _one_d("signal", signal), _one_d("abscissa", abscissa)
+    if x.shape != s.shape:
+        raise ValueError(f"signal and abscissa must have the same shape, got {x.shape} and {s.shape}")
+    window = np.abs(x[(s >= start) & np.isfinite(x)])
+    return float(np.max(window)) if window.size else None
+
+
+def settling_distance(signal: ArrayLike, distance: ArrayLike, band: float) -> float | None:
+    """Distance (m) at which ``|signal|`` enters ``band`` and stays inside it to the end.
+
+    ``signal (n,)``, ``distance (n,)`` distance rolled since the start (m), ``band > 0``
+    in the unit of ``signal``. 0 when the signal starts inside and never leaves; None
+    when the last sample is outside (the signal never settled).
+    """
+    x, d = _one_d("signal", signal), _one_d("distance", distance)
+    if x.shape != d.shape:
+        raise ValueError(f"signal and distance must have the same shape, got {x.shape} and {d.shape}")
+    if not band > 0.0:
+        raise ValueError(f"band must be > 0, got {band!r}")
+    outside = np.flatnonzero(~(np.abs(x) <= band))
+    if outside.size == 0:
+        return 0.0
+    last = int(outside[-1])
+    return None if last == x.size - 1 else float(d[last + 1])
+
+
+@dataclass(frozen=True)
+class GuidanceFigures:
+    """Seed 000 §4.3 figures of one run, from the true errors (m, rad); None when undefined."""
+
+    max_abs_eps_c_after_m: float | None
+    max_abs_eps_c_straight_m: float | None
+    max_abs_xi_r_after_rad: float | None
+    settling_distance_m: float | None
+    initial_lateral_error_m: float
+    after_m: float
+    settling_band_m: float
+
+
+def guidance_figures(
+    s_true: ArrayLike,
+    distance: ArrayLike,
+    eps_c: ArrayLike,
+    xi_r: ArrayLike,
+    straight_start_s: float,
+    after_m: float = GUIDANCE_AFTER_M,
+    settling_fraction: float = SETTLING_FRACTION,
+) -> GuidanceFigures:
+    """The seed-000 guidance-test figures, read as the seed states them [seed000 §4.3].
+
+    Parameters
+    ----------
+    s_true : (n,) m
+        Path abscissa of the true C's projection.
+    distance : (n,) m
+        Distance rolled by C since the start.
+    eps_c, xi_r : (n,) m, rad
+        True lateral error of C and wheel heading error [seed000 eq9].
+    straight_start_s : float, m
+        Path abscissa where the straight begins (the arc length, 1.24 pi / 2 m in the seed).
+    after_m : float, m
+        The figures are read from this far past the start of the straight (>= 0).
+    settling_fraction : float
+        Settling band as a fraction of the initial |eps_c| (in (0, 1)).
+    """
+    e = _one_d("eps_c", eps_c)
+    if not after_m >= 0.0:
+        raise ValueError(f"after_m must be >= 0, got {after_m!r}")
+    if not 0.0 < settling_fraction < 1.0:
+        raise ValueError(f"settling_fraction must be in (0, 1), got {settling_fraction!r}")
+    e0 = float(e[0])
+    band = settling_fraction * abs(e0) if e0 != 0.0 else math.inf
+    settle = settling_distance(e, distance, band) if math.isfinite(band) else 0.0
+    return GuidanceFigures(
+        max_abs_eps_c_after_m=max_abs_from(e, s_true, straight_start_s + after_m),
+        max_abs_eps_c_straight_m=max_abs_from(e, s_true, straight_start_s),
+        max_abs_xi_r_after_rad=max_abs_from(wrap_angle(_one_d("xi_r", xi_r)), s_true, straight_start_s + after_m),
+        settling_distance_m=settle,
+        initial_lateral_error_m=e0,
+        after_m=float(after_m),
+        settling_band_m=band,
+    )
+
+
+def tracer_samples(t: ArrayLike, period: float = TRACER_PERIOD_S, phase: float = 0.0) -> NDArray[np.intp]:
+    """Indices of the samples nearest to the instants ``t[0] + phase + k period`` inside ``t``.
+
+    Seed 000 §4.2's tracer marks one point every second; the simulation records every
+    control step, so the seed's statistics are read from this subset [seed000 §4.2].
+    ``t (n,)`` increasing sample times (s), ``period > 0`` (s), ``0 <= phase < period``.
+    """
+    ts = _one_d("t", t)
+    if not period > 0.0:
+        raise ValueError(f"period must be > 0, got {period!r}")
+    if not 0.0 <= phase < period:
+        raise ValueError(f"phase must be in [0, period), got {phase!r}")
+    if np.any(np.diff(ts) <= 0.0):
+        raise ValueError("t must be strictly increasing")
+    marks = np.arange(ts[0] + phase, ts[-1] + 1e-12, period)
+    right = np.clip(np.searchsorted(ts, marks), 1, ts.size - 1) if ts.size > 1 else np.zeros(marks.size, np.intp)
+    left = np.maximum(right - 1, 0)
+    nearer_left = np.abs(ts[left] - marks) <= np.abs(ts[right] - marks)
+    return np.unique(np.where(nearer_left, left, right)).astype(np.intp)
+
+
+@dataclass(frozen=True)
+class LateralErrorStats:
+    """Statistics of the lateral positioning error e_lat (m) as seed 000 §4.2 quotes them.
+
+    ``std_abs_m`` is the std of |e_lat| (the reading the seed's 6.6 mm most likely is:
+    its ratio to the 9.7 mm mean is that of a folded distribution); ``std_signed_m`` the
+    std of the signed e_lat (the other reading). Population std (ddof 0).
+    """
+
+    mean_abs_m: float
+    std_abs_m: float
+    std_signed_m: float
+    max_abs_m: float
+    samples: int
+
+
+def lateral_error_statistics(
+    t: ArrayLike,
+    e_lat: ArrayLike,
+    valid: ArrayLike | None = None,
+    period: float = TRACER_PERIOD_S,
+    phase: float = 0.0,
+) -> LateralErrorStats | None:
+    """e_lat statistics sampled as seed 000's tracer sampled (one point per ``period`` s).
+
+    Parameters
+    ----------
+    t : (n,) s
+        Sample times, strictly increasing.
+    e_lat : (n,) m
+        Lateral positioning error (estimate minus truth, across the true heading).
+    valid : (n,) bool, optional
+        Samples where the estimator has a fix; the others are skipped.
+    period, phase : s
+        Tracer period and the offset of its first mark from ``t[0]``.
+
+    Returns None when no tracer mark falls on a valid, finite sample.
+    """
+    e = _one_d("e_lat", e_lat)
+    ts = _one_d("t", t)
+    if ts.shape != e.shape:
+        raise ValueError(f"t and e_lat must have the same shape, got {ts.shape} and {e.shape}")
+    ok = np.isfinite(e) if valid is None else np.asarray(valid, dtype=bool) & np.isfinite(e)
+    if ok.shape != e.shape:
+        raise ValueError(f"valid must have the shape of e_lat {e.shape}, got {ok.shape}")
+    k = tracer_samples(ts, period, phase)
+    x = e[k[ok[k]]]
+    if x.size == 0:
+        return None
+    a = np.abs(x)
+    return LateralErrorStats(float(np.mean(a)), float(np.std(a)), float(np.std(x)), float(np.max(a)), int(x.size))
