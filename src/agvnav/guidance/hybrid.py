@@ -41,7 +41,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 from typing import Any, Protocol
 
 import numpy as np
@@ -65,7 +65,7 @@ __all__ = [
 DEG = math.pi / 180.0
 
 
-class HybridState(str, Enum):
+class HybridState(StrEnum):
     """The five states of seed 004, Fig. 7."""
 
     E0 = "E0"  # advance
