@@ -397,7 +397,7 @@ def _estimator(sc: Scenario, world: WorldMap, x0: NDArray[np.float64]) -> Any:
     return guard(sc, ("positioning",), make_estimator, method, world, mount, **kwargs)
 
 
-def _watch(sc: Scenario, estimator: Any) -> EstimatorWatch:
+def _watch(sc: Scenario) -> EstimatorWatch:
     """The positioning guard (issue 12): active with the scenario's limits when a goniometer positions the vehicle.
 
     A vehicle without an absolute sensor is built to dead-reckon: its guard only records.
@@ -407,7 +407,7 @@ def _watch(sc: Scenario, estimator: Any) -> EstimatorWatch:
         sc, ("safety",), GuardLimits, s.lateral_3sigma_slow_m, s.lateral_3sigma_stop_m, s.slow_speed_fraction,
         s.resume_after_s,
     )
-    return EstimatorWatch(PositioningGuard(limits, enabled=s.enabled and sc.goniometer is not None), estimator)
+    return EstimatorWatch(PositioningGuard(limits, enabled=s.enabled and sc.goniometer is not None))
 
 
 def _sensors(sc: Scenario, world: WorldMap) -> list[Any]:
@@ -462,7 +462,7 @@ def build(sc: Scenario) -> Built:
         max_decel=tc.max_decel_m_s2,
     )
     estimator = _estimator(sc, world, x0)
-    pilot = PathAutopilot(follower, path, profile, plant, offset, watch=_watch(sc, estimator))
+    pilot = PathAutopilot(follower, path, profile, plant, offset, watch=_watch(sc))
     sensors = _sensors(sc, world)
     loop = ClosedLoop(_loop_plant(sc, plant, world), sensors, estimator, pilot, sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else _default_duration(sc, path)

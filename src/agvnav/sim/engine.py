@@ -101,7 +101,8 @@ class Autopilot(Protocol):
         """Current values of ``signal_names`` (commands, estimated errors...)."""
 
 
-STATUS_CODES = {"initialising": 0.0, "tracking": 1.0, "dead_reckoning": 2.0}
+#: Estimator status -> recorded code (-1: a status not listed here).
+STATUS_CODES = {"initialising": 0.0, "tracking": 1.0, "dead_reckoning": 2.0, "degraded": 3.0, "lost": 4.0}
 
 
 @dataclass

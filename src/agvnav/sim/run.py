@@ -10,15 +10,20 @@ the estimated pose, is recorded as ``lateral_error_est``/``heading_error_est``.
 
 The outcome is judged on the truth: ``completed`` when the autopilot finished
 and the true tracked point ended within ``end_tolerance`` of the path's end;
-otherwise ``failed`` with a reason (``jackknife`` or another plant failure,
-``timeout``, ``off_path_at_end``).
+otherwise ``failed`` with a reason (:data:`FAILURE_REASONS`): ``collision`` (the
+footprint touched a wall, :mod:`agvnav.sim.collision`), ``jackknife`` or another
+plant failure, ``infeasible`` (the follower could not command the path),
+``positioning_lost`` (the time limit came while the vehicle stood stopped by the
+positioning guard, :mod:`agvnav.sim.safety`), ``timeout``, ``off_path_at_end``.
+The integrity figures (:mod:`agvnav.sim.integrity`) go with the metrics.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,12 +32,16 @@ from agvnav.geometry import wrap_angle
 from agvnav.guidance import Path
 from agvnav.guidance.errors import tracking_errors
 from agvnav.sim.build import Built, build
-from agvnav.sim.tracked_build import simulate_tracked
+from agvnav.sim.integrity import integrity_figures
 from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, transient_end_index
+from agvnav.sim.tracked_build import simulate_tracked
 from agvnav.world import WorldMap
 from agvnav.world.scenario import Scenario
 
-__all__ = ["END_TOLERANCE_M", "SimResult", "simulate"]
+__all__ = ["END_TOLERANCE_M", "FAILURE_REASONS", "SimResult", "simulate"]
+
+#: Reasons a run fails (``off_path_at_end`` carries its miss distance in parentheses).
+FAILURE_REASONS = ("collision", "jackknife", "infeasible", "positioning_lost", "timeout", "off_path_at_end")
 
 #: How close (m) the true tracked point must end to the path's end for ``completed``.
 END_TOLERANCE_M = 0.1
@@ -52,6 +61,7 @@ class SimResult:
     outcome: str
     reason: str | None
     extra: dict[str, float]
+    integrity: dict[str, Any] = field(default_factory=dict)
 
     @property
     def completed(self) -> bool:
@@ -83,7 +93,7 @@ def simulate(
     k0 = transient_end_index(e, spec)
     true_pose = np.column_stack([series["x"], series["y"], series["psi"]])
     est_pose = np.column_stack([series["est_x"], series["est_y"], series["est_psi"]])
-    outcome, reason = _outcome(out.finished, out.failure, series, built)
+    outcome, reason = _outcome(out.finished, out.failure or built.autopilot.failure, series, built)
     refl = out.events.get("reflections", {})
     metrics = compute_metrics(
         series["t"],
@@ -104,7 +114,10 @@ def simulate(
     series["est_y_C"] = series["est_y"] + off * np.sin(series["est_psi"])
     t_end = None if k0 is None else float(series["t"][k0])
     extra = _extra_figures(series)
-    return SimResult(scenario, series, out.events, metrics, built.path, built.world, t_end, outcome, reason, extra)
+    integrity = integrity_figures(series, _distance(series), scenario.traction.max_decel_m_s2)
+    return SimResult(
+        scenario, series, out.events, metrics, built.path, built.world, t_end, outcome, reason, extra, integrity
+    )
 
 
 def _distance(series: dict[str, NDArray[np.float64]]) -> NDArray[np.float64]:
@@ -149,7 +162,8 @@ def _outcome(
     if failure is not None:
         return "failed", failure
     if not finished:
-        return "failed", "timeout"
+        stopped = "guard_level" in series and series["guard_level"][-1] >= 2.0
+        return "failed", "positioning_lost" if stopped else "timeout"
     end = built.path.point_at(built.path.length)
     x, y = float(series["x_tracked"][-1]), float(series["y_tracked"][-1])
     miss = math.hypot(x - float(end[0]), y - float(end[1]))

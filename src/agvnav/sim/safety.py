@@ -77,9 +77,14 @@ def lateral_sigma(cov: Sequence[float], psi: float) -> float:
     return math.sqrt(var) if var >= 0.0 else math.nan
 
 
-def demanded_level(status: str, lateral_3sigma: float, limits: GuardLimits) -> int:
-    """The level (index into :data:`GUARD_LEVELS`) that ``status`` and 3σ lateral (m) demand."""
+def demanded_level(status: str, lateral_3sigma: float | None, limits: GuardLimits) -> int:
+    """The level (index into :data:`GUARD_LEVELS`) that ``status`` and 3σ lateral (m) demand.
+
+    ``lateral_3sigma`` None: the estimator reports no covariance; only its status counts.
+    """
     level = _STATUS_LEVEL.get(status, 2)
+    if lateral_3sigma is None:
+        return level
     if not math.isfinite(lateral_3sigma) or lateral_3sigma > limits.lateral_3sigma_stop_m:
         return 2
     if lateral_3sigma > limits.lateral_3sigma_slow_m:
@@ -109,16 +114,16 @@ class PositioningGuard:
         self._better_since: float | None = None
         self._scales = (1.0, float(limits.slow_speed_fraction), 0.0)
 
-    def update(self, t: float, status: str, cov: Sequence[float], psi: float) -> float:
+    def update(self, t: float, status: str, cov: Sequence[float] | None, psi: float) -> float:
         """Take the estimator's state at ``t`` (s) and return the speed scale (0..1).
 
-        ``cov`` is the covariance flattened row-major (9 values), ``psi`` the estimated
-        heading (rad).
+        ``cov`` is the covariance flattened row-major (9 values; None for an estimator
+        that reports none), ``psi`` the estimated heading (rad).
         """
-        self.lateral_3sigma = 3.0 * lateral_sigma(cov, psi)
+        self.lateral_3sigma = math.nan if cov is None else 3.0 * lateral_sigma(cov, psi)
         if not self.enabled:
             return 1.0
-        demand = demanded_level(status, self.lateral_3sigma, self.limits)
+        demand = demanded_level(status, None if cov is None else self.lateral_3sigma, self.limits)
         if demand >= self.level:
             self.level = demand
             self._better_since = None
@@ -150,6 +155,9 @@ GUARD_SIGNALS = (
 )
 
 
+_NO_COV = [math.nan] * 9
+
+
 class EstimatorWatch:
     """Reads an estimator once per step for a :class:`PositioningGuard` and keeps the recorded signals.
 
@@ -159,18 +167,18 @@ class EstimatorWatch:
 
     signal_names = GUARD_SIGNALS
 
-    def __init__(self, guard: PositioningGuard, estimator: object) -> None:
+    def __init__(self, guard: PositioningGuard) -> None:
         self.guard = guard
-        self._has_quality = hasattr(type(estimator), "quality") or hasattr(estimator, "quality")
         nan = math.nan
         self._sig: tuple[float, ...] = (0.0, 1.0, nan, nan, nan, nan, nan, nan, nan, nan)
 
     def scale(self, t: float, estimator: Any) -> float:
         """The guard's speed scale at ``t`` (s) from ``estimator``'s status, covariance and heading."""
-        cov = [float(v) for v in estimator.covariance.ravel().tolist()]
+        P = getattr(estimator, "covariance", None)
+        cov = _NO_COV if P is None else [float(v) for v in P.ravel().tolist()]
         psi = float(estimator.pose[2])
-        scale = self.guard.update(t, str(estimator.status), cov, psi)
-        quality = _quality(estimator) if self._has_quality else math.nan
+        scale = self.guard.update(t, str(estimator.status), None if P is None else cov, psi)
+        quality = _quality(estimator)
         self._sig = (
             float(self.guard.level), scale, self.guard.lateral_3sigma,
             cov[0], cov[1], cov[2], cov[4], cov[5], cov[8], quality,
