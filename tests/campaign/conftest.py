@@ -1,10 +1,10 @@
 """Campaign test helpers: a short base scenario (0.4 m straight) and one 2-worker LocalCluster per session."""
 
-import logging
 import textwrap
 
 import pytest
-from distributed import LocalCluster
+
+from agvnav.campaign.runner import local_cluster
 
 #: Overrides that make the default scenario a ~3 s drive: a 0.4 m line, starting 20 mm off it.
 SHORT = """\
@@ -34,9 +34,6 @@ def write_campaign(tmp_path):
 
 @pytest.fixture(scope="session")
 def scheduler():
-    """Address of a 2-worker, 1-thread-each LocalCluster shared by the campaign tests."""
-    with LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR,
-        scheduler_kwargs={"dashboard_address": ":0"},
-    ) as cluster:
+    """Address of the runner's default cluster (2 single-threaded worker processes), shared by the tests."""
+    with local_cluster(2) as cluster:
         yield cluster.scheduler_address

@@ -1,7 +1,13 @@
-"""``agvnav campaign``: a small campaign on a 1-worker LocalCluster (tests/campaign use 2); one-line errors."""
+"""``agvnav campaign``: a small campaign through ``--scheduler`` (an in-process cluster); one-line errors.
+
+The 2-worker process cluster of ``agvnav campaign --workers`` runs in tests/campaign.
+"""
 
 import json
+import logging
 
+import pytest
+from distributed import LocalCluster
 from typer.testing import CliRunner
 
 from agvnav.campaign import load_campaign, plan_runs
@@ -24,15 +30,25 @@ metrics: [positioning_rms_m, max_abs_lateral_error_m]
 """
 
 
+@pytest.fixture(scope="module")
+def scheduler():
+    """A one-thread cluster inside this process: no worker processes to start."""
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None, silence_logs=logging.ERROR,
+        scheduler_kwargs={"dashboard_address": ":0"},
+    ) as cluster:
+        yield cluster.scheduler_address
+
+
 def _spec(tmp_path, text=SPEC):
     p = tmp_path / "c.yaml"
     p.write_text(text)
     return p
 
 
-def test_campaign_runs_and_writes_everything(tmp_path):
+def test_campaign_runs_and_writes_everything(tmp_path, scheduler):
     out = tmp_path / "out"
-    res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(out), "--workers", "1", "--json"])
+    res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(out), "--scheduler", scheduler, "--json"])
     assert res.exit_code == 0, res.output
     doc = json.loads(res.output)
     assert (doc["runs"], doc["ran"], doc["workers"]) == (4, 4, 1) and doc["runs_per_s"] > 0
@@ -43,7 +59,7 @@ def test_campaign_runs_and_writes_everything(tmp_path):
     assert {p.name for p in (out / "plots").iterdir()} == {
         "campaign_positioning_rms_m.png", "campaign_max_abs_lateral_error_m.png"
     }
-    args = ["campaign", str(_spec(tmp_path)), "--out", str(out), "--no-plots"]
+    args = ["campaign", str(_spec(tmp_path)), "--out", str(out), "--no-plots", "--scheduler", scheduler]
     again = runner.invoke(app, args, env={"COLUMNS": "200"})
     assert again.exit_code == 0, again.output
     text = " ".join(again.output.split())
@@ -68,6 +84,12 @@ def test_bad_spec_is_one_line_exit_2(tmp_path):
     assert f"c.yaml:{line}: grid.traction.speed_m_s[1]:" in res.output
     assert len(res.output.strip().splitlines()) == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_workers_and_scheduler_together_refused(tmp_path):
+    res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(tmp_path / "o"), "--workers", "2",
+                              "--scheduler", "tcp://127.0.0.1:1"])
+    assert res.exit_code == 2 and "not both" in res.output and not (tmp_path / "o").exists()
 
 
 def test_missing_file_and_bad_replay(tmp_path):

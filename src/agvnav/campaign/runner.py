@@ -35,7 +35,7 @@ from agvnav.campaign.store import check_manifest, finished_runs, read_results, r
 from agvnav.campaign.summary import summarize
 from agvnav.campaign.task import run_batch
 
-__all__ = ["CampaignResult", "batch_plans", "fingerprint", "run_campaign", "write_replay"]
+__all__ = ["CampaignResult", "batch_plans", "fingerprint", "local_cluster", "run_campaign", "write_replay"]
 
 #: Most runs in one task: ~0.5 s of work per task at the target 1000x real time.
 MAX_BATCH = 20
@@ -83,27 +83,31 @@ def batch_plans(plans: Sequence[RunPlan], workers: int, batch_size: int | None =
     return [list(plans[i : i + batch_size]) for i in range(0, len(plans), batch_size)]
 
 
+def local_cluster(workers: int = 2) -> LocalCluster:
+    """The default cluster: ``workers`` single-threaded worker processes, no dashboard, quiet logs.
+
+    One thread per process: the simulator is pure Python, so threads would only
+    contend for the interpreter lock.
+    """
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    return LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        scheduler_kwargs={"dashboard_address": ":0"},  # no dashboard; health routes on a free port
+        silence_logs=logging.ERROR,
+    )
+
+
 @contextmanager
 def _client(scheduler: str | None, workers: int | None) -> Iterator[Any]:
     if scheduler is not None:
-        if workers is not None:
-            raise ValueError("give --workers for a local cluster or --scheduler for an existing one, not both")
         with Client(scheduler) as client:
             yield client
         return
-    if workers is not None and workers < 1:
-        raise ValueError(f"workers must be >= 1, got {workers}")
-    with (
-        LocalCluster(
-            n_workers=workers or 2,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            scheduler_kwargs={"dashboard_address": ":0"},  # no dashboard; health routes on a free port
-            silence_logs=logging.ERROR,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
+    with local_cluster(2 if workers is None else workers) as cluster, Client(cluster) as client:
         yield client
 
 
@@ -189,6 +193,8 @@ def run_campaign(
     batch_size
         Runs per task (default: see :func:`batch_plans`).
     """
+    if scheduler is not None and workers is not None:
+        raise ValueError("give --workers for a local cluster or --scheduler for an existing one, not both")
     out = Path(out_dir)
     base = load_base(spec.resolve_base())
     plans = plan_runs(spec)
