@@ -21,14 +21,14 @@ def _series(n=200):
         "x": x,
         "y": zeros,
         "psi": zeros,
-        "x_C": x + 1.0,
-        "y_C": 0.1 * np.exp(-t),
+        "x_tracked": x + 1.0,
+        "y_tracked": 0.1 * np.exp(-t),
         "est_x": x + 0.001,
         "est_y": 0.002 * np.sin(t),
         "est_psi": zeros,
         "est_valid": np.ones(n),
-        "eps_c": 0.1 * np.exp(-t),
-        "xi_r": -0.1 * t * np.exp(-t),
+        "lateral_error": 0.1 * np.exp(-t),
+        "heading_error": -0.1 * t * np.exp(-t),
     }
 
 
@@ -45,7 +45,7 @@ def test_write_plots_creates_three_pngs(tmp_path):
 
 def test_single_plots_and_empty_histogram(tmp_path):
     s = _series(50)
-    _png(plot_errors(s["t"], s["eps_c"], s["xi_r"], tmp_path / "e.png"))
+    _png(plot_errors(s["t"], s["lateral_error"], s["heading_error"], tmp_path / "e.png"))
     xy = np.column_stack([s["x"], s["y"]])
     _png(plot_map(xy, xy, np.zeros((0, 2)), np.zeros((0, 2, 2)), tmp_path / "m.png"))
     _png(plot_positioning_histogram(np.array([np.nan]), tmp_path / "h.png"))
