@@ -67,3 +67,10 @@ def landmarks(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_O
 def vehicles(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
     """Every vehicle configuration on the same loop: completion, lateral and positioning errors (true pose)."""
     _run("vehicles", json, quick, seed)
+
+
+@bench_app.command("seeds")
+@user_errors
+def seeds(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+    """Every experimental figure of seeds 000/001 and 004: seed value, seed-method band, agvnav, driver."""
+    _run("seeds", json, quick, seed)
