@@ -15,10 +15,12 @@ from agvnav import seeds
 from agvnav.seeds import (
     REGENERATE,
     SCOPE,
+    SECTIONS,
     TAG_RE,
     citation_index,
     citations,
     free_text_citations,
+    is_reference,
     problems,
     render_markdown,
 )
@@ -76,16 +78,19 @@ def fake_package(tmp_path: Path) -> Path:
 
             def plain(self):
                 """No citation; the word equations alone is fine."""
+
+            def figure(self):
+                """A reference to an experiment [seed000 §4.3]; a section the seed lacks [seed000 §9.9]."""
         ''',
     )
     return pkg
 
 
 def test_grammar() -> None:
-    for good in ("[seed000 eq1]", "[seed002 eq26]", "[seed003 §3.2.6]", "[seed004 eq8]"):
+    for good in ("[seed000 eq1]", "[seed002 eq26]", "[seed003 §3.2.6]", "[seed004 eq8]", "[seed004 §II-B]"):
         assert TAG_RE.fullmatch(good), good
     for bad in ("[seed 000 eq1]", "[seed000 eq 1]", "[seed000 eqs 11-13]", "[seed000 eq01]", "[seed00 eq1]",
-                "[seed003 3.2.6]", "[Seed000 eq1]", "[seed000 eq.1]"):
+                "[seed003 3.2.6]", "[Seed000 eq1]", "[seed000 eq.1]", "[seed004 §II-b]"):
         assert not TAG_RE.fullmatch(bad), bad
 
 
@@ -101,6 +106,11 @@ def test_scope_is_the_seed_readme_table() -> None:
     assert list(SCOPE) == expected
     assert all(TAG_RE.fullmatch(t) for t in SCOPE)
     assert all(d.strip() and "\n" not in d for d in SCOPE.values())
+    # the section tags in scope are sections of the seed, and every known section is well formed
+    assert {t for t in SCOPE if "§" in t} <= SECTIONS
+    assert all(TAG_RE.fullmatch(t) for t in SECTIONS)
+    assert is_reference("[seed000 §4.3]") and not is_reference("[seed003 §3.2.6]")
+    assert not is_reference("[seed000 §9.9]")
 
 
 def test_index_on_a_synthetic_package(fake_package: Path) -> None:
@@ -109,7 +119,9 @@ def test_index_on_a_synthetic_package(fake_package: Path) -> None:
         "[seed000 eq11]": ["fakepkg.laws.general", "fakepkg.laws.general.inner"],
         "[seed000 eq12]": ["fakepkg.laws.general"],
         "[seed003 §3.2.5]": ["fakepkg.laws.Model"],
-        "[seed002 eq1]": ["fakepkg.laws.Model.rate"],  # out of scope: listed last
+        "[seed000 §4.3]": ["fakepkg.laws.Model.figure"],  # a section reference, after the equations
+        "[seed000 §9.9]": ["fakepkg.laws.Model.figure"],  # out of scope: listed last, sorted
+        "[seed002 eq1]": ["fakepkg.laws.Model.rate"],
     }
     found = citations(fake_package)
     assert [c.tag for c in found if not c.well_formed] == ["[seed000 eqs 11-13]", "[seed 000 eq 8]"]
@@ -121,6 +133,8 @@ def test_problems_on_a_synthetic_package(fake_package: Path) -> None:
     assert any("fakepkg.laws.general" in p and "malformed" in p and "[seed000 eqs 11-13]" in p for p in found)
     assert any("fakepkg.laws.Model.rate" in p and "malformed" in p and "[seed 000 eq 8]" in p for p in found)
     assert any("[seed002 eq1] is not an equation in scope" in p for p in found)
+    assert any("[seed000 §9.9] is not an equation in scope" in p for p in found)
+    assert not any("§4.3" in p for p in found)  # a reference to an existing section is fine
     missing = [p for p in found if p.endswith("has no implementing function")]
     # eq1 is only in a module docstring, which does not count as an implementation
     assert len(missing) == len(SCOPE) - 3
@@ -147,6 +161,7 @@ def test_markdown_lists_every_equation(fake_package: Path) -> None:
     assert "| `[seed000 eq12]` |" in text and "`fakepkg.laws.general`" in text
     assert "**none**" in text  # equations without implementation are visible
     assert "`[seed002 eq1]`: `fakepkg.laws.Model.rate`" in text
+    assert "| `[seed000 §4.3]` | `fakepkg.laws.Model.figure` |" in text
 
 
 # ------------------------------------------------------------------ agvnav itself

@@ -11,9 +11,11 @@ No ranges (``eqs 11-13`` is written ``[seed000 eq11] [seed000 eq12] [seed000 eq1
 :data:`SCOPE` lists the equations agvnav implements (the scope column of
 ``/work/shared/seeds/README.md``: seed 000 eqs 1-24, seed 001's one equation, seed 002
 eqs 2-26, seed 003's kinematic models §3.2.1-§3.2.7, seed 004 eqs 1-8), each with a
-one-line description. A tag outside :data:`SCOPE` (e.g. ``[seed002 eq1]``, which the
-seed only uses to define non-holonomy) is still well-formed but reported by
-:func:`problems`.
+one-line description. A section tag outside :data:`SCOPE` that names a section the seed
+has (:data:`SECTIONS`, e.g. ``[seed000 §4.3]`` for an experimental figure, ``[seed004 §II-B]``)
+is a *reference*: allowed, indexed and listed apart. Any other tag (``[seed002 eq1]``, which
+the seed only uses to define non-holonomy, or a section the seed does not have) is
+well-formed but reported by :func:`problems`.
 
 :func:`citation_index` walks the package source with :mod:`ast` (nothing is imported)
 and maps each tag to the qualified names of the functions, methods and classes whose
@@ -34,17 +36,19 @@ from pathlib import Path
 __all__ = [
     "REGENERATE",
     "SCOPE",
+    "SECTIONS",
     "TAG_RE",
     "Citation",
     "citation_index",
     "citations",
     "free_text_citations",
+    "is_reference",
     "problems",
     "render_markdown",
 ]
 
 #: A well-formed tag: ``[seed000 eq12]`` or ``[seed003 §3.2.6]``.
-TAG_RE = re.compile(r"\[seed(?P<seed>\d{3}) (?:eq(?P<eq>[1-9]\d*)|§(?P<sec>\d+(?:\.\d+)*))\]")
+TAG_RE = re.compile(r"\[seed(?P<seed>\d{3}) (?:eq(?P<eq>[1-9]\d*)|§(?P<sec>\d+(?:\.\d+)*|[IVX]+(?:-[A-Z])?))\]")
 #: Anything that starts like a tag (``[seed`` followed by a space or digits), well-formed or not.
 _TAG_LIKE_RE = re.compile(r"\[seed\s*\d[^\]\n]{0,40}\]?", re.IGNORECASE)
 
@@ -135,6 +139,22 @@ SCOPE: dict[str, str] = {
     **{f"[seed003 §{k}]": d for k, d in _SEED003.items()},
     **{f"[seed004 eq{k}]": d for k, d in _SEED004.items()},
 }
+
+_SECTIONS = {
+    "000": "1 2 2.1 2.2 2.3 3 3.1 3.2 3.3 4 4.1 4.2 4.3 5",
+    "001": "1 2 3 4 5 6",
+    "002": "1 2 3 3.1 3.2 3.3 3.3.1 3.3.2 3.3.3 4 5 6",
+    "003": "3.1 3.2 3.2.1 3.2.2 3.2.3 3.2.4 3.2.5 3.2.6 3.2.7 3.3 3.4 3.5 3.6 3.7 3.8 3.9",
+    "004": "I II II-A II-B II-C III",
+}
+#: Every section of the seeds (headings of /work/shared/seeds/*.txt) as a tag; the ones
+#: that are not in :data:`SCOPE` may be cited as references (``[seed000 §4.3]``).
+SECTIONS: frozenset[str] = frozenset(f"[seed{s} §{n}]" for s, ns in _SECTIONS.items() for n in ns.split())
+
+
+def is_reference(tag: str) -> bool:
+    """Whether ``tag`` cites a section of a seed that is not an equation in scope (allowed, listed apart)."""
+    return tag in SECTIONS and tag not in SCOPE
 
 
 @dataclass(frozen=True)
@@ -243,28 +263,30 @@ def citation_index(package_dir: Path | None = None) -> dict[str, list[str]]:
     -------
     dict tag -> sorted unique qualified names, e.g.
     ``{"[seed002 eq16]": ["agvnav.odometry.increments.differential_increments", ...]}``;
-    tags in :data:`SCOPE` order first, then any out-of-scope tags sorted.
+    tags in :data:`SCOPE` order first, then section references (:func:`is_reference`),
+    then any out-of-scope tags, each group sorted.
     """
     index: dict[str, set[str]] = {}
     for c in citations(package_dir):
         if c.is_definition and c.well_formed:
             index.setdefault(c.tag, set()).add(c.where)
-    order = [t for t in SCOPE if t in index] + sorted(t for t in index if t not in SCOPE)
+    refs = sorted(t for t in index if is_reference(t))
+    order = [t for t in SCOPE if t in index] + refs + sorted(t for t in index if t not in SCOPE and t not in refs)
     return {t: sorted(index[t]) for t in order}
 
 
 def problems(package_dir: Path | None = None) -> list[str]:
     """Everything wrong with the citations; empty when the tags are consistent with :data:`SCOPE`.
 
-    Reports malformed tags, tags naming an equation out of scope, and in-scope
-    equations that no function, method or class implements. Each message names the
+    Reports malformed tags, tags naming an equation out of scope or a section the seed
+    does not have, and in-scope equations that no function, method or class implements. Each message names the
     tag and where it is.
     """
     found = citations(package_dir)
     out = [f"{c.path}:{c.line} {c.where}: malformed tag {c.tag!r} (write [seed000 eq12] or [seed003 §3.2.6])"
            for c in found if not c.well_formed]
     out += [f"{c.path}:{c.line} {c.where}: {c.tag} is not an equation in scope (see agvnav.seeds.SCOPE)"
-            for c in found if c.well_formed and c.tag not in SCOPE]
+            for c in found if c.well_formed and c.tag not in SCOPE and not is_reference(c.tag)]
     implemented = {c.tag for c in found if c.is_definition and c.well_formed}
     out += [f"{tag} ({SCOPE[tag]}) has no implementing function" for tag in SCOPE if tag not in implemented]
     return out
@@ -291,7 +313,8 @@ def render_markdown(index: dict[str, list[str]] | None = None) -> str:
         "",
         "Tag grammar (in the docstring of the function that implements the equation, one tag per",
         "equation, no ranges): `[seed000 eq12]` for numbered equations, `[seed003 §3.2.6]` for",
-        "models the seed gives by section. Find the implementations of an equation with",
+        "models the seed gives by section; other sections may be cited as references",
+        "(`[seed000 §4.3]`, `[seed004 §II-B]`), listed after the table. Find the implementations of an equation with",
         "`grep -rnF '[seed000 eq12]' src`. The seeds are indexed in `/work/shared/seeds/README.md`.",
         "",
         "| tag | equation | implemented by |",
@@ -300,7 +323,11 @@ def render_markdown(index: dict[str, list[str]] | None = None) -> str:
     for tag, desc in SCOPE.items():
         names = "<br>".join(f"`{n}`" for n in index.get(tag, [])) or "**none**"
         lines.append(f"| `{tag}` | {desc.replace('|', '&#124;')} | {names} |")
-    extra = [t for t in index if t not in SCOPE]
+    refs = [t for t in index if is_reference(t)]
+    if refs:
+        lines += ["", "## Section references", "", "| tag | cited by |", "| --- | --- |"]
+        lines += [f"| `{t}` | " + "<br>".join(f"`{n}`" for n in index[t]) + " |" for t in refs]
+    extra = [t for t in index if t not in SCOPE and not is_reference(t)]
     if extra:
         lines += ["", "Tags out of scope (fix them):", ""]
         lines += [f"- `{t}`: " + ", ".join(f"`{n}`" for n in index[t]) for t in extra]
