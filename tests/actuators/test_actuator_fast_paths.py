@@ -7,7 +7,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from agvnav.actuators import PID, MotorPair, WheelSpeedLoop
-from agvnav.actuators._fast import ScalarSpeedLoop
+from agvnav.actuators.scalar import ScalarSpeedLoop
 from agvnav.actuators.speed_profile import _profile_speed_scalar, profile_speed
 from agvnav.actuators.steering import _steering_step_scalar, steering_step
 

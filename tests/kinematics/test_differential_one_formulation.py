@@ -24,9 +24,9 @@ from agvnav.kinematics import (
     wheel_speeds,
     wheel_speeds_unchecked,
 )
-from agvnav.kinematics._fast import track_twist
+from agvnav.kinematics.scalar import track_twist
 from agvnav.odometry import differential_increments, differential_wheel_distances
-from agvnav.odometry._fast import differential_increments_scalar, track_increments
+from agvnav.odometry.scalar import differential_increments_scalar, track_increments
 
 speed = st.floats(-3.0, 3.0)
 track = st.floats(0.05, 2.0)

@@ -7,7 +7,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from agvnav.kinematics import TricycleStacker, twist_step
-from agvnav.kinematics._fast import stacker_rk4, twist_pose
+from agvnav.kinematics.scalar import stacker_rk4, twist_pose
 
 
 def test_scalar_stacker_step_matches_kinematics_package():

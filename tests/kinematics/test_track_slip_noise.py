@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from agvnav.kinematics import TrackedVehicle, TrackSlipNoise
-from agvnav.kinematics._fast import track_twist
+from agvnav.kinematics.scalar import track_twist
 
 
 @given(st.floats(0.0, 2.0), st.floats(0.0, 0.05), st.integers(0, 2**32 - 1))

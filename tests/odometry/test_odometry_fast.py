@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from agvnav.kinematics.tracked import TrackedVehicle, TrackTerrain
 from agvnav.odometry import differential_increments, tricycle_increments
-from agvnav.odometry._fast import track_increments, tricycle_increments_scalar
+from agvnav.odometry.scalar import track_increments, tricycle_increments_scalar
 
 
 @given(st.floats(-0.1, 0.1), st.floats(-1.5707, 1.5707))

@@ -1,13 +1,13 @@
-"""The goniometer scan's scalar fast paths are bit-identical to the vectorised forms."""
+"""The goniometer scan's grid and encoder fast path, and the compiled crossing kernels against ground truth."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from agvnav.geometry import wrap_angle
 from agvnav.sensors import Goniometer
-from agvnav.sensors import goniometer as gmod
-from agvnav.sensors.goniometer import _bracket_grid
+from agvnav.sensors.goniometer import Reflections, _bracket_grid, leading_edge_bearing
 from agvnav.world import load_builtin_map
 
 
@@ -27,9 +27,12 @@ def test_encoder_bearing_few_equals_vectorised(direction: int, phase: float) -> 
     np.testing.assert_array_equal(g._encoder_bearing_few(t[:0]), g.encoder_bearing(t[:0]))
 
 
-def _scan_drive(monkeypatch, few: int):
-    """A moving, turning head scanned in 50 ms windows; ``few`` selects the root finder's branch."""
-    monkeypatch.setattr(gmod, "_FEW", few)
+def test_compiled_crossings_solve_the_crossing_equation() -> None:
+    """Every reported instant is where the head angle meets the leading edge (public NumPy form).
+
+    The compiled kernels of :mod:`agvnav.sensors.beam` find the instants; the check uses
+    :func:`leading_edge_bearing` and :meth:`Goniometer.head_angle`, another formulation.
+    """
     world = load_builtin_map("lab")
     g = Goniometer(mount=(0.3, 0.05, 0.02))
 
@@ -37,14 +40,14 @@ def _scan_drive(monkeypatch, few: int):
         t = np.asarray(t, dtype=np.float64)
         return np.stack([4.0 + 0.8 * t, 3.0 + 0.5 * np.sin(t), 0.3 + 0.4 * t], axis=-1)
 
-    return [g.scan(world, pose_at, 0.05 * k, 0.05 * (k + 1)) for k in range(60)]
-
-
-def test_scalar_root_finder_matches_the_vectorised_one(monkeypatch) -> None:
-    few = _scan_drive(monkeypatch, 8)
-    vec = _scan_drive(monkeypatch, 0)
-    assert sum(len(p) for p in few) > 100
-    for a, b in zip(few, vec, strict=True):
-        np.testing.assert_array_equal(a.reflector_index, b.reflector_index)
-        np.testing.assert_allclose(a.t, b.t, rtol=0, atol=1e-12)
-        np.testing.assert_array_equal(a.bearing, b.bearing)
+    parts = [g.scan(world, pose_at, 0.05 * k, 0.05 * (k + 1)) for k in range(60)]
+    out = Reflections.concatenate(parts)
+    assert len(out) > 100
+    head = g.head_pose(pose_at(out.t))
+    edge, _, valid = leading_edge_bearing(head, world.reflector_xy[out.reflector_index],
+                                          world.reflector_radius[out.reflector_index])
+    assert valid.all()
+    beam = wrap_angle(g.head_angle(out.t))  # head angle in the head frame
+    np.testing.assert_allclose(wrap_angle(beam - edge), 0.0, atol=1e-9)
+    # the quantised bearing is the encoder reading at that instant, one step below the beam
+    assert np.all(wrap_angle(beam - out.bearing) < g.resolution + 1e-12)

@@ -84,7 +84,7 @@ def body_twist_matrix(track: float) -> TwistMatrix:
     ``[[1/2, 1/2], [0, 0], [1/L, −1/L]]``, [seed002 eq8] per unit wheel radius: the columns
     are :func:`body_speeds_unchecked` of a unit speed of each wheel, so it is the same
     formulation in matrix form, for hot loops that apply a (possibly perturbed) matrix, such
-    as :func:`agvnav.kinematics._fast.track_twist`. Applied to the wheel distances of a
+    as :func:`agvnav.kinematics.scalar.track_twist`. Applied to the wheel distances of a
     step it gives ``(ΔD, 0, Δθ)`` of [seed002 eq16].
 
     Parameters

@@ -23,13 +23,11 @@ reflections ("shiny surfaces") are a Poisson process in time whose bearing is
 the encoder reading at that instant; timestamp jitter is Gaussian, clipped into
 the scan window. The same seed *and the same windows* reproduce a scan bit for bit.
 
-Cost: one call costs one vectorised pose evaluation of the quarter-revolution
-grid plus ~2 pose evaluations for all its crossings together (about 0.1 ms for a
-50 ms window holding three crossings, nearly independent of the window length up
-to a quarter revolution, 31 ms at 8 Hz), so a simulator should scan once per
-control step rather than in finer slices. With a few crossings per window the
-root finder and the encoder readings run in ``math`` (the same updates as the
-vectorised forms, tested against them): NumPy's per-call overhead dominated there.
+Cost: one call evaluates the pose on the quarter-revolution grid once and ~2 more
+times for all its crossings together; the offsets, the bracket search and the
+line-of-sight tests run in the compiled kernels of :mod:`agvnav.sensors.beam` (one
+formulation, looping over reflectors and walls without NumPy per-call overhead),
+so a simulator should scan once per control step rather than in finer slices.
 """
 
 from __future__ import annotations
@@ -43,6 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import require_finite, require_nonnegative, require_positive
 from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
+from agvnav.sensors.beam import grid_crossings, line_of_sight, offsets_at
 from agvnav.world.map import WorldMap
 
 __all__ = [
@@ -60,7 +59,6 @@ _BRACKETS_PER_REV = 4
 _ANGLE_TOL = 1e-10  # rad: root-finding tolerance on the beam-edge offset (1e-6 of a 65535 encoder step)
 _MAX_ITER = 60
 _CHORD_ITER = 6
-_FEW = 8  # up to this many crossings per scan, the root finder iterates in ``math`` (see _chord_few)
 
 PoseFunction = Callable[[NDArray[np.float64]], ArrayLike]
 _EPS = float(np.finfo(np.float64).eps)
@@ -78,8 +76,6 @@ class _MapArrays:
     rx: NDArray[np.float64]  # (N,) reflector centres x, y (m) and radii (m)
     ry: NDArray[np.float64]
     r: NDArray[np.float64]
-    xy: NDArray[np.float64]  # (N, 2) reflector centres (m)
-    r2: NDArray[np.float64]  # (N,) squared radii (m^2)
     wall_x0: NDArray[np.float64]  # (M,) wall segment starts (m) and directions (m)
     wall_y0: NDArray[np.float64]
     wall_vx: NDArray[np.float64]
@@ -89,8 +85,7 @@ class _MapArrays:
     def of(cls, world: WorldMap) -> _MapArrays:
         xy, seg = world.reflector_xy, world.wall_segments
         return cls(
-            world, xy[:, 0].copy(), xy[:, 1].copy(), world.reflector_radius, xy,
-            world.reflector_radius * world.reflector_radius,
+            world, xy[:, 0].copy(), xy[:, 1].copy(), world.reflector_radius,
             seg[:, 0, 0].copy(), seg[:, 0, 1].copy(),
             seg[:, 1, 0] - seg[:, 0, 0], seg[:, 1, 1] - seg[:, 0, 1],
         )
@@ -396,87 +391,53 @@ class Goniometer:
             cached = self._maps[id(world)] = _MapArrays.of(world)
         return cached
 
-    def _offsets(
-        self, world: WorldMap, pose_at: PoseFunction, t: NDArray[np.float64], index: NDArray[np.intp] | None
-    ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]:
-        """Unwrapped beam-minus-leading-edge angle ``direction*(beam - edge)`` (rad) at instants ``t (k,)``.
-
-        ``index=None`` gives every reflector, shape ``(k, N)``; otherwise one reflector
-        per instant, shape ``(k,)``. Also returns the head position ``(x (k,), y (k,))`` and the
-        head-to-centre distance.
-        Written out by hand (no stacking, no wrapping): this is the simulator's hot path.
-        """
-        m = self._map_arrays(world)
-        if index is None:
-            return self._offsets_to(pose_at, t, m.rx, m.ry, m.r, True)
-        return self._offsets_to(pose_at, t, m.rx[index], m.ry[index], m.r[index], False)
-
-    def _offsets_to(
-        self,
-        pose_at: PoseFunction,
-        t: NDArray[np.float64],
-        rx: NDArray[np.float64],
-        ry: NDArray[np.float64],
-        r: NDArray[np.float64],
-        every: bool,
-    ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]:
-        """:meth:`_offsets` on reflector columns: every one at every instant (``every``), or one per instant."""
-        pose = _call_pose(pose_at, t)
+    def _consts(self) -> tuple[float, float, float, float, int]:
+        """Per-scan constants of the beam kernels: mount offset ``(mx, my)`` (m), beam phase
+        ``phase + mount_theta`` (rad), ``direction * 2 pi f`` (rad/s) and the direction."""
         mx, my, mth = self.mount
-        heading = pose[:, 2]
-        px, py = pose[:, 0], pose[:, 1]
-        if mx != 0.0 or my != 0.0:
-            c, s = np.cos(heading), np.sin(heading)
-            px, py = px + c * mx - s * my, py + s * mx + c * my
-        # Unwrapped beam direction: the caller wraps once. Over an hour (2*pi*f*t ~ 2e5 rad)
-        # this loses ~3e-11 rad, far below the 1e-10 rad root tolerance and the encoder step.
-        beam = heading + (self.phase + mth) + (self.direction * TWO_PI * self.rate_hz) * t
-        head = (px, py)
-        if every:
-            px, py, beam = px[:, None], py[:, None], beam[:, None]
-        dx, dy = rx - px, ry - py
-        d = np.hypot(dx, dy)
-        # asin(r/d) saturates at pi/2 inside a cylinder (d <= r); _visible rejects those.
-        half_width = np.arcsin(np.minimum(r / np.maximum(d, 1e-300), 1.0))
-        if self.direction == 1:
-            offset = beam - np.arctan2(dy, dx) + half_width
-        else:
-            offset = np.arctan2(dy, dx) + half_width - beam
-        return offset, head, d
+        return mx, my, self.phase + mth, self.direction * TWO_PI * self.rate_hz, self.direction
+
+    def _offsets(
+        self, pose_at: PoseFunction, t: NDArray[np.float64],
+        target: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    ) -> tuple[NDArray[np.float64], ...]:
+        """Unwrapped offsets (rad), head x, y (m) and distances (m) at ``t (c,)``, one reflector per instant."""
+        mx, my, phase, omega, direction = self._consts()
+        rx, ry, r = target
+        return offsets_at(t, _call_pose(pose_at, t), rx, ry, r, mx, my, phase, omega, direction)
 
     def _true_reflections(
         self, world: WorldMap, pose_at: PoseFunction, t0: float, t1: float
     ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         """Exact, unquantised instants and reflector rows of the visible crossings in (t0, t1]."""
-        if world.reflector_xy.shape[0] == 0:
+        m = self._map_arrays(world)
+        if m.rx.shape[0] == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
         n_int = max(1, math.ceil((t1 - t0) * self.rate_hz * _BRACKETS_PER_REV))
         grid = _bracket_grid(t0, t1, n_int)
-        offset, _, _ = self._offsets(world, pose_at, grid, None)
-        w = np.mod(offset, TWO_PI)  # in [0, 2*pi)
-        # A crossing: the wrapped offset drops by more than pi over one bracket
-        # (it passes 2*pi; a small drop would be the beam lagging, not a crossing).
-        crossing = (w[:-1] - w[1:]) > math.pi
-        interval, refl = np.nonzero(crossing)
+        consts = self._consts()
+        interval, refl, f_lo, f_hi = grid_crossings(grid, _call_pose(pose_at, grid), m.rx, m.ry, m.r, *consts)
         if interval.size == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
-        f_lo = w[interval, refl] - TWO_PI
-        f_hi = w[interval + 1, refl]
-        t_star, head_xy, d = self._refine(world, pose_at, grid[interval], grid[interval + 1], f_lo, f_hi, refl)
-        seen = self._visible(world, refl, head_xy, d)
-        order = np.argsort(t_star[seen], kind="stable")
-        return t_star[seen][order], refl[seen][order].astype(np.int64)
+        t_star, hx, hy, d = self._refine(m, pose_at, grid[interval], grid[interval + 1], f_lo, f_hi, refl)
+        seen = line_of_sight(refl, hx, hy, d, m.rx, m.ry, m.r, m.wall_x0, m.wall_y0, m.wall_vx, m.wall_vy,
+                             self.min_range, self.max_range)
+        t_seen, r_seen = t_star[seen], refl[seen]
+        if t_seen.size > 1:
+            order = np.argsort(t_seen, kind="stable")
+            t_seen, r_seen = t_seen[order], r_seen[order]
+        return t_seen, r_seen
 
     def _refine(
         self,
-        world: WorldMap,
+        m: _MapArrays,
         pose_at: PoseFunction,
         lo: NDArray[np.float64],
         hi: NDArray[np.float64],
         f_lo: NDArray[np.float64],
         f_hi: NDArray[np.float64],
-        refl: NDArray[np.intp],
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        refl: NDArray[np.int64],
+    ) -> tuple[NDArray[np.float64], ...]:
         """Crossing instants in the brackets ``[lo, hi]`` (``f_lo < 0 <= f_hi``), all at once.
 
         Common path: chord iterations ``t <- t - f(t) / slope`` with the bracket's
@@ -484,56 +445,19 @@ class Goniometer:
         slope is right to ~1e-4 and two pose evaluations reach 1e-10 rad. If that
         fails (a reflector within centimetres of a fast-moving head), a bracketed
         Illinois iteration takes over. Returns the instants, the head position there
-        ``(c, 2)`` and the head-to-centre distances.
+        ``x (c,), y (c,)`` and the head-to-centre distances (m).
         """
         tol = self._tolerance(hi)
         slope = (f_hi - f_lo) / (hi - lo)  # > 0: f_hi >= 0 > f_lo
         t = lo - f_lo / slope
-        m = self._map_arrays(world)
-        rx, ry, r = m.rx[refl], m.ry[refl], m.r[refl]  # the same reflectors at every iteration
-        if t.size <= _FEW:
-            done = self._chord_few(pose_at, t, slope, lo, hi, (rx, ry, r), tol)
-            return done if done is not None else self._illinois(world, pose_at, lo, hi, f_lo, f_hi, refl, tol)
+        target = (m.rx[refl], m.ry[refl], m.r[refl])  # the same reflectors at every iteration
         for _ in range(_CHORD_ITER):
-            raw, head, d = self._offsets_to(pose_at, t, rx, ry, r, False)
+            raw, hx, hy, d = self._offsets(pose_at, t, target)
             f = wrap_angle(raw)  # continuous on the bracket (see _BRACKETS_PER_REV)
             if np.abs(f).max() <= tol:
-                return t, np.column_stack(head), d
+                return t, hx, hy, d
             t = np.minimum(np.maximum(t - f / slope, lo), hi)  # np.clip, without its dispatch cost
-        return self._illinois(world, pose_at, lo, hi, f_lo, f_hi, refl, tol)
-
-    def _chord_few(
-        self,
-        pose_at: PoseFunction,
-        t: NDArray[np.float64],
-        slope: NDArray[np.float64],
-        lo: NDArray[np.float64],
-        hi: NDArray[np.float64],
-        targets: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
-        tol: float,
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None:
-        """The chord iterations of :meth:`_refine` in ``math`` for a few crossings, in lockstep.
-
-        Same updates as the vectorised loop (all crossings step until all have converged);
-        NumPy's per-call overhead dominated on three or four elements. None if not converged.
-        """
-        t_l, s_l, lo_l, hi_l = t.tolist(), slope.tolist(), lo.tolist(), hi.tolist()
-        rows = list(zip(*(a.tolist() for a in targets), strict=True))
-        consts = self._offset_constants()  # hoisted out of the per-element calls
-        for _ in range(_CHORD_ITER):
-            pose = _call_pose(pose_at, np.array(t_l)).tolist()
-            res = [_offset_one(p, ti, row, consts) for p, ti, row in zip(pose, t_l, rows, strict=True)]
-            f = [wrap_angle_scalar(o[0]) for o in res]
-            if max(abs(v) for v in f) <= tol:
-                return np.array(t_l), np.array([(o[1], o[2]) for o in res]), np.array([o[3] for o in res])
-            t_l = [min(max(ti - fi / si, a), b) for ti, fi, si, a, b in zip(t_l, f, s_l, lo_l, hi_l, strict=True)]
-        return None
-
-    def _offset_constants(self) -> tuple[float, float, float, float, bool]:
-        """Per-scan constants of :func:`_offset_one`: mount offset ``(mx, my)`` (m), the beam phase
-        ``phase + mount_theta`` (rad), ``direction * 2 pi f`` (rad/s) and whether the head turns positively."""
-        mx, my, mth = self.mount
-        return mx, my, self.phase + mth, self.direction * TWO_PI * self.rate_hz, self.direction == 1
+        return self._illinois(pose_at, lo, hi, f_lo, f_hi, target, tol)
 
     def _tolerance(self, t: NDArray[np.float64]) -> float:
         """Root tolerance (rad): 1e-10, or the float noise of t itself if larger (t ~ 1 h: ~2e-11 rad)."""
@@ -541,20 +465,19 @@ class Goniometer:
 
     def _illinois(
         self,
-        world: WorldMap,
         pose_at: PoseFunction,
         lo: NDArray[np.float64],
         hi: NDArray[np.float64],
         f_lo: NDArray[np.float64],
         f_hi: NDArray[np.float64],
-        refl: NDArray[np.intp],
+        target: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
         tol: float,
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    ) -> tuple[NDArray[np.float64], ...]:
         """Vectorised Illinois (modified regula falsi) on the brackets: slower, always converges."""
         side = np.zeros(lo.shape, dtype=np.int8)
         t = hi - f_hi * (hi - lo) / (f_hi - f_lo)
         for _ in range(_MAX_ITER):
-            raw, head, d = self._offsets(world, pose_at, t, refl)
+            raw, hx, hy, d = self._offsets(pose_at, t, target)
             f = wrap_angle(raw)
             if np.all(np.abs(f) <= tol):
                 break
@@ -569,29 +492,8 @@ class Goniometer:
                 break
             t = t_new
         else:
-            _, head, d = self._offsets(world, pose_at, t, refl)
-        return t, np.column_stack(head), d
-
-    def _visible(
-        self, world: WorldMap, refl: NDArray[np.intp], head_xy: NDArray[np.float64], d: NDArray[np.float64]
-    ) -> NDArray[np.bool_]:
-        """Range limits and occlusion by walls and by other reflectors at the crossing instants.
-
-        The line of sight is tested from P to the near surface of the cylinder (distance
-        ``d - r`` along the centre line): the cylinder is small, so testing the tangent
-        ray itself would change nothing but make wall-mounted reflectors graze their wall.
-        """
-        m = self._map_arrays(world)
-        r = m.r[refl]
-        range2 = d * d - r * r  # squared beam range to the tangent point; <= 0 inside the cylinder
-        ok = (range2 > 0.0) & (range2 >= self.min_range**2) & (range2 <= self.max_range**2)
-        if not ok.any():
-            return ok
-        scale = (d - r) / np.maximum(d, 1e-300) * (1.0 - 1e-9)
-        ray = (m.xy[refl] - head_xy) * scale[:, None]
-        blocked = _ray_hits_walls(head_xy, ray, m)
-        blocked |= _ray_hits_discs(head_xy, ray, m, refl)
-        return ok & ~blocked
+            _, hx, hy, d = self._offsets(pose_at, t, target)
+        return t, hx, hy, d
 
     def _encoder_bearing_few(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
         """:meth:`encoder_bearing`, element by element in ``math`` for the few instants of one scan.
@@ -650,30 +552,6 @@ def _bracket_grid(t0: float, t1: float, n_int: int) -> NDArray[np.float64]:
     return np.array([i * step + t0 for i in range(n_int)] + [t1])
 
 
-def _offset_one(
-    pose: Sequence[float], t: float, target: tuple[float, float, float],
-    consts: tuple[float, float, float, float, bool],
-) -> tuple[float, float, float, float]:
-    """:meth:`Goniometer._offsets_to` for one instant and one reflector: ``(offset, head x, head y, d)``.
-
-    Same operations in the same order as the vectorised kernel (bit-identical), on the
-    constants of :meth:`Goniometer._offset_constants`.
-    """
-    x, y, heading = pose
-    mx, my, phase, omega, forward = consts
-    if mx != 0.0 or my != 0.0:
-        c, s = math.cos(heading), math.sin(heading)
-        x, y = x + c * mx - s * my, y + s * mx + c * my
-    beam = heading + phase + omega * t
-    rx, ry, r = target
-    dx, dy = rx - x, ry - y
-    d = math.hypot(dx, dy)
-    half_width = math.asin(min(r / max(d, 1e-300), 1.0))
-    if forward:
-        return beam - math.atan2(dy, dx) + half_width, x, y, d
-    return math.atan2(dy, dx) + half_width - beam, x, y, d
-
-
 def _call_pose(pose_at: PoseFunction, t: NDArray[np.float64]) -> NDArray[np.float64]:
     """``pose_at(t)`` as a finite ``(k, 3)`` array, else ValueError."""
     pose = np.asarray(pose_at(t), dtype=np.float64)
@@ -682,46 +560,3 @@ def _call_pose(pose_at: PoseFunction, t: NDArray[np.float64]) -> NDArray[np.floa
     if not np.isfinite(pose).all():  # the method: np.all's dispatch costs more on 3x3
         raise ValueError("pose_at(t) returned NaN or inf")
     return pose
-
-
-def _ray_hits_walls(origin: NDArray[np.float64], ray: NDArray[np.float64], m: _MapArrays) -> NDArray[np.bool_]:
-    """``(c,)`` True where the segment ``origin -> origin + ray`` ``(c, 2)`` crosses any of the map's walls.
-
-    On the cached wall columns (start ``(M,)``, direction ``(M,)``). With ``a`` the
-    wall start relative to the origin, ``v`` the wall direction and ``u`` the ray,
-    the crossing is at ``s = (a x v) / (u x v)`` along the ray and
-    ``w = (a x u) / (u x v)`` along the wall; both in [0, 1] means blocked (signs
-    folded into the numerators to avoid dividing). Parallel (grazing) pairs do not block.
-    """
-    if m.wall_x0.shape[0] == 0:
-        return np.zeros(origin.shape[0], dtype=bool)
-    ux, uy = ray[:, 0:1], ray[:, 1:2]  # (c, 1)
-    ax, ay = m.wall_x0 - origin[:, 0:1], m.wall_y0 - origin[:, 1:2]  # (c, M)
-    vx, vy = m.wall_vx, m.wall_vy
-    den = ux * vy - uy * vx
-    sign = np.sign(den)
-    num_s = (ax * vy - ay * vx) * sign
-    num_w = (ax * uy - ay * ux) * sign
-    den = np.abs(den)
-    hit = (num_s >= 0.0) & (num_s <= den) & (num_w >= 0.0) & (num_w <= den) & (den > 0.0)
-    return np.any(hit, axis=1)
-
-
-def _ray_hits_discs(
-    origin: NDArray[np.float64],
-    ray: NDArray[np.float64],
-    m: _MapArrays,
-    target: NDArray[np.intp],
-) -> NDArray[np.bool_]:
-    """``(c,)`` True where the segment ``origin -> origin + ray`` passes within another reflector's radius.
-
-    On the cached reflector columns of ``m`` (centres ``rx, ry (N,)``, squared radii ``r2 (N,)``).
-    """
-    ux, uy = ray[:, 0:1], ray[:, 1:2]  # (c, 1)
-    cx, cy = m.rx - origin[:, 0:1], m.ry - origin[:, 1:2]  # (c, N)
-    length2 = np.maximum(ux * ux + uy * uy, 1e-300)
-    tau = np.clip((cx * ux + cy * uy) / length2, 0.0, 1.0)
-    gx, gy = cx - tau * ux, cy - tau * uy
-    hit = gx * gx + gy * gy < m.r2
-    hit[np.arange(target.size), target] = False
-    return np.any(hit, axis=1)

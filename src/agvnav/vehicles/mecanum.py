@@ -26,8 +26,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav.actuators import WheelSpeedLoop
-from agvnav.actuators._fast import ScalarSpeedLoop
-from agvnav.kinematics._fast import twist_pose
+from agvnav.actuators.scalar import ScalarSpeedLoop
+from agvnav.kinematics.scalar import twist_pose
 from agvnav.kinematics.omnidirectional import MecanumBase
 from agvnav.odometry.errors import NonSystematicErrors
 from agvnav.sensors.encoders import WheelEncoder, wheel_count

@@ -51,7 +51,7 @@ def differential_twist_matrix(track: float, misalignment: float = 0.0) -> list[l
     along the wheels' rolling direction turned by ``misalignment`` (rad; seed 002
     §3.1 systematic errors). Applied to wheel *distances* of a step it gives the
     odometry increments ``(ΔD, Δθ)`` of seed 002 eq. 16. Nested floats, the form
-    :func:`agvnav.kinematics._fast.track_twist` takes.
+    :func:`agvnav.kinematics.scalar.track_twist` takes.
     """
     if not (math.isfinite(track) and track > 0.0):
         raise ValueError(f"track must be a positive number of metres, got {track!r}")

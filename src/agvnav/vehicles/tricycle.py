@@ -28,8 +28,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav.actuators import SteeringActuator
-from agvnav.kinematics._fast import stacker_rk4
-from agvnav.odometry._fast import tricycle_increments_scalar
+from agvnav.kinematics.scalar import stacker_rk4
+from agvnav.odometry.scalar import tricycle_increments_scalar
 from agvnav.odometry.errors import NonSystematicErrors, TricycleErrors
 from agvnav.sensors.encoders import SteeringEncoder, WheelEncoder, steering_reading, wheel_count
 from agvnav.vehicles.geometry import SteeredGeometry, box_footprint, check_footprint

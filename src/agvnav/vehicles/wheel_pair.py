@@ -25,9 +25,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav.actuators import WheelSpeedLoop
-from agvnav.actuators._fast import ScalarSpeedLoop
-from agvnav.kinematics._fast import track_twist, twist_pose
-from agvnav.odometry._fast import track_increments
+from agvnav.actuators.scalar import ScalarSpeedLoop
+from agvnav.kinematics.scalar import track_twist, twist_pose
+from agvnav.odometry.scalar import track_increments
 from agvnav.sensors.encoders import WheelEncoder, wheel_count
 from agvnav.vehicles.geometry import UnicycleGeometry, check_footprint
 from agvnav.vehicles.motion import piecewise_twist_pose

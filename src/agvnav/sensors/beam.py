@@ -1,0 +1,193 @@
+"""Compiled kernels of the goniometer's beam geometry (seed 000 §2.1), one formulation each.
+
+The rotating beam meets a cylindrical reflector at the instant the offset between
+the beam direction and the reflector's leading tangent edge passes a whole turn
+(:meth:`agvnav.sensors.goniometer.Goniometer.scan`). These kernels evaluate that
+offset (:func:`offset_one`, the one formulation), find the brackets where it passes
+``2 pi`` on a time grid for every reflector (:func:`grid_crossings`), evaluate it for
+one reflector per instant (:func:`offsets_at`) and test the line of sight
+(:func:`line_of_sight`). They are compiled by numba (``cache=True``: compiled once per
+machine, reused across runs), loop over plain float64 arrays, and serve one vehicle
+or a batch of instants alike: the goniometer calls them with the pose samples its
+``pose_at`` gave, so no NumPy per-call overhead remains in the scan's inner loops.
+No ``fastmath``: the arithmetic is IEEE, operation for operation as written.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, TypeVar, cast
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+__all__ = ["grid_crossings", "line_of_sight", "offset_one", "offsets_at"]
+
+_TWO_PI = 2.0 * math.pi
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _jit(fn: F) -> F:
+    """Compile ``fn`` with numba (no fastmath; cached on disk), keeping its Python signature for mypy."""
+    return cast(F, njit(cache=True)(fn))
+
+
+@_jit
+def offset_one(
+    x: float, y: float, heading: float, t: float, rx: float, ry: float, r: float,
+    mx: float, my: float, phase: float, omega: float, direction: int,
+) -> tuple[float, float, float, float]:
+    """Unwrapped beam-minus-leading-edge angle for one instant and one reflector (seed 000 §2.1).
+
+    Parameters
+    ----------
+    x, y, heading : base_link pose at ``t`` (m, m, rad).
+    t : instant (s).
+    rx, ry, r : reflector centre (m) and radius (m).
+    mx, my : head centre P in base_link (m).
+    phase : head angle at t = 0 plus the mount's yaw (rad).
+    omega : ``direction * 2 pi f`` (rad/s).
+    direction : +1 for a CCW head, -1 for CW.
+
+    Returns
+    -------
+    ``(offset (rad), head x (m), head y (m), head-to-centre distance d (m))``; the offset is
+    ``direction * (beam - edge)`` with the edge at ``atan2 - direction * asin(r/d)``
+    (``asin`` saturates at pi/2 inside the cylinder, ``d <= r``; the caller rejects those).
+    """
+    if mx != 0.0 or my != 0.0:
+        c, s = math.cos(heading), math.sin(heading)
+        x, y = x + c * mx - s * my, y + s * mx + c * my
+    beam = heading + phase + omega * t
+    dx, dy = rx - x, ry - y
+    d = math.hypot(dx, dy)
+    half_width = math.asin(min(r / max(d, 1e-300), 1.0))
+    if direction == 1:
+        return beam - math.atan2(dy, dx) + half_width, x, y, d
+    return math.atan2(dy, dx) + half_width - beam, x, y, d
+
+
+@_jit
+def grid_crossings(
+    grid: NDArray[np.float64], pose: NDArray[np.float64],
+    rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64],
+    mx: float, my: float, phase: float, omega: float, direction: int,
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    """Brackets of the grid where a reflector's offset passes a whole turn.
+
+    ``grid (k,)`` instants (s) with the base_link poses ``pose (k, 3)``; reflectors
+    ``rx, ry, r (N,)`` (m). The offset, reduced to ``[0, 2 pi)``, drops by more than pi
+    over a bracket where the beam passes the edge. Returns, bracket-major then by
+    reflector, the bracket index ``i`` (crossing in ``[grid[i], grid[i+1]]``), the
+    reflector row, and the offset at both ends (``f_lo`` in ``[-2 pi, 0)``, ``f_hi >= 0``).
+    """
+    k, n = grid.shape[0], rx.shape[0]
+    w = np.empty((k, n))
+    for i in range(k):
+        for j in range(n):
+            o = offset_one(pose[i, 0], pose[i, 1], pose[i, 2], grid[i], rx[j], ry[j], r[j],
+                           mx, my, phase, omega, direction)[0]
+            w[i, j] = o % _TWO_PI
+    m = max(k - 1, 0) * n
+    interval, refl = np.empty(m, np.int64), np.empty(m, np.int64)
+    f_lo, f_hi = np.empty(m), np.empty(m)
+    c = 0
+    for i in range(k - 1):
+        for j in range(n):
+            if w[i, j] - w[i + 1, j] > math.pi:
+                interval[c], refl[c] = i, j
+                f_lo[c], f_hi[c] = w[i, j] - _TWO_PI, w[i + 1, j]
+                c += 1
+    return interval[:c], refl[:c], f_lo[:c], f_hi[:c]
+
+
+@_jit
+def offsets_at(
+    t: NDArray[np.float64], pose: NDArray[np.float64],
+    rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64],
+    mx: float, my: float, phase: float, omega: float, direction: int,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`offset_one` for one reflector per instant: ``t (c,)``, ``pose (c, 3)``, reflectors ``(c,)``.
+
+    Returns the unwrapped offsets (rad), head x, head y (m) and head-to-centre distances (m), each ``(c,)``.
+    """
+    c = t.shape[0]
+    off, hx, hy, d = np.empty(c), np.empty(c), np.empty(c), np.empty(c)
+    for i in range(c):
+        off[i], hx[i], hy[i], d[i] = offset_one(pose[i, 0], pose[i, 1], pose[i, 2], t[i], rx[i], ry[i], r[i],
+                                                mx, my, phase, omega, direction)
+    return off, hx, hy, d
+
+
+@_jit
+def line_of_sight(
+    refl: NDArray[np.int64], hx: NDArray[np.float64], hy: NDArray[np.float64], d: NDArray[np.float64],
+    rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64],
+    wall_x0: NDArray[np.float64], wall_y0: NDArray[np.float64],
+    wall_vx: NDArray[np.float64], wall_vy: NDArray[np.float64],
+    min_range: float, max_range: float,
+) -> NDArray[np.bool_]:
+    """``(c,)`` True where reflector ``refl[i]`` is in range and seen from the head ``(hx, hy)[i]``.
+
+    In range: the squared beam length to the tangent point ``d^2 - r^2`` is positive and within
+    ``[min_range^2, max_range^2]`` (m^2). Seen: the segment from the head to the near surface
+    of the cylinder (``(d - r)/d`` of the way to the centre, shortened by 1e-9) crosses no wall
+    ``start (wall_x0, wall_y0) + [0, 1] (wall_vx, wall_vy)`` (parallel pairs do not block:
+    with ``a`` the wall start from the head, ``u`` the ray and ``v`` the wall, ``s = (a x v)/(u x v)``
+    and ``w = (a x u)/(u x v)`` both in [0, 1] block) and passes no other reflector closer than
+    its radius.
+    """
+    c = refl.shape[0]
+    out = np.zeros(c, np.bool_)
+    for i in range(c):
+        j = refl[i]
+        range2 = d[i] * d[i] - r[j] * r[j]
+        if not (range2 > 0.0 and range2 >= min_range * min_range and range2 <= max_range * max_range):
+            continue
+        scale = (d[i] - r[j]) / max(d[i], 1e-300) * (1.0 - 1e-9)
+        ux, uy = (rx[j] - hx[i]) * scale, (ry[j] - hy[i]) * scale
+        out[i] = not (_hits_wall(hx[i], hy[i], ux, uy, wall_x0, wall_y0, wall_vx, wall_vy)
+                      or _hits_disc(hx[i], hy[i], ux, uy, rx, ry, r, j))
+    return out
+
+
+@_jit
+def _hits_wall(
+    ox: float, oy: float, ux: float, uy: float,
+    wall_x0: NDArray[np.float64], wall_y0: NDArray[np.float64],
+    wall_vx: NDArray[np.float64], wall_vy: NDArray[np.float64],
+) -> bool:
+    """True if the segment ``o -> o + u`` crosses any wall segment (see :func:`line_of_sight`)."""
+    for m in range(wall_x0.shape[0]):
+        vx, vy = wall_vx[m], wall_vy[m]
+        ax, ay = wall_x0[m] - ox, wall_y0[m] - oy
+        den = ux * vy - uy * vx
+        if den == 0.0:
+            continue
+        sign = 1.0 if den > 0.0 else -1.0
+        num_s = (ax * vy - ay * vx) * sign
+        num_w = (ax * uy - ay * ux) * sign
+        den = abs(den)
+        if 0.0 <= num_s <= den and 0.0 <= num_w <= den:
+            return True
+    return False
+
+
+@_jit
+def _hits_disc(
+    ox: float, oy: float, ux: float, uy: float,
+    rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64], target: int,
+) -> bool:
+    """True if the segment ``o -> o + u`` passes within the radius of a reflector other than ``target``."""
+    length2 = max(ux * ux + uy * uy, 1e-300)
+    for j in range(rx.shape[0]):
+        if j == target:
+            continue
+        cx, cy = rx[j] - ox, ry[j] - oy
+        tau = min(max((cx * ux + cy * uy) / length2, 0.0), 1.0)
+        gx, gy = cx - tau * ux, cy - tau * uy
+        if gx * gx + gy * gy < r[j] * r[j]:
+            return True
+    return False
