@@ -31,8 +31,10 @@ def test_simulate_writes_all_outputs(tmp_path):
             "positioning_histogram.png"} <= names
     m = json.loads((out / "metrics.json").read_text())
     for key in ("max_abs_lateral_error_m", "rms_lateral_error_m", "max_abs_wheel_heading_error_rad",
-                "settling_distance_m", "positioning_rms_m", "sim_time_s", "wall_time_s"):
+                "settling_distance_m", "positioning_rms_m", "sim_time_s", "integrity"):
         assert key in m
+    assert "wall_time_s" not in m and "real_time_factor" not in m  # machine figures: timing.json
+    assert set(json.loads((out / "timing.json").read_text())) == {"wall_time_s", "real_time_factor"}
     assert m["seed"] == 3 and m["sim_time_s"] == 4.0
     assert m["outcome"] == "failed" and m["reason"] == "timeout"
     header = (out / "timeseries.csv").read_text().splitlines()[0].split(",")

@@ -1,9 +1,12 @@
-"""``agvnav simulate [SCENARIO] [--out DIR] [--seed N]``: the product's main job.
+"""``agvnav simulate [SCENARIO] [--out DIR] [--seed N] [--force]``: the product's main job.
 
 Runs a closed-loop scenario (the seed-000 guidance test in the lab when none is
 given) with a progress bar, prints a summary table and writes ``DIR/metrics.json``,
-``DIR/timeseries.csv``, ``DIR/reflections.csv`` and the PNG plots. Argument
-parsing and printing only; the work is :func:`agvnav.sim.simulate`.
+``DIR/timing.json``, ``DIR/timeseries.csv``, ``DIR/reflections.csv`` and the PNG
+plots, all at once at the end (:func:`agvnav.report.files.atomic_dir`); a DIR that
+holds another run is refused (exit 2) unless ``--force``. A run that ran but
+failed exits 3 after one line ``run FAILED: <reason>``. Argument parsing and
+printing only; the work is :func:`agvnav.sim.simulate`.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ SCENARIO_ARG = typer.Argument(
 OUT_OPT = typer.Option(Path("sim_out"), "--out", "-o", help="Output folder for metrics.json, CSV series and PNG plots.")
 SEED_OPT = typer.Option(None, "--seed", min=0, help="Random seed (overrides the scenario's); same seed, same run.")
 PLOTS_OPT = typer.Option(True, "--plots/--no-plots", help="Write the PNG plots.")
+FORCE_OPT = typer.Option(False, "--force", help="Replace an --out folder that holds another run's results.")
 
 
 @user_errors
@@ -33,21 +37,22 @@ def simulate(
     out: Path = OUT_OPT,
     seed: int | None = SEED_OPT,
     plots: bool = PLOTS_OPT,
+    force: bool = FORCE_OPT,
 ) -> None:
-    """Run a closed-loop scenario; write metrics.json, time series (CSV) and plots."""
+    """Run a closed-loop scenario; write metrics.json, timing.json, time series (CSV) and plots."""
     from agvnav.world.scenario import default_scenario, load_scenario
 
     sc = default_scenario() if scenario is None else load_scenario(scenario)
     if seed is not None:
         sc = sc.with_seed(seed)
     if sc.route is not None:  # the seed-004 automaton on its square route
-        return _simulate_route(sc, out, plots)
+        return _simulate_route(sc, out, plots, force)
     from agvnav.report.files import save_result
     from agvnav.sim import simulate as run_scenario
     from agvnav.sim.build import build
 
     build(sc)  # validate every cross-part rule before the progress bar starts
-    _prepare_out(out)
+    _prepare_out(out, force)
     console = Console(highlight=False)
     with Progress(
         TextColumn(f"[bold]{sc.name}[/bold]"),
@@ -59,7 +64,7 @@ def simulate(
     ) as bar:
         task = bar.add_task("simulate", total=None, t=0.0)
         result = run_scenario(sc, progress=lambda t: bar.update(task, t=t))
-    written = save_result(result, out, plots=plots)
+    written = save_result(result, out, plots=plots, force=force)
     console.print(_summary(result))
     console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
     if not result.completed:
@@ -71,13 +76,14 @@ def simulate(
 RUN_FAILED_EXIT = 3
 
 
-def _simulate_route(sc: Any, out: Path, plots: bool) -> None:
+def _simulate_route(sc: Any, out: Path, plots: bool, force: bool) -> None:
     """The seed-004 tracked robot on its square route: laps with and without landmarks (Tables I-II)."""
+    from agvnav.report.files import atomic_dir
     from agvnav.report.laps import summary_table
     from agvnav.sim.tracked_build import prepare_tracked, save_tracked, simulate_tracked
 
     prepare_tracked(sc)  # validate before the progress bar
-    _prepare_out(out)
+    _prepare_out(out, force)
     console = Console(highlight=False)
     with Progress(
         TextColumn(f"[bold]{sc.name}[/bold]"),
@@ -88,22 +94,30 @@ def _simulate_route(sc: Any, out: Path, plots: bool) -> None:
     ) as bar:
         task = bar.add_task("simulate", total=None, t=0.0)
         result = simulate_tracked(sc, progress=lambda t: bar.update(task, t=t))
-    written = save_tracked(result, out, plots)
+    with atomic_dir(out, force) as tmp:
+        written = [out / p.name for p in save_tracked(result, tmp, plots)]
     console.print(summary_table(result))
     console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
 
 
-def _prepare_out(out: Path) -> None:
-    """Create the output folder and check it is writable before the run (exit 2 with one line if not)."""
+def _prepare_out(out: Path, force: bool) -> None:
+    """Before the run: refuse a folder holding another run (unless ``force``); check the parent is writable.
+
+    Exit 2 with one line if not. Nothing is created yet: the results arrive all at once.
+    """
+    from agvnav.report.files import check_out_dir
+
+    if out.exists() and not out.is_dir():
+        raise fail(f"--out {out}: cannot create the output folder (it is a file)")
+    check_out_dir(out, force)
+    parent = out.absolute().parent
     try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".agvnav_write_check"
+        parent.mkdir(parents=True, exist_ok=True)
+        probe = parent / f".{out.name}.agvnav_write_check"
         probe.write_bytes(b"")
         probe.unlink()
     except OSError as exc:
         reason = exc.strerror or type(exc).__name__
-        if out.exists() and not out.is_dir():
-            reason = "it is a file"
         raise fail(f"--out {out}: cannot create the output folder ({reason})") from None
 
 

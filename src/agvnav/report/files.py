@@ -1,52 +1,157 @@
-"""Write a run's results: metrics.json, the time series and events as CSV, and the plots.
+"""Write a run's results: metrics.json, timing.json, the time series and events as CSV, and the plots.
 
 Units: SI and radians; the CSV columns are named in :mod:`agvnav.sim` terms and
 documented in docs/scenarios.md.
+
+Outputs are safe to trust (issue 12 §4): :func:`atomic_dir` writes every file into
+a hidden temporary folder beside the target and renames it into place at the end,
+so the folder always holds one complete run (a crash or Ctrl-C leaves the old
+folder untouched). A folder that already holds a run (it has a metrics.json) is
+refused unless ``force``; it is then replaced as a whole. A non-empty folder
+without a metrics.json is never replaced. metrics.json holds only figures that
+are deterministic for the seed; wall time and real-time factor go to timing.json,
+so two runs with the same seed write byte-identical files except timing.json.
 """
 
 from __future__ import annotations
 
 import json
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.report.plots import write_plots
+
 if TYPE_CHECKING:
     from agvnav.sim.run import SimResult
 
-__all__ = ["metrics_document", "save_result", "write_csv"]
+__all__ = [
+    "TIMING_KEYS",
+    "OutputFolderError",
+    "atomic_dir",
+    "check_out_dir",
+    "metrics_document",
+    "save_result",
+    "timing_document",
+    "write_csv",
+]
+
+#: Figures that depend on the machine, not the seed: timing.json, never metrics.json.
+TIMING_KEYS = ("wall_time_s", "real_time_factor")
+
+
+class OutputFolderError(ValueError):
+    """The output folder holds another run (or other files) and may not be replaced."""
 
 
 def metrics_document(result: SimResult) -> dict[str, Any]:
-    """The content of metrics.json: outcome, the metrics, and how the transient was defined."""
+    """The content of metrics.json: outcome, the metrics, integrity figures, how the transient was defined.
+
+    Deterministic for the scenario and seed (no timing: see :func:`timing_document`).
+    """
+    figures = {k: v for k, v in result.metrics.to_dict().items() if k not in TIMING_KEYS}
     return {
         "scenario": result.scenario.name,
         "vehicle": result.scenario.vehicle.model,
         "seed": result.scenario.seed,
         "outcome": result.outcome,
         "reason": result.reason,
-        **result.metrics.to_dict(),
+        **figures,
         **result.extra,
         "transient": "ends at the first sample with |lateral error| <= max(10% of its initial value, 5 mm)",
         "transient_end_s": result.transient_end_s,
+        "integrity": result.integrity,
     }
 
 
-def save_result(result: SimResult, out_dir: str | Path, plots: bool = True) -> list[Path]:
-    """Write metrics.json, timeseries.csv, reflections.csv and (optionally) the PNG plots; return the paths."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    p = out / "metrics.json"
-    p.write_text(json.dumps(metrics_document(result), indent=2) + "\n", encoding="utf-8")
-    written = [p, write_csv(out / "timeseries.csv", result.series)]
+def timing_document(result: SimResult) -> dict[str, Any]:
+    """The content of timing.json: wall time (s) and real-time factor of the run."""
+    figures = result.metrics.to_dict()
+    return {k: figures[k] for k in TIMING_KEYS}
+
+
+def check_out_dir(out: str | Path, force: bool = False) -> None:
+    """Refuse ``out`` when it holds another run (unless ``force``) or files that are not a run.
+
+    Raises :class:`OutputFolderError` (a ValueError) saying which and what to do.
+    """
+    p = Path(out)
+    if not p.exists():
+        return
+    if not p.is_dir():
+        raise OutputFolderError(f"--out {p}: it is a file, not a folder")
+    entries = [e.name for e in p.iterdir()]
+    if not entries:
+        return
+    if "metrics.json" not in entries:
+        raise OutputFolderError(f"--out {p}: the folder holds files that are not an agvnav run; choose another folder")
+    if not force:
+        raise OutputFolderError(f"--out {p}: the folder holds another run's results; use --force to replace them")
+
+
+@contextmanager
+def atomic_dir(out: str | Path, force: bool = False) -> Iterator[Path]:
+    """Yield a temporary folder beside ``out``; on success it replaces ``out`` as a whole.
+
+    ``out`` is checked with :func:`check_out_dir` first. On any error (or Ctrl-C)
+    the temporary folder is removed and ``out`` is left as it was.
+    """
+    target = Path(out)
+    check_out_dir(target, force)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.partial-", dir=target.parent))
+    try:
+        yield tmp
+        _replace_dir(tmp, target)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _replace_dir(new: Path, target: Path) -> None:
+    """Rename ``new`` to ``target``; an existing ``target`` is moved aside first and removed after."""
+    if not target.exists():
+        os.replace(new, target)
+        return
+    old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", dir=target.parent))
+    os.replace(target, old / target.name)
+    os.replace(new, target)
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def save_result(result: SimResult, out_dir: str | Path, plots: bool = True, force: bool = False) -> list[Path]:
+    """Write metrics.json, timing.json, the CSVs and (optionally) the plots atomically; return the final paths.
+
+    ``force`` replaces a folder holding another run (see :func:`check_out_dir`).
+    """
+    final = Path(out_dir)
+    with atomic_dir(final, force) as tmp:
+        written = _write_all(result, tmp, plots)
+    return [final / p.name for p in written]
+
+
+def _json(path: Path, document: dict[str, Any]) -> Path:
+    path.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+    return path
+
+
+def _write_all(result: SimResult, out: Path, plots: bool) -> list[Path]:
+    """Every result file of ``result`` into ``out``."""
+    written = [
+        _json(out / "metrics.json", metrics_document(result)),
+        _json(out / "timing.json", timing_document(result)),
+        write_csv(out / "timeseries.csv", result.series),
+    ]
     refl = result.events.get("reflections")
     if refl is not None:
         written.append(write_csv(out / "reflections.csv", refl))
     if plots:
-        from agvnav.report.plots import write_plots
-
         written += write_plots(
             result.series,
             result.path_polyline(),
