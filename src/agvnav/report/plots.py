@@ -158,6 +158,9 @@ def write_plots(
     e_lat = lateral_position_error(true_pose[valid], est_pose[valid])
     return [
         plot_map(path_xy, driven, reflector_xy, wall_segments, out_dir / "map.png", est_xy, title),
-        plot_errors(series["t"], series["lateral_error"], series["heading_error"], out_dir / "errors.png", transient_end_s, title),
+        plot_errors(
+            series["t"], series["lateral_error"], series["heading_error"], out_dir / "errors.png",
+            transient_end_s, title,
+        ),
         plot_positioning_histogram(e_lat, out_dir / "positioning_histogram.png", title),
     ]

@@ -28,8 +28,10 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "x_tracked": ("m", "true tracked point x"),
     "y_tracked": ("m", "true tracked point y"),
     "lateral_error": ("m", "true lateral error of the tracked point from the path, left positive"),
-    "heading_error": ("rad", "true heading error: wheel heading error xi_r (steered) or body heading against "
-                      "the path tangent plus yaw offset"),
+    "heading_error": ("rad", (
+        "true heading error: wheel heading error xi_r (steered) or body heading against the path tangent plus "
+        "yaw offset"
+    )),
     "s_true": ("m", "path abscissa of the true tracked point's projection"),
     "eps_c": ("m", "seed 000 Fig. 5 lateral error of the tracked point (steered vehicles)"),
     "eps_o": ("m", "seed 000 Fig. 5 lateral error of O (steered vehicles)"),
@@ -78,8 +80,9 @@ COLUMNS: dict[str, tuple[str, str]] = {
 EVENT_COLUMNS: dict[str, tuple[str, str]] = {
     "t": ("s", "instant of the reflection"),
     "bearing": ("rad", "measured bearing in the head frame, quantised by the encoder"),
-    "reflector_index": ("-", "ground truth: index of the reflector in the true map, -1 spurious (never used by "
-                        "positioning)"),
+    "reflector_index": ("-", (
+        "ground truth: index of the reflector in the true map, -1 spurious (never used by positioning)"
+    )),
 }
 
 
@@ -94,8 +97,10 @@ def outputs_reference() -> list[str]:
     return [
         "## Outputs of `agvnav simulate --out DIR`",
         "",
-        "- `metrics.json`: outcome (`completed` or `failed` with a reason), the run's figures (SI units), "
-        "the transient definition;",
+        (
+            "- `metrics.json`: outcome (`completed` or `failed` with a reason), the run's figures (SI units), "
+            "the transient definition;"
+        ),
         "- `timeseries.csv`: one row per control step, the columns below (a vehicle writes the ones it has);",
         "- `reflections.csv`: one row per goniometer reflection;",
         "- `map.png`, `errors.png`, `positioning_histogram.png`: the plots.",
