@@ -1,9 +1,12 @@
 """``agvnav bench landmarks``: seed 004 Tables I-II over seeds, with and without wall landmarks.
 
-For each terrain (concrete, artificial grass) the shipped 3.5 m square scenario
-(``tracked_square_3p5_<terrain>``, whose YAML documents the drift calibration)
-is driven for 10 laps with and without landmarks, over several random seeds
-(slip noise and ultrasonic noise). One record per terrain and mode:
+For each terrain (concrete, artificial grass) agvnav's 3.5 m square scenario
+(``tracked_square_3p5_<terrain>``: landmark corrections blended, lateral
+recalibration on; the odometry mismatch in its YAML is one assumed value, not a
+measured one) is driven for 10 laps with and without landmarks, over several
+random seeds (slip noise and ultrasonic noise). The comparison with the seed's
+tables, with the seed's own landmark rule and a band over the unknown parameters,
+is ``agvnav bench seeds``; this table reports agvnav's figures only. One record per terrain and mode:
 ``mean_error_per_lap_m`` / ``max_error_per_lap_m`` over all laps and seeds of
 the per-lap error (distance between consecutive true lap end points, see
 :mod:`agvnav.sim.laps`), ``laps`` per run; also the distance from the start
@@ -18,22 +21,24 @@ from typing import Any
 
 import numpy as np
 
-TITLE = "Seed 004 tracked robot: error per lap with and without wall landmarks (3.5 m square, 15 cm/s)"
+from agvnav.sim.laps import run_tracked
+from agvnav.sim.tracked_build import prepare_tracked
+from agvnav.world.scenario import load_scenario
+from agvnav.world.tracked_scenario import TrackedScenario
+
+TITLE = "Seed 004 tracked robot, agvnav's landmark rule: error per lap with and without wall landmarks (3.5 m, 15 cm/s)"
 
 TERRAINS = {"concrete": "tracked_square_3p5_concrete", "artificial_grass": "tracked_square_3p5_grass"}
-SEED_TARGET_M = 0.10  # seed 004 Tables I-II: about 10 cm per lap with landmarks (50 cm without)
 
 
 def run(quick: bool, seed: int) -> list[dict[str, Any]]:
     """Records ``terrain, landmarks, mean_error_per_lap_m, max_error_per_lap_m, laps`` (+ extras)."""
-    from agvnav.sim.laps import run_tracked
-    from agvnav.sim.tracked_build import prepare_tracked
-    from agvnav.world.scenario import load_scenario
-
     laps, n_seeds = (2, 1) if quick else (10, 3)
-    records = []
+    records: list[dict[str, Any]] = []
     for terrain, name in TERRAINS.items():
         sc = load_scenario(name)
+        if not isinstance(sc, TrackedScenario):
+            raise ValueError(f"scenario {name} is not a tracked-robot scenario")
         for landmarks in (True, False):
             per_lap, first, final, wall = [], [], [], 0.0
             for k in range(n_seeds):
@@ -54,7 +59,6 @@ def run(quick: bool, seed: int) -> list[dict[str, Any]]:
                 "seeds": n_seeds,
                 "first_lap_from_start_m": float(np.mean(first)),
                 "final_from_start_m": float(np.mean(final)),
-                "meets_seed_10cm": bool(np.mean(e) <= SEED_TARGET_M) if landmarks else None,
                 "wall_time_per_run_s": wall / n_seeds,
             })
     return records
