@@ -77,6 +77,7 @@ def test_more_runs_extend_a_gridless_campaign(write_campaign, scheduler, tmp_pat
     res = run_campaign(load_campaign(write_campaign("runs: 2\n", name="more.yaml")), out, scheduler=scheduler,
                        progress=False)
     assert (res.ran, res.skipped) == (1, 1)
+    assert json.loads((out / "campaign.json").read_text())["runs"] == 2
 
 
 def test_batches():

@@ -105,7 +105,7 @@ def read_results(out_dir: str | Path) -> pa.Table:
 
 
 def check_manifest(out_dir: str | Path, manifest: Mapping[str, Any]) -> None:
-    """Write ``campaign.json``, or check that the folder holds the same campaign (same fingerprint).
+    """Check that ``out_dir`` holds no other campaign (another fingerprint), then (re)write ``campaign.json``.
 
     Raises
     ------
@@ -120,6 +120,5 @@ def check_manifest(out_dir: str | Path, manifest: Mapping[str, Any]) -> None:
                 f"{out_dir} holds results of another campaign ({old.get('name')!r}, a different spec or base); "
                 "use another --out or remove it"
             )
-        return
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(dict(manifest), indent=2) + "\n", encoding="utf-8")
