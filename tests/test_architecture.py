@@ -118,7 +118,7 @@ def test_no_private_names_of_another_package():
     bad = []
     for mod, path in MODULES.items():
         for base, names, line in _imports(path):
-            if _package(base) in ("", _package(mod)) or base.count(".") == 1 and _package(base).startswith("_"):
+            if _package(base) in ("", _package(mod)) or (base.count(".") == 1 and _package(base).startswith("_")):
                 continue
             private_module = any(part.startswith("_") for part in base.split(".")[1:])
             private_names = [n for n in names if n.startswith("_")]

@@ -71,12 +71,14 @@ def test_goniometer_mounted_outside_the_body_is_refused():
 
 
 def test_reverse_segment_on_a_trailer_is_refused_naming_the_segment():
-    text = _bench("tractor_trailer", "- type: arc", "- type: line\n    length_m: 2.0\n    direction: reverse\n  - type: arc")
+    reverse = "- type: line\n    length_m: 2.0\n    direction: reverse\n  - type: arc"
+    text = _bench("tractor_trailer", "- type: arc", reverse)
     _refused(text, "path.segments[1]", "reverse")
 
 
 def test_arc_tighter_than_the_steering_limit_is_refused_naming_the_segment():
-    _refused(_bench("ackermann", "radius_m: 3.0", "radius_m: 1.0"), "path.segments[1].radius_m", "minimum turning radius")
+    text = _bench("ackermann", "radius_m: 3.0", "radius_m: 1.0")
+    _refused(text, "path.segments[1].radius_m", "minimum turning radius")
 
 
 def test_arc_needing_a_hitch_angle_beyond_the_limit_is_refused():

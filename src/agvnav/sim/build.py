@@ -50,6 +50,7 @@ from agvnav.sim.roles import GoniometerSensor, PathAutopilot
 from agvnav.sim.safety import EstimatorWatch, GuardLimits, PositioningGuard
 from agvnav.world import WorldMap, builtin_map_names, load_builtin_map, load_map
 from agvnav.world.scenario import KeyPath, Scenario, ScenarioError
+from agvnav.world.vehicle_specs import TractorTrailerSpec
 
 __all__ = [
     "DEFAULT_FOLLOWERS",
@@ -176,7 +177,7 @@ def reflectors_in_view(
 
 def _base_link_along_path(path: Path, offset: float, spacing: float = 0.1) -> tuple[NDArray[np.float64], ...]:
     """Path abscissae ``s``, and base_link poses when the tracked point ``offset`` m ahead is on the path."""
-    n = max(2, int(math.ceil(path.length / spacing)) + 1)
+    n = max(2, math.ceil(path.length / spacing) + 1)
     s = np.linspace(0.0, path.length, n)
     pts = path.point_at(s)
     heading = path.heading_at(s) + np.where(path.direction_at(s) < 0, math.pi, 0.0)
@@ -231,13 +232,12 @@ def _check_feasible(sc: Scenario, path: Path, family: str, geometry: Any, point:
         if segment is not None and "radius" in str(exc):
             key = (*key, "radius_m")
         raise sc.error(key, " ".join(str(exc).split())) from None
-    if sc.vehicle.model == "tractor_trailer":
-        _check_hitch(sc, path)
+    if isinstance(sc.vehicle, TractorTrailerSpec):
+        _check_hitch(sc, sc.vehicle, path)
 
 
-def _check_hitch(sc: Scenario, path: Path) -> None:
+def _check_hitch(sc: Scenario, v: TractorTrailerSpec, path: Path) -> None:
     """A trailer on an arc settles at a hitch angle; refuse arcs that need one beyond the limit [seed003 §3.2.7]."""
-    v = sc.vehicle
     trailer = TractorTrailer(v.trailer_length_m, v.hitch_offset_m, math.radians(v.max_hitch_angle_deg))
     for i, seg in enumerate(path.segments):
         kappa = float(getattr(seg, "curvature", 0.0))

@@ -12,8 +12,8 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from agvnav.actuators import MotorPair, PID, SteeringActuator, WheelSpeedLoop
-from agvnav.kinematics import MecanumBase, TractorTrailer, TrackedVehicle, TrackTerrain, terrain_preset
+from agvnav.actuators import PID, MotorPair, SteeringActuator, WheelSpeedLoop
+from agvnav.kinematics import MecanumBase, TrackedVehicle, TrackTerrain, TractorTrailer, terrain_preset
 from agvnav.odometry import NonSystematicErrors, SystematicErrors, TricycleErrors
 from agvnav.vehicles import (
     DifferentialPlant,
@@ -28,16 +28,25 @@ from agvnav.world.vehicle_specs import (
     MecanumSpec,
     MotorSpec,
     PidSpec,
+    SteeredVehicleSpec,
     SteeringSpec,
     TerrainFigures,
     TrackedSpec,
     TractorTrailerSpec,
     TricycleSpec,
-    SteeredVehicleSpec,
     WheeledVehicleSpec,
 )
 
-__all__ = ["FAMILIES", "PLANT_BUILDERS", "build_plant", "family_of", "footprint", "speed_loop", "steering_actuator", "terrain"]
+__all__ = [
+    "FAMILIES",
+    "PLANT_BUILDERS",
+    "build_plant",
+    "family_of",
+    "footprint",
+    "speed_loop",
+    "steering_actuator",
+    "terrain",
+]
 
 #: Vehicle model -> family of the Plant contract (docs/ARCHITECTURE.md).
 FAMILIES: dict[str, str] = {

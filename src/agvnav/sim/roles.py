@@ -35,7 +35,7 @@ class GoniometerSensor:
     """The laser goniometer as a closed-loop sensor: scans along the true motion."""
 
     name = "reflections"
-    event_names = ("t", "bearing", "reflector_index")
+    event_names: tuple[str, ...] = ("t", "bearing", "reflector_index")
 
     def __init__(self, goniometer: Any, world: Any) -> None:
         self.goniometer = goniometer
@@ -88,7 +88,9 @@ class PathAutopilot:
     ``failure = "infeasible"``; the run then ends as the autopilot is ``finished``.
     """
 
-    signal_names = ("v_cmd", "rate_cmd", "v_lateral_cmd", "s_est", "lateral_error_est", "heading_error_est", "remaining")
+    signal_names: tuple[str, ...] = (
+        "v_cmd", "rate_cmd", "v_lateral_cmd", "s_est", "lateral_error_est", "heading_error_est", "remaining",
+    )
 
     def __init__(
         self,

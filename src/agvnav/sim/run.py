@@ -43,6 +43,9 @@ __all__ = ["END_TOLERANCE_M", "FAILURE_REASONS", "SimResult", "simulate"]
 #: Reasons a run fails (``off_path_at_end`` carries its miss distance in parentheses).
 FAILURE_REASONS = ("collision", "jackknife", "infeasible", "positioning_lost", "timeout", "off_path_at_end")
 
+#: The transient definition of :mod:`agvnav.sim.metrics` used by default.
+DEFAULT_TRANSIENT = TransientSpec()
+
 #: How close (m) the true tracked point must end to the path's end for ``completed``.
 END_TOLERANCE_M = 0.1
 
@@ -77,7 +80,7 @@ class SimResult:
 def simulate(
     scenario: Scenario,
     progress: Callable[[float], None] | None = None,
-    spec: TransientSpec = TransientSpec(),
+    spec: TransientSpec = DEFAULT_TRANSIENT,
 ) -> SimResult:
     """Build and run ``scenario`` (a vehicle following a path); deterministic for its seed.
 

@@ -283,7 +283,7 @@ def _wall_from_dict(entry: Any) -> Wall:
         for j, p in enumerate(points):
             if not isinstance(p, list) or len(p) != 2:
                 raise ValueError(f"points[{j}] must be a pair [x, y], got {p!r}")
-            for axis, v in zip("xy", p):
+            for axis, v in zip("xy", p, strict=True):
                 _check_coordinate(f"points[{j}].{axis}", v)
     return Wall(entry["id"], points, entry.get("closed", False))
 

@@ -29,7 +29,7 @@ from agvnav.world.vehicle_specs import (
     TricycleSpec,
 )
 
-__all__ = ["VEHICLE_SPECS", "KeyDoc", "schema_rows", "scenario_reference", "unit_of"]
+__all__ = ["VEHICLE_SPECS", "KeyDoc", "scenario_reference", "schema_rows", "unit_of"]
 
 #: The vehicle specs in the order the reference lists them.
 VEHICLE_SPECS: tuple[type[BaseModel], ...] = (

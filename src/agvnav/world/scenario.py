@@ -446,7 +446,9 @@ class Scenario(SourcedModel):
     @classmethod
     def _map_kind(cls, value: Any) -> Any:
         if not isinstance(value, (str, Mapping)):
-            raise ValueError("must be a shipped map name (e.g. lab), a map file path, or a mapping of reflectors and walls")
+            raise ValueError(
+                "must be a shipped map name (e.g. lab), a map file path, or a mapping of reflectors and walls"
+            )
         return value
 
     @model_validator(mode="before")
@@ -491,7 +493,10 @@ def _model_error(data: Mapping[str, Any], nodes: Any, source: str) -> ScenarioEr
         return None
     key: KeyPath = ("vehicle", "model")
     return ScenarioError(
-        f"unknown vehicle model {model!r}; valid models: {', '.join(VEHICLE_MODELS)}", key, node_line(nodes, key), source
+        f"unknown vehicle model {model!r}; valid models: {', '.join(VEHICLE_MODELS)}",
+        key,
+        node_line(nodes, key),
+        source,
     )
 
 

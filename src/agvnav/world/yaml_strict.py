@@ -19,7 +19,7 @@ __all__ = ["UniqueKeyLoader", "safe_load_unique", "yaml_error_line"]
 class UniqueKeyLoader(yaml.SafeLoader):
     """SafeLoader that rejects a mapping with the same key twice (merge keys ``<<`` excepted)."""
 
-    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:  # type: ignore[override]
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: set[Any] = set()
         for key_node, _ in node.value:
             if key_node.tag == "tag:yaml.org,2002:merge":
@@ -39,7 +39,7 @@ class UniqueKeyLoader(yaml.SafeLoader):
 
 def safe_load_unique(text: str) -> Any:
     """``yaml.safe_load`` of ``text`` that raises ConstructorError on a duplicate mapping key."""
-    return yaml.load(text, Loader=UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass
+    return yaml.load(text, Loader=UniqueKeyLoader)
 
 
 def yaml_error_line(exc: yaml.YAMLError) -> int | None:
