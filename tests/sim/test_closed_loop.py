@@ -5,8 +5,12 @@ import pytest
 
 from agvnav.sim import simulate
 from agvnav.sim.build import build, reflectors_in_view
+from agvnav.sim.metrics import guidance_figures
 from agvnav.world.scenario import ScenarioError, default_scenario, parse_scenario
 from tests.sim.conftest import scenario_text
+
+#: Seed 000 §4.3: the straight starts after the 90 deg arc of radius 1.24 m (path abscissa, m).
+STRAIGHT_START_M = 1.24 * math.pi / 2.0
 
 
 def test_same_seed_same_arrays_other_seed_differs(short_scenario):
@@ -37,19 +41,32 @@ def test_every_signal_recorded_once_per_step(short_scenario):
     assert tr.size > 8 * 4 and np.all(np.diff(tr) >= 0) and tr[-1] <= 4.0
 
 
-def test_default_scenario_meets_seed_guidance_figures():
-    """Seed 000 §4.3: from 110 mm off the path, max |eps_c| <= 16.5 mm and |xi_r| < 3.8 deg after the transient."""
+def _seed_guidance(r):
+    s = r.series
+    return guidance_figures(s["s_true"], s["distance_C"], s["eps_c"], s["xi_r"], STRAIGHT_START_M)
+
+
+def test_default_scenario_seed_guidance_figures_depend_on_the_controller():
+    """Seed 000 §4.3 read as the seed states it (on the straight, 0.5 m past its start; issue 13).
+
+    The default gains keep max |eps_c| under the seed's 16.5 mm and |xi_r| under 3.8 deg;
+    the same run with poles three times slower has not corrected the 110 mm by the end of
+    the arc, and the same figure exceeds the seed's: the test fails if the controller does.
+    """
     r = simulate(default_scenario())
-    m = r.metrics
-    assert m.path_completed
-    assert m.initial_lateral_error_m == pytest.approx(0.110, abs=1e-9)
-    assert m.settling_distance_m is not None and 0.3 < m.settling_distance_m < 2.5
-    assert m.max_abs_lateral_error_m <= 0.0165
-    assert m.max_abs_wheel_heading_error_rad <= math.radians(3.8)
-    assert m.positioning_rms_m < 0.01
-    # the vehicle ended at the path end, on the path
+    g = _seed_guidance(r)
+    assert r.completed
+    assert g.initial_lateral_error_m == pytest.approx(0.110, abs=1e-9)
+    assert g.settling_distance_m is not None and 0.3 < g.settling_distance_m < 2.0
+    assert g.max_abs_eps_c_after_m is not None and g.max_abs_eps_c_after_m <= 0.0165
+    assert g.max_abs_xi_r_after_rad is not None and g.max_abs_xi_r_after_rad <= math.radians(3.8)
+    assert r.metrics.positioning_rms_m < 0.01
     end = r.path.end_pose
     assert math.hypot(r.series["x_C"][-1] - end[0], r.series["y_C"][-1] - end[1]) < 0.02
+    slow = simulate(parse_scenario(scenario_text(**{"poles_per_m: [-3.0, -3.0]": "poles_per_m: [-1.0, -1.0]"})))
+    gs = _seed_guidance(slow)
+    assert gs.max_abs_eps_c_after_m is not None and gs.max_abs_eps_c_after_m > 0.0165
+    assert gs.settling_distance_m is not None and gs.settling_distance_m > g.settling_distance_m + 1.0
 
 
 def test_truth_odometry_vs_nominal(short_scenario):
