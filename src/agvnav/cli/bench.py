@@ -74,3 +74,10 @@ def vehicles(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OP
 def seeds(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
     """Every experimental figure of seeds 000/001 and 004: seed value, seed-method band, agvnav, driver."""
     _run("seeds", json, quick, seed)
+
+
+@bench_app.command("integrity")
+@user_errors
+def integrity(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+    """Injected faults (goniometer, reflectors, odometry): silent failures, safe stops, NEES (truth-judged)."""
+    _run("integrity", json, quick, seed)
