@@ -77,7 +77,10 @@ def test_run_count_rules(write_campaign, body, needle):
 def test_unknown_metric_listed(write_campaign):
     path, err = _error(write_campaign, "runs: 2\nmetrics: [positioning_rms_m, speed]\n")
     assert err.key == ("metrics", 1) and err.line == _line_of(path, "metrics")
-    assert "unknown metric 'speed'" in str(err) and "positioning_rms_m" in str(err)
+    assert "unknown metric 'speed'" in str(err) and "positioning_rms_m" in str(err) and "integrity.<name>" in str(err)
+    body = "runs: 2\nmetrics: [integrity.nees_mean, extra.max_abs_hitch_angle_rad]\n"
+    ok = load_campaign(write_campaign(body, name="ok.yaml"))
+    assert ok.metrics == ["integrity.nees_mean", "extra.max_abs_hitch_angle_rad"]
 
 
 def test_missing_base_and_bad_yaml(tmp_path):

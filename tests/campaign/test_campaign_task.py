@@ -45,8 +45,9 @@ def test_same_seed_same_record_other_seed_differs(write_campaign):
 
 def test_unfinished_run_is_failed(write_campaign):
     spec = load_campaign(write_campaign("runs: 1\n"))
-    rec = run_one(_base_text(spec), {"duration_s": 0.5}, 3, ["path_completed"])
-    assert rec["outcome"] == "failed" and rec["reason"] == "path not completed"
+    rec = run_one(_base_text(spec), {"duration_s": 0.5}, 3, ["path_completed", "integrity.max_true_lateral_error_m"])
+    assert rec["outcome"] == "failed" and rec["reason"] == "timeout"  # the simulator's reason
+    assert rec["metric.integrity.max_true_lateral_error_m"] > 0.0
     assert rec["metric.path_completed"] == 0.0 and math.isclose(rec["sim_time_s"], 0.5)
 
 

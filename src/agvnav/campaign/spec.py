@@ -25,7 +25,7 @@ from typing import Annotated, Any
 from pydantic import Field, model_validator
 
 from agvnav.campaign.overrides import apply_overrides, dump_yaml, load_base
-from agvnav.campaign.task import metric_names
+from agvnav.campaign.task import METRIC_SECTIONS, is_metric_name, metric_names
 from agvnav.world.scenario import KeyPath, ScenarioError, format_key, parse_scenario
 from agvnav.world.strict import Finite, SourcedModel, StrictModel, load_yaml_document, validate_document
 
@@ -181,11 +181,11 @@ def check_overrides(spec: CampaignSpec) -> None:
     for where, key, value in _probes(spec):
         _validated(spec, fixed, {key: value}, where, base)
     if spec.metrics is not None:
-        known = metric_names()
-        unknown = [m for m in spec.metrics if m not in known]
+        unknown = [m for m in spec.metrics if not is_metric_name(m)]
         if unknown:
             j = spec.metrics.index(unknown[0])
-            raise spec.error(("metrics", j), f"unknown metric {unknown[0]!r}; known: {', '.join(known)}")
+            known = ", ".join([*metric_names(), *(f"{s}.<name>" for s in METRIC_SECTIONS)])
+            raise spec.error(("metrics", j), f"unknown metric {unknown[0]!r}; known: {known}")
 
 
 def _validated(

@@ -29,8 +29,10 @@ from agvnav.world.scenario import Scenario, parse_scenario
 from agvnav.world.strict import load_yaml_document
 
 __all__ = [
+    "METRIC_SECTIONS",
     "SimSummary",
     "flatten",
+    "is_metric_name",
     "metric_names",
     "run_batch",
     "run_one",
@@ -52,9 +54,18 @@ class SimSummary:
     sim_time_s: float | None
 
 
+#: Nested metric sections of a run, collected as ``<section>.<name>`` (their names vary by vehicle).
+METRIC_SECTIONS = ("integrity", "extra")
+
+
 def metric_names() -> list[str]:
-    """Names of the metrics a run reports (the fields of :class:`agvnav.sim.RunMetrics`)."""
+    """Names of the metrics every run reports (the fields of :class:`agvnav.sim.RunMetrics`)."""
     return [f.name for f in dataclasses.fields(RunMetrics)]
+
+
+def is_metric_name(name: str) -> bool:
+    """True for a :func:`metric_names` name or a ``<section>.<name>`` of :data:`METRIC_SECTIONS`."""
+    return name in metric_names() or (name.split(".", 1)[0] in METRIC_SECTIONS and "." in name)
 
 
 def flatten(values: Mapping[str, Any], prefix: str = "") -> dict[str, float | None]:
@@ -75,11 +86,12 @@ def simulate_metrics(scenario: Scenario) -> SimSummary:
     """Run ``scenario`` with :func:`agvnav.sim.simulate`; the adapter between campaigns and the simulator."""
     result = simulate(scenario)
     raw = result.metrics
-    metrics = flatten(raw() if callable(raw) else raw.to_dict())
-    completed = metrics.get("path_completed", 1.0) == 1.0
-    failure = getattr(result, "failure", None)
-    reason = str(failure) if failure else ("" if completed else "path not completed")
-    return SimSummary(metrics, completed and not failure, reason, metrics.get("sim_time_s"))
+    metrics = flatten(raw() if callable(raw) else raw.to_dict())  # the tracked automaton's metrics are a method
+    metrics.update(flatten({s: getattr(result, s, None) or {} for s in METRIC_SECTIONS}))
+    outcome = getattr(result, "outcome", None)
+    completed = outcome == "completed" if outcome is not None else metrics.get("path_completed", 1.0) == 1.0
+    reason = "" if completed else str(getattr(result, "reason", None) or "path not completed")
+    return SimSummary(metrics, completed, reason, metrics.get("sim_time_s"))
 
 
 def _record(index: int, overrides: Mapping[str, Any], seed: int) -> Record:
