@@ -13,6 +13,14 @@ seed quotes (max ``|eps_c|`` of 16.5 mm after correcting the initial 110 mm,
 seed 000 §4.3, Fig. 11) would be decided by the band, not by the controller.
 Here any overshoot, and the disturbance when the path curvature jumps, count
 against the post-transient figures.
+
+That band still fixes the sample where the transient "ends" (issue 13: with a
+monotone decay, the first sample inside a 10 % band is 11 mm in every run), so
+:class:`RunMetrics` is a run summary, not the seeds' figures. Those are read as
+the seeds define them by :func:`guidance_figures` (seed 000 §4.3: on the straight,
+a stated distance past its start, from the true path abscissa; settling distance
+as its own figure) and :func:`lateral_error_statistics` (seed 000 §4.2: |e_lat|
+sampled at the tracer's 1 Hz, both readings of the std).
 """
 
 from __future__ import annotations
