@@ -81,3 +81,10 @@ def seeds(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) 
 def integrity(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
     """Injected faults (goniometer, reflectors, odometry): silent failures, safe stops, NEES (truth-judged)."""
     _run("integrity", json, quick, seed)
+
+
+@bench_app.command("speed")
+@user_errors
+def speed(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+    """Closed loop: real-time factor (CPU) per case, µs per step, memory, start-up, campaign runs/s."""
+    _run("speed", json, quick, seed)

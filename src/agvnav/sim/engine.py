@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import math
 import time
-from itertools import repeat
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from itertools import repeat
 from typing import Any, Protocol
 
 import numpy as np
@@ -36,7 +36,9 @@ from numpy.typing import NDArray
 
 from agvnav.sim.recorder import EventLog, Recorder
 
-__all__ = ["Autopilot", "ClosedLoop", "Estimator", "LoopOutput", "Plant", "Sensor"]
+__all__ = [
+    "MAX_RECORDED_ROWS", "Autopilot", "ClosedLoop", "Estimator", "LoopOutput", "Plant", "Sensor", "record_stride",
+]
 
 PoseFunction = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
@@ -104,6 +106,21 @@ class Autopilot(Protocol):
 #: Estimator status -> recorded code (-1: a status not listed here).
 STATUS_CODES = {"initialising": 0.0, "tracking": 1.0, "dead_reckoning": 2.0, "degraded": 3.0, "lost": 4.0}
 
+#: Recorded rows a run keeps at most when ``record_every`` is automatic (None): longer runs
+#: record every k-th step (~50 MB of series for ~25 signals), so a 24-hour drive stays small.
+MAX_RECORDED_ROWS = 250_000
+#: Rows per recorder block (the recorder grows by blocks; nothing is preallocated for the whole run).
+RECORD_BLOCK = 16_384
+
+
+def record_stride(n_steps: int, record_every: int | None) -> int:
+    """Steps between recorded rows: ``record_every``, or automatic (1 up to :data:`MAX_RECORDED_ROWS` steps)."""
+    if record_every is None:
+        return max(1, math.ceil(n_steps / MAX_RECORDED_ROWS))
+    if isinstance(record_every, bool) or not isinstance(record_every, int) or record_every < 1:
+        raise ValueError(f"record_every must be a positive integer number of steps, got {record_every!r}")
+    return record_every
+
 
 @dataclass
 class LoopOutput:
@@ -129,6 +146,10 @@ class ClosedLoop:
         Step (s).
     seed
         Root seed; same seed -> bit-identical recorded arrays.
+    record_every
+        Record one row every this many steps (and always the last step); None (default)
+        records every step of runs up to :data:`MAX_RECORDED_ROWS` steps and decimates
+        longer ones to about that many rows. Events are always recorded in full.
     """
 
     plant: Plant
@@ -137,6 +158,7 @@ class ClosedLoop:
     autopilot: Autopilot
     dt: float
     seed: int = 0
+    record_every: int | None = None
 
     def run(
         self,
@@ -151,17 +173,19 @@ class ClosedLoop:
         if not (math.isfinite(duration) and duration > 0):
             raise ValueError(f"duration must be a positive finite number of seconds, got {duration!r}")
         dt = float(self.dt)
-        n_steps = int(math.ceil(duration / dt - 1e-9))
+        n_steps = math.ceil(duration / dt - 1e-9)
         streams = np.random.SeedSequence(self.seed).spawn(2 + len(self.sensors))
         rng_plant = np.random.default_rng(streams[0])
         rng_sensors = [np.random.default_rng(s) for s in streams[2:]]
         plant, est, pilot, sensors = self.plant, self.estimator, self.autopilot, list(self.sensors)
         columns = ("t", "est_x", "est_y", "est_psi", "est_status", *plant.signal_names, *pilot.signal_names)
-        rec = Recorder(columns, n_steps + 1)
+        stride = record_stride(n_steps, self.record_every)
+        rec = Recorder(columns, min(n_steps // stride + 2, RECORD_BLOCK))
         logs = [EventLog(s.event_names) for s in sensors]
         every = max(1, n_steps // 100)
         t = 0.0
         failure = None
+        recorded = True
         hold_left = end_hold
         start = time.perf_counter()
         cmd = pilot.command(t, est, plant, dt)
@@ -170,7 +194,7 @@ class ClosedLoop:
             t1 = (k + 1) * dt
             plant.advance(cmd, t, dt, rng_plant)
             dd, dth, dl = plant.odometry()
-            batches = []
+            batches: list[tuple[float, Sensor, NDArray[np.float64]]] = []
             for sensor, log, rng in zip(sensors, logs, rng_sensors, strict=True):
                 ev = sensor.observe(plant.pose_at, t, t1, rng)
                 if ev.shape[0]:
@@ -191,7 +215,9 @@ class ClosedLoop:
                 est.predict(t1, dd, dth, dl)
             t = t1
             cmd = pilot.command(t, est, plant, dt)
-            self._record(rec, t, est, plant, pilot)
+            recorded = (k + 1) % stride == 0
+            if recorded:
+                self._record(rec, t, est, plant, pilot)
             if progress is not None and k % every == 0:
                 progress(t)
             failure = plant.failure()
@@ -201,10 +227,13 @@ class ClosedLoop:
                 hold_left -= dt
                 if hold_left < -1e-12:
                     break
+        if n_steps and not recorded:  # the last step is always recorded
+            self._record(rec, t, est, plant, pilot)
         wall = time.perf_counter() - start
         if progress is not None:
             progress(t)
-        events = {getattr(s, "name", f"sensor{i}"): log.as_dict() for i, (s, log) in enumerate(zip(sensors, logs))}
+        names = [getattr(s, "name", f"sensor{i}") for i, s in enumerate(sensors)]
+        events = {name: log.as_dict() for name, log in zip(names, logs, strict=True)}
         return LoopOutput(
             series=rec.as_dict(), events=events, wall_time_s=wall, finished=bool(pilot.finished), failure=failure
         )
@@ -212,4 +241,5 @@ class ClosedLoop:
     @staticmethod
     def _record(rec: Recorder, t: float, est: Estimator, plant: Plant, pilot: Autopilot) -> None:
         pose = est.pose
-        rec.append((t, pose[0], pose[1], pose[2], STATUS_CODES.get(est.status, -1.0), *plant.signals(), *pilot.signals()))
+        status = STATUS_CODES.get(est.status, -1.0)
+        rec.append((t, pose[0], pose[1], pose[2], status, *plant.signals(), *pilot.signals()))

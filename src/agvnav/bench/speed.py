@@ -1,0 +1,219 @@
+"""``agvnav bench speed``: how fast and how lean the closed loop runs (issue 11).
+
+Records (one per row; the issue's targets in brackets, printed, never asserted):
+
+* ``case`` rows, one closed loop each: ``default`` (the embedded guidance_test
+  scenario) [>= 1000x], ``reflectors_16/64/256`` (its path in the lab with that many
+  reflectors spread along the outer walls) [>= 200x at 256], ``positioning_validation``,
+  ``tracked`` (tracked_square_3p5_concrete, 1 lap) and one per shipped vehicle loop
+  scenario (``*_loop``). Fields: ``real_time_factor_cpu`` (simulated over CPU time,
+  best of ``repeat`` runs: other processes load the machine, CPU time is what the loop
+  costs), ``us_per_step``, ``steps``, ``simulated_s``, ``peak_mib`` (tracemalloc peak of an
+  untimed warm-up run: the Python and NumPy allocations of the run) and ``timed``
+  (``loop``: the closed loop alone; ``simulate``: the whole run for route scenarios).
+* ``startup_s`` rows: wall time of ``agvnav --help`` [< 0.3 s] and of ``agvnav simulate``
+  on the default scenario with its files and plots [< 1.5 s], each a fresh process (best of 3).
+* ``memory_24h``: the default scenario held for 24 simulated hours (1 h with ``--quick``)
+  in a fresh process; ``peak_rss_mib`` is that process's peak resident memory [< 300 MiB].
+* ``campaign`` rows: ``runs`` of the default scenario through :func:`agvnav.campaign.run_campaign`
+  on a LocalCluster of 1 and of 2 workers: ``wall_s``, ``runs_per_s``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import tracemalloc
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from agvnav.campaign import parse_campaign, run_campaign
+from agvnav.sim import simulate
+from agvnav.sim.build import build
+from agvnav.world import load_builtin_map
+from agvnav.world.scenario import Scenario, builtin_scenario, builtin_scenario_names, default_scenario, parse_scenario
+
+__all__ = [
+    "TITLE", "campaign_records", "case_record", "case_scenarios", "memory_record", "reflector_map", "run",
+    "startup_records",
+]
+
+TITLE = "Closed-loop speed (CPU), memory, start-up and campaign throughput"
+
+#: Lab outer walls (m): the reflectors of the ``reflectors_N`` cases sit 5 cm inside them.
+LAB_SIZE = (20.0, 12.0)
+REFLECTOR_RADIUS = 0.04
+
+
+def reflector_map(n: int) -> dict[str, Any]:
+    """The lab's walls with ``n`` reflectors spaced evenly along the inside of its outer walls.
+
+    Returns an inline map (``map:`` section of a scenario): the shipped lab's walls, and
+    reflectors of radius 4 cm whose centres run 5 cm inside the 20 x 12 m outer rectangle.
+    """
+    if n < 3:
+        raise ValueError(f"need at least 3 reflectors, got {n}")
+    lab = load_builtin_map("lab").to_dict()
+    w, h = LAB_SIZE[0] - 0.1, LAB_SIZE[1] - 0.1
+    perimeter = 2.0 * (w + h)
+    refl = []
+    for k in range(n):
+        s = (k + 0.5) * perimeter / n
+        if s < w:
+            x, y = 0.05 + s, 0.05
+        elif s < w + h:
+            x, y = LAB_SIZE[0] - 0.05, 0.05 + (s - w)
+        elif s < 2 * w + h:
+            x, y = LAB_SIZE[0] - 0.05 - (s - w - h), LAB_SIZE[1] - 0.05
+        else:
+            x, y = 0.05, LAB_SIZE[1] - 0.05 - (s - 2 * w - h)
+        refl.append({"id": f"R{k + 1}", "x": round(x, 4), "y": round(y, 4), "radius": REFLECTOR_RADIUS})
+    return {"reflectors": refl, "walls": lab["walls"]}
+
+
+def _scenario_with(name: str, **changes: Any) -> Scenario:
+    """A shipped scenario with top-level sections replaced (``map``, ``controller``...)."""
+    data = yaml.safe_load(builtin_scenario(name).read_text(encoding="utf-8"))
+    for key, value in changes.items():
+        data[key] = value if not isinstance(value, dict) or key == "map" else {**data.get(key, {}), **value}
+    return parse_scenario(yaml.safe_dump(data, sort_keys=False), source=f"<bench {name}>")
+
+
+def case_scenarios(quick: bool) -> dict[str, Callable[[], Scenario]]:
+    """Every ``case`` of the benchmark: name -> scenario factory (quick: the first three only)."""
+    cases: dict[str, Callable[[], Scenario]] = {"default": default_scenario}
+    for n in (16, 64, 256):
+        cases[f"reflectors_{n}"] = lambda n=n: _scenario_with("guidance_test", map=reflector_map(n))  # type: ignore[misc]
+    if quick:
+        return cases
+    cases["positioning_validation"] = lambda: _scenario_with("positioning_validation")
+    cases["tracked"] = lambda: _scenario_with(
+        "tracked_square_3p5_concrete", controller={"laps": 1, "compare_landmarks": False}
+    )
+    for name in builtin_scenario_names():
+        if name.endswith("_loop"):
+            cases[name] = lambda name=name: _scenario_with(name)  # type: ignore[misc]
+    return cases
+
+
+def _timed_run(sc: Scenario, max_duration: float | None) -> tuple[float, int, float, str]:
+    """One run: ``(cpu_s, steps, simulated_s, timed)``; the loop alone when the scenario has one."""
+    if sc.route is not None:
+        start = time.process_time()
+        result = simulate(sc)
+        cpu = time.process_time() - start
+        t = result.series["t"]
+        return cpu, int(t.size - 1), float(t[-1]), "simulate"
+    built = build(sc)
+    duration = built.duration if max_duration is None else min(built.duration, max_duration)
+    start = time.process_time()
+    out = built.loop.run(duration, sc.end_hold_s)
+    cpu = time.process_time() - start
+    t = out.series["t"]
+    return cpu, int(t.size - 1), float(t[-1]), "loop"
+
+
+def case_record(name: str, sc: Scenario, repeat: int = 3, max_duration: float | None = None) -> dict[str, Any]:
+    """The speed record of one case: warm-up run under tracemalloc, then the best of ``repeat`` timed runs."""
+    tracemalloc.start()
+    try:
+        _timed_run(sc, max_duration)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    best = math.inf
+    steps, simulated, timed = 0, 0.0, "loop"
+    for _ in range(max(1, repeat)):
+        cpu, steps, simulated, timed = _timed_run(sc, max_duration)
+        best = min(best, cpu)
+    best = max(best, 1e-9)
+    return {
+        "case": name, "real_time_factor_cpu": round(simulated / best, 1), "us_per_step": round(best / steps * 1e6, 1),
+        "steps": steps, "simulated_s": round(simulated, 2), "peak_mib": round(peak / 2**20, 1), "timed": timed,
+    }
+
+
+def _agvnav_command() -> list[str]:
+    """The installed ``agvnav`` script next to this interpreter, else the entry point through ``-c``."""
+    script = Path(sys.executable).with_name("agvnav")
+    if script.is_file():
+        return [str(script)]
+    return [sys.executable, "-c", "from agvnav.cli import main; main()"]
+
+
+def _wall(cmd: list[str], repeat: int, cwd: str) -> float:
+    best = math.inf
+    for _ in range(repeat):
+        start = time.perf_counter()
+        subprocess.run(cmd, check=True, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                       env={**os.environ, "MPLBACKEND": "Agg"})
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def startup_records(repeat: int = 3) -> list[dict[str, Any]]:
+    """Wall time (s) of ``agvnav --help`` and ``agvnav simulate`` (default scenario, files and plots)."""
+    cmd = _agvnav_command()
+    with tempfile.TemporaryDirectory() as tmp:
+        help_s = _wall([*cmd, "--help"], repeat, tmp)
+        sim_s = _wall([*cmd, "simulate", "--out", "out", "--force"], repeat, tmp)
+    return [
+        {"case": "startup_help", "startup_s": round(help_s, 3), "command": "agvnav --help"},
+        {"case": "startup_simulate", "startup_s": round(sim_s, 3), "command": "agvnav simulate"},
+    ]
+
+
+_MEMORY_SCRIPT = """
+import resource, sys, time
+from agvnav.sim.build import build
+from agvnav.world.scenario import default_scenario
+hours = float(sys.argv[1])
+built = build(default_scenario())
+start = time.process_time()
+out = built.loop.run(hours * 3600.0, end_hold=hours * 3600.0)
+cpu = time.process_time() - start
+rows = out.series["t"].size
+events = next(iter(out.events.values()))["t"].size
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, out.series["t"][-1], rows, events, cpu)
+"""
+
+
+def memory_record(hours: float) -> dict[str, Any]:
+    """Peak resident memory (MiB) of a fresh process holding the default scenario for ``hours`` simulated hours."""
+    res = subprocess.run([sys.executable, "-c", _MEMORY_SCRIPT, str(hours)], check=True, capture_output=True,
+                         text=True)
+    rss, simulated, rows, events, cpu = (float(v) for v in res.stdout.split()[-5:])
+    return {
+        "case": "memory_24h", "simulated_h": round(simulated / 3600.0, 3), "peak_rss_mib": round(rss, 1),
+        "recorded_rows": int(rows), "events": int(events), "real_time_factor_cpu": round(simulated / max(cpu, 1e-9), 1),
+    }
+
+
+def campaign_records(runs: int, workers: tuple[int, ...] = (1, 2), seed: int = 0) -> list[dict[str, Any]]:
+    """``runs`` seeded runs of the default scenario through :func:`agvnav.campaign.run_campaign` per cluster size."""
+    text = yaml.safe_dump({"name": "bench_speed", "base": "guidance_test", "seed": seed, "runs": runs,
+                           "metrics": ["rms_lateral_error_m", "path_completed"]})
+    out = []
+    for n in workers:
+        with tempfile.TemporaryDirectory() as tmp:
+            res = run_campaign(parse_campaign(text), Path(tmp) / "out", workers=n, progress=False)
+        out.append({"case": "campaign", "runs": runs, "workers": n, "wall_s": round(res.wall_s, 2),
+                    "runs_per_s": round(runs / max(res.wall_s, 1e-9), 1)})
+    return out
+
+
+def run(quick: bool, seed: int) -> list[dict[str, Any]]:
+    """Every record of the benchmark (``--quick``: three cases, 1 h memory run, 20-run campaign)."""
+    records = [case_record(name, make(), repeat=1 if quick else 3, max_duration=30.0 if quick else None)
+               for name, make in case_scenarios(quick).items()]
+    records += startup_records(repeat=1 if quick else 3)
+    records.append(memory_record(1.0 if quick else 24.0))
+    records += campaign_records(20 if quick else 200, seed=seed)
+    return records
