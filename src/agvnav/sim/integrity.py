@@ -3,9 +3,10 @@
 All from the recorded series, vectorised after the run:
 
 * time and distance in each estimator status (a sample's status holds until the next);
-* time the positioning guard demanded a stop (:mod:`agvnav.sim.safety`), the first
-  such instant, the speed then and the distance travelled until standstill, against
-  the braking distance ``v² / (2 a_max)``;
+* time the positioning guard demanded a stop (:mod:`agvnav.sim.safety`), how many
+  times, and the worst such stop (:func:`stop_episodes`): the speed then and the
+  distance travelled until standstill, against the braking distance
+  ``v² / (2 a_max)`` plus :data:`STOP_MARGIN_M`;
 * the estimator's quality figure (minimum and percentiles) when it provides one;
 * NEES ``ε = e^T P^{-1} e`` of the full pose error ``e = x̂ − x`` (heading wrapped)
   against the reported covariance ``P``: mean, median, 95th percentile and the
@@ -31,10 +32,12 @@ __all__ = [
     "CHI2_3_95",
     "SILENT_ERROR_M",
     "SILENT_SIGMAS",
+    "STOP_MARGIN_M",
     "integrity_figures",
     "longest_run",
     "nees",
     "silent_mask",
+    "stop_episodes",
 ]
 
 #: 95 % point of the χ² distribution with 3 degrees of freedom.
@@ -43,6 +46,8 @@ CHI2_3_95 = 7.814727903251178
 SILENT_SIGMAS = 5.0
 #: A tracking estimate farther than this (m) from the truth fails silently, whatever its σ.
 SILENT_ERROR_M = 0.1
+#: A demanded stop is safe within the braking distance plus this margin (m).
+STOP_MARGIN_M = 0.2
 
 _COV = ("est_cov_xx", "est_cov_xy", "est_cov_xpsi", "est_cov_yy", "est_cov_ypsi", "est_cov_psipsi")
 
@@ -118,35 +123,60 @@ def _per_status(t: NDArray[np.float64], codes: NDArray[np.float64], dist: NDArra
     return {"time_in_status_s": dict(sorted(time_in.items())), "distance_in_status_m": dict(sorted(dist_in.items()))}
 
 
+def stop_episodes(
+    t: ArrayLike, guard_level: ArrayLike, speed: ArrayLike, distance: ArrayLike, max_decel: float
+) -> list[dict[str, float]]:
+    """Every stop the guard demanded: ``t`` (s), ``speed`` then (m/s), ``distance`` (m), ``braking`` (m).
+
+    An episode runs while the guard level is ``stop``; its ``distance`` is travelled from
+    the demand until standstill (``speed == 0``) or until the guard releases, whichever
+    comes first; ``braking = v² / (2 max_decel)`` at the speed of the step before the
+    demand; ``standstill`` is 1.0 when the vehicle stood still within the episode.
+    """
+    tt = np.asarray(t, dtype=np.float64)
+    stop = np.asarray(guard_level, dtype=np.float64) >= 2.0
+    v = np.abs(np.asarray(speed, dtype=np.float64))
+    d = np.asarray(distance, dtype=np.float64)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], stop.astype(np.int8), [0]])))
+    out = []
+    for k0, k1 in zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True):
+        v0 = float(v[k0 - 1]) if k0 > 0 else float(v[k0])
+        still = np.flatnonzero(v[k0:k1] == 0.0)
+        k_end = k0 + int(still[0]) if still.size else k1 - 1
+        out.append({
+            "t": float(tt[k0]),
+            "speed": v0,
+            "distance": float(abs(d[k_end] - d[k0])),
+            "braking": v0 * v0 / (2.0 * max_decel),
+            "standstill": float(still.size > 0),
+        })
+    return out
+
+
 def _stop_figures(
     series: dict[str, NDArray[np.float64]], dist: NDArray[np.float64], max_decel: float
 ) -> dict[str, Any]:
-    """The first stop the guard demanded: when, at what speed, how far until standstill, the braking distance."""
+    """Time stopped for positioning and the worst demanded stop (largest distance beyond braking)."""
     t = series["t"]
     level = np.asarray(series["guard_level"])
-    stop = level >= 2.0
-    dt = np.diff(t)
+    episodes = stop_episodes(t, level, series["v_cmd"], dist, max_decel)
     out: dict[str, Any] = {
-        "time_stopped_for_positioning_s": float(np.sum(dt[stop[:-1]])),
-        "first_stop_demand_s": None,
+        "time_stopped_for_positioning_s": float(np.sum(np.diff(t)[level[:-1] >= 2.0])),
+        "stop_demands": len(episodes),
+        "first_stop_demand_s": episodes[0]["t"] if episodes else None,
         "speed_at_stop_demand_m_s": None,
         "distance_to_stop_m": None,
         "braking_distance_m": None,
+        "stops_within_braking_distance": None,
     }
-    idx = np.flatnonzero(stop)
-    if idx.size == 0:
-        return out
-    k = int(idx[0])
-    speed = np.abs(np.asarray(series["v_cmd"]))
-    v0 = float(speed[k - 1]) if k > 0 else float(speed[k])
-    still = np.flatnonzero(speed[k:] == 0.0)
-    end = k + int(still[0]) if still.size else len(t) - 1
-    out.update(
-        first_stop_demand_s=float(t[k]),
-        speed_at_stop_demand_m_s=v0,
-        distance_to_stop_m=float(abs(dist[end] - dist[k])) if still.size else None,
-        braking_distance_m=v0 * v0 / (2.0 * max_decel),
-    )
+    if episodes:
+        worst = max(episodes, key=lambda e: e["distance"] - e["braking"])
+        out.update(
+            speed_at_stop_demand_m_s=worst["speed"],
+            distance_to_stop_m=worst["distance"],
+            braking_distance_m=worst["braking"],
+            stops_within_braking_distance=bool(worst["distance"] <= worst["braking"] + STOP_MARGIN_M),
+        )
     return out
 
 

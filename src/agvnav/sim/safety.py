@@ -14,7 +14,7 @@ speed scale the autopilot applies to its speed profile's target:
 
 A worse level applies at once; a better one only after it has been demanded
 continuously for ``resume_after_s`` (hysteresis, so the vehicle does not surge on
-one good fix). The lateral standard deviation is that of the position along the
+one good fix); a demand that worsens during that hold restarts it. The lateral standard deviation is that of the position along the
 body y axis, ``σ_lat² = n^T P_xy n`` with ``n = (-sin ψ, cos ψ)``: the direction in
 which a guidance error puts the vehicle into the aisle's walls.
 """
@@ -112,6 +112,7 @@ class PositioningGuard:
         self.level = 0
         self.lateral_3sigma = math.nan
         self._better_since: float | None = None
+        self._last_demand = 0
         self._scales = (1.0, float(limits.slow_speed_fraction), 0.0)
 
     def update(self, t: float, status: str, cov: Sequence[float] | None, psi: float) -> float:
@@ -127,8 +128,9 @@ class PositioningGuard:
         if demand >= self.level:
             self.level = demand
             self._better_since = None
-        elif self._better_since is None:
-            self._better_since = t
+        elif self._better_since is None or demand > self._last_demand:
+            self._better_since = t  # the hold (re)starts: positioning got better, or worse again
+        self._last_demand = demand
         if self._better_since is not None and t - self._better_since >= self.limits.resume_after_s - 1e-9:
             self.level = demand
             self._better_since = None
