@@ -1,27 +1,71 @@
-"""The ``agvnav`` command: a thin layer that parses arguments and calls the library."""
+"""The ``agvnav`` command: a thin layer that parses arguments and calls the library.
+
+Start-up (issue 11): ``agvnav --help`` must not import the library (NumPy, numba,
+SciPy, matplotlib). The commands whose modules import the library at the top are
+registered lazily: :data:`LAZY_COMMANDS` names the module, the function and the
+one-line help that ``--help`` lists; the module is imported only when that command
+runs (or shows its own ``--help``). ``tests/cli/test_startup.py`` checks that each
+listed help line is the first line of the command's docstring, so they cannot drift.
+"""
 
 from __future__ import annotations
 
+import importlib
 import sys
+from typing import Any
 
 import typer
+from typer.core import TyperCommand, TyperGroup
+from typer.main import get_command
 
 from agvnav import __version__
 from agvnav.cli.bench import bench_app
 from agvnav.cli.campaign import campaign
-from agvnav.cli.demo import demo
 from agvnav.cli.errors import USER_ERROR_EXIT, err_console
 from agvnav.cli.scenarios import scenarios
 from agvnav.cli.simulate import simulate
 
+#: name -> (module, function, one-line help): commands loaded only when they run.
+LAZY_COMMANDS: dict[str, tuple[str, str, str]] = {
+    "demo": ("agvnav.cli.demo", "demo", "Triangulate a vehicle on a built-in reflector layout and print a table."),
+}
+
+
+class _LazyCommand(TyperCommand):
+    """A command listed by name and help; its module is imported when it runs."""
+
+    def __init__(self, name: str, module: str, function: str, short_help: str) -> None:
+        super().__init__(name, short_help=short_help, help=short_help)
+        self.target = (module, function)
+
+    def load(self) -> Any:
+        """The real click command (imports its module)."""
+        module, function = self.target
+        single = typer.Typer(add_completion=False, pretty_exceptions_enable=False)
+        single.command(self.name)(getattr(importlib.import_module(module), function))
+        return get_command(single)
+
+    def make_context(self, info_name: str | None, args: list[str], parent: Any = None, **extra: Any) -> Any:
+        return self.load().make_context(info_name, args, parent=parent, **extra)
+
+
+class _Group(TyperGroup):
+    """The root group: the eagerly registered commands plus :data:`LAZY_COMMANDS`."""
+
+    def __init__(self, **attrs: Any) -> None:
+        super().__init__(**attrs)
+        for name, (module, function, short_help) in LAZY_COMMANDS.items():
+            self.commands.setdefault(name, _LazyCommand(name, module, function, short_help))
+
+
 app = typer.Typer(
+    cls=_Group,
     help="agvnav: positioning and guidance of automated guided vehicles.",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
     add_completion=False,
 )
 app.add_typer(bench_app, name="bench")
-app.command("demo")(demo)
 app.command("simulate")(simulate)
 app.command("scenarios")(scenarios)
 app.command("campaign")(campaign)
@@ -35,7 +79,9 @@ def _version(value: bool) -> None:
 
 @app.callback()
 def _root(
-    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True, help="Print the version and exit."),
+    version: bool = typer.Option(
+        False, "--version", callback=_version, is_eager=True, help="Print the version and exit."
+    ),
 ) -> None:
     """agvnav: positioning and guidance of automated guided vehicles."""
 
