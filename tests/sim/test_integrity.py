@@ -4,13 +4,14 @@ import math
 
 import numpy as np
 import pytest
+from tests.sim.conftest import scenario_text
 
+import agvnav.sim.build as build_mod
+import agvnav.sim.run as run_mod
 from agvnav.guidance import GuidanceError
 from agvnav.sim import simulate
 from agvnav.sim.integrity import CHI2_3_95, longest_run, nees, silent_mask, stop_episodes
 from agvnav.world.scenario import parse_scenario
-
-from tests.sim.conftest import scenario_text
 
 
 def test_nees_against_the_explicit_formula_and_its_chi2_mean():
@@ -125,9 +126,6 @@ class _FailingFollower:
 
 
 def test_a_follower_failure_ends_the_run_infeasible(short_scenario, monkeypatch):
-    from agvnav.sim import build as build_mod
-    from agvnav.sim import run as run_mod
-
     real = build_mod.build
 
     def failing_build(sc):
