@@ -40,6 +40,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from scipy.stats import rankdata
 
 from agvnav.bench.seed_runs import (
     SEED000_SWEEPS,
@@ -181,23 +182,14 @@ def _execute(jobs: Sequence[Any], workers: int) -> list[Any]:
         return list(pool.map(_call, jobs))
 
 
-def _ranks(x: np.ndarray) -> np.ndarray:
-    r = np.empty(x.size)
-    r[np.argsort(x, kind="stable")] = np.arange(x.size)
-    return r
-
-
 def spearman(x: Sequence[float], y: Sequence[float]) -> float | None:
-    """Spearman rank correlation of ``x`` and ``y`` (None with fewer than 4 pairs or a constant)."""
+    """Spearman rank correlation of ``x``, ``y`` (average ranks for ties; None under 4 pairs or for a constant)."""
     a, b = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
     if a.size != b.size:
         raise ValueError(f"x and y must have the same length, got {a.size} and {b.size}")
-    if a.size < 4:
+    if a.size < 4 or np.ptp(a) == 0.0 or np.ptp(b) == 0.0:
         return None
-    ra, rb = _ranks(a), _ranks(b)
-    if np.std(ra) == 0.0 or np.std(rb) == 0.0:
-        return None
-    return float(np.corrcoef(ra, rb)[0, 1])
+    return float(np.corrcoef(rankdata(a), rankdata(b))[0, 1])
 
 
 def _driver(values: list[dict[str, float]], y: list[float]) -> tuple[str | None, float | None]:
