@@ -21,7 +21,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "est_x": ("m", "estimated base_link x"),
     "est_y": ("m", "estimated base_link y"),
     "est_psi": ("rad", "estimated base_link heading"),
-    "est_status": ("-", "estimator status: 0 initialising, 1 tracking, 2 dead reckoning, -1 other"),
+    "est_status": ("-", "estimator status: 0 initialising, 1 tracking, 2 dead reckoning, 3 degraded, 4 lost, -1 other"),
     "est_valid": ("-", "1 when the estimator has a fix (status tracking)"),
     "est_x_C": ("m", "estimated tracked point x (C for a steered vehicle guiding C, else base_link)"),
     "est_y_C": ("m", "estimated tracked point y"),
@@ -74,6 +74,16 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "lateral_error_est": ("m", "lateral error the follower sees (estimated pose; eps_c if steered)"),
     "heading_error_est": ("rad", "heading error the follower sees (estimated pose; xi_r if steered)"),
     "remaining": ("m", "path length left"),
+    "guard_level": ("-", "positioning guard: 0 normal, 1 slow (degraded), 2 stop (lost, or 3 sigma over the limit)"),
+    "speed_scale": ("-", "factor the guard applies to the planned speed (1, safety.slow_speed_fraction or 0)"),
+    "lateral_3sigma_est": ("m", "3 sigma of the estimated position across the vehicle's heading"),
+    "est_cov_xx": ("m²", "reported covariance of the estimate: x x"),
+    "est_cov_xy": ("m²", "reported covariance: x y"),
+    "est_cov_xpsi": ("m·rad", "reported covariance: x heading"),
+    "est_cov_yy": ("m²", "reported covariance: y y"),
+    "est_cov_ypsi": ("m·rad", "reported covariance: y heading"),
+    "est_cov_psipsi": ("rad²", "reported covariance: heading heading"),
+    "est_quality": ("-", "the estimator's 0-1 quality figure (NaN when it reports none)"),
 }
 
 #: reflections.csv columns (one row per goniometer reflection).
@@ -83,6 +93,7 @@ EVENT_COLUMNS: dict[str, tuple[str, str]] = {
     "reflector_index": ("-", (
         "ground truth: index of the reflector in the true map, -1 spurious (never used by positioning)"
     )),
+    "stamp": ("s", "with a reflection_delay fault: the time stamp delivered to the estimator (t is the arrival)"),
 }
 
 
@@ -98,12 +109,22 @@ def outputs_reference() -> list[str]:
         "## Outputs of `agvnav simulate --out DIR`",
         "",
         (
-            "- `metrics.json`: outcome (`completed` or `failed` with a reason), the run's figures (SI units), "
-            "the transient definition;"
+            "- `metrics.json`: outcome (`completed` or `failed` with a reason: `collision`, `jackknife`, "
+            "`infeasible`, `positioning_lost`, `timeout`, `off_path_at_end`), the run's figures (SI units), "
+            "the transient definition and an `integrity` section (time and distance per estimator status, "
+            "stops for positioning against the braking distance, quality percentiles, NEES, longest silent "
+            "failure, largest true lateral error); identical bytes for the same scenario and seed;"
         ),
+        "- `timing.json`: wall time (s) and real-time factor (the only file that differs between equal runs);",
         "- `timeseries.csv`: one row per control step, the columns below (a vehicle writes the ones it has);",
         "- `reflections.csv`: one row per goniometer reflection;",
         "- `map.png`, `errors.png`, `positioning_histogram.png`: the plots.",
+        "",
+        (
+            "The files appear all at once when the run ends (written to a temporary folder, then renamed). "
+            "A DIR that holds another run (a metrics.json) is refused unless `--force`, which replaces it "
+            "whole; a non-empty DIR without a metrics.json is never replaced."
+        ),
         "",
         "### timeseries.csv",
         "",

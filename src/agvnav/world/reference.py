@@ -114,7 +114,7 @@ def _default(info: FieldInfo) -> str:
 
 def _meaning(info: FieldInfo, models: list[type[BaseModel]]) -> str:
     if info.description:
-        return info.description
+        return " ".join(info.description.split())  # a multi-line attribute docstring: one table cell
     if models:
         return " ".join((inspect.getdoc(models[0]) or "").split("\n\n")[0].split())
     return ""

@@ -360,7 +360,10 @@ class FaultSpec(StrictModel):
         "blind", "reflector_removed", "reflector_moved", "clutter", "wheel_slip",
         "encoder_dropout", "counter_wrap", "odometry_lost", "reflection_delay",
     ]
-    """the fault kind (see above)."""
+    """blind: no reflections; reflector_removed/reflector_moved: that reflector gone/displaced by offset_m;
+    clutter: spurious reflections; wheel_slip: distance over-read; encoder_dropout: no odometry, the motion
+    lost; counter_wrap: one jump_m increment at start_s; odometry_lost: messages lost, the next carries the
+    missed motion; reflection_delay: reflections delay_s late."""
     start_s: NonNegFloat = 0.0
     """time the fault begins."""
     duration_s: PosFloat | None = None
