@@ -8,7 +8,7 @@ import pytest
 from agvnav.actuators import SpeedProfile
 from agvnav.guidance.paths import path_from_moves
 from agvnav.sim import simulate
-from agvnav.sim.tricycle import TricycleAutopilot
+from agvnav.sim.roles import PathAutopilot
 from agvnav.world.scenario import ScenarioError, parse_scenario
 from tests.sim.conftest import scenario_text
 
@@ -26,6 +26,8 @@ class _Estimator:
 
 
 class _Plant:
+    family = "steered"
+    geometry = None
     gamma_meas = 0.0
 
 
@@ -36,21 +38,25 @@ class _Controller:
         self.path = path
         self.last_errors = None
 
-    def command(self, pose, gamma, v):
+    def command(self, pose, v, steering=0.0):
         pr = self.path.project_point(pose[0] + math.cos(pose[2]), pose[1] + math.sin(pose[2]))
         self.last_errors = SimpleNamespace(s=pr.s, eps_c=pr.lateral, xi_r=0.0)
-        return 0.0
+        return 0.0, 0.0
+
+    def drive_speed(self, v, steering):
+        return v
 
 
 def test_start_at_the_path_end_does_not_jump_there():
     """C placed on the end point of a U path, 2 m left of its start: progress stays at the start."""
     path = path_from_moves([0.0, 0.0, 0.0], [("line", 3.0), ("arc", 1.0, math.pi), ("line", 3.0)])
-    pilot = TricycleAutopilot(_Controller(path), path, SpeedProfile(cruise_speed=0.2, max_accel=0.3, max_decel=0.3), 1.0)
+    profile = SpeedProfile(cruise_speed=0.2, max_accel=0.3, max_decel=0.3)
+    pilot = PathAutopilot(_Controller(path), path, profile, _Plant(), point_offset=1.0)
     est = _Estimator((-1.0, 2.0, 0.0))  # O one wheelbase behind C = (0, 2), the path end
     for k in range(50):
         v, _ = pilot.command(0.05 * k, est, _Plant(), 0.05)
-    assert pilot.controller.last_errors.s == pytest.approx(path.length)  # the trap
-    assert pilot.signals()[2] < 1.0  # s near the start, not path.length
+    assert pilot.follower.last_errors.s == pytest.approx(path.length)  # the trap
+    assert pilot.signals()[pilot.signal_names.index("s_est")] < 1.0  # s near the start, not path.length
     assert v > 0.0 and not pilot.finished
 
 
@@ -81,7 +87,8 @@ def test_start_50_m_off_the_path_is_refused_with_key_and_line():
 def test_reaching_the_end_of_s_far_from_the_end_point_is_not_completion():
     """Progress at the path end but the tracked point 0.5 m beside it: stopped, not completed."""
     path = path_from_moves([0.0, 0.0, 0.0], [("line", 3.0)])
-    pilot = TricycleAutopilot(_Controller(path), path, SpeedProfile(cruise_speed=0.2, max_accel=0.3, max_decel=0.3), 1.0)
+    profile = SpeedProfile(cruise_speed=0.2, max_accel=0.3, max_decel=0.3)
+    pilot = PathAutopilot(_Controller(path), path, profile, _Plant(), point_offset=1.0)
     pilot._s = path.length
     v, _ = pilot.command(0.0, _Estimator((2.0, 0.5, 0.0)), _Plant(), 0.05)
     assert v == 0.0 and not pilot.finished

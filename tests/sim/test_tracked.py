@@ -4,15 +4,40 @@ import numpy as np
 import pytest
 
 from agvnav.guidance.hybrid import PolygonRoute
-from agvnav.kinematics.tracked import TrackTerrain, terrain_preset
 from agvnav.sensors import seed_004_layout
-from agvnav.sim.laps import lap_errors, run_tracked
-from agvnav.sim.tracked import UltrasonicSensorRole
+from agvnav.sim.laps import lap_errors, prepare_tracked, run_tracked
+from agvnav.sim.rangers import UltrasonicSensorRole
+from agvnav.world.scenario import parse_scenario
 from agvnav.world.walls import square_landmarks
 
 ROUTE = PolygonRoute.square(3.5)
 WALLS = square_landmarks(ROUTE)
-ODO_CONCRETE = TrackTerrain(slip_left=0.016, slip_right=0.016, icr_left=1.12, icr_right=1.12)
+SCENARIO = """
+name: tracked_test
+seed: {seed}
+step_s: 0.1
+{duration}
+vehicle:
+  model: tracked
+  terrain:
+    truth: concrete
+    odometry: {{slip_left: 0.016, slip_right: 0.016, icr_left: 1.12, icr_right: 1.12}}
+    slip_noise_std: 0.003
+ultrasonic: {{}}
+route: {{side_m: 3.5}}
+controller: {{name: hybrid, laps: {laps}}}
+map:
+  walls: {walls}
+"""
+
+
+def _run(laps: int, use_landmarks: bool, seed: int, duration: float | None = None):
+    walls = [{"id": f"w{i}", "points": seg.tolist()} for i, seg in enumerate(WALLS)]
+    text = SCENARIO.format(seed=seed, laps=laps, walls=walls,
+                           duration="" if duration is None else f"duration_s: {duration}")
+    sc = parse_scenario(text, "tracked_test")
+    parts = prepare_tracked(sc)
+    return run_tracked(sc, parts.route, parts.world, parts.layout, parts.params, use_landmarks=use_landmarks)
 
 
 def test_ultrasonic_role_groups_simultaneous_pings_and_reports_the_wall_distance():
@@ -41,8 +66,7 @@ def test_lap_errors_per_lap_and_from_start():
 
 
 def test_automaton_closed_loop_visits_e0_side_e3_four_times_e4():
-    r = run_tracked(ROUTE, WALLS, seed_004_layout(), terrain_preset("concrete"), ODO_CONCRETE, laps=1,
-                    use_landmarks=True, slip_noise_std=0.003, seed=3)
+    r = _run(1, True, seed=3)
     seq = r.controller.visited()
     assert r.finished and seq[0] == "E0" and seq[-1] == "E4"
     assert seq.count("E3") == 4 and seq.count("E4") == 1
@@ -54,11 +78,8 @@ def test_automaton_closed_loop_visits_e0_side_e3_four_times_e4():
 
 
 def test_landmarks_beat_dead_reckoning_two_laps():
-    common = dict(laps=2, slip_noise_std=0.003, seed=5)
-    with_lm = run_tracked(ROUTE, WALLS, seed_004_layout(), terrain_preset("concrete"), ODO_CONCRETE,
-                          use_landmarks=True, **common)
-    without = run_tracked(ROUTE, WALLS, seed_004_layout(), terrain_preset("concrete"), ODO_CONCRETE,
-                          use_landmarks=False, **common)
+    with_lm = _run(2, True, seed=5)
+    without = _run(2, False, seed=5)
     assert with_lm.laps.laps == without.laps.laps == 2
     assert np.all(with_lm.laps.per_lap_m < 0.10)  # the seed's 10 cm per lap
     assert np.all(without.laps.per_lap_m > 0.25)  # calibrated to the seed's ~50 cm order
@@ -67,9 +88,7 @@ def test_landmarks_beat_dead_reckoning_two_laps():
 
 
 def test_same_seed_same_run():
-    a = run_tracked(ROUTE, WALLS, seed_004_layout(), terrain_preset("concrete"), ODO_CONCRETE, laps=1,
-                    slip_noise_std=0.003, seed=7, duration=30.0)
-    b = run_tracked(ROUTE, WALLS, seed_004_layout(), terrain_preset("concrete"), ODO_CONCRETE, laps=1,
-                    slip_noise_std=0.003, seed=7, duration=30.0)
+    a = _run(1, True, seed=7, duration=30.0)
+    b = _run(1, True, seed=7, duration=30.0)
     for key in a.series:
         np.testing.assert_array_equal(a.series[key], b.series[key])

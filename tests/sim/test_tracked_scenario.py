@@ -8,7 +8,7 @@ from typer.testing import CliRunner
 from agvnav.cli import app
 from agvnav.sim import simulate
 from agvnav.world.scenario import ScenarioError, builtin_scenario, builtin_scenario_names, load_scenario
-from agvnav.world.tracked_scenario import TrackedScenario
+from agvnav.sim.laps import prepare_tracked, simulate_tracked
 
 runner = CliRunner()
 SHIPPED = ["tracked_square_3p5_concrete", "tracked_square_3p5_grass", "tracked_square_4_concrete",
@@ -29,18 +29,16 @@ def _short(tmp_path, old=None, new=None, laps=1):
 def test_shipped_tracked_scenarios_load(name):
     assert name in builtin_scenario_names()
     sc = load_scenario(name)
-    assert isinstance(sc, TrackedScenario)
+    assert sc.vehicle.model == "tracked" and sc.route is not None
     assert sc.controller.laps == 10 and sc.controller.compare_landmarks
     assert sc.route.side_m in (3.5, 4.0) and sc.controller.params == {}
-    from agvnav.sim.tracked_build import prepare_tracked
-
-    kwargs = prepare_tracked(sc)  # cross-part checks pass
-    assert kwargs["walls"].shape == (8, 2, 2)
+    parts = prepare_tracked(sc)  # cross-part checks pass
+    assert parts.world.wall_segments.shape == (8, 2, 2)
 
 
 def test_simulate_tracked_one_lap_both_modes(tmp_path):
     sc = load_scenario(_short(tmp_path))
-    res = simulate(sc)
+    res = simulate_tracked(sc)
     assert set(res.runs) == {True, False}
     rows = res.lap_rows()
     assert len(rows) == 1
@@ -67,7 +65,7 @@ BAD = [
     ("    - {id: leg0, points: [[0.500, -0.500], [3.000, -0.500]]}",
      "    - {id: leg0, points: [[0.500, -0.500], [0.500, -0.500]]}", "zero length"),
     ("  start: [0.0, 0.0, 0.0]", "  start: [10.0, 10.0, 0.0]", "never passes a landmark"),
-    ("  truth: concrete", "  truth: mud", "truth"),
+    ("    truth: concrete", "    truth: mud", "truth"),
     ("  laps: 1", "  laps: 1\n  spin: true", "unknown key"),
 ]
 
@@ -77,9 +75,7 @@ def test_bad_input_one_line_message_and_exit_code(tmp_path, old, new, message):
     p = _short(tmp_path, old, new)
     with pytest.raises(ScenarioError, match=message):
         sc = load_scenario(p)
-        from agvnav.sim.tracked_build import prepare_tracked as build
-
-        build(sc)
+        prepare_tracked(sc)
     res = runner.invoke(app, ["simulate", str(p), "--out", str(tmp_path / "o")])
     assert res.exit_code == 2
     err = res.stderr if hasattr(res, "stderr") else res.output
@@ -90,8 +86,11 @@ def test_bad_input_one_line_message_and_exit_code(tmp_path, old, new, message):
 KANAYAMA = """
 name: tracked_kanayama
 step_s: 0.05
-vehicle: {model: tracked}
-terrain: {truth: concrete, odometry: concrete}
+vehicle:
+  model: tracked
+  terrain: {truth: concrete, odometry: concrete}
+ultrasonic: {}
+traction: {speed_m_s: 0.15}
 map: {walls: []}
 path:
   start: [1.0, 2.0, 90.0]
@@ -99,7 +98,7 @@ path:
     - {type: line, length_m: 1.5}
     - {type: arc, radius_m: 0.8, sweep_deg: -90.0}
     - {type: line, length_m: 1.0}
-controller: {name: kanayama, params: {cruise_speed: 0.15, convergence_distance: 0.5}}
+controller: {name: kanayama, params: {convergence_distance: 0.5}}
 """
 
 
@@ -107,16 +106,16 @@ def test_kanayama_follows_a_line_arc_path_on_the_tracked_plant(tmp_path):
     p = tmp_path / "k.yaml"
     p.write_text(KANAYAMA)
     res = simulate(load_scenario(p))
-    m = res.metrics()
-    assert m["path_completed"] == 1.0
-    assert m["max_lateral_error_m"] < 0.05 and m["final_position_error_m"] < 0.03  # track lag at the arc
-    assert abs(m["distance_m"] - (2.5 + 0.8 * 3.14159 / 2)) < 0.1
+    assert res.completed and res.scenario.positioning.method is None  # rangers only: the wall-landmark localizer
+    lateral = abs(res.series["lateral_error"])
+    assert lateral.max() < 0.05  # track lag at the arc
+    assert abs(res.series["distance"][-1] - (2.5 + 0.8 * 3.14159 / 2)) < 0.1
     res2 = runner.invoke(app, ["simulate", str(p), "--out", str(tmp_path / "o"), "--no-plots"])
-    assert res2.exit_code == 0 and "Kanayama" in res2.output
+    assert res2.exit_code == 0 and "tracked" in res2.output
 
 
 def test_kanayama_needs_a_path(tmp_path):
     p = tmp_path / "k.yaml"
     p.write_text(KANAYAMA.split("path:")[0] + "controller: {name: kanayama}\n")
-    with pytest.raises(ScenarioError, match="give the path key"):
+    with pytest.raises(ScenarioError, match="give a path"):
         load_scenario(p)

@@ -21,10 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from agvnav.sim.laps import run_tracked
-from agvnav.sim.tracked_build import prepare_tracked
+from agvnav.sim.laps import prepare_tracked, run_tracked
 from agvnav.world.scenario import load_scenario
-from agvnav.world.tracked_scenario import TrackedScenario
 
 TITLE = "Seed 004 tracked robot, agvnav's landmark rule: error per lap with and without wall landmarks (3.5 m, 15 cm/s)"
 
@@ -37,14 +35,14 @@ def run(quick: bool, seed: int) -> list[dict[str, Any]]:
     records: list[dict[str, Any]] = []
     for terrain, name in TERRAINS.items():
         sc = load_scenario(name)
-        if not isinstance(sc, TrackedScenario):
-            raise ValueError(f"scenario {name} is not a tracked-robot scenario")
+        if sc.route is None:
+            raise ValueError(f"scenario {name} is not a route scenario of the tracked robot")
         for landmarks in (True, False):
             per_lap, first, final, wall = [], [], [], 0.0
             for k in range(n_seeds):
-                kwargs = prepare_tracked(sc.with_seed(seed + k).with_updates(laps=laps))
-                kwargs.pop("world")
-                r = run_tracked(**kwargs, use_landmarks=landmarks)
+                run_sc = sc.with_seed(seed + k).with_controller(laps=laps)
+                parts = prepare_tracked(run_sc)
+                r = run_tracked(run_sc, parts.route, parts.world, parts.layout, parts.params, use_landmarks=landmarks)
                 per_lap.append(r.laps.per_lap_m)
                 first.append(r.laps.error_m[0])
                 final.append(r.laps.error_m[-1])

@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from rich.table import Table
 
+from agvnav.report.files import write_csv
 from agvnav.report.plots import pyplot
 
-__all__ = ["lap_table", "path_table", "plot_laps", "plot_path_follow", "summary_table"]
+__all__ = ["lap_table", "plot_laps", "save_laps", "summary_table"]
 
 
 def _cm(value: float | None) -> str:
@@ -23,7 +25,8 @@ def lap_table(result: Any) -> Any:
     Also the distance of each lap end from the route start (cumulative), and the mean row.
     """
     sc = result.scenario
-    terrain = sc.terrain.truth if isinstance(sc.terrain.truth, str) else "custom"
+    truth = sc.vehicle.terrain.truth
+    terrain = truth if isinstance(truth, str) else "custom"
     t = Table(title=f"{sc.name}: error per lap, {sc.route.side_m:g} m square, {terrain} (seed {sc.seed})")
     modes = sorted(result.runs, reverse=True)
     t.add_column("lap", justify="right")
@@ -61,38 +64,45 @@ def plot_laps(result: Any, out: str | Path) -> Path:
     return _save_plan_view(plt, fig, ax, out)
 
 
-def path_table(result: Any) -> Any:
-    """A rich Table of a Kanayama path-following run (true errors to the path)."""
-    m = result.metrics()
-    t = Table(title=f"{result.scenario.name}: tracked robot, Kanayama path follower (seed {result.scenario.seed})")
-    t.add_column("metric")
-    t.add_column("value", justify="right")
-    t.add_row("max |lateral error| (mm)", f"{1e3 * m['max_lateral_error_m']:.1f}")
-    t.add_row("RMS lateral error (mm)", f"{1e3 * m['rms_lateral_error_m']:.1f}")
-    t.add_row("final position error (mm)", f"{1e3 * m['final_position_error_m']:.1f}")
-    t.add_row("final heading error (deg)", f"{np.degrees(m['final_heading_error_rad']):.2f}")
-    t.add_row("path completed", "yes" if m["path_completed"] else "no")
-    t.add_row("simulated time (s)", f"{m['sim_time_s']:.1f}")
-    t.add_row("wall time (s)", f"{m['wall_time_s']:.2f}")
-    return t
-
-
 def summary_table(result: Any) -> Any:
-    """The per-lap table (hybrid automaton) or the path-following table (Kanayama)."""
-    return lap_table(result) if hasattr(result, "runs") else path_table(result)
+    """The per-lap table of a route run (seed 004 Tables I-II)."""
+    return lap_table(result)
 
 
-def plot_path_follow(result: Any, out: str | Path) -> Path:
-    """PNG of the planned path and the true driven path of a Kanayama run."""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6.5, 6.5))
-    s = np.linspace(0.0, result.path.length, max(2, int(result.path.length / 0.02)))
-    planned = result.path.point_at(s)
-    ax.plot(planned[:, 0], planned[:, 1], "k--", lw=1.0, label="path")
-    ax.plot(result.series["x"], result.series["y"], color="tab:blue", lw=0.8, label="driven (truth)")
-    ax.plot(result.series["est_x"], result.series["est_y"], color="tab:orange", lw=0.8, label="dead reckoning")
-    _draw_walls(ax, result.world)
-    return _save_plan_view(plt, fig, ax, out)
+def save_laps(result: Any, out_dir: str | Path, plots: bool = True) -> list[Path]:
+    """Write ``metrics.json``, ``laps.json``, ``laps.csv``, ``timeseries_<mode>.csv`` and (optionally) ``laps.png``.
+
+    ``result`` is a :class:`agvnav.sim.laps.TrackedResult`; errors in m.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = result.lap_rows()
+    modes = result.mode_summary()
+    for mode, run in result.runs.items():
+        tag = "with_landmarks" if mode else "without_landmarks"
+        modes[tag]["transitions"] = [[tr.t, tr.source.value, tr.target.value, tr.cause] for tr in run.controller.transitions]
+    summary = {
+        "scenario": result.scenario.name,
+        "seed": result.scenario.seed,
+        "per_lap": "distance between consecutive true lap end points (the route start before lap 1)",
+        "from_start": "distance of the true lap end point from the route start",
+        "laps": rows,
+        "modes": modes,
+    }
+    metrics = {"scenario": result.scenario.name, "seed": result.scenario.seed, "modes": result.mode_summary()}
+    written = []
+    for name, doc in (("metrics.json", metrics), ("laps.json", summary)):
+        p = out / name
+        p.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        written.append(p)
+    cols = list(rows[0]) if rows else ["lap"]
+    table = {c: np.array([np.nan if r[c] is None else r[c] for r in rows], dtype=np.float64) for c in cols}
+    written.append(write_csv(out / "laps.csv", table))
+    for mode, run in result.runs.items():
+        written.append(write_csv(out / f"timeseries_{'with' if mode else 'without'}_landmarks.csv", run.series))
+    if plots:
+        written.append(plot_laps(result, out / "laps.png"))
+    return written
 
 
 def _draw_walls(ax: Any, world: Any) -> None:

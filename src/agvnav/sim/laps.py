@@ -1,4 +1,15 @@
-"""Laps of the seed-004 tracked robot: run the closed loop, measure the error per lap (Tables I-II).
+"""The seed-004 tracked robot on its square route: run the closed loop, measure the error per lap (Tables I-II).
+
+A scenario with a ``route`` (the seed-004 square) is driven by the hybrid
+automaton (:class:`HybridAutopilot` around
+:class:`agvnav.guidance.hybrid.HybridController`), positioned by the wall
+landmarks (:class:`~agvnav.positioning.wall_landmarks.WallLandmarkLocalizer`
+fed by :class:`agvnav.sim.rangers.UltrasonicSensorRole`), on the tracked plant
+of the registry (:data:`agvnav.sim.plants.PLANT_BUILDERS`): the same
+:class:`~agvnav.sim.engine.ClosedLoop` as every other run.
+:func:`prepare_tracked` does the cross-part checks (walls, sensors outside the
+body, the route passes a landmark); :func:`simulate_tracked` runs both modes
+with the same seed when ``compare_landmarks``.
 
 Seed 004 §III compares, lap by lap, the theoretical end point of the square
 route (its start) with where the robot really stopped. Here a lap ends at the
@@ -25,14 +36,60 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav.actuators import PID, DriveGeometry, MotorPair, WheelSpeedLoop
-from agvnav.guidance.hybrid import HybridController, HybridParams
-from agvnav.kinematics.tracked import TrackedVehicle
+from agvnav.actuators import DriveGeometry
+from agvnav.guidance.hybrid import HybridController, HybridParams, PolygonRoute
 from agvnav.positioning.wall_landmarks import LandmarkParams, WallLandmarkLocalizer, check_route_passes_landmarks
+from agvnav.sim.build import build_world, guard, ultrasonic_array, wall_ids
 from agvnav.sim.engine import ClosedLoop, LoopOutput
-from agvnav.sim.tracked import HybridAutopilot, TrackedPlant, UltrasonicSensorRole
+from agvnav.sim.plants import build_plant
+from agvnav.sim.rangers import UltrasonicSensorRole
+from agvnav.world import WorldMap
+from agvnav.world.scenario import Scenario
+from agvnav.world.vehicle_specs import TrackedSpec
 
-__all__ = ["LapErrors", "TrackedRun", "lap_errors", "run_tracked"]
+__all__ = [
+    "HybridAutopilot",
+    "LapErrors",
+    "TrackedResult",
+    "TrackedRun",
+    "hybrid_params",
+    "lap_errors",
+    "prepare_tracked",
+    "run_tracked",
+    "simulate_tracked",
+]
+
+
+class HybridAutopilot:
+    """Seed 004 Fig. 7: the hybrid automaton's wheel set-points.
+
+    The automaton reads the loop's estimator (it was built bound to it, see
+    :meth:`agvnav.guidance.hybrid.HybridController.bind`).
+    """
+
+    signal_names = ("v_cmd", "omega_cmd", "omega_right_cmd", "omega_left_cmd", "state", "leg", "laps_done")
+
+    def __init__(self, controller: Any) -> None:
+        self.controller = controller
+        self._sig: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+    @property
+    def finished(self) -> bool:
+        return bool(self.controller.finished)
+
+    def command(self, t: float, estimator: Any, plant: Any, dt: float) -> tuple[float, float]:
+        c = self.controller
+        if c.estimator is not estimator:
+            c.bind(estimator)
+        cmd = c.command(t)
+        w = cmd.wheel_speeds
+        self._sig = (cmd.v, cmd.omega, float(w[0]), float(w[1]), float(c.state.value[1]), float(c.leg),
+                     float(c.laps_done))
+        return float(w[0]), float(w[1])
+
+    def signals(self) -> tuple[float, ...]:
+        return self._sig
+
 
 
 @dataclass(frozen=True)
@@ -91,57 +148,40 @@ class TrackedRun(LoopOutput):
 
 
 def run_tracked(
-    route: Any,
-    walls: ArrayLike,
+    sc: Scenario,
+    route: PolygonRoute,
+    world: WorldMap,
     layout: Any,
-    truth_terrain: Any,
-    odometry_terrain: Any,
+    params: HybridParams,
     *,
-    geometry: Any = None,
-    motor: dict[str, float] | None = None,
-    pid: dict[str, float] | None = None,
-    params: Any = None,
-    laps: int = 10,
     use_landmarks: bool = True,
-    step: float = 0.1,
-    substep: float = 0.01,
-    counts_per_rev: int = 1440,
-    slip_noise_std: float = 0.0,
-    seed: int = 0,
-    wall_ids: Sequence[str] | None = None,
-    duration: float | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> TrackedRun:
-    """Drive ``laps`` laps of ``route`` under the hybrid automaton (seed 004 Fig. 7) and measure them.
+    """Drive ``sc.controller.laps`` laps of ``route`` under the hybrid automaton (seed 004 Fig. 7), measure them.
 
-    ``walls (M, 2, 2)`` are what the rangers see and, with ``use_landmarks``, the
-    landmarks; ``layout`` the :class:`~agvnav.sensors.ultrasonic.UltrasonicArray`;
-    the terrains the truth and odometry :class:`~agvnav.kinematics.tracked.TrackTerrain`;
-    ``motor`` / ``pid`` keyword overrides of :class:`~agvnav.actuators.MotorPair` /
-    :class:`~agvnav.actuators.PID`. ``duration`` (s) defaults to 1.5 x the nominal lap time
-    x laps. Deterministic for ``seed``.
+    The map's walls are what the rangers see and, with ``use_landmarks``, the
+    landmarks; ``layout`` is the :class:`~agvnav.sensors.ultrasonic.UltrasonicArray`.
+    The plant is the registry's tracked robot of ``sc.vehicle``. ``sc.duration_s``
+    defaults to 1.5 x the nominal lap time x laps. Deterministic for ``sc.seed``.
 
     The estimator of the loop is a
     :class:`~agvnav.positioning.wall_landmarks.WallLandmarkLocalizer` fed by the
     rangers (left out when not ``use_landmarks``: pure dead reckoning); the automaton reads it.
     """
-    geometry = geometry or DriveGeometry()
-    params = params or HybridParams()
-    segs = np.asarray(walls, dtype=np.float64).reshape(-1, 2, 2)
+    assert isinstance(sc.vehicle, TrackedSpec)
+    segs = world.wall_segments
     landmark = LandmarkParams(**params.landmark_kwargs())
     if use_landmarks:
         legs = [route.leg(k) for k in range(route.n_legs)]
         check_route_passes_landmarks(legs, segs, layout.body_width, landmark.detect_range, landmark.parallel_tolerance)
-    localizer = WallLandmarkLocalizer(segs, layout, landmark, pose=route.start_pose, wall_ids=wall_ids)
+    localizer = WallLandmarkLocalizer(segs, layout, landmark, pose=route.start_pose, wall_ids=wall_ids(world))
+    geometry = DriveGeometry(sc.vehicle.sprocket_radius_m, sc.vehicle.gauge_m)
+    laps = sc.controller.laps
     ctrl = HybridController(route, localizer, geometry, params, laps)
-    vehicle = TrackedVehicle(geometry.track_width, geometry.wheel_radius, truth_terrain)
-    u_max = float((motor or {}).get("u_max", 12.0))
-    loop = WheelSpeedLoop(MotorPair(**(motor or {})), PID(**{"u_min": -u_max, "u_max": u_max, **(pid or {})}))
-    plant = TrackedPlant(vehicle, loop, odometry_terrain, counts_per_rev, route.start_pose, substep, slip_noise_std)
+    plant = build_plant(sc.vehicle, route.start_pose)
     sensors = [UltrasonicSensorRole(layout, segs)] if use_landmarks else []
-    engine = ClosedLoop(plant, sensors, localizer, HybridAutopilot(ctrl), step, seed)
-    if duration is None:
-        duration = 1.5 * laps * nominal_lap_time(route, params) + 10.0
+    engine = ClosedLoop(plant, sensors, localizer, HybridAutopilot(ctrl), sc.step_s, sc.seed)
+    duration = sc.duration_s if sc.duration_s is not None else 1.5 * laps * nominal_lap_time(route, params) + 10.0
     out = engine.run(duration, end_hold=0.0, progress=progress)
     e4 = [tr.t for tr in ctrl.transitions if tr.target.value == "E4"]
     xy = np.column_stack([out.series["x"], out.series["y"]])
@@ -155,3 +195,101 @@ def nominal_lap_time(route: Any, params: Any) -> float:
     perimeter = sum(route.leg(k)[2] for k in range(route.n_legs))
     turning = route.n_legs * (math.pi / 2) / params.turn_rate
     return perimeter / params.cruise_speed + turning + params.dwell
+
+
+def hybrid_params(params: dict[str, Any]) -> HybridParams:
+    """:class:`~agvnav.guidance.hybrid.HybridParams` from ``controller.params`` (keys ``*_deg``/``*_deg_s`` in degrees)."""
+    out: dict[str, Any] = {}
+    for key, value in params.items():
+        for suffix in ("_deg_s", "_deg"):
+            if key.endswith(suffix):
+                out[key[: -len(suffix)]] = math.radians(float(value))
+                break
+        else:
+            out[key] = value
+    return HybridParams(**out)
+
+
+@dataclass
+class RouteParts:
+    """The validated parts of a route scenario (see :func:`prepare_tracked`)."""
+
+    route: PolygonRoute
+    world: WorldMap
+    layout: Any
+    params: HybridParams
+
+
+def prepare_tracked(sc: Scenario) -> RouteParts:
+    """Check ``sc`` (a route scenario) across its parts: map walls, rangers outside the body, the route passes a landmark."""
+    if sc.route is None or not isinstance(sc.vehicle, TrackedSpec):
+        raise sc.error(("route",), "the hybrid automaton drives the tracked robot on a route")
+    r = sc.route
+    world = build_world(sc)
+    if world.wall_segments.shape[0] == 0:
+        raise sc.error(("map",), "the map has no walls: the ultrasonic landmarks are walls")
+    layout = ultrasonic_array(sc)
+    route = guard(sc, ("route",), PolygonRoute.square, r.side_m, (r.start[0], r.start[1], math.radians(r.start[2])),
+                  r.turn)
+    params = guard(sc, ("controller", "params"), hybrid_params, sc.controller.params)
+    if sc.controller.landmarks or sc.controller.compare_landmarks:  # the route must pass a landmark
+        legs = [route.leg(k) for k in range(route.n_legs)]
+        guard(sc, ("map",), check_route_passes_landmarks, legs, world.wall_segments, layout.body_width,
+              params.detect_range, params.parallel_tolerance)
+        landmark = guard(sc, ("controller", "params"), LandmarkParams, **params.landmark_kwargs())
+        guard(sc, ("ultrasonic",), WallLandmarkLocalizer, world.wall_segments, layout, landmark)  # names the pairs
+    return RouteParts(route, world, layout, params)
+
+
+@dataclass
+class TrackedResult:
+    """The runs of one route scenario: ``runs[True]`` with landmarks, ``runs[False]`` without."""
+
+    scenario: Scenario
+    runs: dict[bool, TrackedRun]
+    world: WorldMap
+    route: PolygonRoute
+
+    def lap_rows(self) -> list[dict[str, Any]]:
+        """One row per lap: ``lap``, then per mode ``error_per_lap_m`` and ``error_from_start_m``."""
+        n = max(run.laps.laps for run in self.runs.values())
+        rows = []
+        for k in range(n):
+            row: dict[str, Any] = {"lap": k + 1}
+            for mode, run in sorted(self.runs.items(), reverse=True):
+                tag = "with" if mode else "without"
+                ok = k < run.laps.laps
+                row[f"{tag}_landmarks_per_lap_m"] = float(run.laps.per_lap_m[k]) if ok else None
+                row[f"{tag}_landmarks_from_start_m"] = float(run.laps.error_m[k]) if ok else None
+            rows.append(row)
+        return rows
+
+    def mode_summary(self) -> dict[str, dict[str, Any]]:
+        """Per mode (``with_landmarks``/``without_landmarks``): per-lap error summary (m), laps, timing."""
+        modes: dict[str, Any] = {}
+        for mode, run in sorted(self.runs.items(), reverse=True):
+            per_lap = np.asarray(run.laps.per_lap_m, dtype=np.float64)
+            sim_t = float(run.series["t"][-1]) if len(run.series["t"]) else 0.0
+            wall = float(run.wall_time_s)
+            modes["with_landmarks" if mode else "without_landmarks"] = {
+                "mean_error_per_lap_m": float(np.mean(per_lap)) if run.laps.laps else None,
+                "max_error_per_lap_m": float(np.max(per_lap)) if run.laps.laps else None,
+                "final_error_m": float(run.laps.error_m[-1]) if run.laps.laps else None,
+                "laps": int(run.laps.laps),
+                "sim_time_s": sim_t,
+                "wall_time_s": wall,
+                "real_time_factor": sim_t / wall if wall > 0.0 else None,
+            }
+        return modes
+
+
+def simulate_tracked(sc: Scenario, progress: Callable[[float], None] | None = None) -> TrackedResult:
+    """Run the route scenario ``sc`` (both modes with the same seed if ``compare_landmarks``); deterministic."""
+    parts = prepare_tracked(sc)
+    modes = [True, False] if sc.controller.compare_landmarks else [sc.controller.landmarks]
+    runs = {
+        mode: run_tracked(sc, parts.route, parts.world, parts.layout, parts.params, use_landmarks=mode,
+                          progress=progress)
+        for mode in modes
+    }
+    return TrackedResult(sc, runs, parts.world, parts.route)

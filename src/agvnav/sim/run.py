@@ -34,7 +34,6 @@ from agvnav.guidance.errors import tracking_errors
 from agvnav.sim.build import Built, build
 from agvnav.sim.integrity import integrity_figures
 from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, transient_end_index
-from agvnav.sim.tracked_build import simulate_tracked
 from agvnav.world import WorldMap
 from agvnav.world.scenario import Scenario
 
@@ -84,10 +83,10 @@ def simulate(
 ) -> SimResult:
     """Build and run ``scenario`` (a vehicle following a path); deterministic for its seed.
 
+    A route scenario (the seed-004 square) runs laps instead: :func:`agvnav.sim.laps.simulate_tracked`.
+
     ``progress(t)`` receives the simulated time about a hundred times.
     """
-    if scenario.route is not None:  # the seed-004 automaton on its square route (laps, both modes)
-        return simulate_tracked(scenario, progress)  # type: ignore[arg-type,return-value]
     built = build(scenario)
     out = built.loop.run(built.duration, scenario.end_hold_s, progress)
     series = out.series

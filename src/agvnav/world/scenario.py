@@ -470,6 +470,12 @@ class Scenario(SourcedModel):
             raise ValueError("give a path (or, for the seed-004 automaton, a route)")
         if self.route is not None and self.vehicle.model != "tracked":
             raise ValueError("route (the seed-004 square) is for the tracked robot; other vehicles follow a path")
+        if self.route is not None and self.controller.name not in (None, "hybrid"):
+            raise ValueError("the seed-004 route is driven by the hybrid automaton (controller.name: hybrid)")
+        if self.route is None and self.controller.name == "hybrid":
+            raise ValueError("the hybrid automaton drives the seed-004 square: give the route key")
+        if self.route is not None and self.ultrasonic is None:
+            raise ValueError("the hybrid automaton's landmarks are seen by ultrasonic rangers: give the ultrasonic key")
         return self
 
     @property
@@ -509,10 +515,6 @@ def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = 
     err = _model_error(data, nodes, source)
     if err is not None:
         raise err
-    from agvnav.world.tracked_scenario import is_tracked, parse_tracked  # transitional: folded in below
-
-    if is_tracked(data) and ("route" in data or "terrain" in data):
-        return parse_tracked(data, nodes, source, base_dir)  # type: ignore[return-value]
     return validate_document(Scenario, data, nodes, source, base_dir)
 
 
