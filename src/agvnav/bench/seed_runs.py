@@ -23,7 +23,7 @@ import yaml
 from agvnav.geometry import lateral_position_error
 from agvnav.sim import simulate
 from agvnav.sim.metrics import guidance_figures, lateral_error_statistics
-from agvnav.sim.tracked_build import simulate_tracked
+from agvnav.sim.laps import simulate_tracked
 from agvnav.world.scenario import builtin_scenario, parse_scenario
 
 __all__ = [
@@ -136,7 +136,7 @@ def positioning_run(
 def _seed004_document(name: str, values: dict[str, float], seed: int, laps: int, landmarks: bool) -> dict[str, Any]:
     d = copy.deepcopy(_document(name))
     d["seed"] = int(seed)
-    terrain = d["terrain"]
+    terrain = d["vehicle"]["terrain"]
     slip, icr = _TRUTH[terrain["truth"]]
     s_odo, i_odo = slip * (1.0 - values["slip_error"]), icr * (1.0 - values["icr_error"])
     terrain["odometry"] = {"slip_left": s_odo, "slip_right": s_odo, "icr_left": i_odo, "icr_right": i_odo}

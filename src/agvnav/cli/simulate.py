@@ -79,8 +79,8 @@ RUN_FAILED_EXIT = 3
 def _simulate_route(sc: Any, out: Path, plots: bool, force: bool) -> None:
     """The seed-004 tracked robot on its square route: laps with and without landmarks (Tables I-II)."""
     from agvnav.report.files import atomic_dir
-    from agvnav.report.laps import summary_table
-    from agvnav.sim.tracked_build import prepare_tracked, save_tracked, simulate_tracked
+    from agvnav.report.laps import save_laps, summary_table
+    from agvnav.sim.laps import prepare_tracked, simulate_tracked
 
     prepare_tracked(sc)  # validate before the progress bar
     _prepare_out(out, force)
@@ -95,7 +95,7 @@ def _simulate_route(sc: Any, out: Path, plots: bool, force: bool) -> None:
         task = bar.add_task("simulate", total=None, t=0.0)
         result = simulate_tracked(sc, progress=lambda t: bar.update(task, t=t))
     with atomic_dir(out, force) as tmp:
-        written = [out / p.name for p in save_tracked(result, tmp, plots)]
+        written = [out / p.name for p in save_laps(result, tmp, plots)]
     console.print(summary_table(result))
     console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
 

@@ -41,11 +41,14 @@ from agvnav.guidance.errors import feedforward_steering
 from agvnav.kinematics import TractorTrailer
 from agvnav.odometry import OdometryNoise
 from agvnav.positioning import make_estimator
+from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
 from agvnav.sensors.goniometer import Goniometer
+from agvnav.sensors.ultrasonic import UltrasonicArray, UltrasonicSensor, seed_004_layout
 from agvnav.sim.collision import CollisionWatch, WallCollider
 from agvnav.sim.engine import ClosedLoop
 from agvnav.sim.faults import PLANT_FAULTS, FaultyPlant, FaultySensor, world_with_faults
 from agvnav.sim.plants import build_plant, family_of
+from agvnav.sim.rangers import UltrasonicSensorRole
 from agvnav.sim.roles import GoniometerSensor, PathAutopilot
 from agvnav.sim.safety import EstimatorWatch, GuardLimits, PositioningGuard
 from agvnav.world import WorldMap, builtin_map_names, load_builtin_map, load_map
@@ -62,6 +65,8 @@ __all__ = [
     "guard",
     "reflectors_in_view",
     "surveyed_truth",
+    "ultrasonic_array",
+    "wall_ids",
 ]
 
 #: The follower a vehicle family gets when the scenario names none.
@@ -374,7 +379,39 @@ def _goniometer(sc: Scenario) -> Goniometer:
     )
 
 
-def _estimator(sc: Scenario, world: WorldMap, x0: NDArray[np.float64]) -> Any:
+def ultrasonic_array(sc: Scenario) -> UltrasonicArray:
+    """The rangers of ``sc.ultrasonic`` on the vehicle's body (the seed-004 layout unless sensors are listed)."""
+    us, veh = sc.ultrasonic, sc.vehicle
+    if us is None:
+        raise sc.error(("ultrasonic",), "no ultrasonic rangers are mounted")
+    base = UltrasonicSensor(
+        half_angle=math.radians(us.half_angle_deg), max_incidence=math.radians(us.max_incidence_deg),
+        min_range=us.min_range_m, max_range=us.max_range_m, noise_std=us.noise_std_m, p_miss=us.p_miss,
+        rate_hz=us.rate_hz,
+    )
+    if us.sensors is None:
+        return guard(sc, ("ultrasonic",), seed_004_layout, us.spacing_m, veh.body_length_m, veh.body_width_m, base)
+    q = 0.25 / us.rate_hz
+    sensors = {
+        s.name: dataclasses.replace(base, mount=(s.mount[0], s.mount[1], math.radians(s.mount[2])), phase=(i % 4) * q)
+        for i, s in enumerate(us.sensors)
+    }
+    return guard(sc, ("ultrasonic", "sensors"), UltrasonicArray, sensors, veh.body_length_m, veh.body_width_m)
+
+
+def wall_ids(world: WorldMap) -> list[str]:
+    """One name per wall segment of ``world`` (``id``, or ``id[i]`` for polylines), in ``wall_segments`` order."""
+    ids: list[str] = []
+    for w in world.walls:
+        n = w.segments.shape[0]
+        ids += [w.id] if n == 1 else [f"{w.id}[{i}]" for i in range(n)]
+    return ids
+
+
+def _estimator(
+    sc: Scenario, world: WorldMap, x0: NDArray[np.float64], rangers: UltrasonicArray | None
+) -> Any:
+    """The estimator by method (null: ekf with a goniometer, wall_landmarks with rangers only, else dead reckoning)."""
     ps = sc.positioning
     err = np.array([ps.initial_error[0], ps.initial_error[1], math.radians(ps.initial_error[2])])
     std = np.array([ps.initial_std[0], ps.initial_std[1], math.radians(ps.initial_std[2])])
@@ -391,9 +428,20 @@ def _estimator(sc: Scenario, world: WorldMap, x0: NDArray[np.float64]) -> Any:
     if sc.world_truth.reflector_survey_std_m > 0.0:
         kwargs["map_std"] = sc.world_truth.reflector_survey_std_m
     kwargs.update(ps.params)
-    method = ps.method or ("ekf" if g is not None else "dead_reckoning")
-    if g is None and method in ("naive", "angle_propagation", "batch_ml"):
+    method = ps.method or ("ekf" if g is not None else "wall_landmarks" if rangers is not None else "dead_reckoning")
+    if g is None and method in ("naive", "angle_propagation", "batch_ml", "ekf"):
         raise sc.error(("positioning", "method"), f"{method} positions with the goniometer: mount one")
+    if method in ("wall_landmarks", "dead_reckoning"):
+        if method == "wall_landmarks" and rangers is None:
+            raise sc.error(("positioning", "method"), "wall_landmarks positions with ultrasonic rangers: mount them")
+        walls = world.wall_segments if method == "wall_landmarks" else ()
+        return guard(
+            sc, ("positioning",), WallLandmarkLocalizer, walls, rangers if method == "wall_landmarks" else None,
+            pose=kwargs["initial_pose"], wall_ids=wall_ids(world) if method == "wall_landmarks" else None,
+            odometry_noise=kwargs["odometry_noise"], initial_covariance=kwargs["initial_covariance"],
+        )
+    if rangers is not None and method == "ekf":  # fuse the rangers' wall ranges too
+        kwargs.update(walls=world.wall_segments, rangers=rangers)
     return guard(sc, ("positioning",), make_estimator, method, world, mount, **kwargs)
 
 
@@ -410,12 +458,13 @@ def _watch(sc: Scenario) -> EstimatorWatch:
     return EstimatorWatch(PositioningGuard(limits, enabled=s.enabled and sc.goniometer is not None))
 
 
-def _sensors(sc: Scenario, world: WorldMap) -> list[Any]:
-    """The goniometer seeing the true world (survey error, moved reflectors), with the sensor faults."""
+def _sensors(sc: Scenario, world: WorldMap, rangers: UltrasonicArray | None) -> list[Any]:
+    """The goniometer seeing the true world (survey error, moved reflectors), with the sensor faults; the rangers."""
+    out: list[Any] = [] if rangers is None else [UltrasonicSensorRole(rangers, world.wall_segments)]
     if sc.goniometer is None:
         if any(f.kind not in PLANT_FAULTS for f in sc.faults):
             raise sc.error(("faults",), "goniometer and reflector faults need a goniometer: mount one")
-        return []
+        return out
     for i, f in enumerate(sc.faults):
         if f.reflector is not None and f.reflector not in world.reflector_ids:
             raise sc.error(("faults", i, "reflector"), f"no reflector {f.reflector!r} in the map")
@@ -423,7 +472,7 @@ def _sensors(sc: Scenario, world: WorldMap) -> list[Any]:
     sensor: Any = GoniometerSensor(_goniometer(sc), true_world)
     if any(f.kind not in PLANT_FAULTS for f in sc.faults):
         sensor = FaultySensor(sensor, sc.faults, world, sc.goniometer.rate_hz, sc.seed)
-    return [sensor]
+    return [sensor, *out]
 
 
 def _loop_plant(sc: Scenario, plant: Any, world: WorldMap) -> Any:
@@ -442,7 +491,12 @@ def _default_duration(sc: Scenario, path: Path) -> float:
 
 
 def build(sc: Scenario) -> Built:
-    """Wire every part of scenario ``sc`` (any vehicle following a path) into a ClosedLoop."""
+    """Wire every part of scenario ``sc`` (any vehicle following a path) into a ClosedLoop.
+
+    A scenario with the seed-004 ``route`` runs laps instead (:func:`agvnav.sim.laps.simulate_tracked`).
+    """
+    if sc.route is not None:
+        raise sc.error(("route",), "a route scenario runs laps (agvnav.sim.simulate), it has no single path loop")
     world = build_world(sc)
     path = build_path(sc)
     family = family_of(sc.vehicle.model)
@@ -461,9 +515,10 @@ def build(sc: Scenario) -> Built:
         sc, ("traction",), SpeedProfile, cruise_speed=tc.speed_m_s, max_accel=tc.max_accel_m_s2,
         max_decel=tc.max_decel_m_s2,
     )
-    estimator = _estimator(sc, world, x0)
+    rangers = ultrasonic_array(sc) if sc.ultrasonic is not None else None
+    estimator = _estimator(sc, world, x0, rangers)
     pilot = PathAutopilot(follower, path, profile, plant, offset, watch=_watch(sc))
-    sensors = _sensors(sc, world)
+    sensors = _sensors(sc, world, rangers)
     loop = ClosedLoop(_loop_plant(sc, plant, world), sensors, estimator, pilot, sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else _default_duration(sc, path)
     return Built(loop, world, path, plant, pilot, estimator, duration, point, offset)
