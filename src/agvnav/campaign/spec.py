@@ -13,6 +13,9 @@ The schema is strict and every error names the file, the line and the key
 Input should be less than or equal to 1``: each override value is checked
 against the scenario schema when the campaign is loaded, so a bad value is
 reported at its own line in the campaign file, not half-way through the runs.
+Random parameters are checked at their range ends (``uniform``), mean
+(``normal``) or every value (``choice``); a ``normal`` draw beyond the scenario's
+limits makes that run an ``error`` record naming the key.
 """
 
 from __future__ import annotations
