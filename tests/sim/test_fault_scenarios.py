@@ -6,7 +6,14 @@ import pytest
 from agvnav.sim import simulate
 from agvnav.sim.build import build
 from agvnav.sim.faults import FaultyPlant, FaultySensor
-from agvnav.world.scenario import FAULT_KINDS, builtin_scenario_names, load_scenario
+from agvnav.world.scenario import (
+    FAULT_KINDS,
+    ScenarioError,
+    builtin_scenario,
+    builtin_scenario_names,
+    load_scenario,
+    parse_scenario,
+)
 
 FAULT_SCENARIOS = [n for n in builtin_scenario_names() if n.startswith("fault_")]
 
@@ -38,3 +45,9 @@ def test_blackout_slows_stops_and_resumes():
     assert np.all(s["t"][level >= 1.0] >= 4.0)  # nothing before the blackout
     assert fig["stop_demands"] == 1 and fig["stops_within_braking_distance"] is True
     assert fig["time_stopped_for_positioning_s"] > 1.0
+
+
+def test_unknown_reflector_is_named_with_its_key_and_line():
+    text = builtin_scenario("fault_reflectors").read_text().replace("reflector: R3", "reflector: R99")
+    with pytest.raises(ScenarioError, match=r"faults\[0\]\.reflector.*R99"):
+        build(parse_scenario(text, "bad.yaml"))
