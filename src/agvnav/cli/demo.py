@@ -68,7 +68,7 @@ def demo_rows(pulses_per_rev: int = 65535, heading_error_deg: float = 1.0) -> li
                     "fix": fix,
                     "position_error_m": float(math.hypot(fix.x - pose[0], fix.y - pose[1])),
                     "heading_error_rad": float(angle_diff(fix.heading, pose[2])),
-                    "std_position_m": float(np.sqrt(fix.covariance[0, 0] + fix.covariance[1, 1])),
+                    "std_position_m": _position_std(fix.covariance),
                 }
             )
     return rows
@@ -148,3 +148,10 @@ def _check_options(pulses_per_rev: int, heading_error_deg: float) -> None:
         raise ValueError(f"--pulses-per-rev must be an integer >= 3, got {pulses_per_rev}")
     if not math.isfinite(heading_error_deg) or abs(heading_error_deg) > 90.0:
         raise ValueError(f"--heading-error-deg must be a finite number in [-90, 90] degrees, got {heading_error_deg}")
+
+
+def _position_std(covariance: np.ndarray | None) -> float:
+    """sqrt of the position variance (m); NaN when the method gives no covariance."""
+    if covariance is None:
+        return math.nan
+    return float(np.sqrt(covariance[0, 0] + covariance[1, 1]))

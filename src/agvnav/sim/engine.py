@@ -94,7 +94,10 @@ class Autopilot(Protocol):
     """Guidance law plus actuators: estimate and readings -> physical command."""
 
     signal_names: tuple[str, ...]
-    finished: bool
+
+    @property
+    def finished(self) -> bool:
+        """True once the autopilot has completed its task (read only for the loop)."""
 
     def command(self, t: float, estimator: Estimator, plant: Plant, dt: float) -> Sequence[float]:
         """Command to hold over the next step."""

@@ -67,7 +67,7 @@ class HybridAutopilot:
     :meth:`agvnav.guidance.hybrid.HybridController.bind`).
     """
 
-    signal_names = ("v_cmd", "omega_cmd", "omega_right_cmd", "omega_left_cmd", "state", "leg", "laps_done")
+    signal_names: tuple[str, ...] = ("v_cmd", "omega_cmd", "omega_right_cmd", "omega_left_cmd", "state", "leg", "laps_done")
 
     def __init__(self, controller: Any) -> None:
         self.controller = controller
@@ -178,7 +178,7 @@ def run_tracked(
     geometry = DriveGeometry(sc.vehicle.sprocket_radius_m, sc.vehicle.gauge_m)
     laps = sc.controller.laps
     ctrl = HybridController(route, localizer, geometry, params, laps)
-    plant = build_plant(sc.vehicle, route.start_pose)
+    plant = build_plant(sc.vehicle, route.start_pose.tolist())
     sensors = [UltrasonicSensorRole(layout, segs)] if use_landmarks else []
     engine = ClosedLoop(plant, sensors, localizer, HybridAutopilot(ctrl), sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else 1.5 * laps * nominal_lap_time(route, params) + 10.0
