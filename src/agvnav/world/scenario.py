@@ -303,7 +303,9 @@ class SafetySpec(StrictModel):
     estimated position across the vehicle exceeds ``lateral_3sigma_slow_m``; it
     stops at its deceleration limit when positioning is ``lost`` (or the status
     is unknown) or 3 sigma exceeds ``lateral_3sigma_stop_m``. It resumes once
-    positioning has been good again for ``resume_after_s``.
+    positioning has been good again for ``resume_after_s``. The guard acts when a
+    goniometer positions the vehicle; a vehicle built to dead-reckon (no absolute
+    sensor, or the seed-004 wall landmarks) only records its figures.
     """
 
     enabled: bool = True
