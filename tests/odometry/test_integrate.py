@@ -72,16 +72,22 @@ def test_integrate_rejects_unknown_rule():
         integrate_pose([0, 0, 0], 1.0, 0.1, "rk4")
 
 
-@given(th=st.floats(-4, 4), dd=st.floats(-2, 2), dth=st.floats(-2, 2))
-def test_motion_covariance_is_psd_and_matches_formula(th, dd, dth):
+@given(th=st.floats(-4, 4), dd=st.floats(-2, 2), dth=st.floats(-2, 2), rule=st.sampled_from(["arc", "midpoint", "euler"]))
+def test_motion_covariance_is_psd_and_maps_the_increments_through_the_numeric_jacobian(th, dd, dth, rule):
+    """Q = G diag(var_d, var_th) G^T with G the central-difference Jacobian of the pose update."""
     n = OdometryNoise()
-    q = motion_covariance([0.0, 0.0, th], dd, dth, n)
+    q = motion_covariance([0.0, 0.0, th], dd, dth, n, rule)
     assert np.min(np.linalg.eigvalsh(q)) > -1e-15
-    hm = th + dth / 2
+    eps = 1e-6
+    G = np.empty((3, 2))
+    for j, (a, b) in enumerate(((eps, 0.0), (0.0, eps))):
+        hi = integrate_pose([0.0, 0.0, th], dd + a, dth + b, rule)
+        lo = integrate_pose([0.0, 0.0, th], dd - a, dth - b, rule)
+        diff = hi - lo
+        diff[2] = (diff[2] + np.pi) % (2 * np.pi) - np.pi
+        G[:, j] = diff / (2 * eps)
     var_d, var_t = n.k_d * abs(dd), n.k_dtheta * abs(dd) + n.k_theta * abs(dth)
-    np.testing.assert_allclose(q, [[var_d * np.cos(hm) ** 2, var_d * np.cos(hm) * np.sin(hm), 0],
-                                   [var_d * np.cos(hm) * np.sin(hm), var_d * np.sin(hm) ** 2, 0],
-                                   [0, 0, var_t]], atol=1e-15)
+    np.testing.assert_allclose(q, G @ np.diag([var_d, var_t]) @ G.T, atol=1e-9)
 
 
 def test_seed_printed_diagonal_would_be_negative():

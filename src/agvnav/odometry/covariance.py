@@ -3,9 +3,15 @@
 Seed 002 prints ``Q11 = K_D ΔD cos θ``, ``Q22 = K_D ΔD sin θ`` — which is
 negative for half the headings, so it cannot be a covariance. The intended
 model is noise on the increments, ``var(ΔD) = K_D |ΔD|`` and
-``var(Δθ) = K_Dθ |ΔD| + K_θ |Δθ|``, mapped to the pose by
-``J = [[cos θ_m, 0], [sin θ_m, 0], [0, 1]]`` at the midpoint heading
-``θ_m = θ + Δθ/2``: ``Q = J · diag(...) · Jᵀ``. That is what is implemented.
+``var(Δθ) = K_Dθ |ΔD| + K_θ |Δθ|``, mapped to the pose through the full Jacobian ``G = ∂pose'/∂(ΔD, Δθ)`` of the
+integration rule's pose update (:func:`~agvnav.odometry.integrate.increment_jacobian`):
+``Q = G · diag(...) · Gᵀ``.
+
+The earlier ``J = [[cos θ_m, 0], [sin θ_m, 0], [0, 1]]`` (midpoint heading
+``θ_m = θ + Δθ/2``) dropped the displacement a heading error makes *within* the step
+(``∂x'/∂Δθ = −ΔD/2 · sin θ_m`` for the midpoint and arc rules): over 4 steps of
+0.625 m and 0.25 rad along an arc its lateral variance was about 26 % below a Monte
+Carlo of the same noise model (issue 12; ``tests/odometry/test_covariance_montecarlo.py``).
 """
 
 from __future__ import annotations
@@ -15,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav.odometry.integrate import integrate_pose, pose_jacobian
+from agvnav.odometry.integrate import increment_jacobian, integrate_pose, pose_jacobian
 
 FloatArray = NDArray[np.float64]
 
@@ -51,23 +57,36 @@ class OdometryNoise:
 
 
 def motion_covariance(pose: ArrayLike, delta_d: ArrayLike, delta_theta: ArrayLike,
-                      noise: OdometryNoise | None = None) -> FloatArray:
-    """Process noise ``Q (..., 3, 3)`` of one odometry increment ([seed002 eq17], corrected; see module doc)."""
+                      noise: OdometryNoise | None = None, rule: str = "arc") -> FloatArray:
+    """Process noise ``Q (..., 3, 3)`` of one odometry increment ([seed002 eq17], corrected; see module doc).
+
+    Parameters
+    ----------
+    pose:
+        ``(..., 3)`` pose ``[x, y, θ]`` before the increment (m, m, rad).
+    delta_d, delta_theta:
+        Increments ``ΔD`` (m) and ``Δθ`` (rad).
+    noise:
+        The coefficients (default :class:`OdometryNoise`).
+    rule:
+        Integration rule of the pose update, ``"arc"`` [seed002 eq25], ``"midpoint"``
+        [seed002 eq26] or ``"euler"`` [seed002 eq20]: ``Q = G Σ Gᵀ`` with ``G`` its exact
+        Jacobian with respect to ``(ΔD, Δθ)``.
+    """
     noise = noise or OdometryNoise()
-    pose = np.asarray(pose, dtype=np.float64)
-    dth = np.asarray(delta_theta, dtype=np.float64)
-    heading = pose[..., 2] + 0.5 * dth
-    sigma = noise.increment_covariance(delta_d, dth)
-    c, s = np.cos(heading), np.sin(heading)
-    J = np.zeros(np.broadcast_shapes(heading.shape, sigma.shape[:-2]) + (3, 2))
-    J[..., 0, 0], J[..., 1, 0], J[..., 2, 1] = c, s, 1.0
-    return J @ sigma @ np.swapaxes(J, -1, -2)
+    G = increment_jacobian(pose, delta_d, delta_theta, rule)
+    sigma = noise.increment_covariance(delta_d, delta_theta)
+    return G @ sigma @ np.swapaxes(G, -1, -2)
 
 
 def propagate(pose: ArrayLike, covariance: ArrayLike, delta_d: ArrayLike, delta_theta: ArrayLike,
               noise: OdometryNoise | None = None, rule: str = "arc") -> tuple[FloatArray, FloatArray]:
-    """One dead-reckoning prediction: ``(pose', P' = F P Fᵀ + Q)`` ([seed002 eq14] with the Q of [seed002 eq17])."""
+    """One dead-reckoning prediction: ``(pose', P' = F P Fᵀ + Q)`` ([seed002 eq14] with the Q of [seed002 eq17]).
+
+    ``F`` and ``Q`` are the Jacobians of the same ``rule`` (see :func:`motion_covariance`).
+    """
     pose = np.asarray(pose, dtype=np.float64)
     F = pose_jacobian(pose, delta_d, delta_theta, rule)
     P = F @ np.asarray(covariance, dtype=np.float64) @ np.swapaxes(F, -1, -2)
-    return integrate_pose(pose, delta_d, delta_theta, rule), P + motion_covariance(pose, delta_d, delta_theta, noise)
+    Q = motion_covariance(pose, delta_d, delta_theta, noise, rule)
+    return integrate_pose(pose, delta_d, delta_theta, rule), P + Q

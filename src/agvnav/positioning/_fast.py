@@ -34,6 +34,11 @@ def _sinc(h: float) -> float:
     return 1.0 - h * h / 6.0 if abs(h) < 1e-4 else math.sin(h) / h
 
 
+def _dsinc(h: float) -> float:
+    """Derivative of ``sin(h) / h``, as ``agvnav.odometry.integrate._dsinc``."""
+    return -h / 3.0 if abs(h) < 1e-4 else (h * math.cos(h) - math.sin(h)) / (h * h)
+
+
 def twist_step(
     x: float, y: float, psi: float, dd: float, dth: float, dl: float = 0.0
 ) -> tuple[float, float, float, float, float]:
@@ -71,34 +76,36 @@ def process_noise(
     psi: float, dd: float, dth: float, k_d: float, k_dtheta: float, k_theta: float,
     dl: float = 0.0, k_lateral: float = 0.0,
 ) -> Mat3:
-    """Process noise ``Q = J diag(var_d, var_th, var_l) J^T`` of one increment (flat 3x3).
+    """Process noise ``Q = G diag(var_d, var_th, var_l) G^T`` of one increment (flat 3x3).
 
     The odometry model of seed 002 [seed002 eq17] (corrected to a covariance, see
     :mod:`agvnav.odometry.covariance`): independent errors on the increments,
-    ``var_d = K_D |dd|`` and ``var_th = K_Dtheta s + K_theta |dth|`` with ``s`` the
-    distance travelled, extended for holonomic vehicles by a lateral error
-    ``var_l = K_lateral |dl|`` (m^2 per metre of sideways travel) and
-    ``s = hypot(dd, dl)``. ``J = [[c, -s], [s, c], [0, 0]]`` plus ``d/d dth = [0, 0, 1]``
-    at the mid heading ``psi + dth/2``: the increment Jacobian of the SE(2) exponential
-    (:func:`twist_step`) to leading order in the increment (``sinc -> 1``; the chord's
-    ``dth`` terms, ``O(|dd| + |dl|)`` times smaller, are dropped as seed 002 does).
+    ``var_d = K_D |dd|`` and ``var_th = K_Dtheta s + K_theta |dth|`` with ``s =
+    hypot(dd, dl)`` the distance travelled, extended for holonomic vehicles by a lateral
+    error ``var_l = K_lateral |dl|`` (m^2 per metre of sideways travel). ``G`` is the
+    exact Jacobian of :func:`twist_step`'s displacement ``sinc(h) R(psi + h) [dd, dl]``
+    (``h = dth / 2``) with respect to ``(dd, dth, dl)``: its ``dth`` column holds the
+    lateral displacement a heading error makes within the step,
+    ``(sinc'(h) R a + sinc(h) R_perp a) / 2`` with ``a = [dd, dl]`` (issue 12).
 
-    For ``dl = 0`` this is :func:`agvnav.odometry.motion_covariance`, which it mirrors,
-    with the same floating-point operations (seeded runs stay bit-identical).
+    For ``dl = 0`` this is :func:`agvnav.odometry.motion_covariance` (``rule="arc"``),
+    which it mirrors to rounding.
     """
-    heading = psi + 0.5 * dth
+    h = 0.5 * dth
+    k, dk = _sinc(h), _dsinc(h)
+    heading = psi + h
     c, s = math.cos(heading), math.sin(heading)
+    ax, ay = c * dd - s * dl, s * dd + c * dl  # R(heading) [dd, dl]
+    tx, ty = 0.5 * (dk * ax - k * ay), 0.5 * (dk * ay + k * ax)  # d displacement / d dth
     var_d = k_d * abs(dd)
-    if dl == 0.0:
-        var_th = k_dtheta * abs(dd) + k_theta * abs(dth)
-        cd, sd = c * var_d, s * var_d
-        return (cd * c, cd * s, 0.0, sd * c, sd * s, 0.0, 0.0, 0.0, var_th)
     var_th = k_dtheta * math.hypot(dd, dl) + k_theta * abs(dth)
     var_l = k_lateral * abs(dl)
-    q00 = c * c * var_d + s * s * var_l
-    q01 = c * s * (var_d - var_l)
-    q11 = s * s * var_d + c * c * var_l
-    return (q00, q01, 0.0, q01, q11, 0.0, 0.0, 0.0, var_th)
+    kc, ks = k * c, k * s
+    q00 = var_d * kc * kc + var_th * tx * tx + var_l * ks * ks
+    q01 = var_d * kc * ks + var_th * tx * ty - var_l * ks * kc
+    q11 = var_d * ks * ks + var_th * ty * ty + var_l * kc * kc
+    q02, q12 = var_th * tx, var_th * ty
+    return (q00, q01, q02, q01, q11, q12, q02, q12, var_th)
 
 
 def predict_covariance(P: Sequence[float], f02: float, f12: float, Q: Sequence[float]) -> Mat3:
