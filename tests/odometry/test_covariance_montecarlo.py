@@ -41,7 +41,8 @@ def _run(steps: int, dd: float, dth: float, rule: str) -> tuple[float, float, fl
     samples = np.zeros((N_SAMPLES, 3))
     pose, P, P_old = np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3))
     for _ in range(steps):
-        samples = integrate_pose(samples, dd + rng.normal(0.0, sd, N_SAMPLES), dth + rng.normal(0.0, st, N_SAMPLES), rule)
+        noisy_d, noisy_th = dd + rng.normal(0.0, sd, N_SAMPLES), dth + rng.normal(0.0, st, N_SAMPLES)
+        samples = integrate_pose(samples, noisy_d, noisy_th, rule)
         F = pose_jacobian(pose, dd, dth, rule)
         P_old = F @ P_old @ F.T + _old_q(pose, dd, dth)
         pose, P = propagate(pose, P, dd, dth, NOISE, rule)

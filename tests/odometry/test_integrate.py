@@ -72,7 +72,9 @@ def test_integrate_rejects_unknown_rule():
         integrate_pose([0, 0, 0], 1.0, 0.1, "rk4")
 
 
-@given(th=st.floats(-4, 4), dd=st.floats(-2, 2), dth=st.floats(-2, 2), rule=st.sampled_from(["arc", "midpoint", "euler"]))
+@given(
+    th=st.floats(-4, 4), dd=st.floats(-2, 2), dth=st.floats(-2, 2), rule=st.sampled_from(["arc", "midpoint", "euler"])
+)
 def test_motion_covariance_is_psd_and_maps_the_increments_through_the_numeric_jacobian(th, dd, dth, rule):
     """Q = G diag(var_d, var_th) G^T with G the central-difference Jacobian of the pose update."""
     n = OdometryNoise()
