@@ -23,12 +23,12 @@ distance between consecutive true lap end points; its "displacement error" 14.8 
 3 cm / 15 cm as the mean |x| / |y| of the lap end from the start (both readings are
 ours: the seed does not define them).
 
-Full run: 20 seed-method runs per experiment (10 laps without landmarks, 2 with),
-agvnav variants over the first 5 draws. ``--quick``: a few short runs (the
-positioning drive cut to its first two segments, 1 lap with landmarks, 2 without)
-and the expensive tracked runs with landmarks on grass and on the 3.5 m square
-skipped (their records show ``-``): a fast look, not the figures. Runs go to a pool
-of worker processes; the records do not depend on the number of workers.
+Full run: 20 seed-method runs per experiment (10 laps without landmarks, 3 with),
+agvnav variants over the first 5 draws. ``--quick``: 2 short runs per experiment
+(the positioning drive cut to its first two segments, 1 lap with landmarks, 2
+without) and 1 agvnav run: a fast look at every figure, not the figures (two runs
+give no band worth the name and no driver). Runs go to a pool of worker processes;
+the records do not depend on the number of workers.
 """
 
 from __future__ import annotations
@@ -72,7 +72,6 @@ class Experiment:
     sweeps: tuple[Sweep, ...]
     kwargs_full: dict[str, Any]
     kwargs_quick: dict[str, Any]
-    quick: bool = True
 
 
 @dataclass(frozen=True)
@@ -88,11 +87,11 @@ class Figure:
     scale: float
 
 
-def _square(name: str, agv: str | None, landmarks: bool, quick: bool) -> dict[str, Any]:
-    laps_full, laps_quick = (2, 1) if landmarks else (10, 2)
+def _square(name: str, agv: str | None, landmarks: bool) -> dict[str, Any]:
+    laps_full, laps_quick = (3, 1) if landmarks else (10, 2)
     return {"seed_scenario": name, "agvnav_scenario": agv if landmarks else None, "runner": square_run,
             "sweeps": SEED004_SWEEPS, "kwargs_full": {"laps": laps_full, "landmarks": landmarks},
-            "kwargs_quick": {"laps": laps_quick, "landmarks": landmarks}, "quick": quick}
+            "kwargs_quick": {"laps": laps_quick, "landmarks": landmarks}}
 
 
 EXPERIMENTS = {
@@ -102,11 +101,11 @@ EXPERIMENTS = {
                    SEED000_SWEEPS, {}, {"segments": 2}),
         Experiment("guidance", "seed000_guidance", "seed000_guidance_agvnav", guidance_run, SEED000_SWEEPS, {}, {}),
         Experiment("sq4_concrete_with",
-                   **_square("seed004_square_4m_concrete", "tracked_square_4_concrete", True, True)),
-        Experiment("sq4_concrete_without", **_square("seed004_square_4m_concrete", None, False, True)),
-        Experiment("sq4_grass_with", **_square("seed004_square_4m_grass", "tracked_square_4_grass", True, False)),
-        Experiment("sq4_grass_without", **_square("seed004_square_4m_grass", None, False, True)),
-        Experiment("sq35_with", **_square("seed004_square_3p5_concrete", "tracked_square_3p5_concrete", True, False)),
+                   **_square("seed004_square_4m_concrete", "tracked_square_4_concrete", True)),
+        Experiment("sq4_concrete_without", **_square("seed004_square_4m_concrete", None, False)),
+        Experiment("sq4_grass_with", **_square("seed004_square_4m_grass", "tracked_square_4_grass", True)),
+        Experiment("sq4_grass_without", **_square("seed004_square_4m_grass", None, False)),
+        Experiment("sq35_with", **_square("seed004_square_3p5_concrete", "tracked_square_3p5_concrete", True)),
     )
 }
 
@@ -157,8 +156,6 @@ def _tasks(plan: Plan, seed: int) -> list[tuple[str, str, int, dict[str, float],
     """``(experiment, variant, k, values, call)`` for every run, values drawn per (experiment family, k)."""
     tasks = []
     for e in EXPERIMENTS.values():
-        if plan.quick and not e.quick:
-            continue
         family = 0 if e.sweeps is SEED000_SWEEPS else 4
         kwargs = e.kwargs_quick if plan.quick else e.kwargs_full
         for k in range(plan.seed_runs):
