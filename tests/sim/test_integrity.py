@@ -137,3 +137,34 @@ def test_a_follower_failure_ends_the_run_infeasible(short_scenario, monkeypatch)
     r = simulate(short_scenario)
     assert r.outcome == "failed" and r.reason == "infeasible"
     assert r.series["t"][-1] <= 1.0 + 1e-9 + short_scenario.step_s  # the end hold, not the time limit
+
+
+class _EagerFollower:
+    """Commands a sidestep and a turn even at zero speed."""
+
+    last_errors = None
+    last_twist = (0.0, 0.1, 0.5)
+
+    def set_path(self, path):
+        pass
+
+    def command(self, pose, v, steering=0.0):
+        self.last_twist = (v, 0.1, 0.5)
+        return 0.1, 0.5
+
+
+@pytest.mark.parametrize("name", ["differential_loop", "mecanum_loop"])
+def test_a_vehicle_stopped_for_positioning_holds_still(name):
+    """Stopped by the guard, a follower's correction must not turn or sidestep the vehicle."""
+    b = build_mod.build(parse_scenario(scenario_text(name), name))
+    pilot = b.autopilot
+    pilot.follower = _EagerFollower()
+    est = b.estimator
+    assert any(c != 0.0 for c in pilot.command(0.0, est, b.plant, 0.05))  # the follower does command motion
+
+    class _Lost:
+        status, pose, covariance = "lost", est.pose, est.covariance
+
+    for k in range(1, 100):  # brake at the deceleration limit, then stand
+        cmd = pilot.command(0.05 * k, _Lost(), b.plant, 0.05)
+    assert pilot.signals()[0] == 0.0 and all(c == 0.0 for c in cmd)

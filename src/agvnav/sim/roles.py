@@ -194,6 +194,8 @@ class PathAutopilot:
             self.finished = True
             self.profile.reset(0.0)
             return self._hold()
+        if v == 0.0 and scale == 0.0:  # stopped for positioning: hold still (no turn or sidestep either)
+            v_lat = rate = 0.0
         if v == 0.0 and remaining <= self.profile.stop_tolerance + 1e-9:
             if self._run_end < self._length:  # stopped at a cusp: the next run reverses
                 self._s = self._run_end
