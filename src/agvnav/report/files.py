@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.report.html import write_html_report
 from agvnav.report.plots import write_plots
 
 if TYPE_CHECKING:
@@ -37,6 +38,7 @@ __all__ = [
     "OutputFolderError",
     "atomic_dir",
     "check_out_dir",
+    "layout_document",
     "metrics_document",
     "save_result",
     "timing_document",
@@ -125,15 +127,38 @@ def _replace_dir(new: Path, target: Path) -> None:
     shutil.rmtree(old, ignore_errors=True)
 
 
-def save_result(result: SimResult, out_dir: str | Path, plots: bool = True, force: bool = False) -> list[Path]:
-    """Write metrics.json, timing.json, the CSVs and (optionally) the plots atomically; return the final paths.
+def save_result(
+    result: SimResult, out_dir: str | Path, plots: bool = True, force: bool = False, report: bool = False
+) -> list[Path]:
+    """Write metrics.json, timing.json, layout.json, the CSVs and (optionally) the plots atomically; return the paths.
 
-    ``force`` replaces a folder holding another run (see :func:`check_out_dir`).
+    ``force`` replaces a folder holding another run (see :func:`check_out_dir`); ``report``
+    adds report.html (:func:`agvnav.report.html.write_html_report`).
     """
     final = Path(out_dir)
     with atomic_dir(final, force) as tmp:
         written = _write_all(result, tmp, plots)
+        if report:
+            written.append(write_html_report(tmp))
     return [final / p.name for p in written]
+
+
+def layout_document(result: SimResult, spacing: float = 0.05) -> dict[str, Any]:
+    """The content of layout.json: the planned path (polyline every ``spacing`` m, segment starts), the map.
+
+    SI units: ``path_xy`` [[x, y], ...] (m), ``segment_starts_m`` (path abscissas of the
+    segment joins), ``reflectors`` [[x, y, radius], ...] (m), ``walls`` [[[x0, y0], [x1, y1]], ...] (m),
+    ``method`` the positioning method. The HTML report (:mod:`agvnav.report.html`) draws from it.
+    """
+    w = result.world
+    return {
+        "scenario": result.scenario.name,
+        "method": result.scenario.positioning.method,
+        "path_xy": result.path_polyline(spacing).round(6).tolist(),
+        "segment_starts_m": [float(v) for v in result.path.segment_starts],
+        "reflectors": np.column_stack([w.reflector_xy, w.reflector_radius]).round(6).tolist(),
+        "walls": np.asarray(w.wall_segments).reshape(-1, 2, 2).round(6).tolist(),
+    }
 
 
 def _json(path: Path, document: dict[str, Any]) -> Path:
@@ -146,6 +171,7 @@ def _write_all(result: SimResult, out: Path, plots: bool) -> list[Path]:
     written = [
         _json(out / "metrics.json", metrics_document(result)),
         _json(out / "timing.json", timing_document(result)),
+        _json(out / "layout.json", layout_document(result)),
         write_csv(out / "timeseries.csv", result.series),
     ]
     refl = result.events.get("reflections")

@@ -1,0 +1,394 @@
+"""One self-contained HTML report of a run folder (``agvnav report RUN_DIR``, ``agvnav simulate --report``).
+
+The file needs no network: the plots are PNGs inlined as base64, the driving
+animation is inline SVG moved by a time slider and a few lines of inline
+JavaScript; there are no external scripts, styles or fonts. It shows the
+scenario and outcome, the metrics with units (the seed's figures only for a
+scenario that reproduces a seed experiment), the map with the driven and
+estimated paths and covariance ellipses at intervals, the errors against time
+with the path's segment joins marked, the positioning error histogram and the
+estimator status against time. It reads metrics.json, timeseries.csv and, when
+present, layout.json (path and map, :func:`agvnav.report.files.layout_document`).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvnav.geometry import lateral_position_error
+from agvnav.report.plots import pyplot
+
+__all__ = [
+    "SEED_FIGURES",
+    "RunFolder",
+    "covariance_ellipse",
+    "load_run",
+    "plot_positioning_errors",
+    "plot_status",
+    "render_html",
+    "write_html_report",
+]
+
+F64 = NDArray[np.float64]
+
+#: Scenario name prefix -> the seed's figures it reproduces: metric key -> (value, unit, source).
+SEED_FIGURES: dict[str, dict[str, tuple[str, str]]] = {
+    "seed000_guidance": {
+        "initial_lateral_error_m": ("110", "seed 000 §4.3"),
+        "max_abs_lateral_error_m": ("16.5", "seed 000 §4.3"),
+        "max_abs_wheel_heading_error_rad": ("3.8", "seed 000 §4.3"),
+    },
+    "guidance_test": {
+        "initial_lateral_error_m": ("110", "seed 000 §4.3"),
+        "max_abs_lateral_error_m": ("16.5", "seed 000 §4.3"),
+        "max_abs_wheel_heading_error_rad": ("3.8", "seed 000 §4.3"),
+    },
+    "seed000_positioning": {
+        "positioning_lateral_mean_abs_m": ("9.7", "seed 000 Fig. 8"),
+        "positioning_lateral_std_m": ("6.6", "seed 000 Fig. 8"),
+        "positioning_lateral_max_abs_m": ("23", "seed 000 Fig. 8"),
+    },
+}
+
+#: Status codes of timeseries.csv's est_status.
+STATUS_NAMES = {-1: "other", 0: "initialising", 1: "tracking", 2: "dead reckoning", 3: "degraded", 4: "lost"}
+
+
+@dataclass
+class RunFolder:
+    """What a run folder holds: metrics.json, the series of timeseries.csv, layout.json (or None)."""
+
+    path: Path
+    metrics: dict[str, Any]
+    series: dict[str, F64]
+    layout: dict[str, Any] | None
+
+
+def _read_columns(path: Path) -> dict[str, F64]:
+    with path.open(encoding="utf-8") as f:
+        names = f.readline().strip().split(",")
+        data = np.loadtxt(f, delimiter=",", ndmin=2, dtype=np.float64)
+    return {n: data[:, i] for i, n in enumerate(names)}
+
+
+def load_run(run_dir: str | Path) -> RunFolder:
+    """Read a run folder written by ``agvnav simulate``; ValueError names a missing or damaged file."""
+    d = Path(run_dir)
+    try:
+        metrics = json.loads((d / "metrics.json").read_text(encoding="utf-8"))
+        series = _read_columns(d / "timeseries.csv")
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{d}: not a readable agvnav run folder ({exc})") from None
+    layout_file = d / "layout.json"
+    layout = json.loads(layout_file.read_text(encoding="utf-8")) if layout_file.is_file() else None
+    return RunFolder(d, metrics, series, layout)
+
+
+def _png(fig: Any) -> str:
+    """The figure as an ``<img>`` with an inline base64 PNG; closes the figure."""
+    plt = pyplot()
+    buf = io.BytesIO()
+    fig.tight_layout()
+    fig.savefig(buf, format="png", dpi=90)
+    plt.close(fig)
+    return f'<img alt="plot" src="data:image/png;base64,{base64.b64encode(buf.getvalue()).decode("ascii")}">'
+
+
+def covariance_ellipse(cov2: F64, k_sigma: float = 3.0, n: int = 48) -> F64:
+    """``(n, 2)`` points of the ``k_sigma`` ellipse of a 2x2 position covariance (m), centred at 0."""
+    vals, vecs = np.linalg.eigh(0.5 * (cov2 + cov2.T))
+    a = np.linspace(0.0, 2 * math.pi, n)
+    unit = np.column_stack([np.cos(a), np.sin(a)]) * (k_sigma * np.sqrt(np.maximum(vals, 0.0)))
+    return np.asarray(unit @ vecs.T, dtype=np.float64)
+
+
+def _draw_layout(ax: Any, layout: dict[str, Any] | None) -> None:
+    if layout is None:
+        return
+    for seg in layout["walls"]:
+        ax.plot([seg[0][0], seg[1][0]], [seg[0][1], seg[1][1]], color="0.4", lw=1.2)
+    r = np.asarray(layout["reflectors"], dtype=np.float64).reshape(-1, 3)
+    ax.plot(r[:, 0], r[:, 1], "o", ms=6, mfc="gold", mec="k", label="reflectors")
+    p = np.asarray(layout["path_xy"], dtype=np.float64).reshape(-1, 2)
+    ax.plot(p[:, 0], p[:, 1], "--", color="tab:blue", lw=1.2, label="planned path")
+
+
+def _ellipses(ax: Any, s: dict[str, F64], count: int = 14) -> None:
+    """3-sigma position ellipses at ``count`` instants, magnified to be seen; the factor in the legend."""
+    if "est_cov_xx" not in s:
+        return
+    valid = np.flatnonzero(s.get("est_valid", s["est_status"] >= 1.0) > 0.5)
+    if valid.size == 0:
+        return
+    idx = valid[np.linspace(0, valid.size - 1, count).astype(int)]
+    covs = [np.array([[s["est_cov_xx"][k], s["est_cov_xy"][k]], [s["est_cov_xy"][k], s["est_cov_yy"][k]]]) for k in idx]
+    size = max(float(np.max(np.abs(covariance_ellipse(c)))) for c in covs)
+    span = max(np.ptp(s["est_x"][valid]), np.ptp(s["est_y"][valid]), 1.0)
+    gain = max(1.0, 10 ** math.floor(math.log10(0.04 * span / size))) if size > 0 else 1.0
+    for j, (k, c) in enumerate(zip(idx, covs, strict=True)):
+        e = gain * covariance_ellipse(c) + [s["est_x"][k], s["est_y"][k]]
+        ax.plot(e[:, 0], e[:, 1], color="tab:purple", lw=0.9, label=f"3σ ellipse ×{gain:g}" if j == 0 else None)
+
+
+def plot_map_figure(run: RunFolder) -> Any:
+    """Map: walls, reflectors, planned path, driven (truth) and estimated base_link paths, ellipses."""
+    plt = pyplot()
+    s = run.series
+    fig, ax = plt.subplots(figsize=(9, 6))
+    _draw_layout(ax, run.layout)
+    if "x" in s:
+        ax.plot(s["x"], s["y"], color="tab:red", lw=1.2, label="driven (truth)")
+    valid = s.get("est_valid", s["est_status"] >= 1.0) > 0.5
+    ax.plot(s["est_x"][valid], s["est_y"][valid], color="tab:green", lw=0.9, label="estimated")
+    _ellipses(ax, s)
+    ax.set_aspect("equal")
+    ax.set(xlabel="x [m]", ylabel="y [m]", title="map (base_link)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    return fig
+
+
+def _join_times(run: RunFolder) -> list[float]:
+    """Instants the true tracked point passes each segment join (from s_true and layout.json)."""
+    s = run.series
+    if run.layout is None or "s_true" not in s:
+        return []
+    out = []
+    for s0 in run.layout.get("segment_starts_m", [])[1:-1]:
+        hit = np.flatnonzero(s["s_true"] >= s0)
+        if hit.size:
+            out.append(float(s["t"][hit[0]]))
+    return out
+
+
+def plot_positioning_errors(t: F64, true_pose: F64, est_pose: F64, joins: list[float] | None = None) -> Any:
+    """Positioning errors against time: lateral position error (mm) and heading error (deg) of the estimate."""
+    plt = pyplot()
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
+    a1.plot(t, 1000.0 * lateral_position_error(true_pose, est_pose), color="tab:green")
+    a1.set_ylabel("positioning e_lat [mm]")
+    dpsi = np.angle(np.exp(1j * (est_pose[:, 2] - true_pose[:, 2])))
+    a2.plot(t, np.rad2deg(dpsi), color="tab:olive")
+    a2.set(ylabel="heading error [deg]", xlabel="time [s]")
+    _mark(a1, a2, joins or [])
+    a1.set_title("positioning errors (estimate - truth)")
+    return fig
+
+
+def _mark(a1: Any, a2: Any, joins: list[float]) -> None:
+    for ax in (a1, a2):
+        ax.grid(True, alpha=0.3)
+        for j, tj in enumerate(joins):
+            ax.axvline(tj, color="0.3", ls=":", lw=0.9, label="segment join" if j == 0 and ax is a1 else None)
+    if joins:
+        a1.legend(loc="best", fontsize=8)
+
+
+def plot_guidance_errors(run: RunFolder) -> Any:
+    """True lateral error (mm) and heading error (deg) of the tracked point against time, joins marked."""
+    plt = pyplot()
+    s = run.series
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
+    a1.plot(s["t"], 1000.0 * s["lateral_error"], color="tab:blue")
+    a1.set_ylabel("lateral error [mm]")
+    a2.plot(s["t"], np.rad2deg(s["heading_error"]), color="tab:orange")
+    a2.set(ylabel="heading error [deg]", xlabel="time [s]")
+    _mark(a1, a2, _join_times(run))
+    a1.set_title("guidance errors (truth)")
+    return fig
+
+
+def plot_status(t: F64, status: F64, sigma3: F64 | None = None) -> Any:
+    """Estimator status against time (codes named) and, when given, the 3-sigma lateral bound (mm)."""
+    plt = pyplot()
+    fig, a1 = plt.subplots(figsize=(9, 3.2))
+    a1.step(t, status, where="post", color="tab:purple")
+    a1.set_yticks(list(STATUS_NAMES), list(STATUS_NAMES.values()))
+    a1.set(xlabel="time [s]", title="estimator status")
+    a1.grid(True, alpha=0.3)
+    if sigma3 is not None:
+        a2 = a1.twinx()
+        a2.plot(t, 1000.0 * sigma3, color="tab:gray", lw=0.8)
+        a2.set_ylabel("3σ lateral [mm]")
+    return fig
+
+
+def _histogram(true_pose: F64, est_pose: F64) -> Any:
+    plt = pyplot()
+    e = 1000.0 * lateral_position_error(true_pose, est_pose)
+    e = e[np.isfinite(e)]
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    if e.size:
+        ax.hist(e, bins=min(40, max(5, e.size // 20)), color="tab:blue", edgecolor="k", alpha=0.8)
+    ax.set(xlabel="positioning lateral error e_lat [mm]", ylabel="samples", title="positioning error histogram")
+    ax.grid(True, alpha=0.3)
+    return fig
+
+
+def _unit(key: str, value: Any) -> tuple[str, str]:
+    """Display value and unit of a metrics.json figure: m -> mm, rad -> deg, the rest as is."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return ("-" if value is None else str(value)), ""
+    if not math.isfinite(value):
+        return "-", ""
+    for suffix, scale, unit in (("_rad", 180 / math.pi, "deg"), ("_m", 1000.0, "mm"), ("_s", 1.0, "s")):
+        if key.endswith(suffix):
+            return f"{value * scale:.4g}", unit
+    return f"{value:.4g}", ""
+
+
+def _seed_figures(name: str) -> dict[str, tuple[str, str]]:
+    for prefix, figures in SEED_FIGURES.items():
+        if name.startswith(prefix):
+            return figures
+    return {}
+
+
+def _metrics_table(metrics: dict[str, Any]) -> str:
+    seed = _seed_figures(str(metrics.get("scenario", "")))
+    head = "<tr><th>metric</th><th>value</th><th>unit</th>" + ("<th>seed</th>" if seed else "") + "</tr>"
+    rows = []
+    for key, value in metrics.items():
+        if isinstance(value, dict) or key in ("scenario", "vehicle", "seed", "outcome", "reason", "transient"):
+            continue
+        shown, unit = _unit(key, value)
+        ref = ""
+        if seed:
+            v, src = seed.get(key, ("", ""))
+            ref = f"<td>{html.escape(v)} {html.escape(src)}</td>"
+        rows.append(f"<tr><td>{html.escape(key)}</td><td class=num>{shown}</td><td>{unit}</td>{ref}</tr>")
+    return f"<table>{head}{''.join(rows)}</table>"
+
+
+def _slider_data(run: RunFolder, samples: int = 400) -> dict[str, Any]:
+    s = run.series
+    idx = np.unique(np.linspace(0, s["t"].size - 1, min(samples, s["t"].size)).astype(int))
+    cols = {"t": s["t"], "x": s.get("x", s["est_x"]), "y": s.get("y", s["est_y"]), "psi": s.get("psi", s["est_psi"]),
+            "ex": s["est_x"], "ey": s["est_y"], "el": s.get("lateral_error", np.zeros_like(s["t"]))}
+    return {k: [round(float(v), 5) if math.isfinite(float(v)) else None for v in c[idx]] for k, c in cols.items()}
+
+
+def _slider_svg(run: RunFolder) -> str:
+    """An inline SVG of the map (y up) with a vehicle triangle; the slider's script moves it."""
+    s = run.series
+    pts = [np.column_stack([s.get("x", s["est_x"]), s.get("y", s["est_y"])])]
+    if run.layout is not None:
+        pts.append(np.asarray(run.layout["path_xy"]).reshape(-1, 2))
+        pts.append(np.asarray(run.layout["reflectors"]).reshape(-1, 3)[:, :2])
+    allp = np.concatenate(pts)
+    allp = allp[np.all(np.isfinite(allp), axis=1)]
+    lo, hi = allp.min(axis=0) - 1.0, allp.max(axis=0) + 1.0
+    w, h = hi - lo
+    box = f"{lo[0]:.3f} {-hi[1]:.3f} {w:.3f} {h:.3f}"
+    parts = [f'<svg id="drive" viewBox="{box}" width="720" height="{720 * h / w:.0f}" class="drive">']
+    if run.layout is not None:
+        for seg in run.layout["walls"]:
+            parts.append(f'<line x1="{seg[0][0]}" y1="{-seg[0][1]}" x2="{seg[1][0]}" y2="{-seg[1][1]}" '
+                         'stroke="#666" stroke-width="0.05"/>')
+        for x, y, r in run.layout["reflectors"]:
+            parts.append(f'<circle cx="{x}" cy="{-y}" r="{max(r, 0.08)}" fill="gold" stroke="black" '
+                         'stroke-width="0.02"/>')
+        path = " ".join(f"{x:.3f},{-y:.3f}" for x, y in run.layout["path_xy"])
+        parts.append(f'<polyline points="{path}" fill="none" stroke="#1f77b4" stroke-width="0.03" '
+                     'stroke-dasharray="0.1"/>')
+    d = _slider_data(run)
+    xy = zip(d["x"], d["y"], strict=True)
+    trail = " ".join(f"{x:.3f},{-y:.3f}" for x, y in xy if x is not None and y is not None)
+    parts.append(f'<polyline points="{trail}" fill="none" stroke="#d62728" stroke-width="0.025"/>')
+    parts.append('<circle id="est" r="0.06" fill="#2ca02c"/>')
+    size = 0.05 * max(w, h)
+    parts.append(f'<polygon id="agv" points="{size},0 {-size / 2},{size / 2} {-size / 2},{-size / 2}" fill="#d62728"/>')
+    parts.append("</svg>")
+    return "".join(parts)
+
+
+_SCRIPT = """
+(function () {
+  var d = JSON.parse(document.getElementById('drive-data').textContent);
+  var slider = document.getElementById('time'), label = document.getElementById('time-label');
+  var agv = document.getElementById('agv'), est = document.getElementById('est');
+  function show(i) {
+    var x = d.x[i], y = d.y[i], psi = d.psi[i];
+    if (x !== null && y !== null && psi !== null) {
+      agv.setAttribute('transform', 'translate(' + x + ',' + (-y) + ') rotate(' + (-psi * 180 / Math.PI) + ')');
+    }
+    if (d.ex[i] !== null && d.ey[i] !== null) { est.setAttribute('cx', d.ex[i]); est.setAttribute('cy', -d.ey[i]); }
+    var el = d.el[i] === null ? '-' : (1000 * d.el[i]).toFixed(1);
+    label.textContent = 't = ' + d.t[i].toFixed(2) + ' s, lateral error ' + el + ' mm';
+  }
+  slider.max = d.t.length - 1;
+  slider.addEventListener('input', function () { show(parseInt(slider.value, 10)); });
+  show(0);
+})();
+"""
+
+_STYLE = """
+body { font-family: sans-serif; margin: 1.5em auto; max-width: 980px; color: #222; }
+table { border-collapse: collapse; margin: 0.5em 0; } td, th { border: 1px solid #ccc; padding: 2px 8px; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; } img { max-width: 100%; }
+.failed { color: #b00; font-weight: bold; } .slider { width: 720px; }
+svg.drive { background: #fafafa; border: 1px solid #ccc; } .completed { color: #080; font-weight: bold; }
+"""
+
+
+def _intro(run: RunFolder, outcome: str, reason: str) -> str:
+    m = run.metrics
+    method = (run.layout or {}).get("method") or "default"
+    return (
+        f"<p>vehicle <b>{html.escape(str(m.get('vehicle', '-')))}</b>, seed {html.escape(str(m.get('seed', '-')))}, "
+        f"positioning {html.escape(str(method))}; outcome "
+        f"<span class={html.escape(outcome)}>{html.escape(outcome)}</span>{reason}</p>"
+    )
+
+
+def render_html(run: RunFolder) -> str:
+    """The report of ``run`` as one HTML document (see the module docstring)."""
+    m, s = run.metrics, run.series
+    name = html.escape(str(m.get("scenario", run.path.name)))
+    outcome = str(m.get("outcome", "-"))
+    reason = f" ({html.escape(str(m['reason']))})" if m.get("reason") else ""
+    has_truth = "x" in s
+    true_pose = np.column_stack([s["x"], s["y"], s["psi"]]) if has_truth else None
+    est_pose = np.column_stack([s["est_x"], s["est_y"], s["est_psi"]])
+    valid = s.get("est_valid", s["est_status"] >= 1.0) > 0.5
+    figs = [("Map", _png(plot_map_figure(run)))]
+    if "lateral_error" in s:
+        figs.append(("Guidance errors against time", _png(plot_guidance_errors(run))))
+    if true_pose is not None:
+        figs.append(("Positioning errors against time",
+                     _png(plot_positioning_errors(s["t"], true_pose, est_pose, _join_times(run)))))
+        figs.append(("Positioning error histogram", _png(_histogram(true_pose[valid], est_pose[valid]))))
+    figs.append(("Estimator status", _png(plot_status(s["t"], s["est_status"], s.get("lateral_3sigma_est")))))
+    body = [
+        f"<h1>agvnav run: {name}</h1>",
+        _intro(run, outcome, reason),
+        "<h2>Metrics</h2>", _metrics_table(m),
+        "<h2>Drive</h2>", _slider_svg(run),
+        '<p><input type="range" id="time" min="0" max="0" value="0" class="slider"> <span id="time-label"></span></p>',
+    ]
+    body += [f"<h2>{title}</h2>{img}" for title, img in figs]
+    data = json.dumps(_slider_data(run)).replace("</", "<\\/")
+    return (
+        "<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
+        f"<title>agvnav report: {name}</title><style>{_STYLE}</style></head><body>"
+        + "\n".join(body)
+        + f'<script type="application/json" id="drive-data">{data}</script><script>{_SCRIPT}</script></body></html>\n'
+    )
+
+
+def write_html_report(run_dir: str | Path, out: str | Path | None = None) -> Path:
+    """Write the report of the run folder ``run_dir`` to ``out`` (default ``run_dir/report.html``)."""
+    run = load_run(run_dir)
+    target = Path(out) if out is not None else Path(run_dir) / "report.html"
+    target.write_text(render_html(run), encoding="utf-8")
+    return target
