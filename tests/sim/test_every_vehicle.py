@@ -88,3 +88,17 @@ def test_arc_needing_a_hitch_angle_beyond_the_limit_is_refused():
 
 def test_point_c_on_a_differential_is_refused():
     _refused(_bench("differential", "name: kanayama", "name: kanayama\n  point: C"), "controller.point", "point C")
+
+
+def test_settled_error_metric_sees_a_later_bump_and_is_not_fixed_by_its_band():
+    from agvnav.bench.vehicles import settled_errors
+
+    d = np.linspace(0.0, 20.0, 2001)
+    decay = 0.05 * np.exp(-d)  # enters the 20 mm band at d = ln(2.5) = 0.92 m, then only decays
+    rms, worst, settled = settled_errors(decay, d)
+    assert worst == pytest.approx(0.02, abs=2e-4)  # the band, by construction
+    assert settled < 0.05 * np.exp(-2.9)  # 2 m later the error is far below the band
+    bump = decay + np.where((d > 10.0) & (d < 11.0), 0.013, 0.0)
+    _, _, settled_bump = settled_errors(bump, d)
+    assert settled_bump == pytest.approx(0.013, abs=1e-5)  # a later bump is reported (on a 2 µm tail)
+    assert np.isnan(settled_errors(np.full(5, 0.1), np.arange(5.0))[0])  # never settles

@@ -10,9 +10,17 @@ goniometer (65535 pulses/rev, 8 Hz) and EKF positioning, over 5 seeds
 Figures, all from the *true* pose: ``completed`` (runs that completed, judged on
 the truth), ``rms_lateral_m`` and ``max_lateral_m`` of the tracked point after it
 first came within 20 mm of the path (so the initial 50 mm offset is not
-counted), ``positioning_rms_m`` (estimate against truth), ``real_time_factor``
-(simulated over CPU time), and for the tractor-trailer the trailer's largest
-off-tracking (distance of the trailer axle from the path) and hitch angle.
+counted: the issue's definition), ``positioning_rms_m`` (estimate against
+truth), ``real_time_factor`` (simulated over CPU time), and for the
+tractor-trailer the trailer's largest off-tracking (distance of the trailer
+axle from the path) and hitch angle.
+
+``max_lateral_m`` as defined can be fixed by its own threshold: when the error
+decays monotonically after the start, its maximum after first entering the
+20 mm band is the band itself (just under 20 mm). ``max_lateral_settled_m``
+therefore also reports the maximum after the vehicle has driven a further
+``SETTLE_DISTANCE_M`` (2 m, the followers' convergence distances are 0.6-1.5 m)
+past that instant: the steady following error, joints and cusps included.
 Targets (issue 10): every model completes, max lateral error <= 30 mm,
 positioning RMS <= 10 mm.
 """
@@ -47,6 +55,9 @@ BENCH_MODELS: dict[str, tuple[str, dict[str, Any], bool]] = {
 
 #: The tracked point must first come this close to the path before lateral errors count (m).
 SETTLED_M = 0.02
+
+#: Distance (m) driven after first coming within ``SETTLED_M`` before ``max_lateral_settled_m`` counts.
+SETTLE_DISTANCE_M = 2.0
 
 
 def loop_path(quick: bool, reverse: bool) -> dict[str, Any]:
@@ -90,14 +101,22 @@ def bench_scenario_text(model: str, quick: bool, seed: int) -> str:
     return yaml.safe_dump(doc, sort_keys=False)
 
 
-def _settled_errors(result: SimResult) -> tuple[float, float]:
-    """RMS and max |lateral error| (m) after the tracked point first came within ``SETTLED_M``."""
-    e = np.asarray(result.series["lateral_error"])
-    inside = np.flatnonzero(np.abs(e) <= SETTLED_M)
+def settled_errors(
+    lateral: np.ndarray, travelled: np.ndarray, band: float = SETTLED_M, settle: float = SETTLE_DISTANCE_M
+) -> tuple[float, float, float]:
+    """RMS and max |lateral error| (m) after first coming within ``band``; max after ``settle`` m more.
+
+    ``lateral (n,)`` m, ``travelled (n,)`` cumulative distance (m). NaN when the band is never reached
+    (or the run ends before ``settle`` m more).
+    """
+    e = np.abs(np.asarray(lateral, dtype=np.float64))
+    inside = np.flatnonzero(e <= band)
     if inside.size == 0:
-        return math.nan, math.nan
+        return math.nan, math.nan, math.nan
     tail = e[inside[0]:]
-    return float(np.sqrt(np.mean(tail**2))), float(np.max(np.abs(tail)))
+    d = np.asarray(travelled, dtype=np.float64)
+    later = e[d >= d[inside[0]] + settle]
+    return float(np.sqrt(np.mean(tail**2))), float(np.max(tail)), float(np.max(later)) if later.size else math.nan
 
 
 def _trailer_offtracking(result: SimResult) -> float:
@@ -113,7 +132,8 @@ def run_one(model: str, quick: bool, seed: int) -> dict[str, Any]:
     cpu = time.process_time()
     result = simulate(sc)
     cpu = time.process_time() - cpu
-    rms, worst = _settled_errors(result)
+    travelled = result.series.get("distance", result.series.get("distance_O", result.series.get("distance_C")))
+    rms, worst, settled = settled_errors(result.series["lateral_error"], travelled)
     rec: dict[str, Any] = {
         "model": model,
         "controller": sc.controller.name,
@@ -122,6 +142,7 @@ def run_one(model: str, quick: bool, seed: int) -> dict[str, Any]:
         "reason": result.reason,
         "rms_lateral_m": rms,
         "max_lateral_m": worst,
+        "max_lateral_settled_m": settled,
         "positioning_rms_m": result.metrics.positioning_rms_m,
         "real_time_factor": result.metrics.sim_time_s / cpu if cpu > 0 else math.nan,
     }
@@ -148,6 +169,7 @@ def _summary(model: str, runs: list[dict[str, Any]]) -> dict[str, Any]:
         "failed_reasons": "; ".join(sorted({str(r["reason"]) for r in runs if not r["completed"]})) or "-",
         "rms_lateral_m": mean("rms_lateral_m"),
         "max_lateral_m": worst("max_lateral_m"),
+        "max_lateral_settled_m": worst("max_lateral_settled_m"),
         "positioning_rms_m": mean("positioning_rms_m"),
         "real_time_factor": float(np.median([r["real_time_factor"] for r in runs])),
     }
