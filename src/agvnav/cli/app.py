@@ -28,6 +28,14 @@ from agvnav.cli.simulate import simulate
 #: name -> (module, function, one-line help): commands loaded only when they run.
 LAZY_COMMANDS: dict[str, tuple[str, str, str]] = {
     "demo": ("agvnav.cli.demo", "demo", "Triangulate a vehicle on a built-in reflector layout and print a table."),
+    "localize": (
+        "agvnav.cli.localize", "localize",
+        "Run a positioning method on a recorded log; write the estimate (CSV and MCAP), a summary and plots.",
+    ),
+    "report": (
+        "agvnav.cli.report", "report",
+        "Write one self-contained HTML report (plots, metrics, a time slider) of a run folder.",
+    ),
 }
 
 

@@ -29,6 +29,8 @@ OUT_OPT = typer.Option(Path("sim_out"), "--out", "-o", help="Output folder for m
 SEED_OPT = typer.Option(None, "--seed", min=0, help="Random seed (overrides the scenario's); same seed, same run.")
 PLOTS_OPT = typer.Option(True, "--plots/--no-plots", help="Write the PNG plots.")
 FORCE_OPT = typer.Option(False, "--force", help="Replace an --out folder that holds another run's results.")
+LOG_OPT = typer.Option(None, "--log", help="Also write the run as an MCAP file of ROS 2 messages (docs/logs.md).")
+REPORT_OPT = typer.Option(False, "--report", help="Also write DIR/report.html, a self-contained HTML report.")
 
 
 @user_errors
@@ -38,6 +40,8 @@ def simulate(
     seed: int | None = SEED_OPT,
     plots: bool = PLOTS_OPT,
     force: bool = FORCE_OPT,
+    log: Path | None = LOG_OPT,
+    report: bool = REPORT_OPT,
 ) -> None:
     """Run a closed-loop scenario; write metrics.json, timing.json, time series (CSV) and plots."""
     from agvnav.world.scenario import default_scenario, load_scenario
@@ -46,7 +50,11 @@ def simulate(
     if seed is not None:
         sc = sc.with_seed(seed)
     if sc.route is not None:  # the seed-004 automaton on its square route
+        if log is not None or report:
+            raise fail("--log and --report are for path scenarios; a route scenario writes laps")
         return _simulate_route(sc, out, plots, force)
+    if log is not None and log.suffix != ".mcap":
+        raise fail(f"--log {log}: the log file must end in .mcap")
     from agvnav.report.files import save_result
     from agvnav.sim import simulate as run_scenario
     from agvnav.sim.build import build
@@ -64,7 +72,14 @@ def simulate(
     ) as bar:
         task = bar.add_task("simulate", total=None, t=0.0)
         result = run_scenario(sc, progress=lambda t: bar.update(task, t=t))
-    written = save_result(result, out, plots=plots, force=force)
+    written = save_result(result, out, plots=plots, force=force, report=report)
+    if log is not None:
+        try:
+            from agvnav.logs import write_run_log
+        except ImportError as exc:
+            raise fail(f"--log needs the logs extra (pip install 'agvnav[logs]'): {exc}") from None
+        counts = write_run_log(result, log)
+        console.print(f"log {log}: {sum(counts.values())} messages on {len(counts)} topics")
     console.print(_summary(result))
     console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
     if not result.completed:

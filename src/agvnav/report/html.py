@@ -134,7 +134,7 @@ def _ellipses(ax: Any, s: dict[str, F64], count: int = 14) -> None:
     covs = [np.array([[s["est_cov_xx"][k], s["est_cov_xy"][k]], [s["est_cov_xy"][k], s["est_cov_yy"][k]]]) for k in idx]
     size = max(float(np.max(np.abs(covariance_ellipse(c)))) for c in covs)
     span = max(np.ptp(s["est_x"][valid]), np.ptp(s["est_y"][valid]), 1.0)
-    gain = max(1.0, 10 ** math.floor(math.log10(0.04 * span / size))) if size > 0 else 1.0
+    gain = max(1.0, 10 ** math.floor(math.log10(0.1 * span / size))) if size > 0 else 1.0
     for j, (k, c) in enumerate(zip(idx, covs, strict=True)):
         e = gain * covariance_ellipse(c) + [s["est_x"][k], s["est_y"][k]]
         ax.plot(e[:, 0], e[:, 1], color="tab:purple", lw=0.9, label=f"3σ ellipse ×{gain:g}" if j == 0 else None)
@@ -144,17 +144,26 @@ def plot_map_figure(run: RunFolder) -> Any:
     """Map: walls, reflectors, planned path, driven (truth) and estimated base_link paths, ellipses."""
     plt = pyplot()
     s = run.series
-    fig, ax = plt.subplots(figsize=(9, 6))
-    _draw_layout(ax, run.layout)
-    if "x" in s:
-        ax.plot(s["x"], s["y"], color="tab:red", lw=1.2, label="driven (truth)")
+    fig, axes = plt.subplots(1, 2, figsize=(11, 5))
     valid = s.get("est_valid", s["est_status"] >= 1.0) > 0.5
-    ax.plot(s["est_x"][valid], s["est_y"][valid], color="tab:green", lw=0.9, label="estimated")
-    _ellipses(ax, s)
-    ax.set_aspect("equal")
-    ax.set(xlabel="x [m]", ylabel="y [m]", title="map (base_link)")
-    ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
+    for ax in axes:
+        _draw_layout(ax, run.layout)
+        if "x" in s:
+            ax.plot(s["x"], s["y"], color="tab:red", lw=1.2, label="driven (truth)")
+        ax.plot(s["est_x"][valid], s["est_y"][valid], color="tab:green", lw=0.9, label="estimated")
+        _ellipses(ax, s)
+        ax.set_aspect("equal")
+        ax.set(xlabel="x [m]", ylabel="y [m]")
+        ax.grid(True, alpha=0.3)
+    xy = np.column_stack([s.get("x", s["est_x"]), s.get("y", s["est_y"])])
+    xy = xy[np.all(np.isfinite(xy), axis=1)]
+    if xy.size:
+        lo, hi = xy.min(axis=0), xy.max(axis=0)
+        pad = 0.15 * float(np.max(hi - lo)) + 0.3
+        axes[1].set(xlim=(lo[0] - pad, hi[0] + pad), ylim=(lo[1] - pad, hi[1] + pad))
+    axes[0].set_title("map (base_link)")
+    axes[1].set_title("drive detail")
+    axes[1].legend(loc="best", fontsize=8)
     return fig
 
 
@@ -306,7 +315,7 @@ def _slider_svg(run: RunFolder) -> str:
     trail = " ".join(f"{x:.3f},{-y:.3f}" for x, y in xy if x is not None and y is not None)
     parts.append(f'<polyline points="{trail}" fill="none" stroke="#d62728" stroke-width="0.025"/>')
     parts.append('<circle id="est" r="0.06" fill="#2ca02c"/>')
-    size = 0.05 * max(w, h)
+    size = 0.025 * max(w, h)
     parts.append(f'<polygon id="agv" points="{size},0 {-size / 2},{size / 2} {-size / 2},{-size / 2}" fill="#d62728"/>')
     parts.append("</svg>")
     return "".join(parts)
