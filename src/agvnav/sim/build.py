@@ -47,6 +47,7 @@ from agvnav.sensors.ultrasonic import UltrasonicArray, UltrasonicSensor, seed_00
 from agvnav.sim.collision import CollisionWatch, WallCollider
 from agvnav.sim.engine import ClosedLoop
 from agvnav.sim.faults import PLANT_FAULTS, FaultyPlant, FaultySensor, world_with_faults
+from agvnav.sim.mission import MissionAutopilot, mission_autopilot, mission_duration, plan_mission
 from agvnav.sim.plants import build_plant, family_of
 from agvnav.sim.rangers import UltrasonicSensorRole
 from agvnav.sim.roles import GoniometerSensor, PathAutopilot
@@ -86,11 +87,13 @@ class Built:
     world: WorldMap
     path: Path
     plant: Any
-    autopilot: PathAutopilot
+    autopilot: PathAutopilot | MissionAutopilot
     estimator: Any
     duration: float
     point: str
     point_offset: float
+    mission: Any = None
+    """the planned mission (:class:`agvnav.routes.mission.MissionPlan`) of a mission scenario."""
 
 
 def guard(sc: Scenario, key: KeyPath, func: Callable[..., T], *args: Any, **kwargs: Any) -> T:
@@ -498,7 +501,8 @@ def build(sc: Scenario) -> Built:
     if sc.route is not None:
         raise sc.error(("route",), "a route scenario runs laps (agvnav.sim.simulate), it has no single path loop")
     world = build_world(sc)
-    path = build_path(sc)
+    mission = plan_mission(sc) if sc.mission is not None else None
+    path = build_path(sc) if mission is None else mission.path
     family = family_of(sc.vehicle.model)
     point = _point(sc, family)
     wheelbase = float(getattr(sc.vehicle, "wheelbase_m", 0.0))
@@ -517,8 +521,12 @@ def build(sc: Scenario) -> Built:
     )
     rangers = ultrasonic_array(sc) if sc.ultrasonic is not None else None
     estimator = _estimator(sc, world, x0, rangers)
-    pilot = PathAutopilot(follower, path, profile, plant, offset, watch=_watch(sc))
+    pilot: PathAutopilot | MissionAutopilot = PathAutopilot(follower, path, profile, plant, offset, watch=_watch(sc))
+    if mission is not None:  # one PathAutopilot per leg (issue 14)
+        pilot = mission_autopilot(sc, mission, follower, plant, offset, _watch(sc))
     sensors = _sensors(sc, world, rangers)
     loop = ClosedLoop(_loop_plant(sc, plant, world), sensors, estimator, pilot, sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else _default_duration(sc, path)
-    return Built(loop, world, path, plant, pilot, estimator, duration, point, offset)
+    if mission is not None and sc.duration_s is None:
+        duration = mission_duration(sc, mission)
+    return Built(loop, world, path, plant, pilot, estimator, duration, point, offset, mission)

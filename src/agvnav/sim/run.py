@@ -34,6 +34,7 @@ from agvnav.guidance.errors import tracking_errors
 from agvnav.sim.build import Built, build
 from agvnav.sim.integrity import integrity_figures
 from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, transient_end_index
+from agvnav.sim.mission import mission_figures
 from agvnav.world import WorldMap
 from agvnav.world.scenario import Scenario
 
@@ -116,6 +117,8 @@ def simulate(
     series["est_y_C"] = series["est_y"] + off * np.sin(series["est_psi"])
     t_end = None if k0 is None else float(series["t"][k0])
     extra = _extra_figures(series)
+    if built.mission is not None:  # stop errors, mission time, lateral error per edge kind (issue 14)
+        extra.update(mission_figures(series, built.mission, built.autopilot.stops))  # type: ignore[union-attr]
     integrity = integrity_figures(series, _distance(series), scenario.traction.max_decel_m_s2)
     return SimResult(
         scenario, series, out.events, metrics, built.path, built.world, t_end, outcome, reason, extra, integrity

@@ -44,8 +44,10 @@ __all__ = [
     "ControllerSpec",
     "FaultSpec",
     "GoniometerSpec",
+    "JobSpec",
     "KeyPath",
     "LineSpec",
+    "MissionSpec",
     "PathSpec",
     "PositioningSpec",
     "RouteSpec",
@@ -403,6 +405,53 @@ class FaultSpec(StrictModel):
         return float("inf") if self.duration_s is None else self.start_s + self.duration_s
 
 
+class JobSpec(StrictModel):
+    """One mission job: ``action`` at ``station`` (none for wait), then a stop of ``duration_s``.
+
+    goto: drive to the station; reverse_into: drive there backing up the last edge;
+    pick/drop: drive there and stop ``duration_s`` (the load handled); wait: stop where
+    the vehicle stands for ``duration_s``.
+    """
+
+    action: Literal["goto", "reverse_into", "pick", "drop", "wait"]
+    """what to do."""
+    station: str | None = None
+    """the station (every action but wait)."""
+    duration_s: NonNegFloat = 0.0
+    """stop time at the station (pick, drop, wait; optional for goto)."""
+
+    @model_validator(mode="after")
+    def _station(self) -> JobSpec:
+        if (self.station is None) != (self.action == "wait"):
+            raise ValueError("wait takes no station; every other action needs one")
+        return self
+
+
+class MissionSpec(StrictModel):
+    """A mission on a route network (issue 14), driven instead of a ``path``.
+
+    ``network``: a shipped route network name or a file (relative to the scenario);
+    the vehicle starts at station ``start`` and does the ``jobs`` in order.
+    """
+
+    network: str
+    """route network: shipped name (agvnav/data/routes) or file path."""
+    start: str
+    """station the vehicle starts at (its heading_deg is the start heading)."""
+    jobs: Annotated[list[JobSpec], Field(min_length=1)]
+    """the jobs, in order."""
+    blocked_edges: list[str] = Field(default_factory=list)
+    """edges that may not be used (the route replans around them)."""
+    lateral_accel_m_s2: PosFloat = 0.3
+    """lateral acceleration limit: caps the speed on curves (v^2 |kappa|)."""
+    creep_distance_m: NonNegFloat = 0.3
+    """distance before each station driven at the creep speed."""
+    creep_speed_m_s: PosFloat = 0.05
+    """creep speed of the final approach to a station."""
+    turn_rate_deg_s: PosFloat = 30.0
+    """turning rate on the spot (differential, tracked, mecanum vehicles)."""
+
+
 class Scenario(SourcedModel):
     """A closed-loop run of any vehicle. All lengths in m, times in s, angles in deg."""
 
@@ -434,6 +483,8 @@ class Scenario(SourcedModel):
     """the planned path of the tracked point."""
     route: RouteSpec | None = None
     """the seed-004 square route (tracked robot with the hybrid automaton)."""
+    mission: MissionSpec | None = None
+    """a mission on a route network, instead of a path (issue 14)."""
     start: StartSpec = StartSpec()
     """initial placement relative to the path start."""
     controller: ControllerSpec = ControllerSpec()
@@ -468,8 +519,10 @@ class Scenario(SourcedModel):
 
     @model_validator(mode="after")
     def _path_or_route(self) -> Scenario:
-        if self.path is None and self.route is None:
-            raise ValueError("give a path (or, for the seed-004 automaton, a route)")
+        if self.path is None and self.route is None and self.mission is None:
+            raise ValueError("give a path (or a mission, or for the seed-004 automaton a route)")
+        if self.mission is not None and (self.path is not None or self.route is not None):
+            raise ValueError("a mission replaces the path: give one of path, mission, route")
         if self.route is not None and self.vehicle.model != "tracked":
             raise ValueError("route (the seed-004 square) is for the tracked robot; other vehicles follow a path")
         if self.route is not None and self.controller.name not in (None, "hybrid"):

@@ -1,0 +1,145 @@
+"""Generated route networks: the shipped hall loop (with clothoid or plain-arc corners) and grids.
+
+:func:`hall_loop` is the layout of ``agvnav/data/routes/hall_loop.yaml`` in the
+30 m x 16 m ``hall`` map: a one-way loop (east along y = 3, north along x = 26,
+west along y = 11, south along x = 4) whose corners are clothoid-arc-clothoid
+turns (or, with ``clothoids=False``, plain quarter circles of the same radius,
+for the comparison the missions benchmark makes), a NURBS bend on the top
+lane, a two-way bottom lane and a dock ``D`` entered backing up through a
+spur. Corner nodes are placed where the exact Fresnel geometry ends.
+:func:`grid_network` builds a square grid of two-way lines for planning speed.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from agvnav.guidance.clothoid import Clothoid
+
+__all__ = ["corner_extent", "grid_network", "hall_loop"]
+
+#: Corner radius (m) and clothoid length (m) of the hall loop.
+CORNER_RADIUS_M = 2.0
+CLOTHOID_LENGTH_M = 1.2
+
+
+def _turn_points(heading: float, radius: float, clothoid_length: float) -> list[np.ndarray]:
+    """Relative joints (m) of a left 90 deg clothoid-arc-clothoid turn starting with ``heading`` (rad)."""
+    c1 = Clothoid.from_curvatures(0.0, 0.0, heading, 0.0, 1.0 / radius, clothoid_length)
+    p1, h1 = c1.point_at(clothoid_length), float(c1.heading_at(clothoid_length))
+    h2 = heading + math.pi / 2 - (h1 - heading)
+    centre = p1 + radius * np.array([-math.sin(h1), math.cos(h1)])
+    p2 = centre + radius * np.array([math.sin(h2), -math.cos(h2)])
+    c3 = Clothoid.from_curvatures(float(p2[0]), float(p2[1]), h2, 1.0 / radius, 0.0, clothoid_length)
+    return [p1, p2, c3.point_at(clothoid_length)]
+
+
+def corner_extent(radius: float, clothoid_length: float) -> float:
+    """Distance (m) from the corner of two perpendicular lanes to where the 90 deg turn starts.
+
+    The turn clothoid (0 -> 1/R over ``clothoid_length``), arc, clothoid (1/R -> 0)
+    is symmetric, so it starts and ends the same distance from the corner.
+    Without clothoids (``clothoid_length = 0``) the extent is the radius.
+    """
+    if clothoid_length == 0.0:
+        return radius
+    return float(_turn_points(0.0, radius, clothoid_length)[2][0])
+
+
+def _corner_edges(name: str, a: str, b: str, heading_deg: float, clothoids: bool) -> tuple[list[dict[str, Any]],
+                                                                                             list[dict[str, Any]]]:
+    """Nodes and edges of one left 90 deg corner from node ``a`` (heading) to node ``b``."""
+    r = CORNER_RADIUS_M
+    if not clothoids:
+        return [], [{"id": name, "from": a, "to": b, "speed_m_s": 0.8,
+                     "geometry": {"type": "arc", "radius_m": r, "sweep_deg": 90.0, "heading_deg": heading_deg}}]
+    lc = CLOTHOID_LENGTH_M
+    turn = math.degrees(lc / (2.0 * r))
+    p1, p2, _ = _turn_points(math.radians(heading_deg), r, lc)
+    arc_sweep = 90.0 - 2.0 * turn
+    return [{"rel": (f"{name}_1", p1)}, {"rel": (f"{name}_2", p2)}], [
+        {"id": f"{name}a", "from": a, "to": f"{name}_1", "speed_m_s": 0.8,
+         "geometry": {"type": "clothoid", "length_m": lc, "curvature_start_per_m": 0.0,
+                      "curvature_end_per_m": 1.0 / r, "heading_deg": heading_deg}},
+        {"id": f"{name}b", "from": f"{name}_1", "to": f"{name}_2", "speed_m_s": 0.8,
+         "geometry": {"type": "arc", "radius_m": r, "sweep_deg": arc_sweep, "heading_deg": heading_deg + turn}},
+        {"id": f"{name}c", "from": f"{name}_2", "to": b, "speed_m_s": 0.8,
+         "geometry": {"type": "clothoid", "length_m": lc, "curvature_start_per_m": 1.0 / r,
+                      "curvature_end_per_m": 0.0, "heading_deg": heading_deg + 90.0 - turn}},
+    ]
+
+
+def hall_loop(clothoids: bool = True) -> dict[str, Any]:
+    """The shipped hall loop network as plain data (see the module doc)."""
+    d = corner_extent(CORNER_RADIUS_M, CLOTHOID_LENGTH_M if clothoids else 0.0)
+    x0, x1, y0, y1 = 4.0, 26.0, 3.0, 11.0
+    nodes: list[dict[str, Any]] = [
+        {"id": "SW", "x": x0 + d, "y": y0, "heading_deg": 0.0},
+        {"id": "S1", "x": 8.0, "y": y0, "heading_deg": 0.0, "kind": "station"},
+        {"id": "P", "x": 19.0, "y": y0, "heading_deg": 0.0},
+        {"id": "Q", "x": 22.0, "y": y0, "heading_deg": 0.0},
+        {"id": "SE", "x": x1 - d, "y": y0, "heading_deg": 0.0},
+        {"id": "ES", "x": x1, "y": y0 + d, "heading_deg": 90.0},
+        {"id": "S2", "x": x1, "y": 7.0, "heading_deg": 90.0, "kind": "station"},
+        {"id": "EN", "x": x1, "y": y1 - d, "heading_deg": 90.0},
+        {"id": "NE", "x": x1 - d, "y": y1, "heading_deg": 180.0},
+        {"id": "S3", "x": 20.0, "y": y1, "heading_deg": 180.0, "kind": "station"},
+        {"id": "S4", "x": 10.0, "y": y1, "heading_deg": 180.0, "kind": "station"},
+        {"id": "NW", "x": x0 + d, "y": y1, "heading_deg": 180.0},
+        {"id": "WN", "x": x0, "y": y1 - d, "heading_deg": 270.0},
+        {"id": "C1", "x": x0, "y": 7.0, "heading_deg": 270.0, "kind": "charger"},
+        {"id": "WS", "x": x0, "y": y0 + d, "heading_deg": 270.0},
+        {"id": "D1", "x": 17.0, "y": 5.0, "heading_deg": 270.0},
+        {"id": "D", "x": 17.0, "y": 7.0, "heading_deg": 270.0, "kind": "station"},
+    ]
+    lane = {"speed_m_s": 1.0}
+    edges: list[dict[str, Any]] = [
+        {"id": "b1", "from": "SW", "to": "S1", **lane, "two_way": True, "direction": "both"},
+        {"id": "b2", "from": "S1", "to": "P", **lane, "two_way": True, "direction": "both"},
+        {"id": "b3", "from": "P", "to": "Q", **lane, "two_way": True, "direction": "both"},
+        {"id": "b4", "from": "Q", "to": "SE", **lane, "two_way": True, "direction": "both"},
+        {"id": "r1", "from": "ES", "to": "S2", **lane},
+        {"id": "r2", "from": "S2", "to": "EN", **lane},
+        {"id": "t1", "from": "NE", "to": "S3", **lane},
+        {"id": "t2", "from": "S3", "to": "S4", "speed_m_s": 0.6, "geometry": {
+            "type": "nurbs", "degree": 3, "knot_vector": [0.0, 0.0, 0.0, 0.0, 0.5, 1.0, 1.0, 1.0, 1.0],
+            "control_points": [{"x": 20.0, "y": y1}, {"x": 17.0, "y": y1}, {"x": 15.0, "y": y1 - 1.2, "weight": 1.5},
+                               {"x": 13.0, "y": y1}, {"x": 10.0, "y": y1}]}},
+        {"id": "t3", "from": "S4", "to": "NW", **lane},
+        {"id": "l1", "from": "WN", "to": "C1", **lane},
+        {"id": "l2", "from": "C1", "to": "WS", **lane},
+        {"id": "d1", "from": "P", "to": "D1", "speed_m_s": 0.3, "two_way": True, "direction": "both",
+         "geometry": {"type": "arc", "radius_m": 2.0, "sweep_deg": -90.0, "heading_deg": 180.0}},
+        {"id": "d2", "from": "D1", "to": "D", "speed_m_s": 0.3, "two_way": True, "direction": "both"},
+    ]
+    for name, a, b, h in (("cSE", "SE", "ES", 0.0), ("cNE", "EN", "NE", 90.0), ("cNW", "NW", "WN", 180.0),
+                          ("cSW", "WS", "SW", 270.0)):
+        extra_nodes, corner = _corner_edges(name, a, b, h, clothoids)
+        start = next(n for n in nodes if n["id"] == a)
+        for item in extra_nodes:
+            nid, rel = item["rel"]
+            nodes.append({"id": nid, "x": float(start["x"] + rel[0]), "y": float(start["y"] + rel[1])})
+        edges += corner
+    kind = "clothoid" if clothoids else "plain-arc"
+    return {"name": f"hall_loop{'' if clothoids else '_arcs'}",
+            "description": f"one-way loop in the hall with {kind} corners, a NURBS bend, a two-way lane and a dock",
+            "nodes": nodes, "edges": edges}
+
+
+def grid_network(side: int, spacing: float = 5.0) -> dict[str, Any]:
+    """A ``side`` x ``side`` grid of nodes joined by two-way lines (both directions of travel)."""
+    if side < 2:
+        raise ValueError(f"side must be at least 2, got {side}")
+    nodes = [{"id": f"n{i}_{j}", "x": i * spacing, "y": j * spacing, "kind": "station"}
+             for i in range(side) for j in range(side)]
+    edges = []
+    for i in range(side):
+        for j in range(side):
+            if i + 1 < side:
+                edges.append({"id": f"h{i}_{j}", "from": f"n{i}_{j}", "to": f"n{i + 1}_{j}", "two_way": True})
+            if j + 1 < side:
+                edges.append({"id": f"v{i}_{j}", "from": f"n{i}_{j}", "to": f"n{i}_{j + 1}", "two_way": True})
+    return {"name": f"grid{side}x{side}", "nodes": nodes, "edges": edges}
