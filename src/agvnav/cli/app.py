@@ -22,12 +22,17 @@ from agvnav import __version__
 from agvnav.cli.bench import bench_app
 from agvnav.cli.campaign import campaign
 from agvnav.cli.errors import USER_ERROR_EXIT, err_console
+from agvnav.cli.routes import routes_app
 from agvnav.cli.scenarios import scenarios
 from agvnav.cli.simulate import simulate
 
 #: name -> (module, function, one-line help): commands loaded only when they run.
 LAZY_COMMANDS: dict[str, tuple[str, str, str]] = {
     "demo": ("agvnav.cli.demo", "demo", "Triangulate a vehicle on a built-in reflector layout and print a table."),
+    "layout": (
+        "agvnav.cli.layout", "layout",
+        "Plan a reflector layout for the routes of a hall: map YAML, heat map PNG and a table against a baseline.",
+    ),
     "localize": (
         "agvnav.cli.localize", "localize",
         "Run a positioning method on a recorded log; write the estimate (CSV and MCAP), a summary and plots.",
@@ -74,6 +79,7 @@ app = typer.Typer(
     add_completion=False,
 )
 app.add_typer(bench_app, name="bench")
+app.add_typer(routes_app, name="routes")
 app.command("simulate")(simulate)
 app.command("scenarios")(scenarios)
 app.command("campaign")(campaign)

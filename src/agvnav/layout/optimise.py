@@ -23,7 +23,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.layout.prediction import LayoutProblem, evaluate, information, information_terms, sigmas
+from agvnav.layout.prediction import (
+    LayoutProblem,
+    evaluate,
+    information,
+    information_terms,
+    moments,
+    sigmas,
+    spread,
+)
 
 __all__ = ["PlanResult", "greedy_cover", "optimise", "prune", "repair", "swap_improve"]
 
@@ -88,7 +96,10 @@ def repair(problem: LayoutProblem, chosen: NDArray[np.int64], order: NDArray[np.
         v = problem.vis[np.ix_(fail, free)]
         sp, sh = sigmas(info[:, None, :] + v[..., None] * terms)
         cnt = pred.count[fail][:, None] + v
+        own = moments(problem.sites[free], np.eye(free.size, dtype=bool))  # (C, 6): each candidate alone
+        mom = moments(problem.sites[chosen], pred.visible[fail])[:, None, :] + v[..., None] * own[None, :, :]
         fixed = (cnt >= problem.min_visible) & (sp <= problem.max_pos_sigma) & (sh <= problem.max_heading_sigma)
+        fixed &= spread(mom) >= problem.min_spread
         gain = fixed.sum(axis=0)
         if gain.max() <= 0:
             break

@@ -103,7 +103,7 @@ def build_problem(spec: LayoutSpec) -> tuple[Hall, Candidates, RoutePoses, Layou
     t = spec.target
     problem = LayoutProblem(poses.head, sites, existing.shape[0], vis, bearing_std(spec), g.reflector_radius_m,
                             t.position_3sigma_m / 3.0, math.radians(t.heading_3sigma_deg) / 3.0, t.min_visible,
-                            t.fraction)
+                            t.fraction, t.min_spread_m)
     return hall, cands, poses, problem
 
 

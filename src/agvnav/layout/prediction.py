@@ -32,8 +32,10 @@ __all__ = [
     "evaluate",
     "information",
     "information_terms",
+    "moments",
     "sigmas",
     "sigmas_rms",
+    "spread",
 ]
 
 _CHUNK = 4_000_000
@@ -47,7 +49,8 @@ class LayoutProblem:
     the ``n_existing`` existing reflectors first, then the candidates; ``vis`` ``(K, E + C)``
     range and wall visibility; ``bearing_std`` (rad); ``radius`` of the reflectors (m);
     ``max_pos_sigma`` (m) and ``max_heading_sigma`` (rad) are the target's 1σ limits;
-    ``min_visible`` reflectors in view at every pose; ``fraction`` of poses that must meet the accuracy target.
+    ``min_visible`` reflectors in view at every pose; ``fraction`` of poses that must meet the accuracy target;
+    ``min_spread`` (m) the least spread of the visible reflectors across their best-fit line (not aligned).
     """
 
     head: NDArray[np.float64]
@@ -60,6 +63,7 @@ class LayoutProblem:
     max_heading_sigma: float
     min_visible: int
     fraction: float
+    min_spread: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -67,7 +71,8 @@ class Prediction:
     """Per-pose prediction for a chosen set: ``visible`` ``(K, S)`` after mutual hiding, ``count`` ``(K,)``,
     ``sigma_pos`` (m) and ``sigma_heading`` (rad) (inf where unobservable), ``rms_pos`` = ``sqrt(trace P_xy)`` (m),
     ``critical`` distance to the
-    critical circle (m), ``ok`` the pose meets the target."""
+    critical circle (m), ``spread`` of the visible reflectors across their line (m), ``ok`` the pose meets
+    the target."""
 
     visible: NDArray[np.bool_]
     count: NDArray[np.int64]
@@ -75,6 +80,7 @@ class Prediction:
     sigma_heading: NDArray[np.float64]
     rms_pos: NDArray[np.float64]
     critical: NDArray[np.float64]
+    spread: NDArray[np.float64]
     ok: NDArray[np.bool_]
 
     @property
@@ -137,6 +143,26 @@ def sigmas_rms(info6: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray
     return sp, sh, rms
 
 
+def moments(refl: NDArray[np.float64], vis: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Moment sums ``(K, 6)`` = ``[n, Σx, Σy, Σx², Σxy, Σy²]`` of the reflectors visible at each pose (additive)."""
+    x, y = refl[:, 0], refl[:, 1]
+    cols = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=1)
+    return np.asarray(vis.astype(np.float64) @ cols)
+
+
+def spread(mom: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Spread (m) of a reflector set across its best-fit line from :func:`moments` ``(..., 6)``: the square root of
+    the smaller eigenvalue of the position scatter. Zero for aligned reflectors: the absolute-angle method
+    needs "three reflectors not aligned" [seed000 §2.2]."""
+    n = np.maximum(mom[..., 0], 1.0)
+    mx, my = mom[..., 1] / n, mom[..., 2] / n
+    a = mom[..., 3] / n - mx * mx
+    b = mom[..., 4] / n - mx * my
+    c = mom[..., 5] / n - my * my
+    lam = 0.5 * (a + c) - np.sqrt(0.25 * (a - c) ** 2 + b * b)
+    return np.sqrt(np.maximum(lam, 0.0))
+
+
 def critical_distance(head: NDArray[np.float64], refl: NDArray[np.float64], visible: NDArray[np.bool_]) -> NDArray[
         np.float64]:
     """Distance (m) from each head to the circle through its three nearest visible reflectors [seed000 §2.2].
@@ -178,5 +204,7 @@ def evaluate(problem: LayoutProblem, chosen: NDArray[np.int64]) -> Prediction:
     vis = mutual_hiding(problem.head, refl, problem.radius, problem.vis[:, chosen])
     sp, sh, rms = sigmas_rms(information(problem.head, refl, vis, problem.bearing_std))
     count = vis.sum(axis=1).astype(np.int64)
+    spr = spread(moments(refl, vis))
     ok = (count >= problem.min_visible) & (sp <= problem.max_pos_sigma) & (sh <= problem.max_heading_sigma)
-    return Prediction(vis, count, sp, sh, rms, critical_distance(problem.head, refl, vis), ok)
+    ok &= spr >= problem.min_spread
+    return Prediction(vis, count, sp, sh, rms, critical_distance(problem.head, refl, vis), spr, ok)

@@ -146,6 +146,8 @@ class TargetSpec(StrictModel):
     """predicted 3σ heading error at most this."""
     min_visible: Annotated[int, Field(ge=3)] = 3
     """reflectors that must be visible at a route point."""
+    min_spread_m: NonNegFloat = 1.0
+    """the visible reflectors must not be aligned: their spread across the best-fit line at least this."""
     fraction: Annotated[float, Field(gt=0.0, le=1.0)] = 0.99
     """fraction of route points that must meet the target."""
     route_spacing_m: PosFloat = 0.5

@@ -1,0 +1,46 @@
+"""``agvnav layout``: plan where the reflectors go, write the map, heat map and table; ``--verify`` drives the routes.
+
+A thin layer: parse, call :func:`agvnav.layout.plan_layout`, write with
+:func:`agvnav.report.layout.write_layout`, print. Bad input (a polygon that does
+not close, a route outside the hall, a reflector inside a rack, a target no
+candidate set can meet) is one line on stderr and exit 2.
+"""
+
+from __future__ import annotations
+
+import json as jsonlib
+from pathlib import Path
+
+import typer
+
+from agvnav.bench.common import emit
+from agvnav.cli.errors import user_errors
+from agvnav.layout import load_layout, plan_layout, summary_rows
+from agvnav.layout.verify import verify_plan
+from agvnav.report.layout import plan_record, write_layout
+
+__all__ = ["layout"]
+
+SPEC_ARG = typer.Argument(..., help="Layout file (YAML), or a shipped one by name: warehouse.")
+OUT_OPT = typer.Option(None, "--out", "-o", help="Output folder (default: ./<name>_layout).")
+VERIFY_OPT = typer.Option(False, "--verify", help="Drive the routes in the closed loop; measured vs predicted RMS.")
+JSON_OPT = typer.Option(False, "--json", help="Print the plan (and verification) as JSON.")
+
+
+@user_errors
+def layout(spec: str = SPEC_ARG, out: Path | None = OUT_OPT, verify: bool = VERIFY_OPT, json: bool = JSON_OPT) -> None:
+    """Plan a reflector layout for the routes of a hall: map YAML, heat map PNG and a table against a baseline."""
+    doc = load_layout(spec)
+    plan = plan_layout(doc)
+    paths = write_layout(plan, out if out is not None else Path(f"{doc.name}_layout"))
+    checks = verify_plan(plan) if verify else []
+    if json:
+        record = plan_record(plan) | {"files": {k: str(v) for k, v in paths.items()}, "verify": checks}
+        print(jsonlib.dumps(record))
+        return
+    emit("layout", summary_rows(plan), as_json=False, title=f"{doc.name}: planned layout against regular spacing "
+         f"({plan.baseline_spacing_m:.1f} m)")
+    print(plan.result.guarantee)
+    print(f"planned in {plan.runtime_s:.1f} s; wrote {', '.join(str(p) for p in paths.values())}")
+    if checks:
+        emit("layout-verify", checks, as_json=False, title="closed loop: measured against predicted RMS per section")
