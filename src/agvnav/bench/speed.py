@@ -152,8 +152,10 @@ def _wall(cmd: list[str], repeat: int, cwd: str) -> float:
     best = math.inf
     for _ in range(repeat):
         start = time.perf_counter()
-        subprocess.run(cmd, check=True, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                       env={**os.environ, "MPLBACKEND": "Agg"})
+        res = subprocess.run(cmd, check=False, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                             env={**os.environ, "MPLBACKEND": "Agg"})
+        if res.returncode not in (0, 3):  # 3: the run ran but failed its path; its start-up still counts
+            raise RuntimeError(f"{' '.join(cmd)} exited {res.returncode}: {res.stderr.decode()[-500:]}")
         best = min(best, time.perf_counter() - start)
     return best
 
