@@ -24,7 +24,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from mcap_ros2.reader import read_ros2_messages
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 from numpy.typing import NDArray
 
 from agvnav.logs import topics as tp
@@ -104,8 +105,10 @@ def read_mcap(path: str | Path) -> RecordedLog:
     wanted = [tp.ODOM, tp.BEARING, tp.SETTINGS, tp.TRUTH, tp.ESTIMATE, tp.PATH]
     got: dict[str, list[Any]] = {k: [] for k in wanted}
     try:
-        for m in read_ros2_messages(str(p), topics=wanted):
-            got[m.channel.topic].append((m.log_time_ns / 1e9, m.ros_msg))
+        with p.open("rb") as f:
+            reader = make_reader(f, decoder_factories=[DecoderFactory()])
+            for _, channel, message, msg in reader.iter_decoded_messages(topics=wanted, log_time_order=True):
+                got[channel.topic].append((message.log_time / 1e9, msg))
     except Exception as exc:  # the mcap library raises its own error types for a damaged file
         raise ValueError(f"{p}: not a readable MCAP log ({exc})") from None
     if not got[tp.ODOM]:
