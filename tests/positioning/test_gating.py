@@ -13,6 +13,7 @@ from agvnav.positioning import _fast, make_estimator
 from agvnav.positioning import estimator as estimator_module
 from agvnav.positioning.gating import INDEX_MIN_REFLECTORS, BearingIndex, GateSpec
 from agvnav.positioning.identification import bearing_model, measurement_variance
+from agvnav.positioning.integrity import IntegrityLimits
 from agvnav.world import Reflector, WorldMap
 
 
@@ -124,7 +125,7 @@ def test_ekf_with_and_without_the_index_is_bit_identical(n: int, monkeypatch: py
 
     def run() -> tuple:
         est = make_estimator("ekf", world, mount, initial_pose=x0, initial_covariance=np.diag([1e-3, 1e-3, 2e-4]) ** 2,
-                             bearing_offset=0.0, bearing_std=5e-5)
+                             bearing_offset=0.0, bearing_std=5e-5, integrity=IntegrityLimits(enabled=False))
         out = []
         for k, z in enumerate(h_all):
             t = 0.01 * (k + 1)

@@ -100,6 +100,7 @@ class EkfEstimator(StreamingEstimator):
     """
 
     method = "ekf"
+    late_updates = True
 
     def __init__(
         self,

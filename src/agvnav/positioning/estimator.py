@@ -48,13 +48,15 @@ from agvnav.positioning import _fast
 from agvnav.positioning.bounds import encoder_bearing_std
 from agvnav.positioning.gating import INDEX_MIN_REFLECTORS, BearingIndex, GateSpec
 from agvnav.positioning.identification import CHI2_1DOF_999, Association, InitialPoseResult, initial_pose_search
+from agvnav.positioning.integrity import IntegrityLimits, IntegrityMonitor
+from agvnav.positioning.plausibility import DropCounter, PlausibilityLimits, check_covariance, implausible_increment
 
 __all__ = ["METHODS", "STATUSES", "StreamingEstimator", "make_estimator"]
 
 #: Method names accepted by :func:`make_estimator` (seed 000 §2.2 and issue 4 §4).
 METHODS = ("naive", "angle_propagation", "batch_ml", "ekf")
 #: Values of :attr:`StreamingEstimator.status`.
-STATUSES = ("initialising", "tracking", "dead_reckoning")
+STATUSES = ("initialising", "tracking", "degraded", "dead_reckoning", "lost")
 
 
 #: Lock-out inflation stops once the position variance trace reaches this (m²).
@@ -101,9 +103,26 @@ class StreamingEstimator:
         Added to every reported bearing (rad). Default half a pulse, ``pi / pulses_per_rev``:
         an incremental encoder reports the last whole pulse passed, so a CCW head's reading
         lags the beam by half a pulse on average (:meth:`~agvnav.sensors.goniometer.Goniometer.encoder_bearing`).
+    strict:
+        True (the API): an implausible or non-finite input raises ValueError. False (a
+        running vehicle, the simulator): it is dropped and counted in :attr:`n_dropped`
+        per reason; one bad reading never aborts a run.
+    plausibility:
+        :class:`~agvnav.positioning.plausibility.PlausibilityLimits` (max speed and yaw
+        rate, max odometry gap, late-reflection window).
+    integrity:
+        :class:`~agvnav.positioning.integrity.IntegrityLimits` of the integrity monitor
+        (issue 12): it makes ``status`` ``"degraded"`` (covariance inflated) or ``"lost"``
+        when the support of the estimate fails; lost, the estimator stops correcting and
+        relocalises with :func:`~agvnav.positioning.identification.initial_pose_search`
+        once a revolution of reflections at standstill is collected, accepting only an
+        unambiguous pose (``ambiguous`` reports the other case; ``n_relocalisations``).
     """
 
     method: ClassVar[str] = "base"
+    #: Whether a late reflection (within ``plausibility.late_window_s``) is applied at its
+    #: own instant through the odometry (:meth:`_late`); else it is dropped as ``"late"``.
+    late_updates: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Register a concrete estimator under its ``method`` name (one of :data:`METHODS`)."""
@@ -129,6 +148,9 @@ class StreamingEstimator:
         max_range: float = 30.0,
         dead_reckoning_after: float = 1.0,
         gate: float = CHI2_1DOF_999,
+        strict: bool = True,
+        plausibility: PlausibilityLimits | None = None,
+        integrity: IntegrityLimits | None = None,
     ) -> None:
         self.reflector_xy = np.asarray(world.reflector_xy, dtype=np.float64)
         self.reflector_radius = np.asarray(world.reflector_radius, dtype=np.float64)
@@ -147,6 +169,16 @@ class StreamingEstimator:
         self.max_range = require_positive("max_range", max_range)
         self.dead_reckoning_after = require_positive("dead_reckoning_after", dead_reckoning_after)
         self.gate = require_positive("gate", gate)
+        self.strict = bool(strict)
+        self.plausibility = PlausibilityLimits() if plausibility is None else plausibility
+        self.drops = DropCounter()
+        self.monitor = IntegrityMonitor(
+            self.reflector_xy, self.reflector_radius, self.mount, self.bearing_std, 1.0 / self.rate_hz, integrity,
+            map_std=self.map_std,
+        )
+        self.ambiguous = False
+        self.n_relocalisations = 0
+        self._next_search_t = -math.inf
         self.n_accepted = 0
         self.n_rejected = 0
         self.n_inflations = 0
@@ -171,6 +203,8 @@ class StreamingEstimator:
         )
         self._x_t: tuple[float, ...] = (math.nan,) * 3  # pose [x, y, psi]
         self._P_t: tuple[float, ...] = (math.nan,) * 9  # covariance, flat row-major
+        if initial_covariance is not None:
+            check_covariance("initial_covariance", initial_covariance)
         if initial_pose is not None:
             self._start(initial_pose, initial_covariance)
 
@@ -217,13 +251,38 @@ class StreamingEstimator:
 
     @property
     def status(self) -> str:
-        """``"initialising"``, ``"tracking"`` or ``"dead_reckoning"`` (see the class docstring)."""
+        """``"initialising"``, ``"tracking"``, ``"degraded"``, ``"dead_reckoning"`` or ``"lost"``.
+
+        ``lost`` and ``degraded`` are the integrity monitor's verdicts (class docstring);
+        ``dead_reckoning`` no accepted reflection for ``dead_reckoning_after`` seconds.
+        """
         if not self._has_pose():
             return "initialising"
-        since = self._t_last_accept if self._t_last_accept is not None else self._t_first
-        if self._t is not None and since is not None and self._t - since > self.dead_reckoning_after:
+        verdict = self.monitor.verdict
+        if verdict == "lost":
+            return "lost"
+        if self._dead_reckoning():
             return "dead_reckoning"
-        return "tracking"
+        return "degraded" if verdict == "degraded" else "tracking"
+
+    @property
+    def quality(self) -> float:
+        """0-1 quality figure of the latest integrity check (0 while initialising or lost)."""
+        return self.monitor.quality if self._has_pose() else 0.0
+
+    @property
+    def reflectors_used(self) -> int:
+        """Distinct reflectors that supported the estimate over the monitor's window."""
+        return self.monitor.reflectors_used
+
+    @property
+    def n_dropped(self) -> dict[str, int]:
+        """Inputs dropped as implausible (``strict=False``), per reason."""
+        return dict(self.drops.by_reason)
+
+    def _dead_reckoning(self) -> bool:
+        since = self._t_last_accept if self._t_last_accept is not None else self._t_first
+        return self._t is not None and since is not None and self._t - since > self.dead_reckoning_after
 
     # ------------------------------------------------------------------ feed
     def predict(self, t: float, delta_d: float, delta_theta: float, delta_lateral: float = 0.0) -> None:
@@ -254,10 +313,10 @@ class StreamingEstimator:
         holonomic term ``var_l = k_lateral |delta_lateral|``. With ``delta_lateral = 0``
         the prediction is today's non-holonomic one, bit for bit.
         """
-        t = self._check_time(t, "odometry")
-        dd = _finite_float("odometry increment", delta_d)
-        dth = _finite_float("odometry increment", delta_theta)
-        dl = _finite_float("odometry increment", delta_lateral)
+        checked = self._checked_odometry(t, delta_d, delta_theta, delta_lateral)
+        if checked is None:
+            return
+        t, dd, dth, dl = checked
         if self._t_odometry is not None and t > self._t_odometry:
             span = t - self._t_odometry
             self._rate = (dd / span, dth / span, dl / span)
@@ -266,8 +325,9 @@ class StreamingEstimator:
         self._t_odometry = t
         self._t = t
         self._move(dd - ahead[0], dth - ahead[1], dl - ahead[2])
-        if not self._has_pose() and (abs(dd) > 1e-9 or abs(dth) > 1e-9 or abs(dl) > 1e-9):
-            self._init_buffer.clear()  # the start-up search needs a standing vehicle
+        if abs(dd) > 1e-9 or abs(dth) > 1e-9 or abs(dl) > 1e-9:
+            self._init_buffer.clear()  # the start-up search and relocalisation need a standing vehicle
+        self._watch_integrity(t)
 
     def update(self, t: float, bearing: float) -> bool:
         """One raw anonymous reflection: time ``t`` (s), head-frame bearing (rad) of its start.
@@ -275,8 +335,12 @@ class StreamingEstimator:
         Returns True when the reflection was identified and used, False when rejected
         (spurious, ambiguous, already claimed in this sweep) or buffered for start-up.
         """
-        t = self._check_time(t, "reflection")
-        z = _fast.wrap(_finite_float("bearing", bearing) + self.bearing_offset)
+        checked = self._checked_reflection(t, bearing)
+        if checked is None:
+            return False
+        t, z = checked
+        if self._t is not None and t < self._t:
+            return self._late(t, z)
         if self._t_odometry is not None and self._t is not None and t > self._t:
             span = t - self._t
             ahead_d, ahead_th, ahead_l = self._rate[0] * span, self._rate[1] * span, self._rate[2] * span
@@ -284,7 +348,7 @@ class StreamingEstimator:
             self._advance = (done[0] + ahead_d, done[1] + ahead_th, done[2] + ahead_l)
             self._move(ahead_d, ahead_th, ahead_l)
         self._t = t
-        if not self._has_pose():
+        if not self._has_pose() or self.monitor.verdict == "lost":
             self._init_buffer.append((t, z))
             self._try_start()
             return False
@@ -297,6 +361,8 @@ class StreamingEstimator:
         self._claimed[assoc.index] = t
         self._t_last_accept = t
         self._accept(t, z, assoc)
+        self.monitor.accepted(t, assoc.nis, assoc.index, z, self._odom_t)
+        self._watch_integrity(t)
         return True
 
     def update_many(self, t: ArrayLike, bearings: ArrayLike) -> NDArray[np.bool_]:
@@ -306,6 +372,112 @@ class StreamingEstimator:
         if tt.shape != zz.shape:
             raise ValueError(f"t and bearings must have the same shape, got {tt.shape} and {zz.shape}")
         return np.array([self.update(float(a), float(b)) for a, b in zip(tt, zz, strict=True)], dtype=bool)
+
+    # ------------------------------------------------------------------ plausibility (issue 12)
+    def _refuse(self, t: float, reason: str, message: str) -> None:
+        """ValueError with ``message`` (strict), else count the dropped reading under ``reason``."""
+        if self.strict:
+            raise ValueError(message)
+        self.drops.drop(t, reason)
+
+    def _checked_odometry(
+        self, t: float, delta_d: float, delta_theta: float, delta_lateral: float
+    ) -> tuple[float, float, float, float] | None:
+        """``(t, dd, dth, dl)`` to integrate, or None when the message is dropped (see :mod:`.plausibility`).
+
+        A non-finite or impossible increment is replaced by the motion at the last
+        rate over its span (the vehicle most likely went on); a time gap beyond
+        ``max_gap_s`` is not integrated and the position and heading variances grow
+        by what the vehicle could have done in it (the estimate then says it is lost).
+        """
+        try:
+            t = _finite_float("t", t)
+        except ValueError:
+            self._refuse(self.t, "non_finite", "t contains NaN or inf")
+            return None
+        if self._t is not None and t < self._t:
+            self._refuse(t, "out_of_order", f"odometry at t={t!r} s is earlier than the previous input at "
+                         f"t={self._t!r} s; feed odometry and reflections in time order")
+            return None
+        self._check_time(t, "odometry")
+        span = t - self._t_odometry if self._t_odometry is not None else 0.0
+        try:
+            inc = tuple(_finite_float("odometry increment", v) for v in (delta_d, delta_theta, delta_lateral))
+            reason = None if self._t_odometry is None else implausible_increment(self.plausibility, span, *inc)
+        except ValueError:
+            inc, reason = (math.nan,) * 3, "non_finite"
+        if reason is None:
+            return t, inc[0], inc[1], inc[2]
+        self._refuse(t, reason, f"odometry increment {inc} over {span!r} s at t={t!r} s is implausible ({reason}); "
+                     f"limits {self.plausibility}")
+        if reason == "time_gap":
+            self._blow_up(span)
+        rate = (0.0, 0.0, 0.0) if reason == "time_gap" else self._rate
+        return t, rate[0] * span, rate[1] * span, rate[2] * span
+
+    def _blow_up(self, span: float) -> None:
+        """Grow ``P`` by the motion possible in ``span`` s at the plausibility limits (a time gap)."""
+        lim = self.plausibility
+        d2, a2 = (lim.max_speed_m_s * span) ** 2, (lim.max_yaw_rate_rad_s * span) ** 2
+        P = list(self._P_t)
+        P[0], P[4], P[8] = P[0] + d2, P[4] + d2, P[8] + a2
+        self._P_t = tuple(P)
+
+    def _checked_reflection(self, t: float, bearing: float) -> tuple[float, float] | None:
+        """``(t, bearing + offset)``, or None when dropped (non-finite, or older than the late window)."""
+        try:
+            t, b = _finite_float("t", t), _finite_float("bearing", bearing)
+        except ValueError as exc:
+            self._refuse(self.t, "non_finite", str(exc))
+            return None
+        if self._t is not None and t < self._t - self.plausibility.late_window_s:
+            self._refuse(t, "late", f"reflection at t={t!r} s is earlier than the previous input at t={self._t!r} s "
+                         f"by more than late_window_s={self.plausibility.late_window_s!r} s")
+            return None
+        if self._t_first is None:
+            self._t_first = t
+        return t, _fast.wrap(b + self.bearing_offset)
+
+    def _late(self, t: float, z: float) -> bool:
+        """A reflection up to ``late_window_s`` late: gated and applied at its own instant.
+
+        The pose then is the current one moved back along the last odometry rate
+        (``x_r = x (+) exp(-rate (t_now - t))``, :func:`~agvnav.positioning._fast.twist_step`),
+        with ``P_r = F P F^T``; the measurement row on the current state is ``H_r F``
+        (``F = d x_r / d x``), so the update corrects the current pose.
+        """
+        if not self.late_updates or not self._has_pose() or self.monitor.verdict == "lost":
+            self._refuse(t, "late", f"reflection at t={t!r} s arrived after t={self._t!r} s")
+            return False
+        span = self._t - t if self._t is not None else 0.0
+        back = (-self._rate[0] * span, -self._rate[1] * span, -self._rate[2] * span)
+        x, y, psi = self._x_t
+        xr, yr, psir, f02, f12 = _fast.twist_step(x, y, psi, *back)
+        P_r = _fast.predict_covariance(self._P_t, f02, f12, (0.0,) * 9)
+        j, y, nis, n_in, H, S, R = _fast.gate_one(
+            z, (xr, yr, _fast.wrap(psir)), P_r, self._mount_t, self._rows, self._spec, self._claimed, t
+        )
+        if j < 0:
+            self.n_rejected += 1
+            return False
+        H_now = (H[0], H[1], H[0] * f02 + H[1] * f12 + H[2])
+        self.n_accepted += 1
+        self._claimed[j] = t
+        self._t_last_accept = max(t, self._t_last_accept or t)
+        self._accept(t, z, Association(j, y, nis, n_in, np.array(H_now), S, R))
+        ox, oy, opsi = self._odom_t
+        self.monitor.accepted(t, nis, j, z, _fast.twist_step(ox, oy, opsi, *back)[:3])
+        return True
+
+    # ------------------------------------------------------------------ integrity (issue 12)
+    def _watch_integrity(self, t: float) -> None:
+        """Once per revolution: the monitor's check; inflate ``P`` when it asks (see :mod:`.integrity`)."""
+        if not self._has_pose() or self.monitor.verdict == "lost" or not self.monitor.due(t):
+            return
+        if self.monitor.check(t, self._x, self._P, self._odom_t, self._dead_reckoning()):
+            k = self.monitor.limits.inflation
+            self._P_t = tuple(k * v for v in self._P_t)
+            self.n_inflations += 1
 
     # ------------------------------------------------------------------ internals
     def _gate(self, t: float, z: float) -> Association:
@@ -389,11 +561,15 @@ class StreamingEstimator:
         self._x = (x[0], x[1], wrap_angle(x[2]))
         self._P = 0.5 * (P + P.T)
         self._t_last_accept = self._t  # None before the first input: counted from the first one
+        self.monitor.reset()
+        self._claimed = [-math.inf] * self.reflector_xy.shape[0]
+        self._recent.clear()
+        self._recent_ok = 0
 
     def _try_start(self) -> None:
         """Start-up search once a full revolution of reflections at standstill is buffered."""
         times = np.array([b[0] for b in self._init_buffer])
-        if times[-1] - times[0] < 1.0 / self.rate_hz:
+        if times[-1] - times[0] < 1.0 / self.rate_hz or times[-1] < self._next_search_t:
             return
         sweep = [z for (tb, z) in self._init_buffer if times[-1] - tb < 1.0 / self.rate_hz]
         result = initial_pose_search(
@@ -401,10 +577,16 @@ class StreamingEstimator:
             max_range=self.max_range, gate=self.gate, map_std=self.map_std,
         )
         self.last_search = result
+        self.ambiguous = bool(result.ambiguous)
         self._init_buffer = [b for b in self._init_buffer if times[-1] - b[0] < 1.0 / self.rate_hz]
+        relocalising = self._has_pose()
         if result.found:
             self._start(result.pose, result.covariance + np.diag([1e-6, 1e-6, 1e-8]))
+            self.n_relocalisations += relocalising
+            self._init_buffer.clear()
             self._on_start()
+        elif relocalising:  # lost: the search costs ~0.1 s, try again a second later
+            self._next_search_t = float(times[-1]) + 1.0
 
     def _on_start(self) -> None:
         """Hook for subclasses: called once the start-up search has set the pose."""

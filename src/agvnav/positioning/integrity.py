@@ -1,0 +1,297 @@
+"""Integrity of a streaming estimate: is the reported pose trustworthy? (issue 12 §1)
+
+:class:`IntegrityMonitor` watches what supports the estimate and turns it into a verdict
+(``"ok"``, ``"degraded"``, ``"lost"``) and a 0-1 quality figure, as commercial reflector
+navigators report one:
+
+* consistency of the recent innovations: the windowed NIS ``sum y_i^2 / S_i`` of the
+  accepted bearings of the last ``window_s`` seconds against the upper
+  ``nis_confidence`` quantile of a chi-square with as many degrees of freedom (a
+  consistent filter's innovations are white with variance ``S`` [seed002 eq14]);
+* the number and geometry of the reflectors that supported the recent fixes: at least
+  ``min_reflectors`` distinct ones in the window, and a best achievable position error
+  ``PDOP * bearing_std`` (:func:`~agvnav.positioning.bounds.pdop`, the CRLB of seed 000
+  §2.3) below ``max_fix_std_m``;
+* a cross-check against an independent triangulation when three distinct reflectors
+  were seen in the last revolution: their bearings are brought to one instant through
+  the odometry (the angle propagation of seed 000 §2.2) and triangulated with ToTal
+  (:func:`~agvnav.positioning.triangulate`, ``valid=False`` near the critical circle);
+  the fix and the estimate must agree within the chi-square bound of their summed
+  covariances.
+
+A failed check makes the verdict ``degraded`` and asks the estimator to inflate its
+covariance (the estimate says it is less sure); a verdict ``degraded`` for longer than
+``lost_after_s``, or a position or heading uncertainty beyond what the bearing gate
+can identify reflectors with (``lost_position_std_m``, ``lost_heading_std_rad``), makes
+it ``lost``: the estimator then stops correcting and relocalises.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from agvnav.geometry.se2 import between, compose
+from agvnav.positioning.bounds import pdop
+from agvnav.positioning.identification import bearing_model
+from agvnav.positioning.triangulation import triangulate
+
+__all__ = ["CHI2_2DOF_999", "IntegrityLimits", "IntegrityMonitor", "chi2_upper"]
+
+#: Chi-square quantile, 2 dof, 0.999: agreement bound of the triangulation cross-check.
+CHI2_2DOF_999 = 13.815510557964274
+
+#: Normal quantiles of the supported confidences, for :func:`chi2_upper`.
+_Z = {0.95: 1.6448536269514722, 0.99: 2.3263478740408408, 0.999: 3.090232306167813}
+
+
+def chi2_upper(dof: int, confidence: float = 0.999) -> float:
+    """Upper ``confidence`` quantile of a chi-square with ``dof`` degrees of freedom.
+
+    Wilson-Hilferty cube-root approximation, ``dof (1 - a + z sqrt(a))^3`` with
+    ``a = 2 / (9 dof)`` and ``z`` the normal quantile (within 1 % of the exact value
+    from 3 dof on; the 1- and 2-dof values are exact). ``confidence`` is 0.95, 0.99 or 0.999.
+    """
+    if dof < 1:
+        raise ValueError(f"dof must be >= 1, got {dof!r}")
+    if confidence not in _Z:
+        raise ValueError(f"confidence must be one of {sorted(_Z)}, got {confidence!r}")
+    z = _Z[confidence]
+    if dof == 1:
+        return z * z if confidence != 0.999 else 10.827566170662733
+    if dof == 2:
+        return -2.0 * math.log(1.0 - confidence)
+    a = 2.0 / (9.0 * dof)
+    return dof * (1.0 - a + z * math.sqrt(a)) ** 3
+
+
+@dataclass(frozen=True)
+class IntegrityLimits:
+    """Thresholds of :class:`IntegrityMonitor` (lengths m, angles rad, times s).
+
+    ``enabled=False`` keeps the figures (quality, NIS ratio...) but never leaves ``"ok"``.
+    """
+
+    window_s: float = 2.0
+    nis_confidence: float = 0.999
+    min_reflectors: int = 3
+    max_fix_std_m: float = 0.05
+    crosscheck_bound: float = CHI2_2DOF_999
+    lost_after_s: float = 5.0
+    lost_position_std_m: float = 0.3
+    lost_heading_std_rad: float = 0.1
+    inflation: float = 4.0
+    enabled: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("window_s", "max_fix_std_m", "crosscheck_bound", "lost_after_s", "lost_position_std_m",
+                     "lost_heading_std_rad"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0.0):
+                raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+        if not self.inflation >= 1.0:
+            raise ValueError(f"inflation must be >= 1, got {self.inflation!r}")
+        if self.min_reflectors < 1:
+            raise ValueError(f"min_reflectors must be >= 1, got {self.min_reflectors!r}")
+        chi2_upper(1, self.nis_confidence)
+
+
+@dataclass(frozen=True)
+class _Entry:
+    t: float
+    nis: float
+    index: int
+    bearing: float  # edge bearing in the head frame (rad)
+    odom: tuple[float, float, float]  # odometric base_link pose at t
+
+
+class IntegrityMonitor:
+    """Verdict and quality of a streaming estimate from its recent support (module docstring).
+
+    Parameters
+    ----------
+    reflector_xy, reflector_radius:
+        ``(N, 2)`` map centres (m) and ``(N,)`` radii (m).
+    mount:
+        ``(3,)`` head pose in base_link (m, m, rad).
+    bearing_std:
+        Std (rad) of one bearing.
+    map_std:
+        Survey std (m) of a reflector position: a bearing at distance d gets the variance
+        ``bearing_std^2 + (map_std / d)^2`` (as the estimator's gate).
+    revolution_s:
+        Duration (s) of one head revolution.
+    limits:
+        The thresholds.
+
+    Attributes
+    ----------
+    verdict : ``"ok"``, ``"degraded"`` or ``"lost"``.
+    quality : 0-1 figure (0 when lost).
+    reflectors_used : distinct reflectors accepted in the window.
+    nis_ratio : windowed NIS over its chi-square bound (< 1 consistent; NaN without data).
+    crosscheck : Mahalanobis distance² of the latest triangulation cross-check (NaN if none).
+    reasons : why the last check failed (empty when it passed).
+    """
+
+    def __init__(
+        self,
+        reflector_xy: ArrayLike,
+        reflector_radius: ArrayLike,
+        mount: ArrayLike,
+        bearing_std: float,
+        revolution_s: float,
+        limits: IntegrityLimits | None = None,
+        map_std: float = 0.0,
+    ) -> None:
+        self.xy = np.asarray(reflector_xy, dtype=np.float64).reshape(-1, 2)
+        self.radius = np.asarray(reflector_radius, dtype=np.float64).reshape(-1)
+        self.mount = np.asarray(mount, dtype=np.float64).reshape(3)
+        self.bearing_std = float(bearing_std)
+        self.map_std = float(map_std)
+        self.revolution_s = float(revolution_s)
+        self.limits = IntegrityLimits() if limits is None else limits
+        self._entries: deque[_Entry] = deque()
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the support (after a relocalisation or a fresh start)."""
+        self._entries.clear()
+        self.verdict = "ok"
+        self.quality = 0.0
+        self.reflectors_used = 0
+        self.nis_ratio = math.nan
+        self.crosscheck = math.nan
+        self.reasons: tuple[str, ...] = ()
+        self._degraded_since: float | None = None
+        self._last_check = -math.inf
+        self._since: float | None = None  # first check after the reset
+
+    def accepted(self, t: float, nis: float, index: int, bearing: float, odom: tuple[float, ...]) -> None:
+        """One accepted reflection at ``t`` (s): its NIS, reflector row, edge bearing (rad), odometric pose."""
+        self._entries.append(_Entry(t, float(nis), int(index), float(bearing), (odom[0], odom[1], odom[2])))
+        while self._entries and t - self._entries[0].t > self.limits.window_s:
+            self._entries.popleft()
+
+    def due(self, t: float) -> bool:
+        """True once per head revolution: time for :meth:`check`."""
+        return t - self._last_check >= self.revolution_s
+
+    def check(
+        self, t: float, pose: ArrayLike, P: ArrayLike, odom: tuple[float, ...], dead_reckoning: bool
+    ) -> bool:
+        """Judge the estimate ``pose (3,)``, ``P (3, 3)`` at ``t`` (s); True when ``P`` should be inflated.
+
+        ``odom`` is the odometric pose now; ``dead_reckoning`` that the estimator has
+        had no accepted reflection for a while (the support checks are then moot and
+        only the uncertainty can make the verdict ``lost``).
+        """
+        self._last_check = t
+        x = np.asarray(pose, dtype=np.float64)
+        cov = np.asarray(P, dtype=np.float64)
+        while self._entries and t - self._entries[0].t > self.limits.window_s:
+            self._entries.popleft()
+        if self._since is None:
+            self._since = t
+        young = t - self._since < self.limits.window_s  # no full window of support yet
+        reasons = [] if dead_reckoning else self._support_failures(t, x, cov, odom, young)
+        reasons += self._uncertainty_failures(cov)
+        self.reasons = tuple(reasons) if self.limits.enabled else ()
+        reasons = list(self.reasons)
+        return self._judge(t, reasons)
+
+    # ------------------------------------------------------------------ checks
+    def _support_failures(
+        self, t: float, x: np.ndarray, P: np.ndarray, odom: tuple[float, ...], young: bool
+    ) -> list[str]:
+        lim = self.limits
+        entries = list(self._entries)
+        used = sorted({e.index for e in entries})
+        self.reflectors_used = len(used)
+        out: list[str] = []
+        if entries:
+            total = sum(e.nis for e in entries)
+            self.nis_ratio = total / chi2_upper(len(entries), lim.nis_confidence)
+            if self.nis_ratio > 1.0:
+                out.append("nis")
+        if len(used) < lim.min_reflectors:
+            if not young and self.xy.shape[0] >= lim.min_reflectors:  # a map without reflectors: other sensors
+                out.append("few_reflectors")
+        else:
+            head = compose(x, self.mount)
+            fix_std = float(pdop(self.xy[used], head)) * self.bearing_std
+            if not fix_std <= lim.max_fix_std_m:
+                out.append("geometry")
+        self.crosscheck = self._crosscheck(t, x, P, odom)
+        if self.crosscheck > lim.crosscheck_bound:
+            out.append("crosscheck")
+        return out
+
+    def _uncertainty_failures(self, P: np.ndarray) -> list[str]:
+        lim = self.limits
+        pos_var = float(np.max(np.linalg.eigvalsh(0.5 * (P[:2, :2] + P[:2, :2].T))))
+        if not (pos_var <= lim.lost_position_std_m**2 and P[2, 2] <= lim.lost_heading_std_rad**2):
+            return ["uncertainty"]
+        return []
+
+    def _crosscheck(self, t: float, x: np.ndarray, P: np.ndarray, odom: tuple[float, ...]) -> float:
+        """Mahalanobis distance² between the head position of the estimate and a ToTal fix (NaN if none)."""
+        latest: dict[int, _Entry] = {}
+        for e in reversed(self._entries):
+            if t - e.t <= self.revolution_s and e.index not in latest:
+                latest[e.index] = e
+            if len(latest) == 3:
+                break
+        if len(latest) < 3:
+            return math.nan
+        idx = list(latest)
+        xy, rad = self.xy[idx], self.radius[idx]
+        then = compose(x, between(np.asarray(odom), np.array([latest[i].odom for i in idx])))
+        h_then, _, d = bearing_model(then, self.mount, xy, rad)
+        h_now, _, _ = bearing_model(x, self.mount, xy, rad)
+        z = np.array([latest[i].bearing for i in idx])
+        centre = z + np.arcsin(np.clip(rad / np.maximum(d, 1e-12), 0.0, 1.0))  # edge -> centre (seed 000 §2.1)
+        z_now = centre + (h_now - h_then)
+        std = np.sqrt(self.bearing_std**2 + (self.map_std / np.maximum(d, 1e-12)) ** 2)
+        fix = triangulate(xy, z_now, method="total", bearing_std=std)
+        if not bool(fix.valid) or fix.covariance is None or not np.all(np.isfinite(fix.covariance)):
+            return math.nan
+        head = compose(x, self.mount)
+        diff = np.array([float(fix.x) - head[0], float(fix.y) - head[1]])
+        S = fix.covariance[:2, :2] + P[:2, :2]
+        try:
+            return float(diff @ np.linalg.solve(S, diff))
+        except np.linalg.LinAlgError:
+            return math.nan
+
+    # ------------------------------------------------------------------ verdict
+    def _judge(self, t: float, reasons: list[str]) -> bool:
+        lim = self.limits
+        if "uncertainty" in reasons:
+            self.verdict = "lost"
+        elif reasons:
+            if self._degraded_since is None:
+                self._degraded_since = t
+            self.verdict = "lost" if t - self._degraded_since > lim.lost_after_s else "degraded"
+        else:
+            self._degraded_since = None
+            self.verdict = "ok"
+        self.quality = self._score()
+        inflate = any(r in ("nis", "crosscheck") for r in reasons) and self.verdict != "lost"
+        if inflate:
+            self._entries.clear()  # judge the inflated estimate on fresh innovations
+        return inflate
+
+    def _score(self) -> float:
+        """0-1: reflectors (4 or more count fully) x innovation consistency x geometry and cross-check."""
+        if self.verdict == "lost":
+            return 0.0
+        q_count = min(self.reflectors_used, 4) / 4.0
+        ratio = self.nis_ratio if math.isfinite(self.nis_ratio) else 1.0
+        q_nis = 1.0 / (1.0 + max(0.0, 2.0 * ratio - 1.0) ** 2) if ratio > 0.5 else 1.0
+        q_check = 0.5 if ("geometry" in self.reasons or "crosscheck" in self.reasons) else 1.0
+        return q_count * q_nis * q_check
