@@ -88,3 +88,10 @@ def integrity(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_O
 def speed(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
     """Closed loop: real-time factor (CPU) per case, µs per step, memory, start-up, campaign runs/s."""
     _run("speed", json, quick, seed)
+
+
+@bench_app.command("missions")
+@user_errors
+def missions(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+    """Missions on the hall route network: stop errors, mission time, lateral error per edge kind; planning speed."""
+    _run("missions", json, quick, seed)

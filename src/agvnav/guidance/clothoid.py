@@ -12,7 +12,10 @@ line and an arc so that the steering angle need not jump at the joint
 ``y(s) = y0 + sqrt(pi/|c|) [sin(phi) dC + sign(c) cos(phi) dS]``,
 
 ``dC = C(t) - C(t0)``, ``dS = S(t) - S(t0)`` (``scipy.special.fresnel``), exact
-to the Fresnel routines' precision.
+to the Fresnel routines' precision. For a nearly circular spiral the arguments
+grow without bound (``kappa0 / sqrt(pi |c|)``) and the phase loses digits; beyond
+``|t| = 20`` the same integral is evaluated by composite Gauss-Legendre
+quadrature instead (also to about 1e-12 m).
 
 The path followers of :mod:`agvnav.guidance` project onto lines and arcs;
 :func:`arc_chain` turns any sampled curve into an exactly G1 chain of short
@@ -34,8 +37,11 @@ from agvnav.guidance.paths import ArcSegment, LineSegment, Segment
 
 __all__ = ["ArcChain", "Clothoid", "arc_chain"]
 
-#: Below this sharpness (1/m^2) a clothoid is evaluated as an arc (the Fresnel form loses precision).
-_FLAT_SHARPNESS = 1e-9
+#: Fresnel arguments beyond this lose precision (phase ``pi t^2 / 2`` too large): Gauss-Legendre is used.
+_FRESNEL_T_MAX = 20.0
+
+#: Gauss-Legendre nodes and weights on [-1, 1] for the ill-conditioned (nearly circular) case.
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(24)
 
 
 @dataclass(frozen=True)
@@ -87,10 +93,10 @@ class Clothoid:
         """Point (..., 2) (m) at arclength ``s`` (m, clipped), from the Fresnel integrals (module doc)."""
         u = np.clip(np.asarray(s, dtype=np.float64), 0.0, self.length)
         c = self.sharpness
-        if abs(c) < _FLAT_SHARPNESS:
-            return self._circular_point(u)
-        sg = 1.0 if c > 0 else -1.0
         scale = math.sqrt(abs(c) / math.pi)
+        if abs(c) < 1e-12 or max(abs(self.kappa0), abs(self.kappa1)) / (math.pi * scale) > _FRESNEL_T_MAX:
+            return self._quadrature_point(u)
+        sg = 1.0 if c > 0 else -1.0
         phi = self.theta0 - self.kappa0**2 / (2.0 * c)
         t0 = (self.kappa0 / c) * scale
         t = (u + self.kappa0 / c) * scale
@@ -102,14 +108,21 @@ class Clothoid:
         y = self.y0 + k * (math.sin(phi) * d_c + sg * math.cos(phi) * d_s)
         return np.stack([x, y], axis=-1)
 
-    def _circular_point(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Point of the (near-)constant-curvature case: a line or an arc."""
-        k = self.kappa0
-        th = self.theta0
-        if abs(k) < 1e-12:
-            return np.stack([self.x0 + u * math.cos(th), self.y0 + u * math.sin(th)], axis=-1)
-        x = self.x0 + (np.sin(th + k * u) - math.sin(th)) / k
-        y = self.y0 - (np.cos(th + k * u) - math.cos(th)) / k
+    def _quadrature_point(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Nearly circular clothoids (large Fresnel arguments): composite Gauss-Legendre of (cos, sin) theta.
+
+        Pieces of at most 0.25 rad of turn each; 24 nodes per piece integrate the
+        smooth integrand to machine precision.
+        """
+        turn = abs(self.kappa0) * self.length + 0.5 * abs(self.sharpness) * self.length**2
+        m = max(1, math.ceil(turn / 0.25))
+        edges = np.linspace(0.0, 1.0, m + 1)
+        frac = (0.5 * (_GL_X + 1.0))[None, :] * np.diff(edges)[:, None] + edges[:-1, None]  # (m, 24) in [0, 1]
+        w = (0.5 * _GL_W)[None, :] * np.diff(edges)[:, None]
+        uu = u[..., None, None] * frac  # (..., m, 24)
+        th = self.theta0 + self.kappa0 * uu + 0.5 * self.sharpness * uu * uu
+        x = self.x0 + u * np.sum(w * np.cos(th), axis=(-2, -1))
+        y = self.y0 + u * np.sum(w * np.sin(th), axis=(-2, -1))
         return np.stack([x, y], axis=-1)
 
     def sample(self, step: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

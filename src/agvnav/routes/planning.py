@@ -17,7 +17,10 @@ therefore ``(node, heading, direction of travel)``, not the node alone:
   acceleration limit).
 
 The state graph is a sparse matrix searched by Dijkstra
-(``scipy.sparse.csgraph.dijkstra``), rebuilt only when the blocked edges change.
+(``scipy.sparse.csgraph.dijkstra``), rebuilt only when the blocked edges change;
+the search is first limited to ``3 d / v_max + 60 s`` (``d`` the straight-line
+distance), and repeated without limit only if the goal lies beyond (the result
+is the same shortest route: Dijkstra settles states in cost order).
 """
 
 from __future__ import annotations
@@ -250,8 +253,13 @@ class Planner:
             return Route((), (start,), 0.0)
         if not src or not dst:
             raise NoRouteError(f"no route to station {goal!r} from {start!r} for a {self.vehicle.model}")
-        dist, pred, _ = dijkstra(self._graph, indices=src, return_predecessors=True, min_only=True)
-        best = min(dst, key=lambda s: dist[s])
+        a, b = self.network.nodes[start], self.network.nodes[goal]
+        bound = 3.0 * math.hypot(b.x - a.x, b.y - a.y) / self.vehicle.max_speed + 60.0
+        for limit in (bound, np.inf):  # search a disc first; the whole graph only when the goal lies beyond
+            dist, pred, _ = dijkstra(self._graph, indices=src, return_predecessors=True, min_only=True, limit=limit)
+            best = min(dst, key=lambda s: dist[s])
+            if math.isfinite(dist[best]):
+                break
         if not math.isfinite(dist[best]):
             raise NoRouteError(f"no route to station {goal!r} from {start!r} for a {self.vehicle.model}")
         return self._unwind(pred, best, start, float(dist[best]))

@@ -1,0 +1,95 @@
+"""``agvnav bench missions``: the hall mission per vehicle model, clothoid against plain-arc corners, planning speed.
+
+Rows 1-3: the shipped mission (``mission_hall``: pick at S2, S3, drop at S4, the
+charger C1, back into the dock D) on the ``hall_loop`` network for the
+tricycle stacker (``mission_hall``) and the differential AGV
+(``mission_hall_differential``), and for the tricycle on ``hall_loop_arcs``,
+the same layout with plain quarter-circle corners instead of
+clothoid-arc-clothoid turns. Each over 5 seeds (2 with ``--quick``), figures
+from the *true* pose: ``completed`` (runs that completed), ``mission_time_s``
+(mean), ``max_lateral_m.<kind>`` / ``rms_lateral_m.<kind>`` per edge kind
+(line, arc, clothoid, nurbs; worst and mean over seeds), ``max_stop_error_m``
+and ``max_stop_heading_error_rad`` over every station stop of every seed.
+Targets (issue 14): every mission completes; stop error <= 10 mm and 0.5 deg.
+
+Last row: ``plan_ms``, the median time of 100 random station-to-station
+queries (20 with ``--quick``) on a generated 100 x 100 grid (10,000 nodes,
+two-way lines; 50 x 50 with ``--quick``) for a differential AGV (it may turn at every node,
+so every node is reachable; a tricycle could only drive straight on a grid). Target: < 50 ms.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from agvnav.routes.layouts import grid_network
+from agvnav.routes.network import EDGE_KINDS, network_from_dict
+from agvnav.routes.planning import NoRouteError, Planner, VehicleLimits
+from agvnav.sim import simulate
+from agvnav.world.scenario import load_scenario
+
+TITLE = "Missions on the hall route network (true pose) and planning speed"
+
+#: (scenario, network override or None)
+CASES: tuple[tuple[str, str | None], ...] = (
+    ("mission_hall", None),
+    ("mission_hall_differential", None),
+    ("mission_hall", "hall_loop_arcs"),
+)
+
+
+def _mission_row(name: str, network: str | None, seeds: list[int]) -> dict[str, Any]:
+    base = load_scenario(name)
+    if network is not None:
+        assert base.mission is not None
+        base = base.copy_attached({"mission": base.mission.model_copy(update={"network": network})})
+    runs = [simulate(base.with_seed(s)) for s in seeds]
+    assert base.mission is not None
+    row: dict[str, Any] = {
+        "model": base.vehicle.model,
+        "network": base.mission.network,
+        "stations": int(runs[0].extra.get("stations", 0)),
+        "completed": f"{sum(r.completed for r in runs)}/{len(runs)}",
+        "mission_time_s": float(np.nanmean([r.extra.get("mission_time_s", math.nan) for r in runs])),
+    }
+    for kind in EDGE_KINDS:
+        mx = [r.extra.get(f"max_lateral_m.{kind}", math.nan) for r in runs]
+        rms = [r.extra.get(f"rms_lateral_m.{kind}", math.nan) for r in runs]
+        row[f"max_lateral_m.{kind}"] = None if np.all(np.isnan(mx)) else float(np.nanmax(mx))
+        row[f"rms_lateral_m.{kind}"] = None if np.all(np.isnan(rms)) else float(np.nanmean(rms))
+    row["max_stop_error_m"] = float(np.nanmax([r.extra.get("max_stop_error_m", math.nan) for r in runs]))
+    row["max_stop_heading_error_rad"] = float(
+        np.nanmax([r.extra.get("max_stop_heading_error_rad", math.nan) for r in runs])
+    )
+    return row
+
+
+def planning_ms(side: int, queries: int, seed: int) -> tuple[float, int]:
+    """Median planning time (ms) of ``queries`` random queries on a ``side`` x ``side`` grid, and the node count."""
+    net = network_from_dict(grid_network(side))
+    planner = Planner(net, VehicleLimits("differential"))
+    rng = np.random.default_rng(seed)
+    ids = list(net.nodes)
+    times = []
+    for _ in range(queries):
+        a, b = rng.choice(len(ids), 2, replace=False)
+        t0 = time.perf_counter()
+        try:
+            planner.plan(ids[a], ids[b])
+        except NoRouteError:
+            pass
+        times.append(time.perf_counter() - t0)
+    return 1e3 * float(np.median(times)), len(ids)
+
+
+def run(quick: bool = False, seed: int = 0) -> list[dict[str, Any]]:
+    """One row per (scenario, network) case, then the planning-speed row (module doc)."""
+    seeds = [seed + k for k in range(2 if quick else 5)]
+    rows = [_mission_row(name, net, seeds) for name, net in CASES]
+    ms, n = planning_ms(50 if quick else 100, 20 if quick else 100, seed)
+    rows.append({"model": "differential", "network": f"grid {n} nodes", "plan_ms": ms})
+    return rows

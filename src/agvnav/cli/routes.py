@@ -1,0 +1,71 @@
+"""``agvnav routes ...``: check a route network's continuity, plan a route on it (issue 14).
+
+Thin layer: parses arguments, calls :mod:`agvnav.routes`, prints. The library is
+imported inside the commands, so ``agvnav --help`` stays light.
+"""
+
+from __future__ import annotations
+
+import math
+
+import typer
+
+from agvnav.cli.errors import user_errors
+
+routes_app = typer.Typer(help="Route networks: continuity report and route planning.", no_args_is_help=True)
+
+BLOCK_OPT = typer.Option(None, "--block", help="Blocked edge id (repeat for more).")
+NETWORK_ARG = typer.Argument(..., help="Route network YAML file, or a shipped network name (e.g. hall_loop).")
+
+
+@routes_app.command("check")
+@user_errors
+def check(network: str = NETWORK_ARG, json: bool = typer.Option(False, "--json", help="Machine-readable output.")
+          ) -> None:
+    """Load a route network and report the continuity (G1, and G2 next to clothoids) of every joint."""
+    from agvnav.bench.common import emit  # noqa: PLC0415 - lazy: agvnav --help loads no numerical library
+    from agvnav.routes.network import load_network  # noqa: PLC0415 - lazy, as above
+
+    net = load_network(network)
+    records = [
+        {"node": j.node, "incoming": j.incoming, "outgoing": j.outgoing,
+         "heading_jump_deg": math.degrees(j.heading_jump), "curvature_jump_per_m": j.curvature_jump,
+         "g1": j.g1, "g2": j.g2 if j.g2_required else None}
+        for j in net.joints()
+    ]
+    approx = [{"edge": e.id, "kind": e.curve.kind, "approx_error_m": e.curve.approx_error_m}
+              for e in net.edges.values() if e.curve.kind in ("clothoid", "nurbs")]
+    emit("routes check", records, as_json=json,
+         title=f"{net.name}: {len(net.nodes)} nodes, {len(net.edges)} edges, {len(records)} joints")
+    if approx:
+        emit("routes approximation", approx, as_json=json, title="arc-chain approximation of curved edges")
+    bad = [r for r in records if r["g2"] is False]
+    if bad:
+        print(f"{len(bad)} joint(s) next to a clothoid are not G2 (curvature jump beyond tolerance)")
+
+
+@routes_app.command("plan")
+@user_errors
+def plan(
+    network: str = NETWORK_ARG,
+    start: str = typer.Option(..., "--from", help="Start node."),
+    goal: str = typer.Option(..., "--to", help="Goal station."),
+    model: str = typer.Option("tricycle", "--model", help="Vehicle model (which edges and turns it may use)."),
+    speed: float = typer.Option(1.0, "--speed", min=0.01, help="Vehicle cruise speed (m/s)."),
+    heading_deg: float | None = typer.Option(None, "--heading-deg", help="Start heading (default the node's)."),
+    block: list[str] | None = BLOCK_OPT,
+    reverse_into: bool = typer.Option(False, "--reverse-into", help="Arrive backing up the last edge."),
+) -> None:
+    """Plan the fastest route between two nodes for a vehicle model (heading-aware, blocked edges)."""
+    from agvnav.routes.network import load_network  # noqa: PLC0415 - lazy: agvnav --help loads no numerical library
+    from agvnav.routes.planning import Planner, VehicleLimits  # noqa: PLC0415 - lazy, as above
+
+    net = load_network(network)
+    planner = Planner(net, VehicleLimits(model, max_speed=speed), tuple(block or ()))
+    h = None if heading_deg is None else math.radians(heading_deg)
+    route = planner.plan(start, goal, h, -1 if reverse_into else None)
+    print(f"route {start} -> {goal} for a {model}: {len(route.traversals)} edges, {route.time_s:.1f} s")
+    for t in route.traversals:
+        how = "forward" if t.mode > 0 else "reverse"
+        print(f"  {t.edge.id:>10}  {t.edge.source} -> {t.edge.target}  {t.edge.curve.kind:<8} {how:<7} "
+              f"{t.edge.curve.length:7.2f} m")
