@@ -23,7 +23,6 @@ from agvnav.cli.bench import bench_app
 from agvnav.cli.campaign import campaign
 from agvnav.cli.errors import USER_ERROR_EXIT, err_console
 from agvnav.cli.routes import routes_app
-from agvnav.cli.routes import routes_app
 from agvnav.cli.scenarios import scenarios
 from agvnav.cli.simulate import simulate
 
@@ -80,7 +79,6 @@ app = typer.Typer(
     add_completion=False,
 )
 app.add_typer(bench_app, name="bench")
-app.add_typer(routes_app, name="routes")
 app.add_typer(routes_app, name="routes")
 app.command("simulate")(simulate)
 app.command("scenarios")(scenarios)
