@@ -8,6 +8,7 @@ it writes is in :data:`COLUMNS`, and that docs/scenarios.md equals this output.
 
 from __future__ import annotations
 
+from agvnav.routes.reference import network_reference
 from agvnav.world.reference import scenario_reference
 
 __all__ = ["COLUMNS", "EVENT_COLUMNS", "outputs_reference", "reference_markdown"]
@@ -84,6 +85,9 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "est_cov_ypsi": ("m·rad", "reported covariance: y heading"),
     "est_cov_psipsi": ("rad²", "reported covariance: heading heading"),
     "est_quality": ("-", "the estimator's 0-1 quality figure (NaN when it reports none)"),
+    "leg": ("-", "mission: index of the job being driven or waited for"),
+    "nodes_passed": ("-", "mission: route network nodes passed so far (topological position)"),
+    "dwelling": ("-", "mission: 1 while stopped at a station for a job"),
 }
 
 #: reflections.csv columns (one row per goniometer reflection).
@@ -138,7 +142,7 @@ def outputs_reference() -> list[str]:
 
 def reference_markdown() -> str:
     """The whole of docs/scenarios.md."""
-    return scenario_reference(outputs_reference())
+    return scenario_reference([*outputs_reference(), "", *network_reference()])
 
 
 if __name__ == "__main__":  # pragma: no cover - the documented regeneration command
