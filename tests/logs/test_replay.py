@@ -16,9 +16,14 @@ from agvnav.sim.build import build_world
 from agvnav.world.scenario import load_scenario
 
 
+def _short():
+    """The seed-000 guidance test's first 10 s (the transient and the straight): a short log."""
+    return load_scenario("guidance_test").model_copy(update={"duration_s": 10.0})
+
+
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):
-    sc = load_scenario("guidance_test")
+    sc = _short()
     result = simulate(sc)
     path = tmp_path_factory.mktemp("replay") / "run.mcap"
     write_run_log(result, path)

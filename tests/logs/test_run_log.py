@@ -24,9 +24,14 @@ STEP_TOPICS = (tp.TF, tp.ODOM, tp.ESTIMATE, tp.TRUTH, tp.GUIDANCE, tp.COMMAND, t
 ONCE_TOPICS = (tp.TF_STATIC, tp.PATH, tp.REFLECTOR_MAP, tp.SETTINGS)
 
 
+def _short():
+    """The seed-000 guidance test's first 10 s (the transient and the straight): a short log."""
+    return load_scenario("guidance_test").model_copy(update={"duration_s": 10.0})
+
+
 @pytest.fixture(scope="module")
 def run_and_log(tmp_path_factory):
-    result = simulate(load_scenario("guidance_test"))
+    result = simulate(_short())
     path = tmp_path_factory.mktemp("log") / "run.mcap"
     counts = write_run_log(result, path)
     return result, path, counts

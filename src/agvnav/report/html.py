@@ -33,6 +33,7 @@ __all__ = [
     "RunFolder",
     "covariance_ellipse",
     "load_run",
+    "metrics_table",
     "plot_positioning_errors",
     "plot_status",
     "render_html",
@@ -263,7 +264,8 @@ def _seed_figures(name: str) -> dict[str, tuple[str, str]]:
     return {}
 
 
-def _metrics_table(metrics: dict[str, Any]) -> str:
+def metrics_table(metrics: dict[str, Any]) -> str:
+    """An HTML table of a metrics.json document: name, value, unit (mm, deg, s), the seed's figure when known."""
     seed = _seed_figures(str(metrics.get("scenario", "")))
     head = "<tr><th>metric</th><th>value</th><th>unit</th>" + ("<th>seed</th>" if seed else "") + "</tr>"
     rows = []
@@ -381,7 +383,7 @@ def render_html(run: RunFolder) -> str:
     body = [
         f"<h1>agvnav run: {name}</h1>",
         _intro(run, outcome, reason),
-        "<h2>Metrics</h2>", _metrics_table(m),
+        "<h2>Metrics</h2>", metrics_table(m),
         "<h2>Drive</h2>", _slider_svg(run),
         '<p><input type="range" id="time" min="0" max="0" value="0" class="slider"> <span id="time-label"></span></p>',
     ]

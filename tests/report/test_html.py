@@ -1,0 +1,224 @@
+"""The HTML report: self-contained, complete, and clean in a real browser (headless Chromium, network off).
+
+The browser is driven through the DevTools protocol over a pipe (``--remote-debugging-pipe``,
+fds 3 and 4), with the standard library only: console errors, uncaught exceptions and
+every network request are collected, the time slider is moved, a screenshot is taken.
+"""
+
+import base64
+import fcntl
+import io
+import json
+import math
+import os
+import select
+import shutil
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from agvnav.report.files import save_result
+from agvnav.report.html import RunFolder, covariance_ellipse, load_run, metrics_table, render_html
+from agvnav.sim import simulate
+from agvnav.world.scenario import load_scenario
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+NEEDS_CHROMIUM = pytest.mark.skipif(
+    CHROMIUM is None, reason="headless Chromium is not installed (Debian package `chromium`; CI installs it)"
+)
+FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+         "--disable-component-update", "--no-first-run")
+
+
+def _short():
+    """The seed-000 guidance test's first 10 s (the transient and the straight): a short log."""
+    return load_scenario("guidance_test").model_copy(update={"duration_s": 10.0})
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("html") / "run"
+    save_result(simulate(_short()), out, plots=False, report=True)
+    return out
+
+
+def test_the_report_is_one_self_contained_file(run_dir):
+    text = (run_dir / "report.html").read_text(encoding="utf-8")
+    lower = text.lower()
+    assert "http://" not in lower and "https://" not in lower and "<link" not in lower and "@import" not in lower
+    assert "<script src" not in lower.replace(" ", " ") and 'src="data:image/png;base64,' in text
+    for part in ("guidance_test", "Metrics", "Map", "Guidance errors against time", "Positioning errors against time",
+                 "Positioning error histogram", "Estimator status", 'type="range"', "outcome"):
+        assert part in text, part
+    assert text.count("<img") == 5
+
+
+def test_metrics_have_units_and_seed_figures_only_for_a_seed_scenario(run_dir):
+    metrics = load_run(run_dir).metrics
+    table = metrics_table(metrics)
+    assert "<td>max_abs_lateral_error_m</td>" in table and "<td>mm</td>" in table and "<td>deg</td>" in table
+    assert "16.5 seed 000 §4.3" in table
+    mine = metrics_table({**metrics, "scenario": "my_own_scenario"})
+    assert "seed 000" not in mine and "<th>seed</th>" not in mine
+    value = metrics["max_abs_lateral_error_m"]
+    assert f"<td class=num>{1000 * value:.4g}</td><td>mm</td>" in table  # metres shown as millimetres
+
+
+def test_a_log_without_truth_or_layout_still_reports(run_dir, tmp_path):
+    """A localization (no truth columns, no layout.json): map and status only."""
+    run = load_run(run_dir)
+    keep = ("t", "est_x", "est_y", "est_psi", "est_status")
+    series = {k: run.series[k][:40] for k in keep}
+    text = render_html(RunFolder(tmp_path, {"scenario": "a log"}, series, None))
+    assert text.count("<img") == 2 and "<svg" in text and "Estimator status" in text
+    with pytest.raises(ValueError, match="not a readable agvnav run folder"):
+        load_run(tmp_path / "missing")
+
+
+def test_covariance_ellipse_axes_are_three_sigma_along_the_eigenvectors():
+    c = np.array([[4e-4, 0.0], [0.0, 1e-4]])  # sigma 2 cm along x, 1 cm along y
+    e = covariance_ellipse(c, 3.0, n=721)
+    assert np.max(np.abs(e[:, 0])) == pytest.approx(0.06) and np.max(np.abs(e[:, 1])) == pytest.approx(0.03)
+    rot = np.array([[math.cos(0.5), -math.sin(0.5)], [math.sin(0.5), math.cos(0.5)]])
+    er = covariance_ellipse(rot @ c @ rot.T, 3.0, n=721)
+    assert np.max(np.hypot(er[:, 0], er[:, 1])) == pytest.approx(0.06, rel=1e-4)
+    # every point is on the 3-sigma contour: Mahalanobis distance 3
+    m = np.einsum("ij,jk,ik->i", er, np.linalg.inv(rot @ c @ rot.T), er)
+    np.testing.assert_allclose(m, 9.0, rtol=1e-9)
+
+
+class DevTools:
+    """Chromium's DevTools protocol over ``--remote-debugging-pipe`` (JSON messages ended by NUL)."""
+
+    def __init__(self, user_dir: Path) -> None:
+        to_browser, from_browser = os.pipe(), os.pipe()
+        child_in = fcntl.fcntl(to_browser[0], fcntl.F_DUPFD, 100)
+        child_out = fcntl.fcntl(from_browser[1], fcntl.F_DUPFD, 100)
+
+        def wire() -> None:
+            os.dup2(child_in, 3)
+            os.dup2(child_out, 4)
+
+        args = [CHROMIUM, *FLAGS, f"--user-data-dir={user_dir}", "--remote-debugging-pipe", "about:blank"]
+        self.proc = subprocess.Popen(args, preexec_fn=wire, close_fds=False,
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        for fd in (child_in, child_out, to_browser[0], from_browser[1]):
+            os.close(fd)
+        self.out, self.inp = to_browser[1], from_browser[0]
+        self.buffer = b""
+        self.next_id = 0
+        self.events: list[dict] = []
+        self.session = None
+
+    def send(self, method: str, params: dict | None = None, timeout: float = 30.0) -> dict:
+        self.next_id += 1
+        msg = {"id": self.next_id, "method": method, "params": params or {}}
+        if self.session is not None:
+            msg["sessionId"] = self.session
+        os.write(self.out, json.dumps(msg).encode() + b"\0")
+        while True:
+            reply = self._receive(timeout)
+            if reply.get("id") == self.next_id:
+                assert "error" not in reply, reply
+                return reply["result"]
+            self.events.append(reply)
+
+    def wait_event(self, method: str, timeout: float = 30.0) -> dict:
+        for e in self.events:
+            if e.get("method") == method:
+                return e
+        while True:
+            e = self._receive(timeout)
+            self.events.append(e)
+            if e.get("method") == method:
+                return e
+
+    def _receive(self, timeout: float) -> dict:
+        deadline = time.monotonic() + timeout
+        while b"\0" not in self.buffer:
+            ready, _, _ = select.select([self.inp], [], [], max(0.0, deadline - time.monotonic()))
+            if not ready:
+                raise TimeoutError("no answer from Chromium")
+            chunk = os.read(self.inp, 1 << 20)
+            if not chunk:
+                raise EOFError("Chromium closed the pipe")
+            self.buffer += chunk
+        raw, self.buffer = self.buffer.split(b"\0", 1)
+        return json.loads(raw)
+
+    def close(self) -> None:
+        self.proc.terminate()
+        self.proc.wait(timeout=10)
+        os.close(self.out)
+        os.close(self.inp)
+
+
+def _visit(html_file: Path, user_dir: Path, script: str | None = None) -> tuple[dict, bytes, str | None]:
+    """Load ``html_file`` offline; return the problems seen, a PNG screenshot and ``script``'s value."""
+    cdp = DevTools(user_dir)
+    try:
+        target = cdp.send("Target.createTarget", {"url": "about:blank"})["targetId"]
+        cdp.session = cdp.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
+        for domain in ("Runtime", "Log", "Network", "Page"):
+            cdp.send(f"{domain}.enable")
+        cdp.send("Network.emulateNetworkConditions",
+                 {"offline": True, "latency": 0, "downloadThroughput": -1, "uploadThroughput": -1})
+        cdp.send("Emulation.setDeviceMetricsOverride",
+                 {"width": 1100, "height": 1500, "deviceScaleFactor": 1, "mobile": False})
+        cdp.send("Page.navigate", {"url": html_file.resolve().as_uri()})
+        cdp.wait_event("Page.loadEventFired")
+        value = None
+        if script is not None:
+            value = cdp.send("Runtime.evaluate", {"expression": script, "returnByValue": True})["result"].get("value")
+        png = base64.b64decode(cdp.send("Page.captureScreenshot", {"format": "png"})["data"])
+        cdp.send("Runtime.evaluate", {"expression": "1"})  # flush events queued before the screenshot
+        events = cdp.events
+    finally:
+        cdp.close()
+    problems = {
+        "console": [e["params"]["args"] for e in events
+                    if e.get("method") == "Runtime.consoleAPICalled" and e["params"]["type"] in ("error", "assert")],
+        "exceptions": [e["params"]["exceptionDetails"] for e in events if e.get("method") == "Runtime.exceptionThrown"],
+        "log": [e["params"]["entry"] for e in events
+                if e.get("method") == "Log.entryAdded" and e["params"]["entry"]["level"] == "error"],
+        "requests": [e["params"]["request"]["url"] for e in events
+                     if e.get("method") == "Network.requestWillBeSent"
+                     and not e["params"]["request"]["url"].startswith(("file:", "data:", "about:"))],
+    }
+    return problems, png, value
+
+
+SLIDE = """(function () {
+  var s = document.getElementById('time'), a = document.getElementById('agv');
+  var before = a.getAttribute('transform');
+  s.value = s.max; s.dispatchEvent(new Event('input'));
+  return [before, a.getAttribute('transform'), document.getElementById('time-label').textContent];
+})()"""
+
+
+@NEEDS_CHROMIUM
+def test_chromium_opens_the_report_offline_without_errors(run_dir, tmp_path):
+    problems, png, slid = _visit(run_dir / "report.html", tmp_path / "profile", SLIDE)
+    assert problems == {"console": [], "exceptions": [], "log": [], "requests": []}
+    before, after, label = slid
+    assert before != after and label.startswith("t = ") and "lateral error" in label  # the slider drives
+    image = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.float64)
+    assert image.shape[:2] == (1500, 1100)
+    not_white = np.mean(np.any(image < 240, axis=2))
+    assert not_white > 0.03 and image.std() > 20  # text, table, drawing: not a blank page
+    (tmp_path / "report.png").write_bytes(png)
+
+
+@NEEDS_CHROMIUM
+def test_the_browser_check_catches_errors_and_external_requests(tmp_path):
+    """The checks above can fail: a page with a script error and an external script is caught."""
+    page = tmp_path / "bad.html"
+    page.write_text('<!DOCTYPE html><html><body><p>x</p><script src="https://example.com/a.js"></script>'
+                    "<script>console.error('boom'); undefinedFunction();</script></body></html>", encoding="utf-8")
+    problems, _, _ = _visit(page, tmp_path / "profile")
+    assert problems["console"] and problems["exceptions"]
+    assert problems["requests"] == ["https://example.com/a.js"]
