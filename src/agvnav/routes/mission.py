@@ -178,13 +178,16 @@ def speed_limits(
     """
     n = max(2, math.ceil(path.length / step) + 1)
     s = np.linspace(0.0, path.length, n)
-    starts = path.segment_starts
-    idx = np.clip(np.searchsorted(starts, s, side="right") - 1, 0, len(seg_speed) - 1)
-    kappa = np.abs([path.segments[i].curvature for i in range(len(path.segments))])[idx]
-    with np.errstate(divide="ignore"):
-        v = np.minimum(np.minimum(seg_speed[idx], v_max), np.sqrt(lateral_accel / np.maximum(kappa, 1e-12)))
-    v = np.where(s >= path.length - creep_distance, np.minimum(v, creep_speed), v)
     ds = s[1] - s[0]
+    starts = path.segment_starts
+    kappa = np.abs([seg.curvature for seg in path.segments])
+    with np.errstate(divide="ignore"):
+        cap = np.minimum(np.minimum(seg_speed, v_max), np.sqrt(lateral_accel / np.maximum(kappa, 1e-12)))
+    v = np.full(n, np.inf)
+    for shift in (-ds, 0.0, ds):  # every segment within a grid step of the point caps it
+        idx = np.clip(np.searchsorted(starts, s + shift, side="right") - 1, 0, len(cap) - 1)
+        v = np.minimum(v, cap[idx])
+    v = np.where(s >= path.length - creep_distance - ds, np.minimum(v, creep_speed), v)
     for i in range(n - 2, -1, -1):  # backwards: slow down in time for every lower limit ahead
         v[i] = min(v[i], math.sqrt(v[i + 1] ** 2 + 2.0 * max_decel * ds))
     return s, v

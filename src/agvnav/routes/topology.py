@@ -11,7 +11,8 @@ turned into a topological state by :meth:`GraphLocator.locate`:
   candidates; a candidate counts only when the vehicle heading agrees, within
   ``heading_tol``, with a heading the edge may be driven with (tangent facing
   forward, tangent + pi backing up);
-* the best candidate gives the current edge, the progress along it (m and
+* the nearest candidate (driving forward preferred over backing up when both
+  fit equally well) gives the current edge, the progress along it (m and
   fraction) and the next node; within ``node_radius`` of a node the vehicle
   is *at* that node.
 
@@ -86,6 +87,7 @@ class GraphLocator:
         x, y, psi = (float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3))
         k = min(16, len(self._pts))
         dist, cand = self._tree.query([x, y], k=k)
+        matches: list[tuple[float, int, str, int]] = []
         for d, c in zip(np.atleast_1d(dist), np.atleast_1d(cand), strict=True):
             if d > self.max_distance:
                 break
@@ -94,7 +96,10 @@ class GraphLocator:
             for mode in edge.modes:
                 h = float(edge.curve.headings[i]) + (math.pi if mode < 0 else 0.0)
                 if abs(float(wrap_angle(psi - h))) <= self.heading_tol:
-                    return self._location(edge.id, mode, i, float(d), x, y)
+                    matches.append((float(d), mode, edge.id, i))
+        if matches:  # nearest; among equally near ones (to 1 mm), driving forward rather than backing up
+            d, mode, edge_id, i = min(matches, key=lambda m: (round(m[0], 3), -m[1]))
+            return self._location(edge_id, mode, i, d, x, y)
         raise ValueError(f"pose ({x:.3f}, {y:.3f}) is not on the route network (within {self.max_distance:g} m "
                          "and with an allowed heading)")
 

@@ -43,6 +43,9 @@ __all__ = [
     "mission_figures", "plan_mission",
 ]
 
+#: A node counts as passed once the progress is within this distance (m) of it (a station stop ends short of it).
+NODE_REACHED_M = 0.05
+
 
 def _network(sc: Scenario) -> RouteNetwork:
     m = sc.mission
@@ -217,7 +220,7 @@ class MissionAutopilot:
         s = self._leg_s0 + float(sig[self._i_s])
         sig[self._i_s] = s
         sig[self._i_rem] = self.plan.path.length - s
-        passed = bisect.bisect_right(self._node_s, s + 1e-6)
+        passed = bisect.bisect_right(self._node_s, s + NODE_REACHED_M)
         self._sig = (*sig, float(self._leg), float(passed), 1.0 if dwelling else 0.0)
 
     def signals(self) -> tuple[float, ...]:
