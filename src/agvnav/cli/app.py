@@ -35,7 +35,7 @@ LAZY_COMMANDS: dict[str, tuple[str, str, str]] = {
     ),
     "localize": (
         "agvnav.cli.localize", "localize",
-        "Run a positioning method on a recorded log; write the estimate (CSV and MCAP), a summary and plots.",
+        "Run a positioning method on a recorded log; write the estimate (CSV and MCAP), its figures and plots.",
     ),
     "report": (
         "agvnav.cli.report", "report",

@@ -3,9 +3,10 @@
 LOG is an MCAP file of ROS 2 messages (``agvnav simulate --log``, or a vehicle's
 recording with the same topics) or a folder of CSV files (docs/logs.md). The
 positioning method runs on the recorded odometry and goniometer reflections as
-the simulator feeds it (:func:`agvnav.logs.localize`); DIR receives estimate.csv,
-estimate.mcap, summary.json and the plots (:mod:`agvnav.logs.outputs`), all at
-once. Argument parsing and printing only; registered lazily (``cli.app.LAZY_COMMANDS``).
+the simulator feeds it (:func:`agvnav.logs.localize`); DIR receives metrics.json,
+timeseries.csv, layout.json, estimate.mcap and the plots (:mod:`agvnav.logs.outputs`),
+all at once; ``agvnav report DIR`` reports it like a run. Argument parsing and
+printing only; registered lazily (``cli.app.LAZY_COMMANDS``).
 """
 
 from __future__ import annotations
@@ -25,7 +26,9 @@ from agvnav.world import builtin_map_names, load_builtin_map, load_map
 LOG_ARG = typer.Argument(..., help="Recorded log: an .mcap file or a folder with odometry.csv and reflections.csv.")
 MAP_OPT = typer.Option(None, "--map", help="Map YAML file or shipped map name (default: the map the log names).")
 METHOD_OPT = typer.Option(None, "--method", help="Positioning method (default: the log's, else ekf).")
-OUT_OPT = typer.Option(Path("localize_out"), "--out", "-o", help="Output folder for the estimate, summary and plots.")
+OUT_OPT = typer.Option(
+    Path("localize_out"), "--out", "-o", help="Output folder for the estimate, its figures and plots."
+)
 PLOTS_OPT = typer.Option(True, "--plots/--no-plots", help="Write the PNG plots.")
 FORCE_OPT = typer.Option(False, "--force", help="Replace an --out folder that holds another result.")
 
@@ -39,7 +42,7 @@ def localize(
     plots: bool = PLOTS_OPT,
     force: bool = FORCE_OPT,
 ) -> None:
-    """Run a positioning method on a recorded log; write the estimate (CSV and MCAP), a summary and plots."""
+    """Run a positioning method on a recorded log; write the estimate (CSV and MCAP), its figures and plots."""
     check_out_dir(out, force)
     recorded = read_log(log)
     name = map or recorded.settings.get("map")
@@ -48,8 +51,8 @@ def localize(
     world = load_builtin_map(name) if name in builtin_map_names() else load_map(name)
     estimator = estimator_from_settings(recorded.settings, world, method)
     result = run_localize(recorded, estimator, method or recorded.settings.get("method") or "ekf")
-    written = save_localization(result, recorded, world, out, force=force, plots=plots)
+    written = save_localization(result, recorded, world, out, force=force, plots=plots, name=log.name)
     console = Console(highlight=False)
-    summary = localization_summary(result, recorded)
+    summary = localization_summary(result, recorded, log.name)
     console.print(", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in summary.items()))
     console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))

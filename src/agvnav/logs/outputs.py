@@ -1,11 +1,15 @@
-"""The files ``agvnav localize`` writes: the estimate as CSV and MCAP, a summary, the plots.
+"""The files ``agvnav localize`` writes: the estimate as CSV and MCAP, its figures, the plots.
 
-- ``estimate.csv``: ``t``, ``est_x``, ``est_y``, ``est_psi``, ``est_status``, the six ``est_cov_*``
-  columns (as timeseries.csv, docs/scenarios.md), and with truth ``x``, ``y``, ``psi``;
+The folder has the shape of a simulation's (metrics.json, timeseries.csv, layout.json), so
+``--force`` replaces it as it replaces a run, and ``agvnav report`` reports it.
+
+- ``timeseries.csv``: ``t``, ``est_x``, ``est_y``, ``est_psi``, ``est_status``, ``est_valid``, the six
+  ``est_cov_*`` columns (as a simulation's, docs/scenarios.md), and with truth ``x``, ``y``, ``psi``;
 - ``estimate.mcap``: ``/agvnav/estimate`` (PoseWithCovarianceStamped), ``/agvnav/status``,
   ``/agvnav/reflector_map``, ``/agvnav/settings`` and, with truth, ``/agvnav/truth``;
-- ``summary.json``: method, counts of reflections (delivered, accepted, late, before the start)
-  and, with truth, the positioning RMS and largest errors (m, rad);
+- ``metrics.json``: the log's name, method, counts of reflections (delivered, accepted, late,
+  before the start) and, with truth, the positioning RMS and largest errors (m, rad);
+- ``layout.json``: the log's path (when it has one), the map's reflectors and walls;
 - ``map.png`` (reflectors, walls, path when the log has it, truth and estimate),
   ``estimator_status.png`` and, with truth, ``positioning_errors.png`` and
   ``positioning_histogram.png``.
@@ -36,10 +40,10 @@ from agvnav.report.plots import plot_map, plot_positioning_histogram, pyplot
 __all__ = ["localization_summary", "save_localization"]
 
 
-def localization_summary(loc: Localization, log: RecordedLog) -> dict[str, Any]:
-    """The summary.json document: method, reflection counts and, with truth, the error figures (m, rad)."""
+def localization_summary(loc: Localization, log: RecordedLog, name: str = "log") -> dict[str, Any]:
+    """The metrics.json document: method, reflection counts and, with truth, the error figures (m, rad)."""
     doc: dict[str, Any] = {
-        "method": loc.method, "reflections": loc.n_reflections, "accepted": loc.n_accepted,
+        "scenario": name, "method": loc.method, "reflections": loc.n_reflections, "accepted": loc.n_accepted,
         "late_rejected": loc.late_rejected, "before_start": loc.ignored_before_start,
         "duration_s": float(log.t[-1] - log.t[0]),
     }
@@ -65,22 +69,41 @@ def _f(v: Any) -> float | None:
 
 
 def save_localization(
-    loc: Localization, log: RecordedLog, world: Any, out_dir: str | Path, force: bool = False, plots: bool = True
+    loc: Localization, log: RecordedLog, world: Any, out_dir: str | Path, force: bool = False, plots: bool = True,
+    name: str = "log",
 ) -> list[Path]:
-    """Write the files of the module docstring into ``out_dir`` atomically; return their final paths."""
+    """Write the files of the module docstring into ``out_dir`` atomically; return their final paths.
+
+    ``name`` (the log's file name) titles metrics.json and the plots.
+    """
     final = Path(out_dir)
     with atomic_dir(final, force) as tmp:
-        written = _write(loc, log, world, tmp, plots)
+        written = _write(loc, log, world, tmp, plots, name)
     return [final / p.name for p in written]
 
 
-def _write(loc: Localization, log: RecordedLog, world: Any, out: Path, plots: bool) -> list[Path]:
+def _json(path: Path, doc: dict[str, Any]) -> Path:
+    path.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    return path
+
+
+def _write(loc: Localization, log: RecordedLog, world: Any, out: Path, plots: bool, name: str) -> list[Path]:
     columns = dict(loc.series)
+    columns["est_valid"] = (columns["est_status"] >= 1.0).astype(np.float64)
     if log.truth is not None:
         columns.update(x=log.truth[:, 0], y=log.truth[:, 1], psi=log.truth[:, 2])
-    summary = out / "summary.json"
-    summary.write_text(json.dumps(localization_summary(loc, log), indent=2) + "\n", encoding="utf-8")
-    written = [write_csv(out / "estimate.csv", columns), summary, _write_mcap(loc, log, world, out / "estimate.mcap")]
+    layout = {
+        "scenario": name, "method": loc.method, "segment_starts_m": [],
+        "path_xy": [] if log.path_xy is None else np.round(log.path_xy, 6).tolist(),
+        "reflectors": np.column_stack([world.reflector_xy, world.reflector_radius]).round(6).tolist(),
+        "walls": np.asarray(world.wall_segments).reshape(-1, 2, 2).round(6).tolist(),
+    }
+    written = [
+        _json(out / "metrics.json", localization_summary(loc, log, name)),
+        write_csv(out / "timeseries.csv", columns),
+        _json(out / "layout.json", layout),
+        _write_mcap(loc, log, world, out / "estimate.mcap"),
+    ]
     if plots:
         written += _plots(loc, log, world, out)
     return written

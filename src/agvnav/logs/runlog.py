@@ -28,6 +28,7 @@ from agvnav.geometry import compose, inverse
 from agvnav.logs import topics as tp
 from agvnav.logs.messages import covariance6, header, planar_pose, transform, vector3
 from agvnav.logs.writer import LogWriter
+from agvnav.world import builtin_map_names
 
 if TYPE_CHECKING:
     from agvnav.sim.run import SimResult
@@ -62,7 +63,7 @@ def positioning_settings(scenario: Scenario, series: Series) -> dict[str, Any]:
     g, ps = scenario.goniometer, scenario.positioning
     doc: dict[str, Any] = {
         "scenario": scenario.name,
-        "map": scenario.map if isinstance(scenario.map, str) else None,
+        "map": _map_reference(scenario),
         "method": ps.method or ("ekf" if g is not None else "dead_reckoning"),
         "odometry_noise": list(ps.odometry_noise),
         "params": dict(ps.params),
@@ -78,6 +79,16 @@ def positioning_settings(scenario: Scenario, series: Series) -> dict[str, Any]:
     if scenario.world_truth.reflector_survey_std_m > 0.0:
         doc["map_std_m"] = scenario.world_truth.reflector_survey_std_m
     return doc
+
+
+def _map_reference(scenario: Scenario) -> str | None:
+    """The scenario's map as a shipped name or an absolute file path (None for an inline map)."""
+    m = scenario.map
+    if not isinstance(m, str):
+        return None
+    if m in builtin_map_names() or Path(m).is_absolute() or scenario.base_dir is None:
+        return m
+    return str((scenario.base_dir / m).resolve())
 
 
 def covariance3(series: Series, k: int) -> NDArray[np.float64]:
