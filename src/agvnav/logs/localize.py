@@ -12,6 +12,7 @@ counted as ``late_rejected`` as in the simulator.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -32,7 +33,8 @@ F64 = NDArray[np.float64]
 @dataclass
 class Localization:
     """The estimate along a log: ``series`` columns ``t``, ``est_x``, ``est_y``, ``est_psi``, ``est_status``,
-    the ``est_cov_*`` columns (one row per odometry instant), and the counts of reflections."""
+    the ``est_cov_*`` columns, ``est_quality`` (0-1) and ``est_reflectors_used`` (NaN when the estimator
+    reports none), one row per odometry instant; and the counts of reflections."""
 
     series: dict[str, F64]
     method: str
@@ -92,7 +94,7 @@ def localize(log: RecordedLog, estimator: Any, method: str = "") -> Localization
         frac = (t1 - t_prev) / dt
         estimator.predict(t1, dd * frac, dth * frac, dl * frac)
         rows.append(_row(t1, estimator))
-    names = ("t", "est_x", "est_y", "est_psi", "est_status", *COV_COLUMNS)
+    names = ("t", "est_x", "est_y", "est_psi", "est_status", *COV_COLUMNS, "est_quality", "est_reflectors_used")
     data = np.array(rows, dtype=np.float64)
     series = {n: data[:, i].copy() for i, n in enumerate(names)}
     return Localization(series, method or getattr(estimator, "method", ""), m, int(getattr(estimator, "n_accepted", 0)),
@@ -103,4 +105,11 @@ def _row(t: float, est: Any) -> tuple[float, ...]:
     x, y, psi = np.asarray(est.pose, dtype=np.float64).tolist()
     c = np.asarray(est.covariance, dtype=np.float64)
     cov = (c[0, 0], c[0, 1], c[0, 2], c[1, 1], c[1, 2], c[2, 2])
-    return (t, x, y, psi, STATUS_CODES.get(est.status, -1.0), *(float(v) for v in cov))
+    extra = (_optional(est, "quality"), _optional(est, "reflectors_used"))
+    return (t, x, y, psi, STATUS_CODES.get(est.status, -1.0), *(float(v) for v in cov), *extra)
+
+
+def _optional(est: Any, name: str) -> float:
+    """A figure some estimators report (quality 0-1, reflectors used); NaN when this one reports none."""
+    value = getattr(est, name, None)
+    return math.nan if value is None else float(value)

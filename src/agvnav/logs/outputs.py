@@ -4,7 +4,8 @@ The folder has the shape of a simulation's (metrics.json, timeseries.csv, layout
 ``--force`` replaces it as it replaces a run, and ``agvnav report`` reports it.
 
 - ``timeseries.csv``: ``t``, ``est_x``, ``est_y``, ``est_psi``, ``est_status``, ``est_valid``, the six
-  ``est_cov_*`` columns (as a simulation's, docs/scenarios.md), and with truth ``x``, ``y``, ``psi``;
+  ``est_cov_*`` columns (as a simulation's, docs/scenarios.md), ``est_quality`` (0-1) and
+  ``est_reflectors_used`` (NaN when the estimator reports none), and with truth ``x``, ``y``, ``psi``;
 - ``estimate.mcap``: ``/agvnav/estimate`` (PoseWithCovarianceStamped), ``/agvnav/status``,
   ``/agvnav/reflector_map``, ``/agvnav/settings`` and, with truth, ``/agvnav/truth``;
 - ``metrics.json``: the log's name, method, counts of reflections (delivered, accepted, late,
@@ -118,7 +119,7 @@ def _write_mcap(loc: Localization, log: RecordedLog, world: Any, path: Path) -> 
             pose = np.array([s["est_x"][k], s["est_y"][k], s["est_psi"][k]])
             write_estimate_messages(w, tk, np.nan_to_num(pose), np.nan_to_num(covariance3(s, k)))
             status = {"layout": {"dim": [{"label": ",".join(tp.STATUS_FIELDS), "size": 3, "stride": 3}]},
-                      "data": [float(s["est_status"][k]), math.nan, math.nan]}
+                      "data": [float(s["est_status"][k]), float(s["est_quality"][k]), math.nan]}
             w.write(tp.STATUS, status, tk)
             if log.truth is not None:
                 w.write(tp.TRUTH, {"header": {"stamp": _stamp(tk), "frame_id": tp.FRAME_MAP},
