@@ -98,11 +98,24 @@ def build_hall(spec: LayoutSpec) -> Hall:
         if not outer.contains(poly):
             raise spec.error((*key, "points"), f"occluder {o.id!r} is not inside the hall")
         occ[o.id] = poly
-    segs = [_ring_segments(p) for p in occ.values()]
+    segs = [_occluding_segments(p) for p in occ.values()]
     if not _is_convex(outer):
         segs.append(_ring_segments(outer))
     segments = np.concatenate(segs) if segs else np.zeros((0, 2, 2))
     return Hall(outer, occ, segments)
+
+
+def _occluding_segments(poly: Polygon) -> NDArray[np.float64]:
+    """Segments that block every line of sight through ``poly`` (both ends outside it).
+
+    A convex quadrilateral (a rack) needs only its two diagonals: a chord through its
+    interior separates its corners into two non-empty groups, and so crosses the
+    diagonal joining them. Any other polygon uses its edges.
+    """
+    c = np.asarray(poly.exterior.coords)[:-1]
+    if c.shape[0] == 4 and _is_convex(poly):
+        return np.stack([np.stack([c[0], c[2]]), np.stack([c[1], c[3]])])
+    return _ring_segments(poly)
 
 
 def _ring_segments(poly: Polygon) -> NDArray[np.float64]:
@@ -132,7 +145,7 @@ def build_candidates(spec: LayoutSpec, hall: Hall) -> Candidates:
         offset = radius + 0.01 if s.offset_m is None else s.offset_m
         poly = hall.outer if s.face == "outer" else hall.occluders[s.face]
         pts, a = _face_sites(poly, s.spacing_m, -offset if s.face == "outer" else offset)
-        keep = np.array([_free(hall, p, radius) for p in pts], dtype=bool)
+        keep = _free(hall, pts, radius)
         xy.append(pts[keep])
         site.append(np.full(int(keep.sum()), i, dtype=np.int64))
         along.append(a[keep])
@@ -168,9 +181,13 @@ def _face_sites(poly: Polygon, spacing: float, offset: float) -> tuple[NDArray[n
     return np.concatenate(out), np.concatenate(along)
 
 
-def _free(hall: Hall, p: NDArray[np.float64], radius: float) -> bool:
-    disc = Point(float(p[0]), float(p[1])).buffer(max(radius, 1e-6), 8)
-    return bool(hall.outer.contains(disc)) and not any(o.intersects(disc) for o in hall.occluders.values())
+def _free(hall: Hall, pts: NDArray[np.float64], radius: float) -> NDArray[np.bool_]:
+    """Which discs of ``radius`` around ``pts`` ``(n, 2)`` lie inside the hall and clear of every occluder."""
+    discs = shapely.buffer(shapely.points(pts.reshape(-1, 2)), max(radius, 1e-6), quad_segs=8)
+    ok = np.asarray(shapely.contains(hall.outer, discs), dtype=bool)
+    for o in hall.occluders.values():
+        ok &= ~np.asarray(shapely.intersects(o, discs), dtype=bool)
+    return ok
 
 
 def check_site(spec: LayoutSpec, hall: Hall, key: KeyPath, p: tuple[float, float], radius: float) -> None:

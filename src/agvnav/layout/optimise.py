@@ -29,6 +29,7 @@ from agvnav.layout.prediction import (
     information,
     information_terms,
     moments,
+    pair_terms,
     sigmas,
     spread,
 )
@@ -80,27 +81,31 @@ def greedy_cover(problem: LayoutProblem, start: NDArray[np.int64], order: NDArra
 
 def repair(problem: LayoutProblem, chosen: NDArray[np.int64], order: NDArray[np.int64],
            max_add: int = 200) -> NDArray[np.int64]:
-    """Add sites one at a time, each the one that brings the most failing poses to the target."""
+    """Add sites one at a time, each the one that brings the most failing poses to the target.
+
+    Only the (failing pose, free site) pairs in view change, so the gains are computed on
+    those pairs alone.
+    """
     chosen = np.asarray(chosen, dtype=np.int64)
     rank = np.empty_like(order)
     rank[order] = np.arange(order.size)
+    own = moments(problem.sites, np.eye(problem.sites.shape[0], dtype=bool))  # (C, 6): each site alone
     for _ in range(max_add):
         pred = evaluate(problem, chosen)
         if pred.fraction_ok >= 1.0:
             break
         fail = np.flatnonzero(~pred.ok)
-        head = problem.head[fail]
-        info = information(head, problem.sites[chosen], pred.visible[fail], problem.bearing_std)
         free = np.setdiff1d(np.arange(problem.sites.shape[0]), chosen)
-        terms = information_terms(head, problem.sites[free], problem.bearing_std)
-        v = problem.vis[np.ix_(fail, free)]
-        sp, sh = sigmas(info[:, None, :] + v[..., None] * terms)
-        cnt = pred.count[fail][:, None] + v
-        own = moments(problem.sites[free], np.eye(free.size, dtype=bool))  # (C, 6): each candidate alone
-        mom = moments(problem.sites[chosen], pred.visible[fail])[:, None, :] + v[..., None] * own[None, :, :]
-        fixed = (cnt >= problem.min_visible) & (sp <= problem.max_pos_sigma) & (sh <= problem.max_heading_sigma)
-        fixed &= spread(mom) >= problem.min_spread
-        gain = fixed.sum(axis=0)
+        kk, cc = np.nonzero(problem.vis[np.ix_(fail, free)])
+        if kk.size == 0:
+            break
+        info = information(problem.head[fail], problem.sites[chosen], pred.visible[fail], problem.bearing_std)
+        mom = moments(problem.sites[chosen], pred.visible[fail])
+        site = free[cc]
+        sp, sh = sigmas(info[kk] + pair_terms(problem.head[fail[kk]], problem.sites[site], problem.bearing_std))
+        fixed = (pred.count[fail[kk]] + 1 >= problem.min_visible) & (sp <= problem.max_pos_sigma)
+        fixed &= (sh <= problem.max_heading_sigma) & (spread(mom[kk] + own[site]) >= problem.min_spread)
+        gain = np.bincount(cc, weights=fixed.astype(np.float64), minlength=free.size)
         if gain.max() <= 0:
             break
         best = free[gain == gain.max()]

@@ -33,6 +33,7 @@ __all__ = [
     "information",
     "information_terms",
     "moments",
+    "pair_terms",
     "sigmas",
     "sigmas_rms",
     "spread",
@@ -99,13 +100,17 @@ def information_terms(head: NDArray[np.float64], refl: NDArray[np.float64], bear
 
     One bearing of std ``bearing_std`` (rad) contributes ``J^T J / σ²`` [seed000 §2.2].
     """
-    dx = refl[None, :, 0] - head[:, None, 0]
-    dy = refl[None, :, 1] - head[:, None, 1]
+    return pair_terms(head[:, None, :], refl[None, :, :], bearing_std)
+
+
+def pair_terms(head: NDArray[np.float64], refl: NDArray[np.float64], bearing_std: float) -> NDArray[np.float64]:
+    """Fisher terms ``(..., 6)`` of reflectors ``refl`` ``(..., 2)`` seen from ``head`` ``(..., 2)`` (broadcast)."""
+    dx = refl[..., 0] - head[..., 0]
+    dy = refl[..., 1] - head[..., 1]
     d2 = np.maximum(dx * dx + dy * dy, 1e-12)
     jx, jy = dy / d2, -dx / d2
     w = 1.0 / bearing_std**2
-    one = np.ones_like(jx)
-    return w * np.stack([jx * jx, jx * jy, -jx, jy * jy, -jy, one], axis=-1)
+    return w * np.stack([jx * jx, jx * jy, -jx, jy * jy, -jy, np.ones_like(jx)], axis=-1)
 
 
 def information(head: NDArray[np.float64], refl: NDArray[np.float64], vis: NDArray[np.bool_],
