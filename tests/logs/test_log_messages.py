@@ -1,12 +1,14 @@
 """ROS 2 message helpers of agvnav.logs: planar poses, covariances, stamps, odometry integration."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from agvnav.logs import TOPICS
 from agvnav.logs.messages import covariance6, quaternion_yaw, stamp, stamp_ns, yaw_of
 from agvnav.logs.runlog import integrate_odometry
 from agvnav.logs.writer import message_definition
@@ -65,3 +67,9 @@ def test_odometry_integration_straight_turn_and_circle():
     np.testing.assert_allclose(circle[-1, :2], [0.0, 0.0], atol=1e-5)
     half = circle[n // 2]
     np.testing.assert_allclose(half[:2], [0.0, 2 * r], atol=1e-5)
+
+
+def test_docs_list_every_topic_with_its_type():
+    text = (Path(__file__).parents[2] / "docs" / "logs.md").read_text(encoding="utf-8")
+    for topic, (msgtype, meaning) in TOPICS.items():
+        assert f"| `{topic}` | `{msgtype}` | {meaning} |" in text, topic

@@ -5,6 +5,7 @@ match the run (one per step, one per reflection, one for the static parts) and
 sampled values equal the run's series and events.
 """
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -157,3 +158,11 @@ def test_a_damaged_file_is_refused_with_its_name(tmp_path):
     bad.write_bytes(b"not an mcap file at all")
     with pytest.raises(ValueError, match=r"bad\.mcap"):
         read_mcap(bad)
+
+
+def test_a_decimated_run_is_refused(run_and_log, tmp_path):
+    """Every k-th step recorded: the increments of the steps between are missing, so no log."""
+    result = run_and_log[0]
+    thinned = {k: v[::2] for k, v in result.series.items()}
+    with pytest.raises(ValueError, match="every step recorded"):
+        write_run_log(dataclasses.replace(result, series=thinned), tmp_path / "thin.mcap")

@@ -108,15 +108,13 @@ def integrate_odometry(increments: NDArray[np.float64]) -> NDArray[np.float64]:
     return poses
 
 
-def _increments(series: Series) -> NDArray[np.float64]:
-    """``(n, 3)`` increments of the steps ending at rows 1..n; checks every step was recorded."""
+def _increments(series: Series, step: float) -> NDArray[np.float64]:
+    """``(n, 3)`` increments of the steps ending at rows 1..n; refuses a run not recorded at every ``step`` s."""
     t = series["t"]
     n = t.shape[0]
     cols = [series.get(c, np.zeros(n)) for c in ("odo_dd", "odo_dtheta", "odo_dlat")]
-    if n > 2:
-        dt = np.diff(t)
-        if np.max(dt) - np.min(dt[:-1] if n > 3 else dt) > 1e-9 * max(1.0, float(t[-1])):
-            raise ValueError("a log needs every step recorded (the run recorded every k-th step only)")
+    if n > 1 and np.any(np.abs(np.diff(t) - step) > 1e-9 * max(1.0, float(t[-1]))):
+        raise ValueError(f"a log needs every step recorded ({step:g} s apart); this run recorded every k-th step only")
     return np.column_stack(cols)[1:]
 
 
@@ -131,7 +129,7 @@ def write_run_log(result: SimResult, path: str | Path) -> dict[str, int]:
         w.write(tp.SETTINGS, {"data": json.dumps(settings)}, 0.0)
         write_reflector_map(w, result.world)
         w.write(tp.PATH, _path_message(result.path_polyline(0.05)), 0.0)
-        _write_steps(w, s)
+        _write_steps(w, s, sc.step_s)
         refl = result.events.get("reflections")
         if refl is not None and mount is not None:
             _write_reflections(w, refl, s, result.world, mount, float(settings.get("max_range_m", 30.0)))
@@ -176,10 +174,10 @@ def _array(series: Series, names: tuple[str, ...], k: int) -> dict[str, Any]:
     return {"layout": layout, "data": data}
 
 
-def _write_steps(w: LogWriter, s: Series) -> None:
+def _write_steps(w: LogWriter, s: Series, step: float) -> None:
     """Per recorded step: tf, odometry, estimate, truth, guidance, command, status, joints."""
     t = s["t"]
-    inc = _increments(s)
+    inc = _increments(s, step)
     odom = integrate_odometry(inc)
     est = np.column_stack([s["est_x"], s["est_y"], s["est_psi"]])
     has_cov = COV_COLUMNS[0] in s
