@@ -103,7 +103,8 @@ def test_blind_goniometer_stops_the_vehicle_and_the_run_fails_positioning_lost()
     assert fig["stops_within_braking_distance"] is True
     assert fig["time_in_status_s"]["dead_reckoning"] > 8.0
     assert np.all(r.series["v_cmd"][-5:] == 0.0)
-    assert fig["quality_min"] is None  # today's EKF reports no quality figure
+    q = [fig[k] for k in ("quality_min", "quality_p5", "quality_p50", "quality_p95")]
+    assert all(v is None for v in q) or (0.0 <= q[0] <= q[1] <= q[2] <= q[3] <= 1.0)  # null without a figure
 
 
 def test_no_fault_run_completes_with_its_integrity_figures(short_scenario):
@@ -168,3 +169,24 @@ def test_a_vehicle_stopped_for_positioning_holds_still(name):
     for k in range(1, 100):  # brake at the deceleration limit, then stand
         cmd = pilot.command(0.05 * k, _Lost(), b.plant, 0.05)
     assert pilot.signals()[0] == 0.0 and all(c == 0.0 for c in cmd)
+
+
+@pytest.mark.parametrize("name", ["guidance_test", "differential_loop", "mecanum_loop"])
+def test_an_undefined_estimate_while_moving_brakes_at_the_deceleration_limit(name):
+    sc = parse_scenario(scenario_text(name), name)
+    b = build_mod.build(sc)
+    pilot, est = b.autopilot, b.estimator
+    pilot.profile.reset(0.2)
+    pilot.command(0.0, est, b.plant, 0.05)
+    v0 = pilot.signals()[0]
+
+    class _Undefined:
+        status, pose, covariance = "initialising", np.full(3, np.nan), np.full((3, 3), np.nan)
+
+    speeds = []
+    for k in range(1, 40):
+        cmd = pilot.command(0.05 * k, _Undefined(), b.plant, 0.05)
+        speeds.append(pilot.signals()[0])
+    expected = np.maximum(v0 - sc.traction.max_decel_m_s2 * 0.05 * np.arange(1, 40), 0.0)
+    np.testing.assert_allclose(speeds, expected, atol=1e-9)
+    assert all(c == 0.0 for c in cmd)

@@ -60,7 +60,8 @@ class PathAutopilot:
     distance left along the path (the projection of the estimated tracked
     point), then the follower gives the rate command from the estimated pose,
     the measured steering angle (steered vehicles) and that speed. Until the
-    estimator has a fix the vehicle waits at standstill.
+    estimator has a fix the vehicle waits at standstill; should the estimate
+    become undefined while it moves, it brakes straight ahead at its deceleration limit.
 
     Progress ``s`` along the path advances only through a projection of the
     estimated tracked point searched within ``progress_window`` metres ahead of
@@ -179,9 +180,7 @@ class PathAutopilot:
         """The plant command for the next ``dt`` s from the estimate (see the class doc)."""
         pose = estimator.pose
         if not (math.isfinite(pose[0]) and math.isfinite(pose[1]) and math.isfinite(pose[2])):
-            self.profile.reset(0.0)
-            self._sig = (0.0, 0.0, 0.0, self._s, math.nan, math.nan, self._length - self._s)
-            return self._hold()
+            return self._brake_blind(dt, plant)
         self._advance(pose)
         remaining = self._run_end - self._s
         scale = 1.0 if self.watch is None else self.watch.scale(t, estimator)
@@ -207,6 +206,19 @@ class PathAutopilot:
         lateral, heading = self._errors()
         self._sig = (v, rate, v_lat, self._s, lateral, heading, self._length - self._s)
         return self._plant_command(v, v_lat, rate, steering)
+
+    def _brake_blind(self, dt: float, plant: Any) -> tuple[float, ...]:
+        """No pose estimate: brake straight ahead at the deceleration limit (stand still if at rest)."""
+        v_prev = self.profile.v
+        v = self.profile.command(max(self._run_end - self._s, 1.0), dt, 0.0)
+        self._sig = (v, 0.0, 0.0, self._s, math.nan, math.nan, self._length - self._s)
+        if v == 0.0:
+            return self._hold()
+        if self.family == "holonomic":  # the last twist, scaled down with the speed
+            k = v / v_prev if v_prev else 0.0
+            return tuple(k * c for c in self.follower.last_twist)
+        steering = float(plant.gamma_meas) if self.family == "steered" else 0.0
+        return self._plant_command(v, 0.0, 0.0, steering)
 
     def _errors(self) -> tuple[float, float]:
         """The follower's view of the lateral and heading errors (m, rad): seed 000's eps_c, xi_r if steered."""
