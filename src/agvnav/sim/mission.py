@@ -85,10 +85,11 @@ def plan_mission(sc: Scenario) -> MissionPlan:
 
 
 def mission_duration(sc: Scenario, plan: MissionPlan) -> float:
-    """A time limit for the mission: twice the planned drive and stop time, plus margins (s)."""
+    """A time limit for the mission (s): the planned drive time as if driven all along at the positioning
+    guard's slow speed, the stops, and 20 s per leg and at the end."""
     drive = sum(leg.route.time_s for leg in plan.legs if leg.route is not None)
     dwell = sum(leg.dwell_s for leg in plan.legs)
-    return 2.0 * drive + dwell + 20.0 * len(plan.legs) + 20.0 + sc.end_hold_s
+    return drive / sc.safety.slow_speed_fraction + dwell + 20.0 * len(plan.legs) + 20.0 + sc.end_hold_s
 
 
 class LimitedSpeedProfile(SpeedProfile):
