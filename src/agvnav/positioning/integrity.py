@@ -17,7 +17,9 @@ navigators report one:
   the odometry (the angle propagation of seed 000 §2.2) and triangulated with ToTal
   (:func:`~agvnav.positioning.triangulate`, ``valid=False`` near the critical circle);
   the fix and the estimate must agree within the chi-square bound of their summed
-  covariances.
+  covariances, or within ``crosscheck_min_m`` (the check looks for gross errors such as
+  a wrong association; a fixed survey error of the three reflectors can bias one triple's
+  fix by a few sigma while the filter, averaging every reflector, stays consistent).
 
 A failed check makes the verdict ``degraded`` and asks the estimator to inflate its
 covariance (the estimate says it is less sure); a verdict ``degraded`` for longer than
@@ -28,6 +30,7 @@ it ``lost``: the estimator then stops correcting and relocalises.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -36,7 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from agvnav.geometry.se2 import between, compose
-from agvnav.positioning.bounds import pdop
+from agvnav.positioning.bounds import crlb, pdop
 from agvnav.positioning.identification import bearing_model
 from agvnav.positioning.triangulation import triangulate
 
@@ -81,6 +84,7 @@ class IntegrityLimits:
     min_reflectors: int = 3
     max_fix_std_m: float = 0.05
     crosscheck_bound: float = CHI2_2DOF_999
+    crosscheck_min_m: float = 0.05
     lost_after_s: float = 5.0
     lost_position_std_m: float = 0.3
     lost_heading_std_rad: float = 0.1
@@ -88,7 +92,8 @@ class IntegrityLimits:
     enabled: bool = True
 
     def __post_init__(self) -> None:
-        for name in ("window_s", "max_fix_std_m", "crosscheck_bound", "lost_after_s", "lost_position_std_m",
+        for name in ("window_s", "max_fix_std_m", "crosscheck_bound", "crosscheck_min_m", "lost_after_s",
+                     "lost_position_std_m",
                      "lost_heading_std_rad"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
@@ -223,7 +228,10 @@ class IntegrityMonitor:
                 out.append("few_reflectors")
         else:
             head = compose(x, self.mount)
-            fix_std = float(pdop(self.xy[used], head)) * self.bearing_std
+            try:
+                fix_std = float(pdop(self.xy[used], head)) * self.bearing_std
+            except ValueError:  # a degenerate layout (e.g. the head on a reflector): no geometry
+                fix_std = math.inf
             if not fix_std <= lim.max_fix_std_m:
                 out.append("geometry")
         self.crosscheck = self._crosscheck(t, x, P, odom)
@@ -244,11 +252,9 @@ class IntegrityMonitor:
         for e in reversed(self._entries):
             if t - e.t <= self.revolution_s and e.index not in latest:
                 latest[e.index] = e
-            if len(latest) == 3:
-                break
-        if len(latest) < 3:
+        idx = self._best_triple(x, list(latest))
+        if idx is None:
             return math.nan
-        idx = list(latest)
         xy, rad = self.xy[idx], self.radius[idx]
         then = compose(x, between(np.asarray(odom), np.array([latest[i].odom for i in idx])))
         h_then, _, d = bearing_model(then, self.mount, xy, rad)
@@ -257,16 +263,41 @@ class IntegrityMonitor:
         centre = z + np.arcsin(np.clip(rad / np.maximum(d, 1e-12), 0.0, 1.0))  # edge -> centre (seed 000 §2.1)
         z_now = centre + (h_now - h_then)
         std = np.sqrt(self.bearing_std**2 + (self.map_std / np.maximum(d, 1e-12)) ** 2)
-        fix = triangulate(xy, z_now, method="total", bearing_std=std)
+        try:
+            fix = triangulate(xy, z_now, method="total", bearing_std=std)
+        except ValueError:  # e.g. collinear reflectors: no fix to compare with
+            return math.nan
         if not bool(fix.valid) or fix.covariance is None or not np.all(np.isfinite(fix.covariance)):
             return math.nan
         head = compose(x, self.mount)
         diff = np.array([float(fix.x) - head[0], float(fix.y) - head[1]])
         S = fix.covariance[:2, :2] + P[:2, :2]
+        if math.hypot(diff[0], diff[1]) <= self.limits.crosscheck_min_m:
+            return 0.0  # agreement within the gross-error floor
         try:
             return float(diff @ np.linalg.solve(S, diff))
         except np.linalg.LinAlgError:
             return math.nan
+
+    def _best_triple(self, x: np.ndarray, rows: list[int]) -> list[int] | None:
+        """The three of ``rows`` with the smallest position CRLB at ``x`` (seed 000 §2.3), None if none is good.
+
+        Near the critical circle of a triple its linearised covariance is not honest
+        (issue 12), so a triple whose bound exceeds ``max_fix_std_m`` is not used.
+        """
+        if len(rows) < 3:
+            return None
+        triples = np.array(list(itertools.combinations(rows[:8], 3)))
+        try:
+            cov = crlb(self.xy[triples], compose(x, self.mount), self.bearing_std)
+        except ValueError:
+            return None
+        score = cov[:, 0, 0] + cov[:, 1, 1]
+        score = np.where(np.isfinite(score), score, np.inf)
+        k = int(np.argmin(score))
+        if not math.sqrt(score[k]) <= self.limits.max_fix_std_m:
+            return None
+        return [int(i) for i in triples[k]]
 
     # ------------------------------------------------------------------ verdict
     def _judge(self, t: float, reasons: list[str]) -> bool:
