@@ -95,3 +95,10 @@ def speed(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) 
 def missions(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
     """Missions on the hall route network: stop errors, mission time, lateral error per edge kind; planning speed."""
     _run("missions", json, quick, seed)
+
+
+@bench_app.command("layout")
+@user_errors
+def layout(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+    """Reflector layout planner: reflectors planned vs regular spacing, predicted vs simulated RMS, planning time."""
+    _run("layout", json, quick, seed)

@@ -33,8 +33,8 @@ def _loop(name: str, sweep: float) -> dict[str, Any]:
     return {"name": name, "path": {"start": start, "segments": segs}}
 
 
-def generated_hall_dict(width: float = 100.0, depth: float = 60.0) -> dict[str, Any]:
-    """The layout document (plain dict) of the generated hall."""
+def generated_hall_dict(width: float = 100.0, depth: float = 60.0, quick: bool = False) -> dict[str, Any]:
+    """The layout document (plain dict) of the generated hall; ``quick``: the two perimeter loops only."""
     racks, sites = [], [{"face": "outer", "spacing_m": 0.5}]
     for j in range(8):
         y0 = 8.0 + 6.0 * j
@@ -45,9 +45,11 @@ def generated_hall_dict(width: float = 100.0, depth: float = 60.0) -> dict[str, 
     routes = [_loop("loop_ccw", 90.0), _loop("loop_cw", -90.0)]
     for j in range(7):
         y = 12.0 + 6.0 * j
-        routes += [_line(f"aisle_{j + 1}_east", 6.0, y, 0.0, 88.0), _line(f"aisle_{j + 1}_west", 94.0, y, 180.0, 88.0)]
+        routes += [_line(f"aisle_{j + 1}_east", 5.5, y, 0.0, 89.0), _line(f"aisle_{j + 1}_west", 94.5, y, 180.0, 89.0)]
     for x in (36.5, 64.5):
-        routes += [_line(f"cross_{x:g}_north", x, 5.0, 90.0, 50.0), _line(f"cross_{x:g}_south", x, 55.0, 270.0, 50.0)]
+        routes += [_line(f"cross_{x:g}_north", x, 4.0, 90.0, 52.0), _line(f"cross_{x:g}_south", x, 56.0, 270.0, 52.0)]
+    if quick:
+        routes = routes[:2]
     return {
         "name": "generated_100x60",
         "hall": {"outer": _box(0.0, 0.0, width, depth), "occluders": racks},
@@ -59,8 +61,8 @@ def generated_hall_dict(width: float = 100.0, depth: float = 60.0) -> dict[str, 
     }
 
 
-def generated_hall() -> LayoutSpec:
-    """The generated hall as a validated :class:`LayoutSpec`."""
-    spec = LayoutSpec.model_validate(generated_hall_dict())
+def generated_hall(quick: bool = False) -> LayoutSpec:
+    """The generated hall as a validated :class:`LayoutSpec` (``quick``: the perimeter loops only)."""
+    spec = LayoutSpec.model_validate(generated_hall_dict(quick=quick))
     attach_source(spec, "<generated 100x60 hall>", None, None)
     return spec
