@@ -122,7 +122,14 @@ def outputs_reference() -> list[str]:
         "- `timing.json`: wall time (s) and real-time factor (the only file that differs between equal runs);",
         "- `timeseries.csv`: one row per control step, the columns below (a vehicle writes the ones it has);",
         "- `reflections.csv`: one row per goniometer reflection;",
-        "- `map.png`, `errors.png`, `positioning_histogram.png`: the plots.",
+        "- `map.png`, `errors.png`, `positioning_histogram.png`: the plots;",
+        (
+            "- `layout.json`: the planned path (`path_xy`, m), its segment joins (`segment_starts_m`), the "
+            "reflectors (`[x, y, radius]`, m) and walls (m), and the positioning method: what the report draws;"
+        ),
+        "- `report.html` (with `--report`, or `agvnav report DIR` later): one self-contained HTML report.",
+        "",
+        "`--log run.mcap` also writes the run as an MCAP file of ROS 2 messages; docs/logs.md lists its topics.",
         "",
         (
             "The files appear all at once when the run ends (written to a temporary folder, then renamed). "
