@@ -19,10 +19,20 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from PIL import Image
 
 from agvnav.report.files import save_result
-from agvnav.report.html import RunFolder, covariance_ellipse, load_run, metrics_table, render_html
+from agvnav.report.html import (
+    RunFolder,
+    covariance_ellipse,
+    load_run,
+    metrics_table,
+    point_covariance,
+    render_html,
+    tracked_points,
+)
 from agvnav.sim import simulate
 from agvnav.world.scenario import load_scenario
 
@@ -89,6 +99,29 @@ def test_covariance_ellipse_axes_are_three_sigma_along_the_eigenvectors():
     # every point is on the 3-sigma contour: Mahalanobis distance 3
     m = np.einsum("ij,jk,ik->i", er, np.linalg.inv(rot @ c @ rot.T), er)
     np.testing.assert_allclose(m, 9.0, rtol=1e-9)
+
+
+@given(st.floats(-math.pi, math.pi), st.floats(0.0, 3.0))
+def test_point_covariance_is_the_numerical_jacobian_sandwich(psi, offset):
+    rng = np.random.default_rng(7)
+    a = rng.normal(size=(3, 3))
+    p3 = a @ a.T * 1e-4
+    pose = np.array([1.0, -2.0, psi])
+
+    def point(q):
+        return q[:2] + offset * np.array([math.cos(q[2]), math.sin(q[2])])
+
+    h = 1e-6
+    jac = np.column_stack([(point(pose + h * e) - point(pose - h * e)) / (2 * h) for e in np.eye(3)])
+    np.testing.assert_allclose(point_covariance(p3, psi, offset), jac @ p3 @ jac.T, rtol=1e-6, atol=1e-14)
+
+
+def test_the_map_draws_the_tracked_point_the_path_is_planned_for(run_dir):
+    s = load_run(run_dir).series
+    true, est, off = tracked_points(s)
+    np.testing.assert_array_equal(true[:, 0], s["x_tracked"])
+    np.testing.assert_array_equal(est[:, 1], s["est_y_C"])
+    assert off == pytest.approx(np.median(np.hypot(s["x_C"] - s["x"], s["y_C"] - s["y"])), rel=0.05)
 
 
 class DevTools:

@@ -36,7 +36,9 @@ __all__ = [
     "metrics_table",
     "plot_positioning_errors",
     "plot_status",
+    "point_covariance",
     "render_html",
+    "tracked_points",
     "write_html_report",
 ]
 
@@ -124,45 +126,74 @@ def _draw_layout(ax: Any, layout: dict[str, Any] | None) -> None:
     ax.plot(p[:, 0], p[:, 1], "--", color="tab:blue", lw=1.2, label="planned path")
 
 
+def tracked_points(s: dict[str, F64]) -> tuple[F64, F64, float]:
+    """True and estimated tracked point ``(n, 2)`` each (m) and its offset ahead of base_link (m).
+
+    The tracked point is the one the planned path is drawn for (C of a steered vehicle guiding
+    C, else base_link): ``x_tracked``/``est_x_C`` when the series has them, else base_link.
+    """
+    est = np.column_stack([s.get("est_x_C", s["est_x"]), s.get("est_y_C", s["est_y"])])
+    true = np.column_stack([s.get("x_tracked", s.get("x", est[:, 0])), s.get("y_tracked", s.get("y", est[:, 1]))])
+    off = np.hypot(est[:, 0] - s["est_x"], est[:, 1] - s["est_y"])
+    off = off[np.isfinite(off)]
+    return true, est, float(np.median(off)) if off.size else 0.0
+
+
+def point_covariance(cov3: F64, psi: float, offset: float) -> F64:
+    """2x2 covariance (m²) of the point ``offset`` m ahead of base_link from the pose covariance ``cov3``.
+
+    First order: ``J P J^T`` with ``J = [[1, 0, -offset sin psi], [0, 1, offset cos psi]]``.
+    """
+    j = np.array([[1.0, 0.0, -offset * math.sin(psi)], [0.0, 1.0, offset * math.cos(psi)]])
+    return np.asarray(j @ cov3 @ j.T, dtype=np.float64)
+
+
 def _ellipses(ax: Any, s: dict[str, F64], count: int = 14) -> None:
-    """3-sigma position ellipses at ``count`` instants, magnified to be seen; the factor in the legend."""
+    """3-sigma ellipses of the estimated tracked point at ``count`` instants after the start, magnified (a
+    power of ten, in the legend) so that the median one spans about a tenth of the drive."""
     if "est_cov_xx" not in s:
         return
     valid = np.flatnonzero(s.get("est_valid", s["est_status"] >= 1.0) > 0.5)
     if valid.size == 0:
         return
-    idx = valid[np.linspace(0, valid.size - 1, count).astype(int)]
-    covs = [np.array([[s["est_cov_xx"][k], s["est_cov_xy"][k]], [s["est_cov_xy"][k], s["est_cov_yy"][k]]]) for k in idx]
-    size = max(float(np.max(np.abs(covariance_ellipse(c)))) for c in covs)
-    span = max(np.ptp(s["est_x"][valid]), np.ptp(s["est_y"][valid]), 1.0)
+    _, est, off = tracked_points(s)
+    idx = valid[np.linspace(0, valid.size - 1, count + 1).astype(int)[1:]]  # not the start's prior
+    names = ("est_cov_xx", "est_cov_xy", "est_cov_xpsi", "est_cov_yy", "est_cov_ypsi", "est_cov_psipsi")
+    covs = []
+    for k in idx:
+        xx, xy, xp, yy, yp, pp = (float(s[n][k]) for n in names)
+        p3 = np.array([[xx, xy, xp], [xy, yy, yp], [xp, yp, pp]])
+        covs.append(point_covariance(p3, float(s["est_psi"][k]), off))
+    size = float(np.median([np.max(np.abs(covariance_ellipse(c))) for c in covs]))
+    span = max(np.ptp(est[valid, 0]), np.ptp(est[valid, 1]), 1.0)
     gain = max(1.0, 10 ** math.floor(math.log10(0.1 * span / size))) if size > 0 else 1.0
     for j, (k, c) in enumerate(zip(idx, covs, strict=True)):
-        e = gain * covariance_ellipse(c) + [s["est_x"][k], s["est_y"][k]]
+        e = gain * covariance_ellipse(c) + est[k]
         ax.plot(e[:, 0], e[:, 1], color="tab:purple", lw=0.9, label=f"3σ ellipse ×{gain:g}" if j == 0 else None)
 
 
 def plot_map_figure(run: RunFolder) -> Any:
-    """Map: walls, reflectors, planned path, driven (truth) and estimated base_link paths, ellipses."""
+    """Map: walls, reflectors, planned path, driven (truth) and estimated paths of the tracked point, ellipses."""
     plt = pyplot()
     s = run.series
     fig, axes = plt.subplots(1, 2, figsize=(11, 5))
     valid = s.get("est_valid", s["est_status"] >= 1.0) > 0.5
+    true, est, _ = tracked_points(s)
     for ax in axes:
         _draw_layout(ax, run.layout)
         if "x" in s:
-            ax.plot(s["x"], s["y"], color="tab:red", lw=1.2, label="driven (truth)")
-        ax.plot(s["est_x"][valid], s["est_y"][valid], color="tab:green", lw=0.9, label="estimated")
+            ax.plot(true[:, 0], true[:, 1], color="tab:red", lw=1.2, label="driven (truth)")
+        ax.plot(est[valid, 0], est[valid, 1], color="tab:green", lw=0.9, label="estimated")
         _ellipses(ax, s)
         ax.set_aspect("equal")
         ax.set(xlabel="x [m]", ylabel="y [m]")
         ax.grid(True, alpha=0.3)
-    xy = np.column_stack([s.get("x", s["est_x"]), s.get("y", s["est_y"])])
-    xy = xy[np.all(np.isfinite(xy), axis=1)]
+    xy = true[np.all(np.isfinite(true), axis=1)]
     if xy.size:
         lo, hi = xy.min(axis=0), xy.max(axis=0)
         pad = 0.15 * float(np.max(hi - lo)) + 0.3
         axes[1].set(xlim=(lo[0] - pad, hi[0] + pad), ylim=(lo[1] - pad, hi[1] + pad))
-    axes[0].set_title("map (base_link)")
+    axes[0].set_title("map (tracked point)")
     axes[1].set_title("drive detail")
     axes[1].legend(loc="best", fontsize=8)
     return fig
@@ -284,15 +315,15 @@ def metrics_table(metrics: dict[str, Any]) -> str:
 def _slider_data(run: RunFolder, samples: int = 400) -> dict[str, Any]:
     s = run.series
     idx = np.unique(np.linspace(0, s["t"].size - 1, min(samples, s["t"].size)).astype(int))
-    cols = {"t": s["t"], "x": s.get("x", s["est_x"]), "y": s.get("y", s["est_y"]), "psi": s.get("psi", s["est_psi"]),
-            "ex": s["est_x"], "ey": s["est_y"], "el": s.get("lateral_error", np.zeros_like(s["t"]))}
+    true, est, _ = tracked_points(s)
+    cols = {"t": s["t"], "x": true[:, 0], "y": true[:, 1], "psi": s.get("psi", s["est_psi"]),
+            "ex": est[:, 0], "ey": est[:, 1], "el": s.get("lateral_error", np.zeros_like(s["t"]))}
     return {k: [round(float(v), 5) if math.isfinite(float(v)) else None for v in c[idx]] for k, c in cols.items()}
 
 
 def _slider_svg(run: RunFolder) -> str:
     """An inline SVG of the map (y up) with a vehicle triangle; the slider's script moves it."""
-    s = run.series
-    pts = [np.column_stack([s.get("x", s["est_x"]), s.get("y", s["est_y"])])]
+    pts = [tracked_points(run.series)[0]]
     if run.layout is not None:
         pts.append(np.asarray(run.layout["path_xy"]).reshape(-1, 2))
         pts.append(np.asarray(run.layout["reflectors"]).reshape(-1, 3)[:, :2])
