@@ -174,7 +174,7 @@ class StreamingEstimator:
         self.drops = DropCounter()
         self.monitor = IntegrityMonitor(
             self.reflector_xy, self.reflector_radius, self.mount, self.bearing_std, 1.0 / self.rate_hz, integrity,
-            map_std=self.map_std,
+            map_std=self.map_std, max_range=self.max_range,
         )
         self.ambiguous = False
         self.n_relocalisations = 0
@@ -356,6 +356,7 @@ class StreamingEstimator:
         self._watch_lockout(t, assoc.index >= 0)
         if assoc.index < 0:
             self.n_rejected += 1
+            self.monitor.rejected(t)
             return False
         self.n_accepted += 1
         self._claimed[assoc.index] = t

@@ -8,6 +8,14 @@ navigators report one:
   accepted bearings of the last ``window_s`` seconds against the upper
   ``nis_confidence`` quantile of a chi-square with as many degrees of freedom (a
   consistent filter's innovations are white with variance ``S`` [seed002 eq14]);
+* the fraction of reflections the gate rejected in the window: above
+  ``max_reject_fraction`` (and at least ``min_rejections``) the true reflectors no longer
+  fall into their gates -- the estimate has moved off (a lost odometry stretch) -- while
+  clutter alone, spurious reflections at random bearings, stays below it;
+* the fraction of the reflectors in range (by the map) that the window's accepted
+  reflections explain: below ``min_explained_fraction`` the estimate explains only a
+  few of them, the signature of a pose that has locked onto a wrong but self-consistent
+  subset (an odometry dropout leaves one "tracking" 0.2-0.7 m off on 3 of 9 reflectors);
 * the number and geometry of the reflectors that supported the recent fixes: at least
   ``min_reflectors`` distinct ones in the window, and a best achievable position error
   ``PDOP * bearing_std`` (:func:`~agvnav.positioning.bounds.pdop`, the CRLB of seed 000
@@ -79,12 +87,15 @@ class IntegrityLimits:
     ``enabled=False`` keeps the figures (quality, NIS ratio...) but never leaves ``"ok"``.
     """
 
-    window_s: float = 2.0
+    window_s: float = 1.0
     nis_confidence: float = 0.999
     min_reflectors: int = 3
     max_fix_std_m: float = 0.05
     crosscheck_bound: float = CHI2_2DOF_999
     crosscheck_min_m: float = 0.05
+    max_reject_fraction: float = 0.75
+    min_rejections: int = 8
+    min_explained_fraction: float = 0.5
     lost_after_s: float = 5.0
     lost_position_std_m: float = 0.3
     lost_heading_std_rad: float = 0.1
@@ -92,6 +103,10 @@ class IntegrityLimits:
     enabled: bool = True
 
     def __post_init__(self) -> None:
+        if not 0.0 <= self.min_explained_fraction <= 1.0:
+            raise ValueError(f"min_explained_fraction must be in [0, 1], got {self.min_explained_fraction!r}")
+        if not 0.0 < self.max_reject_fraction <= 1.0:
+            raise ValueError(f"max_reject_fraction must be in (0, 1], got {self.max_reject_fraction!r}")
         for name in ("window_s", "max_fix_std_m", "crosscheck_bound", "crosscheck_min_m", "lost_after_s",
                      "lost_position_std_m",
                      "lost_heading_std_rad"):
@@ -130,6 +145,8 @@ class IntegrityMonitor:
         ``bearing_std^2 + (map_std / d)^2`` (as the estimator's gate).
     revolution_s:
         Duration (s) of one head revolution.
+    max_range:
+        Reflectors farther than this (m) are not expected to be seen.
     limits:
         The thresholds.
 
@@ -152,20 +169,24 @@ class IntegrityMonitor:
         revolution_s: float,
         limits: IntegrityLimits | None = None,
         map_std: float = 0.0,
+        max_range: float = math.inf,
     ) -> None:
         self.xy = np.asarray(reflector_xy, dtype=np.float64).reshape(-1, 2)
         self.radius = np.asarray(reflector_radius, dtype=np.float64).reshape(-1)
         self.mount = np.asarray(mount, dtype=np.float64).reshape(3)
         self.bearing_std = float(bearing_std)
         self.map_std = float(map_std)
+        self.max_range = float(max_range)
         self.revolution_s = float(revolution_s)
         self.limits = IntegrityLimits() if limits is None else limits
         self._entries: deque[_Entry] = deque()
+        self._rejects: deque[float] = deque()
         self.reset()
 
     def reset(self) -> None:
         """Forget the support (after a relocalisation or a fresh start)."""
         self._entries.clear()
+        self._rejects.clear()
         self.verdict = "ok"
         self.quality = 0.0
         self.reflectors_used = 0
@@ -181,6 +202,12 @@ class IntegrityMonitor:
         self._entries.append(_Entry(t, float(nis), int(index), float(bearing), (odom[0], odom[1], odom[2])))
         while self._entries and t - self._entries[0].t > self.limits.window_s:
             self._entries.popleft()
+
+    def rejected(self, t: float) -> None:
+        """One reflection at ``t`` (s) that the gate rejected (spurious, ambiguous or off its prediction)."""
+        self._rejects.append(t)
+        while self._rejects and t - self._rejects[0] > self.limits.window_s:
+            self._rejects.popleft()
 
     def due(self, t: float) -> bool:
         """True once per head revolution: time for :meth:`check`."""
@@ -223,6 +250,13 @@ class IntegrityMonitor:
             self.nis_ratio = total / chi2_upper(len(entries), lim.nis_confidence)
             if self.nis_ratio > 1.0:
                 out.append("nis")
+        while self._rejects and t - self._rejects[0] > lim.window_s:
+            self._rejects.popleft()
+        n_rej = len(self._rejects)
+        if n_rej >= lim.min_rejections and n_rej > lim.max_reject_fraction * (n_rej + len(entries)):
+            out.append("rejections")
+        if not young and self._explained(x, len(used)) < lim.min_explained_fraction:
+            out.append("unexplained")
         if len(used) < lim.min_reflectors:
             if not young and self.xy.shape[0] >= lim.min_reflectors:  # a map without reflectors: other sensors
                 out.append("few_reflectors")
@@ -238,6 +272,12 @@ class IntegrityMonitor:
         if self.crosscheck > lim.crosscheck_bound:
             out.append("crosscheck")
         return out
+
+    def _explained(self, x: np.ndarray, n_used: int) -> float:
+        """Distinct reflectors used over those in range of the head at ``x`` (1 when none is in range)."""
+        head = compose(x, self.mount)
+        n_range = int(np.count_nonzero(np.hypot(*(self.xy - head[:2]).T) <= self.max_range))
+        return 1.0 if n_range == 0 else n_used / n_range
 
     def _uncertainty_failures(self, P: np.ndarray) -> list[str]:
         lim = self.limits
@@ -312,9 +352,11 @@ class IntegrityMonitor:
             self._degraded_since = None
             self.verdict = "ok"
         self.quality = self._score()
-        inflate = any(r in ("nis", "crosscheck") for r in reasons) and self.verdict != "lost"
-        if inflate:
-            self._entries.clear()  # judge the inflated estimate on fresh innovations
+        suspect = {"nis", "crosscheck", "rejections", "unexplained"}
+        inflate = bool(suspect.intersection(reasons)) and self.verdict != "lost"
+        if inflate:  # judge the inflated estimate on fresh innovations
+            self._entries.clear()
+            self._rejects.clear()
         return inflate
 
     def _score(self) -> float:
@@ -324,5 +366,5 @@ class IntegrityMonitor:
         q_count = min(self.reflectors_used, 4) / 4.0
         ratio = self.nis_ratio if math.isfinite(self.nis_ratio) else 1.0
         q_nis = 1.0 / (1.0 + max(0.0, 2.0 * ratio - 1.0) ** 2) if ratio > 0.5 else 1.0
-        q_check = 0.5 if ("geometry" in self.reasons or "crosscheck" in self.reasons) else 1.0
+        q_check = 0.5 if {"geometry", "crosscheck", "rejections", "unexplained"} & set(self.reasons) else 1.0
         return q_count * q_nis * q_check
