@@ -237,7 +237,9 @@ def mission_figures(
     ``stop_error_m[i]`` is the distance of the true tracked point from the planned
     station point at the moment stop ``i`` was declared; ``stop_heading_error_rad[i]``
     the true heading's difference from the planned one. Lateral errors are grouped by
-    the kind of edge (line, arc, clothoid, nurbs) the true projection ``s_true`` lies on.
+    the kind of edge (line, arc, clothoid, nurbs) the true projection ``s_true`` lies on;
+    ``max_lateral_m.line_curve_joints`` is the largest from 0.5 m before to 1.5 m after every
+    forward joint between a line and an arc or clothoid edge.
     """
     out: dict[str, float] = {"stations": float(len(stops))}
     t = series["t"]
@@ -261,7 +263,26 @@ def mission_figures(
         lat = np.abs(series["lateral_error"][m])
         out[f"max_lateral_m.{name}"] = float(lat.max()) if lat.size else math.nan
         out[f"rms_lateral_m.{name}"] = float(np.sqrt(np.mean(lat**2))) if lat.size else math.nan
+    near = moving & _near_line_curve_joints(plan, series["s_true"])
+    lat = np.abs(series["lateral_error"][near])
+    out["max_lateral_m.line_curve_joints"] = float(lat.max()) if lat.size else math.nan
     return out
+
+
+def _near_line_curve_joints(plan: MissionPlan, s: NDArray[np.float64], before: float = 0.5,
+                            after: float = 1.5) -> NDArray[np.bool_]:
+    """True where ``s`` lies from ``before`` m ahead of to ``after`` m past a joint between a line edge and an
+    arc or clothoid edge driven forward (where a plain arc makes the steering jump)."""
+    line, arc, clothoid = (EDGE_KINDS.index(k) for k in ("line", "arc", "clothoid"))
+    starts = plan.path.segment_starts
+    fwd = np.array([seg.direction > 0 for seg in plan.path.segments])
+    a, b = plan.seg_kind[:-1], plan.seg_kind[1:]
+    curve_a, curve_b = np.isin(a, (arc, clothoid)), np.isin(b, (arc, clothoid))
+    joint = ((a == line) & curve_b | curve_a & (b == line)) & fwd[:-1] & fwd[1:]
+    mask = np.zeros(s.shape, dtype=bool)
+    for js in starts[1:-1][joint]:
+        mask |= (s >= js - before) & (s <= js + after)
+    return mask
 
 
 def mission_autopilot(
