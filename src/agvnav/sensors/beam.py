@@ -7,8 +7,8 @@ offset (:func:`offset_one`, the one formulation), find the brackets where it pas
 ``2 pi`` on a time grid for every reflector (:func:`grid_crossings`), evaluate it for
 one reflector per instant (:func:`offsets_at`) and test the line of sight
 (:func:`line_of_sight`). They are compiled by numba (``cache=True``: compiled once per
-machine, reused across runs), loop over plain float64 arrays, and serve one vehicle
-or a batch of instants alike: the goniometer calls them with the pose samples its
+machine, reused across runs; :mod:`agvnav._jit`), loop over plain float64 arrays, and
+serve one vehicle or a batch of instants alike: the goniometer calls them with the pose samples its
 ``pose_at`` gave, so no NumPy per-call overhead remains in the scan's inner loops.
 No ``fastmath``: the arithmetic is IEEE, operation for operation as written.
 """
@@ -16,25 +16,18 @@ No ``fastmath``: the arithmetic is IEEE, operation for operation as written.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, TypeVar, cast
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from agvnav._jit import jit
 
 __all__ = ["grid_crossings", "line_of_sight", "offset_one", "offsets_at"]
 
 _TWO_PI = 2.0 * math.pi
-F = TypeVar("F", bound=Callable[..., Any])
 
 
-def _jit(fn: F) -> F:
-    """Compile ``fn`` with numba (no fastmath; cached on disk), keeping its Python signature for mypy."""
-    return cast(F, njit(cache=True)(fn))
-
-
-@_jit
+@jit
 def offset_one(
     x: float, y: float, heading: float, t: float, rx: float, ry: float, r: float,
     mx: float, my: float, phase: float, omega: float, direction: int,
@@ -69,7 +62,7 @@ def offset_one(
     return math.atan2(dy, dx) + half_width - beam, x, y, d
 
 
-@_jit
+@jit
 def grid_crossings(
     grid: NDArray[np.float64], pose: NDArray[np.float64],
     rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64],
@@ -103,7 +96,7 @@ def grid_crossings(
     return interval[:c], refl[:c], f_lo[:c], f_hi[:c]
 
 
-@_jit
+@jit
 def offsets_at(
     t: NDArray[np.float64], pose: NDArray[np.float64],
     rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64],
@@ -121,7 +114,7 @@ def offsets_at(
     return off, hx, hy, d
 
 
-@_jit
+@jit
 def line_of_sight(
     refl: NDArray[np.int64], hx: NDArray[np.float64], hy: NDArray[np.float64], d: NDArray[np.float64],
     rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64],
@@ -153,7 +146,7 @@ def line_of_sight(
     return out
 
 
-@_jit
+@jit
 def _hits_wall(
     ox: float, oy: float, ux: float, uy: float,
     wall_x0: NDArray[np.float64], wall_y0: NDArray[np.float64],
@@ -175,7 +168,7 @@ def _hits_wall(
     return False
 
 
-@_jit
+@jit
 def _hits_disc(
     ox: float, oy: float, ux: float, uy: float,
     rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64], target: int,

@@ -27,14 +27,15 @@ from typing import ClassVar, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agvnav._jit import jit
 from agvnav.actuators import SteeringActuator
 from agvnav.kinematics.scalar import stacker_rk4
-from agvnav.odometry.scalar import tricycle_increments_scalar
 from agvnav.odometry.errors import NonSystematicErrors, TricycleErrors
+from agvnav.odometry.scalar import tricycle_increments_scalar
 from agvnav.sensors.encoders import SteeringEncoder, WheelEncoder, steering_reading, wheel_count
 from agvnav.vehicles.geometry import SteeredGeometry, box_footprint, check_footprint
 
-__all__ = ["TricyclePlant"]
+__all__ = ["TricyclePlant", "hermite_poses"]
 
 
 class TricyclePlant:
@@ -110,8 +111,8 @@ class TricyclePlant:
         self._state = np.array([x0[0], x0[1], x0[2], x0[3] + systematic.steering_offset])
         self._start = self._state.copy()
         self._deriv = np.zeros((2, 4))
-        self._hermite = (self._start[:3], np.zeros(3), self._state[:3], np.zeros(3))
-        self._hermite_t = tuple(tuple(a.tolist()) for a in self._hermite)
+        self._hermite = np.zeros((4, 3))  # p0, d0 dt, p1, d1 dt of the last step (see hermite_poses)
+        self._hermite[0], self._hermite[2] = self._start[:3], self._state[:3]
         self._u = np.zeros(2)
         self._dt = 1.0
         self._t0 = 0.0
@@ -170,8 +171,7 @@ class TricyclePlant:
         self._dt = dt
         self._state, self._deriv = stacker_rk4(cast("Sequence[float]", start), self._u[0], self._u[1], self.L_true, dt)
         # end poses and scaled end derivatives of the step, for pose_at's Hermite cubic
-        self._hermite = (self._start[:3], self._deriv[0, :3] * dt, self._state[:3], self._deriv[1, :3] * dt)
-        self._hermite_t = tuple(tuple(a.tolist()) for a in self._hermite)
+        self._hermite = np.stack([self._start[:3], self._deriv[0, :3] * dt, self._state[:3], self._deriv[1, :3] * dt])
         self.v = ds_true / dt
         self.distance_C += abs(ds_true)
         # encoders (nominal parameters)
@@ -195,30 +195,7 @@ class TricyclePlant:
         sensor's root finder.
         """
         t = np.asarray(t, dtype=np.float64)
-        if t.ndim == 1 and t.shape[0] <= 4:  # the goniometer's usual few instants
-            return np.array([self._pose_at_scalar(ti) for ti in t.tolist()]).reshape(-1, 3)
-        # np.minimum/np.maximum: np.clip's dispatch cost more than the arithmetic here
-        u = np.minimum(np.maximum((t - self._t0) / self._dt, 0.0), 1.0)[..., None]
-        u2 = u * u
-        u3 = u2 * u
-        h00, h10 = 2.0 * u3 - 3.0 * u2 + 1.0, u3 - 2.0 * u2 + u
-        h01, h11 = 3.0 * u2 - 2.0 * u3, u3 - u2
-        p0, d0, p1, d1 = self._hermite
-        return h00 * p0 + h10 * d0 + h01 * p1 + h11 * d1
-
-    def _pose_at_scalar(self, t: float) -> tuple[float, float, float]:
-        """:meth:`pose_at` for one instant, element by element in the same order (bit-identical)."""
-        u = min(max((t - self._t0) / self._dt, 0.0), 1.0)
-        u2 = u * u
-        u3 = u2 * u
-        h00, h10 = 2.0 * u3 - 3.0 * u2 + 1.0, u3 - 2.0 * u2 + u
-        h01, h11 = 3.0 * u2 - 2.0 * u3, u3 - u2
-        (x0, y0, a0), (dx0, dy0, da0), (x1, y1, a1), (dx1, dy1, da1) = self._hermite_t
-        return (
-            h00 * x0 + h10 * dx0 + h01 * x1 + h11 * dx1,
-            h00 * y0 + h10 * dy0 + h01 * y1 + h11 * dy1,
-            h00 * a0 + h10 * da0 + h01 * a1 + h11 * da1,
-        )
+        return hermite_poses(self._hermite, self._t0, self._dt, t.reshape(-1)).reshape(*t.shape, 3)
 
     def odometry(self) -> tuple[float, float, float]:
         """``(delta_d, delta_theta, 0.0)`` of O over the last step from the encoders (nominal L, R).
@@ -247,3 +224,25 @@ class TricyclePlant:
             self._odo[1],
             self.distance_C,
         )
+
+
+@jit
+def hermite_poses(hermite: NDArray[np.float64], t0: float, dt: float, t: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Cubic Hermite poses ``(k, 3)`` at instants ``t (k,)`` (s) of the step ``[t0, t0 + dt]``.
+
+    ``hermite`` ``(4, 3)`` holds the pose at the start ``p0``, its time derivative times
+    ``dt`` ``d0``, the pose at the end ``p1`` and its derivative times ``dt`` ``d1``;
+    ``u = (t - t0) / dt`` clipped to [0, 1]; pose ``= h00 p0 + h10 d0 + h01 p1 + h11 d1`` with
+    the cubic Hermite basis (derivatives of [seed000 eq8] at both ends). Compiled
+    (:mod:`agvnav._jit`): one formulation for the goniometer's few instants and for batches.
+    """
+    out = np.empty((t.shape[0], 3))
+    for i in range(t.shape[0]):
+        u = min(max((t[i] - t0) / dt, 0.0), 1.0)
+        u2 = u * u
+        u3 = u2 * u
+        h00, h10 = 2.0 * u3 - 3.0 * u2 + 1.0, u3 - 2.0 * u2 + u
+        h01, h11 = 3.0 * u2 - 2.0 * u3, u3 - u2
+        for j in range(3):
+            out[i, j] = h00 * hermite[0, j] + h10 * hermite[1, j] + h01 * hermite[2, j] + h11 * hermite[3, j]
+    return out
