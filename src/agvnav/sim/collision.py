@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
-from shapely.geometry import MultiLineString, Polygon  # type: ignore[import-untyped]
+from shapely.geometry import MultiLineString, Polygon
 
 __all__ = ["CollisionWatch", "WallCollider", "segment_distances"]
 

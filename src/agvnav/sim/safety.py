@@ -14,9 +14,10 @@ speed scale the autopilot applies to its speed profile's target:
 
 A worse level applies at once; a better one only after it has been demanded
 continuously for ``resume_after_s`` (hysteresis, so the vehicle does not surge on
-one good fix); a demand that worsens during that hold restarts it. The lateral standard deviation is that of the position along the
-body y axis, ``σ_lat² = n^T P_xy n`` with ``n = (-sin ψ, cos ψ)``: the direction in
-which a guidance error puts the vehicle into the aisle's walls.
+one good fix); a demand that worsens during that hold restarts it. The lateral
+standard deviation is that of the position along the body y axis,
+``σ_lat² = n^T P_xy n`` with ``n = (-sin ψ, cos ψ)``: the direction in which a
+guidance error puts the vehicle into the aisle's walls.
 """
 
 from __future__ import annotations
