@@ -6,7 +6,8 @@ import math
 
 import pytest
 
-from agvnav.routes.network import load_network, parse_network
+from agvnav.routes.layouts import grid_network
+from agvnav.routes.network import load_network, network_from_dict, parse_network
 from agvnav.routes.planning import NoRouteError, Planner, VehicleLimits
 
 # A at the origin facing east; B 10 m east. A one-way ring A -> B -> (arc up) -> T -> (arc) -> A
@@ -75,3 +76,12 @@ def test_reverse_into_the_dock_needs_a_cusp() -> None:
     assert route.time_s == pytest.approx(11.0 + (math.pi + 2.0) / 0.3 + cusp, rel=1e-3)
     forward = Planner(net, VehicleLimits("tricycle")).plan("D", "S2", start_heading=-math.pi / 2)
     assert [t.mode for t in forward.traversals][:2] == [1, 1]
+
+
+def test_planning_on_a_generated_grid_finds_the_manhattan_route() -> None:
+    net = network_from_dict(grid_network(6, spacing=5.0))
+    planner = Planner(net, VehicleLimits("differential", max_speed=1.0, turn_rate=0.5))
+    route = planner.plan("n0_0", "n5_5", start_heading=0.0)
+    # 50 m of lines at 1 m/s plus at least one quarter turn on the spot (pi/2 / 0.5 s)
+    assert route.time_s == pytest.approx(50.0 + math.pi, abs=1e-6)
+    assert route.nodes[0] == "n0_0" and route.nodes[-1] == "n5_5" and len(route.traversals) == 10
