@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from agvnav.logs import RecordedLog, estimator_from_settings, localize, read_csv_log, read_log, write_run_log
+from agvnav.logs.reader import counts_to_increments
 from agvnav.sim import simulate
 from agvnav.sim.build import build_world
 from agvnav.world.scenario import load_scenario
@@ -126,3 +127,23 @@ def test_a_holonomic_vehicle_replays_with_its_lateral_increments(tmp_path):
     np.testing.assert_allclose(log.increments[:, 2], result.series["odo_dlat"][1:], rtol=1e-12, atol=1e-15)
     loc = localize(log, estimator_from_settings(log.settings, build_world(sc)))
     _compare(loc.series, result.series, 1e-7)
+
+
+def test_encoder_counts_give_the_arc_increments_even_across_a_counter_wrap(tmp_path):
+    """Arc of radius 2 m, track 0.5 m, 0.01 rad per row, 0.1 mm per count: ΔD = R Δθ [seed002 eq22]."""
+    n = 50
+    right = 65000 + 225 * np.arange(n)  # passes 65535: a 16-bit counter wraps
+    left = 175 * np.arange(n)
+    enc = {"metres_per_count_right": 1e-4, "metres_per_count_left": 1e-4, "track_m": 0.5, "counter_bits": 16}
+    inc = counts_to_increments(right % 65536, left, enc)
+    np.testing.assert_allclose(inc, np.tile([0.02, 0.01, 0.0], (n - 1, 1)), atol=1e-12)
+    t = np.arange(n) * 0.05
+    np.savetxt(tmp_path / "odometry.csv", np.column_stack([t, right % 65536, left]), delimiter=",",
+               header="t,counts_right,counts_left", comments="", fmt="%.17g")
+    (tmp_path / "reflections.csv").write_text("t,bearing\n0.07,0.5\n", encoding="utf-8")
+    with pytest.raises(ValueError, match="encoders"):
+        read_csv_log(tmp_path)
+    (tmp_path / "settings.json").write_text(json.dumps({"encoders": enc}), encoding="utf-8")
+    np.testing.assert_allclose(read_csv_log(tmp_path).increments, inc)
+    with pytest.raises(ValueError, match="track_m"):
+        counts_to_increments(right, left, {"metres_per_count_right": 1e-4, "metres_per_count_left": 1e-4})

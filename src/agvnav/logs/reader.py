@@ -8,7 +8,9 @@ CSV layout (a folder):
 
 - ``odometry.csv``: header ``t,delta_d,delta_theta[,delta_lateral]``; the first row
   is the start (its increments ignored), each next row the increment measured since
-  the previous row (s, m, rad, m);
+  the previous row (s, m, rad, m). A differential vehicle may log its encoder counts
+  instead, ``t,counts_right,counts_left`` (cumulative counts), with an ``encoders`` entry
+  in settings.json (:func:`counts_to_increments`);
 - ``reflections.csv``: header ``t,bearing[,stamp]``: arrival time (s), bearing in the
   head frame (rad), the measurement instant (s, default the arrival); other
   columns (``reflector_index``) are ignored;
@@ -30,8 +32,9 @@ from numpy.typing import NDArray
 
 from agvnav.logs import topics as tp
 from agvnav.logs.messages import COV_INDEX, yaw_of
+from agvnav.odometry import differential_increments
 
-__all__ = ["RecordedLog", "read_csv_log", "read_log", "read_mcap"]
+__all__ = ["RecordedLog", "counts_to_increments", "read_csv_log", "read_log", "read_mcap"]
 
 F64 = NDArray[np.float64]
 
@@ -160,15 +163,44 @@ def _csv(path: Path, required: tuple[str, ...]) -> dict[str, F64]:
     return {c: data[:, i] for i, c in enumerate(names)}
 
 
+def counts_to_increments(right: F64, left: F64, encoders: dict[str, Any]) -> F64:
+    """``(n - 1, 3)`` body increments of a differential vehicle from cumulative encoder counts ``(n,)``.
+
+    ``encoders``: ``metres_per_count_right``, ``metres_per_count_left`` (m), ``track_m`` (m) and
+    optionally ``counter_bits``: a counter that wraps modulo ``2**bits`` is unwrapped (each
+    difference taken into ``[-2**(bits-1), 2**(bits-1))``). Wheel distances to ``(ΔD, Δθ)`` by
+    [seed002 eq16] (:func:`agvnav.odometry.differential_increments`); ``delta_lateral`` is 0.
+    """
+    try:
+        k_r, k_l = float(encoders["metres_per_count_right"]), float(encoders["metres_per_count_left"])
+        track = float(encoders["track_m"])
+    except (KeyError, TypeError) as exc:
+        raise ValueError(f"encoders needs metres_per_count_right, metres_per_count_left and track_m ({exc})") from None
+    dr, dl = np.diff(np.asarray(right, dtype=np.float64)), np.diff(np.asarray(left, dtype=np.float64))
+    bits = encoders.get("counter_bits")
+    if bits is not None:
+        span = float(2 ** int(bits))
+        dr, dl = (np.mod(x + span / 2, span) - span / 2 for x in (dr, dl))
+    dd, dth = differential_increments(k_r * dr, k_l * dl, track)
+    return np.column_stack([dd, dth, np.zeros_like(dd)])
+
+
 def read_csv_log(folder: str | Path) -> RecordedLog:
     """Read the CSV layout of the module docstring from ``folder``."""
     d = Path(folder)
-    odo = _csv(d / "odometry.csv", ("t", "delta_d", "delta_theta"))
-    refl = _csv(d / "reflections.csv", ("t", "bearing"))
-    n = odo["t"].shape[0]
-    inc = np.column_stack([odo["delta_d"], odo["delta_theta"], odo.get("delta_lateral", np.zeros(n))])[1:]
     settings_file = d / "settings.json"
     settings = json.loads(settings_file.read_text(encoding="utf-8")) if settings_file.is_file() else {}
+    counts = _csv(d / "odometry.csv", ("t",))
+    if "counts_right" in counts and "delta_d" not in counts:
+        odo = _csv(d / "odometry.csv", ("t", "counts_right", "counts_left"))
+        if "encoders" not in settings:
+            raise ValueError(f"{d / 'odometry.csv'}: encoder counts need an 'encoders' entry in settings.json")
+        inc = counts_to_increments(odo["counts_right"], odo["counts_left"], settings["encoders"])
+    else:
+        odo = _csv(d / "odometry.csv", ("t", "delta_d", "delta_theta"))
+        n = odo["t"].shape[0]
+        inc = np.column_stack([odo["delta_d"], odo["delta_theta"], odo.get("delta_lateral", np.zeros(n))])[1:]
+    refl = _csv(d / "reflections.csv", ("t", "bearing"))
     truth = None
     if (d / "truth.csv").is_file():
         tr = _csv(d / "truth.csv", ("t", "x", "y", "psi"))
