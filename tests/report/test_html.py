@@ -41,7 +41,7 @@ NEEDS_CHROMIUM = pytest.mark.skipif(
     CHROMIUM is None, reason="headless Chromium is not installed (Debian package `chromium`; CI installs it)"
 )
 FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-         "--disable-component-update", "--no-first-run")
+         "--disable-component-update", "--no-first-run", "--disable-dev-shm-usage")
 
 
 def _short():
