@@ -55,7 +55,7 @@ def plot_layout_heatmap(plan: LayoutPlan, out: str | Path, worst: int = 10) -> P
         ax.set_ylabel("y (m)")
     axes[0].legend(loc="upper right", fontsize=7)
     out = Path(out)
-    fig.savefig(out, dpi=110)
+    fig.savefig(out, dpi=90)
     plt.close(fig)
     return out
 
