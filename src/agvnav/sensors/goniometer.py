@@ -527,19 +527,25 @@ class Goniometer:
         Random draws in a fixed order (misses, spurious count, spurious instants,
         jitter) so one seed reproduces the output bit for bit.
         """
+        shuffled = False
         if self.p_miss > 0.0 and t_true.size:
             keep = rng.random(t_true.size) >= self.p_miss  # type: ignore[union-attr]
             t_true, index = t_true[keep], index[keep]
         if self.spurious_rate > 0.0:
             n_spur = int(rng.poisson(self.spurious_rate * self.rate_hz * (t1 - t0)))  # type: ignore[union-attr]
             t_spur = t1 - (t1 - t0) * rng.random(n_spur)  # type: ignore[union-attr]  # in (t0, t1]
-            t_true = np.concatenate([t_true, t_spur])
-            index = np.concatenate([index, np.full(n_spur, -1, dtype=np.int64)])
+            if n_spur:
+                t_true = np.concatenate([t_true, t_spur])
+                index = np.concatenate([index, np.full(n_spur, -1, dtype=np.int64)])
+                shuffled = True
         bearing = self._encoder_bearing_few(t_true)
         t_report = t_true
         if self.jitter_std > 0.0 and t_true.size:
             jitter = rng.normal(0.0, self.jitter_std, t_true.size)  # type: ignore[union-attr]
             t_report = np.clip(t_true + jitter, t0, t1)
+            shuffled = True
+        if not shuffled or t_report.size < 2:  # already in time order (the crossings come sorted)
+            return Reflections._trusted(t_report, bearing, index)
         order = np.argsort(t_report, kind="stable")
         return Reflections._trusted(t_report[order], bearing[order], index[order])
 
