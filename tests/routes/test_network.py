@@ -84,3 +84,11 @@ def test_unknown_key_and_model() -> None:
     assert "unknown key" in str(error_of(SMALL.replace("two_way: true", "two_wya: true")))
     err = error_of(SMALL.replace("two_way: true", "models: [forklift]"))
     assert "unknown vehicle model 'forklift'" in str(err) and err.line == 7
+
+
+def test_shipped_network_is_the_generated_layout() -> None:
+    shipped = load_network("hall_loop")
+    generated = network_from_dict(hall_loop(clothoids=True))
+    assert set(shipped.edges) == set(generated.edges)
+    for nid, node in generated.nodes.items():
+        assert (shipped.nodes[nid].x, shipped.nodes[nid].y) == pytest.approx((node.x, node.y), abs=1e-6)
