@@ -405,12 +405,15 @@ class StreamingEstimator:
         try:
             inc = tuple(_finite_float("odometry increment", v) for v in (delta_d, delta_theta, delta_lateral))
             reason = None if self._t_odometry is None else implausible_increment(self.plausibility, span, *inc)
-        except ValueError:
-            inc, reason = (math.nan,) * 3, "non_finite"
+            message = (
+                f"odometry increment {inc} over {span!r} s at t={t!r} s is implausible ({reason}); "
+                f"limits {self.plausibility}"
+            )
+        except ValueError as exc:
+            inc, reason, message = (math.nan,) * 3, "non_finite", f"{exc} (t={t!r} s)"
         if reason is None:
             return t, inc[0], inc[1], inc[2]
-        self._refuse(t, reason, f"odometry increment {inc} over {span!r} s at t={t!r} s is implausible ({reason}); "
-                     f"limits {self.plausibility}")
+        self._refuse(t, reason, message)
         if reason == "time_gap":
             self._blow_up(span)
         rate = (0.0, 0.0, 0.0) if reason == "time_gap" else self._rate

@@ -60,11 +60,15 @@ CHI2_2DOF_999 = 13.815510557964274
 _Z = {0.95: 1.6448536269514722, 0.99: 2.3263478740408408, 0.999: 3.090232306167813}
 
 
+#: Exact 1-dof quantiles (the square of the two-sided normal quantile).
+_CHI2_1DOF = {0.95: 3.841458820694124, 0.99: 6.634896601021214, 0.999: 10.827566170662733}
+
+
 def chi2_upper(dof: int, confidence: float = 0.999) -> float:
     """Upper ``confidence`` quantile of a chi-square with ``dof`` degrees of freedom.
 
     Wilson-Hilferty cube-root approximation, ``dof (1 - a + z sqrt(a))^3`` with
-    ``a = 2 / (9 dof)`` and ``z`` the normal quantile (within 1 % of the exact value
+    ``a = 2 / (9 dof)`` and ``z`` the normal quantile (within 2 % of the exact value
     from 3 dof on; the 1- and 2-dof values are exact). ``confidence`` is 0.95, 0.99 or 0.999.
     """
     if dof < 1:
@@ -73,7 +77,7 @@ def chi2_upper(dof: int, confidence: float = 0.999) -> float:
         raise ValueError(f"confidence must be one of {sorted(_Z)}, got {confidence!r}")
     z = _Z[confidence]
     if dof == 1:
-        return z * z if confidence != 0.999 else 10.827566170662733
+        return _CHI2_1DOF[confidence]
     if dof == 2:
         return -2.0 * math.log(1.0 - confidence)
     a = 2.0 / (9.0 * dof)

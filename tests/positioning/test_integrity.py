@@ -1,0 +1,165 @@
+"""Integrity monitor, relocalisation (issue 12 §1): synthetic innovations with known answers, known maps."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from _drive import arc_pose_at, feed
+from scipy.stats import chi2
+
+from agvnav.positioning import bearing_model, make_estimator
+from agvnav.positioning.integrity import IntegrityLimits, IntegrityMonitor, chi2_upper
+from agvnav.sensors.goniometer import Goniometer
+from agvnav.world import Reflector, WorldMap, load_builtin_map
+
+MOUNT = np.array([0.3, 0.0, 0.0])
+POSE = np.array([4.0, 3.0, 0.3])
+REV = 0.125
+
+
+@pytest.fixture(scope="module")
+def lab() -> WorldMap:
+    return load_builtin_map("lab")
+
+
+@pytest.mark.parametrize("confidence", [0.95, 0.99, 0.999])
+def test_chi2_upper_is_the_chi_square_quantile(confidence: float) -> None:
+    for dof in (1, 2):
+        assert chi2_upper(dof, confidence) == pytest.approx(chi2.ppf(confidence, dof), rel=1e-9)
+    for dof in range(3, 300, 7):
+        assert chi2_upper(dof, confidence) == pytest.approx(chi2.ppf(confidence, dof), rel=0.02)
+    with pytest.raises(ValueError, match="dof"):
+        chi2_upper(0)
+    with pytest.raises(ValueError, match="confidence"):
+        chi2_upper(3, 0.9)
+
+
+def _monitor(lab: WorldMap, **limits: float) -> IntegrityMonitor:
+    return IntegrityMonitor(lab.reflector_xy, lab.reflector_radius, MOUNT, 1e-4, REV, IntegrityLimits(**limits))
+
+
+def _feed(mon: IntegrityMonitor, lab: WorldMap, nis: np.ndarray, rows: list[int] | None = None,
+          truth: np.ndarray = POSE, t0: float = 0.0) -> float:
+    """Exact bearings from ``truth`` of ``rows`` (default every reflector) in turn, one per 1/72 s, with ``nis``."""
+    h, _, _ = bearing_model(truth, MOUNT, lab.reflector_xy, lab.reflector_radius)
+    rows = list(range(len(h))) if rows is None else rows
+    t = t0
+    for k, q in enumerate(nis):
+        t = t0 + (k + 1) / 72.0
+        j = rows[k % len(rows)]
+        mon.accepted(t, float(q), j, float(h[j]), (0.0, 0.0, 0.0))
+    return t
+
+
+P_SMALL = np.diag([1e-4, 1e-4, 1e-5])
+
+
+def test_consistent_innovations_keep_the_verdict_ok(lab: WorldMap) -> None:
+    mon = _monitor(lab)
+    nis = np.random.default_rng(1).chisquare(1, 72)
+    t = _feed(mon, lab, nis)
+    assert not mon.check(t, POSE, P_SMALL, (0.0, 0.0, 0.0), False)
+    assert mon.verdict == "ok" and mon.reasons == ()
+    assert mon.reflectors_used == lab.reflector_xy.shape[0]
+    assert mon.nis_ratio == pytest.approx(nis[-72:].sum() / chi2.ppf(0.999, 72), rel=0.01)
+    assert mon.quality > 0.9  # 9 reflectors, consistent, the cross-check agrees
+    assert mon.crosscheck == 0.0  # exact bearings: the ToTal fix is the pose
+
+
+def test_innovations_three_sigma_wide_degrade_then_lose(lab: WorldMap) -> None:
+    mon = _monitor(lab, lost_after_s=2.0)
+    rng = np.random.default_rng(2)
+    t = _feed(mon, lab, 9.0 * rng.chisquare(1, 72))  # innovations 3x their std
+    assert mon.check(t, POSE, P_SMALL, (0.0, 0.0, 0.0), False)  # asks for inflation
+    assert mon.verdict == "degraded" and "nis" in mon.reasons and mon.quality < 0.2
+    for _ in range(3):  # stays inconsistent: lost after lost_after_s
+        t = _feed(mon, lab, 9.0 * rng.chisquare(1, 72), t0=t)
+        mon.check(t, POSE, P_SMALL, (0.0, 0.0, 0.0), False)
+    assert mon.verdict == "lost" and mon.quality == 0.0
+
+
+def test_large_uncertainty_is_lost(lab: WorldMap) -> None:
+    mon = _monitor(lab)
+    t = _feed(mon, lab, np.ones(72))
+    mon.check(t, POSE, np.diag([0.4**2, 0.01, 1e-4]), (0.0, 0.0, 0.0), False)
+    assert mon.verdict == "lost" and mon.reasons == ("uncertainty",)
+    mon.reset()
+    mon.check(t, POSE, np.diag([1e-4, 1e-4, 0.2**2]), (0.0, 0.0, 0.0), True)  # heading, dead reckoning
+    assert mon.verdict == "lost"
+
+
+def test_crosscheck_sees_an_estimate_off_the_bearings(lab: WorldMap) -> None:
+    mon = _monitor(lab)
+    t = _feed(mon, lab, np.ones(72))
+    assert mon.check(t, POSE + [0.2, 0.0, 0.0], P_SMALL, (0.0, 0.0, 0.0), False)
+    assert "crosscheck" in mon.reasons and mon.crosscheck > 100.0
+
+
+def test_few_reflectors_and_unexplained_subset(lab: WorldMap) -> None:
+    mon = _monitor(lab)
+    mon.check(0.0, POSE, P_SMALL, (0.0, 0.0, 0.0), False)  # start of the support window
+    t = _feed(mon, lab, np.ones(72), rows=[0, 3])
+    mon.check(t + 1.0, POSE, P_SMALL, (0.0, 0.0, 0.0), False)
+    assert {"few_reflectors", "unexplained"} <= set(mon.reasons) and mon.verdict == "degraded"
+    mon = _monitor(lab)
+    mon.check(0.0, POSE, P_SMALL, (0.0, 0.0, 0.0), False)
+    t = _feed(mon, lab, np.ones(72), rows=[0, 3, 7], t0=0.5)
+    mon.check(t, POSE, P_SMALL, (0.0, 0.0, 0.0), False)
+    assert mon.reasons == ("unexplained",)  # 3 of the 9 reflectors in range explained
+
+
+def test_mostly_rejected_reflections_degrade(lab: WorldMap) -> None:
+    mon = _monitor(lab)
+    t = _feed(mon, lab, np.ones(20))
+    for k in range(70):
+        mon.rejected(t + k / 100.0)
+    assert mon.check(t + 0.7, POSE, P_SMALL, (0.0, 0.0, 0.0), False) and "rejections" in mon.reasons
+
+
+def test_limits_are_checked() -> None:
+    with pytest.raises(ValueError, match="window_s"):
+        IntegrityLimits(window_s=0.0)
+    with pytest.raises(ValueError, match="inflation"):
+        IntegrityLimits(inflation=0.5)
+    with pytest.raises(ValueError, match="confidence"):
+        IntegrityLimits(nis_confidence=0.5)
+
+
+# ---------------------------------------------------------------------- estimator: status and relocalisation
+def test_estimator_lost_with_a_vague_prior_relocalises_at_standstill(lab: WorldMap) -> None:
+    truth = np.array([4.0, 3.0, 0.3])
+    est = make_estimator("ekf", lab, MOUNT, initial_pose=truth + [0.3, -0.2, 0.05],
+                         initial_covariance=np.diag([0.5, 0.5, 0.1]) ** 2)
+    feed(est, lab, Goniometer(mount=tuple(MOUNT)), arc_pose_at(truth, 0.0, 0.0), 0.0, 0.0, 0.6)
+    assert est.n_relocalisations == 1 and not est.ambiguous
+    assert est.status == "tracking"
+    err = est.pose - truth
+    assert err[:2] @ np.linalg.solve(est.covariance[:2, :2], err[:2]) < 11.8  # 3 sigma, 2 dof
+    assert np.hypot(*err[:2]) < 5e-3 and est.quality > 0.0
+
+
+def test_estimator_on_a_symmetric_layout_stays_lost_and_reports_ambiguity() -> None:
+    square = WorldMap(tuple(Reflector(f"S{i}", 5 + 5 * math.cos(a), 5 + 5 * math.sin(a), 0.04)
+                            for i, a in enumerate(np.arange(4) * np.pi / 2)))
+    prior = np.array([6.0, 5.5, 0.3])
+    est = make_estimator("ekf", square, MOUNT, initial_pose=prior, initial_covariance=np.diag([1.0, 1.0, 0.5]) ** 2)
+    feed(est, square, Goniometer(mount=tuple(MOUNT)), arc_pose_at(prior, 0.0, 0.0), 0.0, 0.0, 2.0)
+    assert est.status == "lost" and est.ambiguous and est.n_relocalisations == 0
+    assert est.last_search is not None and len(est.last_search.alternatives) == 4
+    assert est.quality == 0.0
+
+
+@pytest.mark.parametrize("offset", [[0.3, 0.0, 0.0], [0.0, 0.25, 0.05], [-0.2, 0.2, -0.1]])
+def test_a_confident_wrong_prior_ends_right_or_lost_never_tracking_off(lab: WorldMap, offset: list[float]) -> None:
+    """The EKF lock-out: the gates reject the true reflectors; the monitor must not report tracking off the truth."""
+    truth = np.array([4.0, 3.0, 0.3])
+    P0 = np.diag([1e-3, 1e-3, 1e-4]) ** 2
+    est = make_estimator("ekf", lab, MOUNT, initial_pose=truth + offset, initial_covariance=P0)
+    feed(est, lab, Goniometer(mount=tuple(MOUNT)), arc_pose_at(truth, 0.0, 0.0), 0.0, 0.0, 8.0)
+    if est.status == "tracking":
+        err = est.pose - truth
+        assert err[:2] @ np.linalg.solve(est.covariance[:2, :2], err[:2]) < 11.8
+    else:
+        assert est.status in ("lost", "degraded")
