@@ -21,9 +21,12 @@ def test_routes_check_reports_every_joint() -> None:
 
 
 def test_routes_plan_and_bad_input_exit_2(tmp_path: Path) -> None:
-    res = runner.invoke(app, ["routes", "plan", "hall_loop", "--from", "S1", "--to", "D", "--reverse-into"])
+    png = tmp_path / "route.png"
+    res = runner.invoke(app, ["routes", "plan", "hall_loop", "--from", "S1", "--to", "D", "--reverse-into",
+                              "--plot", str(png)])
     assert res.exit_code == 0, res.output
     assert "d2  D1 -> D  line     reverse" in res.output
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     res = runner.invoke(app, ["routes", "plan", "hall_loop", "--from", "S1", "--to", "ZZ"])
     assert res.exit_code == 2 and "unknown station 'ZZ'" in res.output
     bad = tmp_path / "bad.yaml"

@@ -55,6 +55,7 @@ def plan(
     heading_deg: float | None = typer.Option(None, "--heading-deg", help="Start heading (default the node's)."),
     block: list[str] | None = BLOCK_OPT,
     reverse_into: bool = typer.Option(False, "--reverse-into", help="Arrive backing up the last edge."),
+    plot: str | None = typer.Option(None, "--plot", help="Write a PNG of the network with the route."),
 ) -> None:
     """Plan the fastest route between two nodes for a vehicle model (heading-aware, blocked edges)."""
     from agvnav.routes.network import load_network  # noqa: PLC0415 - lazy: agvnav --help loads no numerical library
@@ -69,3 +70,7 @@ def plan(
         how = "forward" if t.mode > 0 else "reverse"
         print(f"  {t.edge.id:>10}  {t.edge.source} -> {t.edge.target}  {t.edge.curve.kind:<8} {how:<7} "
               f"{t.edge.curve.length:7.2f} m")
+    if plot is not None:
+        from agvnav.routes.plots import plot_network  # noqa: PLC0415 - lazy: matplotlib only when plotting
+
+        print(f"wrote {plot_network(net, plot, route)}")
