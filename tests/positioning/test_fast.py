@@ -144,7 +144,7 @@ def test_estimator_fast_path_matches_the_kernels_over_a_drive() -> None:
             if accepted:
                 x, P = ekf_update(x, P, ref.innovation, ref.H, ref.R)
         np.testing.assert_allclose(est.pose, x, rtol=0, atol=1e-11)
-        np.testing.assert_allclose(est.covariance, P, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(est.filter_covariance, P, rtol=0, atol=1e-14)
     assert est.n_accepted >= 40  # the update path was exercised
 
 

@@ -246,7 +246,17 @@ class StreamingEstimator:
 
     @property
     def covariance(self) -> NDArray[np.float64]:
-        """``(3, 3)`` covariance of :attr:`pose` (m², rad²; NaN while initialising)."""
+        """``(3, 3)`` covariance of :attr:`pose` (m², rad²; NaN while initialising).
+
+        The filter's ``P`` plus the survey floor of the reflectors that support it
+        (:attr:`~agvnav.positioning.integrity.IntegrityMonitor.survey_floor`): the
+        constant survey error that ``P``, taking it as white noise, averages away.
+        """
+        return self._P + self.monitor.survey_floor
+
+    @property
+    def filter_covariance(self) -> NDArray[np.float64]:
+        """``(3, 3)`` the filter's own ``P`` (m², rad²), without the survey floor of :attr:`covariance`."""
         return self._P
 
     @property

@@ -29,6 +29,13 @@ navigators report one:
   a wrong association; a fixed survey error of the three reflectors can bias one triple's
   fix by a few sigma while the filter, averaging every reflector, stays consistent).
 
+The survey error of the reflectors is constant in time, so a filter that takes it as
+white bearing noise averages it away and ends overconfident (issue 12: NEES 13 with a
+5 mm survey error). :attr:`IntegrityMonitor.survey_floor` is the covariance of a static
+fix from the reflectors used when each bearing errs only by its reflector's survey
+error, ``(map_std / d)^2`` (the CRLB of seed 000 §2.3 with that std): the part of the
+error no averaging removes, which the estimator adds to the covariance it reports.
+
 A failed check makes the verdict ``degraded`` and asks the estimator to inflate its
 covariance (the estimate says it is less sure); a verdict ``degraded`` for longer than
 ``lost_after_s``, or a position or heading uncertainty beyond what the bearing gate
@@ -161,6 +168,8 @@ class IntegrityMonitor:
     reflectors_used : distinct reflectors accepted in the window.
     nis_ratio : windowed NIS over its chi-square bound (< 1 consistent; NaN without data).
     crosscheck : Mahalanobis distance² of the latest triangulation cross-check (NaN if none).
+    survey_floor : ``(3, 3)`` covariance (m², m·rad, rad²) of the survey error of the
+        reflectors used (zero without ``map_std`` or support).
     reasons : why the last check failed (empty when it passed).
     """
 
@@ -197,6 +206,7 @@ class IntegrityMonitor:
         self.nis_ratio = math.nan
         self.crosscheck = math.nan
         self.reasons: tuple[str, ...] = ()
+        self.survey_floor = np.zeros((3, 3))
         self._degraded_since: float | None = None
         self._last_check = -math.inf
         self._since: float | None = None  # first check after the reset
@@ -248,6 +258,7 @@ class IntegrityMonitor:
         entries = list(self._entries)
         used = sorted({e.index for e in entries})
         self.reflectors_used = len(used)
+        self.survey_floor = self._survey_floor(x, used)
         out: list[str] = []
         if entries:
             total = sum(e.nis for e in entries)
@@ -276,6 +287,18 @@ class IntegrityMonitor:
         if self.crosscheck > lim.crosscheck_bound:
             out.append("crosscheck")
         return out
+
+    def _survey_floor(self, x: np.ndarray, used: list[int]) -> np.ndarray:
+        """Covariance of a static fix from ``used`` with bearing errors ``map_std / d`` only (zero if none)."""
+        if self.map_std <= 0.0 or len(used) < 3:
+            return np.zeros((3, 3))
+        head = compose(x, self.mount)
+        d = np.maximum(np.hypot(*(self.xy[used] - head[:2]).T), 1e-6)
+        try:
+            cov = crlb(self.xy[used], head, self.map_std / d)
+        except ValueError:
+            return np.zeros((3, 3))
+        return cov if np.all(np.isfinite(cov)) else np.zeros((3, 3))
 
     def _explained(self, x: np.ndarray, n_used: int) -> float:
         """Distinct reflectors used over those in range of the head at ``x`` (1 when none is in range)."""
