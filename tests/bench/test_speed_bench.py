@@ -45,6 +45,13 @@ def test_case_record_shape_on_a_short_run() -> None:
     assert math.isclose(cpu, rec["us_per_step"] * 1e-6 * rec["steps"], rel_tol=0.05)
 
 
+def test_case_in_process_gives_the_same_record_shape_or_the_error() -> None:
+    rec = speed.case_in_process("default", True, 1, 0.5)
+    assert set(rec) == CASE_KEYS and rec["steps"] == 10
+    bad = speed.case_in_process("no_such_case", True, 1, 0.5)
+    assert bad["case"] == "no_such_case" and "KeyError" in bad["error"]
+
+
 def test_memory_record_shape() -> None:
     rec = speed.memory_record(0.01)  # 36 s simulated in a fresh process
     assert set(rec) == {"case", "simulated_h", "peak_rss_mib", "recorded_rows", "events", "real_time_factor_cpu"}

@@ -11,6 +11,8 @@ Records (one per row; the issue's targets in brackets, printed, never asserted):
   costs), ``us_per_step``, ``steps``, ``simulated_s``, ``peak_mib`` (tracemalloc peak of an
   untimed warm-up run: the Python and NumPy allocations of the run) and ``timed``
   (``loop``: the closed loop alone; ``simulate``: the whole run for route scenarios).
+  Each case runs in a fresh process capped at 6 GiB of address space; a case that fails
+  there is reported with its ``error`` (e.g. a MemoryError) instead of figures.
 * ``startup_s`` rows: wall time of ``agvnav --help`` [< 0.3 s] and of ``agvnav simulate``
   on the default scenario with its files and plots [< 1.5 s], each a fresh process (best of 3).
 * ``memory_24h``: the default scenario held for 24 simulated hours (1 h with ``--quick``)
@@ -21,8 +23,10 @@ Records (one per row; the issue's targets in brackets, printed, never asserted):
 
 from __future__ import annotations
 
+import json
 import math
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -191,7 +195,7 @@ print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, out.series["t
 def memory_record(hours: float) -> dict[str, Any]:
     """Peak resident memory (MiB) of a fresh process holding the default scenario for ``hours`` simulated hours."""
     res = subprocess.run([sys.executable, "-c", _MEMORY_SCRIPT, str(hours)], check=True, capture_output=True,
-                         text=True)
+                         text=True, preexec_fn=_limit_memory)
     rss, simulated, rows, events, cpu = (float(v) for v in res.stdout.split()[-5:])
     return {
         "case": "memory_24h", "simulated_h": round(simulated / 3600.0, 3), "peak_rss_mib": round(rss, 1),
@@ -212,10 +216,41 @@ def campaign_records(runs: int, workers: tuple[int, ...] = (1, 2), seed: int = 0
     return out
 
 
+#: Address-space cap (bytes) of each case's process: a case that needs more is reported, not run to exhaustion.
+CASE_MEMORY_LIMIT = 6 * 2**30
+
+_CASE_SCRIPT = """
+import json, sys
+from agvnav.bench.speed import case_record, case_scenarios
+name, quick, repeat, max_duration = sys.argv[1], sys.argv[2] == "1", int(sys.argv[3]), sys.argv[4]
+sc = case_scenarios(quick)[name]()
+print(json.dumps(case_record(name, sc, repeat, None if max_duration == "none" else float(max_duration))))
+"""
+
+
+def _limit_memory() -> None:
+    resource.setrlimit(resource.RLIMIT_AS, (CASE_MEMORY_LIMIT, CASE_MEMORY_LIMIT))
+
+
+def case_in_process(name: str, quick: bool, repeat: int, max_duration: float | None) -> dict[str, Any]:
+    """:func:`case_record` of case ``name`` in a fresh process capped at :data:`CASE_MEMORY_LIMIT`.
+
+    A case that fails (e.g. runs out of that memory) gives ``{"case": name, "error": ...}``.
+    """
+    args = [name, "1" if quick else "0", str(repeat), "none" if max_duration is None else str(max_duration)]
+    res = subprocess.run([sys.executable, "-c", _CASE_SCRIPT, *args], capture_output=True, text=True, check=False,
+                         preexec_fn=_limit_memory)
+    if res.returncode != 0:
+        last = (res.stderr.strip().splitlines() or ["exit code " + str(res.returncode)])[-1]
+        return {"case": name, "error": last[:200]}
+    out: dict[str, Any] = json.loads(res.stdout.strip().splitlines()[-1])
+    return out
+
+
 def run(quick: bool, seed: int) -> list[dict[str, Any]]:
-    """Every record of the benchmark (``--quick``: three cases, 1 h memory run, 20-run campaign)."""
-    records = [case_record(name, make(), repeat=1 if quick else 3, max_duration=30.0 if quick else None)
-               for name, make in case_scenarios(quick).items()]
+    """Every record of the benchmark (``--quick``: four cases of at most 30 s, 1 h memory run, 20-run campaign)."""
+    repeat, max_duration = (1, 30.0) if quick else (3, None)
+    records = [case_in_process(name, quick, repeat, max_duration) for name in case_scenarios(quick)]
     records += startup_records(repeat=1 if quick else 3)
     records.append(memory_record(1.0 if quick else 24.0))
     records += campaign_records(20 if quick else 200, seed=seed)
