@@ -33,6 +33,18 @@ def test_recorder_refuses_bad_shapes() -> None:
         Recorder(("a",), 0)
 
 
+def test_drain_gives_as_dict_and_empties_the_table() -> None:
+    rec = Recorder(("a", "b"), 3)
+    rows = np.arange(14.0).reshape(7, 2)
+    for row in rows:
+        rec.append(tuple(row))
+    ref = rec.as_dict()
+    out = rec.drain()
+    for name in ("a", "b"):
+        np.testing.assert_array_equal(out[name], ref[name])
+    assert len(rec) == 0 and rec.drain()["a"].shape == (0,)
+
+
 def test_event_log_spans_blocks() -> None:
     log = EventLog(("t", "x"), block=3)
     rows = np.column_stack([np.arange(10.0), 10 * np.arange(10.0)])
@@ -47,7 +59,7 @@ def test_record_stride() -> None:
     assert record_stride(100, None) == 1
     assert record_stride(MAX_RECORDED_ROWS, None) == 1
     assert record_stride(MAX_RECORDED_ROWS + 1, None) == 2
-    assert record_stride(24 * 3600 * 20, None) == 7  # 24 h at 20 Hz: ~247k rows
+    assert record_stride(24 * 3600 * 20, None) == 18  # 24 h at 20 Hz: 96k rows
     assert record_stride(10, 3) == 3
     for bad in (0, -1, 1.5, True):
         with pytest.raises(ValueError, match="record_every"):

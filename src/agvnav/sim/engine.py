@@ -110,8 +110,9 @@ class Autopilot(Protocol):
 STATUS_CODES = {"initialising": 0.0, "tracking": 1.0, "dead_reckoning": 2.0, "degraded": 3.0, "lost": 4.0}
 
 #: Recorded rows a run keeps at most when ``record_every`` is automatic (None): longer runs
-#: record every k-th step (~50 MB of series for ~25 signals), so a 24-hour drive stays small.
-MAX_RECORDED_ROWS = 250_000
+#: (beyond 83 min at 20 Hz) record every k-th step (~32 MB of series for 40 signals), so a
+#: 24-hour drive stays small.
+MAX_RECORDED_ROWS = 100_000
 #: Rows per recorder block (the recorder grows by blocks; nothing is preallocated for the whole run).
 RECORD_BLOCK = 16_384
 
@@ -236,9 +237,9 @@ class ClosedLoop:
         if progress is not None:
             progress(t)
         names = [getattr(s, "name", f"sensor{i}") for i, s in enumerate(sensors)]
-        events = {name: log.as_dict() for name, log in zip(names, logs, strict=True)}
+        events = {name: log.drain() for name, log in zip(names, logs, strict=True)}
         return LoopOutput(
-            series=rec.as_dict(), events=events, wall_time_s=wall, finished=bool(pilot.finished), failure=failure
+            series=rec.drain(), events=events, wall_time_s=wall, finished=bool(pilot.finished), failure=failure
         )
 
     @staticmethod

@@ -60,6 +60,22 @@ class _Blocks:
         parts = self._parts()
         return {name: np.concatenate([p[:, i] for p in parts]) for i, name in enumerate(self.columns)}
 
+    def drain(self) -> dict[str, NDArray[np.float64]]:
+        """:meth:`as_dict`, releasing each block once copied (peak: the data once plus one block); empties the table."""
+        n = len(self)
+        out = {name: np.empty(n) for name in self.columns}
+        parts, self._full = [*self._full, self._cur[: self._n_cur]], []
+        self._cur, self._n_cur = np.full((self._block, len(self.columns)), np.nan), 0
+        row = 0
+        parts.reverse()
+        while parts:
+            block = parts.pop()
+            for i, name in enumerate(self.columns):
+                out[name][row : row + block.shape[0]] = block[:, i]
+            row += block.shape[0]
+            del block
+        return out
+
 
 class Recorder(_Blocks):
     """Fixed-step signal table: ``columns`` named, stored in blocks of ``capacity`` rows.
