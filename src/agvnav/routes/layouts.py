@@ -105,9 +105,12 @@ def hall_loop(clothoids: bool = True) -> dict[str, Any]:
         {"id": "r2", "from": "S2", "to": "EN", **lane},
         {"id": "t1", "from": "NE", "to": "S3", **lane},
         {"id": "t2", "from": "S3", "to": "S4", "speed_m_s": 0.6, "geometry": {
-            "type": "nurbs", "degree": 3, "knot_vector": [0.0, 0.0, 0.0, 0.0, 0.5, 1.0, 1.0, 1.0, 1.0],
-            "control_points": [{"x": 20.0, "y": y1}, {"x": 17.0, "y": y1}, {"x": 15.0, "y": y1 - 1.2, "weight": 1.5},
-                               {"x": 13.0, "y": y1}, {"x": 10.0, "y": y1}]}},
+            # three collinear control points at each end: zero curvature there, G2 with the lanes
+            "type": "nurbs", "degree": 3,
+            "knot_vector": [0.0, 0.0, 0.0, 0.0, 0.25, 0.5, 0.75, 1.0, 1.0, 1.0, 1.0],
+            "control_points": [{"x": 20.0, "y": y1}, {"x": 18.5, "y": y1}, {"x": 17.0, "y": y1},
+                               {"x": 15.0, "y": y1 - 1.2, "weight": 1.5},
+                               {"x": 13.0, "y": y1}, {"x": 11.5, "y": y1}, {"x": 10.0, "y": y1}]}},
         {"id": "t3", "from": "S4", "to": "NW", **lane},
         {"id": "l1", "from": "WN", "to": "C1", **lane},
         {"id": "l2", "from": "C1", "to": "WS", **lane},
