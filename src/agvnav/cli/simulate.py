@@ -62,16 +62,7 @@ def simulate(
     build(sc)  # validate every cross-part rule before the progress bar starts
     _prepare_out(out, force)
     console = Console(highlight=False)
-    with Progress(
-        TextColumn(f"[bold]{sc.name}[/bold]"),
-        BarColumn(),
-        TextColumn("{task.fields[t]:7.2f} s simulated"),
-        TimeRemainingColumn(),
-        console=console,
-        transient=True,
-    ) as bar:
-        task = bar.add_task("simulate", total=None, t=0.0)
-        result = run_scenario(sc, progress=lambda t: bar.update(task, t=t))
+    result = _with_progress(console, sc.name, run_scenario, sc)
     written = save_result(result, out, plots=plots, force=force, report=report)
     if log is not None:
         try:
@@ -91,6 +82,20 @@ def simulate(
 RUN_FAILED_EXIT = 3
 
 
+def _with_progress(console: Console, name: str, run: Any, sc: Any) -> Any:
+    """``run(sc, progress=...)`` under a transient progress bar of simulated time."""
+    with Progress(
+        TextColumn(f"[bold]{name}[/bold]"),
+        BarColumn(),
+        TextColumn("{task.fields[t]:7.2f} s simulated"),
+        TimeRemainingColumn(),
+        console=console,
+        transient=True,
+    ) as bar:
+        task = bar.add_task("simulate", total=None, t=0.0)
+        return run(sc, progress=lambda t: bar.update(task, t=t))
+
+
 def _simulate_route(sc: Any, out: Path, plots: bool, force: bool) -> None:
     """The seed-004 tracked robot on its square route: laps with and without landmarks (Tables I-II)."""
     from agvnav.report.files import atomic_dir
@@ -100,15 +105,7 @@ def _simulate_route(sc: Any, out: Path, plots: bool, force: bool) -> None:
     prepare_tracked(sc)  # validate before the progress bar
     _prepare_out(out, force)
     console = Console(highlight=False)
-    with Progress(
-        TextColumn(f"[bold]{sc.name}[/bold]"),
-        BarColumn(),
-        TextColumn("{task.fields[t]:7.1f} s simulated"),
-        console=console,
-        transient=True,
-    ) as bar:
-        task = bar.add_task("simulate", total=None, t=0.0)
-        result = simulate_tracked(sc, progress=lambda t: bar.update(task, t=t))
+    result = _with_progress(console, sc.name, simulate_tracked, sc)
     with atomic_dir(out, force) as tmp:
         written = [out / p.name for p in save_laps(result, tmp, plots)]
     console.print(summary_table(result))

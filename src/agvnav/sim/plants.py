@@ -99,9 +99,10 @@ def footprint(spec: Any) -> Any:
     return box_footprint(0.5 * spec.body_length_m, 0.5 * spec.body_length_m, half)
 
 
-def _tricycle(spec: Any, state: Sequence[float]) -> TricyclePlant:
+def _steered_args(spec: Any, state: Sequence[float]) -> tuple[Any, ...]:
+    """The positional arguments both steered plants share: geometry, encoders, servo, errors, state."""
     systematic, nonsystematic = _steered_errors(spec)
-    return TricyclePlant(
+    return (
         spec.wheelbase_m,
         spec.drive_wheel_radius_m,
         spec.traction_counts_per_rev,
@@ -110,24 +111,16 @@ def _tricycle(spec: Any, state: Sequence[float]) -> TricyclePlant:
         systematic,
         nonsystematic,
         state,
-        footprint=footprint(spec),
     )
 
 
+def _tricycle(spec: Any, state: Sequence[float]) -> TricyclePlant:
+    return TricyclePlant(*_steered_args(spec, state), footprint=footprint(spec))
+
+
 def _steered_rear(spec: Any, state: Sequence[float]) -> SteeredPlant:
-    systematic, nonsystematic = _steered_errors(spec)
     return SteeredPlant(
-        spec.model,
-        spec.wheelbase_m,
-        spec.drive_wheel_radius_m,
-        spec.traction_counts_per_rev,
-        spec.steering_counts_per_rev,
-        steering_actuator(spec.steering),
-        systematic,
-        nonsystematic,
-        state,
-        track=getattr(spec, "track_m", None),
-        footprint=footprint(spec),
+        spec.model, *_steered_args(spec, state), track=getattr(spec, "track_m", None), footprint=footprint(spec)
     )
 
 
