@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -9,10 +10,10 @@ import pytest
 from _drive import arc_pose_at, feed
 from scipy.stats import chi2
 
-from agvnav.positioning import bearing_model, make_estimator
+from agvnav.positioning import bearing_model, crlb, make_estimator
 from agvnav.positioning.integrity import IntegrityLimits, IntegrityMonitor, chi2_upper
 from agvnav.sensors.goniometer import Goniometer
-from agvnav.world import Reflector, WorldMap, load_builtin_map
+from agvnav.world import Reflector, WorldMap, load_builtin_map, load_map, save_map
 
 MOUNT = np.array([0.3, 0.0, 0.0])
 POSE = np.array([4.0, 3.0, 0.3])
@@ -163,3 +164,25 @@ def test_a_confident_wrong_prior_ends_right_or_lost_never_tracking_off(lab: Worl
         assert err[:2] @ np.linalg.solve(est.covariance[:2, :2], err[:2]) < 11.8
     else:
         assert est.status in ("lost", "degraded")
+
+
+# ---------------------------------------------------------------------- survey uncertainty in the map
+def test_survey_std_per_reflector_reaches_the_gate_and_the_floor(lab: WorldMap, tmp_path) -> None:
+    stated = WorldMap(tuple(dataclasses.replace(r, survey_std_m=0.002 * (i + 1)) for i, r in enumerate(lab.reflectors)),
+                      lab.walls)
+    save_map(stated, tmp_path / "map.yaml")
+    loaded = load_map(tmp_path / "map.yaml")
+    np.testing.assert_array_equal(loaded.reflector_survey_std, 0.002 * np.arange(1, len(lab.reflectors) + 1))
+    with pytest.raises(ValueError, match="survey_std_m must be >= 0"):
+        Reflector("R", 0.0, 0.0, 0.04, -0.001)
+    truth = np.array([4.0, 3.0, 0.3])
+    est = make_estimator("ekf", loaded, MOUNT, initial_pose=truth, map_std=0.001)
+    assert est.map_std == pytest.approx(0.002 * len(lab.reflectors))  # the gate takes the largest
+    feed(est, loaded, Goniometer(mount=tuple(MOUNT)), arc_pose_at(truth, 0.0, 0.0), 0.0, 0.0, 2.5)
+    used = list(est.monitor.used)
+    head = np.array([4.0, 3.0]) + 0.3 * np.array([math.cos(0.3), math.sin(0.3)])
+    d = np.hypot(*(loaded.reflector_xy[used] - head).T)
+    floor = crlb(loaded.reflector_xy[used], est.pose + [0.3 * math.cos(0.3), 0.3 * math.sin(0.3), 0.0],
+                 loaded.reflector_survey_std[used] / d)
+    np.testing.assert_allclose(est.monitor.survey_floor, floor, rtol=1e-3)
+    np.testing.assert_allclose(est.covariance, est.filter_covariance + est.monitor.survey_floor)

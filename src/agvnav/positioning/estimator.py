@@ -99,6 +99,9 @@ class StreamingEstimator:
     map_std:
         Survey error std (m) of the reflector positions; adds ``(map_std / d)^2`` to the
         variance of a bearing at distance d (seed 000 §4.1: topographically measured).
+        A map stating a reflector's ``survey_std_m`` raises it to the largest one in the
+        gate (conservative: the gate takes one value) and sets that reflector's own value
+        in the survey floor of :attr:`covariance`.
     bearing_offset:
         Added to every reported bearing (rad). Default half a pulse, ``pi / pulses_per_rev``:
         an incremental encoder reports the last whole pulse passed, so a CCW head's reading
@@ -161,7 +164,9 @@ class StreamingEstimator:
         self.bearing_std = require_positive("bearing_std", std)
         offset = np.pi / int(pulses_per_rev) if bearing_offset is None else bearing_offset
         self.bearing_offset = float(require_finite("bearing_offset", offset))
-        self.map_std = require_nonnegative("map_std", map_std)
+        survey = np.asarray(getattr(world, "reflector_survey_std", np.zeros(len(self.reflector_radius))), float)
+        map_std = require_nonnegative("map_std", map_std)
+        self.map_std = max(map_std, float(survey.max(initial=0.0)))
         self.odometry_noise = OdometryNoise() if odometry_noise is None else odometry_noise
         k_lat = self.odometry_noise.k_d if k_lateral is None else k_lateral
         self.k_lateral = require_nonnegative("k_lateral", k_lat)
@@ -174,7 +179,7 @@ class StreamingEstimator:
         self.drops = DropCounter()
         self.monitor = IntegrityMonitor(
             self.reflector_xy, self.reflector_radius, self.mount, self.bearing_std, 1.0 / self.rate_hz, integrity,
-            map_std=self.map_std, max_range=self.max_range,
+            map_std=np.maximum(survey, map_std), max_range=self.max_range,
         )
         self.ambiguous = False
         self.n_relocalisations = 0

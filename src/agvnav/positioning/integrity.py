@@ -152,8 +152,8 @@ class IntegrityMonitor:
     bearing_std:
         Std (rad) of one bearing.
     map_std:
-        Survey std (m) of a reflector position: a bearing at distance d gets the variance
-        ``bearing_std^2 + (map_std / d)^2`` (as the estimator's gate).
+        Survey std (m) of a reflector position, one for all or ``(N,)`` one per reflector:
+        a bearing at distance d gets the variance ``bearing_std^2 + (map_std / d)^2``.
     revolution_s:
         Duration (s) of one head revolution.
     max_range:
@@ -181,14 +181,14 @@ class IntegrityMonitor:
         bearing_std: float,
         revolution_s: float,
         limits: IntegrityLimits | None = None,
-        map_std: float = 0.0,
+        map_std: ArrayLike = 0.0,
         max_range: float = math.inf,
     ) -> None:
         self.xy = np.asarray(reflector_xy, dtype=np.float64).reshape(-1, 2)
         self.radius = np.asarray(reflector_radius, dtype=np.float64).reshape(-1)
         self.mount = np.asarray(mount, dtype=np.float64).reshape(3)
         self.bearing_std = float(bearing_std)
-        self.map_std = float(map_std)
+        self.map_std = np.broadcast_to(np.asarray(map_std, dtype=np.float64), self.radius.shape)
         self.max_range = float(max_range)
         self.revolution_s = float(revolution_s)
         self.limits = IntegrityLimits() if limits is None else limits
@@ -216,6 +216,11 @@ class IntegrityMonitor:
         self._entries.append(_Entry(t, float(nis), int(index), float(bearing), (odom[0], odom[1], odom[2])))
         while self._entries and t - self._entries[0].t > self.limits.window_s:
             self._entries.popleft()
+
+    @property
+    def used(self) -> tuple[int, ...]:
+        """Map rows of the distinct reflectors accepted in the window, ascending."""
+        return tuple(sorted({e.index for e in self._entries}))
 
     def rejected(self, t: float) -> None:
         """One reflection at ``t`` (s) that the gate rejected (spurious, ambiguous or off its prediction)."""
@@ -290,12 +295,13 @@ class IntegrityMonitor:
 
     def _survey_floor(self, x: np.ndarray, used: list[int]) -> np.ndarray:
         """Covariance of a static fix from ``used`` with bearing errors ``map_std / d`` only (zero if none)."""
-        if self.map_std <= 0.0 or len(used) < 3:
+        std = self.map_std[used]
+        if len(used) < 3 or not np.all(std > 0.0):
             return np.zeros((3, 3))
         head = compose(x, self.mount)
         d = np.maximum(np.hypot(*(self.xy[used] - head[:2]).T), 1e-6)
         try:
-            cov = crlb(self.xy[used], head, self.map_std / d)
+            cov = crlb(self.xy[used], head, std / d)
         except ValueError:
             return np.zeros((3, 3))
         return cov if np.all(np.isfinite(cov)) else np.zeros((3, 3))
@@ -329,7 +335,7 @@ class IntegrityMonitor:
         z = np.array([latest[i].bearing for i in idx])
         centre = z + np.arcsin(np.clip(rad / np.maximum(d, 1e-12), 0.0, 1.0))  # edge -> centre (seed 000 §2.1)
         z_now = centre + (h_now - h_then)
-        std = np.sqrt(self.bearing_std**2 + (self.map_std / np.maximum(d, 1e-12)) ** 2)
+        std = np.sqrt(self.bearing_std**2 + (self.map_std[idx] / np.maximum(d, 1e-12)) ** 2)
         try:
             fix = triangulate(xy, z_now, method="total", bearing_std=std)
         except ValueError:  # e.g. collinear reflectors: no fix to compare with

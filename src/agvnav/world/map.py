@@ -8,6 +8,7 @@ block the beam. A map is a list of :class:`Reflector` and a list of
 
     reflectors:
       - {id: R1, x: 0.0, y: 5.0, radius: 0.04}
+      - {id: R2, x: 8.0, y: 5.0, radius: 0.04, survey_std_m: 0.005}
     walls:
       - {id: W1, points: [[0, 0], [10, 0]]}
       - {id: pillar, points: [[2, 2], [2.4, 2], [2.4, 2.4], [2, 2.4]], closed: true}
@@ -32,7 +33,7 @@ from agvnav.world.yaml_strict import safe_load_unique, yaml_error_line
 
 __all__ = ["Reflector", "Wall", "WorldMap", "load_map", "save_map"]
 
-_REFLECTOR_KEYS = ("id", "x", "y", "radius")
+_REFLECTOR_KEYS = ("id", "x", "y", "radius", "survey_std_m")
 _WALL_KEYS = ("id", "points", "closed")
 _MAP_KEYS = ("reflectors", "walls")
 
@@ -63,15 +64,22 @@ class Reflector:
 
     ``radius = 0`` is a point reflector. The goniometer reports the start of the
     reflection, i.e. the tangent edge of the cylinder, not its centre.
+    ``survey_std_m`` (m, per axis) is the uncertainty of the surveyed centre (issue 12);
+    0 means "not stated" (the estimator's global ``map_std`` applies).
     """
 
     id: str
     x: float
     y: float
     radius: float = 0.0
+    survey_std_m: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "id", _check_id(self.id))
+        std = _check_coordinate("survey_std_m", self.survey_std_m)
+        if std < 0.0:
+            raise ValueError(f"survey_std_m must be >= 0, got {self.survey_std_m!r}")
+        object.__setattr__(self, "survey_std_m", std)
         object.__setattr__(self, "x", _check_coordinate("x", self.x))
         object.__setattr__(self, "y", _check_coordinate("y", self.y))
         r = _check_coordinate("radius", self.radius)
@@ -80,8 +88,11 @@ class Reflector:
         object.__setattr__(self, "radius", r)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain dict in the YAML form ``{id, x, y, radius}``."""
-        return {"id": self.id, "x": self.x, "y": self.y, "radius": self.radius}
+        """Plain dict in the YAML form ``{id, x, y, radius}`` (and ``survey_std_m`` when stated)."""
+        out: dict[str, Any] = {"id": self.id, "x": self.x, "y": self.y, "radius": self.radius}
+        if self.survey_std_m > 0.0:
+            out["survey_std_m"] = self.survey_std_m
+        return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -171,6 +182,8 @@ class WorldMap:
         ``(N,)`` reflector radii (m), read-only.
     reflector_ids:
         ``(N,)`` tuple of ids, in the same order.
+    reflector_survey_std:
+        ``(N,)`` survey std of each reflector centre (m, per axis; 0: not stated), read-only.
     wall_segments:
         ``(M, 2, 2)`` every wall segment, read-only.
     """
@@ -180,6 +193,7 @@ class WorldMap:
     reflector_xy: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     reflector_radius: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     reflector_ids: tuple[str, ...] = field(init=False, repr=False, compare=False)
+    reflector_survey_std: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     wall_segments: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -194,6 +208,9 @@ class WorldMap:
         object.__setattr__(self, "walls", walls)
         xy = np.array([[r.x, r.y] for r in refl], dtype=np.float64).reshape(-1, 2)
         radius = np.array([r.radius for r in refl], dtype=np.float64)
+        survey = np.array([r.survey_std_m for r in refl], dtype=np.float64)
+        survey.setflags(write=False)
+        object.__setattr__(self, "reflector_survey_std", survey)
         segs = [w.segments for w in walls]
         wall_segments = np.concatenate(segs, axis=0) if segs else np.zeros((0, 2, 2))
         for arr in (xy, radius, wall_segments):
@@ -268,7 +285,7 @@ def _reflector_from_dict(entry: Any) -> Reflector:
     missing = [k for k in ("id", "x", "y") if k not in entry]
     if missing:
         raise ValueError(f"missing key(s) {missing}")
-    return Reflector(entry["id"], entry["x"], entry["y"], entry.get("radius", 0.0))
+    return Reflector(entry["id"], entry["x"], entry["y"], entry.get("radius", 0.0), entry.get("survey_std_m", 0.0))
 
 
 def _wall_from_dict(entry: Any) -> Wall:
