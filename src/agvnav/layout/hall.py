@@ -213,12 +213,13 @@ def routes_as_paths(spec: LayoutSpec) -> list[Path]:
     return out
 
 
-def route_poses(spec: LayoutSpec, hall: Hall, paths: list[Path]) -> RoutePoses:
-    """Poses every ``target.route_spacing_m`` along each route; a pose outside the hall or in a rack is an error."""
+def route_poses(spec: LayoutSpec, hall: Hall, paths: list[Path], spacing: float | None = None) -> RoutePoses:
+    """Poses every ``spacing`` m (default ``target.route_spacing_m``) along each route; a pose outside the hall or
+    in a rack is an error."""
     mx, my, _theta = spec.goniometer.mount  # the head angle does not change the CRLB (heading is estimated)
     poses, heads, rid, ss = [], [], [], []
     for i, path in enumerate(paths):
-        n = max(2, math.ceil(path.length / spec.target.route_spacing_m) + 1)
+        n = max(2, math.ceil(path.length / (spacing or spec.target.route_spacing_m)) + 1)
         s = np.linspace(0.0, path.length, n)
         xy = path.point_at(s)
         psi = path.heading_at(s) + path.yaw_offset_at(s) + np.where(path.direction_at(s) < 0, math.pi, 0.0)

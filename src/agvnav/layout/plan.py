@@ -10,6 +10,7 @@ regular-spacing baseline (:mod:`agvnav.layout.baseline`) against the same target
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -32,7 +33,7 @@ from agvnav.layout.hall import (
 from agvnav.layout.optimise import PlanResult, optimise
 from agvnav.layout.prediction import LayoutProblem, Prediction, evaluate, information, sigmas
 from agvnav.layout.schema import LayoutSpec
-from agvnav.layout.visibility import visibility
+from agvnav.layout.visibility import mutual_hiding, visibility
 from agvnav.positioning import encoder_bearing_std
 from agvnav.world import Reflector, WorldMap
 
@@ -86,6 +87,36 @@ def bearing_std(spec: LayoutSpec) -> float:
     """Bearing noise std (rad): the given one, else the encoder quantisation [seed000 §4.1]."""
     g = spec.goniometer
     return math.radians(g.bearing_std_deg) if g.bearing_std_deg is not None else encoder_bearing_std(g.pulses_per_rev)
+
+
+#: Spacing (m) of the fine check of the visible count (the simulator checks its paths every 0.1 m).
+FINE_SPACING_M = 0.1
+
+
+def fine_cover(spec: LayoutSpec, hall: Hall, problem: LayoutProblem, chosen: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Add sites until ``min_visible`` reflectors are in sight every :data:`FINE_SPACING_M` m of the routes.
+
+    The planning poses are ``route_spacing_m`` apart; a rack corner can hide a reflector
+    between two of them. At the fine poses that see too few, the site that fills most of
+    the shortfall is added (greedy cover), until none is short.
+    """
+    fine = route_poses(spec, hall, routes_as_paths(spec), FINE_SPACING_M)
+    g, m = spec.goniometer, problem.min_visible
+    chosen = np.asarray(chosen, dtype=np.int64)
+    for _ in range(problem.sites.shape[0]):
+        vis = mutual_hiding(fine.head, problem.sites[chosen], problem.radius,
+                            visibility(fine.head, problem.sites[chosen], hall.segments, g.min_range_m, g.max_range_m))
+        short = np.flatnonzero(vis.sum(axis=1) < m)
+        if short.size == 0:
+            break
+        need = (m - vis[short].sum(axis=1)).astype(np.float64)
+        cand = visibility(fine.head[short], problem.sites, hall.segments, g.min_range_m, g.max_range_m)
+        cand[:, chosen] = False
+        gain = np.minimum(cand, need[:, None] > 0).astype(np.float64).T @ need
+        if gain.max() <= 0:
+            break
+        chosen = np.append(chosen, int(np.argmax(gain)))
+    return np.sort(chosen)
 
 
 def build_problem(spec: LayoutSpec) -> tuple[Hall, Candidates, RoutePoses, LayoutProblem]:
@@ -162,6 +193,7 @@ def plan_layout(spec: LayoutSpec, time_budget_s: float = 40.0) -> LayoutPlan:
     if blind or 1.0 - len(bad) / total < spec.target.fraction:
         raise TargetUnreachable(_unreachable_message(bad, total, spec.target.fraction), bad)
     result = optimise(problem, spec.seed, time_budget_s)
+    result = dataclasses.replace(result, chosen=fine_cover(spec, hall, problem, result.chosen))
     runtime = time.perf_counter() - t0
     min_spacing = min((s.spacing_m for s in spec.candidates.sites), default=1.0)
     base, spacing = tune_baseline(problem, cands, spec.goniometer.max_range_m, min_spacing)
