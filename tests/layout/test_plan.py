@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from agvnav.layout import TargetUnreachable, parse_layout, plan_layout
+from agvnav.layout.hall import routes_as_paths
 from agvnav.layout.plan import build_problem
+from agvnav.sim.build import reflectors_in_view
 from agvnav.world.strict import ScenarioError
 
 
@@ -65,3 +67,11 @@ def test_unreachable_target_names_points_and_reasons(small_text: str) -> None:
     assert "target cannot be met" in str(exc.value) and "out of range" in str(exc.value)
     assert {p["reason"] for p in exc.value.points} <= {"out of range", "occluded", "degenerate"}
     assert exc.value.points[0]["route"] in ("south", "north")
+
+
+def test_planned_map_passes_the_simulators_in_view_check(small_text: str) -> None:
+    spec = parse_layout(small_text)
+    plan = plan_layout(spec)
+    for path in routes_as_paths(spec):
+        pts = path.point_at(np.arange(0.0, path.length, 0.05))
+        assert reflectors_in_view(plan.world, pts, 0.3, 15.0).min() >= 3
