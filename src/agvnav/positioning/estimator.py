@@ -253,11 +253,18 @@ class StreamingEstimator:
     def covariance(self) -> NDArray[np.float64]:
         """``(3, 3)`` covariance of :attr:`pose` (m², rad²; NaN while initialising).
 
-        The filter's ``P`` plus the survey floor of the reflectors that support it
-        (:attr:`~agvnav.positioning.integrity.IntegrityMonitor.survey_floor`): the
-        constant survey error that ``P``, taking it as white noise, averages away.
+        The filter's ``P`` raised to the survey floor of the reflectors that support it
+        (:attr:`~agvnav.positioning.integrity.IntegrityMonitor.survey_floor`), the
+        constant survey error that ``P``, taking it as white noise, averages away:
+        ``P + [F - P]_+`` with ``[.]_+`` the positive part (eigenvalues clipped at 0),
+        so no direction is reported more certain than the floor allows.
         """
-        return self._P + self.monitor.survey_floor
+        P = self._P
+        floor = self.monitor.survey_floor
+        if not floor.any():
+            return P
+        w, V = np.linalg.eigh(floor - P)
+        return P + (V * np.maximum(w, 0.0)) @ V.T
 
     @property
     def filter_covariance(self) -> NDArray[np.float64]:
