@@ -68,7 +68,7 @@ def route_scenario(plan: LayoutPlan, route: int, seed: int) -> Scenario:
         "min_reflectors_in_view": spec.target.min_visible,
     }
     if v.vehicle == "tricycle":
-        data["controller"] = {"point": "O"}
+        data["controller"] = {"name": "seed_general", "point": "O"}  # O (base_link) follows the route
     sc = Scenario.model_validate(data)
     attach_source(sc, f"{spec.source}:verify:{spec.routes[route].name}", None, None)
     return sc
