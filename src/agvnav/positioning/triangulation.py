@@ -23,14 +23,19 @@ that do not broadcast, too few/many reflectors for the method, non-positive
 ``bearing_std``/``heading_std``. *Value* problems depend on the path:
 
 * single fix (no batch dimensions): NaN/inf in reflectors, bearings or the heading
-  estimate, coincident reflectors and (for N >= 3) collinear reflectors raise ``ValueError`` naming
-  the problem;
+  estimate and coincident reflectors raise ``ValueError`` naming the problem;
 * batch: the same problems only set ``valid=False`` for the element concerned (its
   x, y, heading are NaN); neighbours are unaffected.
 
 Degenerate *geometry* is not bad input and never raises: on the critical circle
 ``relative_angles``/``total`` give ``valid=False``, ``absolute_angles`` keeps the heading
 estimate and sets ``heading_from_estimate``.
+
+Collinear reflectors (three or more on one wall, a common layout) are geometry too
+(issue 13): the circle through three of them degenerates to their line, so the fix is
+determined wherever P is off that line and every method returns it; on the line all
+the bearings are parallel (they differ by 0 or pi) and every method returns
+``valid=False`` (seed 000 §2.2-2.3: the methods are indeterminate on the critical circle).
 """
 
 from __future__ import annotations
@@ -64,6 +69,9 @@ CHUNK = 16384
 
 #: Relative tolerance for coincident / collinear reflector layouts.
 LAYOUT_TOL = 1e-9
+#: Largest |sin| of the pairwise bearing differences for which the rays count as parallel
+#: (P on the line of collinear reflectors: the fix is undetermined).
+PARALLEL_TOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -160,7 +168,10 @@ def triangulate(
             + ("" if h is None else f", heading_estimate {h.shape}")
         ) from None
     if batch == ():
-        _check_single(r, b, h)
+        try:
+            _check_single(r, b, h)
+        except _OnReflectorLine:
+            return _solve(method, r, b, h, bs, hs, batch)
         try:
             if method == "least_squares":
                 return _solve_single_ls(r, b, h, bs, hs)
@@ -215,8 +226,20 @@ def _check_single(r: NDArray[np.float64], b: NDArray[np.float64], h: NDArray[np.
     sxx = sum((p[0] - mx) ** 2 for p in pts)
     syy = sum((p[1] - my) ** 2 for p in pts)
     sxy = sum((p[0] - mx) * (p[1] - my) for p in pts)
-    if n >= 3 and sxx * syy - sxy * sxy <= LAYOUT_TOL * (sxx + syy) ** 2:
-        raise ValueError("reflectors are collinear: the fix is undetermined")
+    collinear = n >= 3 and sxx * syy - sxy * sxy <= LAYOUT_TOL * (sxx + syy) ** 2
+    if collinear and _parallel_rays(b).any():
+        raise _OnReflectorLine  # geometry, not bad input: the batch path flags it invalid
+
+
+class _OnReflectorLine(Exception):
+    """P stands on the line of collinear reflectors (raised and caught inside this module)."""
+
+
+def _parallel_rays(b: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Per element: every pair of bearings ``(..., N)`` differs by 0 or pi (within ``PARALLEL_TOL``)."""
+    with np.errstate(invalid="ignore"):  # NaN bearings: not parallel (flagged as bad values elsewhere)
+        d = np.sin(b[..., :, None] - b[..., None, :])
+        return np.asarray(np.max(np.abs(d), axis=(-2, -1)) <= PARALLEL_TOL)
 
 
 def _layout_flags(r: NDArray[np.float64]) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
@@ -251,7 +274,7 @@ def _solve(
     bsf = None if bs is None else np.broadcast_to(bs, batch + (n,)).reshape(m, n)
     hsf = None if hs is None else np.broadcast_to(hs, batch).reshape(m)
     coincident, collinear = _layout_flags(rf)
-    layout_ok = ~(coincident | collinear)
+    layout_ok = ~(coincident | (collinear & _parallel_rays(bf)))
     out = {k: np.empty(m) for k in ("x", "y", "heading", "quality")}
     out["valid"] = np.empty(m, dtype=bool)
     out["heading_from_estimate"] = np.zeros(m, dtype=bool)
