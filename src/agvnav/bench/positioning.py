@@ -14,6 +14,14 @@ Lateral error as seed 000 §4.2 measures it: the estimate minus the truth, proje
 the normal of the true heading (of point O). The sensor sees the true reflectors, the
 estimators the surveyed map (``SURVEY_STD``); odometry errors follow ``ODOMETRY_NOISE``.
 Extra key ``vs_static``: a method's RMS position error over its own at speed 0.
+
+Seed 000 §5's switch (issue 13): the last records drive straight through the critical
+circle of a three-reflector layout (``SWITCH_REFLECTORS``), where the three-bearing
+(relative) fix is indeterminate, with the angle propagation triangulating by absolute
+angles (the seed's method), by relative angles with absolute angles inside a geometric
+band around the circle (``band``), and by the switch on the predicted error of each
+method (``predicted``, :func:`agvnav.positioning.dynamic.predicted_position_variances`);
+``relative_fraction`` is the share of the switch's fixes made by the relative method.
 """
 
 from __future__ import annotations
@@ -148,8 +156,13 @@ def _run_one(
     t_end: float,
     noise: OdometryNoise,
     rng: np.random.Generator,
-) -> dict[str, NDArray[np.float64]]:
-    """Feed one estimator; return truth and estimate at every odometry sample after settling."""
+    **est_kwargs: Any,
+) -> dict[str, Any]:
+    """Feed one estimator; return truth and estimate at every odometry sample after settling.
+
+    ``est_kwargs`` go to the estimator (e.g. ``triangulation_method``); the record also
+    carries the angle propagation's ``n_relative``/``n_held`` counts (None for the others).
+    """
     refl = gon.scan(true_world, drive.pose_at, 0.0, t_end, rng)
     ticks = np.arange(0.0, t_end + 1e-12, ODOMETRY_DT)
     dd, dth = drive.odometry(ticks[:-1], ticks[1:])
@@ -158,7 +171,7 @@ def _run_one(
     est = make_estimator(
         method, world, gon.mount, odometry_noise=noise, initial_pose=start,
         initial_covariance=np.diag([0.01, 0.01, 0.003]) ** 2, rate_hz=gon.rate_hz, max_range=gon.max_range,
-        map_std=SURVEY_STD,
+        map_std=SURVEY_STD, **est_kwargs,
     )
     est.predict(0.0, 0.0, 0.0)
     j = int(np.searchsorted(refl.t, ticks[1], side="right"))  # before the first increment the odometric rate is unknown
@@ -178,10 +191,12 @@ def _run_one(
         "truth": drive.pose_at(times_a),
         "refl_t": refl.t,
         "refl_index": refl.reflector_index,
+        "n_relative": getattr(est, "n_relative", None),
+        "n_held": getattr(est, "n_held", None),
     }
 
 
-def _errors(runs: list[dict[str, NDArray[np.float64]]]) -> dict[str, float]:
+def _errors(runs: list[dict[str, Any]]) -> dict[str, float]:
     est = np.concatenate([r["estimate"] for r in runs])
     truth = np.concatenate([r["truth"] for r in runs])
     diff = est[:, :2] - truth[:, :2]
@@ -200,7 +215,7 @@ def _errors(runs: list[dict[str, NDArray[np.float64]]]) -> dict[str, float]:
 
 
 def _static_crlb(
-    world: WorldMap, gon: Goniometer, runs: list[dict[str, NDArray[np.float64]]], bearing_std: float
+    world: WorldMap, gon: Goniometer, runs: list[dict[str, Any]], bearing_std: float
 ) -> float:
     """RMS over the evaluated poses of the position CRLB of one static fix from the reflectors seen.
 
@@ -222,6 +237,34 @@ def _static_crlb(
     return float(np.sqrt(np.mean(var))) if var else float("nan")
 
 
+#: Seed 000 §5 switch bench: three reflectors (m) and the straight drive of O through their circle.
+SWITCH_REFLECTORS = ((0.0, 10.0), (-8.0, -6.0), (9.0, -5.0))
+SWITCH_START = (-2.0, 1.0, 0.0)
+SWITCH_LENGTH = 13.0  # m: from inside the circle (radius ~10 m) to beyond it
+SWITCH_VARIANTS = (("absolute_angles", "absolute_angles"), ("band", "relative_angles"), ("predicted", "predicted"))
+
+
+def switch_records(quick: bool, seed: int) -> list[dict[str, Any]]:
+    """One record per triangulation choice of the angle propagation on the drive through the critical circle."""
+    world = WorldMap(tuple(Reflector(f"S{i}", x, y, 0.0) for i, (x, y) in enumerate(SWITCH_REFLECTORS)), ())
+    gon = Goniometer(rate_hz=8.0, pulses_per_rev=65535, mount=MOUNT, max_range=30.0)
+    speed = 1.0
+    length = SWITCH_LENGTH / 2 if quick else SWITCH_LENGTH
+    start = np.array(SWITCH_START)
+    end = start + [length, 0.0, 0.0]
+    drive = Drive(np.array([0.0, length / speed]), np.array([start, end]), np.array([speed]), np.zeros(1))
+    records = []
+    for label, tri in SWITCH_VARIANTS:
+        rng = np.random.default_rng([seed, 5])  # same reflections and odometry for every choice
+        run = _run_one("angle_propagation", world, world, gon, drive, drive.duration, ODOMETRY_NOISE, rng,
+                       triangulation_method=tri)
+        n_rel, n_held = run.pop("n_relative"), run.pop("n_held")
+        share = n_rel / (n_rel + n_held) if tri == "predicted" and n_rel + n_held else None
+        records.append({"method": f"angle_propagation/{label}", "speed_mps": speed, **_errors([run]),
+                        "relative_fraction": share})
+    return records
+
+
 def run(quick: bool, seed: int) -> list[dict[str, Any]]:
     """One record per method and speed (keys of issue 4 §5); ``quick`` shortens every drive."""
     world = load_builtin_map("lab")
@@ -233,7 +276,7 @@ def run(quick: bool, seed: int) -> list[dict[str, Any]]:
     n_static = 2 if quick else N_STATIC
     records = []
     for speed in SPEEDS:
-        crlb_runs: list[dict[str, NDArray[np.float64]]] | None = None
+        crlb_runs: list[dict[str, Any]] | None = None
         for method in METHODS:
             rng = np.random.default_rng([seed, int(speed * 1000)])  # same world for every method
             drive = lab_drive(speed) if speed > 0.0 else None
@@ -246,7 +289,7 @@ def run(quick: bool, seed: int) -> list[dict[str, Any]]:
         for rec in records[-len(METHODS):]:
             rec["static_crlb_rms_position_m"] = value
     _add_ratios(records)
-    return records
+    return records + switch_records(quick, seed)
 
 
 def _static_runs(
@@ -257,7 +300,7 @@ def _static_runs(
     noise: OdometryNoise,
     rng: np.random.Generator,
     n: int,
-) -> list[dict[str, NDArray[np.float64]]]:
+) -> list[dict[str, Any]]:
     """Standstill at ``n`` poses spread along the path, ``STATIC_SECONDS`` each."""
     moving = lab_drive(1.0)
     runs = []

@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav.geometry import angle_diff, between, circumcentre, compose, inverse, wrap_angle
-from agvnav.positioning.bounds import crlb
+from agvnav.positioning.bounds import crlb, fisher_information
 from agvnav.positioning.estimator import StreamingEstimator
 from agvnav.positioning.identification import bearing_model, edge_offset, measurement_variance
 from agvnav.positioning.triangulation import triangulate
@@ -42,7 +42,9 @@ __all__ = [
     "NaiveEstimator",
     "batch_ml_fix",
     "centre_bearings",
+    "fix_given_heading",
     "near_critical_circle",
+    "predicted_position_variances",
     "propagate_bearings",
 ]
 
@@ -164,6 +166,55 @@ def near_critical_circle(reflector_xy: ArrayLike, head_xy: ArrayLike, margin: fl
         return False
     radius = np.hypot(*(np.asarray(reflector_xy)[0] - centre))
     return bool(abs(np.hypot(*(np.asarray(head_xy) - centre)) - radius) < margin * radius)
+
+
+def predicted_position_variances(
+    reflector_xy: ArrayLike, head_pose: ArrayLike, bearing_std: float, heading_std: float
+) -> tuple[float, float]:
+    """Predicted position variance (m², trace of the x-y block) of the two methods at a head pose.
+
+    Seed 000 §5 plans to "alternate the absolute and the relative methods according to the
+    error associated with the goniometer's angular resolution" [seed000 §5]. The two
+    predictions, from the linearised bearings ``J`` (``(3, 3)`` Fisher information
+    ``J^T J / sigma^2``, blocks ``A`` (x-y) and ``b`` (x-y with heading)):
+
+    * relative (three bearings only, heading from them): ``(J^T J / sigma^2)^-1``, which
+      grows without bound near the critical circle [seed000 §2.2];
+    * absolute with the odometric heading held [seed000 §2.3]: ``A^-1 + g g^T heading_std^2``
+      with ``g = -A^-1 b`` (the position error a heading error causes).
+
+    ``reflector_xy (3, 2)`` m, ``head_pose (3,)`` (m, m, rad), stds in rad. Returns
+    ``(relative, absolute)``; ``inf`` where a prediction is singular.
+    """
+    info = fisher_information(np.asarray(reflector_xy, dtype=np.float64), np.asarray(head_pose, dtype=np.float64),
+                              float(bearing_std))
+    a, b = info[:2, :2], info[:2, 2]
+    relative = float(np.trace(np.linalg.inv(info)[:2, :2])) if np.linalg.cond(info) < 1e12 else math.inf
+    if np.linalg.cond(a) >= 1e12:
+        return relative, math.inf
+    a_inv = np.linalg.inv(a)
+    g = -a_inv @ b
+    return relative, float(np.trace(a_inv) + heading_std**2 * float(g @ g))
+
+
+def fix_given_heading(
+    reflector_xy: ArrayLike, bearings: ArrayLike, heading: float, weights: ArrayLike | None = None
+) -> NDArray[np.float64] | None:
+    """Head position (m) from the lines of absolute angle ``heading + theta_i`` through each reflector.
+
+    The absolute-angle construction with the heading held at ``heading`` [seed000 §2.3]:
+    the weighted least-squares intersection of the lines (``weights (n,)``, default 1);
+    None when the lines are (nearly) parallel.
+    """
+    xy = np.asarray(reflector_xy, dtype=np.float64)
+    phi = heading + np.asarray(bearings, dtype=np.float64)
+    normal = np.column_stack([-np.sin(phi), np.cos(phi)])
+    w = np.ones(len(phi)) if weights is None else np.asarray(weights, dtype=np.float64)
+    lhs = normal.T @ (normal * w[:, None])
+    if np.linalg.cond(lhs) >= 1e12:
+        return None
+    rhs = normal.T @ (w * np.sum(normal * xy, axis=1))
+    return np.asarray(np.linalg.solve(lhs, rhs), dtype=np.float64)
 
 
 def _triangulate_head(
@@ -305,7 +356,11 @@ class AnglePropagationEstimator(_FixEstimator):
     predicted one. With ``triangulation_method="relative_angles"`` the geometric method is
     used away from the critical circle and absolute angles within ``critical_margin``
     (relative distance) of it (seed 000 §2.2: the relative-angle method is indeterminate
-    on the circle through the three reflectors and inaccurate near it).
+    on the circle through the three reflectors and inaccurate near it). With
+    ``triangulation_method="predicted"`` the choice is made on the predicted error instead
+    (seed 000 §5, :func:`predicted_position_variances`): the three-bearing fix when its
+    predicted position variance is the smaller, else the lines at the odometric heading
+    (:func:`fix_given_heading`); ``n_relative``/``n_held`` count the choices.
     The propagation is iterated ``iterations`` times with the new fix as the pose at t_f.
     """
 
@@ -322,13 +377,16 @@ class AnglePropagationEstimator(_FixEstimator):
         **kwargs: Any,
     ) -> None:
         super().__init__(world, mount, **kwargs)
-        if triangulation_method not in ("absolute_angles", "relative_angles"):
+        if triangulation_method not in ("absolute_angles", "relative_angles", "predicted"):
             raise ValueError(
-                f"triangulation_method must be 'absolute_angles' or 'relative_angles', got {triangulation_method!r}"
+                "triangulation_method must be 'absolute_angles', 'relative_angles' or 'predicted', "
+                f"got {triangulation_method!r}"
             )
         self.triangulation_method = triangulation_method
         self.iterations = int(iterations)
         self.critical_margin = float(critical_margin)
+        self.n_relative = 0
+        self.n_held = 0
 
     def _fix(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
         entries = self._best_triple()
@@ -346,11 +404,54 @@ class AnglePropagationEstimator(_FixEstimator):
             method = self.triangulation_method
             if method == "relative_angles" and near_critical_circle(xy, head_pred[:2], self.critical_margin):
                 method = "absolute_angles"
-            head, ok = _triangulate_head(xy, z_f, head_pred[2], method)
+            held_cov = None
+            if method == "predicted":
+                head, ok, held_cov = self._predicted_choice(xy, z_f, head_pred)
+            else:
+                head, ok = _triangulate_head(xy, z_f, head_pred[2], method)
             if not ok:
                 return None
             pose = compose(head, inverse(self.mount))
+        if held_cov is not None:  # the heading was held: its variance is the prediction's, not the bearings'
+            return pose, self._head_to_base(held_cov, head[2])
         return pose, self._fix_covariance(pose, entries, rel)
+
+
+    def _predicted_choice(
+        self, xy: NDArray[np.float64], z_f: NDArray[np.float64], head_pred: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], bool, NDArray[np.float64] | None]:
+        """Seed 000 §5 switch on the predicted error (see :func:`predicted_position_variances`).
+
+        Returns the head pose, whether it is valid, and (when the heading was held) the
+        head covariance of that fix: ``[[A^-1 + g g^T s^2, g s^2], [g^T s^2, s^2]]``.
+        """
+        var_h = max(float(self._P[2, 2]), 0.0)
+        relative, held = predicted_position_variances(xy, head_pred, self.bearing_std, math.sqrt(var_h))
+        if relative <= held:
+            self.n_relative += 1
+            head, ok = _triangulate_head(xy, z_f, head_pred[2], "relative_angles")
+            return head, ok, None
+        self.n_held += 1
+        dist = np.hypot(*(xy - head_pred[:2]).T)
+        p = fix_given_heading(xy, z_f, float(head_pred[2]), 1.0 / np.maximum(dist, 1e-9) ** 2)
+        if p is None:
+            return head_pred, False, None
+        info = fisher_information(xy, head_pred, self.bearing_std)
+        a_inv = np.linalg.inv(info[:2, :2])
+        g = -a_inv @ info[:2, 2]
+        cov = np.zeros((3, 3))
+        cov[:2, :2] = a_inv + var_h * np.outer(g, g)
+        cov[:2, 2] = cov[2, :2] = var_h * g
+        cov[2, 2] = var_h
+        return np.array([p[0], p[1], head_pred[2]]), True, cov
+
+    def _head_to_base(self, cov_head: NDArray[np.float64], head_heading: float) -> NDArray[np.float64]:
+        """Covariance of base_link = head (+) mount^-1 from the head's (first order in the heading)."""
+        t = inverse(self.mount)
+        s, c = math.sin(head_heading), math.cos(head_heading)
+        jac = np.eye(3)
+        jac[0, 2], jac[1, 2] = -s * t[0] - c * t[1], c * t[0] - s * t[1]
+        return np.asarray(jac @ cov_head @ jac.T, dtype=np.float64)
 
 
 class BatchMLEstimator(_FixEstimator):
