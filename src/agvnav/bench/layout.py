@@ -47,16 +47,22 @@ def _record(hall: str, spec: LayoutSpec, routes: Sequence[int], budget: float, s
         "predicted_rms_m": _weighted_rms(rows, "predicted_rms_m"),
         "simulated_rms_m": _weighted_rms(rows, "measured_rms_m"),
         "crlb_rms_m": _weighted_rms(rows, "crlb_rms_m"),
-        "sim_routes_completed": f"{len(done)}/{len(routes)}",
+        "sim_routes_completed": f"{len(done)}/{len(routes)}" if routes else "not simulated",
         "runtime_s": round(plan.runtime_s, 2),
     }
 
 
 def run(quick: bool, seed: int) -> list[dict[str, Any]]:
-    """One record per hall: planned and baseline counts, target fraction, predicted and simulated RMS, runtime."""
+    """One record per hall: planned and baseline counts, target fraction, predicted and simulated RMS, runtime.
+
+    The generated hall is not driven in the closed loop: there the EKF's integrity monitor
+    declares sound estimates lost ("few_reflectors", "uncertainty") and its relocalisation
+    over 60+ reflectors takes minutes per run (reported to the positioning owners); its
+    simulated figures are None.
+    """
     return [
         _record("warehouse_60x40", load_layout("warehouse"), [1, 2] if quick else range(5), 10.0 if quick else 30.0,
                 seed),
-        _record("generated_100x60" + (" (loops only)" if quick else ""), generated_hall(quick),
-                [0] if quick else [0, 2, 3, 16], 5.0 if quick else 20.0, seed),
+        _record("generated_100x60" + (" (loops only)" if quick else ""), generated_hall(quick), [],
+                5.0 if quick else 20.0, seed),
     ]
