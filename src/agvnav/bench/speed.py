@@ -179,7 +179,6 @@ def startup_records(repeat: int = 3) -> list[dict[str, Any]]:
 _MEMORY_SCRIPT = """
 import resource, sys, time
 from agvnav.sim.build import build
-from agvnav.sim.laps import simulate_tracked
 from agvnav.world.scenario import default_scenario
 hours = float(sys.argv[1])
 built = build(default_scenario())
