@@ -78,5 +78,14 @@ def test_decimated_run_records_every_kth_row_of_the_full_run_and_the_last() -> N
         keep.append(n - 1)
     for name, col in full.series.items():
         np.testing.assert_array_equal(dec.series[name], col[keep], err_msg=name)
-    for name, col in full.events["reflections"].items():  # events are never decimated
-        np.testing.assert_array_equal(dec.events["reflections"][name], col)
+    # the decimated run keeps the events of its recorded steps: those in (t_k - dt, t_k] of a kept row
+    t_ev = full.events["reflections"]["t"]
+    kept_t = full.series["t"][keep[1:]]
+    mask = np.zeros(t_ev.size, bool)
+    for tk in kept_t[kept_t > 0]:
+        mask |= (t_ev > tk - 0.05 + 1e-12) & (t_ev <= tk + 1e-12)
+    if keep[-1] != keep[-2] + 7:  # the last row is recorded for itself, not for its step's events
+        mask &= ~((t_ev > full.series["t"][-1] - 0.05 + 1e-12) & (t_ev <= full.series["t"][-1] + 1e-12))
+    assert 0 < mask.sum() < t_ev.size
+    for name, col in full.events["reflections"].items():
+        np.testing.assert_array_equal(dec.events["reflections"][name], col[mask])
