@@ -22,8 +22,8 @@ import yaml
 
 from agvnav.geometry import lateral_position_error
 from agvnav.sim import simulate
-from agvnav.sim.metrics import guidance_figures, lateral_error_statistics
 from agvnav.sim.laps import simulate_tracked
+from agvnav.sim.metrics import guidance_figures, lateral_error_statistics
 from agvnav.world.scenario import builtin_scenario, parse_scenario
 
 __all__ = [
