@@ -151,7 +151,7 @@ def square_run(name: str, values: dict[str, float], seed: int, laps: int, landma
     """Seed 004 §III figures of one run: per-lap error and the lap end point's |x|, |y| from the start (m)."""
     d = _seed004_document(name, values, seed, laps, landmarks)
     result = simulate_tracked(_parse(d))
-    run = result.runs[bool(landmarks)]  # type: ignore[union-attr]
+    run = result.runs[bool(landmarks)]
     lp = run.laps
     side = float(d["route"]["side_m"])
     if lp.laps == 0:
