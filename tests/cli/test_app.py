@@ -24,7 +24,12 @@ def _exit_code(argv, capsys):
 
 
 def test_usage_errors_are_one_line_with_exit_code_2(capsys):
-    for argv in (["frobnicate"], ["bench", "nonsense"], ["demo", "--bogus"], ["bench", "triangulation", "--seed", "-1"]):
+    for argv in (
+        ["frobnicate"],
+        ["bench", "nonsense"],
+        ["demo", "--bogus"],
+        ["bench", "triangulation", "--seed", "-1"],
+    ):
         code, out = _exit_code(argv, capsys)
         assert code == 2, argv
         lines = [ln for ln in out.err.splitlines() if ln.strip()]

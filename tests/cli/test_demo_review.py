@@ -17,8 +17,10 @@ def test_demo_piped_has_no_truncated_cells():
 
 
 def test_bench_table_piped_has_no_truncated_cells():
+    import contextlib
+    import io
+
     from agvnav.bench.common import emit
-    import io, contextlib
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
         emit("x", [{"a_very_long_column_name_" + str(i): 1.23456789e-5 * i for i in range(16)}], False, "t")

@@ -27,11 +27,24 @@ def test_simulate_writes_all_outputs(tmp_path):
     assert "run FAILED: timeout" in res.output
     assert "max |lateral error| after transient" in res.output
     names = {p.name for p in out.iterdir()}
-    assert {"metrics.json", "timeseries.csv", "reflections.csv", "map.png", "errors.png",
-            "positioning_histogram.png"} <= names
+    assert {
+        "metrics.json",
+        "timeseries.csv",
+        "reflections.csv",
+        "map.png",
+        "errors.png",
+        "positioning_histogram.png",
+    } <= names
     m = json.loads((out / "metrics.json").read_text())
-    for key in ("max_abs_lateral_error_m", "rms_lateral_error_m", "max_abs_wheel_heading_error_rad",
-                "settling_distance_m", "positioning_rms_m", "sim_time_s", "integrity"):
+    for key in (
+        "max_abs_lateral_error_m",
+        "rms_lateral_error_m",
+        "max_abs_wheel_heading_error_rad",
+        "settling_distance_m",
+        "positioning_rms_m",
+        "sim_time_s",
+        "integrity",
+    ):
         assert key in m
     assert "wall_time_s" not in m and "real_time_factor" not in m  # machine figures: timing.json
     assert set(json.loads((out / "timing.json").read_text())) == {"wall_time_s", "real_time_factor"}
@@ -62,7 +75,9 @@ def _bad(tmp_path, old, new):
 def test_bad_scenarios_one_line_exit_2(tmp_path):
     assert "truth.slip: unknown key" in _bad(tmp_path, "slip_std:", "slip:")
     assert "controller.poles_per_m" in _bad(tmp_path, "poles_per_m: [-3.0, -3.0]", "poles_per_m: [3.0, 3.0]")
-    assert "gap in the path" in _bad(tmp_path, "{type: line, length_m: 3.0}", "{type: line, length_m: 3.0, start: [0, 0]}")
+    assert "gap in the path" in _bad(
+        tmp_path, "{type: line, length_m: 3.0}", "{type: line, length_m: 3.0, start: [0, 0]}"
+    )
     msg = _bad(tmp_path, "map: lab", "map: {reflectors: [{id: A, x: 6, y: 1}], walls: []}")
     assert "reflector(s) in view" in msg
     assert "invalid YAML" in _bad(tmp_path, "map: lab", "map: [lab")

@@ -33,7 +33,9 @@ def test_tracked_hybrid_run_writes_metrics_json(tmp_path):
         assert mode["max_error_per_lap_m"] >= mode["mean_error_per_lap_m"] > 0.0
         assert mode["sim_time_s"] > 10.0 and mode["wall_time_s"] > 0.0
         assert mode["real_time_factor"] == pytest.approx(mode["sim_time_s"] / mode["wall_time_s"])
-    assert m["modes"]["with_landmarks"]["mean_error_per_lap_m"] < m["modes"]["without_landmarks"]["mean_error_per_lap_m"]
+    assert (
+        m["modes"]["with_landmarks"]["mean_error_per_lap_m"] < m["modes"]["without_landmarks"]["mean_error_per_lap_m"]
+    )
 
 
 def test_out_is_a_file_fails_before_the_run(tmp_path):
@@ -70,8 +72,9 @@ def test_directory_as_scenario_says_so(tmp_path):
     [("[3.0, -3.0]", "got [3, -3]"), ("[-3.0, [0.5, 1.25]]", None)],
 )
 def test_unstable_poles_print_plain_numbers(tmp_path, poles, shown):
-    from agvnav.guidance.gains import _format_poles
     import numpy as np
+
+    from agvnav.guidance.gains import _format_poles
 
     assert _format_poles(np.array([3.0, -3.0 + 0j])) == "[3, -3]"
     assert _format_poles(np.array([0.5 + 1.25j, 0.5 - 1.25j])) == "[0.5+1.25j, 0.5-1.25j]"
@@ -93,10 +96,19 @@ def _table_text(e0):
     from agvnav.cli.simulate import _summary
 
     m = SimpleNamespace(
-        initial_lateral_error_m=e0, max_abs_lateral_error_m=3.6e-5, rms_lateral_error_m=2e-5,
-        max_abs_wheel_heading_error_rad=math.radians(0.5), settling_distance_m=1.2, positioning_rms_m=0.004,
-        positioning_lateral_mean_abs_m=0.003, positioning_lateral_std_m=0.002, positioning_lateral_max_abs_m=0.01,
-        path_completed=True, sim_time_s=30.0, wall_time_s=0.1, real_time_factor=300.0,
+        initial_lateral_error_m=e0,
+        max_abs_lateral_error_m=3.6e-5,
+        rms_lateral_error_m=2e-5,
+        max_abs_wheel_heading_error_rad=math.radians(0.5),
+        settling_distance_m=1.2,
+        positioning_rms_m=0.004,
+        positioning_lateral_mean_abs_m=0.003,
+        positioning_lateral_std_m=0.002,
+        positioning_lateral_max_abs_m=0.01,
+        path_completed=True,
+        sim_time_s=30.0,
+        wall_time_s=0.1,
+        real_time_factor=300.0,
     )
     scenario = SimpleNamespace(name="x", seed=0, vehicle=SimpleNamespace(model="tricycle"))
     result = SimpleNamespace(metrics=m, scenario=scenario, outcome="completed", reason=None)

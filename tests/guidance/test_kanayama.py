@@ -17,12 +17,14 @@ def _unicycle(pose, v, omega, dt):
     if abs(omega) < 1e-12:
         return np.array([x + v * dt * math.cos(th), y + v * dt * math.sin(th), th])
     th1 = th + omega * dt
-    return np.array([x + v / omega * (math.sin(th1) - math.sin(th)), y - v / omega * (math.cos(th1) - math.cos(th)), th1])
+    return np.array(
+        [x + v / omega * (math.sin(th1) - math.sin(th)), y - v / omega * (math.cos(th1) - math.cos(th)), th1]
+    )
 
 
 def _drive(ctrl, pose, duration, dt=0.02):
     poses, cmds = [], []
-    for k in range(int(round(duration / dt))):
+    for k in range(round(duration / dt)):
         cmd = ctrl.command(k * dt, pose)
         pose = _unicycle(pose, cmd.v, cmd.omega, dt)
         poses.append(pose)
@@ -30,9 +32,7 @@ def _drive(ctrl, pose, duration, dt=0.02):
     return np.array(poses), cmds
 
 
-@given(
-    st.floats(-0.5, 0.5), st.floats(-0.5, 0.5), st.floats(-1.2, 1.2), st.floats(-0.4, 0.4), st.floats(-1, 1)
-)
+@given(st.floats(-0.5, 0.5), st.floats(-0.5, 0.5), st.floats(-1.2, 1.2), st.floats(-0.4, 0.4), st.floats(-1, 1))
 def test_lyapunov_derivative_matches_kanayama_formula(ex, ey, eth, vr, wr):
     g = KanayamaGains(k_x=1.3, k_y=5.0, k_theta=3.0)
     v, w = kanayama_law(np.array([ex, ey, eth]), vr, wr, g)

@@ -52,7 +52,7 @@ def test_projection_beyond_end_uses_end_tangent():
 def test_gap_is_an_error_naming_the_segment():
     a = LineSegment(np.array([0.0, 0.0]), 0.0, 1.0)
     b = LineSegment(np.array([1.0, 0.01]), 0.0, 1.0)
-    with pytest.raises(ValueError, match="segment 1.*gap"):
+    with pytest.raises(ValueError, match=r"segment 1.*gap"):
         Path([a, b])
 
 

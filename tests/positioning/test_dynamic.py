@@ -8,7 +8,7 @@ from _drive import arc_pose_at, feed
 from hypothesis import given
 from hypothesis import strategies as st
 
-from agvnav.geometry import angle_diff, between, compose
+from agvnav.geometry import angle_diff, between
 from agvnav.odometry import OdometryNoise, integrate_pose
 from agvnav.positioning.dynamic import batch_ml_fix, centre_bearings, propagate_bearings
 from agvnav.positioning.estimator import make_estimator
@@ -76,7 +76,7 @@ def test_batch_ml_exact_at_constant_velocity(speed: float, omega: float) -> None
 
 def test_batch_ml_flags_unobservable() -> None:
     xy = np.array([[5.0, 0.0], [5.0, 0.0]])
-    pose, cov, ok = batch_ml_fix(np.zeros(3), np.zeros(2), xy, np.zeros(2), np.zeros((2, 3)), np.zeros(3), 1e-8)
+    _, _, ok = batch_ml_fix(np.zeros(3), np.zeros(2), xy, np.zeros(2), np.zeros((2, 3)), np.zeros(3), 1e-8)
     assert not ok
 
 
@@ -85,8 +85,15 @@ def _moving_errors(lab: WorldMap, method: str, speed: float, omega: float, **kwa
     start = np.array([4.0, 3.0, 0.2])
     pose_at = arc_pose_at(start, speed, omega)
     est = make_estimator(
-        method, lab, MOUNT, pulses_per_rev=FINE_PULSES, map_std=0.0, odometry_noise=OdometryNoise(0.0, 0.0, 0.0),
-        initial_pose=start + [0.004, -0.003, 0.002], initial_covariance=np.diag([0.01, 0.01, 0.005]) ** 2, **kwargs,
+        method,
+        lab,
+        MOUNT,
+        pulses_per_rev=FINE_PULSES,
+        map_std=0.0,
+        odometry_noise=OdometryNoise(0.0, 0.0, 0.0),
+        initial_pose=start + [0.004, -0.003, 0.002],
+        initial_covariance=np.diag([0.01, 0.01, 0.005]) ** 2,
+        **kwargs,
     )
     t, x, _ = feed(est, lab, gon, pose_at, speed, omega, 2.0)
     late = t > 1.0
@@ -96,7 +103,9 @@ def _moving_errors(lab: WorldMap, method: str, speed: float, omega: float, **kwa
 
 @pytest.mark.parametrize("method", ["angle_propagation", "batch_ml"])
 @pytest.mark.parametrize(("speed", "omega"), [(1.0, 0.0), (2.0, 0.25)])
-def test_exact_recovery_without_noise_at_constant_velocity(lab: WorldMap, method: str, speed: float, omega: float) -> None:
+def test_exact_recovery_without_noise_at_constant_velocity(
+    lab: WorldMap, method: str, speed: float, omega: float
+) -> None:
     err = _moving_errors(lab, method, speed, omega)
     assert err[:, 0].max() < 1e-6
     assert err[:, 1].max() < 1e-7
@@ -124,7 +133,6 @@ def test_bad_triangulation_method_rejected(lab: WorldMap) -> None:
         make_estimator("angle_propagation", lab, MOUNT, triangulation_method="total")
 
 
-
 def test_near_critical_circle() -> None:
     from agvnav.positioning.dynamic import near_critical_circle
 
@@ -135,7 +143,9 @@ def test_near_critical_circle() -> None:
     assert not near_critical_circle(np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]), [0.0, 1.0], 0.1)
 
 
-def test_relative_angles_near_critical_circle_falls_back_to_absolute(lab: WorldMap, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_relative_angles_near_critical_circle_falls_back_to_absolute(
+    lab: WorldMap, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from agvnav.positioning import dynamic
 
     used: list[str] = []
@@ -146,6 +156,8 @@ def test_relative_angles_near_critical_circle_falls_back_to_absolute(lab: WorldM
         return real(xy, z, heading, method)
 
     monkeypatch.setattr(dynamic, "_triangulate_head", spy)
-    err = _moving_errors(lab, "angle_propagation", 0.5, 0.05, triangulation_method="relative_angles", critical_margin=0.5)
+    err = _moving_errors(
+        lab, "angle_propagation", 0.5, 0.05, triangulation_method="relative_angles", critical_margin=0.5
+    )
     assert {"relative_angles", "absolute_angles"} <= set(used)  # both, depending on the triple's circle
     assert err[:, 0].max() < 1e-6

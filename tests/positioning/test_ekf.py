@@ -72,14 +72,32 @@ def _nees_runs(n_runs: int, seconds: float, seed: int) -> np.ndarray:
         start = np.array([4.0, 3.0, 0.2])
         P0 = np.diag([0.01, 0.01, 0.003]) ** 2
         est = EkfEstimator(
-            world, MOUNT, bearing_std=sigma, bearing_offset=0.0, map_std=0.0, odometry_noise=noise,
-            initial_pose=start + rng.multivariate_normal(np.zeros(3), P0), initial_covariance=P0,
+            world,
+            MOUNT,
+            bearing_std=sigma,
+            bearing_offset=0.0,
+            map_std=0.0,
+            odometry_noise=noise,
+            initial_pose=start + rng.multivariate_normal(np.zeros(3), P0),
+            initial_covariance=P0,
         )
         # odometry noise matched to the filter's Q on each increment (Crowley, seed 002 §3.2),
         # odometry read at every reflection instant so the filter sees no extrapolation
         pose_at = arc_pose_at(start, speed, omega)
         t, x, P = feed(
-            est, world, gon, pose_at, speed, omega, seconds, dt, rng, noise, sigma, sample_every=10, odometry_at_reflections=True
+            est,
+            world,
+            gon,
+            pose_at,
+            speed,
+            omega,
+            seconds,
+            dt,
+            rng,
+            noise,
+            sigma,
+            sample_every=10,
+            odometry_at_reflections=True,
         )
         e = x - pose_at(t)
         e[:, 2] = angle_diff(x[:, 2], pose_at(t)[:, 2])

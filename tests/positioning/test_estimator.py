@@ -61,7 +61,12 @@ def test_startup_search_at_standstill_then_tracking(lab: WorldMap, method: str) 
 
 
 def test_startup_reports_ambiguity_on_symmetric_layout() -> None:
-    square = WorldMap(tuple(Reflector(f"S{i}", 5 + 5 * np.cos(a), 5 + 5 * np.sin(a), 0.04) for i, a in enumerate(np.arange(4) * np.pi / 2)))
+    square = WorldMap(
+        tuple(
+            Reflector(f"S{i}", 5 + 5 * np.cos(a), 5 + 5 * np.sin(a), 0.04)
+            for i, a in enumerate(np.arange(4) * np.pi / 2)
+        )
+    )
     gon = Goniometer(mount=tuple(MOUNT))
     est = make_estimator("ekf", square, MOUNT)
     feed(est, square, gon, arc_pose_at(np.array([6.0, 5.5, 0.3]), 0.0, 0.0), 0.0, 0.0, 0.6)
@@ -100,7 +105,9 @@ def test_recovers_tracking_after_blind_stretch(lab: WorldMap, method: str) -> No
     refl = Goniometer(mount=tuple(MOUNT)).scan(lab, pose_at, 1.0, 1.6)
     for k in range(1, 31):
         t = 1.0 + 0.02 * k
-        for tr, b in zip(refl.t[(refl.t > t - 0.02) & (refl.t <= t)], refl.bearing[(refl.t > t - 0.02) & (refl.t <= t)]):
+        for tr, b in zip(
+            refl.t[(refl.t > t - 0.02) & (refl.t <= t)], refl.bearing[(refl.t > t - 0.02) & (refl.t <= t)], strict=False
+        ):
             est.update(float(tr), float(b))
         est.predict(t, 0.01, 0.0)
     assert est.status == "tracking"
@@ -114,7 +121,12 @@ def test_reflections_between_odometry_samples_keep_the_odometric_path(lab: World
     # the advance, so nothing is counted twice: exact at a constant rate, and the heading
     # (a sum of increments) exact always
     est = make_estimator(  # integrity off: the lock-out inflation would make it lost (then nothing is rejected)
-        "ekf", lab, MOUNT, initial_pose=[4.0, 3.0, 0.0], odometry_noise=OdometryNoise(0, 0, 0), max_range=0.5,
+        "ekf",
+        lab,
+        MOUNT,
+        initial_pose=[4.0, 3.0, 0.0],
+        odometry_noise=OdometryNoise(0, 0, 0),
+        max_range=0.5,
         integrity=IntegrityLimits(enabled=False),
     )
     est.predict(0.0, 0.0, 0.0)
@@ -139,7 +151,7 @@ def test_update_many_matches_sequential_updates(lab: WorldMap) -> None:
     a = make_estimator("ekf", lab, MOUNT, initial_pose=start)
     b = make_estimator("ekf", lab, MOUNT, initial_pose=start)
     accepted = a.update_many(refl.t, refl.bearing)
-    for t, z in zip(refl.t, refl.bearing):
+    for t, z in zip(refl.t, refl.bearing, strict=True):
         b.update(float(t), float(z))
     np.testing.assert_array_equal(a.pose, b.pose)
     assert accepted.sum() == a.n_accepted == b.n_accepted > 0
@@ -151,14 +163,16 @@ def test_one_sweep_never_claims_a_reflector_twice(lab: WorldMap) -> None:
     start = np.array([4.0, 3.0, 0.1])
     refl = Goniometer(mount=tuple(MOUNT)).scan(lab, arc_pose_at(start, 0.0, 0.0), 0.0, 0.124)
     est = make_estimator("ekf", lab, MOUNT, initial_pose=start)
-    for t, z in zip(refl.t, refl.bearing):
+    for t, z in zip(refl.t, refl.bearing, strict=True):
         assert est.update(float(t), float(z))
         assert not est.update(float(t) + 1e-4, float(z))  # an echo in the same sweep: rejected
 
 
 def test_overconfident_start_recovers_by_covariance_inflation(lab: WorldMap) -> None:
     truth = np.array([4.0, 3.0, 0.1])
-    est = make_estimator("ekf", lab, MOUNT, initial_pose=truth + [0.04, -0.03, 0.01], initial_covariance=np.diag([1e-3, 1e-3, 1e-4]) ** 2)
+    est = make_estimator(
+        "ekf", lab, MOUNT, initial_pose=truth + [0.04, -0.03, 0.01], initial_covariance=np.diag([1e-3, 1e-3, 1e-4]) ** 2
+    )
     feed(est, lab, Goniometer(mount=tuple(MOUNT)), arc_pose_at(truth, 0.0, 0.0), 0.0, 0.0, 3.0)
     assert est.n_inflations > 0  # the gates first rejected the true reflectors: lock-out detected
     assert est.status == "tracking"

@@ -109,7 +109,7 @@ def test_sweep_labels_correct_under_spurious_and_unique(lab: WorldMap) -> None:
     claimed = labels[labels >= 0]
     assert len(claimed) == len(set(claimed.tolist()))  # no reflector claimed twice
     # a spurious bearing only gets a label if it lands in a free gate: none is free here
-    assert np.all(labels[len(h):] == -1)
+    assert np.all(labels[len(h) :] == -1)
 
 
 def test_initial_search_finds_pose_despite_spurious(lab: WorldMap) -> None:
@@ -123,12 +123,14 @@ def test_initial_search_finds_pose_despite_spurious(lab: WorldMap) -> None:
     assert np.hypot(*(res.pose[:2] - pose[:2])) < 2e-3
     assert abs(angle_diff(res.pose[2], pose[2])) < 1e-3
     np.testing.assert_array_equal(res.labels[: len(h)], np.arange(len(h)))
-    assert np.all(res.labels[len(h):] == -1)
+    assert np.all(res.labels[len(h) :] == -1)
     assert res.n_explained == len(h)
 
 
 def test_initial_search_reports_ambiguity_on_symmetric_layout() -> None:
-    square = WorldMap(tuple(Reflector(f"S{i}", 5 * np.cos(a), 5 * np.sin(a), 0.04) for i, a in enumerate(np.arange(4) * np.pi / 2)))
+    square = WorldMap(
+        tuple(Reflector(f"S{i}", 5 * np.cos(a), 5 * np.sin(a), 0.04) for i, a in enumerate(np.arange(4) * np.pi / 2))
+    )
     pose = np.array([1.0, 0.5, 0.3])
     h, _, _ = bearing_model(pose, MOUNT, square.reflector_xy, square.reflector_radius)
     res = initial_pose_search(h, square.reflector_xy, square.reflector_radius, MOUNT, SIGMA)

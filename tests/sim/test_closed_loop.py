@@ -2,12 +2,12 @@ import math
 
 import numpy as np
 import pytest
+from tests.sim.conftest import scenario_text
 
 from agvnav.sim import simulate
 from agvnav.sim.build import build, reflectors_in_view
 from agvnav.sim.metrics import guidance_figures
 from agvnav.world.scenario import ScenarioError, default_scenario, parse_scenario
-from tests.sim.conftest import scenario_text
 
 #: Seed 000 §4.3: the straight starts after the 90 deg arc of radius 1.24 m (path abscissa, m).
 STRAIGHT_START_M = 1.24 * math.pi / 2.0
@@ -143,10 +143,18 @@ def test_engine_splits_odometry_at_measurement_instants(short_scenario):
     ("old", "new", "key", "words"),
     [
         ("poles_per_m: [-3.0, -3.0]", "poles_per_m: [3.0, -3.0]", "controller.poles_per_m", ""),
-        ("    - {type: line, length_m: 3.0}", "    - {type: line, length_m: 3.0, start: [9.0, 4.0]}",
-         "path.segments[1].start", "gap"),
-        ("map: lab", "map: {reflectors: [{id: A, x: 1, y: 1}, {id: B, x: 2, y: 1}], walls: []}", "map",
-         "reflector(s) in view"),
+        (
+            "    - {type: line, length_m: 3.0}",
+            "    - {type: line, length_m: 3.0, start: [9.0, 4.0]}",
+            "path.segments[1].start",
+            "gap",
+        ),
+        (
+            "map: lab",
+            "map: {reflectors: [{id: A, x: 1, y: 1}, {id: B, x: 2, y: 1}], walls: []}",
+            "map",
+            "reflector(s) in view",
+        ),
         ("map: lab", "map: nowhere.yaml", "map", "neither a shipped map"),
         ("radius_m: 1.24", "radius_m: 0.8", "path.segments[0].radius_m", "wheelbase"),
     ],
@@ -169,7 +177,11 @@ def test_reflectors_in_view_occlusion():
 
     world = WorldMap.from_dict(
         {
-            "reflectors": [{"id": "A", "x": 5.0, "y": 0.0}, {"id": "B", "x": 0.0, "y": 5.0}, {"id": "C", "x": 40, "y": 0}],
+            "reflectors": [
+                {"id": "A", "x": 5.0, "y": 0.0},
+                {"id": "B", "x": 0.0, "y": 5.0},
+                {"id": "C", "x": 40, "y": 0},
+            ],
             "walls": [{"id": "W", "points": [[2.0, -1.0], [2.0, 1.0]]}],
         }
     )

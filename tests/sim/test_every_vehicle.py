@@ -95,7 +95,7 @@ def test_settled_error_metric_sees_a_later_bump_and_is_not_fixed_by_its_band():
 
     d = np.linspace(0.0, 20.0, 2001)
     decay = 0.05 * np.exp(-d)  # enters the 20 mm band at d = ln(2.5) = 0.92 m, then only decays
-    rms, worst, settled = settled_errors(decay, d)
+    _, worst, settled = settled_errors(decay, d)
     assert worst == pytest.approx(0.02, abs=2e-4)  # the band, by construction
     assert settled < 0.05 * np.exp(-2.9)  # 2 m later the error is far below the band
     bump = decay + np.where((d > 10.0) & (d < 11.0), 0.013, 0.0)

@@ -19,7 +19,7 @@ def _series(n=1001, v=0.2, dt=0.02):
 
 def test_transient_end_is_first_entry_into_band():
     # exponential decay from 110 mm with time constant 2 s: band 11 mm reached at t = 2 ln 10
-    t, dist = _series()
+    t, _ = _series()
     e = 0.110 * np.exp(-t / 2.0)
     k = transient_end_index(e)
     assert k is not None

@@ -4,19 +4,19 @@ import math
 from types import SimpleNamespace
 
 import pytest
+from tests.sim.conftest import scenario_text
 
 from agvnav.actuators import SpeedProfile
 from agvnav.guidance.paths import path_from_moves
 from agvnav.sim import simulate
 from agvnav.sim.roles import PathAutopilot
 from agvnav.world.scenario import ScenarioError, parse_scenario
-from tests.sim.conftest import scenario_text
 
 # A U turn: 3 m east, half circle of radius 1 m to the left, 3 m west. Its end is 2 m left of its start.
 U_SEGMENTS = (
     "    - {type: arc, radius_m: 1.24, sweep_deg: 90.0}\n    - {type: line, length_m: 3.0}",
-    "    - {type: line, length_m: 3.0}\n    - {type: arc, radius_m: 1.0, sweep_deg: 180.0}\n"
-    "    - {type: line, length_m: 3.0}",
+    ("    - {type: line, length_m: 3.0}\n    - {type: arc, radius_m: 1.0, sweep_deg: 180.0}\n"
+    "    - {type: line, length_m: 3.0}"),
 )
 
 

@@ -7,8 +7,8 @@ from typer.testing import CliRunner
 
 from agvnav.cli import app
 from agvnav.sim import simulate
-from agvnav.world.scenario import ScenarioError, builtin_scenario, builtin_scenario_names, load_scenario
 from agvnav.sim.laps import prepare_tracked, simulate_tracked
+from agvnav.world.scenario import ScenarioError, builtin_scenario, builtin_scenario_names, load_scenario
 
 runner = CliRunner()
 SHIPPED = ["tracked_square_3p5_concrete", "tracked_square_3p5_grass", "tracked_square_4_concrete",

@@ -100,8 +100,8 @@ def test_dict_round_trip_property(world):
     ("text", "message"),
     [
         (
-            "reflectors:\n  - {id: R1, x: 0, y: 0}\n  - {id: R2, x: 1, y: 0}\n  - {id: R3, x: 2, y: 0}\n"
-            "  - {id: R4, x: 3, y: 0, radius: -0.1}\n",
+            ("reflectors:\n  - {id: R1, x: 0, y: 0}\n  - {id: R2, x: 1, y: 0}\n  - {id: R3, x: 2, y: 0}\n"
+            "  - {id: R4, x: 3, y: 0, radius: -0.1}\n"),
             "reflectors[3] (id 'R4'): radius must be >= 0",
         ),
         ("reflectors:\n  - {id: A, x: 0, y: 0}\n  - {id: A, x: 1, y: 0}\n", "reflectors[1] (id 'A'): duplicate id"),
@@ -183,7 +183,7 @@ def test_shipped_lab_map_is_plausible():
     # every reflector cylinder is inside the lab and clear of every wall and pillar
     outer = shapely.Polygon(world.walls[0].points)
     obstacles = shapely.unary_union([shapely.Polygon(w.points) for w in world.walls[1:] if w.closed])
-    for (x, y), r in zip(world.reflector_xy, world.reflector_radius):
+    for (x, y), r in zip(world.reflector_xy, world.reflector_radius, strict=True):
         disc = shapely.Point(x, y).buffer(r)
         assert outer.contains(disc)
         assert not disc.intersects(obstacles)
@@ -191,5 +191,5 @@ def test_shipped_lab_map_is_plausible():
 
 
 def test_unknown_builtin_map():
-    with pytest.raises(ValueError, match="unknown built-in map 'moon'.*lab"):
+    with pytest.raises(ValueError, match=r"unknown built-in map 'moon'.*lab"):
         builtin_map("moon")

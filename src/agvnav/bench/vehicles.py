@@ -132,7 +132,7 @@ def run_one(model: str, quick: bool, seed: int) -> dict[str, Any]:
     cpu = time.process_time()
     result = simulate(sc)
     cpu = time.process_time() - cpu
-    travelled = result.series.get("distance", result.series.get("distance_O", result.series.get("distance_C")))
+    travelled = next(result.series[k] for k in ("distance", "distance_O", "distance_C") if k in result.series)
     rms, worst, settled = settled_errors(result.series["lateral_error"], travelled)
     rec: dict[str, Any] = {
         "model": model,

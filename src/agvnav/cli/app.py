@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import importlib
 import sys
-from typing import Any
+from typing import Any, Protocol, TypeGuard
 
 import typer
 from typer.core import TyperCommand, TyperGroup
@@ -118,6 +118,14 @@ def main(argv: list[str] | None = None) -> None:
     sys.exit(code if isinstance(code, int) else 0)
 
 
-def _is_usage_error(exc: Exception) -> bool:
+class _UsageError(Protocol):
+    """The shape of click's usage errors: a message and an exit code."""
+
+    exit_code: int
+
+    def format_message(self) -> str: ...
+
+
+def _is_usage_error(exc: Exception) -> TypeGuard[_UsageError]:
     """True for click-style usage errors (typer vendors click from 0.2x on, so match by shape)."""
     return hasattr(exc, "format_message") and hasattr(exc, "exit_code")

@@ -40,7 +40,7 @@ REPLAY_OPT = typer.Option(
 
 def _library() -> Any:
     try:
-        import agvnav.campaign as lib  # noqa: PLC0415 - lazy: Dask and pyarrow load only for campaigns
+        import agvnav.campaign as lib
     except ImportError as exc:
         raise fail(f"agvnav campaign needs the campaign extra: pip install 'agvnav[campaign]' ({exc})") from None
     return lib
@@ -73,7 +73,7 @@ def campaign(
         raise typer.Exit(code=INTERRUPTED_EXIT) from None
     written = []
     if plots:
-        from agvnav.report.campaign import plot_campaign  # noqa: PLC0415 - lazy: matplotlib only when plotting
+        from agvnav.report.campaign import plot_campaign
 
         columns = lib.read_results(out).to_pydict()
         written = plot_campaign(columns, result.summary["metrics"], camp.swept, Path(out) / "plots", camp.name)

@@ -23,8 +23,8 @@ NETWORK_ARG = typer.Argument(..., help="Route network YAML file, or a shipped ne
 def check(network: str = NETWORK_ARG, json: bool = typer.Option(False, "--json", help="Machine-readable output.")
           ) -> None:
     """Load a route network and report the continuity (G1, and G2 next to clothoids) of every joint."""
-    from agvnav.bench.common import emit  # noqa: PLC0415 - lazy: agvnav --help loads no numerical library
-    from agvnav.routes.network import load_network  # noqa: PLC0415 - lazy, as above
+    from agvnav.bench.common import emit
+    from agvnav.routes.network import load_network
 
     net = load_network(network)
     records = [
@@ -58,8 +58,8 @@ def plan(
     plot: str | None = typer.Option(None, "--plot", help="Write a PNG of the network with the route."),
 ) -> None:
     """Plan the fastest route between two nodes for a vehicle model (heading-aware, blocked edges)."""
-    from agvnav.routes.network import load_network  # noqa: PLC0415 - lazy: agvnav --help loads no numerical library
-    from agvnav.routes.planning import Planner, VehicleLimits  # noqa: PLC0415 - lazy, as above
+    from agvnav.routes.network import load_network
+    from agvnav.routes.planning import Planner, VehicleLimits
 
     net = load_network(network)
     planner = Planner(net, VehicleLimits(model, max_speed=speed), tuple(block or ()))
@@ -71,6 +71,6 @@ def plan(
         print(f"  {t.edge.id:>10}  {t.edge.source} -> {t.edge.target}  {t.edge.curve.kind:<8} {how:<7} "
               f"{t.edge.curve.length:7.2f} m")
     if plot is not None:
-        from agvnav.routes.plots import plot_network  # noqa: PLC0415 - lazy: matplotlib only when plotting
+        from agvnav.routes.plots import plot_network
 
         print(f"wrote {plot_network(net, plot, route)}")

@@ -76,6 +76,7 @@ def simulate(
     if not result.completed:
         console.print(f"run FAILED: {result.reason}")
         raise typer.Exit(RUN_FAILED_EXIT)
+    return None
 
 
 #: Exit code of a run that ran but failed (distinct from a user error's 2).
@@ -162,7 +163,11 @@ def _summary(result) -> Table:  # type: ignore[no-untyped-def]
         ("initial lateral error (mm)", _fmt(e0, 1e3), ref("110")),
         (f"max |lateral error|{after} (mm)", _fmt(m.max_abs_lateral_error_m, 1e3), ref("16.5")),
         (f"RMS lateral error{after} (mm)", _fmt(m.rms_lateral_error_m, 1e3), ""),
-        (f"max |wheel heading error|{after} (deg)", _fmt(m.max_abs_wheel_heading_error_rad, 180 / math.pi, 2), ref("3.8")),
+        (
+            f"max |wheel heading error|{after} (deg)",
+            _fmt(m.max_abs_wheel_heading_error_rad, 180 / math.pi, 2),
+            ref("3.8"),
+        ),
     ]
     if transient:
         rows.append(("settling distance (m)", _fmt(m.settling_distance_m, 1.0, 3), ""))

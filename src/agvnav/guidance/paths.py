@@ -31,9 +31,9 @@ import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav.world.yaml_strict import safe_load_unique
 from agvnav._validate import require_finite, require_last_dim
 from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
+from agvnav.world.yaml_strict import safe_load_unique
 
 __all__ = [
     "GAP_TOLERANCE_M",

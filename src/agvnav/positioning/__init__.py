@@ -15,17 +15,17 @@ __all__ = [
 ]
 
 # Dynamic positioning (issue 4): identification, streaming estimators, factory by name.
-from agvnav.positioning.dynamic import (  # noqa: E402
+from agvnav.positioning.dynamic import (
     AnglePropagationEstimator,
     BatchMLEstimator,
     NaiveEstimator,
     batch_ml_fix,
     propagate_bearings,
 )
-from agvnav.positioning.ekf import EkfEstimator, ekf_predict, ekf_update  # noqa: E402
-from agvnav.positioning.estimator import METHODS as ESTIMATOR_METHODS  # noqa: E402
-from agvnav.positioning.estimator import StreamingEstimator, make_estimator  # noqa: E402
-from agvnav.positioning.identification import (  # noqa: E402
+from agvnav.positioning.ekf import EkfEstimator, ekf_predict, ekf_update
+from agvnav.positioning.estimator import METHODS as ESTIMATOR_METHODS
+from agvnav.positioning.estimator import StreamingEstimator, make_estimator
+from agvnav.positioning.identification import (
     InitialPoseResult,
     associate_sweep,
     bearing_model,

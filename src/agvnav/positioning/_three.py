@@ -11,11 +11,14 @@ import math
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 
-Arr = NDArray[np.float64]
+#: A kernel value: an ``NDArray[float64]`` (or a bool flag array) of a batch when ``xp`` is NumPy, a
+#: Python float (or bool) for one fix when ``xp`` is :class:`ScalarMath`. One formulation serves both
+#: (issue 11), and NumPy's stubs cannot type a value whose type follows the namespace argument, so the
+#: kernels' values are typed ``Any``; the namespace-free helpers keep their NumPy types.
+Arr = Any
 Three = tuple[Arr, Arr, Arr]
 
 #: Relative distance of the head from the critical circle (|C_12 C_23| over the layout
@@ -66,7 +69,7 @@ def wrap(a: Arr, xp: Any = np) -> Arr:
     """``geometry.wrap_angle`` to ``[-pi, pi)`` for either namespace (NumPy arrays or ``ScalarMath`` floats)."""
     if xp is np:
         return wrap_angle(a)
-    return wrap_angle_scalar(a)  # type: ignore[arg-type, return-value]  # xp=ScalarMath: a is a float, as the result
+    return wrap_angle_scalar(a)  # xp=ScalarMath: a is a float, as the result
 
 
 def order_pairs(x: Three, y: Three, theta: Three, xp: Any = np) -> tuple[Three, Three, Three, Three]:

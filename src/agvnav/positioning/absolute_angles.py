@@ -89,7 +89,7 @@ def _tri_area(ax: Arr, ay: Arr, bx: Arr, by: Arr, cx: Arr, cy: Arr, xp: Any) -> 
 
 def _error_triangle(
     x: Three, y: Three, theta: Three, heading: Arr, xp: Any
-) -> tuple[tuple[Three, Three], tuple[Three, Three]]:
+) -> tuple[tuple[Three, Three], Three]:
     """Error-triangle vertices ``T_12, T_23, T_31`` for a heading estimate (seed 000, Fig. 2b).
 
     A vertex at infinity is the [seed000 eq3] [seed000 eq5] case (P aligned with two reflectors).
@@ -190,7 +190,7 @@ def _refine(idx: NDArray[np.intp], tx: Three, ty: Three, cx: Three, cy: Three, a
         return
 
     def sub(v: Three) -> Three:
-        return tuple(c if np.ndim(c) == 0 else c[idx] for c in v)  # type: ignore[return-value]
+        return tuple(c if np.ndim(c) == 0 else c[idx] for c in v)
 
     sx, sy, scx, scy = sub(tx), sub(ty), sub(cx), sub(cy)
     sin_d, cos_d = _similarity(sx, sy, scx, scy, aligned if np.ndim(aligned) == 0 else aligned[idx], np)

@@ -44,8 +44,7 @@ def bearing_jacobian(reflectors: ArrayLike, pose: ArrayLike) -> NDArray[np.float
     dy = r[..., 1] - p[..., None, 1]
     d2 = dx * dx + dy * dy
     with np.errstate(divide="ignore", invalid="ignore"):
-        jac = np.stack([dy / d2, -dx / d2, -np.ones_like(d2)], axis=-1)
-    return jac
+        return np.stack([dy / d2, -dx / d2, -np.ones_like(d2)], axis=-1)
 
 
 def fisher_information(

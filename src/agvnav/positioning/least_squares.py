@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav.geometry.angles import wrap_angle_scalar
-from agvnav.positioning._three import TWO_PI, Arr, wrap
+from agvnav.positioning._three import Arr, wrap
 from agvnav.positioning.bounds import inv_sym3
 from agvnav.positioning.total import total_kernel
 
@@ -99,9 +99,9 @@ def initial_state(rx: Arr, ry: Arr, theta: Arr, psi_est: Arr | None) -> Arr:
         if not np.any(missing):
             break
         fix = total_kernel(
-            tuple(rxb[missing, k] for k in triple),  # type: ignore[arg-type]
-            tuple(ryb[missing, k] for k in triple),  # type: ignore[arg-type]
-            tuple(theta[missing, k] for k in triple),  # type: ignore[arg-type]
+            tuple(rxb[missing, k] for k in triple),
+            tuple(ryb[missing, k] for k in triple),
+            tuple(theta[missing, k] for k in triple),
         )
         start = np.stack([fix["x"], fix["y"], fix["heading"]], axis=-1)
         start[~fix["valid"]] = np.nan
@@ -142,7 +142,7 @@ def least_squares_kernel(
     ``quality`` is ``1 / PDOP`` of the bearings alone at the solution (rad/m; 0 when
     they cannot fix the pose without the prior).
     """
-    m, n = theta.shape
+    m, _ = theta.shape
     sigma = np.ones(1) if bearing_std is None else bearing_std
     w_t = np.ascontiguousarray(np.broadcast_to(1.0 / np.asarray(sigma, dtype=np.float64) ** 2, theta.shape).T)
     theta_t = np.ascontiguousarray(theta.T)

@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -275,7 +276,7 @@ def _solve(
     hsf = None if hs is None else np.broadcast_to(hs, batch).reshape(m)
     coincident, collinear = _layout_flags(rf)
     layout_ok = ~(coincident | (collinear & _parallel_rays(bf)))
-    out = {k: np.empty(m) for k in ("x", "y", "heading", "quality")}
+    out: dict[str, NDArray[Any]] = {k: np.empty(m) for k in ("x", "y", "heading", "quality")}
     out["valid"] = np.empty(m, dtype=bool)
     out["heading_from_estimate"] = np.zeros(m, dtype=bool)
     cov = None if bs is None else np.empty((m, 3, 3))
@@ -299,7 +300,7 @@ def _solve(
     shaped["heading"] = np.asarray(wrap_angle(shaped["heading"]))
     return TriangulationResult(
         covariance=None if cov is None else cov.reshape(batch + (3, 3)),
-        **shaped,  # type: ignore[arg-type]
+        **shaped,
     )
 
 
@@ -333,7 +334,7 @@ def _solve_single(
         arrays = {"x": np.array([px]), "y": np.array([py]), "heading": np.array([heading]),
                   "heading_from_estimate": np.array([hfe])}
         hs1 = None if hs is None else np.reshape(hs, (1,))
-        cov = _covariance(method, r, arrays, np.broadcast_to(bs, (1, 3)), hs1)[0]  # type: ignore[arg-type]
+        cov = _covariance(method, r, arrays, np.broadcast_to(bs, (1, 3)), hs1)[0]
     return TriangulationResult(
         x=np.asarray(px, dtype=np.float64),
         y=np.asarray(py, dtype=np.float64),

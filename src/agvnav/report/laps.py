@@ -80,7 +80,9 @@ def save_laps(result: Any, out_dir: str | Path, plots: bool = True) -> list[Path
     modes = result.mode_summary()
     for mode, run in result.runs.items():
         tag = "with_landmarks" if mode else "without_landmarks"
-        modes[tag]["transitions"] = [[tr.t, tr.source.value, tr.target.value, tr.cause] for tr in run.controller.transitions]
+        modes[tag]["transitions"] = [
+            [tr.t, tr.source.value, tr.target.value, tr.cause] for tr in run.controller.transitions
+        ]
     summary = {
         "scenario": result.scenario.name,
         "seed": result.scenario.seed,

@@ -29,7 +29,7 @@ For the route start both coincide at lap 1.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -67,7 +67,15 @@ class HybridAutopilot:
     :meth:`agvnav.guidance.hybrid.HybridController.bind`).
     """
 
-    signal_names: tuple[str, ...] = ("v_cmd", "omega_cmd", "omega_right_cmd", "omega_left_cmd", "state", "leg", "laps_done")
+    signal_names: tuple[str, ...] = (
+        "v_cmd",
+        "omega_cmd",
+        "omega_right_cmd",
+        "omega_left_cmd",
+        "state",
+        "leg",
+        "laps_done",
+    )
 
     def __init__(self, controller: Any) -> None:
         self.controller = controller
@@ -83,13 +91,19 @@ class HybridAutopilot:
             c.bind(estimator)
         cmd = c.command(t)
         w = cmd.wheel_speeds
-        self._sig = (cmd.v, cmd.omega, float(w[0]), float(w[1]), float(c.state.value[1]), float(c.leg),
-                     float(c.laps_done))
+        self._sig = (
+            cmd.v,
+            cmd.omega,
+            float(w[0]),
+            float(w[1]),
+            float(c.state.value[1]),
+            float(c.leg),
+            float(c.laps_done),
+        )
         return float(w[0]), float(w[1])
 
     def signals(self) -> tuple[float, ...]:
         return self._sig
-
 
 
 @dataclass(frozen=True)
@@ -107,9 +121,7 @@ class LapErrors:
         return int(self.t.size)
 
 
-def lap_errors(
-    transition_times: ArrayLike, t: ArrayLike, true_xy: ArrayLike, start_xy: ArrayLike
-) -> LapErrors:
+def lap_errors(transition_times: ArrayLike, t: ArrayLike, true_xy: ArrayLike, start_xy: ArrayLike) -> LapErrors:
     """Errors per lap from the E4 transition times ``(n,)`` (s) and the recorded truth.
 
     ``t (k,)`` sample times, ``true_xy (k, 2)`` true positions (m), ``start_xy
@@ -186,8 +198,16 @@ def run_tracked(
     e4 = [tr.t for tr in ctrl.transitions if tr.target.value == "E4"]
     xy = np.column_stack([out.series["x"], out.series["y"]])
     le = lap_errors(e4, out.series["t"], xy, route.start_pose[:2])
-    return TrackedRun(series=out.series, events=out.events, wall_time_s=out.wall_time_s, finished=out.finished,
-                      controller=ctrl, estimator=localizer, laps=le, use_landmarks=bool(use_landmarks))
+    return TrackedRun(
+        series=out.series,
+        events=out.events,
+        wall_time_s=out.wall_time_s,
+        finished=out.finished,
+        controller=ctrl,
+        estimator=localizer,
+        laps=le,
+        use_landmarks=bool(use_landmarks),
+    )
 
 
 def nominal_lap_time(route: Any, params: Any) -> float:
@@ -198,7 +218,10 @@ def nominal_lap_time(route: Any, params: Any) -> float:
 
 
 def hybrid_params(params: dict[str, Any]) -> HybridParams:
-    """:class:`~agvnav.guidance.hybrid.HybridParams` from ``controller.params`` (keys ``*_deg``/``*_deg_s`` in degrees)."""
+    """:class:`~agvnav.guidance.hybrid.HybridParams` from ``controller.params``.
+
+    Keys ending ``_deg``/``_deg_s`` are in degrees and become the radian fields.
+    """
     out: dict[str, Any] = {}
     for key, value in params.items():
         for suffix in ("_deg_s", "_deg"):
@@ -221,7 +244,10 @@ class RouteParts:
 
 
 def prepare_tracked(sc: Scenario) -> RouteParts:
-    """Check ``sc`` (a route scenario) across its parts: map walls, rangers outside the body, the route passes a landmark."""
+    """Check the route scenario ``sc`` across its parts.
+
+    The map has walls, the rangers stand outside the body, the route passes a landmark.
+    """
     if sc.route is None or not isinstance(sc.vehicle, TrackedSpec):
         raise sc.error(("route",), "the hybrid automaton drives the tracked robot on a route")
     r = sc.route
@@ -229,13 +255,22 @@ def prepare_tracked(sc: Scenario) -> RouteParts:
     if world.wall_segments.shape[0] == 0:
         raise sc.error(("map",), "the map has no walls: the ultrasonic landmarks are walls")
     layout = ultrasonic_array(sc)
-    route = guard(sc, ("route",), PolygonRoute.square, r.side_m, (r.start[0], r.start[1], math.radians(r.start[2])),
-                  r.turn)
+    route = guard(
+        sc, ("route",), PolygonRoute.square, r.side_m, (r.start[0], r.start[1], math.radians(r.start[2])), r.turn
+    )
     params = guard(sc, ("controller", "params"), hybrid_params, sc.controller.params)
     if sc.controller.landmarks or sc.controller.compare_landmarks:  # the route must pass a landmark
         legs = [route.leg(k) for k in range(route.n_legs)]
-        guard(sc, ("map",), check_route_passes_landmarks, legs, world.wall_segments, layout.body_width,
-              params.detect_range, params.parallel_tolerance)
+        guard(
+            sc,
+            ("map",),
+            check_route_passes_landmarks,
+            legs,
+            world.wall_segments,
+            layout.body_width,
+            params.detect_range,
+            params.parallel_tolerance,
+        )
         landmark = guard(sc, ("controller", "params"), LandmarkParams, **params.landmark_kwargs())
         guard(sc, ("ultrasonic",), WallLandmarkLocalizer, world.wall_segments, layout, landmark)  # names the pairs
     return RouteParts(route, world, layout, params)
@@ -288,8 +323,9 @@ def simulate_tracked(sc: Scenario, progress: Callable[[float], None] | None = No
     parts = prepare_tracked(sc)
     modes = [True, False] if sc.controller.compare_landmarks else [sc.controller.landmarks]
     runs = {
-        mode: run_tracked(sc, parts.route, parts.world, parts.layout, parts.params, use_landmarks=mode,
-                          progress=progress)
+        mode: run_tracked(
+            sc, parts.route, parts.world, parts.layout, parts.params, use_landmarks=mode, progress=progress
+        )
         for mode in modes
     }
     return TrackedResult(sc, runs, parts.world, parts.route)
