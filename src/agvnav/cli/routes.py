@@ -71,6 +71,6 @@ def plan(
         print(f"  {t.edge.id:>10}  {t.edge.source} -> {t.edge.target}  {t.edge.curve.kind:<8} {how:<7} "
               f"{t.edge.curve.length:7.2f} m")
     if plot is not None:
-        from agvnav.routes.plots import plot_network
+        from agvnav.report.routes import plot_network
 
         print(f"wrote {plot_network(net, plot, route)}")
