@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.geometry import lateral_position_error
+from agvnav.geometry import lateral_position_error, wrap_angle
 from agvnav.logs import topics as tp
 from agvnav.logs.localize import Localization
 from agvnav.logs.reader import RecordedLog
@@ -53,7 +53,7 @@ def localization_summary(loc: Localization, log: RecordedLog, name: str = "log")
         est = np.column_stack([s["est_x"], s["est_y"], s["est_psi"]])
         ok = np.all(np.isfinite(est), axis=1)
         d = np.hypot(*(est[ok, :2] - log.truth[ok, :2]).T)
-        dpsi = np.angle(np.exp(1j * (est[ok, 2] - log.truth[ok, 2])))
+        dpsi = wrap_angle(est[ok, 2] - log.truth[ok, 2])
         e_lat = lateral_position_error(log.truth[ok], est[ok])
         doc.update(
             positioning_rms_m=_f(np.sqrt(np.mean(d**2))) if d.size else None,

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.geometry import lateral_position_error
+from agvnav.geometry import lateral_position_error, wrap_angle
 from agvnav.report.plots import pyplot
 
 __all__ = [
@@ -218,7 +218,7 @@ def plot_positioning_errors(t: F64, true_pose: F64, est_pose: F64, joins: list[f
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
     a1.plot(t, 1000.0 * lateral_position_error(true_pose, est_pose), color="tab:green")
     a1.set_ylabel("positioning e_lat [mm]")
-    dpsi = np.angle(np.exp(1j * (est_pose[:, 2] - true_pose[:, 2])))
+    dpsi = wrap_angle(est_pose[:, 2] - true_pose[:, 2])
     a2.plot(t, np.rad2deg(dpsi), color="tab:olive")
     a2.set(ylabel="heading error [deg]", xlabel="time [s]")
     _mark(a1, a2, joins or [])

@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav.actuators import SpeedProfile
+from agvnav.geometry import wrap_angle_scalar
 from agvnav.guidance.paths import Path
 from agvnav.routes.mission import Job, MissionError, MissionPlan, chain_mission, plan_legs, speed_limits
 from agvnav.routes.network import EDGE_KINDS, RouteNetwork, load_network
@@ -247,7 +248,7 @@ def mission_figures(
     for i, st in enumerate(stops):
         k = min(int(np.searchsorted(t, st.t)), len(t) - 1)
         e = math.hypot(series["x_tracked"][k] - st.x, series["y_tracked"][k] - st.y)
-        he = abs(math.remainder(float(series["psi"][k]) - st.heading, 2.0 * math.pi))
+        he = abs(wrap_angle_scalar(float(series["psi"][k]) - st.heading))
         out[f"stop_error_m[{i}]"], out[f"stop_heading_error_rad[{i}]"] = e, he
         errs.append(e)
         herrs.append(he)
