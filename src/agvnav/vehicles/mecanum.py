@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from typing import ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from agvnav.actuators import WheelSpeedLoop
 from agvnav.actuators.scalar import ScalarSpeedLoop
@@ -32,14 +32,14 @@ from agvnav.kinematics.scalar import twist_pose
 from agvnav.odometry.errors import NonSystematicErrors
 from agvnav.sensors.encoders import WheelEncoder, wheel_count
 from agvnav.vehicles.geometry import HolonomicGeometry, box_footprint, check_footprint
-from agvnav.vehicles.motion import piecewise_twist_pose
+from agvnav.vehicles.motion import SubstepTrajectory
 
 __all__ = ["MecanumPlant"]
 
 WHEELS = ("fl", "fr", "rl", "rr")
 
 
-class MecanumPlant:
+class MecanumPlant(SubstepTrajectory):
     """Truth mecanum base: per-wheel speed loops, true radii, wheel and roller slip, encoders, nominal odometry.
 
     Parameters
@@ -104,26 +104,12 @@ class MecanumPlant:
         self.footprint = check_footprint(default if footprint is None else footprint)
         # least squares from wheel ground speeds (m/s) to the body twist: pinv of the r = 1 inverse kinematics
         self._P = np.linalg.pinv(base.inverse_matrix * r).tolist()
-        p = np.asarray(initial_pose, dtype=np.float64).reshape(3)
-        self._pose = (float(p[0]), float(p[1]), float(p[2]))
+        self._start_trajectory(np.asarray(initial_pose, dtype=np.float64), self.substep)
         self._angle = [0.0] * 4
         self._counts = [0] * 4
-        self._t0, self._h = 0.0, self.substep
-        self._states = p[None, :].copy()
-        self._twists = np.zeros((1, 3))
         self._odo = (0.0, 0.0, 0.0)
         self._twist = (0.0, 0.0, 0.0)
         self.distance = 0.0
-
-    @property
-    def pose(self) -> NDArray[np.float64]:
-        """True base_link pose ``[x, y, heading]`` now (m, rad)."""
-        return np.array(self._pose)
-
-    @property
-    def substep_twists(self) -> NDArray[np.float64]:
-        """Body twists ``(n, 3)`` ``[v_x, v_y, omega]`` (m/s, rad/s) of the last step's sub-steps (a copy)."""
-        return self._twists.copy()
 
     @property
     def wheel_rates(self) -> tuple[float, float, float, float]:
@@ -160,10 +146,7 @@ class MecanumPlant:
             states.append((x, y, th))
             twists.append((vx, vy, w))
             self.distance += math.hypot(vx, vy) * h
-        self._pose = (x, y, th)
-        self._t0, self._h = float(t0), h
-        self._states = np.array(states)
-        self._twists = np.array(twists)
+        self._record_step(t0, h, states, twists)
         self._twist = twists[-1]
         self._odo = self._odometry_increment()
 
@@ -191,10 +174,6 @@ class MecanumPlant:
             self._counts[i] = c
         dx, dy, dth = self._twist_of(ds)
         return dx, dth, dy
-
-    def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """True pose ``(k, 3)`` at instants ``t (k,)`` (s) of the last step (exact per sub-step twist)."""
-        return piecewise_twist_pose(t, self._t0, self._h, self._states, self._twists)
 
     def odometry(self) -> tuple[float, float, float]:
         """``(delta_d, delta_theta, delta_lateral)`` of base_link over the last step (m, rad, m), nominal model."""

@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from agvnav.kinematics.base import twist_step
 
-__all__ = ["differential_twist_matrix", "hermite_pose", "piecewise_twist_pose"]
+__all__ = ["SubstepTrajectory", "differential_twist_matrix", "hermite_pose", "piecewise_twist_pose"]
 
 
 def piecewise_twist_pose(
@@ -81,3 +81,55 @@ def hermite_pose(
     u3 = u2 * u
     return ((2.0 * u3 - 3.0 * u2 + 1.0) * poses[i] + (u3 - 2.0 * u2 + u) * h * rates[i]
             + (3.0 * u2 - 2.0 * u3) * poses[i + 1] + (u3 - u2) * h * rates[i + 1])
+
+
+class SubstepTrajectory:
+    """The true motion of a plant that holds a constant body twist inside each sub-step.
+
+    Keeps the pose now and the last step's sub-step boundaries and twists, and gives
+    ``pose``, ``substep_twists``, ``substep_length`` and the exact ``pose_at`` of the
+    Plant role (:func:`piecewise_twist_pose`). Plants call :meth:`_start_trajectory`
+    once and :meth:`_record_step` at the end of every ``advance``.
+    """
+
+    _pose: tuple[float, float, float]
+    _t0: float
+    _h: float
+    _states: NDArray[np.float64]
+    _twists: NDArray[np.float64]
+
+    def _start_trajectory(self, initial_pose: NDArray[np.float64], substep: float) -> None:
+        """At rest at ``initial_pose`` ``[x, y, heading]`` (m, rad); ``substep`` (s)."""
+        p = np.asarray(initial_pose, dtype=np.float64).reshape(3)
+        self._pose = (float(p[0]), float(p[1]), float(p[2]))
+        self._t0, self._h = 0.0, float(substep)
+        self._states = p[None, :].copy()
+        self._twists = np.zeros((1, 3))
+
+    def _record_step(
+        self, t0: float, h: float, states: list[tuple[float, float, float]], twists: list[tuple[float, float, float]]
+    ) -> None:
+        """Keep a step from ``t0`` (s) of sub-steps ``h`` (s): boundary poses ``states`` and ``twists``."""
+        self._pose = states[-1]
+        self._t0, self._h = float(t0), h
+        self._states = np.array(states)
+        self._twists = np.array(twists)
+
+    @property
+    def pose(self) -> NDArray[np.float64]:
+        """True base_link pose ``[x, y, heading]`` now (m, rad)."""
+        return np.array(self._pose)
+
+    @property
+    def substep_twists(self) -> NDArray[np.float64]:
+        """Body twists ``(n, 3)`` ``[v_x, v_y, omega]`` (m/s, rad/s) of the last step's sub-steps (a copy)."""
+        return self._twists.copy()
+
+    @property
+    def substep_length(self) -> float:
+        """Length (s) of the last step's sub-steps."""
+        return self._h
+
+    def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """True pose ``(k, 3)`` at instants ``t (k,)`` (s) of the last step (exact per sub-step twist)."""
+        return piecewise_twist_pose(t, self._t0, self._h, self._states, self._twists)

@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from typing import ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from agvnav.actuators import WheelSpeedLoop
 from agvnav.actuators.scalar import ScalarSpeedLoop
@@ -30,7 +30,7 @@ from agvnav.kinematics.scalar import track_twist, twist_pose
 from agvnav.odometry.scalar import track_increments
 from agvnav.sensors.encoders import WheelEncoder, wheel_count
 from agvnav.vehicles.geometry import UnicycleGeometry, check_footprint
-from agvnav.vehicles.motion import piecewise_twist_pose
+from agvnav.vehicles.motion import SubstepTrajectory
 
 __all__ = ["WheelPairPlant"]
 
@@ -43,7 +43,7 @@ def _twist_rows(name: str, matrix: ArrayLike) -> list[list[float]]:
     return [[float(v) for v in row] for row in m.tolist()]
 
 
-class WheelPairPlant(ABC):
+class WheelPairPlant(SubstepTrajectory, ABC):
     """Speed loops, constant-twist sub-steps, two wheel encoders and nominal odometry; see the module docstring.
 
     Subclasses implement :meth:`_ground_speeds` and :meth:`_begin_step` (per-step
@@ -85,31 +85,12 @@ class WheelPairPlant(ABC):
         self.footprint = check_footprint(footprint)
         self._T = _twist_rows("true_twist", true_twist)
         self._To = _twist_rows("nominal_twist", nominal_twist)
-        p = np.asarray(initial_pose, dtype=np.float64).reshape(3)
-        self._pose = (float(p[0]), float(p[1]), float(p[2]))
+        self._start_trajectory(np.asarray(initial_pose, dtype=np.float64), self.substep)
         self._angle = [0.0, 0.0]  # true wheel/sprocket rotations (rad)
         self._counts = [0, 0]
-        self._t0, self._h = 0.0, self.substep
-        self._states = p[None, :].copy()
-        self._twists = np.zeros((1, 3))
         self._odo = (0.0, 0.0, 0.0)
         self._v = self._w = 0.0
         self.distance = 0.0
-
-    @property
-    def pose(self) -> NDArray[np.float64]:
-        """True base_link pose ``[x, y, heading]`` now (m, rad)."""
-        return np.array(self._pose)
-
-    @property
-    def substep_twists(self) -> NDArray[np.float64]:
-        """Body twists ``(n, 3)`` ``[v_x, v_y, omega]`` (m/s, rad/s) of the last step's sub-steps (a copy)."""
-        return self._twists.copy()
-
-    @property
-    def substep_length(self) -> float:
-        """Length (s) of the last step's sub-steps."""
-        return self._h
 
     def failure(self) -> str | None:
         """No physical failure ends a run of a two-sided base: always None."""
@@ -140,10 +121,7 @@ class WheelPairPlant(ABC):
             states.append((x, y, th))
             twists.append((vx, vy, w))
             dist += math.hypot(vx, vy) * h
-        self._pose = (x, y, th)
-        self._t0, self._h = float(t0), h
-        self._states = np.array(states)
-        self._twists = np.array(twists)
+        self._record_step(t0, h, states, twists)
         self._v, self._w = twists[-1][0], twists[-1][2]
         self.distance += dist
         self._odo = self._odometry_increment()
@@ -170,10 +148,6 @@ class WheelPairPlant(ABC):
         dd, dth = track_increments(ds[0], ds[1], self._To)
         t1 = self._To[1]
         return dd, dth, t1[0] * ds[0] + t1[1] * ds[1]
-
-    def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """True pose ``(k, 3)`` at instants ``t (k,)`` (s) of the last step (exact per sub-step twist)."""
-        return piecewise_twist_pose(t, self._t0, self._h, self._states, self._twists)
 
     def odometry(self) -> tuple[float, float, float]:
         """``(delta_d, delta_theta, delta_lateral)`` of base_link over the last step (m, rad, m), nominal model."""
