@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +30,7 @@ import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
+from agvnav.world.strict import read_document_text, resolve_document
 from agvnav.world.yaml_strict import safe_load_unique, yaml_error_line
 
 __all__ = ["Reflector", "Wall", "WorldMap", "load_map", "save_map"]
@@ -306,12 +308,14 @@ def _wall_from_dict(entry: Any) -> Wall:
 
 
 def load_map(path: str | Path) -> WorldMap:
-    """Read and validate a YAML map file; ValueError names the file and the offending entry.
+    """Read and validate a YAML map file, or a shipped map by name (``"lab"``, ``"hall"``).
 
-    A missing or unreadable file raises OSError (as ``open`` does).
+    A bare name that is not a local file is looked up in ``agvnav/data/maps``. Every
+    problem is a ValueError naming the file (a missing, unreadable or binary file
+    too) and, for a bad entry, the entry.
     """
-    path = Path(path)
-    text = path.read_text(encoding="utf-8")
+    path = resolve_document(path, _maps_dir(), "map")
+    text = read_document_text(path, "map")
     try:
         data = safe_load_unique(text)
     except yaml.YAMLError as exc:
@@ -325,6 +329,11 @@ def load_map(path: str | Path) -> WorldMap:
         return WorldMap.from_dict(data)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
+
+
+def _maps_dir() -> Path:
+    """The folder of the shipped maps (``agvnav/data/maps``)."""
+    return Path(str(resources.files("agvnav") / "data" / "maps"))
 
 
 def save_map(world: WorldMap, path: str | Path) -> None:

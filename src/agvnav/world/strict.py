@@ -21,6 +21,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from agvnav.world.yaml_strict import safe_load_unique, yaml_error_line
 
 __all__ = [
+    "DocumentNotFoundError",
     "Finite",
     "KeyPath",
     "NonNegFloat",
@@ -33,6 +34,8 @@ __all__ = [
     "format_key",
     "load_yaml_document",
     "node_line",
+    "read_document_text",
+    "resolve_document",
     "validate_document",
 ]
 
@@ -56,6 +59,10 @@ class ScenarioError(ValueError):
             where += f":{line}"
         keytext = format_key(self.key)
         super().__init__(f"{where}: {keytext + ': ' if keytext else ''}{message}")
+
+
+class DocumentNotFoundError(ScenarioError, FileNotFoundError):
+    """A document file that does not exist: a located ValueError that is also a FileNotFoundError."""
 
 
 def format_key(key: KeyPath) -> str:
@@ -168,6 +175,47 @@ def first_error(exc: ValidationError, data: Any) -> tuple[KeyPath, str]:
     if len(errors) > 1:
         msg += f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})"
     return key, msg
+
+
+def resolve_document(path: str | Path, shipped_dir: Path, kind: str) -> Path:
+    """The file ``path`` names: a path, or a bare name of a file shipped in ``shipped_dir`` (``lab``).
+
+    A name is looked up as ``shipped_dir/<name>.yaml`` only when ``path`` is not an
+    existing file and has no folder and no suffix, so a local file always wins.
+    Raises a :class:`ScenarioError` naming ``path`` (and the shipped names) when it is a
+    folder or does not exist. ``kind`` is the document's name in messages ("map").
+    """
+    p = Path(path)
+    if not p.exists() and p.suffix == "" and len(p.parts) == 1:
+        shipped = shipped_dir / f"{p.name}.yaml"
+        if shipped.is_file():
+            return shipped
+    if p.is_dir():
+        raise ScenarioError(f"is a directory, not a {kind} file", (), None, str(path))
+    if not p.is_file():
+        names = ", ".join(sorted(q.stem for q in shipped_dir.glob("*.yaml"))) or "none"
+        raise DocumentNotFoundError(f"no such {kind} file (shipped {kind}s: {names})", (), None, str(path))
+    return p
+
+
+def read_document_text(path: str | Path, kind: str, source: str | None = None) -> str:
+    """The UTF-8 text of a YAML document file; every failure a one-line ScenarioError naming the file.
+
+    A binary file (NUL bytes, or not UTF-8) and an unreadable one are refused with the
+    file's name (``source``, default ``path``) instead of a decoder traceback.
+    """
+    where = str(path) if source is None else source
+    try:
+        raw = Path(path).read_bytes()
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise ScenarioError(f"cannot read the {kind} file ({reason})", (), None, where) from None
+    if b"\x00" in raw:
+        raise ScenarioError(f"is a binary file, not a {kind} (YAML text)", (), None, where)
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ScenarioError(f"is not a UTF-8 text file (a {kind} is YAML text)", (), None, where) from None
 
 
 def load_yaml_document(text: str, source: str) -> tuple[Any, Any]:
