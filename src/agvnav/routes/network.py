@@ -33,7 +33,14 @@ from agvnav.guidance.clothoid import ArcChain, Clothoid, arc_chain
 from agvnav.guidance.paths import ArcSegment, LineSegment, Segment
 from agvnav.routes.nurbs import Nurbs, nurbs_problem
 from agvnav.routes.schema import EdgeSpec, NetworkSpec, NodeSpec
-from agvnav.world.strict import KeyPath, ScenarioError, load_yaml_document, validate_document
+from agvnav.world.strict import (
+    KeyPath,
+    ScenarioError,
+    load_yaml_document,
+    read_document_text,
+    resolve_document,
+    validate_document,
+)
 
 __all__ = [
     "EDGE_KINDS",
@@ -344,11 +351,5 @@ def _child(nodes: Any, name: str) -> Any:
 
 def load_network(path: str | FsPath) -> RouteNetwork:
     """Load a route network file, or a shipped one by name (``agvnav/data/routes/<name>.yaml``)."""
-    p = FsPath(path)
-    if not p.is_file() and p.suffix == "":
-        shipped = FsPath(str(resources.files("agvnav") / "data" / "routes" / f"{path}.yaml"))
-        if shipped.is_file():
-            p = shipped
-    if not p.is_file():
-        raise ScenarioError("no such route network file", (), None, str(path))
-    return parse_network(p.read_text(encoding="utf-8"), str(path), p.parent)
+    p = resolve_document(path, FsPath(str(resources.files("agvnav") / "data" / "routes")), "route network")
+    return parse_network(read_document_text(p, "route network", str(path)), str(path), p.parent)
