@@ -34,10 +34,11 @@ from agvnav.world.strict import (
     Finite,
     NonNegFloat,
     PosFloat,
-    ScenarioError,
     SourcedModel,
     StrictModel,
     load_yaml_document,
+    read_document_text,
+    resolve_document,
     validate_document,
 )
 
@@ -198,11 +199,5 @@ def parse_layout(text: str, source: str = "<string>", base_dir: Path | None = No
 
 def load_layout(path: str | Path) -> LayoutSpec:
     """Read a layout file (or a shipped one by name, e.g. ``warehouse``); errors name key and line."""
-    p = Path(path)
-    if not p.is_file() and p.suffix == "":
-        shipped = Path(__file__).resolve().parent.parent / "data" / "layouts" / f"{p.name}.yaml"
-        if shipped.is_file():
-            p = shipped
-    if not p.is_file():
-        raise ScenarioError("no such layout file (shipped: warehouse)", (), None, str(path))
-    return parse_layout(p.read_text(encoding="utf-8"), str(path), p.parent)
+    p = resolve_document(path, Path(__file__).resolve().parent.parent / "data" / "layouts", "layout")
+    return parse_layout(read_document_text(p, "layout", str(path)), str(path), p.parent)
