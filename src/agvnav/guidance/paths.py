@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import require_finite, require_last_dim
 from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
+from agvnav.world.strict import read_document_text
 from agvnav.world.yaml_strict import safe_load_unique
 
 __all__ = [
@@ -714,11 +715,11 @@ def seed_test_path(
 
 def load_path(path: str | FsPath) -> Path:
     """Read a path from a YAML file (see :meth:`Path.from_dict`; top-level key ``path`` optional)."""
-    with open(path, encoding="utf-8") as fh:
-        try:
-            data = safe_load_unique(fh.read())
-        except yaml.YAMLError as exc:
-            raise ValueError(f"{path}: invalid YAML: {exc}") from None
+    text = read_document_text(path, "path")
+    try:
+        data = safe_load_unique(text)
+    except yaml.YAMLError as exc:
+        raise ValueError(" ".join(f"{path}: invalid YAML: {exc}".split())) from None
     if isinstance(data, Mapping) and set(data) == {"path"}:
         data = data["path"]
     try:
