@@ -41,7 +41,7 @@ from agvnav.world.scenario import Scenario, ScenarioError
 
 __all__ = [
     "LimitedSpeedProfile", "MissionAutopilot", "StationStop", "mission_autopilot", "mission_duration",
-    "mission_figures", "plan_mission",
+    "mission_figures", "plan_mission", "route_tracking", "run_bounds", "tracked_point",
 ]
 
 #: A node counts as passed once the progress is within this distance (m) of it (a station stop ends short of it).
@@ -230,24 +230,79 @@ class MissionAutopilot:
         return self._sig
 
 
+def run_bounds(plan: MissionPlan) -> NDArray[np.float64]:
+    """Arclengths (m) along the mission path where a *run* starts, and the path length last.
+
+    A run is a stretch driven in one direction within one leg: a new one starts at every
+    leg start and at every cusp (a change of the direction of travel), where the vehicle stops.
+    """
+    starts = plan.path.segment_starts
+    dirs = np.array([seg.direction for seg in plan.path.segments])
+    cusps = starts[1:-1][dirs[1:] != dirs[:-1]]
+    b = np.unique(np.concatenate([plan.leg_bounds[:, 0], cusps, [0.0]]))
+    return np.append(b[b < plan.path.length - 1e-9], plan.path.length)
+
+
+def tracked_point(series: dict[str, NDArray[np.float64]]) -> NDArray[np.float64]:
+    """The true guided point (n, 2) (m): ``point_offset`` ahead of base_link when the mission recorded it
+    (the guided point switches between C and O), else the run's ``x_tracked``/``y_tracked``."""
+    if "point_offset" in series:
+        off = series["point_offset"]
+        return np.column_stack([series["x"] + off * np.cos(series["psi"]), series["y"] + off * np.sin(series["psi"])])
+    return np.column_stack([series["x_tracked"], series["y_tracked"]])
+
+
+def route_tracking(
+    series: dict[str, NDArray[np.float64]], plan: MissionPlan
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(s, lateral)``: the true guided point projected onto the run the vehicle was driving (m, m).
+
+    Each sample is projected only onto the run (:func:`run_bounds`) holding the autopilot's own
+    progress ``s_est``, within 1 m of it: after a cusp a reverse run often retraces the forward
+    one (the dock spur leaves the lane it was approached on), where a projection onto the whole
+    path would jump back onto the forward run and report the heading error times the wheelbase
+    as a lateral error. ``lateral`` is the guided point's (left of the tangent positive).
+    """
+    pts = tracked_point(series)
+    hint = np.nan_to_num(series["s_est"], nan=0.0)
+    bounds = run_bounds(plan)
+    run = np.clip(np.searchsorted(bounds, hint, side="right") - 1, 0, len(bounds) - 2)
+    s_out = np.zeros(len(hint))
+    lat = np.zeros(len(hint))
+    starts = plan.path.segment_starts
+    for r in np.unique(run):
+        a, b = float(bounds[r]), float(bounds[r + 1])
+        i0 = int(np.searchsorted(starts, a + 1e-9, side="right") - 1)
+        i1 = int(np.searchsorted(starts, b - 1e-9, side="left"))
+        sub = Path(list(plan.path.segments[i0:i1]))
+        sel = run == r
+        local_hint = np.clip(hint[sel] - a, 0.0, sub.length)
+        pr = sub.project(pts[sel], s_hint=local_hint, window=1.0)
+        s_out[sel] = a + np.asarray(pr.s)
+        lat[sel] = np.asarray(pr.lateral)
+    return s_out, lat
+
+
 def mission_figures(
     series: dict[str, NDArray[np.float64]], plan: MissionPlan, stops: list[StationStop]
 ) -> dict[str, float]:
     """Mission results from the *true* pose: stop errors per station, mission time, lateral error per edge kind.
 
-    ``stop_error_m[i]`` is the distance of the true tracked point from the planned
+    ``stop_error_m[i]`` is the distance of the true guided point from the planned
     station point at the moment stop ``i`` was declared; ``stop_heading_error_rad[i]``
-    the true heading's difference from the planned one. Lateral errors are grouped by
-    the kind of edge (line, arc, clothoid, nurbs) the true projection ``s_true`` lies on;
+    the true heading's difference from the planned one. Lateral errors are those of the
+    true guided point against the run it was driving (:func:`route_tracking`), grouped by
+    the kind of edge (line, arc, clothoid, nurbs) its projection lies on;
     ``max_lateral_m.line_curve_joints`` is the largest from 0.5 m before to 1.5 m after every
     forward joint between a line and an arc or clothoid edge.
     """
     out: dict[str, float] = {"stations": float(len(stops))}
     t = series["t"]
+    pts = tracked_point(series)
     errs, herrs = [], []
     for i, st in enumerate(stops):
         k = min(int(np.searchsorted(t, st.t)), len(t) - 1)
-        e = math.hypot(series["x_tracked"][k] - st.x, series["y_tracked"][k] - st.y)
+        e = math.hypot(pts[k, 0] - st.x, pts[k, 1] - st.y)
         he = abs(wrap_angle_scalar(float(series["psi"][k]) - st.heading))
         out[f"stop_error_m[{i}]"], out[f"stop_heading_error_rad[{i}]"] = e, he
         errs.append(e)
@@ -255,17 +310,18 @@ def mission_figures(
     out["max_stop_error_m"] = max(errs) if errs else math.nan
     out["max_stop_heading_error_rad"] = max(herrs) if herrs else math.nan
     out["mission_time_s"] = stops[-1].t if stops else math.nan
-    seg = np.clip(np.searchsorted(plan.path.segment_starts, series["s_true"], side="right") - 1, 0,
+    s_route, lateral = route_tracking(series, plan)
+    seg = np.clip(np.searchsorted(plan.path.segment_starts, s_route, side="right") - 1, 0,
                   len(plan.seg_kind) - 1)
     kind = plan.seg_kind[seg]
     moving = np.abs(series["v_cmd"]) > 1e-6
     for code, name in enumerate(EDGE_KINDS):
         m = moving & (kind == code)
-        lat = np.abs(series["lateral_error"][m])
+        lat = np.abs(lateral[m])
         out[f"max_lateral_m.{name}"] = float(lat.max()) if lat.size else math.nan
         out[f"rms_lateral_m.{name}"] = float(np.sqrt(np.mean(lat**2))) if lat.size else math.nan
-    near = moving & _near_line_curve_joints(plan, series["s_true"])
-    lat = np.abs(series["lateral_error"][near])
+    near = moving & _near_line_curve_joints(plan, s_route)
+    lat = np.abs(lateral[near])
     out["max_lateral_m.line_curve_joints"] = float(lat.max()) if lat.size else math.nan
     return out
 
