@@ -22,6 +22,7 @@ from typing import Annotated, Any, Literal, Self
 
 from pydantic import Field, field_validator, model_validator
 
+from agvnav.world.obstacles import ObstacleSpec, ReactiveSpec, ScannerSpec
 from agvnav.world.strict import (
     Finite,
     KeyPath,
@@ -497,6 +498,12 @@ class Scenario(SourcedModel):
     """how the vehicle slows and stops when positioning degrades or is lost."""
     faults: list[FaultSpec] = Field(default_factory=list)
     """faults injected into the run (goniometer, reflectors, odometry), for testing integrity."""
+    obstacles: list[ObstacleSpec] | None = None
+    """obstacles the map does not hold: static boxes/cylinders, people or vehicles crossing (issue 18)."""
+    scanner: ScannerSpec | None = None
+    """a planar safety laser scanner on the vehicle (null: none; issue 18)."""
+    reactive: ReactiveSpec | None = None
+    """safety fields, slow/stop/resume and local avoidance (null: no reaction; issue 18)."""
 
     @field_validator("map", mode="before")
     @classmethod
