@@ -35,7 +35,7 @@ from agvnav.world.yaml_strict import safe_load_unique, yaml_error_line
 
 __all__ = ["Reflector", "Wall", "WorldMap", "load_map", "save_map"]
 
-_REFLECTOR_KEYS = ("id", "x", "y", "radius", "survey_std_m")
+_REFLECTOR_KEYS = ("id", "x", "y", "radius", "survey_std_m", "covariance_m2")
 _WALL_KEYS = ("id", "points", "closed")
 _MAP_KEYS = ("reflectors", "walls")
 
@@ -68,6 +68,8 @@ class Reflector:
     reflection, i.e. the tangent edge of the cylinder, not its centre.
     ``survey_std_m`` (m, per axis) is the uncertainty of the surveyed centre (issue 12);
     0 means "not stated" (the estimator's global ``map_std`` applies).
+    ``covariance_m2`` (m², optional): the full 2x2 covariance ``((xx, xy), (xy, yy))`` of the
+    centre, as a mapping drive estimates it (issue 17, :mod:`agvnav.mapping`); None when not stated.
     """
 
     id: str
@@ -75,9 +77,12 @@ class Reflector:
     y: float
     radius: float = 0.0
     survey_std_m: float = 0.0
+    covariance_m2: tuple[tuple[float, float], tuple[float, float]] | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "id", _check_id(self.id))
+        if self.covariance_m2 is not None:
+            object.__setattr__(self, "covariance_m2", _check_covariance(self.covariance_m2))
         std = _check_coordinate("survey_std_m", self.survey_std_m)
         if std < 0.0:
             raise ValueError(f"survey_std_m must be >= 0, got {self.survey_std_m!r}")
@@ -94,7 +99,22 @@ class Reflector:
         out: dict[str, Any] = {"id": self.id, "x": self.x, "y": self.y, "radius": self.radius}
         if self.survey_std_m > 0.0:
             out["survey_std_m"] = self.survey_std_m
+        if self.covariance_m2 is not None:
+            out["covariance_m2"] = [list(row) for row in self.covariance_m2]
         return out
+
+
+def _check_covariance(value: Any) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A symmetric positive semi-definite 2x2 covariance (m²) as nested tuples, else ValueError."""
+    try:
+        c = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"covariance_m2 must be [[xx, xy], [xy, yy]], got {value!r}") from None
+    if c.shape != (2, 2) or not np.all(np.isfinite(c)):
+        raise ValueError(f"covariance_m2 must be a finite [[xx, xy], [xy, yy]], got {value!r}")
+    if c[0, 1] != c[1, 0] or c[0, 0] < 0.0 or c[1, 1] < 0.0 or c[0, 0] * c[1, 1] < c[0, 1] ** 2:
+        raise ValueError(f"covariance_m2 must be symmetric positive semi-definite, got {value!r}")
+    return ((float(c[0, 0]), float(c[0, 1])), (float(c[1, 0]), float(c[1, 1])))
 
 
 @dataclass(frozen=True, eq=False)
@@ -287,7 +307,8 @@ def _reflector_from_dict(entry: Any) -> Reflector:
     missing = [k for k in ("id", "x", "y") if k not in entry]
     if missing:
         raise ValueError(f"missing key(s) {missing}")
-    return Reflector(entry["id"], entry["x"], entry["y"], entry.get("radius", 0.0), entry.get("survey_std_m", 0.0))
+    return Reflector(entry["id"], entry["x"], entry["y"], entry.get("radius", 0.0), entry.get("survey_std_m", 0.0),
+                     entry.get("covariance_m2"))
 
 
 def _wall_from_dict(entry: Any) -> Wall:
