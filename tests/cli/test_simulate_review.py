@@ -88,11 +88,12 @@ def test_unstable_poles_print_plain_numbers(tmp_path, poles, shown):
     assert shown in res.output and ".j" not in res.output and "+0" not in res.output, res.output
 
 
-def _table_text(e0):
+def _table_text(e0, name="guidance_test"):
     from types import SimpleNamespace
 
     from rich.console import Console
 
+    from agvnav.bench.common import fit_table
     from agvnav.cli.simulate import _summary
 
     m = SimpleNamespace(
@@ -110,23 +111,31 @@ def _table_text(e0):
         wall_time_s=0.1,
         real_time_factor=300.0,
     )
-    scenario = SimpleNamespace(name="x", seed=0, vehicle=SimpleNamespace(model="tricycle"))
+    scenario = SimpleNamespace(name=name, seed=0, vehicle=SimpleNamespace(model="tricycle"))
     result = SimpleNamespace(metrics=m, scenario=scenario, outcome="completed", reason=None)
     console = Console(width=200, record=True)
-    console.print(_summary(result))
+    console.print(fit_table(*_summary(result), width=200))
     return console.export_text()
 
 
 def test_summary_shows_guidance_references_only_for_a_start_off_the_path():
     with_offset = _table_text(0.110)
-    assert "110" in with_offset
+    assert "seed 000" in with_offset and "110" in with_offset
     # the seed's 16.5 mm / 3.8 deg are not printed beside a maximum its own band fixes (issue 13)
     assert "16.5" not in with_offset and "3.8" not in with_offset
-    assert "settling distance" in with_offset and "9.7" in with_offset
+    assert "settling distance" in with_offset
+    assert "9.7" not in with_offset  # the guidance test does not reproduce the positioning experiment
     on_path = _table_text(0.0)
     assert "16.5" not in on_path and "3.8" not in on_path and "110" not in on_path
     assert "settling distance" not in on_path
-    assert "9.7" in on_path and "6.6" not in on_path and "23" in on_path  # signed std: not the seed's reading
+
+
+def test_summary_shows_the_seed_column_only_for_a_seed_experiment():
+    positioning = _table_text(0.0, "seed000_positioning")
+    assert "seed 000" in positioning
+    assert "9.7" in positioning and "23" in positioning and "6.6" not in positioning  # signed std: not the seed's
+    own = _table_text(0.110, "my_warehouse")
+    assert "seed 000" not in own and "9.7" not in own
 
 
 def test_summary_small_values_keep_two_significant_figures():

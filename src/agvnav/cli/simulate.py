@@ -1,11 +1,15 @@
-"""``agvnav simulate [SCENARIO] [--out DIR] [--seed N] [--force]``: the product's main job.
+"""``agvnav simulate [SCENARIO] [--out DIR] [--seed N] [--force] [--json] [--wide]``: the product's main job.
 
 Runs a closed-loop scenario (the seed-000 guidance test in the lab when none is
-given) with a progress bar, prints a summary table and writes ``DIR/metrics.json``,
+given) with a progress bar on stderr (:class:`agvnav.cli.progress.RunProgress`),
+prints a summary table in mm and degrees (the seed's figure beside a metric only
+for a scenario that reproduces a seed experiment) and writes ``DIR/metrics.json``,
 ``DIR/timing.json``, ``DIR/timeseries.csv``, ``DIR/reflections.csv`` and the PNG
 plots, all at once at the end (:func:`agvnav.report.files.atomic_dir`); a DIR that
 holds another run is refused (exit 2) unless ``--force``. A run that ran but
-failed exits 3 after one line ``run FAILED: <reason>``. Argument parsing and
+failed exits 3 after one line ``run FAILED: <reason>``. ``--json`` prints the
+metrics (metrics.json, timing and the run's metadata) as one JSON document on
+stdout and everything else on stderr, for scripts. Argument parsing and
 printing only; the work is :func:`agvnav.sim.simulate`.
 """
 
@@ -17,10 +21,10 @@ from typing import Any
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-from rich.table import Table
 
+from agvnav.bench.common import Col, print_table
 from agvnav.cli.errors import fail, user_errors
+from agvnav.cli.progress import RunProgress
 
 SCENARIO_ARG = typer.Argument(
     None, help="Scenario YAML file or shipped scenario name (default: guidance_test, seed 000 §4.3)."
@@ -31,6 +35,10 @@ PLOTS_OPT = typer.Option(True, "--plots/--no-plots", help="Write the PNG plots."
 FORCE_OPT = typer.Option(False, "--force", help="Replace an --out folder that holds another run's results.")
 LOG_OPT = typer.Option(None, "--log", help="Also write the run as an MCAP file of ROS 2 messages (docs/logs.md).")
 REPORT_OPT = typer.Option(False, "--report", help="Also write DIR/report.html, a self-contained HTML report.")
+JSON_OPT = typer.Option(
+    False, "--json", help="Print the metrics as JSON on stdout (with version, seed and machine); messages go to stderr."
+)
+WIDE_OPT = typer.Option(False, "--wide", help="Print every table column, however wide the terminal.")
 
 
 @user_errors
@@ -42,6 +50,8 @@ def simulate(
     force: bool = FORCE_OPT,
     log: Path | None = LOG_OPT,
     report: bool = REPORT_OPT,
+    json: bool = JSON_OPT,
+    wide: bool = WIDE_OPT,
 ) -> None:
     """Run a closed-loop scenario; write metrics.json, timing.json, time series (CSV) and plots."""
     from agvnav.world.scenario import default_scenario, load_scenario
@@ -49,20 +59,21 @@ def simulate(
     sc = default_scenario() if scenario is None else load_scenario(scenario)
     if seed is not None:
         sc = sc.with_seed(seed)
+    console = Console(highlight=False, stderr=json)  # with --json, stdout holds the JSON document only
     if sc.route is not None:  # the seed-004 automaton on its square route
         if log is not None or report:
             raise fail("--log and --report are for path scenarios; a route scenario writes laps")
-        return _simulate_route(sc, out, plots, force)
+        return _simulate_route(sc, out, plots, force, console, json, wide)
     if log is not None and log.suffix != ".mcap":
         raise fail(f"--log {log}: the log file must end in .mcap")
     from agvnav.report.files import save_result
     from agvnav.sim import simulate as run_scenario
     from agvnav.sim.build import build
 
-    build(sc)  # validate every cross-part rule before the progress bar starts
+    built = build(sc)  # validate every cross-part rule before the progress bar starts
     _prepare_out(out, force)
-    console = Console(highlight=False)
-    result = _with_progress(console, sc.name, run_scenario, sc)
+    with RunProgress(sc.name, _expected_sim_time(sc, built), "s simulated") as bar:
+        result = run_scenario(sc, progress=bar.update)
     written = save_result(result, out, plots=plots, force=force, report=report)
     if log is not None:
         try:
@@ -71,46 +82,70 @@ def simulate(
             raise fail(f"--log needs the logs extra (pip install 'agvnav[logs]'): {exc}") from None
         counts = write_run_log(result, log)
         console.print(f"log {log}: {sum(counts.values())} messages on {len(counts)} topics")
-    console.print(_summary(result))
-    console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+    if json:
+        _print_json(result)
+    else:
+        print_table(_summary(result), wide=wide)
+    console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written), soft_wrap=True)
     if not result.completed:
         console.print(f"run FAILED: {result.reason}")
         raise typer.Exit(RUN_FAILED_EXIT)
     return None
 
 
+def _expected_sim_time(sc: Any, built: Any) -> float:
+    """Simulated seconds the run should take (s): the path at cruise speed with its ramps and the end hold.
+
+    Bounded by the run's time limit; a mission (stops at stations) uses the limit itself.
+    """
+    limit = float(built.duration)
+    if built.mission is not None:
+        return limit
+    try:
+        tc = sc.traction
+        v = abs(float(tc.speed_m_s))
+        ramps = v / tc.max_accel_m_s2 + v / tc.max_decel_m_s2
+        expected = float(built.path.length) / v + ramps + float(sc.end_hold_s)
+    except (AttributeError, TypeError, ZeroDivisionError):
+        return limit
+    return min(limit, expected) if math.isfinite(expected) and expected > 0 else limit
+
+
+def _print_json(result: Any) -> None:
+    """The metrics of ``result`` (metrics.json, timing.json) and who produced them, as JSON on stdout."""
+    from agvnav.bench.common import json_document
+    from agvnav.report.files import metrics_document, timing_document
+
+    body = {"metrics": metrics_document(result), "timing": timing_document(result)}
+    print(json_document("scenario", result.scenario.name, body, result.scenario.seed, None))
+
+
 #: Exit code of a run that ran but failed (distinct from a user error's 2).
 RUN_FAILED_EXIT = 3
 
 
-def _with_progress(console: Console, name: str, run: Any, sc: Any) -> Any:
-    """``run(sc, progress=...)`` under a transient progress bar of simulated time."""
-    with Progress(
-        TextColumn(f"[bold]{name}[/bold]"),
-        BarColumn(),
-        TextColumn("{task.fields[t]:7.2f} s simulated"),
-        TimeRemainingColumn(),
-        console=console,
-        transient=True,
-    ) as bar:
-        task = bar.add_task("simulate", total=None, t=0.0)
-        return run(sc, progress=lambda t: bar.update(task, t=t))
-
-
-def _simulate_route(sc: Any, out: Path, plots: bool, force: bool) -> None:
+def _simulate_route(sc: Any, out: Path, plots: bool, force: bool, console: Console, json: bool, wide: bool) -> None:
     """The seed-004 tracked robot on its square route: laps with and without landmarks (Tables I-II)."""
     from agvnav.report.files import atomic_dir
     from agvnav.report.laps import save_laps, summary_table
-    from agvnav.sim.laps import prepare_tracked, simulate_tracked
+    from agvnav.sim.laps import nominal_lap_time, prepare_tracked, simulate_tracked
 
-    prepare_tracked(sc)  # validate before the progress bar
+    parts = prepare_tracked(sc)  # validate before the progress bar
     _prepare_out(out, force)
-    console = Console(highlight=False)
-    result = _with_progress(console, sc.name, simulate_tracked, sc)
+    passes = 2 if sc.controller.compare_landmarks else 1
+    lap = sc.duration_s or sc.controller.laps * nominal_lap_time(parts.route, parts.params)
+    with RunProgress(sc.name, passes * lap, "s simulated") as bar:
+        result = simulate_tracked(sc, progress=bar.update)
     with atomic_dir(out, force) as tmp:
         written = [out / p.name for p in save_laps(result, tmp, plots)]
-    console.print(summary_table(result))
-    console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+    if json:
+        from agvnav.bench.common import json_document
+
+        body = {"modes": result.mode_summary(), "laps": result.lap_rows()}
+        print(json_document("scenario", sc.name, body, sc.seed, None))
+    else:
+        print_table(summary_table(result), wide=wide)
+    console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written), soft_wrap=True)
 
 
 def _prepare_out(out: Path, force: bool) -> None:
@@ -149,21 +184,29 @@ def _fmt(value: float | None, scale: float = 1.0, digits: int = 1) -> str:
 NO_TRANSIENT_M = 1e-3
 
 
-def _summary(result) -> Table:  # type: ignore[no-untyped-def]
+def _seed_column(name: str) -> dict[str, str]:
+    """The seed's figure per metric key when scenario ``name`` reproduces a seed experiment, else {}."""
+    from agvnav.report.html import SEED_FIGURES
+
+    for prefix, figures in SEED_FIGURES.items():
+        if name.startswith(prefix):
+            return {key: value for key, (value, _source) in figures.items()}
+    return {}
+
+
+def _summary(result: Any) -> tuple[str, list[Col], list[list[str]]]:
+    """The summary table ``(title, columns, rows)``: metric, value, and the seed's figure where one applies."""
     m = result.metrics
-    t = Table(title=f"{result.scenario.name}: {result.scenario.vehicle.model} (seed {result.scenario.seed})")
-    t.add_column("metric")
-    t.add_column("value", justify="right")
-    t.add_column("seed 000", justify="right")
+    title = f"{result.scenario.name}: {result.scenario.vehicle.model} (seed {result.scenario.seed})"
     e0 = m.initial_lateral_error_m
     transient = e0 is not None and math.isfinite(e0) and abs(e0) > NO_TRANSIENT_M
-    ref = (lambda text: text) if transient else (lambda text: "")
     after = " after transient" if transient else ""
-    rows = [
-        ("initial lateral error (mm)", _fmt(e0, 1e3), ref("110")),
-        # no seed column here: after the band-defined transient this maximum is the band itself
-        # (issue 13); the seed's 16.5 mm and 3.8 deg are compared on their own definition by
-        # `agvnav bench seeds` (sim.metrics.guidance_figures)
+    seed = _seed_column(result.scenario.name)
+    # no seed figure beside the maxima after the band-defined transient or the signed std: the
+    # seed's 16.5 mm, 3.8 deg and 6.6 mm are compared on their own definitions by `agvnav bench seeds`
+    comparable = {"initial_lateral_error_m", "positioning_lateral_mean_abs_m", "positioning_lateral_max_abs_m"}
+    rows: list[tuple[str, str, str]] = [
+        ("initial lateral error (mm)", _fmt(e0, 1e3), "initial_lateral_error_m" if transient else ""),
         (f"max |lateral error|{after} (mm)", _fmt(m.max_abs_lateral_error_m, 1e3), ""),
         (f"RMS lateral error{after} (mm)", _fmt(m.rms_lateral_error_m, 1e3), ""),
         (
@@ -176,14 +219,18 @@ def _summary(result) -> Table:  # type: ignore[no-untyped-def]
         rows.append(("settling distance (m)", _fmt(m.settling_distance_m, 1.0, 3), ""))
     rows += [
         ("positioning RMS (mm)", _fmt(m.positioning_rms_m, 1e3), ""),
-        ("positioning mean |e_lat| (mm)", _fmt(m.positioning_lateral_mean_abs_m, 1e3), "9.7"),
-        ("positioning std e_lat (mm)", _fmt(m.positioning_lateral_std_m, 1e3), ""),  # the seed's 6.6 is std |e_lat|
-        ("positioning max |e_lat| (mm)", _fmt(m.positioning_lateral_max_abs_m, 1e3), "23"),
+        ("positioning mean |e_lat| (mm)", _fmt(m.positioning_lateral_mean_abs_m, 1e3),
+         "positioning_lateral_mean_abs_m"),
+        ("positioning std e_lat (mm)", _fmt(m.positioning_lateral_std_m, 1e3), ""),
+        ("positioning max |e_lat| (mm)", _fmt(m.positioning_lateral_max_abs_m, 1e3), "positioning_lateral_max_abs_m"),
         ("outcome", result.outcome + (f" ({result.reason})" if result.reason else ""), ""),
         ("simulated time (s)", _fmt(m.sim_time_s, 1.0, 2), ""),
         ("wall time (s)", _fmt(m.wall_time_s, 1.0, 3), ""),
         ("real-time factor", _fmt(m.real_time_factor, 1.0, 0), ""),
     ]
-    for r in rows:
-        t.add_row(*r)
-    return t
+    cols = [Col("metric", "left", 0), Col("value", "right", 0)]
+    if not seed:
+        return title, cols, [[name, value] for name, value, _ in rows]
+    cols.append(Col("seed 000 (same unit)", "right", 1))
+    cells = [[name, value, seed.get(key, "") if key in comparable else ""] for name, value, key in rows]
+    return title, cols, cells
