@@ -21,7 +21,6 @@ YAML keys ending ``_deg``).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Annotated, Literal
 
@@ -150,9 +149,9 @@ class ReactiveSpec(StrictModel):
     def _fixed_fields(self) -> ReactiveSpec:
         if (self.warning_length_m is None) != (self.protective_length_m is None):
             raise ValueError("give protective_length_m and warning_length_m together (or neither)")
-        if self.warning_length_m is not None and self.protective_length_m is not None:
-            if self.warning_length_m < self.protective_length_m:
-                raise ValueError("warning_length_m must be at least protective_length_m")
+        if (self.warning_length_m is not None and self.protective_length_m is not None
+                and self.warning_length_m < self.protective_length_m):
+            raise ValueError("warning_length_m must be at least protective_length_m")
         return self
 
 
@@ -225,6 +224,17 @@ class Obstacle:
         out[..., 2] = np.arctan2(leg[..., 1], leg[..., 0]) if self.shape == "box" else 0.0
         return out
 
+    def centre_at(self, t: float) -> tuple[float, float]:
+        """Centre ``(x, y)`` (m) at one instant ``t`` (s): the scalar fast path of :meth:`pose_at`."""
+        wp = self.waypoints
+        if self.static:
+            return float(wp[0, 0]), float(wp[0, 1])
+        cum = self._cum
+        d = min(max((t - self.start) * self.speed, 0.0), float(cum[-1]))
+        i = min(max(int(np.searchsorted(cum, d, side="right")) - 1, 0), wp.shape[0] - 2)
+        u = (d - float(cum[i])) / max(float(cum[i + 1] - cum[i]), 1e-300)
+        return (float(wp[i, 0] + u * (wp[i + 1, 0] - wp[i, 0])), float(wp[i, 1] + u * (wp[i + 1, 1] - wp[i, 1])))
+
     def corners_at(self, t: float) -> NDArray[np.float64]:
         """The box's corners ``(4, 2)`` (m) at ``t``, counter-clockwise (ValueError for a cylinder)."""
         if self.shape != "box":
@@ -254,7 +264,7 @@ class Obstacle:
         """
         if self.shape == "box":
             return float(geometry.distance(Polygon(self.corners_at(t))))
-        x, y, _ = (float(v) for v in self.pose_at(t))
+        x, y = self.centre_at(t)
         return max(float(geometry.distance(Point(x, y))) - self.size[0], 0.0)
 
 
@@ -314,7 +324,7 @@ class ObstacleSet:
         idx = self.cylinders
         if not idx:
             return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
-        rows = [(*self.obstacles[i].pose_at(t)[:2], self.obstacles[i].size[0]) for i in idx]
+        rows = [(*self.obstacles[i].centre_at(t), self.obstacles[i].size[0]) for i in idx]
         return np.asarray(rows, dtype=np.float64), np.asarray(idx, dtype=np.int64)
 
     def shapes_at(self, t: float) -> list[Polygon]:
@@ -325,12 +335,51 @@ class ObstacleSet:
         """Exact distance (m) from ``geometry`` to every obstacle at ``t``, ``(n,)``."""
         return np.array([o.distance(geometry, t) for o in self.obstacles], dtype=np.float64)
 
-    def blocks(self, p0: Sequence[float], p1: Sequence[float], t: float) -> bool:
+    def clearances(self, pose: ArrayLike, footprint: ArrayLike, t: float, exact_within: float = 2.0
+                   ) -> NDArray[np.float64]:
+        """Distance (m) from the footprint ``(k, 2)`` placed at ``pose`` to every obstacle at ``t``, ``(n,)``.
+
+        Exact (shapely) when the bounding circles come within ``exact_within`` m; beyond, the
+        lower bound ``|centre - base_link| - R_body - R_obstacle`` (cheap, and never the minimum
+        of a run that came close).
+        """
+        p = np.asarray(pose, dtype=np.float64)
+        fp = np.asarray(footprint, dtype=np.float64)
+        r_body = float(np.max(np.hypot(fp[:, 0], fp[:, 1])))
+        x, y = float(p[0]), float(p[1])
+        out = np.empty(len(self.obstacles))
+        body = None
+        for i, o in enumerate(self.obstacles):
+            cx, cy = o.centre_at(t)
+            bound = math.hypot(cx - x, cy - y) - r_body - o.radius
+            if bound > exact_within:
+                out[i] = bound
+                continue
+            if body is None:
+                c, s = math.cos(float(p[2])), math.sin(float(p[2]))
+                body = Polygon(np.column_stack([x + c * fp[:, 0] - s * fp[:, 1], y + s * fp[:, 0] + c * fp[:, 1]]))
+            out[i] = o.distance(body, t)
+        return out
+
+    def blocks(self, p0: ArrayLike, p1: ArrayLike, t: float) -> bool:
         """True when the straight line of sight from ``p0`` to ``p1`` (m) crosses an obstacle at ``t``."""
         if not self.obstacles:
             return False
-        line = LineString([tuple(p0), tuple(p1)])
-        return any(o.distance(line, t) <= 0.0 for o in self.obstacles)
+        a = np.asarray(p0, dtype=np.float64)
+        b = np.asarray(p1, dtype=np.float64)
+        ax, ay, bx, by = float(a[0]), float(a[1]), float(b[0]), float(b[1])
+        ex, ey = bx - ax, by - ay
+        ee = ex * ex + ey * ey
+        line = None
+        for o in self.obstacles:
+            cx, cy = o.centre_at(t)
+            u = min(max(((cx - ax) * ex + (cy - ay) * ey) / ee, 0.0), 1.0) if ee > 0.0 else 0.0
+            if math.hypot(ax + u * ex - cx, ay + u * ey - cy) > o.radius:  # the bounding circle misses the line
+                continue
+            line = line or LineString([(ax, ay), (bx, by)])
+            if o.distance(line, t) <= 0.0:
+                return True
+        return False
 
     def any_within(self, geometry: BaseGeometry, t: float, distance: float) -> NDArray[np.bool_]:
         """Which obstacles lie within ``distance`` (m) of ``geometry`` at ``t``, ``(n,)``."""

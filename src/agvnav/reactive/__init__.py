@@ -1,0 +1,39 @@
+"""Reactive control (issue 18): safety fields switched by speed, the slow/stop/resume reaction, local avoidance.
+
+:mod:`~agvnav.reactive.fields` generates and selects protective/warning fields from the
+stopping distance; :mod:`~agvnav.reactive.reaction` is the state machine that turns
+field intrusions into a speed scale; :mod:`~agvnav.reactive.avoidance` plans a
+lateral-offset detour inside a corridor. Pure and stateful parts only: the wiring
+into the closed loop is :mod:`agvnav.sim.reactive`.
+"""
+
+from __future__ import annotations
+
+from agvnav.reactive.avoidance import Detour, path_tail, plan_detour, scanned_obstacle, shift_arcs
+from agvnav.reactive.fields import (
+    FieldConfig,
+    FieldSet,
+    field_rectangle,
+    generate_fields,
+    intrusions,
+    stopping_distance,
+)
+from agvnav.reactive.reaction import REACTION_STATES, Reaction, ReactionLimits, field_demand
+
+__all__ = [
+    "REACTION_STATES",
+    "Detour",
+    "FieldConfig",
+    "FieldSet",
+    "Reaction",
+    "ReactionLimits",
+    "field_demand",
+    "field_rectangle",
+    "generate_fields",
+    "intrusions",
+    "path_tail",
+    "plan_detour",
+    "scanned_obstacle",
+    "shift_arcs",
+    "stopping_distance",
+]
