@@ -50,6 +50,7 @@ from agvnav.sim.faults import PLANT_FAULTS, FaultyPlant, FaultySensor, world_wit
 from agvnav.sim.mission import MissionAutopilot, mission_autopilot, mission_duration, plan_mission
 from agvnav.sim.plants import build_plant, family_of
 from agvnav.sim.rangers import UltrasonicSensorRole
+from agvnav.sim.reactive import wire_reactive
 from agvnav.sim.roles import GoniometerSensor, PathAutopilot
 from agvnav.sim.safety import EstimatorWatch, GuardLimits, PositioningGuard
 from agvnav.world import WorldMap, builtin_map_names, load_builtin_map, load_map
@@ -526,7 +527,10 @@ def build(sc: Scenario) -> Built:
     if mission is not None:  # one PathAutopilot per leg (issue 14)
         pilot = mission_autopilot(sc, mission, follower, plant, offset, _watch(sc))
     sensors = _sensors(sc, world, rangers)
-    loop = ClosedLoop(_loop_plant(sc, plant, world), sensors, estimator, pilot, sc.step_s, sc.seed)
+    loop_plant = _loop_plant(sc, plant, world)
+    if sc.obstacles or sc.scanner is not None or sc.reactive is not None:  # issue 18: obstacles, scanner, reaction
+        loop_plant, sensors, pilot = wire_reactive(sc, world, loop_plant, sensors, pilot)
+    loop = ClosedLoop(loop_plant, sensors, estimator, pilot, sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else _default_duration(sc, path)
     if mission is not None and sc.duration_s is None:
         duration = mission_duration(sc, mission)
