@@ -35,6 +35,7 @@ from agvnav.sim.build import Built, build
 from agvnav.sim.integrity import integrity_figures
 from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, transient_end_index
 from agvnav.sim.mission import mission_figures
+from agvnav.sim.reactive import reactive_figures
 from agvnav.world import WorldMap
 from agvnav.world.scenario import Scenario
 
@@ -65,6 +66,8 @@ class SimResult:
     reason: str | None
     extra: dict[str, float]
     integrity: dict[str, Any] = field(default_factory=dict)
+    reactive: dict[str, Any] = field(default_factory=dict)
+    """stops, time stopped, clearance and encounter per obstacle (issue 18: ``sim.reactive.reactive_figures``)."""
 
     @property
     def completed(self) -> bool:
@@ -120,8 +123,11 @@ def simulate(
     if built.mission is not None:  # stop errors, mission time, lateral error per edge kind (issue 14)
         extra.update(mission_figures(series, built.mission, built.autopilot.stops))  # type: ignore[union-attr]
     integrity = integrity_figures(series, _distance(series), scenario.traction.max_decel_m_s2)
+    reactive = {} if "reaction_level" not in series else reactive_figures(  # issue 18
+        series, [o.id for o in scenario.obstacles or []], reason, int(getattr(built.loop.plant, "hit", -1)))
     return SimResult(
-        scenario, series, out.events, metrics, built.path, built.world, t_end, outcome, reason, extra, integrity
+        scenario, series, out.events, metrics, built.path, built.world, t_end, outcome, reason, extra, integrity,
+        reactive,
     )
 
 
