@@ -52,6 +52,7 @@ def test_campaign_runs_and_writes_everything(tmp_path, scheduler):
     assert res.exit_code == 0, res.output
     doc = json.loads(res.output)
     assert (doc["runs"], doc["ran"], doc["workers"]) == (4, 4, 1) and doc["runs_per_s"] > 0
+    assert doc["campaign"] == "cli_tiny" and doc["metadata"]["seed"] == 3 and doc["metadata"]["numpy"]
     groups = doc["summary"]["groups"]
     assert [g["params"] for g in groups] == [{}, {"traction.speed_m_s": 0.2}, {"traction.speed_m_s": 0.3}]
     assert groups[0]["outcomes"]["completed"] == 4 and groups[0]["metrics"]["positioning_rms_m"]["n"] == 4
@@ -63,7 +64,7 @@ def test_campaign_runs_and_writes_everything(tmp_path, scheduler):
     again = runner.invoke(app, args, env={"COLUMNS": "200"})
     assert again.exit_code == 0, again.output
     text = " ".join(again.output.split())
-    assert "0 runs done, 4 already there" in text and "positioning_rms_m" in text and "(4 completed)" in text
+    assert "0 runs done, 4 already there" in text and "positioning rms (mm)" in text and "(4 completed)" in text
 
 
 def test_replay_writes_a_scenario_for_simulate(tmp_path):

@@ -43,7 +43,7 @@ def test_layout_writes_map_heatmap_and_plan_and_verifies(tmp_path: Path) -> None
     res = runner.invoke(app, ["layout", str(_spec(tmp_path)), "--out", str(out), "--verify"], env={"COLUMNS": "220"})
     assert res.exit_code == 0, res.output
     assert "planned" in res.output and "baseline" in res.output and "Wolsey" in res.output
-    assert "measured_rms_m" in res.output and "0-4 m" in res.output
+    assert "measured rms (" in res.output and "0-4 m" in res.output
     world = load_map(out / "map.yaml")
     plan = json.loads((out / "plan.json").read_text())
     assert len(world.reflectors) == plan["table"][0]["reflectors"] >= 3
@@ -60,6 +60,7 @@ def test_layout_json(tmp_path: Path) -> None:
     rec = json.loads(res.output)
     assert rec["table"][0]["layout"] == "planned" and rec["files"]["map"].endswith("map.yaml")
     assert rec["verify"] == [] and rec["table"][0]["meeting_target_pct"] >= 99.0
+    assert {"agvnav", "seed", "quick", "python", "numpy", "cpu"} <= set(rec["metadata"])
 
 
 def test_bad_polygon_is_one_line_exit_2(tmp_path: Path) -> None:

@@ -163,9 +163,13 @@ def display_unit(key: str, values: Sequence[Any] = ()) -> tuple[str, str, float]
     gets ``unit == ""`` and scale 1. The header is the key without its suffix, words
     spaced, the unit in brackets: ``rms_position_m`` -> ``rms position (mm)``.
     """
+    for unit, label in (("_ns_per_", "ns"), ("_us_per_", "µs"), ("_ms_per_", "ms"), ("_s_per_", "s")):
+        head, sep, per = key.partition(unit)
+        if sep and per and "_" not in per:
+            return f"{_words(head)} ({label}/{per})", f"{label}/{per}", 1.0
     for rate in _RATES:
         if key.endswith(rate):
-            return f"{_words(key[: -len(rate)])} /{rate[5:]}", "", 1.0
+            return f"{_words(key[: -len(rate)])} (per {rate[5:]})", "", 1.0
     numbers = [abs(float(v)) for v in values if _is_number(v) and math.isfinite(float(v))]
     top = max(numbers, default=0.0)
     for suffix, label, scale in _FIXED:
@@ -243,6 +247,8 @@ class Col:
     justify: Literal["left", "right", "center"] = "right"
     priority: int = 1
     no_wrap: bool = False
+    wrap: bool = False
+    """the values are prose that may wrap at spaces (else a value is never broken)."""
 
 
 def records_table(records: Sequence[dict[str, Any]], title: str, priority: Sequence[str] = ()) -> tuple[
@@ -250,14 +256,19 @@ def records_table(records: Sequence[dict[str, Any]], title: str, priority: Seque
 ]:
     """``(title, columns, rows)`` of flat records, each numeric column in its display unit.
 
-    Column priority: the keys in ``priority`` first (in that order), then the text columns
-    (the row labels), then the numbers in record order; the last ones drop first.
+    Column priority: the keys in ``priority`` first (in that order), then the leading text
+    columns (the row labels), then the rest in record order; the last ones drop first.
     """
     keys: list[str] = []
     for rec in records:
         keys += [k for k in rec if k not in keys]
     text = [k for k in keys if any(isinstance(r.get(k), str) for r in records)]
-    order = [k for k in priority if k in keys] + [k for k in text if k not in priority]
+    labels = []  # the leading text columns name the rows
+    for k in keys:
+        if k not in text:
+            break
+        labels.append(k)
+    order = [k for k in priority if k in keys] + [k for k in labels if k not in priority]
     order += [k for k in keys if k not in order]
     rank = {k: i for i, k in enumerate(order)}
     cols: list[Col] = []
@@ -337,7 +348,10 @@ def _bounds(cols: Sequence[Col], rows: Sequence[Sequence[str]], i: int) -> tuple
     """(narrowest, natural) content width of column ``i``: values never fold, headers wrap at spaces."""
     longest = max((_cell_width(r[i]) for r in rows), default=0)
     header_word = max((len(w) for w in cols[i].header.split()), default=0)
-    return max(longest, header_word, 1), max(longest, len(cols[i].header), 1)
+    narrowest = longest
+    if cols[i].wrap:
+        narrowest = min(longest, max(24, max((len(w) for r in rows for w in r[i].split()), default=0)))
+    return max(narrowest, header_word, 1), max(longest, len(cols[i].header), 1)
 
 
 def _column_widths(

@@ -2,103 +2,120 @@
 
 Every benchmark module ``agvnav.bench.<name>`` exposes
 ``run(quick: bool, seed: int) -> list[dict]`` (one flat record per table row)
-and ``TITLE``; this module only parses arguments and prints.
+and ``TITLE``; this module only parses arguments and prints. A ``run`` that also
+accepts ``progress`` gets a ``(done, total)`` callback; the others run under a bar
+of elapsed time against the wall time they took last time
+(:class:`agvnav.cli.progress.RunProgress`). An optional module attribute
+``PRIORITY`` (record keys, most important first) says which columns a narrow
+terminal keeps; ``--wide`` prints them all.
 """
 
 from __future__ import annotations
 
 import importlib
+import inspect
 
 import typer
 
 from agvnav.bench.common import emit
 from agvnav.cli.errors import user_errors
+from agvnav.cli.progress import RunProgress
 
 bench_app = typer.Typer(help="Benchmarks: speed and accuracy tables (--json for machines).", no_args_is_help=True)
 
 JSON_OPT = typer.Option(False, "--json", help="Print {\"benchmark\": NAME, \"records\": [...]} instead of a table.")
 QUICK_OPT = typer.Option(False, "--quick", help="Smaller problem sizes, for a fast look (figures are noisier).")
 SEED_OPT = typer.Option(0, "--seed", min=0, help="Random seed; the same seed reproduces the same figures.")
+WIDE_OPT = typer.Option(False, "--wide", help="Print every column, however wide the terminal.")
 
 
-def _run(name: str, as_json: bool, quick: bool, seed: int) -> None:
+def _run(name: str, as_json: bool, quick: bool, seed: int, wide: bool = False) -> None:
     module = importlib.import_module(f"agvnav.bench.{name}")
-    records = module.run(quick=quick, seed=seed)
-    emit(name, records, as_json=as_json, title=module.TITLE)
+    reports = "progress" in inspect.signature(module.run).parameters
+    key = None if reports else f"bench {name}{' --quick' if quick else ''}"
+    with RunProgress(f"bench {name}", None, "", key=key) as bar:
+        if reports:
+            records = module.run(quick=quick, seed=seed, progress=bar.update)
+        else:
+            records = module.run(quick=quick, seed=seed)
+    emit(
+        name, records, as_json=as_json, title=module.TITLE, seed=seed, quick=quick, wide=wide,
+        priority=getattr(module, "PRIORITY", ()),
+    )
 
 
 @bench_app.command("triangulation")
 @user_errors
-def triangulation(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+def triangulation(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Triangulation methods: ns per fix (batch), µs per single fix, RMS error against the CRLB."""
-    _run("triangulation", json, quick, seed)
+    _run("triangulation", json, quick, seed, wide)
 
 
 @bench_app.command("kinematics")
 @user_errors
-def kinematics(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+def kinematics(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Kinematic models: steps per second for 10,000 vehicles; odometry integrator errors."""
-    _run("kinematics", json, quick, seed)
+    _run("kinematics", json, quick, seed, wide)
 
 
 @bench_app.command("positioning")
 @user_errors
-def positioning(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+def positioning(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Dynamic positioning of a moving tricycle: naive, angle propagation, batch ML, EKF."""
-    _run("positioning", json, quick, seed)
+    _run("positioning", json, quick, seed, wide)
 
 
 @bench_app.command("guidance")
 @user_errors
-def guidance(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+def guidance(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Guidance laws against pure pursuit and Stanley; simulator real-time factor."""
-    _run("guidance", json, quick, seed)
+    _run("guidance", json, quick, seed, wide)
 
 
 @bench_app.command("landmarks")
 @user_errors
-def landmarks(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+def landmarks(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Tracked robot on the square route: error per lap with and without wall landmarks."""
-    _run("landmarks", json, quick, seed)
+    _run("landmarks", json, quick, seed, wide)
 
 
 @bench_app.command("vehicles")
 @user_errors
-def vehicles(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+def vehicles(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Every vehicle configuration on the same loop: completion, lateral and positioning errors (true pose)."""
-    _run("vehicles", json, quick, seed)
+    _run("vehicles", json, quick, seed, wide)
 
 
 @bench_app.command("seeds")
 @user_errors
-def seeds(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+def seeds(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Every experimental figure of seeds 000/001 and 004: seed value, seed-method band, agvnav, driver."""
-    _run("seeds", json, quick, seed)
+    _run("seeds", json, quick, seed, wide)
 
 
 @bench_app.command("integrity")
 @user_errors
-def integrity(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+def integrity(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Injected faults (goniometer, reflectors, odometry): silent failures, safe stops, NEES (truth-judged)."""
-    _run("integrity", json, quick, seed)
+    _run("integrity", json, quick, seed, wide)
 
 
 @bench_app.command("speed")
 @user_errors
-def speed(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+def speed(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Closed loop: real-time factor (CPU) per case, µs per step, memory, start-up, campaign runs/s."""
-    _run("speed", json, quick, seed)
+    _run("speed", json, quick, seed, wide)
 
 
 @bench_app.command("missions")
 @user_errors
-def missions(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+def missions(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Missions on the hall route network: stop errors, mission time, lateral error per edge kind; planning speed."""
-    _run("missions", json, quick, seed)
+    _run("missions", json, quick, seed, wide)
 
 
 @bench_app.command("layout")
 @user_errors
-def layout(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+def layout(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Reflector layout planner: reflectors planned vs regular spacing, predicted vs simulated RMS, planning time."""
-    _run("layout", json, quick, seed)
+    _run("layout", json, quick, seed, wide)

@@ -13,16 +13,15 @@ is :func:`agvnav.campaign.run_campaign`, imported when the command runs so
 
 from __future__ import annotations
 
-import json
-import math
 from pathlib import Path
 from typing import Any
 
 import typer
 from rich.console import Console
-from rich.table import Table
 
+from agvnav.bench.common import Col, display_unit, format_number, json_document, print_table
 from agvnav.cli.errors import err_console, fail, user_errors
+from agvnav.cli.progress import RunProgress
 
 #: Exit code after Ctrl-C (128 + SIGINT), as shells report it.
 INTERRUPTED_EXIT = 130
@@ -33,6 +32,7 @@ SCHED_OPT = typer.Option(None, "--scheduler", help="Address of an existing Dask 
 WORKERS_OPT = typer.Option(None, "--workers", min=1, help="Worker processes of the local cluster (default 2).")
 JSON_OPT = typer.Option(False, "--json", help="Print the run counts, speed and summary as JSON.")
 PLOTS_OPT = typer.Option(True, "--plots/--no-plots", help="Write the PNG plots.")
+WIDE_OPT = typer.Option(False, "--wide", help="Print every table column, however wide the terminal.")
 REPLAY_OPT = typer.Option(
     None, "--replay", min=0, help="Write run N's scenario to DIR/replay/ for `agvnav simulate`, and run nothing."
 )
@@ -55,6 +55,7 @@ def campaign(
     json_out: bool = JSON_OPT,
     plots: bool = PLOTS_OPT,
     replay: int | None = REPLAY_OPT,
+    wide: bool = WIDE_OPT,
 ) -> None:
     """Run a Monte Carlo campaign on Dask; write Parquet results, summary.json and plots."""
     lib = _library()
@@ -66,7 +67,8 @@ def campaign(
         console.print(hint, markup=False, soft_wrap=True)
         return
     try:
-        result = lib.run_campaign(camp, out, scheduler=scheduler, workers=workers)
+        with RunProgress(f"campaign {camp.name}", None, "runs") as bar:
+            result = lib.run_campaign(camp, out, scheduler=scheduler, workers=workers, progress=bar.runs)
     except KeyboardInterrupt:
         saved = len(lib.finished_runs(out))
         err_console.print(f"interrupted: {saved} runs are saved in {out}/runs; the same command resumes", markup=False)
@@ -78,9 +80,9 @@ def campaign(
         columns = lib.read_results(out).to_pydict()
         written = plot_campaign(columns, result.summary["metrics"], camp.swept, Path(out) / "plots", camp.name)
     if json_out:
-        print(json.dumps(_json(camp.name, result), indent=2))
+        print(json_document("campaign", camp.name, _json(result), camp.seed, None))
         return
-    console.print(_table(camp.name, result.summary))
+    print_table(_table(camp.name, result.summary), wide=wide, sections=_sections(result.summary))
     speed = f", {result.runs_per_s:.2f} runs/s" if result.runs_per_s else ""
     console.print(
         f"{result.ran} runs done, {result.skipped} already there, on {result.workers} workers in "
@@ -90,9 +92,8 @@ def campaign(
     )
 
 
-def _json(name: str, result: Any) -> dict[str, Any]:
+def _json(result: Any) -> dict[str, Any]:
     return {
-        "campaign": name,
         "out": str(result.out_dir),
         "runs": result.total,
         "ran": result.ran,
@@ -104,25 +105,41 @@ def _json(name: str, result: Any) -> dict[str, Any]:
     }
 
 
-def _fmt(value: float | None) -> str:
-    return "-" if value is None or not math.isfinite(value) else f"{value:.3g}"
+_STATS = ("mean", "std", "median", "q05", "q95")
 
 
-def _table(name: str, summary: dict[str, Any]) -> Table:
-    t = Table(title=f"campaign {name}: {summary['runs']} runs; statistics over the completed runs")
-    for col in ("group", "metric", "n", "mean", "std", "median", "5 %", "95 %", "95 % CI of mean"):
-        t.add_column(col, justify="left" if col in ("group", "metric") else "right")
+def _sections(summary: dict[str, Any]) -> list[bool]:
+    """After which table row a group ends (one row per metric of each group)."""
+    ends: list[bool] = []
+    for group in summary["groups"]:
+        n = max(len(group["metrics"]), 1)
+        ends += [False] * (n - 1) + [True]
+    return ends
+
+
+def _table(name: str, summary: dict[str, Any]) -> tuple[str, list[Col], list[list[str]]]:
+    """``(title, columns, rows)``: per group and metric, the statistics in the metric's display unit."""
+    title = f"campaign {name}: {summary['runs']} runs; statistics over the completed runs"
+    cols = [
+        Col("group", "left", 0), Col("metric", "left", 0), Col("n", "right", 3), Col("mean", "right", 0),
+        Col("std", "right", 1), Col("median", "right", 4), Col("5 %", "right", 5), Col("95 %", "right", 5),
+        Col("95 % CI of mean", "right", 2),
+    ]
+    rows: list[list[str]] = []
     for group in summary["groups"]:
         label = ", ".join(f"{k}={v}" for k, v in group["params"].items()) or "all"
         counts = ", ".join(f"{v} {k}" for k, v in group["outcomes"].items() if v)
         items = list(group["metrics"].items()) or [("-", None)]
         for j, (metric, s) in enumerate(items):
-            head = (f"{label}\n({counts})" if j == 0 else "", metric)
-            last = j == len(items) - 1
+            head = f"{label}\n({counts})" if j == 0 else ""
             if s is None:
-                t.add_row(*head, *[""] * 7, end_section=last)
+                rows.append([head, metric, *[""] * 7])
                 continue
-            ci = "-" if s["ci95"] is None else f"[{_fmt(s['ci95'][0])}, {_fmt(s['ci95'][1])}]"
-            stats = (s["mean"], s["std"], s["median"], s["q05"], s["q95"])
-            t.add_row(*head, str(s["n"]), *map(_fmt, stats), ci, end_section=last)
-    return t
+            values = [s[k] for k in _STATS] + list(s["ci95"] or [])
+            header, _, scale = display_unit(metric, values)
+            ci = "-" if s["ci95"] is None else (
+                f"[{format_number(s['ci95'][0], scale)}, {format_number(s['ci95'][1], scale)}]"
+            )
+            stats = [format_number(s[k], scale) for k in _STATS]
+            rows.append([head, header, str(s["n"]), *stats, ci])
+    return title, cols, rows

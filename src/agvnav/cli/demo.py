@@ -14,9 +14,8 @@ from typing import Any
 
 import numpy as np
 import typer
-from rich.table import Table
 
-from agvnav.bench.common import print_table
+from agvnav.bench.common import Col, print_table
 from agvnav.cli.errors import user_errors
 from agvnav.geometry import angle_diff, bearing_to, circumcentre
 from agvnav.positioning import METHODS, encoder_bearing_std, triangulate
@@ -94,25 +93,31 @@ def _invalid_reason(row: dict[str, Any]) -> str:
     return "degenerate geometry"
 
 
-def _table(rows: list[dict[str, Any]], pulses_per_rev: int, heading_error_deg: float) -> Table:
+#: The demo table's columns: header, justification, priority (0 kept longest on a narrow terminal).
+DEMO_COLUMNS = [
+    Col("pose", "right", 0), Col("true x, y (m)", "right", 3), Col("true heading (deg)", "right", 4),
+    Col("method", "left", 0), Col("N", "right", 5), Col("x, y (m)", "right", 2), Col("heading (deg)", "right", 2),
+    Col("position error (mm)", "right", 0), Col("heading error (deg)", "right", 1),
+    Col("1-sigma position (mm)", "right", 1), Col("status", "left", 0),
+]
+
+
+def _table(
+    rows: list[dict[str, Any]], pulses_per_rev: int, heading_error_deg: float
+) -> tuple[str, list[Col], list[list[str]], str, list[bool]]:
+    """``(title, columns, cells, caption, section ends)`` of the demo table."""
     sigma_mrad = encoder_bearing_std(pulses_per_rev) * 1e3
-    table = Table(
-        title="agvnav demo: goniometer triangulation on a 20 m x 14 m hall",
-        caption=(
-            f"encoder {pulses_per_rev} pulses/rev (bearing std {sigma_mrad:.4f} mrad); "
-            f"heading estimate off by {heading_error_deg:+.1f} deg; pose 4 is on the critical circle"
-        ),
+    title = "agvnav demo: goniometer triangulation on a 20 m x 14 m hall"
+    caption = (
+        f"encoder {pulses_per_rev} pulses/rev (bearing std {sigma_mrad:.4f} mrad); "
+        f"heading estimate off by {heading_error_deg:+.1f} deg; pose 4 is on the critical circle"
     )
-    for name, justify in [
-        ("pose", "right"), ("true x, y (m)", "right"), ("true heading (deg)", "right"), ("method", "left"),
-        ("N", "right"), ("x, y (m)", "right"), ("heading (deg)", "right"), ("position error (mm)", "right"),
-        ("heading error (deg)", "right"), ("1-sigma position (mm)", "right"), ("status", "left"),
-    ]:
-        table.add_column(name, justify=justify)  # type: ignore[arg-type]
+    cells: list[list[str]] = []
+    ends: list[bool] = []
     for row in rows:
         fix, truth = row["fix"], row["truth"]
         ok = bool(fix.valid)
-        table.add_row(
+        cells.append([
             str(row["pose"]),
             f"{truth[0]:.3f}, {truth[1]:.3f}",
             f"{math.degrees(truth[2]):.2f}",
@@ -124,9 +129,9 @@ def _table(rows: list[dict[str, Any]], pulses_per_rev: int, heading_error_deg: f
             f"{math.degrees(row['heading_error_rad']):.4f}" if ok else "-",
             f"{row['std_position_m'] * 1e3:.3f}" if ok and math.isfinite(row["std_position_m"]) else "-",
             _status(row),
-            end_section=row["method"] == METHODS[-1],
-        )
-    return table
+        ])
+        ends.append(row["method"] == METHODS[-1])
+    return title, DEMO_COLUMNS, cells, caption, ends
 
 
 @user_errors
@@ -135,11 +140,13 @@ def demo(
     heading_error_deg: float = typer.Option(
         1.0, "--heading-error-deg", help="Error of the odometric heading estimate, in degrees."
     ),
+    wide: bool = typer.Option(False, "--wide", help="Print every column, however wide the terminal."),
 ) -> None:
     """Triangulate a vehicle on a built-in reflector layout and print a table."""
     _check_options(pulses_per_rev, heading_error_deg)
     rows = demo_rows(pulses_per_rev, heading_error_deg)
-    print_table(_table(rows, pulses_per_rev, heading_error_deg))
+    title, cols, cells, caption, ends = _table(rows, pulses_per_rev, heading_error_deg)
+    print_table((title, cols, cells), wide=wide, caption=caption, sections=ends)
 
 
 def _check_options(pulses_per_rev: int, heading_error_deg: float) -> None:

@@ -8,13 +8,13 @@ candidate set can meet) is one line on stderr and exit 2.
 
 from __future__ import annotations
 
-import json as jsonlib
 from pathlib import Path
 
 import typer
 
-from agvnav.bench.common import emit
+from agvnav.bench.common import emit, json_document
 from agvnav.cli.errors import user_errors
+from agvnav.cli.progress import RunProgress
 from agvnav.layout import load_layout, plan_layout, summary_rows
 from agvnav.layout.verify import verify_plan
 from agvnav.report.layout import plan_record, write_layout
@@ -24,23 +24,32 @@ __all__ = ["layout"]
 SPEC_ARG = typer.Argument(..., help="Layout file (YAML), or a shipped one by name: warehouse.")
 OUT_OPT = typer.Option(None, "--out", "-o", help="Output folder (default: ./<name>_layout).")
 VERIFY_OPT = typer.Option(False, "--verify", help="Drive the routes in the closed loop; measured vs predicted RMS.")
-JSON_OPT = typer.Option(False, "--json", help="Print the plan (and verification) as JSON.")
+JSON_OPT = typer.Option(False, "--json", help="Print the plan (and verification) as JSON, with version and machine.")
+WIDE_OPT = typer.Option(False, "--wide", help="Print every table column, however wide the terminal.")
 
 
 @user_errors
-def layout(spec: str = SPEC_ARG, out: Path | None = OUT_OPT, verify: bool = VERIFY_OPT, json: bool = JSON_OPT) -> None:
+def layout(
+    spec: str = SPEC_ARG, out: Path | None = OUT_OPT, verify: bool = VERIFY_OPT, json: bool = JSON_OPT,
+    wide: bool = WIDE_OPT,
+) -> None:
     """Plan a reflector layout for the routes of a hall: map YAML, heat map PNG and a table against a baseline."""
     doc = load_layout(spec)
-    plan = plan_layout(doc)
+    with RunProgress(f"layout {doc.name}", key=f"layout plan {doc.name}"):
+        plan = plan_layout(doc)
     paths = write_layout(plan, out if out is not None else Path(f"{doc.name}_layout"))
-    checks = verify_plan(plan) if verify else []
+    checks = []
+    if verify:
+        with RunProgress(f"verify {doc.name}", key=f"layout verify {doc.name}"):
+            checks = verify_plan(plan)
     if json:
         record = plan_record(plan) | {"files": {k: str(v) for k, v in paths.items()}, "verify": checks}
-        print(jsonlib.dumps(record))
+        print(json_document("layout", doc.name, record, doc.seed, None))
         return
-    emit("layout", summary_rows(plan), as_json=False, title=f"{doc.name}: planned layout against regular spacing "
-         f"({plan.baseline_spacing_m:.1f} m)")
+    emit("layout", summary_rows(plan), as_json=False, wide=wide,
+         title=f"{doc.name}: planned layout against regular spacing ({plan.baseline_spacing_m:.1f} m)")
     print(plan.result.guarantee)
     print(f"planned in {plan.runtime_s:.1f} s; wrote {', '.join(str(p) for p in paths.values())}")
     if checks:
-        emit("layout-verify", checks, as_json=False, title="closed loop: measured against predicted RMS per section")
+        emit("layout-verify", checks, as_json=False, wide=wide,
+             title="closed loop: measured against predicted RMS per section")

@@ -17,11 +17,12 @@ import typer
 from rich.console import Console
 
 from agvnav.cli.errors import user_errors
+from agvnav.cli.progress import RunProgress
 from agvnav.logs import estimator_from_settings, read_log
 from agvnav.logs import localize as run_localize
 from agvnav.logs.outputs import localization_summary, save_localization
 from agvnav.report.files import check_out_dir
-from agvnav.world import builtin_map_names, load_builtin_map, load_map
+from agvnav.world import load_map
 
 LOG_ARG = typer.Argument(..., help="Recorded log: an .mcap file or a folder with odometry.csv and reflections.csv.")
 MAP_OPT = typer.Option(None, "--map", help="Map YAML file or shipped map name (default: the map the log names).")
@@ -48,9 +49,10 @@ def localize(
     name = map or recorded.settings.get("map")
     if not name:
         raise ValueError(f"{log}: the log names no map; give one with --map")
-    world = load_builtin_map(name) if name in builtin_map_names() else load_map(name)
+    world = load_map(name)  # a file, or a shipped map by name
     estimator = estimator_from_settings(recorded.settings, world, method)
-    result = run_localize(recorded, estimator, method or recorded.settings.get("method") or "ekf")
+    with RunProgress(f"localize {log.name}", key=f"localize {log.name}"):
+        result = run_localize(recorded, estimator, method or recorded.settings.get("method") or "ekf")
     written = save_localization(result, recorded, world, out, force=force, plots=plots, name=log.name)
     console = Console(highlight=False)
     summary = localization_summary(result, recorded, log.name)

@@ -20,8 +20,11 @@ NETWORK_ARG = typer.Argument(..., help="Route network YAML file, or a shipped ne
 
 @routes_app.command("check")
 @user_errors
-def check(network: str = NETWORK_ARG, json: bool = typer.Option(False, "--json", help="Machine-readable output.")
-          ) -> None:
+def check(
+    network: str = NETWORK_ARG,
+    json: bool = typer.Option(False, "--json", help="Machine-readable output."),
+    wide: bool = typer.Option(False, "--wide", help="Print every table column, however wide the terminal."),
+) -> None:
     """Load a route network and report the continuity (G1, and G2 next to clothoids) of every joint."""
     from agvnav.bench.common import emit
     from agvnav.routes.network import load_network
@@ -35,10 +38,10 @@ def check(network: str = NETWORK_ARG, json: bool = typer.Option(False, "--json",
     ]
     approx = [{"edge": e.id, "kind": e.curve.kind, "approx_error_m": e.curve.approx_error_m}
               for e in net.edges.values() if e.curve.kind in ("clothoid", "nurbs")]
-    emit("routes check", records, as_json=json,
+    emit("routes check", records, as_json=json, wide=wide,
          title=f"{net.name}: {len(net.nodes)} nodes, {len(net.edges)} edges, {len(records)} joints")
     if approx:
-        emit("routes approximation", approx, as_json=json, title="arc-chain approximation of curved edges")
+        emit("routes approximation", approx, as_json=json, wide=wide, title="arc-chain approximation of curved edges")
     bad = [r for r in records if r["g2"] is False]
     if bad:
         print(f"{len(bad)} joint(s) next to a clothoid are not G2 (curvature jump beyond tolerance)")

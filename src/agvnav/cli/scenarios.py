@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 import typer
-from rich.console import Console
-from rich.table import Table
 
+from agvnav.bench.common import Col, print_table
 from agvnav.cli.errors import user_errors
 
 REFERENCE_OPT = typer.Option(False, "--reference", help="Print the scenario reference (docs/scenarios.md) instead.")
+WIDE_OPT = typer.Option(False, "--wide", help="Print every column unwrapped, however wide the terminal.")
 
 
 @user_errors
-def scenarios(reference: bool = REFERENCE_OPT) -> None:
+def scenarios(reference: bool = REFERENCE_OPT, wide: bool = WIDE_OPT) -> None:
     """List the shipped scenarios (run one with ``agvnav simulate NAME``)."""
     if reference:
         from agvnav.report.reference import reference_markdown
@@ -21,11 +21,11 @@ def scenarios(reference: bool = REFERENCE_OPT) -> None:
         return
     from agvnav.world.scenario import builtin_scenario_names, load_scenario
 
-    table = Table(title="shipped scenarios (agvnav simulate NAME)")
-    for column in ("name", "vehicle", "sensors", "description"):
-        table.add_column(column, overflow="fold")
+    cols = [Col("name", "left", 0), Col("vehicle", "left", 1), Col("sensors", "left", 2),
+            Col("description", "left", 0, wrap=True)]
+    rows = []
     for name in builtin_scenario_names():
         sc = load_scenario(name)
         sensors = [s for s in ("goniometer", "ultrasonic") if getattr(sc, s, None) is not None] or ["odometry only"]
-        table.add_row(name, sc.vehicle.model, ", ".join(sensors), sc.description)
-    Console(highlight=False).print(table)
+        rows.append([name, sc.vehicle.model, ", ".join(sensors), " ".join(sc.description.split())])
+    print_table(("shipped scenarios (agvnav simulate NAME)", cols, rows), wide=wide)
