@@ -85,6 +85,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "est_cov_ypsi": ("m·rad", "reported covariance: y heading"),
     "est_cov_psipsi": ("rad²", "reported covariance: heading heading"),
     "est_quality": ("-", "the estimator's 0-1 quality figure (NaN when it reports none)"),
+    "est_reflectors_used": ("-", "distinct reflectors behind the estimate over the integrity window (NaN if none)"),
+    "est_n_dropped": ("-", "readings the estimator dropped as implausible so far (NaN when it counts none)"),
     "leg": ("-", "mission: index of the job being driven or waited for"),
     "nodes_passed": ("-", "mission: route network nodes passed so far (topological position)"),
     "dwelling": ("-", "mission: 1 while stopped at a station for a job"),
@@ -116,7 +118,8 @@ def outputs_reference() -> list[str]:
             "- `metrics.json`: outcome (`completed` or `failed` with a reason: `collision`, `jackknife`, "
             "`infeasible`, `positioning_lost`, `timeout`, `off_path_at_end`), the run's figures (SI units), "
             "the transient definition and an `integrity` section (time and distance per estimator status, "
-            "stops for positioning against the braking distance, quality percentiles, NEES, longest silent "
+            "stops for positioning against the braking distance, quality and reflectors-used percentiles, "
+            "readings dropped (`n_dropped`), NEES, longest silent "
             "failure, largest true lateral error); identical bytes for the same scenario and seed;"
         ),
         "- `timing.json`: wall time (s) and real-time factor (the only file that differs between equal runs);",
