@@ -180,6 +180,7 @@ class StreamingEstimator:
         self.monitor = IntegrityMonitor(
             self.reflector_xy, self.reflector_radius, self.mount, self.bearing_std, 1.0 / self.rate_hz, integrity,
             map_std=np.maximum(survey, map_std), max_range=self.max_range,
+            walls=getattr(world, "wall_segments", None),
         )
         self.ambiguous = False
         self.n_relocalisations = 0
@@ -384,7 +385,7 @@ class StreamingEstimator:
         self._claimed[assoc.index] = t
         self._t_last_accept = t
         self._accept(t, z, assoc)
-        self.monitor.accepted(t, assoc.nis, assoc.index, z, self._odom_t)
+        self.monitor.accepted(t, assoc.nis, assoc.index, z, self._odom_t, assoc.innovation)
         self._watch_integrity(t)
         return True
 
@@ -492,7 +493,7 @@ class StreamingEstimator:
         self._t_last_accept = max(t, self._t_last_accept or t)
         self._accept(t, z, Association(j, y, nis, n_in, np.array(H_now), S, R))
         ox, oy, opsi = self._odom_t
-        self.monitor.accepted(t, nis, j, z, _fast.twist_step(ox, oy, opsi, *back)[:3])
+        self.monitor.accepted(t, nis, j, z, _fast.twist_step(ox, oy, opsi, *back)[:3], y)
         return True
 
     # ------------------------------------------------------------------ integrity (issue 12)
@@ -500,10 +501,18 @@ class StreamingEstimator:
         """Once per revolution: the monitor's check; inflate ``P`` when it asks (see :mod:`.integrity`)."""
         if not self._has_pose() or self.monitor.verdict == "lost" or not self.monitor.due(t):
             return
+        n_excluded = len(self.monitor.excluded)
         if self.monitor.check(t, self._x, self._P, self._odom_t, self._dead_reckoning()):
             k = self.monitor.limits.inflation
             self._P_t = tuple(k * v for v in self._P_t)
             self.n_inflations += 1
+        if len(self.monitor.excluded) != n_excluded:
+            self.apply_exclusions()
+
+    def apply_exclusions(self) -> None:
+        """Never associate the reflectors the monitor excluded (claimed forever: outside every sweep)."""
+        for j in self.monitor.excluded:
+            self._claimed[j] = math.inf
 
     # ------------------------------------------------------------------ internals
     def _gate(self, t: float, z: float) -> Association:
@@ -589,6 +598,7 @@ class StreamingEstimator:
         self._t_last_accept = self._t  # None before the first input: counted from the first one
         self.monitor.reset()
         self._claimed = [-math.inf] * self.reflector_xy.shape[0]
+        self.apply_exclusions()
         self._recent.clear()
         self._recent_ok = 0
 

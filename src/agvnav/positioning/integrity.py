@@ -12,10 +12,29 @@ navigators report one:
   ``max_reject_fraction`` (and at least ``min_rejections``) the true reflectors no longer
   fall into their gates -- the estimate has moved off (a lost odometry stretch) -- while
   clutter alone, spurious reflections at random bearings, stays below it;
-* the fraction of the reflectors in range (by the map) that the window's accepted
-  reflections explain: below ``min_explained_fraction`` the estimate explains only a
-  few of them, the signature of a pose that has locked onto a wrong but self-consistent
-  subset (an odometry dropout leaves one "tracking" 0.2-0.7 m off on 3 of 9 reflectors);
+* the fraction of the reflectors in sight that the window's accepted reflections
+  explain: below ``min_explained_fraction`` the estimate explains only a few of them,
+  the signature of a pose that has locked onto a wrong but self-consistent subset (an
+  odometry dropout leaves one "tracking" 0.2-0.7 m off on 3 of 9 reflectors). In sight
+  means within ``max_range`` and, when the monitor has the map's ``walls``, not hidden
+  behind one (:func:`reflectors_in_sight`, the goniometer's own line-of-sight test), so
+  a racked hall does not count the reflectors behind the racks as missing;
+* the timing of the reflections: the goniometer reports the head angle at the instant
+  of the reflection, ``z = phase + omega t`` up to a constant, so a stamp that lags the
+  measurement shows as a phase jump of ``omega * latency`` (:class:`_HeadClock` learns
+  the phase from the first reflections and follows slow drift). When most of the
+  window's reflections are off the head's phase by more than ``omega * max_latency_s``,
+  the estimate is built on late bearings (an uncompensated latency leaves it lagging
+  ``v * latency`` behind with consistent innovations): ``"timing"``. A latency of a
+  whole number of revolutions is invisible to this check;
+* per reflector, the exponentially weighted mean of its normalised innovations
+  ``y / sqrt(S)`` (weight 1/8, about 8 sightings): a reflector whose mean exceeds
+  ``exclude_sigmas`` and ``exclude_ratio`` times the RMS of the other reflectors'
+  means is inconsistent with the rest of the map (moved, or a reflection off a shiny
+  surface beside it) and is *excluded*: :attr:`IntegrityMonitor.excluded`, which the
+  estimator never associates again (at most ``max_excluded``, and never below
+  ``min_reflectors + 1`` others in view; fault detection and exclusion as RAIM does
+  for satellites);
 * the number and geometry of the reflectors that supported the recent fixes: at least
   ``min_reflectors`` distinct ones in the window, and a best achievable position error
   ``PDOP * bearing_std`` (:func:`~agvnav.positioning.bounds.pdop`, the CRLB of seed 000
@@ -37,7 +56,11 @@ error, ``(map_std / d)^2`` (the CRLB of seed 000 §2.3 with that std): the part 
 error no averaging removes, which the estimator adds to the covariance it reports.
 
 A failed check makes the verdict ``degraded`` and asks the estimator to inflate its
-covariance (the estimate says it is less sure); a verdict ``degraded`` for longer than
+covariance (the estimate says it is less sure); the verdict returns to ``ok`` only
+after ``recover_s`` seconds of passing checks (a full window of fresh innovations
+after an inflation: without it a persistent fault that each inflation hides for one
+revolution flips the status between ``tracking`` and ``degraded``); a verdict
+``degraded`` for longer than
 ``lost_after_s``, or a position or heading uncertainty beyond what the bearing gate
 can identify reflectors with (``lost_position_std_m``, ``lost_heading_std_rad``), makes
 it ``lost``: the estimator then stops correcting and relocalises.
@@ -54,11 +77,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from agvnav.geometry.se2 import between, compose
-from agvnav.positioning.bounds import crlb, pdop
+from agvnav.positioning.bounds import crlb
 from agvnav.positioning.identification import bearing_model
 from agvnav.positioning.triangulation import triangulate
+from agvnav.sensors.beam import line_of_sight
 
-__all__ = ["CHI2_2DOF_999", "IntegrityLimits", "IntegrityMonitor", "chi2_upper"]
+__all__ = ["CHI2_2DOF_999", "IntegrityLimits", "IntegrityMonitor", "chi2_upper", "reflectors_in_sight"]
 
 #: Chi-square quantile, 2 dof, 0.999: agreement bound of the triangulation cross-check.
 CHI2_2DOF_999 = 13.815510557964274
@@ -96,6 +120,10 @@ class IntegrityLimits:
     """Thresholds of :class:`IntegrityMonitor` (lengths m, angles rad, times s).
 
     ``enabled=False`` keeps the figures (quality, NIS ratio...) but never leaves ``"ok"``.
+    ``recover_s``: passing checks needed before ``degraded`` returns to ``ok``;
+    ``max_latency_s``: stamp latency the timing check tolerates; ``exclude_sigmas``,
+    ``exclude_ratio``, ``max_excluded``: the exclusion of an inconsistent reflector
+    (``max_excluded = 0`` disables it). See the module docstring.
     """
 
     window_s: float = 1.0
@@ -111,6 +139,11 @@ class IntegrityLimits:
     lost_position_std_m: float = 0.3
     lost_heading_std_rad: float = 0.1
     inflation: float = 4.0
+    recover_s: float = 1.0
+    max_latency_s: float = 0.01
+    exclude_sigmas: float = 2.0
+    exclude_ratio: float = 3.0
+    max_excluded: int = 2
     enabled: bool = True
 
     def __post_init__(self) -> None:
@@ -119,8 +152,8 @@ class IntegrityLimits:
         if not 0.0 < self.max_reject_fraction <= 1.0:
             raise ValueError(f"max_reject_fraction must be in (0, 1], got {self.max_reject_fraction!r}")
         for name in ("window_s", "max_fix_std_m", "crosscheck_bound", "crosscheck_min_m", "lost_after_s",
-                     "lost_position_std_m",
-                     "lost_heading_std_rad"):
+                     "lost_position_std_m", "lost_heading_std_rad", "max_latency_s", "exclude_sigmas",
+                     "exclude_ratio"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f"{name} must be a positive finite number, got {v!r}")
@@ -128,6 +161,10 @@ class IntegrityLimits:
             raise ValueError(f"inflation must be >= 1, got {self.inflation!r}")
         if self.min_reflectors < 1:
             raise ValueError(f"min_reflectors must be >= 1, got {self.min_reflectors!r}")
+        if not (math.isfinite(self.recover_s) and self.recover_s >= 0.0):
+            raise ValueError(f"recover_s must be a non-negative finite number, got {self.recover_s!r}")
+        if self.max_excluded < 0:
+            raise ValueError(f"max_excluded must be >= 0, got {self.max_excluded!r}")
         chi2_upper(1, self.nis_confidence)
 
 
@@ -138,6 +175,89 @@ class _Entry:
     index: int
     bearing: float  # edge bearing in the head frame (rad)
     odom: tuple[float, float, float]  # odometric base_link pose at t
+    on_time: bool = True  # stamp consistent with the head's rotation (:class:`_HeadClock`)
+
+
+def reflectors_in_sight(
+    reflector_xy: ArrayLike,
+    reflector_radius: ArrayLike,
+    head_xy: ArrayLike,
+    walls: ArrayLike | None = None,
+    max_range: float = math.inf,
+    min_range: float = 0.0,
+) -> np.ndarray:
+    """``(N,)`` bool: which reflectors the goniometer head at ``head_xy`` can see.
+
+    The goniometer's own test (:func:`agvnav.sensors.beam.line_of_sight`): the beam
+    length to the tangent point ``sqrt(d^2 - r^2)`` within ``[min_range, max_range]`` (m)
+    and the segment from the head to the reflector's near surface crossing no wall
+    segment of ``walls (M, 2, 2)`` (m; :attr:`agvnav.world.WorldMap.wall_segments`, racks
+    and pillars included) and no other reflector. Without ``walls`` only the range counts.
+
+    ``reflector_xy (N, 2)`` and ``reflector_radius (N,)`` in m, ``head_xy (2,)`` in m.
+    """
+    xy = np.asarray(reflector_xy, dtype=np.float64).reshape(-1, 2)
+    r = np.ascontiguousarray(np.asarray(reflector_radius, dtype=np.float64).reshape(-1))
+    if r.shape[0] != xy.shape[0]:
+        raise ValueError(f"reflector_radius must have shape ({xy.shape[0]},), got {r.shape}")
+    head = np.asarray(head_xy, dtype=np.float64).reshape(-1)
+    if head.shape != (2,) or not np.all(np.isfinite(head)):
+        raise ValueError(f"head_xy must be a finite (2,) position, got {head_xy!r}")
+    w = np.zeros((0, 2, 2)) if walls is None else np.asarray(walls, dtype=np.float64).reshape(-1, 2, 2)
+    n = xy.shape[0]
+    rx, ry = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
+    d = np.hypot(rx - head[0], ry - head[1])
+    return np.asarray(line_of_sight(
+        np.arange(n, dtype=np.int64), np.full(n, head[0]), np.full(n, head[1]), d, rx, ry, r,
+        np.ascontiguousarray(w[:, 0, 0]), np.ascontiguousarray(w[:, 0, 1]),
+        np.ascontiguousarray(w[:, 1, 0] - w[:, 0, 0]), np.ascontiguousarray(w[:, 1, 1] - w[:, 0, 1]),
+        float(min_range), float(max_range) if math.isfinite(max_range) else 1e300,
+    ), dtype=bool)
+
+
+class _HeadClock:
+    """The goniometer head's phase, learnt from the stamps and bearings of the reflections.
+
+    A reported bearing is the encoder reading at the reflection's instant, so
+    ``wrap(z - s omega t)`` is the same for every reflection (``s`` the turning sense,
+    ``omega = 2 pi / revolution_s``). The first ``LEARN`` residuals fix ``s`` and the
+    reference phase when they agree within ``tolerance`` (else the clock stays unknown
+    and keeps trying on the latest ones: synthetic streams need not come from a
+    rotating head); afterwards each residual within ``tolerance`` nudges the reference
+    (gain ``GAIN``: slow drift of the head's rate is followed), the others are late.
+    """
+
+    LEARN = 16
+    GAIN = 0.05
+
+    def __init__(self, revolution_s: float, tolerance: float) -> None:
+        self.omega = 2.0 * math.pi / revolution_s
+        self.tolerance = tolerance
+        self.sense = 0  # 0 unknown, +1 CCW, -1 CW
+        self.phase = 0.0
+        self._learn: deque[tuple[float, float]] = deque(maxlen=self.LEARN)
+
+    def on_time(self, t: float, z: float) -> bool:
+        """True when the reflection ``(t s, z rad)`` agrees with the head's phase (or it is not known yet)."""
+        w = self.omega * t
+        if self.sense == 0:
+            self._learn.append((_wrap(z - w), _wrap(z + w)))
+            if len(self._learn) == self.LEARN:
+                for k, sense in ((0, 1), (1, -1)):
+                    ref = math.atan2(sum(math.sin(v[k]) for v in self._learn), sum(math.cos(v[k]) for v in self._learn))
+                    if all(abs(_wrap(v[k] - ref)) <= 0.5 * self.tolerance for v in self._learn):
+                        self.sense, self.phase = sense, ref
+                        break
+            return True
+        dev = _wrap(z - self.sense * w - self.phase)
+        if abs(dev) <= self.tolerance:
+            self.phase = _wrap(self.phase + self.GAIN * dev)
+            return True
+        return False
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 class IntegrityMonitor:
@@ -158,6 +278,9 @@ class IntegrityMonitor:
         Duration (s) of one head revolution.
     max_range:
         Reflectors farther than this (m) are not expected to be seen.
+    walls:
+        ``(M, 2, 2)`` wall segments of the map (m) that hide reflectors from the head
+        (:func:`reflectors_in_sight`); None counts every reflector in range.
     limits:
         The thresholds.
 
@@ -171,6 +294,7 @@ class IntegrityMonitor:
     survey_floor : ``(3, 3)`` covariance (m², m·rad, rad²) of the survey error of the
         reflectors used (zero without ``map_std`` or support).
     reasons : why the last check failed (empty when it passed).
+    excluded : map rows of the reflectors excluded as inconsistent (kept across :meth:`reset`).
     """
 
     def __init__(
@@ -183,6 +307,7 @@ class IntegrityMonitor:
         limits: IntegrityLimits | None = None,
         map_std: ArrayLike = 0.0,
         max_range: float = math.inf,
+        walls: ArrayLike | None = None,
     ) -> None:
         self.xy = np.asarray(reflector_xy, dtype=np.float64).reshape(-1, 2)
         self.radius = np.asarray(reflector_radius, dtype=np.float64).reshape(-1)
@@ -192,12 +317,18 @@ class IntegrityMonitor:
         self.max_range = float(max_range)
         self.revolution_s = float(revolution_s)
         self.limits = IntegrityLimits() if limits is None else limits
+        self.walls = None if walls is None else np.asarray(walls, dtype=np.float64).reshape(-1, 2, 2)
         self._entries: deque[_Entry] = deque()
         self._rejects: deque[float] = deque()
+        self._rows = [(float(a), float(b)) for a, b in self.xy]
+        self._clock = _HeadClock(self.revolution_s, self.limits.max_latency_s * 2.0 * math.pi / self.revolution_s)
+        self._mean_nu = [0.0] * self.xy.shape[0]  # EWMA of y / sqrt(S) per reflector
+        self._n_nu = [0] * self.xy.shape[0]
+        self.excluded: tuple[int, ...] = ()
         self.reset()
 
     def reset(self) -> None:
-        """Forget the support (after a relocalisation or a fresh start)."""
+        """Forget the support (after a relocalisation or a fresh start); exclusions and the head clock stay."""
         self._entries.clear()
         self._rejects.clear()
         self.verdict = "ok"
@@ -208,14 +339,29 @@ class IntegrityMonitor:
         self.reasons: tuple[str, ...] = ()
         self.survey_floor = np.zeros((3, 3))
         self._degraded_since: float | None = None
+        self._failed_at = -math.inf
         self._last_check = -math.inf
         self._since: float | None = None  # first check after the reset
+        self._mean_nu = [0.0] * self.xy.shape[0]
+        self._n_nu = [0] * self.xy.shape[0]
 
-    def accepted(self, t: float, nis: float, index: int, bearing: float, odom: tuple[float, ...]) -> None:
-        """One accepted reflection at ``t`` (s): its NIS, reflector row, edge bearing (rad), odometric pose."""
-        self._entries.append(_Entry(t, float(nis), int(index), float(bearing), (odom[0], odom[1], odom[2])))
+    def accepted(
+        self, t: float, nis: float, index: int, bearing: float, odom: tuple[float, ...], innovation: float = math.nan
+    ) -> None:
+        """One accepted reflection at ``t`` (s): its NIS, reflector row, edge bearing (rad), odometric pose.
+
+        ``innovation`` (rad) gives the sign of ``y / sqrt(S) = sign(y) sqrt(nis)`` for the
+        per-reflector consistency (NaN: not tracked).
+        """
+        on_time = self._clock.on_time(t, bearing)
+        self._entries.append(_Entry(t, float(nis), int(index), float(bearing), (odom[0], odom[1], odom[2]), on_time))
         while self._entries and t - self._entries[0].t > self.limits.window_s:
             self._entries.popleft()
+        if math.isfinite(innovation) and math.isfinite(nis):
+            j = int(index)
+            nu = math.copysign(math.sqrt(nis), innovation)
+            self._n_nu[j] += 1
+            self._mean_nu[j] += (nu - self._mean_nu[j]) / min(self._n_nu[j], 8)
 
     @property
     def used(self) -> tuple[int, ...]:
@@ -253,6 +399,8 @@ class IntegrityMonitor:
         reasons += self._uncertainty_failures(cov)
         self.reasons = tuple(reasons) if self.limits.enabled else ()
         reasons = list(self.reasons)
+        if self.limits.enabled and not dead_reckoning and not young:
+            self._exclude()
         return self._judge(t, reasons)
 
     # ------------------------------------------------------------------ checks
@@ -263,29 +411,29 @@ class IntegrityMonitor:
         entries = list(self._entries)
         used = sorted({e.index for e in entries})
         self.reflectors_used = len(used)
-        self.survey_floor = self._survey_floor(x, used)
+        head = _head(x, self.mount)
+        unit, floor = self._information(head, used)
+        self.survey_floor = floor
         out: list[str] = []
         if entries:
             total = sum(e.nis for e in entries)
             self.nis_ratio = total / chi2_upper(len(entries), lim.nis_confidence)
             if self.nis_ratio > 1.0:
                 out.append("nis")
+            if self._clock.sense and 2 * sum(not e.on_time for e in entries) > len(entries) >= 4:
+                out.append("timing")
         while self._rejects and t - self._rejects[0] > lim.window_s:
             self._rejects.popleft()
         n_rej = len(self._rejects)
         if n_rej >= lim.min_rejections and n_rej > lim.max_reject_fraction * (n_rej + len(entries)):
             out.append("rejections")
-        if not young and self._explained(x, len(used)) < lim.min_explained_fraction:
+        if not young and self._explained(head, len(used)) < lim.min_explained_fraction:
             out.append("unexplained")
         if len(used) < lim.min_reflectors:
             if not young and self.xy.shape[0] >= lim.min_reflectors:  # a map without reflectors: other sensors
                 out.append("few_reflectors")
         else:
-            head = compose(x, self.mount)
-            try:
-                fix_std = float(pdop(self.xy[used], head)) * self.bearing_std
-            except ValueError:  # a degenerate layout (e.g. the head on a reflector): no geometry
-                fix_std = math.inf
+            fix_std = math.sqrt(unit) * self.bearing_std if math.isfinite(unit) else math.inf
             if not fix_std <= lim.max_fix_std_m:
                 out.append("geometry")
         self.crosscheck = self._crosscheck(t, x, P, odom)
@@ -293,24 +441,64 @@ class IntegrityMonitor:
             out.append("crosscheck")
         return out
 
-    def _survey_floor(self, x: np.ndarray, used: list[int]) -> np.ndarray:
-        """Covariance of a static fix from ``used`` with bearing errors ``map_std / d`` only (zero if none)."""
-        std = self.map_std[used]
-        if len(used) < 3 or not np.all(std > 0.0):
-            return np.zeros((3, 3))
-        head = compose(x, self.mount)
-        d = np.maximum(np.hypot(*(self.xy[used] - head[:2]).T), 1e-6)
-        try:
-            cov = crlb(self.xy[used], head, std / d)
-        except ValueError:
-            return np.zeros((3, 3))
-        return cov if np.all(np.isfinite(cov)) else np.zeros((3, 3))
+    def _information(self, head: tuple[float, float, float], used: list[int]) -> tuple[float, np.ndarray]:
+        """PDOP² of ``used`` from the head (m²/rad², inf if unobservable) and the survey floor ``(3, 3)``.
 
-    def _explained(self, x: np.ndarray, n_used: int) -> float:
-        """Distinct reflectors used over those in range of the head at ``x`` (1 when none is in range)."""
-        head = compose(x, self.mount)
-        n_range = int(np.count_nonzero(np.hypot(*(self.xy - head[:2]).T) <= self.max_range))
-        return 1.0 if n_range == 0 else n_used / n_range
+        One pass over the bearing Jacobian rows ``[dy/d², -dx/d², -1]`` (seed 000 §2.3,
+        :func:`~agvnav.positioning.bounds.crlb`) in Python floats: the unit-noise
+        information gives the PDOP, the information weighted by ``(d / map_std)^2`` the
+        covariance of a static fix whose bearings err only by the survey error (zero
+        without ``map_std`` or with fewer than three reflectors).
+        """
+        hx, hy = head[0], head[1]
+        a = [0.0] * 6  # unit information, upper triangle 00 01 02 11 12 22
+        b = [0.0] * 6  # survey-weighted information
+        survey = len(used) >= 3
+        for j in used:
+            rx, ry = self._rows[j]
+            dx, dy = rx - hx, ry - hy
+            d2 = dx * dx + dy * dy
+            if d2 <= 0.0:
+                return math.inf, np.zeros((3, 3))
+            j0, j1 = dy / d2, -dx / d2
+            row = (j0 * j0, j0 * j1, -j0, j1 * j1, -j1, 1.0)
+            for k in range(6):
+                a[k] += row[k]
+            std = float(self.map_std[j])
+            if std > 0.0:
+                w = d2 / (std * std)
+                for k in range(6):
+                    b[k] += w * row[k]
+            else:
+                survey = False
+        unit = _inverse3(a)
+        pdop2 = math.inf if unit is None else unit[0] + unit[3]
+        if not (math.isfinite(pdop2) and pdop2 >= 0.0):
+            pdop2 = math.inf
+        cov = _inverse3(b) if survey else None
+        if cov is None or not all(math.isfinite(v) for v in cov):
+            return pdop2, np.zeros((3, 3))
+        c00, c01, c02, c11, c12, c22 = cov
+        return pdop2, np.array([[c00, c01, c02], [c01, c11, c12], [c02, c12, c22]])
+
+    def _in_sight(self, head: tuple[float, float, float]) -> int:
+        """How many reflectors (not excluded) the head can see (:func:`reflectors_in_sight`)."""
+        hx, hy = head[0], head[1]
+        d = np.hypot(self.xy[:, 0] - hx, self.xy[:, 1] - hy)
+        near = d <= self.max_range
+        if self.walls is not None and self.walls.shape[0] and np.any(near):
+            rows = np.flatnonzero(near)
+            seen = reflectors_in_sight(self.xy[rows], self.radius[rows], (hx, hy), self.walls, self.max_range)
+            near = np.zeros_like(near)
+            near[rows[seen]] = True
+        if self.excluded:
+            near[list(self.excluded)] = False
+        return int(np.count_nonzero(near))
+
+    def _explained(self, head: tuple[float, float, float], n_used: int) -> float:
+        """Distinct reflectors used over those in sight of the head (1 when none is)."""
+        n_sight = self._in_sight(head)
+        return 1.0 if n_sight == 0 else n_used / n_sight
 
     def _uncertainty_failures(self, P: np.ndarray) -> list[str]:
         lim = self.limits
@@ -342,7 +530,7 @@ class IntegrityMonitor:
             return math.nan
         if not bool(fix.valid) or fix.covariance is None or not np.all(np.isfinite(fix.covariance)):
             return math.nan
-        head = compose(x, self.mount)
+        head = _head(x, self.mount)
         diff = np.array([float(fix.x) - head[0], float(fix.y) - head[1]])
         S = fix.covariance[:2, :2] + P[:2, :2]
         if math.hypot(diff[0], diff[1]) <= self.limits.crosscheck_min_m:
@@ -372,12 +560,33 @@ class IntegrityMonitor:
             return None
         return [int(i) for i in triples[k]]
 
+    # ------------------------------------------------------------------ exclusion
+    def _exclude(self) -> None:
+        """Exclude the one reflector whose innovations disagree with the others' (module docstring)."""
+        lim = self.limits
+        if len(self.excluded) >= lim.max_excluded:
+            return
+        seen = [j for j in {e.index for e in self._entries} if self._n_nu[j] >= 8]
+        if len(seen) < lim.min_reflectors + 2:
+            return
+        worst = max(seen, key=lambda j: abs(self._mean_nu[j]))
+        others = [self._mean_nu[j] ** 2 for j in seen if j != worst]
+        rms = math.sqrt(sum(others) / len(others))
+        m = abs(self._mean_nu[worst])
+        if m > lim.exclude_sigmas and m > lim.exclude_ratio * rms:
+            self.excluded = (*self.excluded, worst)
+            self._entries = deque(e for e in self._entries if e.index != worst)
+            self._n_nu = [0] * len(self._n_nu)  # judge the rest afresh
+            self._mean_nu = [0.0] * len(self._mean_nu)
+
     # ------------------------------------------------------------------ verdict
     def _judge(self, t: float, reasons: list[str]) -> bool:
         lim = self.limits
+        if reasons:
+            self._failed_at = t
         if "uncertainty" in reasons:
             self.verdict = "lost"
-        elif reasons:
+        elif reasons or t - self._failed_at < lim.recover_s:
             if self._degraded_since is None:
                 self._degraded_since = t
             self.verdict = "lost" if t - self._degraded_since > lim.lost_after_s else "degraded"
@@ -399,5 +608,29 @@ class IntegrityMonitor:
         q_count = min(self.reflectors_used, 4) / 4.0
         ratio = self.nis_ratio if math.isfinite(self.nis_ratio) else 1.0
         q_nis = 1.0 / (1.0 + max(0.0, 2.0 * ratio - 1.0) ** 2) if ratio > 0.5 else 1.0
-        q_check = 0.5 if {"geometry", "crosscheck", "rejections", "unexplained"} & set(self.reasons) else 1.0
+        bad = {"geometry", "crosscheck", "rejections", "unexplained", "timing"}
+        q_check = 0.5 if bad & set(self.reasons) or self.verdict == "degraded" else 1.0
         return q_count * q_nis * q_check
+
+
+def _head(x: np.ndarray, mount: np.ndarray) -> tuple[float, float, float]:
+    """Head pose in ``map`` from the base_link pose ``x`` and the ``mount`` (floats)."""
+    c, s = math.cos(float(x[2])), math.sin(float(x[2]))
+    mx, my = float(mount[0]), float(mount[1])
+    return float(x[0]) + c * mx - s * my, float(x[1]) + s * mx + c * my, float(x[2]) + float(mount[2])
+
+
+def _inverse3(a: list[float]) -> tuple[float, float, float, float, float, float] | None:
+    """Inverse of the symmetric 3x3 ``[a00 a01 a02 a11 a12 a22]`` (same layout), None if singular."""
+    a00, a01, a02, a11, a12, a22 = a
+    c00 = a11 * a22 - a12 * a12
+    c01 = a02 * a12 - a01 * a22
+    c02 = a01 * a12 - a02 * a11
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    scale = max(abs(a00), abs(a11), abs(a22)) ** 3
+    if not (math.isfinite(det) and abs(det) > 1e-12 * scale and det != 0.0):
+        return None
+    c11 = a00 * a22 - a02 * a02
+    c12 = a01 * a02 - a00 * a12
+    c22 = a00 * a11 - a01 * a01
+    return c00 / det, c01 / det, c02 / det, c11 / det, c12 / det, c22 / det

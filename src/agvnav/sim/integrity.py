@@ -7,7 +7,9 @@ All from the recorded series, vectorised after the run:
   times, and the worst such stop (:func:`stop_episodes`): the speed then and the
   distance travelled until standstill, against the braking distance
   ``v² / (2 a_max)`` plus :data:`STOP_MARGIN_M`;
-* the estimator's quality figure (minimum and percentiles) when it provides one;
+* the estimator's quality figure (minimum and percentiles) when it provides one, the
+  number of reflectors behind the estimate (minimum and percentiles) and the readings
+  it dropped as implausible (``n_dropped``, the count at the end of the run);
 * NEES ``ε = e^T P^{-1} e`` of the full pose error ``e = x̂ − x`` (heading wrapped)
   against the reported covariance ``P``: mean, median, 95th percentile and the
   fraction above the χ²(3) 95 % point (7.815);
@@ -188,6 +190,19 @@ def _percentiles(values: NDArray[np.float64], prefix: str) -> dict[str, float | 
     return dict(zip(keys, (float(np.min(v)), *(float(np.percentile(v, q)) for q in (5, 50, 95))), strict=True))
 
 
+def _column(series: dict[str, NDArray[np.float64]], name: str) -> NDArray[np.float64]:
+    """``series[name]`` as floats, all NaN when the run did not record it."""
+    if name in series:
+        return np.asarray(series[name], dtype=np.float64)
+    return np.full(np.shape(series["t"]), np.nan)
+
+
+def _last_count(values: NDArray[np.float64]) -> int | None:
+    """The last finite value of a running count as an int (None if none was recorded)."""
+    v = values[np.isfinite(values)]
+    return int(v[-1]) if v.size else None
+
+
 def _nees_figures(series: dict[str, NDArray[np.float64]]) -> dict[str, Any]:
     eps = nees(_errors(series), _covariances(series))
     eps = eps[np.isfinite(eps)]
@@ -219,6 +234,8 @@ def integrity_figures(
         **_per_status(t, np.asarray(series["est_status"]), dist),
         **_stop_figures(series, dist, max_decel),
         **_percentiles(np.asarray(series["est_quality"], dtype=np.float64), "quality"),
+        **_percentiles(_column(series, "est_reflectors_used"), "reflectors_used"),
+        "n_dropped": _last_count(_column(series, "est_n_dropped")),
         **_nees_figures(series),
         "longest_silent_failure_s": longest_run(t, silent_mask(series)),
     }

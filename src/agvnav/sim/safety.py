@@ -155,6 +155,8 @@ GUARD_SIGNALS = (
     "est_cov_ypsi",
     "est_cov_psipsi",
     "est_quality",
+    "est_reflectors_used",
+    "est_n_dropped",
 )
 
 
@@ -165,7 +167,8 @@ class EstimatorWatch:
     """Reads an estimator once per step for a :class:`PositioningGuard` and keeps the recorded signals.
 
     ``quality`` is read when the estimator exposes one (a 0-1 figure, issue 12 §1),
-    else recorded as NaN.
+    else recorded as NaN; so are ``reflectors_used`` (distinct reflectors behind the
+    estimate) and the count of readings dropped as implausible so far (``drops.total``).
     """
 
     signal_names = GUARD_SIGNALS
@@ -173,7 +176,7 @@ class EstimatorWatch:
     def __init__(self, guard: PositioningGuard) -> None:
         self.guard = guard
         nan = math.nan
-        self._sig: tuple[float, ...] = (0.0, 1.0, nan, nan, nan, nan, nan, nan, nan, nan)
+        self._sig: tuple[float, ...] = (0.0, 1.0, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan)
 
     def scale(self, t: float, estimator: Any) -> float:
         """The guard's speed scale at ``t`` (s) from ``estimator``'s status, covariance and heading."""
@@ -182,9 +185,13 @@ class EstimatorWatch:
         psi = float(estimator.pose[2])
         scale = self.guard.update(t, str(estimator.status), None if P is None else cov, psi)
         quality = _quality(estimator)
+        used = getattr(estimator, "reflectors_used", None)
+        drops = getattr(estimator, "drops", None)
         self._sig = (
             float(self.guard.level), scale, self.guard.lateral_3sigma,
             cov[0], cov[1], cov[2], cov[4], cov[5], cov[8], quality,
+            math.nan if used is None else float(used),
+            math.nan if drops is None else float(drops.total),
         )
         return scale
 
