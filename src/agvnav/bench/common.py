@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from importlib import metadata
 from typing import Any, Literal
 
-from rich.console import Console
+from rich.console import Console, Group
 from rich.table import Table
 from rich.text import Text
 
@@ -303,11 +303,12 @@ def fit_table(
     wide: bool = False,
     caption: str = "",
     sections: Sequence[bool] = (),
-) -> Table:
+) -> Table | Group:
     """A rich Table of ``rows`` that fits ``width`` columns: the highest-priority numbers drop first.
 
     ``wide`` (or ``width=None``) keeps every column. Hidden columns are named in the
-    caption with a hint to use ``--wide``; a ``-`` cell anywhere adds :data:`DASH_NOTE`.
+    notes below the table with a hint to use ``--wide``; a ``-`` cell anywhere adds
+    :data:`DASH_NOTE` (the table and its notes come as a rich ``Group``).
     ``sections[i]`` ends a section after row ``i``. Cells may hold rich markup.
     """
     keep = list(range(len(cols)))
@@ -324,7 +325,11 @@ def fit_table(
         notes.append(DASH_NOTE)
     if hidden:
         notes.append(f"{len(hidden)} column(s) hidden to fit {width} characters: {', '.join(hidden)}; --wide shows all")
-    return _table(title, cols, rows, keep, "\n".join(notes), sections, None if wide else width)
+    table = _table(title, cols, rows, keep, "", sections, None if wide else width)
+    if not notes:
+        return table
+    # the notes below the table, as wide as the terminal (a caption would wrap at the table's width)
+    return Group(table, Text("\n".join(notes), no_wrap=False))
 
 
 def _table(
@@ -393,17 +398,19 @@ def print_table(
     ``(title, columns, rows)`` (:func:`records_table`), fitted with :func:`fit_table`.
     """
     limit = terminal_width() if width is None else width
-    fitted = not isinstance(table, Table)
-    if not isinstance(table, Table):
-        title, cols, rows = table
-        table = fit_table(title, cols, rows, limit, wide, caption, sections)
-    wide_open = Console(highlight=False, width=100_000)
-    need = wide_open.measure(table)
-    if fitted and limit is not None and not wide:
+    if isinstance(table, Table):  # a ready table: natural width, nothing truncated ("…") or folded
+        need = Console(highlight=False, width=100_000).measure(table)
+        Console(highlight=False, width=max(Console().width, need.maximum)).print(table)
+        return
+    title, cols, rows = table
+    fitted = fit_table(title, cols, rows, limit, wide, caption, sections)
+    main = fitted.renderables[0] if isinstance(fitted, Group) else fitted
+    need = Console(highlight=False, width=100_000).measure(main)
+    if limit is not None and not wide:
         width_used = max(limit, need.minimum)  # the kept columns wrap their headers, never their values
-    else:  # a ready table, wide, or a pipe: natural width, nothing truncated ("…") or folded
-        width_used = max(Console().width, need.maximum)
-    Console(highlight=False, width=width_used).print(table)
+    else:  # wide, or a pipe: natural width
+        width_used = max(Console().width if limit is None else limit, need.maximum)
+    Console(highlight=False, width=width_used).print(fitted)
 
 
 def best_time(func: Callable[[], Any], repeat: int = 5, number: int = 1) -> float:
