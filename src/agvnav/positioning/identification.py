@@ -11,7 +11,12 @@ produced a reflection must be decided by the positioning side. Two situations:
   triples are tried against observed bearing triples, each hypothesis is resected and
   scored by how many reflections it explains, and an ambiguity (several distinct
   poses explaining equally many, e.g. a rotationally symmetric layout) is reported
-  rather than guessed (:func:`initial_pose_search`).
+  rather than guessed (:func:`initial_pose_search`). Small maps try every ordered
+  reflector triple; a large map (above :data:`FULL_SEARCH_MAX_CELLS`) is searched
+  locally, in memory linear in its size: consecutive bearings on neighbouring
+  reflectors (:mod:`agvnav.positioning.spatial`), chunked and with early rejection.
+  That assumes reflections next to each other come from reflectors next to each other
+  (walls, racks); on a map of scattered, isolated reflectors it may find nothing.
 
 The measurement model (:func:`bearing_model`) is the bearing, in the head frame, of
 the leading tangent edge of a cylindrical reflector of radius r seen from the head
@@ -29,6 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav.geometry import angle_diff, compose, inverse, wrap_angle
+from agvnav.positioning.spatial import count_explained, nearest_neighbours
 
 __all__ = [
     "Association",
@@ -44,6 +50,22 @@ __all__ = [
 
 #: chi-square quantile, 1 degree of freedom, probability 0.999 (gate on one bearing innovation).
 CHI2_1DOF_999 = 10.827566170662733
+
+#: The start-up search tries every (bearing triple, ordered reflector triple) pair while
+#: its score table (hypotheses x bearings x reflectors) stays at or below this many cells
+#: (about 160 MB of float64; the shipped maps of up to 14 reflectors); beyond it, the
+#: local search of :func:`_local_hypotheses` (memory linear in the map size).
+FULL_SEARCH_MAX_CELLS = 20_000_000
+#: Nearest map neighbours of a reflector tried around it by the local search.
+LOCAL_NEIGHBOURS = 2
+#: Triples of consecutive bearings the local search resects, spread around the revolution.
+LOCAL_CENTRES = 3
+#: Distinct best-scoring hypotheses the local search refines by Gauss-Newton.
+LOCAL_SEEDS = 16
+#: Hypotheses per bearing triple kept for scoring on every bearing (most early hits first).
+LOCAL_MAX_SCORED = 2048
+#: Hypotheses scored at once against every reflector by the local search.
+LOCAL_CHUNK = 2048
 
 
 def edge_offset(distance: ArrayLike, radius: ArrayLike) -> NDArray[np.float64]:
@@ -338,16 +360,24 @@ def initial_pose_search(
     rad = np.broadcast_to(np.asarray(radius, dtype=np.float64), xy.shape[:1])
     if z.size < 3 or xy.shape[0] < 3:
         return _not_found(z.size)
-    hyps = _hypotheses(z, xy, rad, mount, max_observation_triples, max_range)
-    if hyps.shape[0] == 0:
-        return _not_found(z.size)
     coarse_tol = max(30.0 * bearing_std, 2e-3)
-    h, _, d = bearing_model(hyps[:, None, :], mount, xy[None], rad[None])
-    visible = d <= max_range
-    close = np.abs(angle_diff(z[None, :, None], h[:, None, :])) < coarse_tol
-    explained = np.any(close & visible[:, None, :], axis=-1).sum(-1)
+    n = xy.shape[0]
+    n_full = len(_observation_triples(z.size, max_observation_triples)) * n * (n - 1) * (n - 2)
+    if n_full * max(n, z.size) <= FULL_SEARCH_MAX_CELLS:
+        hyps = _hypotheses(z, xy, rad, mount, max_observation_triples, max_range)
+        if hyps.shape[0] == 0:
+            return _not_found(z.size)
+        h, _, d = bearing_model(hyps[:, None, :], mount, xy[None], rad[None])
+        visible = d <= max_range
+        close = np.abs(angle_diff(z[None, :, None], h[:, None, :])) < coarse_tol
+        explained = np.any(close & visible[:, None, :], axis=-1).sum(-1)
+    else:
+        hyps, explained = _local_hypotheses(z, xy, rad, mount, max_range, coarse_tol)
+        if hyps.shape[0] == 0:
+            return _not_found(z.size)
     refined = _refine_distinct(
-        hyps, explained, z, xy, rad, mount, bearing_std, max_range, gate, position_tol, heading_tol, map_std
+        hyps, explained, z, xy, rad, mount, bearing_std, max_range, gate, position_tol, heading_tol, map_std,
+        local=n_full * max(n, z.size) > FULL_SEARCH_MAX_CELLS,
     )
     if not refined:
         return _not_found(z.size)
@@ -362,6 +392,71 @@ def initial_pose_search(
     ambiguous = len(top) > 1
     found = (not ambiguous) and n >= min_explained
     return InitialPoseResult(pose, cov, labels, int(n), found, ambiguous, alternatives)
+
+
+def _predicted(
+    hyps: NDArray[np.float64], rows: NDArray[np.int64], xy: NDArray[np.float64], rad: NDArray[np.float64],
+    mount: ArrayLike, max_range: float,
+) -> NDArray[np.float64]:
+    """Bearings ``(H, m)`` that hypotheses ``(H, 3)`` predict for reflector ``rows`` (``(m,)`` or ``(H, m)``).
+
+    NaN where the reflector is beyond ``max_range``.
+    """
+    h, _, d = bearing_model(hyps[:, None, :], mount, xy[rows], rad[rows])
+    return np.where(d <= max_range, h, np.nan)
+
+
+def _local_hypotheses(
+    z: NDArray[np.float64],
+    xy: NDArray[np.float64],
+    rad: NDArray[np.float64],
+    mount: ArrayLike,
+    max_range: float,
+    tol: float,
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Start-up hypotheses of a large map and their coarse scores, in memory linear in its size.
+
+    Bearing order and a spatial index replace the exhaustive search (which forms every
+    ordered reflector triple, ``N^3``): reflections consecutive around the revolution
+    mostly come from reflectors next to each other in the map, so each of
+    :data:`LOCAL_CENTRES` triples of consecutive bearings ``(z[c-1], z[c], z[c+1])`` is
+    resected on the reflector triples ``(i, j, k)`` with ``i`` and ``k`` two of the
+    :data:`LOCAL_NEIGHBOURS` nearest neighbours of ``j`` (:func:`~agvnav.positioning.spatial.nearest_neighbours`).
+    Early rejection: a hypothesis is kept only when at least two of the four next bearings
+    outside the triple (``z[c-3], z[c-2], z[c+2], z[c+3]``) fall within ``tol`` of a
+    neighbour of ``i`` or ``k``. The survivors are scored on every bearing by bearing order
+    (:func:`~agvnav.positioning.spatial.count_explained`), :data:`LOCAL_CHUNK` at a time.
+    Returns ``(hyps (H, 3), explained (H,))``.
+    """
+    k, n = z.size, xy.shape[0]
+    nb = nearest_neighbours(xy, LOCAL_NEIGHBOURS)
+    K = nb.shape[1]
+    # reflector triples (i, i', l): i' one of the neighbours of i, l any other reflector
+    first = np.repeat(np.arange(n), K)
+    second = nb.reshape(-1)
+    third = np.tile(np.arange(n), first.size)
+    ri = np.stack([np.repeat(first, n), np.repeat(second, n), third], axis=-1)
+    ri = ri[(ri[:, 2] != ri[:, 0]) & (ri[:, 2] != ri[:, 1])]
+    outer = np.concatenate([nb[ri[:, 0]], nb[ri[:, 1]], nb[ri[:, 2]]], axis=1)  # where the next bearings should fall
+    far = max(k // 3, 2)
+    kept = []
+    for c in np.unique(np.linspace(0, k, min(LOCAL_CENTRES, k), endpoint=False).astype(np.int64)):
+        zi = np.broadcast_to(z[np.array([c, c + 1, c + far]) % k], ri.shape)
+        hyps, valid = _resect_hypotheses(zi, ri, xy, rad, mount, max_range)
+        if hyps.shape[0] == 0:
+            continue
+        test = z[np.array([c - 1, c + 2, c + far - 1, c + far + 1]) % k]
+        hits = count_explained(test, _predicted(hyps, outer[valid], xy, rad, mount, max_range), tol)
+        keep = np.flatnonzero(hits >= 2)
+        kept.append(hyps[keep[np.argsort(-hits[keep], kind="stable")[:LOCAL_MAX_SCORED]]])
+    hyps = np.concatenate(kept) if kept else np.zeros((0, 3))
+    explained = np.zeros(hyps.shape[0], dtype=np.int64)
+    every = np.arange(n)
+    for start in range(0, hyps.shape[0], LOCAL_CHUNK):
+        part = hyps[start : start + LOCAL_CHUNK]
+        predicted = _predicted(part, every, xy, rad, mount, max_range)
+        explained[start : start + part.shape[0]] = count_explained(z, predicted, tol)
+    return hyps, explained
 
 
 def _not_found(k: int) -> InitialPoseResult:
@@ -398,6 +493,22 @@ def _hypotheses(
     refl = np.array(list(itertools.permutations(range(xy.shape[0]), 3)))
     zi = np.repeat(z[obs], refl.shape[0], axis=0)
     ri = np.tile(refl, (obs.shape[0], 1))
+    return _resect_hypotheses(zi, ri, xy, rad, mount, max_range)[0]
+
+
+def _resect_hypotheses(
+    zi: NDArray[np.float64],
+    ri: NDArray[np.int64],
+    xy: NDArray[np.float64],
+    rad: NDArray[np.float64],
+    mount: ArrayLike,
+    max_range: float,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Resect bearing triples ``zi (H, 3)`` on reflector rows ``ri (H, 3)``: ``(poses (V, 3), valid (H,))``.
+
+    ``poses`` are the base_link poses of the ``valid`` resections only: finite, every
+    reflector within ``max_range`` and outside its own radius.
+    """
     R = xy[ri]
     head, valid = resect_three(R, zi)
     for _ in range(2):  # the reported bearings are edges: move them to the centres and resect again
@@ -405,7 +516,7 @@ def _hypotheses(
         head, valid = resect_three(R, zi - edge_offset(dist, rad[ri]))
     dist = np.linalg.norm(R - head[:, None, :2], axis=-1)
     valid &= np.all(dist <= max_range, axis=-1) & np.all(dist > rad[ri], axis=-1)
-    return compose(head[valid], inverse(np.asarray(mount, dtype=np.float64)))
+    return compose(head[valid], inverse(np.asarray(mount, dtype=np.float64))), valid
 
 
 def _refine_distinct(
@@ -421,12 +532,21 @@ def _refine_distinct(
     position_tol: float,
     heading_tol: float,
     map_std: float,
+    local: bool = False,
 ) -> list[tuple]:
-    """Gauss-Newton refinement of the best-scoring distinct hypotheses."""
+    """Gauss-Newton refinement of the best-scoring distinct hypotheses.
+
+    The exhaustive search refines those within one bearing of the best score. The local
+    search of a large, dense map (``local``) refines the :data:`LOCAL_SEEDS` best distinct
+    ones whatever their score: there a coarse hypothesis a few centimetres off (the map's
+    survey error at short range) can score below wrong ones that meet many reflectors by
+    chance.
+    """
     best = int(explained.max())
-    cand = hyps[explained >= max(best - 1, 3)]
-    cand = cand[np.argsort(-explained[explained >= max(best - 1, 3)], kind="stable")]
+    pick = explained >= (3 if local else max(best - 1, 3))
+    cand = hyps[pick][np.argsort(-explained[pick], kind="stable")]
     seeds = [r[0] for r in _distinct([(p, 0, 0.0) for p in cand[:400]], position_tol, heading_tol)]
+    seeds = seeds[:LOCAL_SEEDS] if local else seeds[:32]
     out = []
     var = bearing_std**2
 
@@ -439,7 +559,7 @@ def _refine_distinct(
         seen = labels >= 0
         return _gauss_newton(pose, z[seen], xy[labels[seen]], rad[labels[seen]], mount, var, map_std)
 
-    for pose in seeds[:32]:
+    for pose in seeds:
         labels = label(pose, np.diag([0.05, 0.05, 0.01]) ** 2)  # loose: the hypothesis is only a start
         for _ in range(3):
             if np.count_nonzero(labels >= 0) < 3:
