@@ -113,3 +113,32 @@ def test_localize_map_binary_is_exit_2_naming_the_file(tmp_path):
 def test_an_unreadable_scenario_names_the_file(tmp_path):
     res = runner.invoke(app, ["simulate", str(tmp_path / "missing.yaml"), "--out", str(tmp_path / "o")])
     assert res.exit_code == 2 and str(tmp_path / "missing.yaml") in _err(res)
+
+
+def test_every_csv_of_a_run_has_a_units_sidecar_documenting_each_column(tmp_path):
+    import csv
+
+    out = tmp_path / "o"
+    res = runner.invoke(app, ["simulate", str(_short(tmp_path)), "--out", str(out), "--no-plots"])
+    assert res.exit_code == 3, res.output
+    for name in ("timeseries", "reflections"):
+        header = (out / f"{name}.csv").read_text().splitlines()[0].split(",")
+        with open(out / f"{name}.units.csv", newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        assert [r["column"] for r in rows] == header
+        assert all(r["unit"] and r["meaning"] != "not documented" for r in rows), rows
+        units = {r["column"]: r["unit"] for r in rows}
+        assert units["t"] == "s"
+    assert units["bearing"] == "rad"
+
+
+def test_laps_csv_units_come_from_the_reference(tmp_path):
+    import numpy as np
+
+    from agvnav.report.files import units_path, write_csv
+
+    path = write_csv(tmp_path / "laps.csv", {"lap": np.array([1.0]), "with_landmarks_per_lap_m": np.array([0.02]),
+                                             "mystery": np.array([3.0])})
+    lines = units_path(path).read_text().splitlines()
+    assert lines[0] == "column,unit,meaning" and lines[1].startswith("lap,-,")
+    assert lines[2].startswith("with_landmarks_per_lap_m,m,") and lines[3] == "mystery,,not documented"

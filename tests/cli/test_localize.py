@@ -35,8 +35,8 @@ def test_simulate_log_then_localize_reproduces_the_estimate_and_report_writes_ht
     res = runner.invoke(app, ["localize", str(log), "--out", str(loc)])
     assert res.exit_code == 0, res.output
     names = {p.name for p in loc.iterdir()}
-    assert names == {"timeseries.csv", "estimate.mcap", "metrics.json", "layout.json", "map.png",
-                     "estimator_status.png", "positioning_errors.png", "positioning_histogram.png"}
+    assert names == {"timeseries.csv", "timeseries.units.csv", "estimate.mcap", "metrics.json", "layout.json",
+                     "map.png", "estimator_status.png", "positioning_errors.png", "positioning_histogram.png"}
     sim, est = _columns(run / "timeseries.csv"), _columns(loc / "timeseries.csv")
     for c in ("est_x", "est_y", "est_psi"):  # timeseries.csv holds 10 significant digits
         np.testing.assert_allclose(est[c], sim[c], rtol=2e-9, atol=1e-9)

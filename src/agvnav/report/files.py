@@ -1,7 +1,10 @@
 """Write a run's results: metrics.json, timing.json, the time series and events as CSV, and the plots.
 
 Units: SI and radians; the CSV columns are named in :mod:`agvnav.sim` terms and
-documented in docs/scenarios.md.
+documented in docs/scenarios.md. Every CSV ``NAME.csv`` comes with a sidecar
+``NAME.units.csv`` (``column,unit,meaning``, from :mod:`agvnav.report.reference`), so
+the data files keep the plain column names every reader relies on while the units
+travel with them.
 
 Outputs are safe to trust (issue 12 §4): :func:`atomic_dir` writes every file into
 a hidden temporary folder beside the target and renames it into place at the end,
@@ -15,11 +18,12 @@ so two runs with the same seed write byte-identical files except timing.json.
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -29,6 +33,7 @@ from numpy.typing import NDArray
 
 from agvnav.report.html import write_html_report
 from agvnav.report.plots import write_plots
+from agvnav.report.reference import COLUMNS, EVENT_COLUMNS, LAP_COLUMNS
 
 if TYPE_CHECKING:
     from agvnav.sim.run import SimResult
@@ -42,6 +47,7 @@ __all__ = [
     "metrics_document",
     "save_result",
     "timing_document",
+    "units_path",
     "write_csv",
 ]
 
@@ -173,10 +179,11 @@ def _write_all(result: SimResult, out: Path, plots: bool) -> list[Path]:
         _json(out / "timing.json", timing_document(result)),
         _json(out / "layout.json", layout_document(result)),
         write_csv(out / "timeseries.csv", result.series),
+        units_path(out / "timeseries.csv"),
     ]
     refl = result.events.get("reflections")
     if refl is not None:
-        written.append(write_csv(out / "reflections.csv", refl))
+        written += [write_csv(out / "reflections.csv", refl, EVENT_COLUMNS), units_path(out / "reflections.csv")]
     if plots:
         written += write_plots(
             result.series,
@@ -190,9 +197,30 @@ def _write_all(result: SimResult, out: Path, plots: bool) -> list[Path]:
     return written
 
 
-def write_csv(path: Path, columns: dict[str, NDArray[np.float64]]) -> Path:
-    """One column per series, a header row of names, ``%.10g`` values."""
+def write_csv(
+    path: Path, columns: dict[str, NDArray[np.float64]], units: Mapping[str, tuple[str, str]] | None = None
+) -> Path:
+    """One column per series, a header row of names, ``%.10g`` values; the units in a sidecar.
+
+    ``units`` maps a column name to ``(unit, meaning)``; by default the documented
+    columns of :mod:`agvnav.report.reference` (time series, then laps). The sidecar
+    :func:`units_path` lists every column in order; an undocumented one says so.
+    Returns the CSV's path.
+    """
     names = list(columns)
     data = np.column_stack([np.asarray(columns[n], dtype=np.float64) for n in names])
     np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
+    table = {**LAP_COLUMNS, **COLUMNS} if units is None else units
+    with open(units_path(path), "w", encoding="utf-8", newline="") as fh:
+        out = csv.writer(fh)
+        out.writerow(["column", "unit", "meaning"])
+        for name in names:
+            unit, meaning = table.get(name, ("", "not documented"))
+            out.writerow([name, unit, meaning])
     return path
+
+
+def units_path(csv_path: str | Path) -> Path:
+    """The units sidecar of a CSV file: ``NAME.csv`` -> ``NAME.units.csv``."""
+    p = Path(csv_path)
+    return p.with_name(f"{p.stem}.units.csv")

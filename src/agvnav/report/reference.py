@@ -11,7 +11,7 @@ from __future__ import annotations
 from agvnav.routes.reference import network_reference
 from agvnav.world.reference import scenario_reference
 
-__all__ = ["COLUMNS", "EVENT_COLUMNS", "outputs_reference", "reference_markdown"]
+__all__ = ["COLUMNS", "EVENT_COLUMNS", "LAP_COLUMNS", "outputs_reference", "reference_markdown"]
 
 #: timeseries.csv columns: name -> (unit, meaning). One row per control step.
 COLUMNS: dict[str, tuple[str, str]] = {
@@ -103,6 +103,17 @@ EVENT_COLUMNS: dict[str, tuple[str, str]] = {
 }
 
 
+#: laps.csv columns of a route scenario (seed 004): one row per lap, per mode (with/without landmarks).
+LAP_COLUMNS: dict[str, tuple[str, str]] = {
+    "lap": ("-", "lap number, from 1"),
+    "with_landmarks_per_lap_m": ("m", ("with landmarks: distance between consecutive true lap end points (seed 004 "
+                                 "Tables I-II; the route start before lap 1)")),
+    "with_landmarks_from_start_m": ("m", "with landmarks: distance of the true lap end point from the route start"),
+    "without_landmarks_per_lap_m": ("m", "without landmarks (dead reckoning): error per lap, as above"),
+    "without_landmarks_from_start_m": ("m", "without landmarks: distance of the lap end from the route start"),
+}
+
+
 def _column_table(columns: dict[str, tuple[str, str]]) -> list[str]:
     lines = ["| column | unit | meaning |", "| --- | --- | --- |"]
     lines += [f"| `{name}` | {unit} | {meaning} |" for name, (unit, meaning) in columns.items()]
@@ -130,7 +141,21 @@ def outputs_reference() -> list[str]:
             "- `layout.json`: the planned path (`path_xy`, m), its segment joins (`segment_starts_m`), the "
             "reflectors (`[x, y, radius]`, m) and walls (m), and the positioning method: what the report draws;"
         ),
-        "- `report.html` (with `--report`, or `agvnav report DIR` later): one self-contained HTML report.",
+        "- `report.html` (with `--report`, or `agvnav report DIR` later): one self-contained HTML report;",
+        (
+            "- `NAME.units.csv` beside every `NAME.csv`: one row per column of that file (`column,unit,meaning`), "
+            "so the units travel with the data; the CSV headers keep the plain names below."
+        ),
+        "",
+        (
+            "A route scenario (the seed-004 tracked robot, `route:`) writes instead `metrics.json` and `laps.json` "
+            "(per mode: mean, maximum and final error per lap in m, laps, simulated and wall time, the automaton's "
+            "transitions), `laps.csv` (columns below), `timeseries_with_landmarks.csv` and "
+            "`timeseries_without_landmarks.csv` (time-series columns as above) and `laps.png`."
+        ),
+        "",
+        ("`agvnav simulate --json` prints metrics.json and timing.json as one JSON document on stdout, with a "
+        "`metadata` record (agvnav version, seed, Python, NumPy, CPU)."),
         "",
         "`--log run.mcap` also writes the run as an MCAP file of ROS 2 messages; docs/logs.md lists its topics.",
         "",
@@ -147,6 +172,10 @@ def outputs_reference() -> list[str]:
         "### reflections.csv",
         "",
         *_column_table(EVENT_COLUMNS),
+        "",
+        "### laps.csv (route scenarios)",
+        "",
+        *_column_table(LAP_COLUMNS),
     ]
 
 
