@@ -2,6 +2,12 @@
 
 matplotlib is imported lazily inside each function, with the non-interactive
 Agg backend, so the math packages never need it.
+
+Speed (issue 11: the plots were about half of ``agvnav simulate``): the three run plots
+draw on a bare :class:`matplotlib.figure.Figure` with the Agg canvas, never through
+``pyplot`` (no figure manager, no global figure list to close); walls are one
+:class:`~matplotlib.collections.LineCollection` per panel, not one line each; the
+margins are fixed instead of measured by ``tight_layout`` (a second text layout pass).
 """
 
 from __future__ import annotations
@@ -47,11 +53,15 @@ def plot_map(
     ``reflector_xy`` ``(N, 2)``, ``wall_segments`` ``(M, 2, 2)``. Two panels: the
     whole map and a close-up of the path.
     """
-    plt = pyplot()
-    fig, axes = plt.subplots(1, 2, figsize=(12, 5.5))
+    from matplotlib.collections import LineCollection  # noqa: PLC0415  (lazy: see the module docstring)
+
+    fig = _figure((12, 5.5))
+    axes = fig.subplots(1, 2)
+    fig.subplots_adjust(left=0.06, right=0.99, bottom=0.1, top=0.93, wspace=0.18)
+    walls = np.asarray(wall_segments, dtype=np.float64).reshape(-1, 2, 2)
     for ax in axes:
-        for seg in np.asarray(wall_segments).reshape(-1, 2, 2):
-            ax.plot(seg[:, 0], seg[:, 1], color="0.4", lw=1.2)
+        if walls.shape[0]:
+            ax.add_collection(LineCollection(list(walls), colors="0.4", linewidths=1.2))
         r = np.asarray(reflector_xy).reshape(-1, 2)
         ax.plot(r[:, 0], r[:, 1], "o", ms=6, mfc="gold", mec="k", label="reflectors")
         ax.plot(path_xy[:, 0], path_xy[:, 1], "--", color="tab:blue", lw=1.5, label="planned path")
@@ -70,7 +80,7 @@ def plot_map(
     axes[0].set_title(title or "map")
     axes[1].set_title("path detail")
     axes[1].legend(loc="best", fontsize=8)
-    return _save(fig, plt, out)
+    return _save(fig, out)
 
 
 def plot_errors(
@@ -82,8 +92,9 @@ def plot_errors(
     title: str = "",
 ) -> Path:
     """Lateral error eps_c (mm) and wheel heading error xi_r (deg) against time (seed 000 Fig. 11)."""
-    plt = pyplot()
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    fig = _figure((9, 6))
+    a1, a2 = fig.subplots(2, 1, sharex=True)
+    fig.subplots_adjust(left=0.1, right=0.98, bottom=0.09, top=0.94, hspace=0.08)
     a1.plot(t, 1000.0 * lateral_error, color="tab:blue")
     a1.set_ylabel("lateral error ε_c [mm]")
     a2.plot(t, np.rad2deg(wheel_heading_error), color="tab:orange")
@@ -97,15 +108,16 @@ def plot_errors(
     if transient_end_s is not None:
         a1.legend(loc="best", fontsize=8)
     a1.set_title(title or "guidance errors")
-    return _save(fig, plt, out)
+    return _save(fig, out)
 
 
 def plot_positioning_histogram(e_lat: NDArray[np.float64], out: str | Path, title: str = "") -> Path:
     """Histogram of the positioning lateral error e_lat (mm), as seed 000 Fig. 8."""
-    plt = pyplot()
     e = 1000.0 * np.asarray(e_lat, dtype=np.float64)
     e = e[np.isfinite(e)]
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig = _figure((7, 4.5))
+    ax = fig.subplots()
+    fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.86)
     if e.size:
         ax.hist(e, bins=min(40, max(5, e.size // 20)), color="tab:blue", edgecolor="k", alpha=0.8)
         ax.set_title(
@@ -117,15 +129,23 @@ def plot_positioning_histogram(e_lat: NDArray[np.float64], out: str | Path, titl
     ax.set_xlabel("lateral error e_lat [mm]")
     ax.set_ylabel("samples")
     ax.grid(True, alpha=0.3)
-    return _save(fig, plt, out)
+    return _save(fig, out)
 
 
-def _save(fig: Any, plt: Any, out: str | Path) -> Path:
+def _figure(size: tuple[float, float]) -> Any:
+    """A bare Agg figure of ``size`` inches (no pyplot: nothing to close, no global state)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: PLC0415  (lazy: see the module docstring)
+    from matplotlib.figure import Figure  # noqa: PLC0415
+
+    fig = Figure(figsize=size)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _save(fig: Any, out: str | Path) -> Path:
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
     fig.savefig(out, dpi=110)
-    plt.close(fig)
     return out
 
 
