@@ -1,0 +1,153 @@
+"""A recorded drive cut into keyframes: odometry between keyframes and each reflection's offset from its keyframe.
+
+The factor graph (:mod:`agvnav.mapping.graph`) has one pose per keyframe (every
+``keyframe_s`` seconds of odometry instants). Odometry between consecutive
+keyframes becomes one between-factor, its covariance propagated step by step with
+the odometry noise model ([seed002 eq17] via :func:`agvnav.odometry.propagate`).
+A reflection measured at instant ``τ`` inside the odometry step ``(t_k, t_{k+1}]``
+hangs on the last keyframe ``a`` at or before ``t_k``: its base_link pose is the
+keyframe pose composed with the odometry offset ``u`` from ``t_a`` to ``τ`` (the
+step's increment split in proportion to time, as :mod:`agvnav.logs.localize`
+does); the offset's own small covariance is carried to the bearing's variance.
+
+Increments are composed with the midpoint heading (as :func:`agvnav.logs.integrate_odometry`).
+The translation of every relative pose is linear in the odometry scale factor ``s``
+(a scale multiplies every ``ΔD`` and ``Δlateral`` and leaves ``Δθ`` alone), so the
+offsets are stored at ``s = 1`` and scaled in the graph.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvnav.geometry import between
+from agvnav.odometry import OdometryNoise, propagate
+
+__all__ = ["Drive", "odometry_poses", "prepare_drive"]
+
+F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
+
+#: Floor (m², m², rad²) added to every between-keyframe covariance so a vehicle standing still
+#: (zero increments, zero modelled noise) does not make the odometry factor infinitely stiff.
+ODOMETRY_FLOOR = (1e-8, 1e-8, 1e-10)
+
+
+@dataclass(frozen=True)
+class Drive:
+    """A drive prepared for mapping.
+
+    Attributes
+    ----------
+    keyframe_t : (K,) keyframe instants (s).
+    odom_poses : (K, 3) dead-reckoned keyframe poses in the odom frame (start = origin), s = 1.
+    between : (K - 1, 3) relative pose of keyframe k+1 in keyframe k (m, m, rad), s = 1.
+    between_cov : (K - 1, 3, 3) its covariance (m², rad²).
+    refl_keyframe : (B,) keyframe index of each reflection.
+    refl_offset : (B, 3) base_link pose at the reflection's stamp relative to its keyframe, s = 1.
+    refl_offset_cov : (B, 3, 3) covariance of that offset.
+    refl_t : (B,) stamps (s).
+    bearing : (B,) bearings in the head frame (rad).
+    mount : (3,) head mount on base_link (m, m, rad).
+    """
+
+    keyframe_t: F64
+    odom_poses: F64
+    between: F64
+    between_cov: F64
+    refl_keyframe: I64
+    refl_offset: F64
+    refl_offset_cov: F64
+    refl_t: F64
+    bearing: F64
+    mount: F64
+
+
+def _step_poses(inc: F64) -> F64:
+    """Relative pose ``(n, 3)`` of each step (midpoint heading), in the step's start frame."""
+    dd, dth, dl = inc[:, 0], inc[:, 1], inc[:, 2]
+    c, s = np.cos(0.5 * dth), np.sin(0.5 * dth)
+    return np.column_stack([dd * c - dl * s, dd * s + dl * c, dth])
+
+
+def odometry_poses(increments: F64) -> F64:
+    """Poses ``(n + 1, 3)`` integrated from body increments ``(n, 3)`` (start at the origin), vectorised.
+
+    Heading ``θ_k = Σ Δθ`` (unwrapped), each step's displacement rotated by the heading at its start
+    and the midpoint rule inside the step.
+    """
+    inc = np.asarray(increments, dtype=np.float64)
+    local = _step_poses(inc)
+    theta = np.concatenate([[0.0], np.cumsum(inc[:, 1])])
+    c, s = np.cos(theta[:-1]), np.sin(theta[:-1])
+    dx = c * local[:, 0] - s * local[:, 1]
+    dy = s * local[:, 0] + c * local[:, 1]
+    return np.column_stack([np.concatenate([[0.0], np.cumsum(dx)]), np.concatenate([[0.0], np.cumsum(dy)]), theta])
+
+
+def prepare_drive(log: Any, keyframe_s: float = 0.1, noise: OdometryNoise | None = None,
+                  mount: Any = None) -> Drive:
+    """Cut ``log`` (a :class:`agvnav.logs.RecordedLog`) into keyframes every ``keyframe_s`` seconds.
+
+    ``noise`` defaults to the log's ``odometry_noise`` setting, else :class:`OdometryNoise`'s
+    defaults; ``mount`` (m, m, rad) to the log's ``mount`` setting, else the origin.
+    Reflections stamped at or before the first odometry instant or after the last are dropped.
+    """
+    if not (math.isfinite(keyframe_s) and keyframe_s > 0.0):
+        raise ValueError(f"keyframe_s must be a positive number of seconds, got {keyframe_s!r}")
+    settings = getattr(log, "settings", {}) or {}
+    if noise is None:
+        noise = OdometryNoise(*settings["odometry_noise"]) if settings.get("odometry_noise") else OdometryNoise()
+    mount_arr = np.asarray(mount if mount is not None else settings.get("mount") or (0.0, 0.0, 0.0), dtype=np.float64)
+    t = np.asarray(log.t, dtype=np.float64)
+    inc = np.asarray(log.increments, dtype=np.float64)
+    n = t.shape[0]
+    # keyframes: the first instant, then the first instant at least keyframe_s after the previous keyframe
+    kf = [0]
+    for k in range(1, n):
+        if t[k] - t[kf[-1]] >= keyframe_s - 1e-9:
+            kf.append(k)
+    if kf[-1] != n - 1:
+        kf.append(n - 1)
+    kf_idx = np.array(kf, dtype=np.int64)
+    poses = odometry_poses(inc)
+    # covariance of the odometry from the last keyframe at or before each instant
+    cov_from_kf = np.zeros((n, 3, 3))
+    kf_of_step = np.searchsorted(kf_idx, np.arange(n), side="right") - 1  # keyframe index at or before k
+    is_kf = np.zeros(n, dtype=bool)
+    is_kf[kf_idx] = True
+    local = np.zeros(3)
+    cov = np.zeros((3, 3))
+    for k in range(1, n):  # cov_from_kf[k]: pose k relative to the last keyframe before it
+        if is_kf[k - 1]:
+            local, cov = np.zeros(3), np.zeros((3, 3))
+        local, cov = propagate(local, cov, inc[k - 1, 0], inc[k - 1, 1], noise, rule="midpoint")
+        cov_from_kf[k] = cov
+    between_cov = cov_from_kf[kf_idx[1:]] + np.diag(ODOMETRY_FLOOR)
+    betw = between(poses[kf_idx[:-1]], poses[kf_idx[1:]])
+    betw[:, 2] = poses[kf_idx[1:], 2] - poses[kf_idx[:-1], 2]  # unwrapped heading change
+    # reflections
+    stamp = np.asarray(log.reflection_stamp, dtype=np.float64)
+    bearing = np.asarray(log.bearing, dtype=np.float64)
+    keep = (stamp > t[0]) & (stamp <= t[-1])
+    stamp, bearing = stamp[keep], bearing[keep]
+    step = np.clip(np.searchsorted(t, stamp, side="left") - 1, 0, n - 2)  # t[step] < stamp <= t[step + 1]
+    frac = (stamp - t[step]) / (t[step + 1] - t[step])
+    part = _step_poses(inc[step] * frac[:, None])
+    c, s = np.cos(poses[step, 2]), np.sin(poses[step, 2])
+    at = np.column_stack([poses[step, 0] + c * part[:, 0] - s * part[:, 1],
+                          poses[step, 1] + s * part[:, 0] + c * part[:, 1], poses[step, 2] + part[:, 2]])
+    a = kf_of_step[step]
+    off = between(poses[kf_idx[a]], at)
+    off[:, 2] = at[:, 2] - poses[kf_idx[a], 2]
+    # offset covariance: up to t[step] (zero when the step starts at the keyframe), plus the partial step
+    base_cov = np.where(is_kf[step][:, None, None], 0.0, cov_from_kf[step])
+    start = between(poses[kf_idx[a]], poses[step])
+    _, off_cov = propagate(start, base_cov, inc[step, 0] * frac, inc[step, 1] * frac, noise, rule="midpoint")
+    return Drive(t[kf_idx], poses[kf_idx], betw, between_cov, a.astype(np.int64), off, off_cov, stamp, bearing,
+                 mount_arr)

@@ -1,0 +1,302 @@
+"""The mapping factor graph: whitened residuals and their sparse Jacobian.
+
+Variables (one state vector): keyframe poses ``X(k) = [x, y, ψ]`` (m, m, rad), reflector
+centres ``L(j) = [x, y]`` (m) and the odometry scale factor ``s`` (dimensionless, every
+``ΔD`` is multiplied by it). Factors, named after what they measure (as GTSAM's
+``BetweenFactorPose2`` / ``BearingFactor2D``):
+
+- :class:`OdometryFactors` (between): ``e = [R(ψ_i)ᵀ (p_j − p_i) − s t_ij, wrap(ψ_j − ψ_i − θ_ij)]``,
+  whitened by the odometry covariance of the relative pose ([seed002 eq17], propagated);
+- :class:`BearingFactors`: the goniometer's leading-edge bearing of a cylinder of radius ``r``
+  seen from the head (``X(k) ∘ u(s) ∘ mount``), ``β = atan2(δ_y, δ_x) − ψ_head − dir·asin(r/d)``
+  ([seed000 §2.1]; :func:`agvnav.sensors.goniometer.leading_edge_bearing`), ``e = wrap(β − z)/σ``;
+- priors on poses, reflectors and the scale, and distance factors between two reflectors
+  (a taped baseline): the anchors of :mod:`agvnav.mapping.anchors`.
+
+Every residual is already whitened, so the least-squares cost is ``½ Σ e²`` and the
+Gauss-Newton information matrix is ``JᵀJ``. Jacobians are analytic and tested against
+numerical ones (tests/mapping/test_graph.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from agvnav.geometry import wrap_angle
+
+__all__ = [
+    "BearingFactors",
+    "DistanceFactors",
+    "FactorGraph",
+    "OdometryFactors",
+    "PosePriors",
+    "ReflectorPriors",
+    "bearing_prediction",
+    "linearize",
+    "whitener",
+]
+
+F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
+
+
+def whitener(cov: F64) -> F64:
+    """``W (..., n, n)`` with ``WᵀW = cov⁻¹`` (the inverse of the lower Cholesky factor), for whitening residuals."""
+    chol = np.linalg.cholesky(np.asarray(cov, dtype=np.float64))
+    eye = np.broadcast_to(np.eye(chol.shape[-1]), chol.shape)
+    return np.asarray(np.linalg.solve(chol, eye))
+
+
+@dataclass(frozen=True)
+class OdometryFactors:
+    """Between-factors ``X(i) → X(j)``: measured relative pose ``z (E, 3)`` at scale 1, whitener ``W (E, 3, 3)``."""
+
+    i: I64
+    j: I64
+    z: F64
+    W: F64
+
+
+@dataclass(frozen=True)
+class BearingFactors:
+    """Bearings ``z (B,)`` (rad, head frame) from keyframe ``pose (B,)`` to reflector ``landmark (B,)``.
+
+    ``offset (B, 3)``: base_link at the stamp relative to the keyframe (translation at scale 1);
+    ``sigma (B,)`` the bearing std (rad); ``mount (3,)`` the head on base_link; ``radius`` (m) and
+    ``direction`` (+1 CCW head) of the leading-edge model.
+    """
+
+    pose: I64
+    landmark: I64
+    offset: F64
+    z: F64
+    sigma: F64
+    mount: F64
+    radius: float = 0.0
+    direction: int = 1
+
+
+@dataclass(frozen=True)
+class PosePriors:
+    """Priors on keyframe poses: ``index (P,)``, ``mean (P, 3)``, whitener ``W (P, 3, 3)``."""
+
+    index: I64
+    mean: F64
+    W: F64
+
+
+@dataclass(frozen=True)
+class ReflectorPriors:
+    """Priors on reflector centres (surveyed reflectors, an existing map): ``index``, ``mean (P, 2)``,
+    whitener ``W (P, 2, 2)``."""
+
+    index: I64
+    mean: F64
+    W: F64
+
+
+@dataclass(frozen=True)
+class DistanceFactors:
+    """Measured distances ``d (D,)`` (m, std ``sigma``) between reflectors ``a`` and ``b``: a taped baseline."""
+
+    a: I64
+    b: I64
+    d: F64
+    sigma: F64
+
+
+def _empty_i() -> I64:
+    return np.zeros(0, dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class FactorGraph:
+    """All factors over ``n_poses`` keyframes and ``n_landmarks`` reflectors (+ the scale).
+
+    ``scale_prior``: ``(mean, sigma)`` of the odometry scale, or None (free: the map then needs another
+    scale reference). State layout: ``[X(0..K-1) (3K), L(0..N-1) (2N), s]``.
+    """
+
+    n_poses: int
+    n_landmarks: int
+    odometry: OdometryFactors
+    bearings: BearingFactors
+    pose_priors: PosePriors = field(
+        default_factory=lambda: PosePriors(_empty_i(), np.zeros((0, 3)), np.zeros((0, 3, 3))))
+    reflector_priors: ReflectorPriors = field(
+        default_factory=lambda: ReflectorPriors(_empty_i(), np.zeros((0, 2)), np.zeros((0, 2, 2))))
+    distances: DistanceFactors = field(
+        default_factory=lambda: DistanceFactors(_empty_i(), _empty_i(), np.zeros(0), np.zeros(0)))
+    scale_prior: tuple[float, float] | None = None
+
+    @property
+    def n_vars(self) -> int:
+        """Length of the state vector."""
+        return 3 * self.n_poses + 2 * self.n_landmarks + 1
+
+    def landmark_slice(self) -> slice:
+        """Slice of the reflector centres in the state vector."""
+        return slice(3 * self.n_poses, 3 * self.n_poses + 2 * self.n_landmarks)
+
+    def pack(self, poses: F64, landmarks: F64, scale: float) -> F64:
+        """State vector from poses ``(K, 3)``, landmarks ``(N, 2)`` and the scale."""
+        return np.concatenate([np.asarray(poses, dtype=np.float64).ravel(),
+                               np.asarray(landmarks, dtype=np.float64).ravel(), [float(scale)]])
+
+    def unpack(self, x: F64) -> tuple[F64, F64, float]:
+        """``(poses (K, 3), landmarks (N, 2), scale)`` views of the state vector."""
+        k3 = 3 * self.n_poses
+        return x[:k3].reshape(-1, 3), x[k3:-1].reshape(-1, 2), float(x[-1])
+
+
+def bearing_prediction(poses: F64, landmarks: F64, scale: float, f: BearingFactors,
+                       jacobians: bool = False) -> tuple[F64, F64 | None, F64 | None, F64 | None]:
+    """Predicted leading-edge bearings ``(B,)`` and, with ``jacobians``, ``∂β/∂X (B, 3)``, ``∂β/∂L (B, 2)``,
+    ``∂β/∂s (B,)``.
+
+    Head position ``h = p + R(ψ)(s u_t + R(u_ψ) m_t)``, heading ``ψ + u_ψ + m_ψ``;
+    ``δ = L − h``, ``d = |δ|``; ``β = atan2(δ) − ψ_head − dir·asin(r/d)`` [seed000 §2.1].
+    """
+    X = poses[f.pose]
+    L = landmarks[f.landmark]
+    u, m = f.offset, f.mount
+    cu, su = np.cos(u[:, 2]), np.sin(u[:, 2])
+    wx = scale * u[:, 0] + cu * m[0] - su * m[1]
+    wy = scale * u[:, 1] + su * m[0] + cu * m[1]
+    c, s = np.cos(X[:, 2]), np.sin(X[:, 2])
+    rx, ry = c * wx - s * wy, s * wx + c * wy
+    dx, dy = L[:, 0] - X[:, 0] - rx, L[:, 1] - X[:, 1] - ry
+    d2 = dx * dx + dy * dy
+    d = np.sqrt(d2)
+    ratio = np.clip(f.radius / np.maximum(d, 1e-12), 0.0, 0.999999)
+    beta = np.arctan2(dy, dx) - (X[:, 2] + u[:, 2] + m[2]) - f.direction * np.arcsin(ratio)
+    if not jacobians:
+        return beta, None, None, None
+    k = f.direction * f.radius / (d2 * d * np.sqrt(1.0 - ratio * ratio))
+    gx = -dy / d2 + k * dx
+    gy = dx / d2 + k * dy
+    jl = np.column_stack([gx, gy])
+    jx = np.column_stack([-gx, -gy, -(gx * -ry + gy * rx) - 1.0])
+    tx = c * u[:, 0] - s * u[:, 1]
+    ty = s * u[:, 0] + c * u[:, 1]
+    js = -(gx * tx + gy * ty)
+    return beta, jx, jl, js
+
+
+class _Builder:
+    """COO triplets and residual blocks, concatenated once."""
+
+    def __init__(self) -> None:
+        self.rows: list[I64] = []
+        self.cols: list[I64] = []
+        self.vals: list[F64] = []
+        self.res: list[F64] = []
+        self.n = 0
+
+    def block(self, r: F64) -> int:
+        start = self.n
+        self.res.append(r)
+        self.n += r.shape[0]
+        return start
+
+    def add(self, rows: I64, cols: I64, vals: F64) -> None:
+        self.rows.append(rows.ravel())
+        self.cols.append(cols.ravel())
+        self.vals.append(vals.ravel())
+
+
+def linearize(graph: FactorGraph, x: F64, jacobian: bool = True) -> tuple[F64, sp.csr_matrix | None]:
+    """Whitened residuals ``e (m,)`` and, with ``jacobian``, their sparse Jacobian ``(m, n_vars)`` at ``x``."""
+    poses, landmarks, scale = graph.unpack(x)
+    b = _Builder()
+    k3 = 3 * graph.n_poses
+    svar = graph.n_vars - 1
+    # odometry between-factors
+    o = graph.odometry
+    if o.i.size:
+        Xi, Xj = poses[o.i], poses[o.j]
+        c, s = np.cos(Xi[:, 2]), np.sin(Xi[:, 2])
+        dpx, dpy = Xj[:, 0] - Xi[:, 0], Xj[:, 1] - Xi[:, 1]
+        e = np.column_stack([c * dpx + s * dpy - scale * o.z[:, 0], -s * dpx + c * dpy - scale * o.z[:, 1],
+                             wrap_angle(Xj[:, 2] - Xi[:, 2] - o.z[:, 2])])
+        ew = np.einsum("eab,eb->ea", o.W, e)
+        start = b.block(ew.ravel())
+        if jacobian:
+            E = o.i.size
+            J = np.zeros((E, 3, 7))  # columns: Xi (3), Xj (3), s
+            J[:, 0, 0], J[:, 0, 1], J[:, 1, 0], J[:, 1, 1] = -c, -s, s, -c
+            J[:, 0, 2] = -s * dpx + c * dpy
+            J[:, 1, 2] = -c * dpx - s * dpy
+            J[:, 2, 2] = -1.0
+            J[:, 0, 3], J[:, 0, 4], J[:, 1, 3], J[:, 1, 4] = c, s, -s, c
+            J[:, 2, 5] = 1.0
+            J[:, 0, 6], J[:, 1, 6] = -o.z[:, 0], -o.z[:, 1]
+            Jw = np.einsum("eab,ebc->eac", o.W, J)
+            rows = start + np.arange(3 * E).reshape(E, 3, 1) + np.zeros((1, 1, 7), dtype=np.int64)
+            cols = np.concatenate([3 * o.i[:, None] + np.arange(3), 3 * o.j[:, None] + np.arange(3),
+                                   np.full((E, 1), svar)], axis=1)
+            b.add(rows, np.broadcast_to(cols[:, None, :], (E, 3, 7)), Jw)
+    # bearings
+    f = graph.bearings
+    if f.pose.size:
+        beta, jx, jl, js = bearing_prediction(poses, landmarks, scale, f, jacobian)
+        start = b.block(wrap_angle(beta - f.z) / f.sigma)
+        if jacobian:
+            assert jx is not None and jl is not None and js is not None
+            B = f.pose.size
+            vals = np.concatenate([jx, jl, js[:, None]], axis=1) / f.sigma[:, None]
+            rows = start + np.repeat(np.arange(B)[:, None], 6, axis=1)
+            cols = np.concatenate([3 * f.pose[:, None] + np.arange(3), k3 + 2 * f.landmark[:, None] + np.arange(2),
+                                   np.full((B, 1), svar)], axis=1)
+            b.add(rows, cols, vals)
+    # pose priors
+    pp = graph.pose_priors
+    if pp.index.size:
+        X = poses[pp.index]
+        e = X - pp.mean
+        e[:, 2] = wrap_angle(e[:, 2])
+        start = b.block(np.einsum("pab,pb->pa", pp.W, e).ravel())
+        if jacobian:
+            P = pp.index.size
+            rows = start + np.arange(3 * P).reshape(P, 3, 1) + np.zeros((1, 1, 3), dtype=np.int64)
+            cols = np.broadcast_to((3 * pp.index[:, None] + np.arange(3))[:, None, :], (P, 3, 3))
+            b.add(rows, cols, pp.W)
+    # reflector priors
+    rp = graph.reflector_priors
+    if rp.index.size:
+        e = landmarks[rp.index] - rp.mean
+        start = b.block(np.einsum("pab,pb->pa", rp.W, e).ravel())
+        if jacobian:
+            P = rp.index.size
+            rows = start + np.arange(2 * P).reshape(P, 2, 1) + np.zeros((1, 1, 2), dtype=np.int64)
+            cols = np.broadcast_to((k3 + 2 * rp.index[:, None] + np.arange(2))[:, None, :], (P, 2, 2))
+            b.add(rows, cols, rp.W)
+    # distances (taped baselines)
+    df = graph.distances
+    if df.a.size:
+        delta = landmarks[df.a] - landmarks[df.b]
+        dist = np.hypot(delta[:, 0], delta[:, 1])
+        start = b.block((dist - df.d) / df.sigma)
+        if jacobian:
+            D = df.a.size
+            unit = delta / dist[:, None] / df.sigma[:, None]
+            rows = start + np.repeat(np.arange(D)[:, None], 4, axis=1)
+            cols = np.concatenate([k3 + 2 * df.a[:, None] + np.arange(2), k3 + 2 * df.b[:, None] + np.arange(2)],
+                                  axis=1)
+            b.add(rows, cols, np.concatenate([unit, -unit], axis=1))
+    # scale prior
+    if graph.scale_prior is not None:
+        mean, sigma = graph.scale_prior
+        start = b.block(np.array([(scale - mean) / sigma]))
+        if jacobian:
+            b.add(np.array([start]), np.array([svar]), np.array([1.0 / sigma]))
+    res = np.concatenate(b.res) if b.res else np.zeros(0)
+    if not jacobian:
+        return res, None
+    jac = sp.csr_matrix((np.concatenate(b.vals), (np.concatenate(b.rows), np.concatenate(b.cols))),
+                        shape=(res.shape[0], graph.n_vars))
+    return res, jac

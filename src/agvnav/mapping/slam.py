@@ -1,0 +1,536 @@
+"""Reflector mapping from a drive: associate, initialise, solve incrementally, then anchor and solve in batch.
+
+1. **Front end** (incremental): the drive is processed in chunks of ``chunk_s`` seconds. New
+   keyframes are dead-reckoned from the last solved one; each reflection is gated against the
+   known reflectors (:func:`agvnav.mapping.association.associate`); the unassociated ones wait in
+   a pool (the last ``pool_s`` seconds) from which new reflectors are triangulated
+   (:func:`agvnav.mapping.initialise.initialise_reflectors`). After each chunk that added
+   sightings, the graph so far is re-solved from the previous solution (a warm-started
+   Levenberg-Marquardt of a few iterations: the incremental update; GTSAM's iSAM2 is not used).
+   The front end's frame is the start pose with the odometry scale held at 1: provisional.
+2. **Anchoring**: the provisional map is moved into the anchors' frame (a similarity onto the
+   surveyed reflectors, or the start pose), and the anchors become priors: reflector priors,
+   distance factors, a start-pose prior, a prior on the odometry scale
+   (:mod:`agvnav.mapping.anchors`). No anchor: :class:`~agvnav.mapping.anchors.ScaleUnobservable`.
+3. **Batch**: every reflection is re-associated against the solved trajectory with a tight gate,
+   reflectors without ``min_sightings`` from ``min_baseline`` are dropped, the graph is solved to
+   convergence, bearing outliers beyond ``outlier_sigma`` are removed and it is solved again. The
+   reflector covariances are the marginals of ``(JᵀJ)⁻¹`` (:func:`agvnav.mapping.solve.marginal_covariances`).
+
+An existing map (``existing``) seeds the reflector list: its reflectors are associated from the
+start (the start pose must then be in its frame), refined with their covariance as priors, and
+keep their ids; the frame does not move, new reflectors are added.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvnav.geometry import compose, wrap_angle
+from agvnav.mapping.anchors import (
+    Anchor,
+    BaselineAnchor,
+    ScaleUnobservable,
+    StartPoseAnchor,
+    SurveyedAnchor,
+    anchor_kind,
+    apply_similarity,
+    match_surveyed,
+)
+from agvnav.mapping.association import associate, head_poses, predicted_edge_bearings, ray_covariances
+from agvnav.mapping.drive import Drive, prepare_drive
+from agvnav.mapping.graph import (
+    BearingFactors,
+    DistanceFactors,
+    FactorGraph,
+    OdometryFactors,
+    PosePriors,
+    ReflectorPriors,
+    linearize,
+    whitener,
+)
+from agvnav.mapping.initialise import InitialiseOptions, initialise_from_tracks
+from agvnav.mapping.solve import marginal_covariances, solve
+from agvnav.odometry import OdometryNoise
+from agvnav.positioning import encoder_bearing_std
+
+__all__ = ["FrontEnd", "MappingOptions", "MappingResult", "build_map", "front_end", "solve_anchored"]
+
+F64 = NDArray[np.float64]
+I64 = NDArray[np.int64]
+
+UNOBSERVABLE = ("scale unobservable: bearings carry no scale and the odometry's is not calibrated; anchor the map "
+                "with two or more surveyed reflectors (surveyed:FILE), a taped baseline between two reflectors "
+                "(baseline:X1,Y1,X2,Y2,D) or a known start pose with the calibrated odometry (start_pose)")
+
+
+@dataclass(frozen=True)
+class MappingOptions:
+    """Settings of :func:`build_map` (SI units).
+
+    radius : reflector radius (m) of the leading-edge model. direction : +1 for a CCW head.
+    bearing_std : bearing std (rad); None: the encoder's quantisation (from the log's pulses_per_rev,
+    else 65535) with a floor of ``bearing_std_floor``.
+    keyframe_s, chunk_s, pool_s : keyframe spacing, front-end chunk, pool memory (s).
+    gate_sigma, position_tol : front-end gate (σ, m); final_position_tol : batch gate (m).
+    outlier_sigma : bearings with a whitened residual beyond this are dropped in the batch.
+    existing_std : prior std (m) of an existing map's reflector that states no covariance or survey std.
+    window_s : the front end re-solves the poses of the last ``window_s`` seconds (and every reflector).
+    front_sigma : bearing std (rad) the front end assumes for a reflector's own uncertainty in its gate
+    (dead-reckoned poses). merge_distance : front-end reflectors closer than this (m) are one.
+    front_odometry_var : the front end multiplies the odometry covariance by this (it trusts dead
+    reckoning over its window; the batch estimates the real factor). variance_passes : batch passes
+    of association, solution and variance-component estimation.
+    head_yaw_std : std (rad) of the head's yaw on the vehicle: a frame given by the start pose is
+    only as well oriented as the head is calibrated (added to the start pose's heading variance).
+    """
+
+    radius: float = 0.04
+    direction: int = 1
+    bearing_std: float | None = None
+    bearing_std_floor: float = 2e-5
+    keyframe_s: float = 0.1
+    chunk_s: float = 1.0
+    pool_s: float = 10.0
+    window_s: float = 10.0
+    front_sigma: float = 1e-3
+    merge_distance: float = 0.15
+    use_lcov: bool = True
+    front_odometry_var: float = 0.01
+    variance_passes: int = 4
+    head_yaw_std: float = 2e-4
+    gate_sigma: float = 5.0
+    position_tol: float = 0.05
+    final_position_tol: float = 0.005
+    outlier_sigma: float = 5.0
+    max_range: float | None = None
+    existing_std: float = 0.001
+    front_iterations: int = 3
+    odometry_noise: OdometryNoise | None = None
+    init: InitialiseOptions = field(default_factory=InitialiseOptions)
+
+    def __post_init__(self) -> None:
+        if not self.radius >= 0.0:
+            raise ValueError(f"radius must be >= 0 m, got {self.radius!r}")
+        if self.direction not in (1, -1):
+            raise ValueError(f"direction must be +1 or -1, got {self.direction!r}")
+        for name in ("keyframe_s", "chunk_s", "pool_s", "gate_sigma", "position_tol", "final_position_tol",
+                     "outlier_sigma"):
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
+
+
+@dataclass
+class FrontEnd:
+    """The provisional map: keyframe poses ``(K, 3)``, reflectors ``(N, 2)``, the association ``(B,)`` of
+    every reflection (-1: none), ids of the reflectors (existing ones keep theirs, new ones are None),
+    and the drive."""
+
+    drive: Drive
+    poses: F64
+    landmarks: F64
+    assoc: I64
+    ids: list[str | None]
+    sigma: F64
+    max_range: float
+    runtime_s: float
+
+
+@dataclass(frozen=True)
+class MappingResult:
+    """A solved map.
+
+    ids (N,), xy (N, 2) m, covariance (N, 2, 2) m², sightings (N,) associated reflections each;
+    poses (K, 3) keyframe trajectory in map and keyframe_t (K,) s; scale and scale_std of the odometry;
+    anchor: which anchors fixed frame and scale; reflections / associated / unassociated counts;
+    chi2_per_dof of the solution; runtime_s (front end and batch).
+    """
+
+    ids: tuple[str, ...]
+    xy: F64
+    covariance: F64
+    sightings: I64
+    poses: F64
+    keyframe_t: F64
+    scale: float
+    scale_std: float
+    anchor: str
+    reflections: int
+    associated: int
+    chi2_per_dof: float
+    runtime_s: float
+    existing_ids: tuple[str, ...] = ()
+
+
+def _bearing_sigma(log: Any, options: MappingOptions) -> float:
+    if options.bearing_std is not None:
+        if not options.bearing_std > 0.0:
+            raise ValueError(f"bearing_std must be positive, got {options.bearing_std!r}")
+        return float(options.bearing_std)
+    ppr = (getattr(log, "settings", {}) or {}).get("pulses_per_rev") or 65535
+    return max(encoder_bearing_std(float(ppr)), options.bearing_std_floor)
+
+
+def _sigma_eff(drive: Drive, sigma: float, heads: F64, landmarks: F64, assoc: I64, odo_var: float = 1.0) -> F64:
+    """Bearing std per reflection: the encoder's plus the odometry offset's (position over range, heading),
+    the offset covariance multiplied by ``odo_var``."""
+    cov = drive.refl_offset_cov * odo_var
+    var = sigma ** 2 + cov[:, 2, 2]
+    ok = assoc >= 0
+    if landmarks.shape[0] and np.any(ok):
+        d = np.hypot(*(landmarks[assoc[ok]] - heads[ok, :2]).T)
+        var[ok] += (cov[ok, 0, 0] + cov[ok, 1, 1]) / np.maximum(d, 0.3) ** 2
+    return np.sqrt(var)
+
+
+def _graph(drive: Drive, n_poses: int, landmarks: F64, assoc: I64, sig: F64, options: MappingOptions,
+           pose_priors: PosePriors, reflector_priors: ReflectorPriors | None = None,
+           distances: DistanceFactors | None = None, scale_prior: tuple[float, float] | None = None,
+           odo_var: float = 1.0) -> FactorGraph:
+    use = (assoc >= 0) & (drive.refl_keyframe < n_poses)
+    e = np.arange(n_poses - 1)
+    odo = OdometryFactors(e, e + 1, drive.between[:n_poses - 1], whitener(drive.between_cov[:n_poses - 1] * odo_var))
+    bear = BearingFactors(drive.refl_keyframe[use], assoc[use], drive.refl_offset[use], drive.bearing[use], sig[use],
+                          drive.mount, options.radius, options.direction)
+    kw: dict[str, Any] = {"pose_priors": pose_priors, "scale_prior": scale_prior}
+    if reflector_priors is not None:
+        kw["reflector_priors"] = reflector_priors
+    if distances is not None:
+        kw["distances"] = distances
+    return FactorGraph(n_poses, landmarks.shape[0], odo, bear, **kw)
+
+
+def _dead_reckon(drive: Drive, start: F64, poses: F64, k_from: int, k_to: int) -> None:
+    """Poses ``k_from+1 .. k_to`` (inclusive) composed from pose ``k_from`` with the odometry (scale 1)."""
+    for k in range(k_from, k_to):
+        poses[k + 1] = compose(poses[k], drive.between[k])
+        poses[k + 1, 2] = poses[k, 2] + drive.between[k, 2]
+
+
+def _existing_priors(existing: Any, options: MappingOptions) -> ReflectorPriors:
+    n = len(existing.reflectors)
+    cov = np.zeros((n, 2, 2))
+    for j, r in enumerate(existing.reflectors):
+        if r.covariance_m2 is not None:
+            cov[j] = np.array(r.covariance_m2)
+        std = r.survey_std_m if r.survey_std_m > 0.0 else options.existing_std
+        if not np.all(np.linalg.eigvalsh(cov[j]) > 1e-14):
+            cov[j] = np.eye(2) * std ** 2
+    return ReflectorPriors(np.arange(n, dtype=np.int64), existing.reflector_xy.copy(), whitener(cov))
+
+
+def front_end(log: Any, start: F64 | None = None, options: MappingOptions | None = None,
+              existing: Any = None) -> FrontEnd:
+    """The provisional map of ``log`` (module docstring, step 1), in the frame of ``start`` (default the origin).
+
+    ``existing``: a :class:`agvnav.world.WorldMap` whose reflectors are known from the start
+    (``start`` must then be in its frame).
+    """
+    opt = options or MappingOptions()
+    t0 = time.perf_counter()
+    settings = getattr(log, "settings", {}) or {}
+    drive = prepare_drive(log, opt.keyframe_s, opt.odometry_noise)
+    max_range = float(opt.max_range or settings.get("max_range_m") or 30.0)
+    init = InitialiseOptions(**{**opt.init.__dict__, "max_range": max_range})
+    sigma = _bearing_sigma(log, opt)
+    K = drive.keyframe_t.shape[0]
+    B = drive.bearing.shape[0]
+    poses = np.zeros((K, 3))
+    poses[0] = np.zeros(3) if start is None else np.asarray(start, dtype=np.float64)
+    landmarks = np.zeros((0, 2)) if existing is None else existing.reflector_xy.copy()
+    ids: list[str | None] = [] if existing is None else list(existing.reflector_ids)
+    rpriors = None if existing is None else _existing_priors(existing, opt)
+    prior_cov = None if rpriors is None else np.linalg.inv(np.einsum("nji,njk->nik", rpriors.W, rpriors.W))
+    assoc = np.full(B, -1, dtype=np.int64)
+    pose_prior = PosePriors(np.array([0]), poses[:1].copy(), whitener(np.diag([1e-6, 1e-6, 1e-6])[None]))
+    solved_to = 0
+    pool = np.zeros(0, dtype=np.int64)
+    t_start, t_end = float(drive.keyframe_t[0]), float(drive.keyframe_t[-1])
+    n_chunks = max(1, math.ceil((t_end - t_start) / opt.chunk_s))
+    for c in range(n_chunks):
+        lo, hi = t_start + c * opt.chunk_s, (t_end + 1.0 if c == n_chunks - 1 else t_start + (c + 1) * opt.chunk_s)
+        k_hi = int(np.searchsorted(drive.keyframe_t, hi, side="right")) - 1
+        _dead_reckon(drive, poses[0], poses, solved_to, k_hi)
+        idx = np.flatnonzero((drive.refl_t > lo) & (drive.refl_t <= hi))
+        if idx.size:
+            lcov = None
+            if landmarks.shape[0]:
+                done = np.flatnonzero(assoc >= 0)
+                h_done = head_poses(poses, drive.refl_keyframe[done], drive.refl_offset[done], drive.mount)
+                lcov = ray_covariances(h_done, assoc[done], landmarks, opt.front_sigma, prior_cov)
+            heads = head_poses(poses, drive.refl_keyframe[idx], drive.refl_offset[idx], drive.mount)
+            a = associate(drive.bearing[idx], heads, landmarks, opt.radius, sigma, opt.gate_sigma, opt.position_tol,
+                          max_range, opt.direction, lcov if opt.use_lcov else None)
+            assoc[idx] = a
+            pool = np.concatenate([pool, idx[a < 0]])
+        pool = pool[drive.refl_t[pool] > hi - opt.pool_s]
+        added = idx.size > 0 and bool(np.any(assoc[idx] >= 0))
+        if pool.size >= init.min_sightings:
+            heads = head_poses(poses, drive.refl_keyframe[pool], drive.refl_offset[pool], drive.mount)
+            taken = np.zeros(pool.size, dtype=bool)
+            for new in initialise_from_tracks(heads, drive.bearing[pool], drive.refl_t[pool], opt.radius, init,
+                                              opt.direction):
+                if landmarks.shape[0]:
+                    dist = np.hypot(*(landmarks - new.xy).T)
+                    if float(dist.min()) < opt.merge_distance:
+                        assoc[pool[new.support]] = int(np.argmin(dist))
+                        taken[new.support] = True
+                        continue
+                assoc[pool[new.support]] = landmarks.shape[0]
+                landmarks = np.vstack([landmarks, new.xy])
+                ids.append(None)
+                taken[new.support] = True
+                added = True
+            pool = pool[~taken]
+        if added and landmarks.shape[0]:
+            n = k_hi + 1
+            heads = head_poses(poses, drive.refl_keyframe, drive.refl_offset, drive.mount)
+            sig = _sigma_eff(drive, sigma, heads, landmarks, assoc, opt.front_odometry_var)
+            g = _graph(drive, n, landmarks, assoc, sig, opt, pose_prior, rpriors, scale_prior=(1.0, 1e-6),
+                       odo_var=opt.front_odometry_var)
+            free = np.ones(g.n_vars, dtype=bool)
+            free[: 3 * int(np.searchsorted(drive.keyframe_t, hi - opt.window_s))] = False
+            free[-1] = False
+            sol = solve(g, g.pack(poses[:n], landmarks, 1.0), max_iterations=opt.front_iterations, free=free,
+                        huber=3.0)
+            p, landmarks, _ = g.unpack(sol.x)
+            poses[:n] = p
+            landmarks, assoc, ids = _merge(landmarks.copy(), assoc, ids, opt.merge_distance)
+        solved_to = k_hi
+    return FrontEnd(drive, poses, landmarks, assoc, ids, np.full(B, sigma), max_range, time.perf_counter() - t0)
+
+
+def _merge(landmarks: F64, assoc: I64, ids: list[str | None], distance: float) -> tuple[F64, I64, list[str | None]]:
+    """Merge reflectors closer than ``distance`` (m): the later one's sightings go to the earlier (an
+    existing reflector, with an id, is never removed)."""
+    n = landmarks.shape[0]
+    alive = np.ones(n, dtype=bool)
+    target = np.arange(n)
+    for j in range(n):
+        if not alive[j]:
+            continue
+        for k in range(j + 1, n):
+            if alive[k] and ids[k] is None and float(np.hypot(*(landmarks[k] - landmarks[j]))) < distance:
+                alive[k] = False
+                target[k] = j
+    if alive.all():
+        return landmarks, assoc, ids
+    renum = np.cumsum(alive) - 1
+    new_assoc = np.where(assoc >= 0, renum[target[np.maximum(assoc, 0)]], -1)
+    return landmarks[alive], new_assoc.astype(np.int64), [i for i, a in zip(ids, alive, strict=True) if a]
+
+
+def _similarity_poses(T: F64, poses: F64) -> F64:
+    a, b = T[0], T[1]
+    out = poses.copy()
+    out[:, :2] = apply_similarity(T, poses[:, :2])
+    out[:, 2] = poses[:, 2] + math.atan2(b, a)
+    return out
+
+
+def _reassociate(fe: FrontEnd, poses: F64, landmarks: F64, scale: float, opt: MappingOptions,
+                 keep: NDArray[np.bool_], lam_o: float = 1.0, lam_b: float = 1.0) -> tuple[I64, F64]:
+    d = fe.drive
+    heads = head_poses(poses, d.refl_keyframe, d.refl_offset, d.mount, scale)
+    sig0 = _sigma_eff(d, fe.sigma[0], heads, landmarks, np.full(heads.shape[0], -1, dtype=np.int64), lam_o)
+    assoc = associate(d.bearing, heads, landmarks, opt.radius, sig0 * math.sqrt(max(lam_b, 1.0)), opt.gate_sigma,
+                      opt.final_position_tol, fe.max_range, opt.direction)
+    assoc = np.where((assoc >= 0) & keep[np.maximum(assoc, 0)], assoc, -1)
+    return assoc, heads
+
+
+def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], existing: Any = None,
+                   options: MappingOptions | None = None, start: F64 | None = None) -> MappingResult:
+    """Anchor the provisional map ``fe`` and solve it in batch (module docstring, steps 2-3).
+
+    ``start``: the start pose the front end used (its frame). Raises
+    :class:`~agvnav.mapping.anchors.ScaleUnobservable` without an anchor (an existing map with two or
+    more reflectors counts as one).
+    """
+    opt = options or MappingOptions()
+    t0 = time.perf_counter()
+    anchors = list(anchors)
+    surveyed = [a for a in anchors if isinstance(a, SurveyedAnchor)]
+    baselines = [a for a in anchors if isinstance(a, BaselineAnchor)]
+    starts = [a for a in anchors if isinstance(a, StartPoseAnchor)]
+    n_existing = 0 if existing is None else len(existing.reflectors)
+    if not surveyed and not baselines and not starts and n_existing < 2:
+        raise ScaleUnobservable(UNOBSERVABLE)
+    d = fe.drive
+    poses, landmarks, scale = fe.poses.copy(), fe.landmarks.copy(), 1.0
+    ids = list(fe.ids)
+    kind = anchor_kind(anchors) if anchors else f"existing_map{n_existing}"
+    if existing is not None and anchors:
+        kind = f"existing_map{n_existing}+{kind}"
+    # drop weak reflectors of the front end (keep the existing ones)
+    keep = np.array([i is not None for i in ids] + [False] * 0, dtype=bool)
+    counts = np.bincount(fe.assoc[fe.assoc >= 0], minlength=landmarks.shape[0])
+    keep = keep | (counts >= opt.init.min_sightings)
+    # frame: similarity onto surveyed reflectors, else the start pose (front-end frame)
+    rpri_idx: list[int] = []
+    rpri_mean: list[F64] = []
+    rpri_cov: list[F64] = []
+    if existing is not None:
+        pri = _existing_priors(existing, opt)
+        for j in range(n_existing):
+            rpri_idx.append(j)
+            rpri_mean.append(pri.mean[j])
+            rpri_cov.append(np.linalg.inv(pri.W[j].T @ pri.W[j]))
+    for sa in surveyed:
+        cand = np.flatnonzero(keep)
+        idx, T = match_surveyed(landmarks[cand], sa.xy)
+        if existing is None and not rpri_idx:
+            poses = _similarity_poses(T, poses)
+            landmarks = apply_similarity(T, landmarks)
+            scale = float(math.hypot(T[0], T[1]))
+        for s_row, m_row in enumerate(idx.tolist()):
+            if m_row < 0:
+                continue
+            j = int(cand[m_row])
+            ids[j] = sa.ids[s_row]
+            rpri_idx.append(j)
+            rpri_mean.append(sa.xy[s_row])
+            rpri_cov.append(np.eye(2) * sa.std[s_row] ** 2)
+    pose_prior = PosePriors(np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 3, 3)))
+    scale_prior: tuple[float, float] | None = None
+    if starts:
+        sp_anchor = starts[0]
+        pose0 = np.asarray(sp_anchor.pose if sp_anchor.pose is not None else
+                           (start if start is not None else poses[0]), dtype=np.float64)
+        var0 = np.square(sp_anchor.pose_std) + np.array([0.0, 0.0, opt.head_yaw_std ** 2])
+        pose_prior = PosePriors(np.array([0]), pose0[None].copy(), whitener(np.diag(var0)[None]))
+        scale_prior = (sp_anchor.scale, sp_anchor.scale_std)
+    elif not surveyed and existing is None:
+        # baseline only: the frame is the start pose (a gauge choice, tight prior)
+        pose0 = np.asarray(start if start is not None else poses[0], dtype=np.float64)
+        var0 = np.array([1e-8, 1e-8, opt.head_yaw_std ** 2])
+        pose_prior = PosePriors(np.array([0]), pose0[None].copy(), whitener(np.diag(var0)[None]))
+    dist_a: list[int] = []
+    dist_b: list[int] = []
+    dist_d: list[float] = []
+    dist_s: list[float] = []
+    for ba in baselines:
+        cand = np.flatnonzero(keep)
+        pair = []
+        for p in (ba.first, ba.second):
+            dd = np.hypot(*(landmarks[cand] - np.asarray(p)).T)
+            if dd.size == 0 or float(dd.min()) > ba.match_radius:
+                raise ValueError(f"baseline anchor: no mapped reflector within {ba.match_radius} m of {list(p)}")
+            pair.append(int(cand[int(np.argmin(dd))]))
+        if pair[0] == pair[1]:
+            raise ValueError("baseline anchor: both ends match the same mapped reflector")
+        dist_a.append(pair[0])
+        dist_b.append(pair[1])
+        dist_d.append(ba.distance)
+        dist_s.append(ba.std)
+    rpri = ReflectorPriors(np.array(rpri_idx, dtype=np.int64), np.array(rpri_mean).reshape(-1, 2),
+                           whitener(np.array(rpri_cov).reshape(-1, 2, 2)) if rpri_cov else np.zeros((0, 2, 2)))
+    dist = DistanceFactors(np.array(dist_a, dtype=np.int64), np.array(dist_b, dtype=np.int64), np.array(dist_d),
+                           np.array(dist_s))
+    anchored = set(rpri_idx) | set(dist_a) | set(dist_b)
+    K = poses.shape[0]
+    lam_o, lam_b = 1.0, 1.0
+    for pas in range(opt.variance_passes):
+        if pas < 2:
+            assoc, heads = _reassociate(fe, poses, landmarks, scale, opt,
+                                        keep | np.isin(np.arange(keep.size), list(anchored)), lam_o, lam_b)
+        sig = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, lam_o) * math.sqrt(lam_b)
+        g = _graph(d, K, landmarks, assoc, sig, opt, pose_prior, rpri, dist, scale_prior, lam_o)
+        sol = solve(g, g.pack(poses, landmarks, scale), max_iterations=50)
+        poses, landmarks, scale = g.unpack(sol.x)
+        poses, landmarks = poses.copy(), landmarks.copy()
+        # variance components [Helmert]: odometry and bearing chi-square against their redundancy
+        e, _ = linearize(g, sol.x, jacobian=False)
+        n_o, n_b = 3 * (K - 1), int(g.bearings.pose.size)
+        red = max(0.05, 1.0 - g.n_vars / max(e.size, 1))
+        lam_o *= max(float(e[:n_o] @ e[:n_o]) / (n_o * red), 1e-6)
+        if n_b:
+            lam_b *= max(float(e[n_o:n_o + n_b] @ e[n_o:n_o + n_b]) / (n_b * red), 1e-6)
+        # outliers
+        e_use = (assoc >= 0)
+        heads = head_poses(poses, d.refl_keyframe, d.refl_offset, d.mount, scale)
+        if np.any(e_use):
+            pred, _ = predicted_edge_bearings(heads[e_use], landmarks, opt.radius, opt.direction)
+            r = wrap_angle(d.bearing[e_use] - pred[np.arange(pred.shape[0]), assoc[e_use]]) / sig[e_use]
+            bad = np.flatnonzero(e_use)[np.abs(r) > opt.outlier_sigma]
+            assoc[bad] = -1
+        counts = np.bincount(assoc[assoc >= 0], minlength=landmarks.shape[0])
+        spread_ok = np.array([_spread_ok(heads[assoc == j, :2], opt.init.min_baseline)
+                              for j in range(landmarks.shape[0])])
+        keep = np.array([i is not None and j < n_existing for j, i in enumerate(ids)], dtype=bool) | \
+            ((counts >= opt.init.min_sightings) & spread_ok) | np.isin(np.arange(landmarks.shape[0]), list(anchored))
+    assoc = np.where((assoc >= 0) & keep[np.maximum(assoc, 0)], assoc, -1)
+    sig = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, lam_o) * math.sqrt(lam_b)
+    # drop unkept reflectors from the state: renumber
+    old = np.flatnonzero(keep)
+    new_of_old = np.full(landmarks.shape[0], -1, dtype=np.int64)
+    new_of_old[old] = np.arange(old.size)
+    assoc = np.where(assoc >= 0, new_of_old[np.maximum(assoc, 0)], -1)
+    rpri = ReflectorPriors(new_of_old[rpri.index], rpri.mean, rpri.W)
+    dist = DistanceFactors(new_of_old[dist.a], new_of_old[dist.b], dist.d, dist.sigma)
+    landmarks = landmarks[old]
+    ids = [ids[j] for j in old.tolist()]
+    g = _graph(d, K, landmarks, assoc, sig, opt, pose_prior, rpri, dist, scale_prior, lam_o)
+    sol = solve(g, g.pack(poses, landmarks, scale), max_iterations=50)
+    poses, landmarks, scale = g.unpack(sol.x)
+    cov, scale_var = marginal_covariances(g, sol.x)
+    n_res = 3 * (K - 1) + int(np.sum(assoc >= 0))
+    dof = max(1, n_res - (g.n_vars - 0))
+    k = 0
+    final_ids: list[str] = []
+    for i in ids:
+        if i is None:
+            k += 1
+            name = f"M{k}"
+            while name in ids:
+                k += 1
+                name = f"M{k}"
+            final_ids.append(name)
+        else:
+            final_ids.append(i)
+    existing_ids = tuple(existing.reflector_ids) if existing is not None else ()
+    return MappingResult(
+        tuple(final_ids), landmarks.copy(), cov, np.bincount(assoc[assoc >= 0], minlength=landmarks.shape[0]),
+        poses.copy(), d.keyframe_t.copy(), scale, math.sqrt(max(scale_var, 0.0)), kind, int(d.bearing.shape[0]),
+        int(np.sum(assoc >= 0)), 2.0 * sol.cost / dof, fe.runtime_s + time.perf_counter() - t0, existing_ids,
+    )
+
+
+def _spread_ok(points: F64, min_baseline: float) -> bool:
+    if points.shape[0] < 2:
+        return False
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    return bool(np.hypot(*(hi - lo)) >= min_baseline)
+
+
+def build_map(log: Any, anchors: list[Anchor] | tuple[Anchor, ...], options: MappingOptions | None = None,
+              existing: Any = None, start: Any = None) -> MappingResult:
+    """Map the reflectors of ``log`` (a :class:`agvnav.logs.RecordedLog`) with ``anchors`` (module docstring).
+
+    ``start`` (m, m, rad): the start pose; default a start-pose anchor's, else the log's ``initial_pose``
+    setting when the map must be in a known frame (an existing map, a baseline), else the origin.
+    Raises :class:`~agvnav.mapping.anchors.ScaleUnobservable` before any work when nothing anchors the map.
+    """
+    anchors = list(anchors)
+    if not anchors and (existing is None or len(existing.reflectors) < 2):
+        raise ScaleUnobservable(UNOBSERVABLE)
+    if start is None:
+        sp = [a for a in anchors if isinstance(a, StartPoseAnchor) and a.pose is not None]
+        settings = getattr(log, "settings", {}) or {}
+        if sp:
+            start = sp[0].pose
+        elif settings.get("initial_pose") is not None:
+            start = settings["initial_pose"]
+        elif existing is not None:
+            raise ValueError("adding to an existing map needs the start pose in its frame (start_pose:X,Y,HEADING_DEG)")
+    start_arr = None if start is None else np.asarray(start, dtype=np.float64)
+    if start_arr is not None and start_arr.shape != (3,):
+        raise ValueError(f"start pose must be [x, y, heading], got shape {start_arr.shape}")
+    fe = front_end(log, start_arr, options, existing)
+    return solve_anchored(fe, anchors, existing, options, start_arr)
