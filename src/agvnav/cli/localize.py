@@ -16,6 +16,7 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
+from agvnav.bench.common import Col, display_unit, format_number, json_document, print_table
 from agvnav.cli.errors import user_errors
 from agvnav.cli.progress import RunProgress
 from agvnav.logs import estimator_from_settings, read_log
@@ -32,6 +33,7 @@ OUT_OPT = typer.Option(
 )
 PLOTS_OPT = typer.Option(True, "--plots/--no-plots", help="Write the PNG plots.")
 FORCE_OPT = typer.Option(False, "--force", help="Replace an --out folder that holds another result.")
+JSON_OPT = typer.Option(False, "--json", help="Print the figures (metrics.json) as JSON with version and machine.")
 
 
 @user_errors
@@ -42,6 +44,7 @@ def localize(
     out: Path = OUT_OPT,
     plots: bool = PLOTS_OPT,
     force: bool = FORCE_OPT,
+    json: bool = JSON_OPT,
 ) -> None:
     """Run a positioning method on a recorded log; write the estimate (CSV and MCAP), its figures and plots."""
     check_out_dir(out, force)
@@ -54,7 +57,24 @@ def localize(
     with RunProgress(f"localize {log.name}", key=f"localize {log.name}"):
         result = run_localize(recorded, estimator, method or recorded.settings.get("method") or "ekf")
     written = save_localization(result, recorded, world, out, force=force, plots=plots, name=log.name)
-    console = Console(highlight=False)
+    console = Console(highlight=False, stderr=json)
     summary = localization_summary(result, recorded, log.name)
-    console.print(", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in summary.items()))
-    console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written))
+    if json:
+        print(json_document("log", log.name, {"metrics": summary}, None, None))
+    else:
+        print_table(_summary_table(summary, log.name))
+    console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written), soft_wrap=True)
+
+
+def _summary_table(summary: dict[str, object], name: str) -> tuple[str, list[Col], list[list[str]]]:
+    """metrics.json as a (figure, value) table, each figure in its display unit (mm, deg, s)."""
+    rows = []
+    for key, value in summary.items():
+        if key == "scenario":
+            continue
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            header, _, scale = display_unit(key, [value])
+            rows.append([header, format_number(value, scale)])
+        else:
+            rows.append([key.replace("_", " "), "-" if value is None else str(value)])
+    return f"{name}: positioning on the recorded data", [Col("figure", "left", 0), Col("value", "right", 0)], rows
