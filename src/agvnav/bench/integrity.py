@@ -41,6 +41,11 @@ from agvnav.sim import simulate
 from agvnav.world.scenario import builtin_scenario, parse_scenario
 
 TITLE = "Positioning integrity under injected faults (truth-judged; issue 12)"
+#: Columns a narrow terminal keeps, most important first (`--wide` shows all).
+PRIORITY = (
+    "fault", "severity", "model", "silent_failures", "stopped_safely", "max_true_lateral_m",
+    "max_stop_distance_m",
+)
 
 #: Time (s) the faults begin.
 FAULT_START_S = 5.0

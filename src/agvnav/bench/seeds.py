@@ -56,6 +56,11 @@ TITLE = (
     "Seeds 000/001 and 004: the seed's figure, the seed-method reproduction "
     "(band over seeds and unknown parameters), agvnav"
 )
+#: Columns a narrow terminal keeps, most important first (`--wide` shows all).
+PRIORITY = (
+    "figure", "unit", "seed_value", "reproduced_median", "reproduced_p05", "reproduced_p95", "agvnav_median",
+    "seed_in_band", "driver",
+)
 
 #: A run of the seed method comes "near" the seed's value within this relative margin.
 NEAR_SEED = 0.2

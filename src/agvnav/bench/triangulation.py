@@ -35,6 +35,11 @@ from agvnav.geometry import angle_diff, bearing_to
 from agvnav.positioning import METHODS, crlb, encoder_bearing_std, triangulate
 
 TITLE = "Triangulation: ns/fix (batch 1e6), µs/single fix, RMS error vs CRLB (65535 pulses/rev)"
+#: Columns a narrow terminal keeps, most important first (`--wide` shows all).
+PRIORITY = (
+    "method", "reflectors", "rms_position_m", "crlb_rms_position_m", "batch_ns_per_fix", "single_us_per_fix",
+    "rms_heading_rad",
+)
 
 PULSES_PER_REV = 65535
 #: Seed-like layout: three reflectors on a 10 m circle (the critical circle), workspace inside it.

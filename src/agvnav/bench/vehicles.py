@@ -39,6 +39,11 @@ from agvnav.sim.build import REVERSING
 from agvnav.world.scenario import builtin_scenario, parse_scenario
 
 TITLE = "Every vehicle configuration on the same loop (true pose; 5 seeds)"
+#: Columns a narrow terminal keeps, most important first (`--wide` shows all).
+PRIORITY = (
+    "model", "controller", "completed", "rms_lateral_m", "max_lateral_m", "positioning_rms_m",
+    "real_time_factor",
+)
 
 #: model -> (shipped scenario with its vehicle section, bench controller section, reverses)
 BENCH_MODELS: dict[str, tuple[str, dict[str, Any], bool]] = {
