@@ -7,7 +7,8 @@ sideways by ``D = 2 R (1 - cos theta)`` over ``2 R sin theta`` along the route; 
 holds the offset past the obstacle, then an opposite S-curve brings it back onto
 the route, which it then follows to its end. The offset ``D`` is the smallest that
 keeps ``clearance`` between the body (its half-width beside the tracked point) and
-the obstacle, on the side with room; the S-curves are as gentle as the room before
+the obstacle, on the side with room (up to 0.3 m more when the body's swing on the
+S-curves needs it); the S-curves are as gentle as the room before
 the obstacle allows (``theta`` from 30 to 75 degrees, ``R >= min_radius``).
 
 Every candidate is checked against the corridor and the obstacles by sweeping the
@@ -35,6 +36,7 @@ from agvnav.guidance.paths import ArcSegment, LineSegment, Path
 __all__ = ["Detour", "path_tail", "plan_detour", "scanned_obstacle", "shift_arcs"]
 
 _THETAS_DEG = (30.0, 45.0, 60.0, 75.0)
+_EXTRA_OFFSETS = (0.0, 0.1, 0.2, 0.3)
 
 
 @dataclass(frozen=True)
@@ -97,16 +99,26 @@ def path_tail(path: Path, s: float) -> list[LineSegment | ArcSegment]:
     return out
 
 
-def _sample_poses(segments: Sequence[LineSegment | ArcSegment], step: float) -> NDArray[np.float64]:
-    """Poses ``(k, 3)`` of the tracked point every ``step`` m along ``segments`` (heading = tangent)."""
-    rows = []
-    for seg in segments:
-        n = max(2, math.ceil(seg.length / step) + 1)
-        u = np.linspace(0.0, seg.length, n)
-        p = np.asarray(seg.point_at(u)).reshape(-1, 2)
-        h = np.asarray(seg.heading_at(u)).reshape(-1)
-        rows.append(np.column_stack([p, h]))
-    return np.concatenate(rows)
+def _body_poses(path: Path, length: float, offset: float, step: float) -> NDArray[np.float64]:
+    """base_link poses ``(k, 3)`` while the tracked point runs ``[0, length]`` of ``path`` every ``step`` m.
+
+    With the tracked point ``offset`` m ahead of base_link (C of a front-steered vehicle),
+    base_link is placed on the path ``offset`` m behind it (the trailing axle follows the
+    leader's track: exact on lines, slightly outside the true off-tracking on arcs, so the
+    check is conservative for the swing of the rear) and the heading points from base_link
+    to the tracked point; before the path's start, the start's tangent is extended backwards.
+    """
+    s = np.linspace(0.0, length, max(2, math.ceil(length / step) + 1))
+    lead = np.asarray(path.point_at(s), dtype=np.float64)
+    if offset == 0.0:
+        return np.column_stack([lead, np.asarray(path.heading_at(s), dtype=np.float64)])
+    back = s - offset
+    trail = np.asarray(path.point_at(np.clip(back, 0.0, None)), dtype=np.float64)
+    h0 = float(path.heading_at(0.0))
+    before = back < 0.0
+    trail[before] = lead[0] + back[before, None] * np.array([math.cos(h0), math.sin(h0)])
+    d = lead - trail
+    return np.column_stack([trail, np.arctan2(d[:, 1], d[:, 0])])
 
 
 def _placed(footprint: NDArray[np.float64], pose: NDArray[np.float64]) -> Polygon:
@@ -147,7 +159,8 @@ def plan_detour(
     The :class:`Detour`, or None when the obstacles are not on an allowed straight stretch or no
     candidate stays in the corridor and clear of them.
     """
-    fp = np.asarray(footprint, dtype=np.float64) - np.array([point_offset, 0.0])  # body about the tracked point
+    body = np.asarray(footprint, dtype=np.float64)
+    fp = body - np.array([point_offset, 0.0])  # the body about the tracked point
     i = int(path.segment_index(s_now))
     seg = path.segments[i]
     if not isinstance(seg, LineSegment) or seg.direction != 1 or (allowed is not None and i not in allowed):
@@ -174,12 +187,13 @@ def plan_detour(
                      (s1 + rear + front, corridor_left), (s0 - rear - front, corridor_left))
     ])
     candidates = []
-    d_left = y_hi + clearance + w_right
-    if d_left + w_left <= corridor_left + 1e-9:
-        candidates.append(d_left)
-    d_right = y_lo - clearance - w_left
-    if -d_right + w_right <= corridor_right + 1e-9:
-        candidates.append(d_right)
+    for extra in _EXTRA_OFFSETS:  # the smallest shift first, then a little more room for the body's swing
+        d_left = y_hi + clearance + w_right + extra
+        if d_left + w_left <= corridor_left + 1e-9:
+            candidates.append(d_left)
+        d_right = y_lo - clearance - w_left - extra
+        if -d_right + w_right <= corridor_right + 1e-9:
+            candidates.append(d_right)
     candidates.sort(key=abs)
     for d in candidates:
         for theta in _THETAS_DEG:
@@ -192,25 +206,14 @@ def plan_detour(
             detour = _build(path, s_now, leave, hold_end, rejoin, d, r, lx)
             if detour is None:
                 continue
-            poses = _sample_poses(detour.path.segments[: _n_detour(detour)], check_step)
-            bodies = [_placed(fp, p) for p in poses]
+            poses = _body_poses(detour.path, detour.length, point_offset, check_step)
+            bodies = [_placed(body, p) for p in poses]
             if not all(corridor.covers(b) for b in bodies):
                 continue
             if any(min(g.distance(b) for g in obstacles) < clearance - 1e-6 for b in bodies):
                 continue
             return detour
     return None
-
-
-def _n_detour(detour: Detour) -> int:
-    """Number of leading segments of the detour's path up to the rejoin point."""
-    total, n = 0.0, 0
-    for seg in detour.path.segments:
-        if total >= detour.length - 1e-9:
-            break
-        total += seg.length
-        n += 1
-    return n
 
 
 def _build(path: Path, s_now: float, leave: float, hold_end: float, rejoin: float, d: float, r: float,

@@ -19,7 +19,10 @@ and :mod:`agvnav.reactive`:
   not released by the field shrinking at standstill); an emergency stop brakes at the
   emergency deceleration; on a segment that allows it, a stop for a static obstacle that lasts
   ``avoid_after_s`` plans a detour (:func:`agvnav.reactive.plan_detour`) driven at the slow
-  fraction, then the route resumes.
+  fraction, then the route resumes. A detour is planned for a *static* obstacle: one in a field
+  whose echoes (off the map's walls) have not moved over ``avoid_after_s``, so a person
+  crossing is waited for and a pallet is driven round, planned while the vehicle slows down
+  (a long warning field leaves room for the S-curve) or once it stands.
 
 :func:`reactive_figures` turns the recorded signals into the run's figures: stops, time stopped,
 minimum clearance and encounter result (``collision``, ``avoid``, ``stop``, ``slow``, ``none``)
@@ -81,6 +84,8 @@ REACTIVE_SIGNALS = (
 
 #: Depth (m) an obstacle is assumed to have beyond the faces the scanner sees, when planning a detour.
 ASSUMED_DEPTH_M = 1.5
+#: An obstacle whose echoes' centroid moved less than this (m) over ``avoid_after_s`` is static.
+STATIC_TOLERANCE_M = 0.15
 #: Echoes closer than this (m) to a map wall are the wall (the vehicle knows its map).
 WALL_TOLERANCE_M = 0.1
 
@@ -310,6 +315,7 @@ class ReactiveAutopilot(PathAutopilot):
         self.detours = 0
         self.plant_ref = plant
         self._stopped_since: float | None = None
+        self._seen: NDArray[np.float64] | None = None
         self._last_try = -math.inf
         self._footprint = np.asarray(plant.footprint, dtype=np.float64)
         self._trigger = -1
@@ -387,23 +393,32 @@ class ReactiveAutopilot(PathAutopilot):
         return float(self.detour.route_s(float(self.detour_pilot.signals()[3])))
 
     def _maybe_avoid(self, t: float, pose: Any, s_est: float) -> None:
-        """Plan a detour once a stop for something ahead has lasted ``avoid_after_s`` at standstill."""
+        """Plan a detour around a *static* obstacle in a field (see the module docstring).
+
+        Static: the centroid of the echoes off the map's walls (map frame, via the estimated pose)
+        moved less than :data:`STATIC_TOLERANCE_M` over ``avoid_after_s`` while a field stayed intruded.
+        """
         if self.avoid is None or self.avoid.get("segments") is None or self.detour_pilot is not None:
             return
-        stopped = self.reaction.level == 2 and abs(self.profile.v) < 1e-6
-        if not stopped:
-            self._stopped_since = None
+        if self.reaction.level == 0 or self._trigger == -2 or not all(math.isfinite(float(v)) for v in pose[:3]):
+            self._stopped_since, self._seen = None, None
             return
-        if self._stopped_since is None:
-            self._stopped_since = t
+        pts = self._obstacle_points(pose)
+        if pts.shape[0] == 0:
+            return
+        centroid = pts.mean(axis=0)
+        if self._stopped_since is None or self._seen is None:
+            self._stopped_since, self._seen = t, centroid
+            return
         wait = float(self.avoid["after_s"])
         if t - self._stopped_since < wait - 1e-9 or t - self._last_try < wait - 1e-9:
             return
-        self._last_try = t
-        if not all(math.isfinite(float(v)) for v in pose[:3]):
+        moved = float(np.hypot(*(centroid - self._seen)))
+        self._stopped_since, self._seen = t, centroid  # the next check compares with now
+        if moved > STATIC_TOLERANCE_M:
             return
-        pts = self._obstacle_points(pose)
-        shape = None if pts.shape[0] == 0 else scanned_obstacle(pts, float(pose[2]), ASSUMED_DEPTH_M)
+        self._last_try = t
+        shape = scanned_obstacle(pts, float(pose[2]), ASSUMED_DEPTH_M)
         if shape is None:
             return
         a = self.avoid
@@ -420,7 +435,6 @@ class ReactiveAutopilot(PathAutopilot):
         self.detour_pilot = PathAutopilot(self.follower, detour.path, self.profile, self.plant_ref, self.offset,
                                           self.progress_window, self.end_tolerance, self.rwatch)
         self._detour_target = self._nearest_obstacle(shape)
-        self.reaction.update(t, 0)  # the fields are now those of the detour's slow speed
 
     def _obstacle_points(self, pose: Any) -> NDArray[np.float64]:
         """Latest echoes (map frame, via the estimated pose) away from the map's walls, within 6 m ahead."""

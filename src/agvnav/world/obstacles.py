@@ -143,7 +143,7 @@ class ReactiveSpec(StrictModel):
     avoid_clearance_m: NonNegFloat = 0.3
     """clearance the detour keeps between the body and the obstacle."""
     avoid_after_s: NonNegFloat = 1.0
-    """a stop for a static obstacle lasts this long before a detour is planned."""
+    """an obstacle in a field must stay put this long before a detour round it is planned."""
 
     @model_validator(mode="after")
     def _fixed_fields(self) -> ReactiveSpec:
