@@ -119,3 +119,10 @@ def missions(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OP
 def layout(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Reflector layout planner: reflectors planned vs regular spacing, predicted vs simulated RMS, planning time."""
     _run("layout", json, quick, seed, wide)
+
+
+@bench_app.command("safety")
+@user_errors
+def safety(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
+    """Reactive safety: people crossing at/inside the stopping distance, a pallet avoided in a two-way lane."""
+    _run("safety", json, quick, seed, wide)
