@@ -367,10 +367,7 @@ def initial_pose_search(
         hyps = _hypotheses(z, xy, rad, mount, max_observation_triples, max_range)
         if hyps.shape[0] == 0:
             return _not_found(z.size)
-        h, _, d = bearing_model(hyps[:, None, :], mount, xy[None], rad[None])
-        visible = d <= max_range
-        close = np.abs(angle_diff(z[None, :, None], h[:, None, :])) < coarse_tol
-        explained = np.any(close & visible[:, None, :], axis=-1).sum(-1)
+        explained = count_explained(z, _predicted(hyps, np.arange(n), xy, rad, mount, max_range), coarse_tol)
     else:
         hyps, explained = _local_hypotheses(z, xy, rad, mount, max_range, coarse_tol)
         if hyps.shape[0] == 0:
