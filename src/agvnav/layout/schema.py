@@ -166,6 +166,9 @@ class VerifySpec(StrictModel):
     """drive at most this much of each route (long routes are cut)."""
     section_m: PosFloat = 25.0
     """length of a route section in the per-section table."""
+    wheel_slip_k: NonNegFloat = 1e-6
+    """random slip of each driven wheel in the check, variance per metre rolled (m²/m); the EKF is told the same
+    (its odometry noise is this slip mapped to distance and heading)."""
 
 
 class LayoutSpec(SourcedModel):
@@ -198,6 +201,6 @@ def parse_layout(text: str, source: str = "<string>", base_dir: Path | None = No
 
 
 def load_layout(path: str | Path) -> LayoutSpec:
-    """Read a layout file (or a shipped one by name, e.g. ``warehouse``); errors name key and line."""
+    """Read a layout file (or a shipped one by name: ``warehouse``, ``generated_100x60``); errors name key and line."""
     p = resolve_document(path, Path(__file__).resolve().parent.parent / "data" / "layouts", "layout")
     return parse_layout(read_document_text(p, "layout", str(path)), str(path), p.parent)
