@@ -21,7 +21,7 @@ from agvnav.report.layout import plan_record, write_layout
 
 __all__ = ["layout"]
 
-SPEC_ARG = typer.Argument(..., help="Layout file (YAML), or a shipped one by name: warehouse.")
+SPEC_ARG = typer.Argument(..., help="Layout file (YAML), or a shipped one by name: warehouse, generated_100x60.")
 OUT_OPT = typer.Option(None, "--out", "-o", help="Output folder (default: ./<name>_layout).")
 VERIFY_OPT = typer.Option(False, "--verify", help="Drive the routes in the closed loop; measured vs predicted RMS.")
 JSON_OPT = typer.Option(False, "--json", help="Print the plan (and verification) as JSON, with version and machine.")
