@@ -67,6 +67,10 @@ def test_startup_records_shape() -> None:
 
 def test_campaign_record_shape() -> None:
     recs = speed.campaign_records(2, workers=(1,))
-    assert recs == [{"case": "campaign", "runs": 2, "workers": 1, "wall_s": recs[0]["wall_s"],
-                     "runs_per_s": recs[0]["runs_per_s"]}]
-    assert recs[0]["wall_s"] > 0 and recs[0]["runs_per_s"] > 0
+    assert len(recs) == 1
+    rec = recs[0]
+    assert set(rec) == {"case", "runs", "workers", "startup_s", "wall_s", "runs_per_s", "cpu_s_per_run", "est_10000_s"}
+    assert rec["case"] == "campaign" and rec["runs"] == 2 and rec["workers"] == 1
+    assert rec["startup_s"] > 0 and rec["wall_s"] > 0 and rec["cpu_s_per_run"] > 0
+    assert rec["runs_per_s"] == pytest.approx(2 / rec["wall_s"], rel=0.05)
+    assert rec["est_10000_s"] == pytest.approx(10_000 / rec["runs_per_s"], rel=0.05)
