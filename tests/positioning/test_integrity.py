@@ -182,9 +182,13 @@ def test_survey_std_per_reflector_reaches_the_gate_and_the_floor(lab: WorldMap, 
     used = list(est.monitor.used)
     head = np.array([4.0, 3.0]) + 0.3 * np.array([math.cos(0.3), math.sin(0.3)])
     d = np.hypot(*(loaded.reflector_xy[used] - head).T)
-    floor = crlb(loaded.reflector_xy[used], est.pose + [0.3 * math.cos(0.3), 0.3 * math.sin(0.3), 0.0],
-                 loaded.reflector_survey_std[used] / d)
-    np.testing.assert_allclose(est.monitor.survey_floor, floor, rtol=1e-3)
+    psi = est.pose[2]
+    head_floor = crlb(loaded.reflector_xy[used], est.pose + [0.3 * math.cos(psi), 0.3 * math.sin(psi), 0.0],
+                      loaded.reflector_survey_std[used] / d)
+    T = np.array([[1.0, 0.0, 0.3 * math.sin(psi)], [0.0, 1.0, -0.3 * math.cos(psi)], [0.0, 0.0, 1.0]])
+    np.testing.assert_allclose(est.monitor.survey_floor, T @ head_floor @ T.T, rtol=1e-3, atol=1e-12)
+    # the floor is the head fix's, carried to base_link (base = head - R(psi) mount)
+    np.testing.assert_allclose(est.covariance, est.filter_covariance + est.monitor.survey_floor, rtol=1e-12)
     excess = np.linalg.eigvalsh(est.covariance - est.monitor.survey_floor)
     assert excess.min() > -1e-12  # never more certain than the survey floor
     assert np.all(np.linalg.eigvalsh(est.covariance - est.filter_covariance) > -1e-12)  # nor than the filter

@@ -254,18 +254,22 @@ class StreamingEstimator:
     def covariance(self) -> NDArray[np.float64]:
         """``(3, 3)`` covariance of :attr:`pose` (m², rad²; NaN while initialising).
 
-        The filter's ``P`` raised to the survey floor of the reflectors that support it
-        (:attr:`~agvnav.positioning.integrity.IntegrityMonitor.survey_floor`), the
-        constant survey error that ``P``, taking it as white noise, averages away:
-        ``P + [F - P]_+`` with ``[.]_+`` the positive part (eigenvalues clipped at 0),
-        so no direction is reported more certain than the floor allows.
+        The filter's ``P`` plus the survey floor of the reflectors that support it
+        (:attr:`~agvnav.positioning.integrity.IntegrityMonitor.survey_floor`): the
+        error a constant survey error of the reflectors leaves, which ``P``, taking it
+        as white bearing noise, averages away. The two add (the estimate's error is the
+        filter's white error plus the survey bias, independent of each other); the part
+        of the survey error ``P`` still holds after averaging over ``n`` revolutions is
+        about ``floor / n``, a small double count on the safe side. (Raising ``P`` to
+        the floor instead, ``P + [F - P]_+``, left the tricycle of ``guidance_test``
+        overconfident along its track, where the odometry noise makes ``P`` and the
+        floor comparable: NEES 3.5 over 6 seeds against 3.0 with the sum.)
         """
         P = self._P
         floor = self.monitor.survey_floor
         if not floor.any():
             return P
-        w, V = np.linalg.eigh(floor - P)
-        return P + (V * np.maximum(w, 0.0)) @ V.T
+        return P + floor
 
     @property
     def filter_covariance(self) -> NDArray[np.float64]:

@@ -52,8 +52,9 @@ The survey error of the reflectors is constant in time, so a filter that takes i
 white bearing noise averages it away and ends overconfident (issue 12: NEES 13 with a
 5 mm survey error). :attr:`IntegrityMonitor.survey_floor` is the covariance of a static
 fix from the reflectors used when each bearing errs only by its reflector's survey
-error, ``(map_std / d)^2`` (the CRLB of seed 000 §2.3 with that std): the part of the
-error no averaging removes, which the estimator adds to the covariance it reports.
+error, ``(map_std / d)^2`` (the CRLB of seed 000 §2.3 with that std, carried from the
+head to base_link): the part of the error no averaging removes, which the estimator
+adds to the covariance it reports.
 
 A failed check makes the verdict ``degraded`` and asks the estimator to inflate its
 covariance (the estimate says it is less sure); the verdict returns to ``ok`` only
@@ -76,9 +77,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from agvnav.geometry.se2 import between, compose
-from agvnav.positioning.bounds import crlb
-from agvnav.positioning.identification import bearing_model
 from agvnav.positioning.triangulation import triangulate
 from agvnav.sensors.beam import line_of_sight
 
@@ -291,8 +289,8 @@ class IntegrityMonitor:
     reflectors_used : distinct reflectors accepted in the window.
     nis_ratio : windowed NIS over its chi-square bound (< 1 consistent; NaN without data).
     crosscheck : Mahalanobis distance² of the latest triangulation cross-check (NaN if none).
-    survey_floor : ``(3, 3)`` covariance (m², m·rad, rad²) of the survey error of the
-        reflectors used (zero without ``map_std`` or support).
+    survey_floor : ``(3, 3)`` covariance (m², m·rad, rad²) of the base_link pose error that
+        the survey error of the reflectors used causes (zero without ``map_std`` or support).
     reasons : why the last check failed (empty when it passed).
     excluded : map rows of the reflectors excluded as inconsistent (kept across :meth:`reset`).
     """
@@ -447,8 +445,9 @@ class IntegrityMonitor:
         One pass over the bearing Jacobian rows ``[dy/d², -dx/d², -1]`` (seed 000 §2.3,
         :func:`~agvnav.positioning.bounds.crlb`) in Python floats: the unit-noise
         information gives the PDOP, the information weighted by ``(d / map_std)^2`` the
-        covariance of a static fix whose bearings err only by the survey error (zero
-        without ``map_std`` or with fewer than three reflectors).
+        covariance of a static fix of the head whose bearings err only by the survey
+        error, carried to base_link through ``base = head - R(psi) mount`` (zero without
+        ``map_std`` or with fewer than three reflectors).
         """
         hx, hy = head[0], head[1]
         a = [0.0] * 6  # unit information, upper triangle 00 01 02 11 12 22
@@ -479,7 +478,19 @@ class IntegrityMonitor:
         if cov is None or not all(math.isfinite(v) for v in cov):
             return pdop2, np.zeros((3, 3))
         c00, c01, c02, c11, c12, c22 = cov
-        return pdop2, np.array([[c00, c01, c02], [c01, c11, c12], [c02, c12, c22]])
+        # head pose -> base_link pose: base = head - R(psi) mount, d base / d psi = (ta, tb)
+        ta, tb = self._mount_jacobian(head[2] - float(self.mount[2]))
+        b00 = c00 + 2.0 * ta * c02 + ta * ta * c22
+        b01 = c01 + ta * c12 + tb * c02 + ta * tb * c22
+        b11 = c11 + 2.0 * tb * c12 + tb * tb * c22
+        b02, b12 = c02 + ta * c22, c12 + tb * c22
+        return pdop2, np.array([[b00, b01, b02], [b01, b11, b12], [b02, b12, c22]])
+
+    def _mount_jacobian(self, psi: float) -> tuple[float, float]:
+        """``d (x, y)_base / d psi`` at base heading ``psi`` for a fixed head position (m/rad)."""
+        c, s = math.cos(psi), math.sin(psi)
+        mx, my = float(self.mount[0]), float(self.mount[1])
+        return s * mx + c * my, -c * mx + s * my
 
     def _in_sight(self, head: tuple[float, float, float]) -> int:
         """How many reflectors (not excluded) the head can see (:func:`reflectors_in_sight`)."""
@@ -496,7 +507,19 @@ class IntegrityMonitor:
         return int(np.count_nonzero(near))
 
     def _explained(self, head: tuple[float, float, float], n_used: int) -> float:
-        """Distinct reflectors used over those in sight of the head (1 when none is)."""
+        """Distinct reflectors used over those in sight of the head (1 when none is).
+
+        The line-of-sight test runs only when it can change the verdict: the reflectors
+        in range bound those in sight from above, so a fraction already above
+        ``min_explained_fraction`` over those in range stands.
+        """
+        hx, hy = head[0], head[1]
+        n_range = sum(1 for j, (rx, ry) in enumerate(self._rows)
+                      if math.hypot(rx - hx, ry - hy) <= self.max_range and j not in self.excluded)
+        if n_range == 0:
+            return 1.0
+        if n_used >= self.limits.min_explained_fraction * n_range:
+            return n_used / n_range
         n_sight = self._in_sight(head)
         return 1.0 if n_sight == 0 else n_used / n_sight
 
@@ -508,57 +531,101 @@ class IntegrityMonitor:
         return []
 
     def _crosscheck(self, t: float, x: np.ndarray, P: np.ndarray, odom: tuple[float, ...]) -> float:
-        """Mahalanobis distance² between the head position of the estimate and a ToTal fix (NaN if none)."""
+        """Mahalanobis distance² between the head position of the estimate and a ToTal fix (NaN if none).
+
+        The bearings of the best triple seen in the last revolution are brought to now
+        through the odometry (``z_now = centre + h(now) - h(then)``, seed 000 §2.2) in
+        Python floats, then triangulated with :func:`~agvnav.positioning.triangulate`.
+        """
         latest: dict[int, _Entry] = {}
-        for e in reversed(self._entries):
+        for e in reversed(self._entries):  # newest first (a late reflection may sit out of order)
             if t - e.t <= self.revolution_s and e.index not in latest:
                 latest[e.index] = e
         idx = self._best_triple(x, list(latest))
         if idx is None:
             return math.nan
-        xy, rad = self.xy[idx], self.radius[idx]
-        then = compose(x, between(np.asarray(odom), np.array([latest[i].odom for i in idx])))
-        h_then, _, d = bearing_model(then, self.mount, xy, rad)
-        h_now, _, _ = bearing_model(x, self.mount, xy, rad)
-        z = np.array([latest[i].bearing for i in idx])
-        centre = z + np.arcsin(np.clip(rad / np.maximum(d, 1e-12), 0.0, 1.0))  # edge -> centre (seed 000 §2.1)
-        z_now = centre + (h_now - h_then)
-        std = np.sqrt(self.bearing_std**2 + (self.map_std[idx] / np.maximum(d, 1e-12)) ** 2)
+        px, py, ppsi = float(x[0]), float(x[1]), float(x[2])
+        ox, oy, opsi = float(odom[0]), float(odom[1]), float(odom[2])
+        co, so = math.cos(opsi), math.sin(opsi)
+        cp, sp = math.cos(ppsi), math.sin(ppsi)
+        head_now = _head(x, self.mount)
+        z_now, std = [], []
+        for i in idx:
+            e = latest[i]
+            ex, ey = e.odom[0] - ox, e.odom[1] - oy  # odometric pose then, seen from now (between)
+            rx_, ry_ = co * ex + so * ey, -so * ex + co * ey
+            then = (px + cp * rx_ - sp * ry_, py + sp * rx_ + cp * ry_, ppsi + (e.odom[2] - opsi))
+            h_then, d_then = self._edge_bearing(then, i)
+            h_now, _ = self._edge_bearing(head_now, i, is_head=True)
+            r = float(self.radius[i])
+            centre = e.bearing + math.asin(min(max(r / max(d_then, 1e-12), 0.0), 1.0))  # edge -> centre
+            z_now.append(centre + (h_now - h_then))
+            std.append(math.sqrt(self.bearing_std**2 + (float(self.map_std[i]) / max(d_then, 1e-12)) ** 2))
         try:
-            fix = triangulate(xy, z_now, method="total", bearing_std=std)
+            fix = triangulate(self.xy[idx], np.array(z_now), method="total", bearing_std=np.array(std))
         except ValueError:  # e.g. collinear reflectors: no fix to compare with
             return math.nan
         if not bool(fix.valid) or fix.covariance is None or not np.all(np.isfinite(fix.covariance)):
             return math.nan
-        head = _head(x, self.mount)
-        diff = np.array([float(fix.x) - head[0], float(fix.y) - head[1]])
-        S = fix.covariance[:2, :2] + P[:2, :2]
-        if math.hypot(diff[0], diff[1]) <= self.limits.crosscheck_min_m:
+        dx, dy = float(fix.x) - head_now[0], float(fix.y) - head_now[1]
+        if math.hypot(dx, dy) <= self.limits.crosscheck_min_m:
             return 0.0  # agreement within the gross-error floor
-        try:
-            return float(diff @ np.linalg.solve(S, diff))
-        except np.linalg.LinAlgError:
+        s00 = float(fix.covariance[0, 0]) + float(P[0, 0])
+        s01 = float(fix.covariance[0, 1]) + float(P[0, 1])
+        s11 = float(fix.covariance[1, 1]) + float(P[1, 1])
+        det = s00 * s11 - s01 * s01
+        if not det > 0.0:
             return math.nan
+        return (s11 * dx * dx - 2.0 * s01 * dx * dy + s00 * dy * dy) / det
+
+    def _edge_bearing(self, pose: tuple[float, float, float], i: int, is_head: bool = False) -> tuple[float, float]:
+        """Leading-edge bearing (rad, head frame, wrapped) of reflector ``i`` and its distance (m).
+
+        ``pose`` is base_link's, or the head's with ``is_head`` (the scalar form of
+        :func:`~agvnav.positioning.identification.bearing_model`).
+        """
+        hx, hy, hpsi = pose if is_head else _head(np.asarray(pose), self.mount)
+        rx, ry = self._rows[i]
+        dx, dy = rx - hx, ry - hy
+        d = math.hypot(dx, dy)
+        r = float(self.radius[i])
+        edge = -math.asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * math.pi
+        return _wrap(math.atan2(dy, dx) - hpsi + edge), d
 
     def _best_triple(self, x: np.ndarray, rows: list[int]) -> list[int] | None:
         """The three of ``rows`` with the smallest position CRLB at ``x`` (seed 000 §2.3), None if none is good.
 
         Near the critical circle of a triple its linearised covariance is not honest
-        (issue 12), so a triple whose bound exceeds ``max_fix_std_m`` is not used.
+        (issue 12), so a triple whose bound exceeds ``max_fix_std_m`` is not used. The
+        bound of every triple at once: the unit-noise information of each reflector
+        (Jacobian rows ``[dy/d², -dx/d², -1]``) summed per triple, the trace of the
+        position block of its inverse in closed form.
         """
         if len(rows) < 3:
             return None
-        triples = np.array(list(itertools.combinations(rows[:8], 3)))
-        try:
-            cov = crlb(self.xy[triples], compose(x, self.mount), self.bearing_std)
-        except ValueError:
-            return None
-        score = cov[:, 0, 0] + cov[:, 1, 1]
-        score = np.where(np.isfinite(score), score, np.inf)
+        rows = rows[:8]
+        hx, hy, _ = _head(x, self.mount)
+        info = np.empty((len(rows), 6))
+        for k, j in enumerate(rows):
+            rx, ry = self._rows[j]
+            dx, dy = rx - hx, ry - hy
+            d2 = dx * dx + dy * dy
+            if d2 <= 0.0:
+                return None
+            j0, j1 = dy / d2, -dx / d2
+            info[k] = (j0 * j0, j0 * j1, -j0, j1 * j1, -j1, 1.0)
+        tri = _triples(len(rows))
+        a00, a01, a02, a11, a12, a22 = info[tri].sum(axis=1).T
+        c00 = a11 * a22 - a12 * a12
+        c11 = a00 * a22 - a02 * a02
+        det = a00 * c00 + a01 * (a02 * a12 - a01 * a22) + a02 * (a01 * a12 - a02 * a11)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            score = (c00 + c11) / det * self.bearing_std**2
+        score = np.where(np.isfinite(score) & (score >= 0.0), score, np.inf)
         k = int(np.argmin(score))
         if not math.sqrt(score[k]) <= self.limits.max_fix_std_m:
             return None
-        return [int(i) for i in triples[k]]
+        return [rows[i] for i in tri[k]]
 
     # ------------------------------------------------------------------ exclusion
     def _exclude(self) -> None:
@@ -611,6 +678,16 @@ class IntegrityMonitor:
         bad = {"geometry", "crosscheck", "rejections", "unexplained", "timing"}
         q_check = 0.5 if bad & set(self.reasons) or self.verdict == "degraded" else 1.0
         return q_count * q_nis * q_check
+
+
+_TRIPLES: dict[int, np.ndarray] = {}
+
+
+def _triples(n: int) -> np.ndarray:
+    """``(C(n, 3), 3)`` index triples of ``range(n)``, cached."""
+    if n not in _TRIPLES:
+        _TRIPLES[n] = np.array(list(itertools.combinations(range(n), 3)), dtype=np.intp)
+    return _TRIPLES[n]
 
 
 def _head(x: np.ndarray, mount: np.ndarray) -> tuple[float, float, float]:
