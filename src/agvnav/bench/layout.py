@@ -13,8 +13,10 @@ the RMS of the base_link position-error norm over the driven stretches: measured
 every moving control step, predicted by the EKF's own covariance recursion
 along the same stretches (:mod:`agvnav.layout.filtered`, time-averaged ``trace P_xy``
 of the actual error). ``crlb_rms_m`` is the single-revolution CRLB of the base_link
-pose on the same definition (one fix, no filtering); ``sim_over_pred`` their ratio
-(target: within 25 %).
+pose on the same definition (one fix, no filtering). ``sim_over_pred`` is the pooled
+ratio of simulated to predicted RMS (target: within 25 %) and ``sim_over_pred_ci95`` its
+95 % interval over the runs (route x seed): one run's RMS scatters widely, the error being
+correlated over metres of route (:func:`ratio_with_interval`).
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ from agvnav.layout import LayoutSpec, load_layout, plan_layout
 from agvnav.layout.generate import generated_hall
 from agvnav.layout.verify import verify_plan
 
-__all__ = ["TITLE", "run"]
+__all__ = ["TITLE", "ratio_with_interval", "run"]
 
 TITLE = "Reflector layout planner: reflectors planned vs regular spacing, predicted vs simulated RMS"
 
@@ -38,13 +40,45 @@ def _weighted_rms(rows: list[dict[str, Any]], key: str) -> float | None:
     return math.sqrt(sum(r["samples"] * r[key] ** 2 for r in use) / n) if n else None
 
 
-def _record(hall: str, spec: LayoutSpec, routes: Sequence[int], budget: float, seed: int) -> dict[str, Any]:
+def ratio_with_interval(rows: list[dict[str, Any]]) -> tuple[float | None, tuple[float, float] | None]:
+    """Simulated over predicted RMS pooled over the runs of ``rows`` and its 95 % jackknife interval.
+
+    Per run (route and seed) the sample-weighted sums of measured and predicted mean squares;
+    the ratio is ``sqrt(Σ measured / Σ predicted)``. One run's error is strongly correlated
+    along the route (the filter's memory), so the interval comes from leaving out one *run*
+    at a time: ``R ± 1.96 sqrt((n-1)/n Σ (R_(i) - mean)²)`` (None with fewer than 3 runs).
+    """
+    runs: dict[tuple[str, int], list[float]] = {}
+    for r in rows:
+        if r["predicted_rms_m"] is None:
+            continue
+        acc = runs.setdefault((r["route"], r["seed"]), [0.0, 0.0])
+        acc[0] += r["samples"] * r["measured_rms_m"] ** 2
+        acc[1] += r["samples"] * r["predicted_rms_m"] ** 2
+    if not runs:
+        return None, None
+    m = [v[0] for v in runs.values()]
+    p = [v[1] for v in runs.values()]
+    ratio = math.sqrt(sum(m) / sum(p))
+    n = len(m)
+    if n < 3:
+        return ratio, None
+    loo = [math.sqrt((sum(m) - m[i]) / (sum(p) - p[i])) for i in range(n)]
+    mean = sum(loo) / n
+    half = 1.96 * math.sqrt((n - 1) / n * sum((x - mean) ** 2 for x in loo))
+    return ratio, (ratio - half, ratio + half)
+
+
+def _record(hall: str, spec: LayoutSpec, routes: Sequence[int], seeds: int, budget: float,
+            seed: int) -> dict[str, Any]:
     plan = plan_layout(spec.copy_attached({"seed": seed}), time_budget_s=budget)
-    rows = verify_plan(plan, seed=seed, routes=routes)
+    rows = [row for k in range(seeds) for row in verify_plan(plan, seed=seed + 1000 * k, routes=routes)]
     both = [r for r in rows if r["predicted_rms_m"] is not None]
-    done = {r["route"] for r in rows if r["outcome"] == "completed"}
+    done = sum(1 for run in {(r["route"], r["seed"], r["outcome"]) for r in rows} if run[2] == "completed")
     sim, pred = _weighted_rms(both, "measured_rms_m"), _weighted_rms(both, "predicted_rms_m")
-    driven = sum(min(float(plan.poses.s[plan.poses.route == i].max()), spec.verify.max_length_m) for i in routes)
+    ratio, ci = ratio_with_interval(rows)
+    driven = seeds * sum(min(float(plan.poses.s[plan.poses.route == i].max()), spec.verify.max_length_m)
+                         for i in routes)
     return {
         "hall": hall,
         "route_km": round(sum(float(plan.poses.s[plan.poses.route == i].max()) for i in range(len(spec.routes))) / 1e3,
@@ -58,10 +92,11 @@ def _record(hall: str, spec: LayoutSpec, routes: Sequence[int], budget: float, s
         "driven_km": round(driven / 1e3, 3),
         "predicted_rms_m": pred,
         "simulated_rms_m": sim,
-        "sim_over_pred": round(sim / pred, 3) if sim is not None and pred else None,
+        "sim_over_pred": round(ratio, 3) if ratio is not None else None,
+        "sim_over_pred_ci95": f"{ci[0]:.2f}-{ci[1]:.2f}" if ci is not None else None,
         "crlb_rms_m": _weighted_rms(both, "crlb_rms_m"),
-        "relocalisations": sum({r["route"]: r["relocalisations"] for r in rows}.values()),
-        "sim_routes_completed": f"{len(done)}/{len(routes)}",
+        "relocalisations": sum({(r["route"], r["seed"]): r["relocalisations"] for r in rows}.values()),
+        "runs_completed": f"{done}/{seeds * len(routes)}",
         "runtime_s": round(plan.runtime_s, 2),
     }
 
@@ -69,14 +104,15 @@ def _record(hall: str, spec: LayoutSpec, routes: Sequence[int], budget: float, s
 def run(quick: bool, seed: int) -> list[dict[str, Any]]:
     """One record per hall: planned and baseline counts, target fraction, predicted and simulated RMS, runtime.
 
-    Quick: the warehouse's aisle 1 and cross aisle; the generated hall's two perimeter loops only
-    (planned and driven, 100 m each). Full: every route of both halls (the generated hall's cut at 100 m).
+    Quick: the warehouse's aisle 1 and cross aisle with 3 seeds each; the generated hall's two perimeter
+    loops only (planned, and driven 100 m each with 2 seeds). Full: every route of the warehouse with 4 seeds,
+    every route of the generated hall (cut at 100 m) once.
     """
     warehouse = load_layout("warehouse")
     gen = generated_hall(quick)
     return [
-        _record("warehouse_60x40", warehouse, [1, 4] if quick else range(len(warehouse.routes)),
+        _record("warehouse_60x40", warehouse, [1, 4] if quick else range(len(warehouse.routes)), 3 if quick else 4,
                 10.0 if quick else 30.0, seed),
         _record("generated_100x60" + (" (loops only)" if quick else ""), gen, range(len(gen.routes)),
-                5.0 if quick else 20.0, seed),
+                2 if quick else 1, 5.0 if quick else 20.0, seed),
     ]

@@ -120,7 +120,8 @@ def route_scenario(plan: LayoutPlan, route: int, seed: int) -> Scenario:
 def verify_plan(plan: LayoutPlan, seed: int | None = None, routes: Sequence[int] | None = None) -> list[dict[str, Any]]:
     """Drive the routes (indices ``routes``, default all) on the planned map; one record per route section.
 
-    Records: ``measured_rms_m`` and ``predicted_rms_m`` (RMS of the base_link position-error norm, m,
+    Records: ``route``, ``seed`` of its run (``seed`` + route index), ``section``, ``measured_rms_m`` and
+    ``predicted_rms_m`` (RMS of the base_link position-error norm, m,
     module docstring), ``crlb_rms_m`` (single-revolution CRLB, same definition), ``samples``,
     ``outcome`` and the run's ``relocalisations`` and ``inflations``. Deterministic for ``seed``
     (default the layout's).
@@ -135,7 +136,8 @@ def verify_plan(plan: LayoutPlan, seed: int | None = None, routes: Sequence[int]
     bearing_std = encoder_bearing_std(g.pulses_per_rev)  # the simulated head's noise: its quantisation
     for r in range(len(spec.routes)) if routes is None else routes:
         route = spec.routes[r]
-        sc = route_scenario(plan, r, seed + r)
+        run_seed = seed + r
+        sc = route_scenario(plan, r, run_seed)
         ser, outcome, counts = _drive(sc)
         moving = np.abs(ser["v"]) > 0.05 * spec.verify.speed_m_s
         ok = np.isin(ser["est_status"], (1.0, 2.0, 3.0)) & np.isfinite(ser["est_x"]) & (ser["t"] >= 1.0) & moving
@@ -157,6 +159,7 @@ def verify_plan(plan: LayoutPlan, seed: int | None = None, routes: Sequence[int]
             here = sec_pred == k
             rows.append({
                 "route": route.name,
+                "seed": run_seed,
                 "section": f"{k * section:.0f}-{(k + 1) * section:.0f} m",
                 "outcome": outcome,
                 "measured_rms_m": float(np.sqrt(np.mean(err2[m]))),
