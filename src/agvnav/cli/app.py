@@ -37,6 +37,10 @@ LAZY_COMMANDS: dict[str, tuple[str, str, str]] = {
         "agvnav.cli.localize", "localize",
         "Run a positioning method on a recorded log; write the estimate (CSV and MCAP), its figures and plots.",
     ),
+    "map": (
+        "agvnav.cli.mapping", "map_command",
+        "Map the reflectors from a recorded drive (SLAM); write a map YAML with per-reflector covariance.",
+    ),
     "report": (
         "agvnav.cli.report", "report",
         "Write one self-contained HTML report (plots, metrics, a time slider) of a run folder.",
