@@ -39,9 +39,9 @@ def map_command(
     json: bool = JSON_OPT,
 ) -> None:
     """Map the reflectors from a recorded drive (SLAM); write a map YAML with per-reflector covariance."""
-    from agvnav.logs import read_log  # noqa: PLC0415  (lazy: start-up time)
-    from agvnav.mapping import MappingOptions, build_map, map_summary, parse_anchor, write_map  # noqa: PLC0415
-    from agvnav.world import load_map  # noqa: PLC0415
+    from agvnav.logs import read_log  # lazy: start-up time
+    from agvnav.mapping import MappingOptions, build_map, map_summary, parse_anchor, write_map
+    from agvnav.world import load_map
 
     anchors = [parse_anchor(a) for a in anchor or []]
     existing = load_map(map) if map else None
@@ -51,7 +51,7 @@ def map_command(
     world = write_map(result, out, options.radius, existing)
     summary = {"log": str(log), "out": str(out), **map_summary(result)}
     if plot is not None:
-        from agvnav.report.mapping import plot_mapping  # noqa: PLC0415
+        from agvnav.report.mapping import plot_mapping
 
         plot_mapping(result, plot, existing)
         summary["plot"] = str(plot)
