@@ -126,3 +126,10 @@ def layout(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT,
 def safety(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Reactive safety: people crossing at/inside the stopping distance, a pallet avoided in a two-way lane."""
     _run("safety", json, quick, seed, wide)
+
+
+@bench_app.command("mapping")
+@user_errors
+def mapping(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+    """Reflector mapping (SLAM): reflectors found, spurious, map RMS and NEES per anchor; positioning on the map."""
+    _run("mapping", json, quick, seed)
