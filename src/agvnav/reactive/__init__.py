@@ -1,4 +1,5 @@
-"""Reactive control (issue 18): safety fields switched by speed, the slow/stop/resume reaction, local avoidance.
+"""Reactive control (issue 18; the outline's [seed003 §3.7]): safety fields switched by speed, the
+slow/stop/resume reaction, local avoidance.
 
 :mod:`~agvnav.reactive.fields` generates and selects protective/warning fields from the
 stopping distance; :mod:`~agvnav.reactive.reaction` is the state machine that turns
