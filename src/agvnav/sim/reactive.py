@@ -10,7 +10,7 @@ and :mod:`agvnav.reactive`:
   obstacle cuts at that instant removed (obstacles occlude the beam like walls);
 * :class:`ObstacleRangers`: the ultrasonic role echoing off obstacle faces as well as walls,
   keeping the reading of the stopping ranger for the reaction (the seed-004 rangers as a
-  simple reactive sensor);
+  simple reactive sensor; the robot's HY-SRF05 rangers serve "to avoid obstacles" [seed004 §II]);
 * :class:`ObstacleCollisionWatch`: the plant's failure is also ``collision`` when the footprint
   at the true pose touches an obstacle at that instant;
 * :class:`ReactiveAutopilot`: the :class:`~agvnav.sim.roles.PathAutopilot` of the route whose
