@@ -451,6 +451,10 @@ class MissionSpec(StrictModel):
     """creep speed of the final approach to a station."""
     turn_rate_deg_s: PosFloat = 30.0
     """turning rate on the spot (differential, tracked, mecanum vehicles)."""
+    point_switching: bool = False
+    """steered vehicles: guide C on runs driven forward (cruising), O on runs backing up (manoeuvres)."""
+    align_heading: bool = True
+    """vehicles turning on the spot: turn to the station heading after each stop."""
 
 
 class Scenario(SourcedModel):
