@@ -33,6 +33,8 @@ from agvnav.kinematics import (
 from agvnav.odometry import RULES, integrate_pose
 
 TITLE = "Kinematics: steps/s for 10,000 vehicles per call; odometry integrators vs the exact path"
+#: Columns a narrow terminal keeps, most important first (`--wide` shows all).
+PRIORITY = ("model", "integrator", "path", "steps_per_s", "max_error_m", "step_m", "step")
 BATCH = 10_000
 
 #: name -> (factory, how its step integrates, zero the steering rate so the exact arc branch runs)
