@@ -43,7 +43,7 @@ def test_display_units_pick_what_people_read():
     header, unit, scale = display_unit("rms_heading_rad", [0.001])
     assert (header, unit) == ("rms heading (deg)", "deg") and math.isclose(scale, 180 / math.pi)
     assert display_unit("batch_ns_per_fix", [1500.0])[0] == "batch (ns/fix)"
-    assert display_unit("curvature_jump_per_m", [0.5])[0] == "curvature jump (per m)"
+    assert display_unit("curvature_jump_per_m", [0.5])[:2] == ("curvature jump (1/m)", "1/m")
     assert display_unit("valid_fraction", [1.0]) == ("valid fraction", "", 1.0)
 
 

@@ -169,7 +169,7 @@ def display_unit(key: str, values: Sequence[Any] = ()) -> tuple[str, str, float]
             return f"{_words(head)} ({label}/{per})", f"{label}/{per}", 1.0
     for rate in _RATES:
         if key.endswith(rate):
-            return f"{_words(key[: -len(rate)])} (per {rate[5:]})", "", 1.0
+            return f"{_words(key[: -len(rate)])} (1/{rate[5:]})", f"1/{rate[5:]}", 1.0
     numbers = [abs(float(v)) for v in values if _is_number(v) and math.isfinite(float(v))]
     top = max(numbers, default=0.0)
     for suffix, label, scale in _FIXED:
