@@ -9,12 +9,13 @@ moving its frame. Argument parsing and printing only; registered lazily (``cli.a
 
 from __future__ import annotations
 
-import json as jsonlib
 from pathlib import Path
 
 import typer
 
+from agvnav.bench.common import json_document
 from agvnav.cli.errors import user_errors
+from agvnav.cli.progress import RunProgress
 
 LOG_ARG = typer.Argument(..., help="Recorded drive: an .mcap file or a folder with odometry.csv and reflections.csv.")
 ANCHOR_OPT = typer.Option(
@@ -47,7 +48,8 @@ def map_command(
     existing = load_map(map) if map else None
     recorded = read_log(log)
     options = MappingOptions(radius=radius_mm / 1000.0)
-    result = build_map(recorded, anchors, options, existing)
+    with RunProgress(f"map {log.name}", key=f"map {log.name}"):
+        result = build_map(recorded, anchors, options, existing)
     world = write_map(result, out, options.radius, existing)
     summary = {"log": str(log), "out": str(out), **map_summary(result)}
     if plot is not None:
@@ -56,7 +58,7 @@ def map_command(
         plot_mapping(result, plot, existing)
         summary["plot"] = str(plot)
     if json:
-        print(jsonlib.dumps(summary))
+        print(json_document("log", str(log), summary, None, None))
         return
     print(f"{len(world.reflectors)} reflectors ({summary['new_reflectors']} new), anchored by {result.anchor}; "
           f"odometry scale {result.scale:.5f} ± {result.scale_std:.5f}")
