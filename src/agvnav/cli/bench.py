@@ -130,6 +130,6 @@ def safety(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT,
 
 @bench_app.command("mapping")
 @user_errors
-def mapping(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT) -> None:
+def mapping(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Reflector mapping (SLAM): reflectors found, spurious, map RMS and NEES per anchor; positioning on the map."""
-    _run("mapping", json, quick, seed)
+    _run("mapping", json, quick, seed, wide)
