@@ -142,3 +142,14 @@ def test_laps_csv_units_come_from_the_reference(tmp_path):
     lines = units_path(path).read_text().splitlines()
     assert lines[0] == "column,unit,meaning" and lines[1].startswith("lap,-,")
     assert lines[2].startswith("with_landmarks_per_lap_m,m,") and lines[3] == "mystery,,not documented"
+
+
+def test_every_bench_command_takes_json_quick_seed_and_wide():
+    from typer.main import get_command
+
+    from agvnav.cli.bench import bench_app
+
+    group = get_command(bench_app)
+    for name, command in group.commands.items():
+        options = {p.name for p in command.params}
+        assert {"json", "quick", "seed", "wide"} <= options, (name, options)
