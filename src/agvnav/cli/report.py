@@ -12,6 +12,7 @@ import typer
 from rich.console import Console
 
 from agvnav.cli.errors import user_errors
+from agvnav.cli.progress import RunProgress
 from agvnav.report.html import write_html_report
 
 RUN_ARG = typer.Argument(..., help="A run folder written by agvnav simulate --out.")
@@ -23,5 +24,6 @@ def report(run_dir: Path = RUN_ARG, out: Path | None = OUT_OPT) -> None:
     """Write one self-contained HTML report (plots, metrics, a time slider) of a run folder."""
     if not (run_dir / "metrics.json").is_file():
         raise ValueError(f"{run_dir}: not a run folder (no metrics.json)")
-    path = write_html_report(run_dir, out)
+    with RunProgress(f"report {run_dir.name}", key="report"):
+        path = write_html_report(run_dir, out)
     Console(highlight=False).print(f"wrote {path}")
