@@ -74,7 +74,9 @@ def simulate(
     _prepare_out(out, force)
     with RunProgress(sc.name, _expected_sim_time(sc, built), "s simulated") as bar:
         result = run_scenario(sc, progress=bar.update)
-    written = save_result(result, out, plots=plots, force=force, report=report)
+    parts = ["plots"] * plots + ["report"] * report
+    with RunProgress(f"writing {out}", key=" ".join(["simulate save", *parts])):  # plots and report take seconds
+        written = save_result(result, out, plots=plots, force=force, report=report)
     if log is not None:
         try:
             from agvnav.logs import write_run_log
