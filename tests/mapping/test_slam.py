@@ -1,0 +1,114 @@
+"""Mapping on synthetic drives with a known truth: exact map, gauge, spurious rejection, an existing map, NEES."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import REFLECTORS, START, synthetic_drive
+from scipy.stats import chi2
+
+from agvnav.mapping import (
+    BaselineAnchor,
+    MappingOptions,
+    ScaleUnobservable,
+    StartPoseAnchor,
+    SurveyedAnchor,
+    build_map,
+    parse_anchor,
+)
+from agvnav.odometry import OdometryNoise
+from agvnav.world import Reflector, WorldMap
+
+FAST = {"steps": 240, "every": 3}
+
+
+def _nearest(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    d = np.hypot(*(xy[:, None, :] - REFLECTORS[None]).transpose(2, 0, 1))
+    return np.argmin(d, axis=1), np.min(d, axis=1)
+
+
+def test_noise_free_sightings_give_the_exact_map() -> None:
+    log, _ = synthetic_drive(**FAST)
+    res = build_map(log, [SurveyedAnchor(("A", "B"), REFLECTORS[:2], np.array([1e-6, 1e-6]))],
+                    MappingOptions(bearing_std=1e-6))
+    idx, dist = _nearest(res.xy)
+    assert sorted(idx.tolist()) == list(range(REFLECTORS.shape[0]))
+    assert dist.max() < 1e-9
+    assert res.scale == pytest.approx(1.0, abs=1e-9)
+    assert res.ids[idx.tolist().index(0)] == "A" and res.ids[idx.tolist().index(1)] == "B"
+
+
+def test_without_an_anchor_the_scale_is_unobservable() -> None:
+    log, _ = synthetic_drive(**FAST)
+    with pytest.raises(ScaleUnobservable, match="scale unobservable"):
+        build_map(log, [])
+
+
+def test_spurious_reflections_never_become_reflectors() -> None:
+    log, _ = synthetic_drive(seed=2, bearing_std=1e-4, noise=OdometryNoise(1e-5, 1e-5, 1e-5), clutter_per_step=1.0,
+                             **FAST)
+    res = build_map(log, [BaselineAnchor(tuple(REFLECTORS[0] + 0.1), tuple(REFLECTORS[2] - 0.1),
+                                         float(np.hypot(*(REFLECTORS[2] - REFLECTORS[0]))))],
+                    MappingOptions(bearing_std=1e-4))
+    idx, dist = _nearest(res.xy)
+    assert dist.max() < 0.1  # none spurious (a clutter "reflector" would be metres away)
+    assert sorted(idx.tolist()) == list(range(REFLECTORS.shape[0]))  # all found, once each
+
+
+def test_start_pose_anchor_uses_the_odometry_scale() -> None:
+    log, _ = synthetic_drive(**FAST)
+    res = build_map(log, [StartPoseAnchor(tuple(START.tolist()), scale_std=1e-6)], MappingOptions(bearing_std=1e-6))
+    _, dist = _nearest(res.xy)
+    assert dist.max() < 1e-5
+    assert res.anchor == "start_pose"
+
+
+def test_adding_to_an_existing_map_keeps_its_frame_and_ids() -> None:
+    log, _ = synthetic_drive(seed=4, bearing_std=1e-4, noise=OdometryNoise(1e-5, 1e-5, 1e-5), **FAST)
+    existing = WorldMap(tuple(Reflector(f"E{i}", *REFLECTORS[i], 0.04, 0.001) for i in range(3)))
+    res = build_map(log, [], MappingOptions(bearing_std=1e-4), existing=existing, start=START)
+    assert set(res.ids) >= {"E0", "E1", "E2"}
+    assert len(res.ids) == REFLECTORS.shape[0]
+    for i in range(3):  # refined within its prior, never moved with a new frame
+        j = res.ids.index(f"E{i}")
+        assert np.hypot(*(res.xy[j] - REFLECTORS[i])) < 0.003
+    new = [j for j, rid in enumerate(res.ids) if not rid.startswith("E")]
+    idx, dist = _nearest(res.xy[new])
+    assert sorted(idx.tolist()) == [3, 4, 5] and dist.max() < 0.01
+
+
+def _nees(seeds: range) -> tuple[float, float, float]:
+    values = []
+    for seed in seeds:
+        log, _ = synthetic_drive(seed=seed, bearing_std=2e-4, noise=OdometryNoise(1e-5, 1e-5, 1e-5), **FAST)
+        res = build_map(log, [SurveyedAnchor(("A", "B"), REFLECTORS[:2] + np.random.default_rng(seed).normal(
+            0.0, 0.002, (2, 2)), np.array([0.002, 0.002]))], MappingOptions(bearing_std=2e-4))
+        idx, _ = _nearest(res.xy)
+        for e, c in zip(res.xy - REFLECTORS[idx], res.covariance, strict=True):
+            values.append(float(e @ np.linalg.solve(c, e)))
+    # the surveyed reflectors' error moves the whole map: one run's reflectors share it, so the band
+    # counts 2 dof per run (conservative), not per reflector
+    n = len(seeds)
+    return float(np.mean(values)), chi2.ppf(0.005, 2 * n) / n, chi2.ppf(0.995, 2 * n) / n
+
+
+def test_reflector_covariances_are_consistent_small_monte_carlo() -> None:
+    mean, lo, hi = _nees(range(3))
+    assert lo < mean < hi
+
+
+@pytest.mark.slow
+def test_reflector_covariances_are_consistent_monte_carlo() -> None:
+    mean, lo, hi = _nees(range(20))
+    assert lo < mean < hi
+
+
+def test_anchor_parsing(tmp_path: object) -> None:
+    a = parse_anchor("baseline:0,0,10,0,10.001,2")
+    assert isinstance(a, BaselineAnchor) and a.std == pytest.approx(0.002)
+    s = parse_anchor("start_pose:1,2,90")
+    assert isinstance(s, StartPoseAnchor) and s.pose == pytest.approx((1.0, 2.0, np.pi / 2))
+    with pytest.raises(ValueError, match="unknown anchor"):
+        parse_anchor("gps:1,2")
+    with pytest.raises(ValueError, match="baseline"):
+        parse_anchor("baseline:1,2")
