@@ -13,6 +13,7 @@ import numpy as np
 
 from agvnav.layout.field import hall_field
 from agvnav.layout.plan import LayoutPlan, summary_rows
+from agvnav.layout.prediction import LayoutProblem, Prediction
 from agvnav.report.plots import pyplot
 from agvnav.world import save_map
 
@@ -35,7 +36,7 @@ def plot_layout_heatmap(plan: LayoutPlan, out: str | Path, worst: int = 10) -> P
     extent = (float(field.x[0]), float(field.x[-1]), float(field.y[0]), float(field.y[-1]))
     lo = max(float(np.nanmin(shown)), 1e-3) if np.isfinite(shown).any() else 1e-3
     im = axes[0].imshow(shown, origin="lower", extent=extent, cmap="viridis", norm=LogNorm(vmin=lo, vmax=cap))
-    fig.colorbar(im, ax=axes[0], label="predicted 3σ position error (mm)")
+    fig.colorbar(im, ax=axes[0], label=f"predicted 3σ position error (mm; top colour: ≥ {cap:.0f} or unobservable)")
     counts = np.where(field.count >= 0, field.count, np.nan).astype(float)
     im2 = axes[1].imshow(counts, origin="lower", extent=extent, cmap="magma", vmin=0)
     fig.colorbar(im2, ax=axes[1], label="visible reflectors")
@@ -68,11 +69,15 @@ def _draw_hall(ax: object, plan: LayoutPlan) -> None:
 
 
 def plan_record(plan: LayoutPlan) -> dict[str, Any]:
-    """The plan as a JSON-ready dict: table rows, bound, reflectors, failing route points."""
+    """The plan as a JSON-ready dict: target, table rows, bound, reflectors, failing route points (and why)."""
     pred = plan.prediction
     fail = np.flatnonzero(~pred.ok)
+    prob = plan.problem
     return {
         "name": plan.spec.name,
+        "target": plan.spec.target.model_dump(),
+        "sigma_definition": "sigma_pos: largest semi-axis of the CRLB position ellipse of one revolution (m); "
+                            "the target is 3 sigma",
         "table": summary_rows(plan),
         "baseline_spacing_m": plan.baseline_spacing_m,
         "greedy_cover": plan.result.n_greedy,
@@ -85,10 +90,24 @@ def plan_record(plan: LayoutPlan) -> dict[str, Any]:
             {"route": plan.spec.routes[int(plan.poses.route[k])].name, "s_m": float(plan.poses.s[k]),
              "x": float(plan.poses.pose[k, 0]), "y": float(plan.poses.pose[k, 1]), "visible": int(pred.count[k]),
              "sigma_pos_m": _finite(pred.sigma_pos[k]), "critical_distance_m": _finite(pred.critical[k]),
-             "spread_m": float(pred.spread[k])}
+             "spread_m": float(pred.spread[k]), "why": _why(prob, pred, int(k))}
             for k in fail
         ],
     }
+
+
+def _why(prob: LayoutProblem, pred: Prediction, k: int) -> list[str]:
+    """Which parts of the target route pose ``k`` misses (names as in the layout file's ``target:``)."""
+    out = []
+    if pred.count[k] < prob.min_visible:
+        out.append("min_visible")
+    if not pred.sigma_pos[k] <= prob.max_pos_sigma:
+        out.append("position_3sigma_m")
+    if not pred.sigma_heading[k] <= prob.max_heading_sigma:
+        out.append("heading_3sigma_deg")
+    if not pred.spread[k] >= prob.min_spread:
+        out.append("min_spread_m")
+    return out
 
 
 def _finite(v: float) -> float | None:
