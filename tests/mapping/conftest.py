@@ -9,6 +9,9 @@ and clutter (uniform random bearings) are seeded.
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -25,11 +28,11 @@ START = np.array([1.0, 2.0, 0.1])
 
 def synthetic_drive(seed: int = 0, bearing_std: float = 0.0, noise: OdometryNoise | None = None,
                     clutter_per_step: float = 0.0, steps: int = 500, every: int = 2,
-                    reflectors: np.ndarray = REFLECTORS) -> tuple[RecordedLog, np.ndarray]:
+                    reflectors: Any = REFLECTORS) -> tuple[RecordedLog, np.ndarray]:
     """``(log, true_poses)`` of the synthetic loop (module docstring)."""
     rng = np.random.default_rng(seed)
     dt = 0.1
-    t = np.arange(steps + 1) * dt
+    t = np.arange(steps + 1, dtype=np.float64) * dt
     dd = np.full(steps, 0.03)
     dth = 0.03 * (0.25 + 0.1 * np.sin(np.arange(steps) * 2 * np.pi / steps))  # ~ one loop, radius ~ 3-7 m
     true_inc = np.column_stack([dd, dth, np.zeros(steps)])
@@ -58,10 +61,11 @@ def synthetic_drive(seed: int = 0, bearing_std: float = 0.0, noise: OdometryNois
     settings = {"mount": MOUNT.tolist(), "pulses_per_rev": 65535, "max_range_m": 30.0,
                 "odometry_noise": list((noise or OdometryNoise(1e-6, 1e-6, 1e-6)).__dict__.values()),
                 "initial_pose": START.tolist()}
-    log = RecordedLog(t, meas_inc, rt_arr, rt_arr.copy(), np.array(rb), settings, truth=poses)
+    log = RecordedLog(np.asarray(t, dtype=np.float64), meas_inc, rt_arr, rt_arr.copy(), np.array(rb), settings, truth=poses)
     return log, poses
 
 
 @pytest.fixture
-def drive() -> tuple[RecordedLog, np.ndarray]:
-    return synthetic_drive()
+def syn() -> SimpleNamespace:
+    """The synthetic drive generator and its truth: ``drive(...)``, ``reflectors (6, 2)``, ``start (3,)``."""
+    return SimpleNamespace(drive=synthetic_drive, reflectors=REFLECTORS, start=START)

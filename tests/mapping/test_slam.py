@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+from typing import Any
+
 import numpy as np
 import pytest
-from conftest import REFLECTORS, START, synthetic_drive
 from scipy.stats import chi2
 
 from agvnav.mapping import (
@@ -19,7 +21,15 @@ from agvnav.mapping import (
 from agvnav.odometry import OdometryNoise
 from agvnav.world import Reflector, WorldMap
 
-FAST = {"steps": 240, "every": 3}
+STEPS, EVERY = 240, 3
+REFLECTORS = np.array([[0.0, 0.0], [10.0, -1.0], [11.0, 8.0], [4.0, 10.0], [-2.0, 6.0], [6.0, 4.5]])
+START = np.array([1.0, 2.0, 0.1])
+
+
+def synthetic_drive(syn: SimpleNamespace, seed: int = 0, bearing_std: float = 0.0, noise: OdometryNoise | None = None,
+                    clutter_per_step: float = 0.0) -> Any:
+    assert np.array_equal(syn.reflectors, REFLECTORS) and np.array_equal(syn.start, START)
+    return syn.drive(seed, bearing_std, noise, clutter_per_step, STEPS, EVERY)[0]
 
 
 def _nearest(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -27,8 +37,8 @@ def _nearest(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.argmin(d, axis=1), np.min(d, axis=1)
 
 
-def test_noise_free_sightings_give_the_exact_map() -> None:
-    log, _ = synthetic_drive(**FAST)
+def test_noise_free_sightings_give_the_exact_map(syn: SimpleNamespace) -> None:
+    log = synthetic_drive(syn)
     res = build_map(log, [SurveyedAnchor(("A", "B"), REFLECTORS[:2], np.array([1e-6, 1e-6]))],
                     MappingOptions(bearing_std=1e-6))
     idx, dist = _nearest(res.xy)
@@ -38,15 +48,14 @@ def test_noise_free_sightings_give_the_exact_map() -> None:
     assert res.ids[idx.tolist().index(0)] == "A" and res.ids[idx.tolist().index(1)] == "B"
 
 
-def test_without_an_anchor_the_scale_is_unobservable() -> None:
-    log, _ = synthetic_drive(**FAST)
+def test_without_an_anchor_the_scale_is_unobservable(syn: SimpleNamespace) -> None:
+    log = synthetic_drive(syn)
     with pytest.raises(ScaleUnobservable, match="scale unobservable"):
         build_map(log, [])
 
 
-def test_spurious_reflections_never_become_reflectors() -> None:
-    log, _ = synthetic_drive(seed=2, bearing_std=1e-4, noise=OdometryNoise(1e-5, 1e-5, 1e-5), clutter_per_step=1.0,
-                             **FAST)
+def test_spurious_reflections_never_become_reflectors(syn: SimpleNamespace) -> None:
+    log = synthetic_drive(syn, 2, 1e-4, OdometryNoise(1e-5, 1e-5, 1e-5), 1.0)
     res = build_map(log, [BaselineAnchor(tuple(REFLECTORS[0] + 0.1), tuple(REFLECTORS[2] - 0.1),
                                          float(np.hypot(*(REFLECTORS[2] - REFLECTORS[0]))))],
                     MappingOptions(bearing_std=1e-4))
@@ -55,17 +64,18 @@ def test_spurious_reflections_never_become_reflectors() -> None:
     assert sorted(idx.tolist()) == list(range(REFLECTORS.shape[0]))  # all found, once each
 
 
-def test_start_pose_anchor_uses_the_odometry_scale() -> None:
-    log, _ = synthetic_drive(**FAST)
+def test_start_pose_anchor_uses_the_odometry_scale(syn: SimpleNamespace) -> None:
+    log = synthetic_drive(syn)
     res = build_map(log, [StartPoseAnchor(tuple(START.tolist()), scale_std=1e-6)], MappingOptions(bearing_std=1e-6))
     _, dist = _nearest(res.xy)
     assert dist.max() < 1e-5
     assert res.anchor == "start_pose"
 
 
-def test_adding_to_an_existing_map_keeps_its_frame_and_ids() -> None:
-    log, _ = synthetic_drive(seed=4, bearing_std=1e-4, noise=OdometryNoise(1e-5, 1e-5, 1e-5), **FAST)
-    existing = WorldMap(tuple(Reflector(f"E{i}", *REFLECTORS[i], 0.04, 0.001) for i in range(3)))
+def test_adding_to_an_existing_map_keeps_its_frame_and_ids(syn: SimpleNamespace) -> None:
+    log = synthetic_drive(syn, 4, 1e-4, OdometryNoise(1e-5, 1e-5, 1e-5))
+    existing = WorldMap(tuple(Reflector(f"E{i}", float(REFLECTORS[i, 0]), float(REFLECTORS[i, 1]), 0.04, 0.001)
+                              for i in range(3)))
     res = build_map(log, [], MappingOptions(bearing_std=1e-4), existing=existing, start=START)
     assert set(res.ids) >= {"E0", "E1", "E2"}
     assert len(res.ids) == REFLECTORS.shape[0]
@@ -77,10 +87,10 @@ def test_adding_to_an_existing_map_keeps_its_frame_and_ids() -> None:
     assert sorted(idx.tolist()) == [3, 4, 5] and dist.max() < 0.01
 
 
-def _nees(seeds: range) -> tuple[float, float, float]:
+def _nees(syn: SimpleNamespace, seeds: range) -> tuple[float, float, float]:
     values = []
     for seed in seeds:
-        log, _ = synthetic_drive(seed=seed, bearing_std=2e-4, noise=OdometryNoise(1e-5, 1e-5, 1e-5), **FAST)
+        log = synthetic_drive(syn, seed, 2e-4, OdometryNoise(1e-5, 1e-5, 1e-5))
         res = build_map(log, [SurveyedAnchor(("A", "B"), REFLECTORS[:2] + np.random.default_rng(seed).normal(
             0.0, 0.002, (2, 2)), np.array([0.002, 0.002]))], MappingOptions(bearing_std=2e-4))
         idx, _ = _nearest(res.xy)
@@ -92,18 +102,18 @@ def _nees(seeds: range) -> tuple[float, float, float]:
     return float(np.mean(values)), chi2.ppf(0.005, 2 * n) / n, chi2.ppf(0.995, 2 * n) / n
 
 
-def test_reflector_covariances_are_consistent_small_monte_carlo() -> None:
-    mean, lo, hi = _nees(range(3))
+def test_reflector_covariances_are_consistent_small_monte_carlo(syn: SimpleNamespace) -> None:
+    mean, lo, hi = _nees(syn, range(2))
     assert lo < mean < hi
 
 
 @pytest.mark.slow
-def test_reflector_covariances_are_consistent_monte_carlo() -> None:
-    mean, lo, hi = _nees(range(20))
+def test_reflector_covariances_are_consistent_monte_carlo(syn: SimpleNamespace) -> None:
+    mean, lo, hi = _nees(syn, range(20))
     assert lo < mean < hi
 
 
-def test_anchor_parsing(tmp_path: object) -> None:
+def test_anchor_parsing() -> None:
     a = parse_anchor("baseline:0,0,10,0,10.001,2")
     assert isinstance(a, BaselineAnchor) and a.std == pytest.approx(0.002)
     s = parse_anchor("start_pose:1,2,90")
