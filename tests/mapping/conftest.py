@@ -61,7 +61,8 @@ def synthetic_drive(seed: int = 0, bearing_std: float = 0.0, noise: OdometryNois
     settings = {"mount": MOUNT.tolist(), "pulses_per_rev": 65535, "max_range_m": 30.0,
                 "odometry_noise": list((noise or OdometryNoise(1e-6, 1e-6, 1e-6)).__dict__.values()),
                 "initial_pose": START.tolist()}
-    log = RecordedLog(np.asarray(t, dtype=np.float64), meas_inc, rt_arr, rt_arr.copy(), np.array(rb), settings, truth=poses)
+    log = RecordedLog(np.asarray(t, dtype=np.float64), meas_inc, rt_arr, rt_arr.copy(), np.array(rb), settings,
+                      truth=poses)
     return log, poses
 
 
