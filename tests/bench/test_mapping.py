@@ -1,0 +1,47 @@
+"""bench mapping: anchors drawn from a map, the summary's NEES band and counts (the drives themselves are slow)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from agvnav.bench import mapping as bm
+from agvnav.mapping import BaselineAnchor, StartPoseAnchor, SurveyedAnchor
+from agvnav.world import load_builtin_map
+
+
+def test_anchors_use_the_two_farthest_reflectors_with_their_stated_errors() -> None:
+    world = load_builtin_map("lab")
+    a = bm._anchors(world, np.array([5.0, 2.0, 0.0]), np.random.default_rng(0))
+    s, b, p = a["surveyed2"], a["baseline"], a["start_pose"]
+    assert isinstance(s, SurveyedAnchor) and isinstance(b, BaselineAnchor) and isinstance(p, StartPoseAnchor)
+    assert a["none"] is None
+    i, j = (world.reflector_ids.index(k) for k in s.ids)
+    true = float(np.hypot(*(world.reflector_xy[i] - world.reflector_xy[j])))
+    assert true == pytest.approx(max(np.hypot(*(world.reflector_xy[m] - world.reflector_xy[n]))
+                                     for m in range(9) for n in range(9)))
+    assert abs(b.distance - true) < 0.005 and np.abs(s.xy - world.reflector_xy[[i, j]]).max() < 0.005
+
+
+def test_summary_pools_seeds_and_bands_nees_by_chi_square() -> None:
+    rows = [{"hall": "lab", "seed": s, "anchor": "baseline", "reflectors_true": 9, "reflectors_found": 9,
+             "spurious_created": 0, "map_rms_m": 0.001, "map_max_m": 0.002 + s * 1e-3, "nees_mean": 2.0,
+             "runtime_s": 1.0, "positioning_ratio": 1.1} for s in range(2)]
+    rows += [{"hall": "lab", "seed": s, "anchor": "none", "reflectors_true": 9, "reflectors_found": "unobservable"}
+             for s in range(2)]
+    out = bm._summary(rows)
+    base = next(r for r in out if r["anchor"] == "baseline")
+    assert base["reflectors_found"] == 18 and base["map_max_m"] == pytest.approx(0.003)
+    lo, hi = (float(v) for v in base["nees_band"].split("-"))
+    assert lo == pytest.approx(chi2.ppf(0.025, 36) / 18, abs=0.01) and hi == pytest.approx(chi2.ppf(0.975, 36) / 18,
+                                                                                            abs=0.01)
+    assert next(r for r in out if r["anchor"] == "none")["reflectors_found"] == "unobservable"
+
+
+@pytest.mark.slow
+def test_lab_record_finds_every_reflector() -> None:
+    rows = bm._record("lab", 0, with_positioning=False)
+    assert {r["anchor"] for r in rows} == {"surveyed2", "baseline", "start_pose", "none"}
+    base = next(r for r in rows if r["anchor"] == "baseline")
+    assert base["reflectors_found"] == 9 and base["spurious_created"] == 0
