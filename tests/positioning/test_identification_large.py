@@ -96,6 +96,17 @@ def test_local_search_finds_the_pose_on_a_dense_wall_map(n: int, pose: tuple[flo
     assert peak < 300 * 2**20
 
 
+def test_local_search_claims_no_pose_from_scattered_reflectors() -> None:
+    """Scattered reflectors break the neighbour assumption: whatever it returns, never a wrong pose as found."""
+    rng = np.random.default_rng(7)
+    xy = rng.uniform((0.0, 0.0), (40.0, 25.0), (150, 2))
+    truth = np.array([17.0, 11.0, 0.4])
+    z = _sweep(xy, truth, rng, 0.0)
+    res = initial_pose_search(z, xy, 0.04, MOUNT, SIGMA, max_range=30.0)
+    if res.found:
+        assert np.hypot(*(res.pose[:2] - truth[:2])) < 0.01 and res.n_explained >= 0.5 * z.size
+
+
 def test_local_search_reports_the_symmetry_of_an_even_rectangle() -> None:
     """Evenly spaced reflectors round a rectangle look the same after a half turn about its centre."""
     rng = np.random.default_rng(5)

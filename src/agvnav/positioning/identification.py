@@ -16,7 +16,9 @@ produced a reflection must be decided by the positioning side. Two situations:
   locally, in memory linear in its size: consecutive bearings on neighbouring
   reflectors (:mod:`agvnav.positioning.spatial`), chunked and with early rejection.
   That assumes reflections next to each other come from reflectors next to each other
-  (walls, racks); on a map of scattered, isolated reflectors it may find nothing.
+  (walls, racks); on a map of scattered, isolated reflectors it may find nothing. Not
+  having tried every triple, it reports a pose ``found`` only when the pose explains at
+  least :data:`LOCAL_MIN_FRACTION` of the bearings.
 
 The measurement model (:func:`bearing_model`) is the bearing, in the head frame, of
 the leading tangent edge of a cylindrical reflector of radius r seen from the head
@@ -60,6 +62,8 @@ FULL_SEARCH_MAX_CELLS = 20_000_000
 LOCAL_NEIGHBOURS = 2
 #: Triples of consecutive bearings the local search resects, spread around the revolution.
 LOCAL_CENTRES = 3
+#: The local search reports a pose found only when it explains at least this fraction of the bearings.
+LOCAL_MIN_FRACTION = 0.5
 #: Distinct best-scoring hypotheses the local search refines by Gauss-Newton.
 LOCAL_SEEDS = 16
 #: Hypotheses per bearing triple kept for scoring on every bearing (most early hits first).
@@ -305,7 +309,7 @@ class InitialPoseResult:
         Reflections explained by the best pose.
     found:
         True when one pose explains at least ``min_explained`` reflections and no other does
-        equally well.
+        equally well (on a large map searched locally, also at least half of them).
     ambiguous:
         True when two or more distinct poses explain the same, maximal number of
         reflections (e.g. a rotationally symmetric layout); ``alternatives`` lists them.
@@ -363,7 +367,8 @@ def initial_pose_search(
     coarse_tol = max(30.0 * bearing_std, 2e-3)
     n = xy.shape[0]
     n_full = len(_observation_triples(z.size, max_observation_triples)) * n * (n - 1) * (n - 2)
-    if n_full * max(n, z.size) <= FULL_SEARCH_MAX_CELLS:
+    local = n_full * max(n, z.size) > FULL_SEARCH_MAX_CELLS
+    if not local:
         hyps = _hypotheses(z, xy, rad, mount, max_observation_triples, max_range)
         if hyps.shape[0] == 0:
             return _not_found(z.size)
@@ -374,7 +379,7 @@ def initial_pose_search(
             return _not_found(z.size)
     refined = _refine_distinct(
         hyps, explained, z, xy, rad, mount, bearing_std, max_range, gate, position_tol, heading_tol, map_std,
-        local=n_full * max(n, z.size) > FULL_SEARCH_MAX_CELLS,
+        local=local,
     )
     if not refined:
         return _not_found(z.size)
@@ -388,6 +393,8 @@ def initial_pose_search(
     alternatives = np.array([r[0] for r in top])
     ambiguous = len(top) > 1
     found = (not ambiguous) and n >= min_explained
+    if local:  # not every triple was tried: a pose explaining few of the bearings is no proof
+        found = found and n >= LOCAL_MIN_FRACTION * z.size
     return InitialPoseResult(pose, cov, labels, int(n), found, ambiguous, alternatives)
 
 
