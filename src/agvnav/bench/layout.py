@@ -29,9 +29,15 @@ from agvnav.layout import LayoutSpec, load_layout, plan_layout
 from agvnav.layout.generate import generated_hall
 from agvnav.layout.verify import verify_plan
 
-__all__ = ["TITLE", "ratio_with_interval", "run"]
+__all__ = ["PRIORITY", "TITLE", "ratio_with_interval", "run"]
 
 TITLE = "Reflector layout planner: reflectors planned vs regular spacing, predicted vs simulated RMS"
+
+#: Columns a narrow terminal keeps, most important first.
+PRIORITY = (
+    "hall", "reflectors_planned", "reflectors_baseline", "fewer_than_baseline_pct", "route_fraction_meeting_target",
+    "predicted_rms_m", "simulated_rms_m", "sim_over_pred", "runtime_s", "route_km", "candidates",
+)
 
 
 def _weighted_rms(rows: list[dict[str, Any]], key: str) -> float | None:
