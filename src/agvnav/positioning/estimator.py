@@ -391,7 +391,7 @@ class StreamingEstimator:
         self._claimed[assoc.index] = t
         self._t_last_accept = t
         self._accept(t, z, assoc)
-        self.monitor.accepted(t, assoc.nis, assoc.index, z, self._odom_t, assoc.innovation)
+        self.monitor.accepted(t, assoc.nis, assoc.index, z, self._odom_t)
         self._watch_integrity(t)
         return True
 
@@ -499,7 +499,7 @@ class StreamingEstimator:
         self._t_last_accept = max(t, self._t_last_accept or t)
         self._accept(t, z, Association(j, y, nis, n_in, np.array(H_now), S, R))
         ox, oy, opsi = self._odom_t
-        self.monitor.accepted(t, nis, j, z, _fast.twist_step(ox, oy, opsi, *back)[:3], y)
+        self.monitor.accepted(t, nis, j, z, _fast.twist_step(ox, oy, opsi, *back)[:3])
         return True
 
     # ------------------------------------------------------------------ integrity (issue 12)

@@ -27,11 +27,12 @@ navigators report one:
   the estimate is built on late bearings (an uncompensated latency leaves it lagging
   ``v * latency`` behind with consistent innovations): ``"timing"``. A latency of a
   whole number of revolutions is invisible to this check;
-* per reflector, the exponentially weighted mean of its normalised innovations
-  ``y / sqrt(S)`` (weight 1/8, about 8 sightings): a reflector whose mean exceeds
-  ``exclude_sigmas`` and ``exclude_ratio`` times the RMS of the other reflectors'
-  means is inconsistent with the rest of the map (moved, or a reflection off a shiny
-  surface beside it) and is *excluded*: :attr:`IntegrityMonitor.excluded`, which the
+* per reflector, the exponentially weighted mean of its NIS ``y^2 / S`` (weight 1/8,
+  about 8 sightings; squared, so a bias that changes sign as the vehicle moves still
+  counts): a reflector whose mean exceeds ``exclude_sigmas^2`` and ``exclude_ratio^2``
+  times the mean of the other reflectors' is inconsistent with the rest of the map
+  (moved, or a reflection off a shiny surface beside it) and is *excluded*:
+  :attr:`IntegrityMonitor.excluded`, which the
   estimator never associates again (at most ``max_excluded``, and never below
   ``min_reflectors + 1`` others in view; fault detection and exclusion as RAIM does
   for satellites);
@@ -139,7 +140,7 @@ class IntegrityLimits:
     inflation: float = 4.0
     recover_s: float = 1.0
     max_latency_s: float = 0.01
-    exclude_sigmas: float = 2.0
+    exclude_sigmas: float = 1.75
     exclude_ratio: float = 3.0
     max_excluded: int = 2
     enabled: bool = True
@@ -320,7 +321,7 @@ class IntegrityMonitor:
         self._rejects: deque[float] = deque()
         self._rows = [(float(a), float(b)) for a, b in self.xy]
         self._clock = _HeadClock(self.revolution_s, self.limits.max_latency_s * 2.0 * math.pi / self.revolution_s)
-        self._mean_nu = [0.0] * self.xy.shape[0]  # EWMA of y / sqrt(S) per reflector
+        self._mean_nu = [0.0] * self.xy.shape[0]  # EWMA of the NIS y^2 / S per reflector
         self._n_nu = [0] * self.xy.shape[0]
         self.excluded: tuple[int, ...] = ()
         self.reset()
@@ -343,23 +344,16 @@ class IntegrityMonitor:
         self._mean_nu = [0.0] * self.xy.shape[0]
         self._n_nu = [0] * self.xy.shape[0]
 
-    def accepted(
-        self, t: float, nis: float, index: int, bearing: float, odom: tuple[float, ...], innovation: float = math.nan
-    ) -> None:
-        """One accepted reflection at ``t`` (s): its NIS, reflector row, edge bearing (rad), odometric pose.
-
-        ``innovation`` (rad) gives the sign of ``y / sqrt(S) = sign(y) sqrt(nis)`` for the
-        per-reflector consistency (NaN: not tracked).
-        """
+    def accepted(self, t: float, nis: float, index: int, bearing: float, odom: tuple[float, ...]) -> None:
+        """One accepted reflection at ``t`` (s): its NIS, reflector row, edge bearing (rad), odometric pose."""
         on_time = self._clock.on_time(t, bearing)
         self._entries.append(_Entry(t, float(nis), int(index), float(bearing), (odom[0], odom[1], odom[2]), on_time))
         while self._entries and t - self._entries[0].t > self.limits.window_s:
             self._entries.popleft()
-        if math.isfinite(innovation) and math.isfinite(nis):
+        if math.isfinite(nis):
             j = int(index)
-            nu = math.copysign(math.sqrt(nis), innovation)
             self._n_nu[j] += 1
-            self._mean_nu[j] += (nu - self._mean_nu[j]) / min(self._n_nu[j], 8)
+            self._mean_nu[j] += (nis - self._mean_nu[j]) / min(self._n_nu[j], 8)
 
     @property
     def used(self) -> tuple[int, ...]:
@@ -636,11 +630,10 @@ class IntegrityMonitor:
         seen = [j for j in {e.index for e in self._entries} if self._n_nu[j] >= 8]
         if len(seen) < lim.min_reflectors + 2:
             return
-        worst = max(seen, key=lambda j: abs(self._mean_nu[j]))
-        others = [self._mean_nu[j] ** 2 for j in seen if j != worst]
-        rms = math.sqrt(sum(others) / len(others))
-        m = abs(self._mean_nu[worst])
-        if m > lim.exclude_sigmas and m > lim.exclude_ratio * rms:
+        worst = max(seen, key=lambda j: self._mean_nu[j])
+        others = sum(self._mean_nu[j] for j in seen if j != worst) / (len(seen) - 1)
+        m = self._mean_nu[worst]
+        if m > lim.exclude_sigmas**2 and m > lim.exclude_ratio**2 * others:
             self.excluded = (*self.excluded, worst)
             self._entries = deque(e for e in self._entries if e.index != worst)
             self._n_nu = [0] * len(self._n_nu)  # judge the rest afresh
