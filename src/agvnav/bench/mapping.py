@@ -184,7 +184,8 @@ def _summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def run(quick: bool, seed: int) -> list[dict[str, Any]]:
-    """Per hall, seed and anchor one record, then one summary record per hall and anchor.
+    """Per hall, seed and anchor one record, then one summary record per hall and anchor, then the
+    solver comparison (:func:`compare_solvers`, GTSAM rows only where it is installed).
 
     ``quick``: 2 seeds per hall; else 10.
     """
@@ -197,4 +198,126 @@ def run(quick: bool, seed: int) -> list[dict[str, Any]]:
         for key in ("map_rms_m", "map_max_m", "nees_mean", "positioning_rms_mapped_m", "positioning_rms_true_m"):
             if isinstance(r.get(key), float):
                 r[key] = float(f"{r[key]:.3g}") if math.isfinite(r[key]) else None
-    return rows + _summary(rows)
+    return rows + _summary(rows) + compare_solvers(seed)
+
+
+def _comparison_problem(seed: int, n_poses: int) -> dict[str, Any]:
+    """A planar loop with point reflectors seen from every pose (bearings 1e-4 rad, odometry noise):
+    the same problem for both solvers, scale held at 1 (GTSAM's Pose2 graph has no scale)."""
+    rng = np.random.default_rng([seed, 170])
+    lm = np.array([[0.0, 0.0], [10.0, -1.0], [11.0, 8.0], [4.0, 10.0], [-2.0, 6.0], [6.0, 4.5], [14.0, 3.0]])
+    ang = np.linspace(0.0, 2.0 * np.pi, n_poses, endpoint=False)
+    poses = np.column_stack([5.0 + 4.0 * np.cos(ang), 4.0 + 3.0 * np.sin(ang), ang + np.pi / 2])
+    odo_std = np.array([0.002, 0.002, 0.002])
+    z = np.array([np.asarray(_between(poses[k], poses[k + 1])) for k in range(n_poses - 1)])
+    z_meas = z + rng.normal(0.0, 1.0, z.shape) * odo_std
+    sigma = 1e-4
+    k_grid, j_grid = np.meshgrid(np.arange(n_poses), np.arange(lm.shape[0]), indexing="ij")
+    k_idx, j_idx = k_grid.ravel(), j_grid.ravel()
+    d = lm[j_idx] - poses[k_idx, :2]
+    bearing = np.arctan2(d[:, 1], d[:, 0]) - poses[k_idx, 2] + rng.normal(0.0, sigma, k_idx.size)
+    init = np.zeros_like(poses)
+    init[0] = poses[0]
+    for k in range(n_poses - 1):
+        c, s = np.cos(init[k, 2]), np.sin(init[k, 2])
+        init[k + 1] = [init[k, 0] + c * z_meas[k, 0] - s * z_meas[k, 1],
+                       init[k, 1] + s * z_meas[k, 0] + c * z_meas[k, 1], init[k, 2] + z_meas[k, 2]]
+    return {"truth_poses": poses, "truth_lm": lm, "z": z_meas, "odo_std": odo_std, "k": k_idx, "j": j_idx,
+            "bearing": bearing, "sigma": sigma, "init_poses": init, "init_lm": lm + rng.normal(0.0, 0.3, lm.shape)}
+
+
+def _between(a: np.ndarray, b: np.ndarray) -> list[float]:
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return [c * dx + s * dy, -s * dx + c * dy, math.remainder(b[2] - a[2], 2.0 * math.pi)]
+
+
+def _solve_scipy(p: dict[str, Any]) -> tuple[np.ndarray, float]:
+    from agvnav.mapping.graph import (  # noqa: PLC0415 - only this comparison builds a graph by hand
+        BearingFactors,
+        FactorGraph,
+        OdometryFactors,
+        PosePriors,
+        ReflectorPriors,
+    )
+    from agvnav.mapping.solve import solve  # noqa: PLC0415
+
+    K, N = p["init_poses"].shape[0], p["init_lm"].shape[0]
+    t0 = time.perf_counter()
+    e = np.arange(K - 1)
+    W = np.broadcast_to(np.diag(1.0 / p["odo_std"]), (K - 1, 3, 3)).copy()
+    g = FactorGraph(
+        K, N, OdometryFactors(e, e + 1, p["z"], W),
+        BearingFactors(p["k"], p["j"], np.zeros((p["k"].size, 3)), p["bearing"], np.full(p["k"].size, p["sigma"]),
+                       np.zeros(3)),
+        PosePriors(np.array([0]), p["truth_poses"][:1], np.eye(3)[None] * 1e4),
+        ReflectorPriors(np.array([0, 1]), p["truth_lm"][:2], np.broadcast_to(np.eye(2) * 1e3, (2, 2, 2)).copy()),
+        scale_prior=(1.0, 1e-9))
+    sol = solve(g, g.pack(p["init_poses"], p["init_lm"], 1.0), max_iterations=100)
+    _, lm, _ = g.unpack(sol.x)
+    return lm, time.perf_counter() - t0
+
+
+def _solve_gtsam(p: dict[str, Any], incremental: bool) -> tuple[np.ndarray, float]:
+    import gtsam  # type: ignore[import-not-found]  # noqa: PLC0415 - optional (the slam extra)
+
+    K, N = p["init_poses"].shape[0], p["init_lm"].shape[0]
+    X, L = gtsam.symbol_shorthand.X, gtsam.symbol_shorthand.L
+    t0 = time.perf_counter()
+    odo_noise = gtsam.noiseModel.Diagonal.Sigmas(np.asarray(p["odo_std"], dtype=float))
+    b_noise = gtsam.noiseModel.Isotropic.Sigma(1, p["sigma"])
+    graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
+    graph.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*p["truth_poses"][0]),
+                                     gtsam.noiseModel.Isotropic.Sigma(3, 1e-4)))
+    for j in (0, 1):
+        graph.add(gtsam.PriorFactorPoint2(L(j), p["truth_lm"][j], gtsam.noiseModel.Isotropic.Sigma(2, 1e-3)))
+    isam = gtsam.ISAM2() if incremental else None
+    seen: set[int] = set()
+    by_pose: dict[int, list[int]] = {}
+    for r, k in enumerate(p["k"].tolist()):
+        by_pose.setdefault(k, []).append(r)
+    for k in range(K):
+        values.insert(X(k), gtsam.Pose2(*p["init_poses"][k]))
+        if k:
+            graph.add(gtsam.BetweenFactorPose2(X(k - 1), X(k), gtsam.Pose2(*p["z"][k - 1]), odo_noise))
+        for r in by_pose.get(k, []):
+            j = int(p["j"][r])
+            if j not in seen:
+                seen.add(j)
+                values.insert(L(j), p["init_lm"][j])
+            graph.add(gtsam.BearingFactor2D(X(k), L(j), gtsam.Rot2(float(p["bearing"][r])), b_noise))
+        if isam is not None and (k % 10 == 9 or k == K - 1):
+            isam.update(graph, values)
+            graph, values = gtsam.NonlinearFactorGraph(), gtsam.Values()
+    if isam is not None:
+        for _ in range(3):  # a few more relinearisations at the end, as a batch would iterate
+            isam.update()
+        est = isam.calculateEstimate()
+    else:
+        params = gtsam.LevenbergMarquardtParams()
+        params.setMaxIterations(100)
+        est = gtsam.LevenbergMarquardtOptimizer(graph, values, params).optimize()
+    lm = np.array([np.asarray(est.atPoint2(L(j))) for j in range(N)])
+    return lm, time.perf_counter() - t0
+
+
+def compare_solvers(seed: int = 0, n_poses: int = 400) -> list[dict[str, Any]]:
+    """SciPy sparse LM (this package) against GTSAM's LM and iSAM2 on one problem: map RMS and time.
+
+    GTSAM is optional (``pip install gtsam``, 4.3 wheels); without it only the SciPy row.
+    """
+    p = _comparison_problem(seed, n_poses)
+    rows = []
+    solvers: list[tuple[str, Any]] = [("scipy_sparse_lm", _solve_scipy)]
+    try:
+        import gtsam  # noqa: F401, PLC0415
+
+        solvers += [("gtsam_lm", lambda q: _solve_gtsam(q, False)), ("gtsam_isam2", lambda q: _solve_gtsam(q, True))]
+    except ImportError:
+        pass
+    for name, fn in solvers:
+        lm, secs = fn(p)
+        err = np.hypot(*(lm - p["truth_lm"]).T)
+        rows.append({"solver": name, "poses": n_poses, "bearings": int(p["k"].size),
+                     "map_rms_m": float(np.sqrt(np.mean(err ** 2))), "runtime_s": round(secs, 3)})
+    return rows
