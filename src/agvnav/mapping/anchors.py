@@ -162,7 +162,9 @@ def match_surveyed(mapped: F64, surveyed: F64, tolerance: float = 0.2,
     Every pair of surveyed reflectors is tried against every pair of mapped ones whose
     distance agrees within ``scale_tolerance`` (relative) plus ``tolerance``; each gives a
     similarity transform (rotation, translation, scale), and the one that brings the most
-    surveyed reflectors within ``tolerance`` (m) of a mapped one wins.
+    surveyed reflectors within ``tolerance`` (m) of a mapped one wins; among equals, the one that
+    moves the mapped points least (with two surveyed reflectors every pair at their distance
+    matches, and the provisional map is in the start pose's frame, usually close to the site's).
 
     Returns ``(index (S,), T)``: the mapped row of each surveyed reflector (-1: unmatched) and
     ``T = [a, b, tx, ty]`` mapping a mapped point ``p`` to ``[[a, -b], [b, a]] p + t`` in the
@@ -186,7 +188,10 @@ def match_surveyed(mapped: F64, surveyed: F64, tolerance: float = 0.2,
                     idx = np.argmin(d, axis=1)
                     ok = d[np.arange(S), idx] <= tolerance
                     idx = np.where(ok, idx, -1)
-                    score = (int(ok.sum()), -float(np.sum(d[np.arange(S), np.argmin(d, axis=1)][ok])))
+                    # ties (two surveyed reflectors match any pair at their distance): the transform
+                    # that moves the provisional map least (its frame is the start pose's) wins
+                    move = float(np.sum(np.hypot(*(moved - mapped).T)))
+                    score = (int(ok.sum()), -move)
                     if best is None or score > (best[0], best[1]):
                         best = (score[0], score[1], idx.astype(np.int64), T)
     if best is None or best[0] < 2:

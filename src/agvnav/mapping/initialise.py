@@ -216,7 +216,8 @@ def track_reflections(directions: F64, times: F64, gate: float = 0.02, max_gap: 
             active.append(best)
         else:
             dt = t - last_t[best]
-            rate[best] = math.remainder(d - last_d[best], 2.0 * math.pi) / dt if dt > 0.0 else rate[best]
+            if dt > 0.0:  # smoothed: one revolution's heading noise must not swing the extrapolation
+                rate[best] = 0.5 * rate[best] + 0.5 * math.remainder(d - last_d[best], 2.0 * math.pi) / dt
             last_t[best], last_d[best] = t, d
         track[k] = best
     return track
@@ -224,11 +225,12 @@ def track_reflections(directions: F64, times: F64, gate: float = 0.02, max_gap: 
 
 def initialise_from_tracks(heads: F64, bearings: F64, times: F64, radius: float,
                            options: InitialiseOptions | None = None, direction: int = 1,
-                           gate: float = 0.02) -> list[NewReflector]:
+                           gate: float = 0.03, tolerance: float = 0.1) -> list[NewReflector]:
     """Reflectors triangulated from tracks (:func:`track_reflections`) of at least ``min_sightings``
     reflections spanning ``min_baseline`` m of head travel and ``min_angle_spread`` of direction; the
     rays of each are intersected by least squares and the support is the track's rays within
-    ``tolerance`` of the point (spurious reflections form no such track)."""
+    ``tolerance`` (m; dead-reckoned headings drift along a track) of the point (spurious reflections
+    form no such track)."""
     opt = options or InitialiseOptions()
     out: list[NewReflector] = []
     if bearings.shape[0] < opt.min_sightings:
@@ -246,7 +248,7 @@ def initialise_from_tracks(heads: F64, bearings: F64, times: F64, radius: float,
             continue
         centre = triangulate_rays(origins[sup], dirs[sup])
         perp, along = ray_distances(centre, origins[sup], dirs[sup])
-        sup = sup[(perp <= opt.tolerance) & (along > opt.min_range) & (along < opt.max_range)]
+        sup = sup[(perp <= tolerance) & (along > opt.min_range) & (along < opt.max_range)]
         if sup.size < opt.min_sightings:
             continue
         centre = triangulate_rays(origins[sup], dirs[sup])

@@ -250,6 +250,7 @@ def front_end(log: Any, start: F64 | None = None, options: MappingOptions | None
     assoc = np.full(B, -1, dtype=np.int64)
     pose_prior = PosePriors(np.array([0]), poses[:1].copy(), whitener(np.diag([1e-6, 1e-6, 1e-6])[None]))
     solved_to = 0
+    lam_o = opt.front_odometry_var
     pool = np.zeros(0, dtype=np.int64)
     t_start, t_end = float(drive.keyframe_t[0]), float(drive.keyframe_t[-1])
     n_chunks = max(1, math.ceil((t_end - t_start) / opt.chunk_s))
@@ -291,14 +292,19 @@ def front_end(log: Any, start: F64 | None = None, options: MappingOptions | None
         if added and landmarks.shape[0]:
             n = k_hi + 1
             heads = head_poses(poses, drive.refl_keyframe, drive.refl_offset, drive.mount)
-            sig = _sigma_eff(drive, sigma, heads, landmarks, assoc, opt.front_odometry_var)
+            sig = _sigma_eff(drive, sigma, heads, landmarks, assoc, lam_o)
             g = _graph(drive, n, landmarks, assoc, sig, opt, pose_prior, rpriors, scale_prior=(1.0, 1e-6),
-                       odo_var=opt.front_odometry_var)
+                       odo_var=lam_o)
             free = np.ones(g.n_vars, dtype=bool)
             free[: 3 * int(np.searchsorted(drive.keyframe_t, hi - opt.window_s))] = False
             free[-1] = False
             sol = solve(g, g.pack(poses[:n], landmarks, 1.0), max_iterations=opt.front_iterations, free=free,
                         huber=3.0)
+            e, _ = linearize(g, sol.x, jacobian=False)
+            n_o, n_b = 3 * (n - 1), int(g.bearings.pose.size)
+            if n_b >= 100 and landmarks.shape[0] >= 3:  # variance components, as in the batch
+                red = max(0.05, 1.0 - g.n_vars / max(e.size, 1))
+                lam_o = float(np.clip(lam_o * float(e[:n_o] @ e[:n_o]) / (n_o * red), 1e-4, 10.0))
             p, landmarks, _ = g.unpack(sol.x)
             poses[:n] = p
             landmarks, assoc, ids = _merge(landmarks.copy(), assoc, ids, opt.merge_distance)
