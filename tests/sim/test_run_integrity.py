@@ -10,7 +10,7 @@ import agvnav.sim.build as build_mod
 import agvnav.sim.run as run_mod
 from agvnav.guidance import GuidanceError
 from agvnav.sim import simulate
-from agvnav.sim.integrity import CHI2_3_95, longest_run, nees, silent_mask, stop_episodes
+from agvnav.sim.integrity import CHI2_3_95, integrity_figures, longest_run, nees, silent_mask, stop_episodes
 from agvnav.world.scenario import parse_scenario
 
 
@@ -114,6 +114,23 @@ def test_no_fault_run_completes_with_its_integrity_figures(short_scenario):
     assert fig["stop_demands"] == 0 and fig["time_stopped_for_positioning_s"] == 0.0
     assert fig["max_true_lateral_error_m"] == pytest.approx(np.max(np.abs(r.series["lateral_error"])))
     assert fig["nees_samples"] == r.series["t"].size and math.isfinite(fig["nees_mean"])
+    used = r.series["est_reflectors_used"]
+    assert fig["reflectors_used_min"] == float(np.nanmin(used)) and fig["reflectors_used_p50"] >= 3.0
+    assert fig["n_dropped"] == 0 and np.all(r.series["est_n_dropped"] == 0.0)
+
+
+def test_reflectors_used_and_dropped_readings_in_the_figures():
+    s = _series(n=11)
+    s.update(lateral_error=np.zeros(11), v_cmd=np.zeros(11), guard_level=np.zeros(11), est_quality=np.full(11, 0.9),
+             est_reflectors_used=np.array([np.nan, 3, 4, 4, 5, 5, 5, 6, 6, 6, 6], float),
+             est_n_dropped=np.array([0, 0, 1, 1, 1, 2, 2, 2, 2, 3, np.nan], float))
+    fig = integrity_figures(s, np.zeros(11), 0.5)
+    assert fig["reflectors_used_min"] == 3.0 and fig["reflectors_used_p50"] == 5.0
+    assert fig["reflectors_used_p95"] == pytest.approx(np.percentile([3, 4, 4, 5, 5, 5, 6, 6, 6, 6], 95))
+    assert fig["n_dropped"] == 3  # the count at the end (NaN samples skipped)
+    del s["est_reflectors_used"], s["est_n_dropped"]  # an older recording: no such columns
+    fig = integrity_figures(s, np.zeros(11), 0.5)
+    assert fig["reflectors_used_min"] is None and fig["n_dropped"] is None
 
 
 class _FailingFollower:
