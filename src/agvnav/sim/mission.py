@@ -21,6 +21,8 @@ series get ``leg`` (index of the job being driven), ``nodes_passed`` and
 from __future__ import annotations
 
 import bisect
+import dataclasses
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -32,7 +34,9 @@ from numpy.typing import NDArray
 
 from agvnav.actuators import SpeedProfile
 from agvnav.geometry import wrap_angle_scalar
-from agvnav.guidance.paths import Path
+from agvnav.guidance import GuidanceError, make_follower
+from agvnav.guidance.paths import LineSegment, Path, Segment
+from agvnav.kinematics.differential import wheel_speeds_unchecked
 from agvnav.routes.mission import Job, MissionError, MissionPlan, chain_mission, plan_legs, speed_limits
 from agvnav.routes.network import EDGE_KINDS, RouteNetwork, load_network
 from agvnav.routes.planning import Planner, VehicleLimits
@@ -40,15 +44,31 @@ from agvnav.sim.roles import PathAutopilot
 from agvnav.world.scenario import Scenario, ScenarioError
 
 __all__ = [
-    "LimitedSpeedProfile", "MissionAutopilot", "StationStop", "mission_autopilot", "mission_duration",
-    "mission_figures", "plan_mission", "route_tracking", "run_bounds", "tracked_point",
+    "ALIGN_WHEELBASES",
+    "MIN_APPROACH_M",
+    "HeadingAligner",
+    "LimitedSpeedProfile",
+    "MissionAutopilot",
+    "StationStop",
+    "Stint",
+    "load_mission_network",
+    "mission_autopilot",
+    "mission_duration",
+    "mission_figures",
+    "plan_mission",
+    "route_tracking",
+    "run_bounds",
+    "stints",
+    "sub_path",
+    "tracked_point",
 ]
 
 #: A node counts as passed once the progress is within this distance (m) of it (a station stop ends short of it).
 NODE_REACHED_M = 0.05
 
 
-def _network(sc: Scenario) -> RouteNetwork:
+def load_mission_network(sc: Scenario) -> RouteNetwork:
+    """The route network of mission scenario ``sc`` (file relative to the scenario, or a shipped name)."""
     m = sc.mission
     assert m is not None
     p = FsPath(m.network)
@@ -66,7 +86,7 @@ def plan_mission(sc: Scenario) -> MissionPlan:
     """Plan the scenario's mission into one chained path; errors name the mission key and line."""
     m = sc.mission
     assert m is not None
-    net = _network(sc)
+    net = load_mission_network(sc)
     if m.start not in net.nodes:
         raise sc.error(("mission", "start"), f"unknown station {m.start!r} in network {net.name!r}")
     limits = VehicleLimits(sc.vehicle.model, sc.traction.speed_m_s, m.lateral_accel_m_s2,
@@ -101,13 +121,16 @@ class LimitedSpeedProfile(SpeedProfile):
     """
 
     limit: Callable[[], float] | None = None
+    carry_on: float = 0.0
+    """distance (m) the vehicle drives on past the end of the current path (a handover): no braking for it."""
 
     def command(self, remaining: float, dt: float, v_target: float | None = None) -> float:
-        """As :meth:`SpeedProfile.command`, with ``|v_target|`` capped by ``limit()``."""
+        """As :meth:`SpeedProfile.command`, with ``|v_target|`` capped by ``limit()`` and ``carry_on`` m
+        added to ``remaining`` (m)."""
         target = self.cruise_speed if v_target is None else float(v_target)
         if self.limit is not None:
             target = math.copysign(min(abs(target), self.limit()), target) if target else 0.0
-        return super().command(remaining, dt, target)
+        return super().command(remaining + self.carry_on, dt, target)
 
 
 @dataclass(frozen=True)
@@ -122,56 +145,171 @@ class StationStop:
     heading: float
 
 
-class MissionAutopilot:
-    """Drives a :class:`MissionPlan` leg by leg with one :class:`PathAutopilot` each (module doc).
+#: Shortest approach (m) guided at O after the handover from C.
+MIN_APPROACH_M = 0.5
+#: Wheelbases C drives along the final straight before the handover, so the body has turned onto it.
+ALIGN_WHEELBASES = 3.0
 
-    ``make_pilot(path, profile)`` builds the leg's PathAutopilot (the follower is
-    given the leg's path by it); ``profile`` is the shared :class:`LimitedSpeedProfile`;
-    ``limits`` (lateral accel, creep distance, creep speed) shape its speed limit.
+
+@dataclass(frozen=True)
+class Stint:
+    """What one :class:`PathAutopilot` drives: the mission path from ``s0`` to ``s1`` (m) of leg ``leg``,
+    guided at ``point`` ("C", "O", or None for the follower's own), its path extended by ``extend`` m
+    straight on; ``last`` when it ends at the leg's station; ``handover`` when the next stint takes
+    over while the vehicle moves (no stop at its end)."""
+
+    leg: int
+    s0: float
+    s1: float
+    point: str | None
+    extend: float
+    last: bool
+    handover: bool = False
+
+
+def _straight_tail(plan: MissionPlan, s0: float, s1: float) -> float:
+    """Where (m) the run of straight segments ending at ``s1`` starts (not before ``s0``)."""
+    starts = plan.path.segment_starts
+    i = int(np.searchsorted(starts, s1 - 1e-9, side="left")) - 1
+    s = s1
+    while i >= 0 and starts[i] >= s0 - 1e-9 and plan.path.segments[i].curvature == 0.0:
+        s = float(starts[i])
+        i -= 1
+    return max(s, s0)
+
+
+def stints(plan: MissionPlan, switching: bool, wheelbase: float = 0.0) -> list[Stint]:
+    """The stints of a mission: one per moving leg, or with ``switching`` the guided point's stints.
+
+    Point switching [seed000 §3.1]: the stacker is guided at C (the steered wheel) cruising and at
+    O (between the fork wheels) in manoeuvres. Here a run driven forward (:func:`run_bounds`) is
+    cruising (C) into the straight that ends it, the approach to its station or cusp is a
+    manoeuvre (O), and so is every run backing up. The handover happens on the move once C has
+    driven :data:`ALIGN_WHEELBASES` wheelbases along that straight (after a curve guided at C
+    the body lags behind its path; on the straight it turns onto it): the C path goes on
+    ``wheelbase`` m further, so when C has arrived there O (L behind, on the line) stands where
+    its own path starts, at least :data:`MIN_APPROACH_M` before the station or cusp. A forward
+    run without such a straight is guided at O all along.
+    """
+    moving = [k for k, leg in enumerate(plan.legs) if leg.route is not None and leg.route.traversals]
+    if not switching:
+        return [Stint(k, float(plan.leg_bounds[k, 0]), float(plan.leg_bounds[k, 1]), None, 0.0, True) for k in moving]
+    bounds = run_bounds(plan)
+    out: list[Stint] = []
+    for k in moving:
+        a, b = float(plan.leg_bounds[k, 0]), float(plan.leg_bounds[k, 1])
+        cuts = [a, *(float(s) for s in bounds if a + 1e-9 < s < b - 1e-9), b]
+        for s0, s1 in itertools.pairwise(cuts):
+            last = s1 == b
+            if int(plan.path.direction_at(0.5 * (s0 + s1))) < 0:
+                out.append(Stint(k, s0, s1, "O", 0.0, last))
+                continue
+            so = _straight_tail(plan, s0, s1) + ALIGN_WHEELBASES * wheelbase
+            if s1 - so >= MIN_APPROACH_M and so - ALIGN_WHEELBASES * wheelbase > s0 + 1e-9:
+                out.append(Stint(k, s0, so, "C", wheelbase, False, handover=True))
+                out.append(Stint(k, so, s1, "O", 0.0, last))
+            else:
+                out.append(Stint(k, s0, s1, "O", 0.0, last))
+    return out
+
+
+def sub_path(plan: MissionPlan, a: float, b: float) -> tuple[list[Segment], NDArray[np.int64]]:
+    """The segments of the mission path from ``a`` to ``b`` (m), lines cut at the ends, and their indices.
+
+    Arcs are never cut (the stints start and end at segment joints or on straights).
+    """
+    starts = plan.path.segment_starts
+    i0 = int(np.searchsorted(starts, a + 1e-9, side="right") - 1)
+    i1 = int(np.searchsorted(starts, b - 1e-9, side="left"))
+    out: list[Segment] = []
+    for i in range(i0, i1):
+        seg = plan.path.segments[i]
+        lo, hi = max(a, float(starts[i])), min(b, float(starts[i + 1]))
+        if isinstance(seg, LineSegment) and (lo > starts[i] + 1e-9 or hi < starts[i + 1] - 1e-9):
+            seg = LineSegment(np.asarray(seg.point_at(lo - starts[i])), seg.heading, hi - lo, seg.direction,
+                              seg.yaw_offset)
+        out.append(seg)
+    return out, np.arange(i0, i1)
+
+
+class MissionAutopilot:
+    """Drives a :class:`MissionPlan` stint by stint with one :class:`PathAutopilot` each (module doc).
+
+    ``make_pilot(path, profile, point)`` builds a stint's PathAutopilot (the follower of
+    ``point``, or the scenario's for None, is given the path by it); ``profile`` is the shared
+    :class:`LimitedSpeedProfile`; ``limits`` (lateral accel, creep distance, creep speed) shape
+    its speed limit. ``switching`` (and the nominal ``wheelbase``, m) guide C cruising and O in
+    manoeuvres (:func:`stints`); a handover stint gives way to the next one, on the move, once
+    its progress reached the end of its (extended) path. ``align`` (a spot-turning vehicle): after each station stop the
+    vehicle turns on the spot to the station heading (:class:`HeadingAligner`) before it dwells.
+    The recorded ``point_offset`` (m) is the guided point's distance ahead of base_link.
     """
 
     def __init__(
         self,
         plan: MissionPlan,
-        make_pilot: Callable[[Path, LimitedSpeedProfile], PathAutopilot],
+        make_pilot: Callable[[Path, LimitedSpeedProfile, str | None], PathAutopilot],
         profile: LimitedSpeedProfile,
         lateral_accel: float,
         creep_distance: float,
         creep_speed: float,
+        switching: bool = False,
+        wheelbase: float = 0.0,
+        base_offset: float = 0.0,
+        align: HeadingAligner | None = None,
     ) -> None:
         self.plan = plan
         self._make = make_pilot
         self.profile = profile
         self._limits = (lateral_accel, creep_distance, creep_speed)
+        self._offsets = {None: float(base_offset), "C": float(wheelbase), "O": 0.0}
         self.stops: list[StationStop] = []
         self.failure: str | None = None
         self.finished = False
-        self._leg = 0
+        self._stints = stints(plan, switching, wheelbase)
+        self._k = 0
         self._dwell_until = -math.inf
-        self._leg_s0 = 0.0
+        self._dwell_s = 0.0
+        self._align = align
+        self._aligning: StationStop | None = None
         self._node_s = [s for s, _ in plan.node_s]
-        self._moving = [k for k, leg in enumerate(plan.legs) if leg.route is not None and leg.route.traversals]
-        self.pilot = self._start_leg(self._moving[0])
+        self._handover_at = math.inf
+        self.pilot = self._start(0)
         names = self.pilot.signal_names
         self._i_s, self._i_rem = names.index("s_est"), names.index("remaining")
-        self.signal_names = (*names, "leg", "nodes_passed", "dwelling")
-        self._sig = (*self.pilot.signals(), 0.0, 0.0, 0.0)
+        self.signal_names = (*names, "leg", "nodes_passed", "dwelling", "point_offset")
+        self._sig = (*self.pilot.signals(), 0.0, 0.0, 0.0, self._offsets[self._stints[0].point])
 
-    def _leg_path(self, k: int) -> tuple[Path, NDArray[np.float64]]:
-        sel = np.flatnonzero(self.plan.seg_leg == k)
-        segs = [self.plan.path.segments[i] for i in sel]
-        return Path(segs), self.plan.seg_speed[sel]
+    def _stint_path(self, st: Stint) -> tuple[Path, NDArray[np.float64]]:
+        segs, idx = sub_path(self.plan, st.s0, st.s1)
+        speed = self.plan.seg_speed[idx]
+        if st.extend > 0.0:
+            end = segs[-1]
+            segs.append(LineSegment(np.asarray(end.end), float(end.end_heading), st.extend, direction=end.direction))
+            speed = np.append(speed, speed[-1])
+        return Path(segs), speed
 
-    def _start_leg(self, k: int) -> PathAutopilot:
-        """The pilot of leg ``k`` (one that moves), with its speed limit installed in the profile."""
-        self._leg = k
-        path, speed = self._leg_path(k)
-        self._leg_s0 = float(self.plan.leg_bounds[k, 0])
+    def _start(self, i: int) -> PathAutopilot:
+        """The pilot of stint ``i``, with its speed limit installed in the profile.
+
+        A handover stint does not brake at its end (the profile sees the next stint's length as
+        well) and its successor starts at the speed the vehicle has.
+        """
+        self._k = i
+        st = self._stints[i]
+        path, speed = self._stint_path(st)
         a_lat, creep_d, creep_v = self._limits
-        s_grid, v_grid = speed_limits(path, speed, abs(self.profile.cruise_speed), a_lat, self.profile.max_decel,
-                                      creep_d, creep_v)
-        self.profile.reset(0.0)
-        pilot = self._make(path, self.profile)
+        ahead, ahead_speed = path, speed
+        if st.handover:  # the limit looks on through the next stint: C stops L past where O will stop
+            nxt = self._stints[i + 1]
+            ahead, ahead_speed = self._stint_path(Stint(st.leg, st.s0, nxt.s1, None, st.extend, True))
+        s_grid, v_grid = speed_limits(ahead, ahead_speed, abs(self.profile.cruise_speed), a_lat,
+                                      self.profile.max_decel, creep_d, creep_v)
+        moving_on = i > 0 and self._stints[i - 1].handover
+        self.profile.reset(self.profile.v if moving_on else 0.0)
+        self.profile.carry_on = self._stints[i + 1].s1 - self._stints[i + 1].s0 if st.handover else 0.0
+        self._handover_at = path.length - 1e-6 if st.handover else math.inf
+        pilot = self._make(path, self.profile, st.point)
         i_s = pilot.signal_names.index("s_est")
         step = float(s_grid[1] - s_grid[0])
 
@@ -183,12 +321,23 @@ class MissionAutopilot:
         return pilot
 
     def command(self, t: float, estimator: Any, plant: Any, dt: float) -> tuple[float, ...]:
-        """The plant command: the current leg's pilot, or standstill while dwelling."""
+        """The plant command: the current stint's pilot, the heading alignment, or standstill while dwelling."""
         if self.finished:
             return self._hold()
+        if self._aligning is not None:
+            assert self._align is not None
+            cmd = self._align.command(estimator, self._aligning.heading, dt)
+            if cmd is None:
+                self._aligning = None
+                self._after_stop(t)
+                return self._hold() if self.finished else self.command(t, estimator, plant, dt)
+            self._record(dwelling=False)
+            return cmd
         if t < self._dwell_until:
             self._record(dwelling=True)
             return self._hold()
+        if float(self.pilot.signals()[self._i_s]) >= self._handover_at:  # C arrived: O takes over, moving
+            self.pilot = self._start(self._k + 1)
         cmd = self.pilot.command(t, estimator, plant, dt)
         if self.pilot.failure is not None:
             self.failure, self.finished = self.pilot.failure, True
@@ -201,33 +350,92 @@ class MissionAutopilot:
         return (0.0, 0.0, 0.0) if self.pilot.family == "holonomic" else (0.0, 0.0)
 
     def _arrived(self, t: float) -> None:
-        leg = self.plan.legs[self._leg]
-        end = self.plan.leg_bounds[self._leg, 1]
+        st = self._stints[self._k]
+        if not st.last:  # a cusp inside the leg: the next run at once
+            self.pilot = self._start(self._k + 1)
+            return
+        leg = self.plan.legs[st.leg]
+        end = self.plan.leg_bounds[st.leg, 1]
         p = self.plan.path.point_at(end)
         h = float(self.plan.path.heading_at(end)) + (math.pi if self.plan.path.direction_at(end) < 0 else 0.0)
-        self.stops.append(StationStop(self._leg, str(leg.station), t, float(p[0]), float(p[1]), h))
+        stop = StationStop(st.leg, str(leg.station), t, float(p[0]), float(p[1]), h)
+        self.stops.append(stop)
         dwell = leg.dwell_s
-        nxt = self._leg + 1
-        while nxt < len(self.plan.legs) and nxt not in self._moving:  # wait jobs after this leg
+        nxt = st.leg + 1
+        moving = {s.leg for s in self._stints}
+        while nxt < len(self.plan.legs) and nxt not in moving:  # wait jobs after this leg
             dwell += self.plan.legs[nxt].dwell_s
             nxt += 1
-        if nxt >= len(self.plan.legs):
-            self.finished = True
+        self._dwell_s = dwell
+        if self._align is not None:
+            self._align.reset()
+            self._aligning = stop
             return
-        self._dwell_until = t + dwell
-        self.pilot = self._start_leg(nxt)
+        self._after_stop(t)
+
+    def _after_stop(self, t: float) -> None:
+        """The station stop is over (aligned): dwell, then the next stint, or the mission is done."""
+        if self._k + 1 >= len(self._stints):
+            self.finished = True
+            if self._align is not None and self.stops:  # the stop counts once aligned
+                self.stops[-1] = dataclasses.replace(self.stops[-1], t=t)
+            return
+        if self._align is not None and self.stops:
+            self.stops[-1] = dataclasses.replace(self.stops[-1], t=t)
+        self._dwell_until = t + self._dwell_s
+        self.pilot = self._start(self._k + 1)
 
     def _record(self, dwelling: bool) -> None:
+        st = self._stints[self._k]
         sig = list(self.pilot.signals())
-        s = self._leg_s0 + float(sig[self._i_s])
+        s = st.s0 + min(float(sig[self._i_s]), st.s1 - st.s0)
         sig[self._i_s] = s
         sig[self._i_rem] = self.plan.path.length - s
         passed = bisect.bisect_right(self._node_s, s + NODE_REACHED_M)
-        self._sig = (*sig, float(self._leg), float(passed), 1.0 if dwelling else 0.0)
+        self._sig = (*sig, float(st.leg), float(passed), 1.0 if dwelling else 0.0, self._offsets[st.point])
 
     def signals(self) -> tuple[float, ...]:
-        """The leg pilot's signals (``s_est`` and ``remaining`` along the whole mission), leg, nodes, dwelling."""
+        """The stint pilot's signals (``s_est`` and ``remaining`` along the whole mission), leg, nodes, dwelling,
+        point_offset."""
         return self._sig
+
+
+class HeadingAligner:
+    """Turns a spot-turning vehicle on the spot to a station's heading after it stopped there.
+
+    The creep-in stops the guided point on the station, but a unicycle-type follower
+    converges its heading only over its convergence distance; the last centimetres leave a
+    heading error of a few tenths of a degree. At standstill the vehicle turns at
+    ``omega = clip(-k e, +-max_rate)`` (``e`` the estimated heading error, rad; ``k`` 1/s;
+    rates rad/s) until ``|e| <= tolerance`` (rad) or for at most ``timeout`` s. ``wheel_command(v, omega)``
+    turns a body twist (m/s, rad/s) into the plant command.
+    """
+
+    def __init__(self, wheel_command: Callable[[float, float], tuple[float, ...]], gain: float = 2.0,
+                 max_rate: float = 0.3, tolerance: float = math.radians(0.05), timeout: float = 10.0) -> None:
+        for name, v in (("gain", gain), ("max_rate", max_rate), ("tolerance", tolerance), ("timeout", timeout)):
+            if not (math.isfinite(v) and v > 0.0):
+                raise ValueError(f"{name} must be positive, got {v!r}")
+        self._wheels = wheel_command
+        self.gain, self.max_rate, self.tolerance, self.timeout = gain, max_rate, tolerance, timeout
+        self._elapsed = 0.0
+        self._settled = 0
+
+    def reset(self) -> None:
+        """Start a new alignment."""
+        self._elapsed = 0.0
+        self._settled = 0
+
+    def command(self, estimator: Any, heading: float, dt: float) -> tuple[float, ...] | None:
+        """The plant command turning towards ``heading`` (rad), or None once aligned (or timed out)."""
+        self._elapsed += dt
+        psi = float(estimator.pose[2])
+        e = wrap_angle_scalar(psi - heading) if math.isfinite(psi) else 0.0
+        self._settled = self._settled + 1 if abs(e) <= self.tolerance else 0
+        if self._settled >= 3 or self._elapsed > self.timeout:
+            return None
+        omega = max(-self.max_rate, min(self.max_rate, -self.gain * e))
+        return self._wheels(0.0, omega)
 
 
 def run_bounds(plan: MissionPlan) -> NDArray[np.float64]:
@@ -345,7 +553,13 @@ def _near_line_curve_joints(plan: MissionPlan, s: NDArray[np.float64], before: f
 def mission_autopilot(
     sc: Scenario, plan: MissionPlan, follower: Any, plant: Any, point_offset: float, watch: Any
 ) -> MissionAutopilot:
-    """The mission autopilot of scenario ``sc``: one PathAutopilot per leg sharing ``follower`` and ``watch``."""
+    """The mission autopilot of scenario ``sc``: one PathAutopilot per stint sharing ``watch``.
+
+    Without point switching every stint uses ``follower`` (the scenario's point, ``point_offset``
+    m ahead of base_link); with ``mission.point_switching`` (steered vehicles) a second follower
+    of the same law guides the other point. Unicycle and holonomic vehicles align their heading
+    on the spot after each station stop (``mission.align_heading``).
+    """
     m, tc = sc.mission, sc.traction
     assert m is not None
     try:
@@ -353,10 +567,62 @@ def mission_autopilot(
                                       max_decel=tc.max_decel_m_s2)
     except ValueError as exc:
         raise sc.error(("traction",), str(exc)) from None
+    switching = bool(getattr(m, "point_switching", False))
+    followers: dict[str | None, tuple[Any, float]] = {None: (follower, point_offset)}
+    wheelbase = float(getattr(plant.geometry, "wheelbase", 0.0))
+    if switching:
+        if plant.family != "steered":
+            raise sc.error(("mission", "point_switching"), "only steered vehicles switch between points C and O")
+        followers["C"] = (_twin_follower(sc, follower, plant, plan.path, "C"), wheelbase)
+        followers["O"] = (_twin_follower(sc, follower, plant, plan.path, "O"), 0.0)
 
-    def make(path: Path, prof: LimitedSpeedProfile) -> PathAutopilot:
-        follower.set_path(path)
-        follower.reset()
-        return PathAutopilot(follower, path, prof, plant, point_offset, watch=watch)
+    def make(path: Path, prof: LimitedSpeedProfile, point: str | None) -> PathAutopilot:
+        f, off = followers[point]
+        f.set_path(path)
+        f.reset()
+        return PathAutopilot(f, path, prof, plant, off, watch=watch)
 
-    return MissionAutopilot(plan, make, profile, m.lateral_accel_m_s2, m.creep_distance_m, m.creep_speed_m_s)
+    align = None
+    if plant.family in ("unicycle", "holonomic") and bool(getattr(m, "align_heading", True)):
+        align = HeadingAligner(_twist_command(plant))
+    return MissionAutopilot(plan, make, profile, m.lateral_accel_m_s2, m.creep_distance_m, m.creep_speed_m_s,
+                            switching, wheelbase, point_offset, align)
+
+
+def _twist_command(plant: Any) -> Callable[[float, float], tuple[float, ...]]:
+    """Plant command of a body twist ``(v, omega)`` (m/s, rad/s): wheel rates (unicycle) or the twist."""
+    if plant.family == "holonomic":
+        return lambda v, omega: (v, 0.0, omega)
+    g = plant.geometry
+
+    def wheels(v: float, omega: float) -> tuple[float, ...]:
+        v_right, v_left = wheel_speeds_unchecked(v, omega, g.track)
+        return v_right / g.wheel_radius, v_left / g.wheel_radius
+
+    return wheels
+
+
+def _twin_follower(sc: Scenario, follower: Any, plant: Any, path: Path, point: str) -> Any:
+    """A follower of the scenario's steered law guiding ``point`` (the scenario's own when it already does)."""
+    if getattr(follower, "point", None) == point:
+        return follower
+    spec = sc.controller
+    name = getattr(follower, "name", None)
+    if name not in ("seed_general", "pure_pursuit"):
+        raise sc.error(("mission", "point_switching"), f"{name} guides point C only: use seed_general or pure_pursuit")
+    kwargs: dict[str, Any] = dict(spec.params)
+    kwargs["point"] = point
+    if name == "pure_pursuit":
+        kwargs.setdefault("v_nominal", sc.traction.speed_m_s)
+    if spec.poles_per_m is not None:
+        kwargs["poles_per_m"] = list(spec.poles_per_m)
+    if spec.gains is not None:
+        if name == "seed_general":
+            kwargs["gains"] = tuple(spec.gains[k] for k in ("a", "b", "c"))
+            kwargs.setdefault("v_max", sc.traction.speed_m_s)
+        else:
+            kwargs.update(spec.gains)
+    try:
+        return make_follower(name, "steered", path, plant.geometry, **kwargs)
+    except (ValueError, GuidanceError) as exc:
+        raise sc.error(("controller",), f"point {point}: {exc}") from None
