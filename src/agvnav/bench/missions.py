@@ -1,6 +1,14 @@
-"""``agvnav bench missions``: the hall mission per vehicle model, clothoid against plain-arc corners, planning speed.
+"""``agvnav bench missions``: the warehouse and hall missions per vehicle model, clothoid against plain-arc turns,
+planning speed.
 
-Rows 1-3: the shipped mission (``mission_hall``: pick at S2, S3, drop at S4, the
+Rows 1-3: the shipped warehouse mission (``warehouse_mission``: from S1 pick at
+B1, drop at B2, pick at A2, drop at N1, pass N2, charge at CH, back into the
+dock D) on the ``warehouse`` network in the 60 m x 40 m ``warehouse`` map for
+the tricycle stacker (``warehouse_mission``) and the differential AGV
+(``warehouse_mission_differential``), and for the tricycle on
+``warehouse_arcs`` (plain quarter-circle turns).
+
+Rows 4-6: the hall mission (``mission_hall``: pick at S2, S3, drop at S4, the
 charger C1, back into the dock D) on the ``hall_loop`` network for the
 tricycle stacker (``mission_hall``) and the differential AGV
 (``mission_hall_differential``), and for the tricycle on ``hall_loop_arcs``,
@@ -13,6 +21,7 @@ and ``max_stop_heading_error_rad`` over every station stop of every seed;
 ``max_lateral_m.line_curve_joints``: the largest lateral error near the joints
 between lines and corner curves (0.5 m before to 1.5 m after), the figure the
 clothoid corners should lower against the plain arcs.
+``stops``: per station, the worst stop error over the seeds, as ``station mm/deg``.
 Targets (issue 14): every mission completes; stop error <= 10 mm and 0.5 deg.
 
 Last row: ``plan_ms``, the median time of 100 random station-to-station
@@ -34,12 +43,16 @@ from agvnav.routes.layouts import grid_network
 from agvnav.routes.network import EDGE_KINDS, network_from_dict
 from agvnav.routes.planning import NoRouteError, Planner, VehicleLimits
 from agvnav.sim import simulate
+from agvnav.sim.mission import plan_mission
 from agvnav.world.scenario import load_scenario
 
-TITLE = "Missions on the hall route network (true pose) and planning speed"
+TITLE = "Missions on the warehouse and hall route networks (true pose) and planning speed"
 
 #: (scenario, network override or None)
 CASES: tuple[tuple[str, str | None], ...] = (
+    ("warehouse_mission", None),
+    ("warehouse_mission_differential", None),
+    ("warehouse_mission", "warehouse_arcs"),
     ("mission_hall", None),
     ("mission_hall_differential", None),
     ("mission_hall", "hall_loop_arcs"),
@@ -71,7 +84,23 @@ def _mission_row(name: str, network: str | None, seeds: list[int]) -> dict[str, 
     row["max_stop_heading_error_rad"] = float(
         np.nanmax([r.extra.get("max_stop_heading_error_rad", math.nan) for r in runs])
     )
+    row["stops"] = station_stops(base, runs)
     return row
+
+
+def station_stops(scenario: Any, runs: list[Any]) -> str:
+    """Per station of the mission, the worst stop error over ``runs``: ``"B1 2.1/0.08 B2 ..."`` (mm/deg)."""
+    plan = plan_mission(scenario)
+    names = [str(leg.station) for leg in plan.legs if leg.route is not None and leg.route.traversals]
+    parts = []
+    for i, name in enumerate(names):
+        e = [r.extra.get(f"stop_error_m[{i}]", math.nan) for r in runs]
+        h = [r.extra.get(f"stop_heading_error_rad[{i}]", math.nan) for r in runs]
+        if np.all(np.isnan(e)):
+            parts.append(f"{name} -")
+            continue
+        parts.append(f"{name} {1e3 * float(np.nanmax(e)):.1f}/{math.degrees(float(np.nanmax(h))):.2f}")
+    return " ".join(parts)
 
 
 def planning_ms(side: int, queries: int, seed: int) -> tuple[float, int]:
