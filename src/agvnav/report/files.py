@@ -194,6 +194,10 @@ def _write_all(result: SimResult, out: Path, plots: bool) -> list[Path]:
             result.transient_end_s,
             result.scenario.name,
         )
+        if result.scenario.mission is not None:  # the route network, driven route and stops (issue 14)
+            from agvnav.report.routes import write_mission_plots  # noqa: PLC0415  (lazy: mission runs only)
+
+            written += write_mission_plots(result, out)
     return written
 
 
