@@ -135,7 +135,7 @@ class LimitedSpeedProfile(SpeedProfile):
 
 @dataclass(frozen=True)
 class StationStop:
-    """Where the vehicle stopped for a job: leg index, station, time (s) and the planned pose there."""
+    """Where the vehicle stopped for a job: leg index, station, time (s), the planned pose there (m, m, rad)."""
 
     leg: int
     station: str
@@ -143,6 +143,8 @@ class StationStop:
     x: float
     y: float
     heading: float
+    offset: float | None = None
+    """the guided point's distance ahead of base_link (m) at the stop (None: the run's tracked point)."""
 
 
 #: Shortest approach (m) guided at O after the handover from C.
@@ -358,7 +360,7 @@ class MissionAutopilot:
         end = self.plan.leg_bounds[st.leg, 1]
         p = self.plan.path.point_at(end)
         h = float(self.plan.path.heading_at(end)) + (math.pi if self.plan.path.direction_at(end) < 0 else 0.0)
-        stop = StationStop(st.leg, str(leg.station), t, float(p[0]), float(p[1]), h)
+        stop = StationStop(st.leg, str(leg.station), t, float(p[0]), float(p[1]), h, self._offsets[st.point])
         self.stops.append(stop)
         dwell = leg.dwell_s
         nxt = st.leg + 1
@@ -510,7 +512,12 @@ def mission_figures(
     errs, herrs = [], []
     for i, st in enumerate(stops):
         k = min(int(np.searchsorted(t, st.t)), len(t) - 1)
-        e = math.hypot(pts[k, 0] - st.x, pts[k, 1] - st.y)
+        px, py = float(pts[k, 0]), float(pts[k, 1])
+        if st.offset is not None:  # the point guided into the station (the next stint may guide the other)
+            psi = float(series["psi"][k])
+            px = float(series["x"][k]) + st.offset * math.cos(psi)
+            py = float(series["y"][k]) + st.offset * math.sin(psi)
+        e = math.hypot(px - st.x, py - st.y)
         he = abs(wrap_angle_scalar(float(series["psi"][k]) - st.heading))
         out[f"stop_error_m[{i}]"], out[f"stop_heading_error_rad[{i}]"] = e, he
         errs.append(e)
