@@ -25,7 +25,8 @@ def test_anchors_use_the_two_farthest_reflectors_with_their_stated_errors() -> N
 
 
 def test_summary_pools_seeds_and_bands_nees_by_chi_square() -> None:
-    rows = [{"hall": "lab", "seed": s, "anchor": "baseline", "reflectors_true": 9, "reflectors_found": 9,
+    rows = [{"hall": "lab", "seed": s, "anchor": "baseline", "reflectors_true": 9, "reflectors_seen": 9,
+             "reflectors_found": 9,
              "spurious_created": 0, "map_rms_m": 0.001, "map_max_m": 0.002 + s * 1e-3, "nees_mean": 2.0,
              "runtime_s": 1.0, "positioning_ratio": 1.1} for s in range(2)]
     rows += [{"hall": "lab", "seed": s, "anchor": "none", "reflectors_true": 9, "reflectors_found": "unobservable"}
