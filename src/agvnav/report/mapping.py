@@ -24,7 +24,7 @@ def ellipse_points(cov: np.ndarray, centre: np.ndarray, n_sigma: float = 3.0, k:
 def plot_mapping(result: MappingResult, out: str | Path, truth: WorldMap | None = None,
                  magnify: float | None = None) -> Path:
     """Write a PNG: trajectory, mapped reflectors with 3σ ellipses magnified ``magnify`` times
-    (default: a power of ten that makes the largest about 0.3 m), their ids, and the true
+    (default: the power of ten that makes the largest about 0.5 m), their ids, and the true
     reflectors and walls of ``truth`` when given."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(9, 6))
@@ -36,7 +36,7 @@ def plot_mapping(result: MappingResult, out: str | Path, truth: WorldMap | None 
         ax.plot(result.poses[:, 0], result.poses[:, 1], color="tab:blue", lw=1.0, label="driven (estimated)")
         big = max((float(np.sqrt(np.linalg.eigvalsh(c).max())) for c in result.covariance), default=1e-3)
         if magnify is None:
-            magnify = float(10.0 ** np.floor(np.log10(0.1 / max(big, 1e-9))))
+            magnify = float(10.0 ** np.round(np.log10(0.5 / (3.0 * max(big, 1e-9)))))
         for rid, xy, cov in zip(result.ids, result.xy, result.covariance, strict=True):
             e = ellipse_points(cov * magnify ** 2, xy)
             ax.plot(e[:, 0], e[:, 1], color="tab:red", lw=1.0)
