@@ -13,7 +13,8 @@ def network_reference() -> list[str]:
     lines = [
         "## Route network files (`mission.network`)",
         "",
-        "A route network (issue 14; shipped: `hall_loop`, `hall_loop_arcs` in `agvnav/data/routes`) lists",
+        "A route network (issue 14; shipped in `agvnav/data/routes`: `hall_loop`, `hall_loop_arcs`, and the",
+        "60 x 40 m `warehouse`, `warehouse_arcs` in the `warehouse` map; scenario `warehouse_mission`) lists",
         "nodes and directed edges. Each edge's geometry starts at its `from` node and must end within",
         "`tolerances.gap_m` of its `to` node; arcs and clothoids start with `heading_deg` (default the",
         "`from` node's). Edges continuing each other at a node (tangents within `tolerances.joint_deg`)",
