@@ -1,21 +1,29 @@
-"""Missions in the closed loop: a mission autopilot driving one :class:`PathAutopilot` per leg.
+"""Missions in the closed loop: a mission autopilot driving one :class:`PathAutopilot` per stint.
 
 :func:`plan_mission` loads the scenario's route network, plans every job
 (:mod:`agvnav.routes.mission`) and chains the legs into the one path the run
-is judged against. :class:`MissionAutopilot` then drives leg after leg: for
-each leg a :class:`~agvnav.sim.roles.PathAutopilot` (speed profile + follower,
-stops at cusps) follows that leg's path with a :class:`LimitedSpeedProfile`
-that caps the cruise speed by the leg's speed limit (edge limits, curvature,
-creep-in before the station); once the leg's pilot has stopped at the station
-the mission autopilot records the stop, holds for the job's dwell time and
-starts the next leg.
+is judged against. :class:`MissionAutopilot` then drives stint after stint
+(:func:`stints`: one per leg, or with ``mission.point_switching`` one per guided
+point, C cruising and O on each final approach and backing up [seed000 §3.1]):
+for each a :class:`~agvnav.sim.roles.PathAutopilot` (speed profile + follower,
+stops at cusps) follows that stint's path with a :class:`LimitedSpeedProfile`
+that caps the cruise speed by the speed limit (edge limits, curvature,
+creep-in before the station); once the pilot of a leg's last stint has stopped
+at the station the mission autopilot records the stop, turns a spot-turning
+vehicle to the station heading (:class:`HeadingAligner`), holds for the job's
+dwell time and starts the next stint.
 
 Topological navigation (seed 003 §3.9): the controller's path is the
 concatenation of the planned edges; where the vehicle is on the graph (edge,
 progress, next node) comes from its progress along the chained path
 (:class:`agvnav.routes.topology.GraphLocator` for a pose alone). The recorded
-series get ``leg`` (index of the job being driven), ``nodes_passed`` and
-``dwelling`` (1 while stopped at a station).
+series get ``leg`` (index of the job being driven), ``nodes_passed``,
+``dwelling`` (1 while stopped at a station) and ``point_offset`` (m, the guided
+point's distance ahead of base_link).
+
+Results (:func:`mission_figures`) come from the true pose: the stop errors of
+the point guided into each station, once the vehicle is at rest, and the lateral
+error of the guided point against the run it drove (:func:`route_tracking`).
 """
 
 from __future__ import annotations
