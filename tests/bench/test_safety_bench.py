@@ -41,6 +41,14 @@ def test_the_person_reaches_the_field_edge_at_the_stated_gap(model, case):
     assert math.degrees(math.atan2(*(person.waypoints[1] - person.waypoints[0])[::-1])) == pytest.approx(angle)
 
 
+def test_stop_distance_adds_the_approach_of_a_person_walking_towards_the_vehicle():
+    D = safety.design_distance()
+    assert safety.case_stop_distance(90.0, 1.6) == pytest.approx(D)
+    assert safety.case_stop_distance(45.0, 1.2) == pytest.approx(D)  # walking away: no credit taken
+    # 135 deg at 1.2 m/s closes 0.849 m/s during the 0.3 s reaction and the 2 s of braking
+    assert safety.case_stop_distance(135.0, 1.2) == pytest.approx(D + 1.2 * math.sqrt(0.5) * 2.3)
+
+
 def test_summary_counts_and_zones():
     runs = [
         {"outcome": "completed", "collision": False, "min_clearance_m": 0.4, "result": "stop", "stops": 1,
@@ -53,6 +61,11 @@ def test_summary_counts_and_zones():
     assert row["stops"] == 1.0 and row["avoided"] == 0 and row["time_lost_s"] == pytest.approx(2.0)
     assert row["max_corridor_dev_m"] is None
     assert row["outcomes"] == "collision 1, completed 1"
+    beyond = dict(row, zone="beyond", collisions=0, appear_m=1.6)
+    closing = safety.summary_rows([row, beyond])
+    assert [r["case"].split(" D")[0] for r in closing] == [
+        "ALL at/beyond their stopping distance", "ALL inside their stopping distance", "ALL appearing at/beyond"]
+    assert [r["collisions"] for r in closing] == [0, 1, 0] and [r["runs"] for r in closing] == [2, 2, 2]
 
 
 def test_one_crossing_at_the_stopping_distance_stops_without_collision():

@@ -13,9 +13,12 @@ Cases:
   (90°: square across; 45°: slanting away from the vehicle; 135°: slanting towards it) and a
   speed; the start time is set so that the person reaches the edge of the protective field's
   width when the gap along the path between the vehicle's front and the person is
-  ``ratio x D`` (the vehicle driving at cruise on the nominal profile). ``ratio >= 1`` is at or
-  beyond the designed stopping distance (target: 0 collisions); ``ratio < 1`` is inside it,
-  where physics allows a collision (reported separately: ``zone`` ``inside``);
+  ``appear_m = ratio x D`` (the vehicle driving at cruise on the nominal profile). The case is
+  at/beyond its stopping distance (``zone`` ``beyond``, target: 0 collisions) when ``appear_m``
+  reaches ``stop_dist_m``: ``D``, plus for a person slanting towards the vehicle the distance it
+  walks towards it while the vehicle reacts and brakes (:func:`case_stop_distance`, the
+  approach term of ISO 13855); otherwise ``inside``, where physics allows a collision
+  (reported separately). A closing row also counts every case appearing at/beyond ``D`` itself;
 * ``lane``: a pallet (1.2 m x 0.8 m) on the path in the right-hand lane of a two-way aisle;
   avoidance allowed on that segment within a corridor 2.0 m left and 0.6 m right of the path,
   and a warning field 3 s of cruise long (4.6 m) so that the detour is planned while the vehicle
@@ -52,7 +55,7 @@ TITLE = "Reactive safety: crossing people and a pallet in the lane (truth-judged
 
 #: Columns a narrow terminal keeps, most important first.
 PRIORITY = ("model", "case", "zone", "runs", "collisions", "min_clearance_m", "stops", "avoided", "time_lost_s",
-            "max_corridor_dev_m")
+            "max_corridor_dev_m", "appear_m", "stop_dist_m")
 
 CRUISE_M_S = 1.0
 DECEL_M_S2 = 0.5
@@ -109,6 +112,18 @@ def _model(name: str, doc: dict[str, Any], extra: dict[str, Any], offset: float)
 def design_distance() -> float:
     """The protective field's reach at cruise (m): the designed stopping distance."""
     return float(stopping_distance(CRUISE_M_S, REACTION_TIME_S, DECEL_M_S2, MARGIN_M))
+
+
+def case_stop_distance(angle_deg: float, speed: float) -> float:
+    """Stopping distance (m) against a person crossing at ``angle_deg`` and ``speed`` (m/s).
+
+    ``D`` plus the distance the person walks towards the vehicle while it reacts and brakes,
+    ``u_a (t_r + v/a)`` with ``u_a = max(0, -u cos(angle))`` (the approach-speed term of ISO 13855's
+    ``S = K T + C``): a person slanting towards the vehicle (135°) closes the gap while it stops;
+    one walking square across (90°) or away (45°) does not.
+    """
+    approach = max(0.0, -speed * math.cos(math.radians(angle_deg)))
+    return design_distance() + approach * (REACTION_TIME_S + CRUISE_M_S / DECEL_M_S2)
 
 
 def _nominal_time(distance: float) -> float:
@@ -207,7 +222,7 @@ def _finite(values: list[float]) -> list[float]:
 
 
 def summarise(model: str, case: str, zone: str, appear: float | None, runs: list[dict[str, Any]],
-              baseline: float) -> dict[str, Any]:
+              baseline: float, stop: float | None = None) -> dict[str, Any]:
     """One table row from the runs of one (model, case); ``baseline`` the completion time without the obstacle."""
     clear = _finite([r["min_clearance_m"] for r in runs])
     lost = [r["t_end"] - baseline for r in runs if r["completed"]]
@@ -217,6 +232,7 @@ def summarise(model: str, case: str, zone: str, appear: float | None, runs: list
         "case": case,
         "zone": zone,
         "appear_m": appear,
+        "stop_dist_m": stop,
         "runs": len(runs),
         "collisions": sum(r["collision"] for r in runs),
         "min_clearance_m": min(clear) if clear else None,
@@ -257,15 +273,29 @@ def run(quick: bool = False, seed: int = 0, progress: Callable[[int, int], None]
         if c is None:
             out.append(summarise(m, "lane: pallet, avoid", "-", None, runs, base[i]["t_end"]))
         else:
-            zone = "beyond" if c[1] >= 1.0 else "inside"
-            out.append(summarise(m, c[0], zone, c[1] * D, runs, base[i]["t_end"]))
-    for zone in ("beyond", "inside"):
-        sel = [r for r in out if r["zone"] == zone]
+            stop = case_stop_distance(c[2], c[3])
+            zone = "beyond" if c[1] * D >= stop - 1e-9 else "inside"
+            out.append(summarise(m, c[0], zone, c[1] * D, runs, base[i]["t_end"], stop))
+    return out + summary_rows(out)
+
+
+def summary_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The closing rows: every crossing at/beyond its stopping distance, every one inside it, and (for
+    transparency) every one at/beyond the static design distance ``D`` whatever the person's approach."""
+    D = design_distance()
+    crossings = [r for r in rows if r["zone"] in ("beyond", "inside")]
+    groups = [
+        ("ALL at/beyond their stopping distance", "beyond", [r for r in crossings if r["zone"] == "beyond"]),
+        ("ALL inside their stopping distance", "inside", [r for r in crossings if r["zone"] == "inside"]),
+        (f"ALL appearing at/beyond D = {D:.2f} m", "static", [r for r in crossings if r["appear_m"] >= D - 1e-9]),
+    ]
+    out = []
+    for name, zone, sel in groups:
         clear = [r["min_clearance_m"] for r in sel if r["min_clearance_m"] is not None]
         out.append({
-            "model": "all", "case": f"ALL {'at/beyond' if zone == 'beyond' else 'inside'} D = {D:.2f} m",
-            "zone": zone, "appear_m": None, "runs": sum(r["runs"] for r in sel),
-            "collisions": sum(r["collisions"] for r in sel), "min_clearance_m": min(clear) if clear else None,
+            "model": "all", "case": name, "zone": zone, "appear_m": None, "stop_dist_m": None,
+            "runs": sum(r["runs"] for r in sel), "collisions": sum(r["collisions"] for r in sel),
+            "min_clearance_m": min(clear) if clear else None,
             "stops": float(np.mean([r["stops"] for r in sel])) if sel else None, "avoided": 0,
             "time_lost_s": None, "max_corridor_dev_m": None, "outcomes": "",
         })
