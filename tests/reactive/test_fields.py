@@ -33,6 +33,16 @@ def test_generated_sets_are_the_stopping_distance_of_each_band_top_speed():
     assert top.protective[:, 1].min() == pytest.approx(-0.4) and top.protective[:, 1].max() == pytest.approx(0.4)
 
 
+def test_approach_speed_lengthens_the_protective_field_by_its_walk_during_the_stop():
+    still = generate_fields(BODY, 1.0, 0.5, 0.3, margin=0.3, bands=2)
+    walking = generate_fields(BODY, 1.0, 0.5, 0.3, margin=0.3, bands=2, approach_speed=1.6)
+    # top band: 1.6 m, plus 1.6 m/s over 0.3 s + 1.0 / 0.5 s = 3.68 m
+    assert walking.sets[-1].protective_length == pytest.approx(1.6 + 1.6 * 2.3, abs=1e-12)
+    assert walking.sets[0].protective_length - still.sets[0].protective_length == pytest.approx(1.6 * 1.3)
+    with pytest.raises(ValueError, match="approach_speed"):
+        generate_fields(BODY, 1.0, 0.5, 0.3, approach_speed=-1.0)
+
+
 def test_selection_by_speed_and_direction():
     cfg = generate_fields(BODY, 1.0, 0.5, 0.3, bands=4, reverse=True)
     assert cfg.select(0.0).v_max == pytest.approx(0.25) and cfg.select(0.0).direction == 1

@@ -35,13 +35,15 @@ path:
 SCANNER = "scanner: {fov_deg: 200.0, step_deg: 1.0, max_range_m: 8.0, noise_std_m: 0.01, rate_hz: 25.0}\n"
 
 
-def _crossing(enabled: bool = True, seed: int = 0, start_s: float = 3.3):
+def _crossing(enabled: bool = True, seed: int = 0, start_s: float = 3.3, path: str = "[[11, 1], [11, 8]]",
+              approach: float = 0.0, warning: float = 1.5):
     # the person reaches the vehicle's lane (y = 4 - 0.29 - 0.25) when its front (x + 0.29) is
     # 7.76 - 1.97 - start_s m from x = 11: 2.5 m for the default start, 0.5 m for 5.3 s
     text = DIFFERENTIAL.format(seed=seed, duration=20.0, length=10.0) + SCANNER + f"""
 obstacles:
-  - {{id: person, shape: cylinder, radius_m: 0.25, path: [[11, 1], [11, 8]], speed_m_s: 1.2, start_s: {start_s}}}
-reactive: {{reaction_time_s: 0.3, margin_m: 0.3, resume_after_s: 1.0, enabled: {str(enabled).lower()}}}
+  - {{id: person, shape: cylinder, radius_m: 0.25, path: {path}, speed_m_s: 1.2, start_s: {start_s}}}
+reactive: {{reaction_time_s: 0.3, margin_m: 0.3, resume_after_s: 1.0, enabled: {str(enabled).lower()},
+           approach_speed_m_s: {approach}, warning_time_s: {warning}}}
 """
     return simulate(parse_scenario(text, "crossing.yaml"))
 
@@ -67,6 +69,20 @@ def test_without_a_reaction_the_person_is_hit():
     assert r.outcome == "failed" and r.reason == "collision"
     assert r.reactive["obstacles"]["person"] == {"min_clearance_m": 0.0, "result": "collision"}
     assert r.reactive["stops"] == 0
+
+
+@pytest.mark.parametrize("approach", [0.0, 1.2])
+def test_a_person_walking_towards_the_vehicle_needs_fields_sized_for_the_approach(approach):
+    """Head-on: the person walks 2.5 m along the path towards the vehicle (x 14 -> 11.5 from t = 5.95 s)
+    and stops. Fields sized for standing obstacles (D = 1.6 m) stop too late; fields lengthened by the
+    approach over the reaction and braking time (ISO 13855's K T) stop in time. No warning field here."""
+    r = _crossing(start_s=5.95, path="[[14, 4], [11.5, 4]]", approach=approach, warning=0.0)
+    if approach == 0.0:
+        assert r.reason == "collision"
+    else:
+        assert r.reason == "timeout"  # stopped for good: the person stays on the path
+        assert r.reactive["obstacles"]["person"]["result"] == "stop"
+        assert r.reactive["obstacles"]["person"]["min_clearance_m"] > 0.1
 
 
 def test_avoidance_passes_a_static_box_inside_the_corridor_and_rejoins():

@@ -128,14 +128,20 @@ def generate_fields(
     reverse: bool = False,
     protective_length: float | None = None,
     warning_length: float | None = None,
+    approach_speed: float = 0.0,
 ) -> FieldConfig:
     """Field sets for ``bands`` equal speed bands up to ``v_max`` (m/s) (see the module docstring).
 
     Band ``i`` (1-based) holds up to ``v_i = i v_max / bands``; its protective field is
     :func:`stopping_distance` ``(v_i)`` long, its warning field ``v_i warning_time`` longer.
     ``protective_length``/``warning_length`` (m) fix one set per direction instead. ``reverse``:
-    mirror sets behind the body for reversing.
+    mirror sets behind the body for reversing. ``approach_speed`` (m/s): a person may walk towards
+    the vehicle at this speed while it reacts and brakes, so the protective field is longer by
+    ``u_a (t_r + v_i / a)`` (the ``K T`` term of ISO 13855's ``S = K T + C``; 0: obstacles that
+    stand or cross without approaching).
     """
+    if not (math.isfinite(approach_speed) and approach_speed >= 0.0):
+        raise ValueError(f"approach_speed must be >= 0 and finite, got {approach_speed!r}")
     if not (math.isfinite(v_max) and v_max > 0.0):
         raise ValueError(f"v_max must be a positive finite speed, got {v_max!r}")
     if bands < 1:
@@ -155,6 +161,7 @@ def generate_fields(
         for i in range(1, bands + 1):
             v = v_max * i / bands
             p_len = float(stopping_distance(v, reaction_time, decel, margin))
+            p_len += approach_speed * (reaction_time + v / decel)
             w_len = p_len + v * warning_time
             sets.append(FieldSet(v, d, field_rectangle(footprint, p_len, lateral_margin, d),
                                  field_rectangle(footprint, w_len, lateral_margin, d), p_len, w_len))

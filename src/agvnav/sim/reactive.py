@@ -539,7 +539,8 @@ def wire_reactive(sc: Any, world: WorldMap, plant: Any, sensors: list[Any], pilo
     if sc.scanner is not None and r is not None:
         reverse = any(seg.direction < 0 for seg in pilot.path.segments)
         fields = generate_fields(footprint, tc.speed_m_s, decel, r.reaction_time_s, r.margin_m, r.lateral_margin_m,
-                                 r.warning_time_s, r.speed_bands, reverse, r.protective_length_m, r.warning_length_m)
+                                 r.warning_time_s, r.speed_bands, reverse, r.protective_length_m, r.warning_length_m,
+                                 r.approach_speed_m_s)
     limits = ReactionLimits(r.slow_speed_fraction, r.resume_after_s) if r is not None else ReactionLimits()
     reaction = Reaction(limits, enabled=r is not None and r.enabled)
     avoid = None

@@ -118,6 +118,9 @@ class ReactiveSpec(StrictModel):
     """distance the protective field adds to the stopping distance."""
     lateral_margin_m: NonNegFloat = 0.1
     """fields reach this far beyond the body's sides."""
+    approach_speed_m_s: NonNegFloat = 0.0
+    """a person may walk towards the vehicle this fast while it stops: the protective field grows by
+    that speed times the reaction and braking time (ISO 13855's K T; 0: obstacles that do not approach)."""
     warning_time_s: NonNegFloat = 1.5
     """the warning field is longer than the protective one by this much travel at the band's top speed."""
     speed_bands: Annotated[int, Field(ge=1, le=16)] = 4
