@@ -135,12 +135,25 @@ def test_white_innovations_exclude_nothing(lab: WorldMap) -> None:
 # ---------------------------------------------------------------------- hysteresis
 def test_degraded_returns_to_ok_only_after_recover_s_of_passing_checks(lab: WorldMap) -> None:
     mon = IntegrityMonitor(lab.reflector_xy, lab.reflector_radius, MOUNT, 1e-4, REV, IntegrityLimits(recover_s=1.0))
-    t = _feed_exact(mon, lab, list(range(9)), 72)
-    assert mon.check(t, TRUTH + [0.2, 0.0, 0.0], P_SMALL, ODOM0, False)  # cross-check fails: inflate
-    assert mon.verdict == "degraded"
+    h, _, _ = bearing_model(TRUTH, MOUNT, lab.reflector_xy, lab.reflector_radius)
+    t = 0.0
+    for k in range(72):  # innovations 3 sigma wide: the NIS check fails
+        t = (k + 1) / 72.0
+        mon.accepted(t, 9.0, k % 9, float(h[k % 9]), ODOM0)
+    assert mon.check(t, TRUTH, P_SMALL, ODOM0, False) and mon.reasons == ("nis",)
     t_fail = t
     while t < t_fail + 1.5:
         t = _feed_exact(mon, lab, list(range(9)), 9, t0=t)
         mon.check(t, TRUTH, P_SMALL, ODOM0, False)
         assert mon.reasons == ()
         assert mon.verdict == ("degraded" if t - t_fail < 1.0 else "ok")
+
+
+def test_a_lone_crosscheck_failure_is_not_held(lab: WorldMap) -> None:
+    mon = IntegrityMonitor(lab.reflector_xy, lab.reflector_radius, MOUNT, 1e-4, REV, IntegrityLimits(recover_s=1.0))
+    t = _feed_exact(mon, lab, list(range(9)), 72)
+    mon.check(t, TRUTH + [0.2, 0.0, 0.0], P_SMALL, ODOM0, False)
+    assert mon.reasons == ("crosscheck",) and mon.verdict == "degraded"
+    t = _feed_exact(mon, lab, list(range(9)), 9, t0=t)
+    mon.check(t, TRUTH, P_SMALL, ODOM0, False)
+    assert mon.verdict == "ok"
