@@ -606,14 +606,18 @@ def _gauss_newton(
 
 
 def _distinct(items: list[tuple], position_tol: float, heading_tol: float) -> list[tuple]:
-    """Keep the first item of every cluster of poses closer than the tolerances."""
+    """Keep the first item of every cluster of poses closer than the tolerances.
+
+    One vectorised comparison of each item with the poses kept so far (same decisions as
+    comparing them one by one: the same element-wise ``hypot`` and ``angle_diff``).
+    """
     kept: list[tuple] = []
+    poses = np.empty((len(items), 3))
     for it in items:
         p = it[0]
-        if all(
-            np.hypot(p[0] - k[0][0], p[1] - k[0][1]) > position_tol
-            or abs(float(angle_diff(p[2], k[0][2]))) > heading_tol
-            for k in kept
-        ):
+        k = poses[: len(kept)]
+        if np.all((np.hypot(p[0] - k[:, 0], p[1] - k[:, 1]) > position_tol)
+                  | (np.abs(angle_diff(p[2], k[:, 2])) > heading_tol)):
+            poses[len(kept)] = p
             kept.append(it)
     return kept
