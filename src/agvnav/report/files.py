@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -33,7 +34,7 @@ from numpy.typing import NDArray
 
 from agvnav.report.html import write_html_report
 from agvnav.report.plots import write_plots
-from agvnav.report.reference import COLUMNS, EVENT_COLUMNS, LAP_COLUMNS
+from agvnav.report.reference import COLUMNS, EVENT_COLUMNS, LAP_COLUMNS, PER_OBSTACLE
 
 if TYPE_CHECKING:
     from agvnav.sim.run import SimResult
@@ -45,6 +46,7 @@ __all__ = [
     "check_out_dir",
     "layout_document",
     "metrics_document",
+    "reactive_document",
     "save_result",
     "timing_document",
     "units_path",
@@ -63,9 +65,11 @@ def metrics_document(result: SimResult) -> dict[str, Any]:
     """The content of metrics.json: outcome, the metrics, integrity figures, how the transient was defined.
 
     Deterministic for the scenario and seed (no timing: see :func:`timing_document`).
+    A run with reactive control adds a ``reactive`` section (:func:`reactive_document`);
+    any other run's document is as before, without it.
     """
     figures = {k: v for k, v in result.metrics.to_dict().items() if k not in TIMING_KEYS}
-    return {
+    doc: dict[str, Any] = {
         "scenario": result.scenario.name,
         "vehicle": result.scenario.vehicle.model,
         "seed": result.scenario.seed,
@@ -77,6 +81,39 @@ def metrics_document(result: SimResult) -> dict[str, Any]:
         "transient_end_s": result.transient_end_s,
         "integrity": result.integrity,
     }
+    reactive = reactive_document(result)
+    if reactive is not None:
+        doc["reactive"] = reactive
+    return doc
+
+
+def reactive_document(result: SimResult) -> dict[str, Any] | None:
+    """The ``reactive`` section of metrics.json (issue 18), or None when the run had no reactive control.
+
+    ``stops`` (emergency stops), ``time_stopped_s`` (s), ``detours``, ``max_corridor_excess_m``
+    (m; null without a corridor) and ``obstacles``: per obstacle id its ``min_clearance_m``
+    (m, true footprint to obstacle; null if never computed) and encounter ``result``
+    (``collision``, ``avoid``, ``stop``, ``slow`` or ``none``). The figures of
+    :attr:`agvnav.sim.run.SimResult.reactive` as plain JSON values (NaN as null), from the
+    recorded signals only: deterministic for the seed.
+    """
+    figures = getattr(result, "reactive", None)  # a result-like object without the field has none
+    if not figures:
+        return None
+    return {str(k): _plain(v) for k, v in figures.items()}
+
+
+def _plain(value: Any) -> Any:
+    """``value`` as plain JSON: numpy scalars as Python numbers, NaN and infinities as None, containers walked."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if hasattr(value, "item"):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def timing_document(result: SimResult) -> dict[str, Any]:
@@ -207,7 +244,8 @@ def write_csv(
     """One column per series, a header row of names, ``%.10g`` values; the units in a sidecar.
 
     ``units`` maps a column name to ``(unit, meaning)``; by default the documented
-    columns of :mod:`agvnav.report.reference` (time series, then laps). The sidecar
+    columns of :mod:`agvnav.report.reference` (time series, then laps); a per-obstacle column
+    ``NAME__ID`` is documented as ``NAME__<id>``. The sidecar
     :func:`units_path` lists every column in order; an undocumented one says so.
     Returns the CSV's path.
     """
@@ -219,7 +257,7 @@ def write_csv(
         out = csv.writer(fh)
         out.writerow(["column", "unit", "meaning"])
         for name in names:
-            unit, meaning = table.get(name, ("", "not documented"))
+            unit, meaning = table.get(name) or table.get(name.split("__")[0] + PER_OBSTACLE, ("", "not documented"))
             out.writerow([name, unit, meaning])
     return path
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from agvnav.routes.reference import network_reference
 from agvnav.world.reference import scenario_reference
 
-__all__ = ["COLUMNS", "EVENT_COLUMNS", "LAP_COLUMNS", "outputs_reference", "reference_markdown"]
+__all__ = ["COLUMNS", "EVENT_COLUMNS", "LAP_COLUMNS", "PER_OBSTACLE", "outputs_reference", "reference_markdown"]
 
 #: timeseries.csv columns: name -> (unit, meaning). One row per control step.
 COLUMNS: dict[str, tuple[str, str]] = {
@@ -90,7 +90,25 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "leg": ("-", "mission: index of the job being driven or waited for"),
     "nodes_passed": ("-", "mission: route network nodes passed so far (topological position)"),
     "dwelling": ("-", "mission: 1 while stopped at a station for a job"),
+    "reaction_level": ("-", "reactive control: 0 clear, 1 slow (warning field), 2 stop (protective field or ranger)"),
+    "field_v_max": ("m/s", "reactive control: top speed of the selected safety-field set (NaN without a scanner)"),
+    "protective_length": ("m", "reactive control: the selected protective field's reach beyond the body"),
+    "field_trigger": ("-", (
+        "reactive control: index of the obstacle in the most severe intruded field; -2 a wall, -3 the stopping "
+        "ultrasonic ranger, -1 none"
+    )),
+    "ranger_stop_range": ("m", "reactive control: last reading of the stopping ultrasonic ranger (NaN none)"),
+    "avoiding": ("-", "reactive control: 1 while driving a detour around an obstacle"),
+    "detour_target": ("-", "reactive control: index of the obstacle the detour passes (-1 none or unknown)"),
+    "corridor_excess": ("m", "reactive control: how far the body reaches beyond the corridor (0 inside; NaN none)"),
+    "clearance__<id>": ("m", (
+        "reactive control: one column per obstacle (`<id>` its id): distance from the true footprint to it (exact "
+        "within 2 m, beyond a lower bound from the bounding circles)"
+    )),
 }
+
+#: A column ``PREFIX__ID`` (one per obstacle) is documented under ``PREFIX__<id>`` in :data:`COLUMNS`.
+PER_OBSTACLE = "__<id>"
 
 #: reflections.csv columns (one row per goniometer reflection).
 EVENT_COLUMNS: dict[str, tuple[str, str]] = {
@@ -131,7 +149,10 @@ def outputs_reference() -> list[str]:
             "the transient definition and an `integrity` section (time and distance per estimator status, "
             "stops for positioning against the braking distance, quality and reflectors-used percentiles, "
             "readings dropped (`n_dropped`), NEES, longest silent "
-            "failure, largest true lateral error); identical bytes for the same scenario and seed;"
+            "failure, largest true lateral error); with reactive control (issue 18) a `reactive` section: "
+            "`stops`, `time_stopped_s`, `detours`, `max_corridor_excess_m` (null without a corridor) and per "
+            "obstacle id its `min_clearance_m` and encounter `result` (`collision`, `avoid`, `stop`, `slow` or "
+            "`none`); identical bytes for the same scenario and seed;"
         ),
         "- `timing.json`: wall time (s) and real-time factor (the only file that differs between equal runs);",
         "- `timeseries.csv`: one row per control step, the columns below (a vehicle writes the ones it has);",
