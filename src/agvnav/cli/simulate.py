@@ -3,8 +3,9 @@
 Runs a closed-loop scenario (the seed-000 guidance test in the lab when none is
 given) with a progress bar on stderr (:class:`agvnav.cli.progress.RunProgress`),
 prints a summary table in mm and degrees (the seed's figure beside a metric only
-for a scenario that reproduces a seed experiment) and writes ``DIR/metrics.json``,
-``DIR/timing.json``, ``DIR/timeseries.csv``, ``DIR/reflections.csv`` and the PNG
+for a scenario that reproduces a seed experiment; with reactive control also the
+stops, time stopped and each obstacle's minimum clearance and encounter result) and
+writes ``DIR/metrics.json``, ``DIR/timing.json``, ``DIR/timeseries.csv``, ``DIR/reflections.csv`` and the PNG
 plots, all at once at the end (:func:`agvnav.report.files.atomic_dir`); a DIR that
 holds another run is refused (exit 2) unless ``--force``. A run that ran but
 failed exits 3 after one line ``run FAILED: <reason>``. ``--json`` prints the
@@ -196,6 +197,37 @@ def _seed_column(name: str) -> dict[str, str]:
     return {}
 
 
+def _reactive_rows(result: Any) -> list[tuple[str, str, str]]:
+    """Summary rows of the reactive control (issue 18), none for a run without it.
+
+    Stops, time stopped, detours, the largest excursion beyond the corridor (when there is one),
+    then per obstacle its minimum clearance and how the encounter ended; headers and units by
+    :func:`agvnav.bench.common.display_unit` (a clearance below 1 m in mm).
+    """
+    from agvnav.bench.common import display_unit, format_number
+    from agvnav.report.files import reactive_document
+
+    doc = reactive_document(result)
+    if doc is None:
+        return []
+
+    def row(key: str, value: Any, label: str | None = None) -> tuple[str, str, str]:
+        header, _unit, scale = display_unit(key, [value])
+        if label is not None:  # the key's own words replaced, its unit kept
+            header = label + header[len(header.split(" (")[0]):]
+        return header, format_number(value, scale), ""
+
+    rows = [row("emergency_stops", doc["stops"]), row("time_stopped_s", doc["time_stopped_s"])]
+    if doc["detours"]:
+        rows.append(row("detours", doc["detours"]))
+    if doc["max_corridor_excess_m"] is not None:
+        rows.append(row("max_corridor_excess_m", doc["max_corridor_excess_m"]))
+    for oid, ob in doc["obstacles"].items():
+        rows.append(row("min_clearance_m", ob["min_clearance_m"], f"min clearance to {oid}"))
+        rows.append((f"encounter with {oid}", str(ob["result"]), ""))
+    return rows
+
+
 def _summary(result: Any) -> tuple[str, list[Col], list[list[str]]]:
     """The summary table ``(title, columns, rows)``: metric, value, and the seed's figure where one applies."""
     m = result.metrics
@@ -226,6 +258,7 @@ def _summary(result: Any) -> tuple[str, list[Col], list[list[str]]]:
         ("positioning std e_lat (mm)", _fmt(m.positioning_lateral_std_m, 1e3), ""),
         ("positioning max |e_lat| (mm)", _fmt(m.positioning_lateral_max_abs_m, 1e3), "positioning_lateral_max_abs_m"),
         ("outcome", result.outcome + (f" ({result.reason})" if result.reason else ""), ""),
+        *_reactive_rows(result),
         ("simulated time (s)", _fmt(m.sim_time_s, 1.0, 2), ""),
         ("wall time (s)", _fmt(m.wall_time_s, 1.0, 3), ""),
         ("real-time factor", _fmt(m.real_time_factor, 1.0, 0), ""),
