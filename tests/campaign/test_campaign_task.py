@@ -6,7 +6,8 @@ import math
 from agvnav.campaign import load_base, load_campaign, plan_runs, run_batch, run_one, write_replay
 from agvnav.campaign.overrides import apply_overrides, dump_yaml
 from agvnav.sim import simulate
-from agvnav.world.scenario import load_scenario
+from agvnav.world.scenario import load_scenario, parse_scenario
+from agvnav.world.strict import load_yaml_document
 
 #: Metrics that depend on the machine, not on the seed.
 TIMING = {"wall_time_s", "real_time_factor"}
@@ -60,3 +61,19 @@ def test_errors_are_records(write_campaign):
     assert [r["outcome"] for r in recs] == ["error", "error", "completed"]
     assert "goniometer.p_miss" in recs[0]["reason"] and "no_such_map.yaml" in recs[1]["reason"]
     assert run_one("{not: yaml", {}, 0)["outcome"] == "error"
+
+
+def test_shipped_map_given_inline_gives_the_same_record(write_campaign):
+    """The task hands a shipped map to the simulator inline (no YAML parse per run): same results as by name."""
+    spec = load_campaign(write_campaign("seed: 2\nruns: 1\n"))
+    text = _base_text(spec)
+    swept = {"map": "hall", "duration_s": 2.0}
+    rec = run_one(text, swept, 7)
+    by_name = parse_scenario(dump_yaml(apply_overrides(load_yaml_document(text, "<t>")[0], swept)), source="<t>")
+    assert by_name.map == "hall"  # the simulator itself loads the shipped file here
+    metrics = simulate(by_name.with_seed(7)).metrics.to_dict()
+    checked = [k for k, v in metrics.items() if k not in TIMING and isinstance(v, int | float)]
+    assert checked
+    for k in checked:
+        got, want = rec[f"metric.{k}"], float(metrics[k])
+        assert got == want or (math.isnan(got) and math.isnan(want)), k
