@@ -21,7 +21,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path as FsPath
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,7 +47,6 @@ from agvnav.sensors.ultrasonic import UltrasonicArray, UltrasonicSensor, seed_00
 from agvnav.sim.collision import CollisionWatch, WallCollider
 from agvnav.sim.engine import ClosedLoop
 from agvnav.sim.faults import PLANT_FAULTS, FaultyPlant, FaultySensor, world_with_faults
-from agvnav.sim.mission import MissionAutopilot, mission_autopilot, mission_duration, plan_mission
 from agvnav.sim.plants import build_plant, family_of
 from agvnav.sim.rangers import UltrasonicSensorRole
 from agvnav.sim.reactive import wire_reactive
@@ -56,6 +55,9 @@ from agvnav.sim.safety import EstimatorWatch, GuardLimits, PositioningGuard
 from agvnav.world import WorldMap, builtin_map_names, load_builtin_map, load_map
 from agvnav.world.scenario import KeyPath, Scenario, ScenarioError
 from agvnav.world.vehicle_specs import TractorTrailerSpec
+
+if TYPE_CHECKING:
+    from agvnav.sim.mission import MissionAutopilot
 
 __all__ = [
     "DEFAULT_FOLLOWERS",
@@ -495,6 +497,14 @@ def _default_duration(sc: Scenario, path: Path) -> float:
     return 1.5 * (path.length / v + ramps) + 5.0 + sc.end_hold_s
 
 
+def _missions_module() -> Any:
+    """``agvnav.sim.mission``, imported only for a mission scenario: routes pull in networkx and
+    scipy.interpolate, about half of ``agvnav.sim``'s import time, which path scenarios never use."""
+    from agvnav.sim import mission  # noqa: PLC0415 - start-up time of path scenarios
+
+    return mission
+
+
 def build(sc: Scenario) -> Built:
     """Wire every part of scenario ``sc`` (any vehicle following a path) into a ClosedLoop.
 
@@ -503,7 +513,8 @@ def build(sc: Scenario) -> Built:
     if sc.route is not None:
         raise sc.error(("route",), "a route scenario runs laps (agvnav.sim.simulate), it has no single path loop")
     world = build_world(sc)
-    mission = plan_mission(sc) if sc.mission is not None else None
+    missions = _missions_module() if sc.mission is not None else None
+    mission = missions.plan_mission(sc) if missions is not None else None
     path = build_path(sc) if mission is None else mission.path
     family = family_of(sc.vehicle.model)
     point = _point(sc, family)
@@ -524,14 +535,14 @@ def build(sc: Scenario) -> Built:
     rangers = ultrasonic_array(sc) if sc.ultrasonic is not None else None
     estimator = _estimator(sc, world, x0, rangers)
     pilot: PathAutopilot | MissionAutopilot = PathAutopilot(follower, path, profile, plant, offset, watch=_watch(sc))
-    if mission is not None:  # one PathAutopilot per leg (issue 14)
-        pilot = mission_autopilot(sc, mission, follower, plant, offset, _watch(sc))
+    if missions is not None:  # one PathAutopilot per leg (issue 14)
+        pilot = missions.mission_autopilot(sc, mission, follower, plant, offset, _watch(sc))
     sensors = _sensors(sc, world, rangers)
     loop_plant = _loop_plant(sc, plant, world)
     if sc.obstacles or sc.scanner is not None or sc.reactive is not None:  # issue 18: obstacles, scanner, reaction
         loop_plant, sensors, pilot = wire_reactive(sc, world, loop_plant, sensors, pilot)
     loop = ClosedLoop(loop_plant, sensors, estimator, pilot, sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else _default_duration(sc, path)
-    if mission is not None and sc.duration_s is None:
-        duration = mission_duration(sc, mission)
+    if missions is not None and sc.duration_s is None:
+        duration = missions.mission_duration(sc, mission)
     return Built(loop, world, path, plant, pilot, estimator, duration, point, offset, mission)

@@ -34,7 +34,6 @@ from agvnav.guidance.errors import tracking_errors
 from agvnav.sim.build import Built, build
 from agvnav.sim.integrity import integrity_figures
 from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, transient_end_index
-from agvnav.sim.mission import mission_figures
 from agvnav.sim.reactive import reactive_figures
 from agvnav.world import WorldMap
 from agvnav.world.scenario import Scenario
@@ -121,6 +120,8 @@ def simulate(
     t_end = None if k0 is None else float(series["t"][k0])
     extra = _extra_figures(series)
     if built.mission is not None:  # stop errors, mission time, lateral error per edge kind (issue 14)
+        from agvnav.sim.mission import mission_figures  # noqa: PLC0415 - routes load only for missions (start-up)
+
         extra.update(mission_figures(series, built.mission, built.autopilot.stops))  # type: ignore[union-attr]
     integrity = integrity_figures(series, _distance(series), scenario.traction.max_decel_m_s2)
     reactive = {} if "reaction_level" not in series else reactive_figures(  # issue 18
