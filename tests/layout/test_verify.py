@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
 import pytest
 
 from agvnav.layout import load_layout, parse_layout, plan_layout
 from agvnav.layout.generate import generated_hall_dict
 from agvnav.layout.schema import LayoutSpec
-from agvnav.layout.verify import route_scenario, verify_plan
+from agvnav.layout.verify import profile_speed, refine_ramps, route_scenario, verify_plan
 
 
 def test_route_scenario_tells_the_filter_the_truth(small_text: str) -> None:
@@ -48,3 +51,16 @@ def test_shipped_generated_hall_is_the_generator() -> None:
 def test_speed_must_be_positive(small_text: str) -> None:
     with pytest.raises(ValueError, match="speed_m_s"):
         parse_layout(small_text.replace("verify: {", "verify: {speed_m_s: 0, "))
+
+
+def test_speed_profile_and_ramp_refinement() -> None:
+    s = np.array([0.0, 0.5, 1.0, 1.5, 10.0])
+    v = profile_speed(s, 10.0, 1.0, 0.5)
+    np.testing.assert_allclose(v, [0.05, math.sqrt(0.5), 1.0, 1.0, 0.05])
+    pose = np.column_stack([s, np.zeros(5), np.zeros(5)])
+    vis = np.eye(5, dtype=bool)
+    rs, rp, rv = refine_ramps(s, pose, vis, 1.0, 0.5)  # ramps: the first and last metre
+    assert rs[0] == 0.0 and rs[-1] == 10.0 and np.all(np.diff(rs) > 0)
+    assert np.sum(rs <= 1.0) == 51 and np.all(np.diff(rs[rs <= 1.0]) <= 0.02 + 1e-12)
+    np.testing.assert_allclose(rp[:, 0], rs)  # interpolated on the line
+    assert rv[1].tolist() == vis[1].tolist() and rv[-1].tolist() == vis[4].tolist()

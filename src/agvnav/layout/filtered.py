@@ -6,7 +6,8 @@ error is smaller. This module runs the EKF's own covariance recursion without
 noise, bearing by bearing, in the coordinates the simulator scores: the base_link
 pose ``[x_O, y_O, ψ]`` (not the head centre P, which sits ``mount`` ahead of it).
 
-* The head turns at ``revolutions_per_m`` revolutions per metre of route; reflector
+* The head turns at ``revolutions_per_m`` revolutions per metre of route (head rate over
+  the vehicle's speed, so more per metre where it accelerates or brakes); reflector
   ``j`` is crossed when the head's world angle reaches its bearing, once per
   revolution while it is visible, so the bearings arrive in the order the
   goniometer delivers them.
@@ -59,7 +60,8 @@ class FilteredPrediction:
 
 
 def _recursion(pose: NDArray[np.float64], visible: NDArray[np.bool_], refl: NDArray[np.float64],
-               mount: NDArray[np.float64], bearing_var: float, rev_per_m: float, k_d: float, k_dth: float,
+               mount: NDArray[np.float64], bearing_var: float, rev_per_m: NDArray[np.float64], k_d: float,
+               k_dth: float,
                k_th: float, p0: NDArray[np.float64], e0: NDArray[np.float64]) -> tuple[
                    NDArray[np.float64], NDArray[np.float64]]:
     """The bearing-by-bearing covariance recursion (compiled; see the module docstring).
@@ -74,14 +76,16 @@ def _recursion(pose: NDArray[np.float64], visible: NDArray[np.bool_], refl: NDAr
     E = e0.copy()
     mean_sq[0] = E[0, 0] + E[1, 1]
     post[0] = math.sqrt(max(mean_sq[0], 0.0))
-    s_total = 0.0
+    rev_total = 0.0  # head revolutions made so far
     for k in range(1, n_pose):
+        rpm = rev_per_m[k]
         x0, y0, th0 = pose[k - 1, 0], pose[k - 1, 1], pose[k - 1, 2]
         ddx, ddy = pose[k, 0] - x0, pose[k, 1] - y0
         length = math.sqrt(ddx * ddx + ddy * ddy)
         dth = (pose[k, 2] - th0 + math.pi) % (2.0 * math.pi) - math.pi
-        # bearing events inside (s_total, s_total + length]: reflector j at head world angle = its bearing
-        cap = n_refl * (int(length * rev_per_m) + 2)
+        # bearing events inside this stretch: reflector j is crossed when the head's revolution count
+        # R (rev_total at its start, rev_total + rpm * length at its end) reaches m + phase_j
+        cap = n_refl * (int(length * rpm) + 2)
         ev_s = np.empty(cap)
         ev_j = np.empty(cap, dtype=np.int64)
         n_ev = 0
@@ -93,11 +97,10 @@ def _recursion(pose: NDArray[np.float64], visible: NDArray[np.bool_], refl: NDAr
             py = y0 + s * mount[0] + c * mount[1]
             beta = math.atan2(refl[j, 1] - py, refl[j, 0] - px) - th0 - mount[2]
             phase = (beta / (2.0 * math.pi)) % 1.0
-            first = math.floor(s_total * rev_per_m - phase) + 1.0
-            m = first
-            while (m + phase) / rev_per_m <= s_total + length:
+            m = math.floor(rev_total - phase) + 1.0
+            while (m + phase - rev_total) / rpm <= length:
                 if n_ev < cap:
-                    ev_s[n_ev] = (m + phase) / rev_per_m - s_total
+                    ev_s[n_ev] = (m + phase - rev_total) / rpm
                     ev_j[n_ev] = j
                     n_ev += 1
                 m += 1.0
@@ -151,7 +154,7 @@ def _recursion(pose: NDArray[np.float64], visible: NDArray[np.bool_], refl: NDAr
             A = np.eye(3) - np.outer(K, H)
             E = A @ E @ A.T + np.outer(K, K) * bearing_var
             E = 0.5 * (E + E.T)
-        s_total += length
+        rev_total += length * rpm
         mean_sq[k] = acc / length if length > 0.0 else E[0, 0] + E[1, 1]
         post[k] = math.sqrt(max(E[0, 0] + E[1, 1], 0.0))
     return mean_sq, post
@@ -161,20 +164,23 @@ _recursion_jit = cast(Callable[..., tuple[NDArray[np.float64], NDArray[np.float6
 
 
 def filtered_prediction(pose: NDArray[np.float64], visible: NDArray[np.bool_], refl: NDArray[np.float64],
-                        mount: tuple[float, float, float], bearing_std: float, revolutions_per_m: float,
+                        mount: tuple[float, float, float], bearing_std: float,
+                        revolutions_per_m: float | NDArray[np.float64],
                         noise: OdometryNoise, initial_cov: NDArray[np.float64],
                         initial_error_cov: NDArray[np.float64] | None = None) -> FilteredPrediction:
     """The predicted error covariance of the EKF along the consecutive base_link poses ``pose`` ``(K, 3)``.
 
     ``visible`` ``(K, S)`` reflectors ``refl`` ``(S, 2)`` in sight at each pose (m); ``mount`` the head
-    in base_link (m, m, rad); ``bearing_std`` (rad); ``revolutions_per_m`` head rate over speed (rev/m);
+    in base_link (m, m, rad); ``bearing_std`` (rad); ``revolutions_per_m`` head rate over speed (rev/m), one
+    value or ``(K,)`` (entry k for the stretch that ends at pose k: a speed profile);
     ``noise`` the odometry model [seed002 eq17]; ``initial_cov`` ``(3, 3)`` (m², rad²) the filter's covariance
     at the first pose (it sets the gains) and ``initial_error_cov`` that of the actual initial error (default
     the same; a run started on the true pose has zero). Until the two meet, the actual error follows the
     gains of ``P`` with its own covariance ``E`` (Joseph form); the figures are of ``E``.
     """
-    if not (math.isfinite(revolutions_per_m) and revolutions_per_m > 0.0):
-        raise ValueError(f"revolutions_per_m must be positive, got {revolutions_per_m}")
+    rpm = np.broadcast_to(np.asarray(revolutions_per_m, dtype=np.float64), (np.shape(pose)[0],)).copy()
+    if not (np.all(np.isfinite(rpm)) and np.all(rpm > 0.0)):
+        raise ValueError(f"revolutions_per_m must be positive and finite, got {revolutions_per_m}")
     if not (math.isfinite(bearing_std) and bearing_std > 0.0):
         raise ValueError(f"bearing_std must be positive, got {bearing_std}")
     pose = np.ascontiguousarray(pose, dtype=np.float64).reshape(-1, 3)
@@ -184,7 +190,7 @@ def filtered_prediction(pose: NDArray[np.float64], visible: NDArray[np.bool_], r
     p0 = np.ascontiguousarray(initial_cov, dtype=np.float64).reshape(3, 3)
     e0 = p0 if initial_error_cov is None else np.ascontiguousarray(initial_error_cov, dtype=np.float64).reshape(3, 3)
     ms, post = _recursion_jit(pose, vis, np.ascontiguousarray(refl, dtype=np.float64).reshape(-1, 2),
-                              np.asarray(mount, dtype=np.float64), bearing_std**2, revolutions_per_m,
+                              np.asarray(mount, dtype=np.float64), bearing_std**2, rpm,
                               noise.k_d, noise.k_dtheta, noise.k_theta, p0, e0)
     return FilteredPrediction(ms, post)
 

@@ -14,7 +14,9 @@ measured over the control steps at which the vehicle moves (a standing vehicle
 sees the same quantised bearings every revolution, so its error freezes while
 ``P`` keeps shrinking), predicted as ``sqrt`` of the time-averaged
 ``trace P_xy`` of the EKF's covariance recursion over the same stretch
-(:func:`agvnav.layout.filtered.filtered_prediction`). The single-revolution CRLB of
+(:func:`agvnav.layout.filtered.filtered_prediction`), with the run's speed profile (the
+head makes more revolutions per metre where the vehicle accelerates and brakes) and its
+time weighting (the run is sampled every control step, so slow stretches weigh more). The single-revolution CRLB of
 the base_link pose (what one fix could do, which filtering beats) is reported beside them.
 """
 
@@ -36,13 +38,15 @@ from agvnav.sim.build import build
 from agvnav.world.scenario import Scenario
 from agvnav.world.strict import attach_source
 
-__all__ = ["cut_path", "odometry_model", "route_scenario", "verify_plan"]
+__all__ = ["cut_path", "odometry_model", "profile_speed", "refine_ramps", "route_scenario", "verify_plan"]
 
 #: Initial std of the run's estimate (x m, y m, heading deg): the scenario default.
 INITIAL_STD = (0.02, 0.02, 1.0)
 #: Track (m) of the verifying differential vehicle: the scenario default ``track_m`` (verify does not set it);
 #: for the tricycle it sets the heading noise the filter assumes (its truth slips in traction only).
 VERIFY_TRACK_M = 0.5
+#: Acceleration and deceleration limit (m/s²) of the verifying vehicle's speed profile.
+ACCEL_M_S2 = 0.5
 #: Gross-error floor (m) of the integrity cross-check in the verification runs (see :func:`_drive`).
 CROSSCHECK_MIN_M = 0.25
 
@@ -100,7 +104,7 @@ def route_scenario(plan: LayoutPlan, route: int, seed: int) -> Scenario:
         "seed": seed,
         "step_s": 0.05,
         "vehicle": vehicle,
-        "traction": {"speed_m_s": v.speed_m_s, "max_accel_m_s2": 0.5, "max_decel_m_s2": 0.5},
+        "traction": {"speed_m_s": v.speed_m_s, "max_accel_m_s2": ACCEL_M_S2, "max_decel_m_s2": ACCEL_M_S2},
         "goniometer": {"rate_hz": g.rate_hz, "pulses_per_rev": g.pulses_per_rev, "mount": list(g.mount),
                        "min_range_m": g.min_range_m, "max_range_m": g.max_range_m},
         "positioning": {"method": "ekf", "params": {"map_std": 0.0},
@@ -147,24 +151,31 @@ def verify_plan(plan: LayoutPlan, seed: int | None = None, routes: Sequence[int]
         pose, vis = plan.poses.pose[driven], plan.prediction.visible[driven]
         noise = OdometryNoise(*sc.positioning.odometry_noise)
         p0 = np.diag(np.square([INITIAL_STD[0], INITIAL_STD[1], math.radians(INITIAL_STD[2])]))
-        pred = filtered_prediction(pose, vis, refl, mount, bearing_std,
-                                   g.rate_hz / spec.verify.speed_m_s, noise, p0, np.zeros((3, 3)))
+        s0 = plan.poses.s[driven]
+        s, pose_f, vis_f = refine_ramps(s0, pose, vis, spec.verify.speed_m_s, ACCEL_M_S2)
+        ds = np.diff(s, prepend=s[0])
+        speed = profile_speed(s - 0.5 * ds, float(s[-1]), spec.verify.speed_m_s, ACCEL_M_S2)
+        pred = filtered_prediction(pose_f, vis_f, refl, mount, bearing_std, g.rate_hz / speed, noise, p0,
+                                   np.zeros((3, 3)))
+        dt = ds / speed  # time weights: the run is sampled every control step, not every metre
+        counted = np.cumsum(dt) >= 1.0  # as the measured samples: after the first second
         fix = single_fix_rms(base_link_information(pose, plan.poses.head[driven], refl, vis, mount, bearing_std))
         # pose k's figure covers the stretch (s_k-1, s_k]: a pose on a section's end belongs to that section
-        sec_pred = np.floor(np.maximum(plan.poses.s[driven] - 1e-9, 0.0) / section).astype(int)
+        sec_pred = np.floor(np.maximum(s - 1e-9, 0.0) / section).astype(int)
+        sec_fix = np.floor(np.maximum(s0 - 1e-9, 0.0) / section).astype(int)
         # the stop can overshoot the last pose by centimetres: those steps join the last section
         sec_sim = np.minimum(np.floor(ser["s_est"] / section).astype(int), int(sec_pred.max()))
         for k in np.unique(sec_sim[ok]):
             m = ok & (sec_sim == k)
-            here = sec_pred == k
+            here = (sec_pred == k) & counted
             rows.append({
                 "route": route.name,
                 "seed": run_seed,
                 "section": f"{k * section:.0f}-{(k + 1) * section:.0f} m",
                 "outcome": outcome,
                 "measured_rms_m": float(np.sqrt(np.mean(err2[m]))),
-                "predicted_rms_m": _rms_of_mean_square(pred.mean_square[here]),
-                "crlb_rms_m": _rms(fix[here]),
+                "predicted_rms_m": _time_rms(pred.mean_square[here], dt[here]),
+                "crlb_rms_m": _rms(fix[sec_fix == k]),
                 "samples": int(m.sum()),
                 **counts,
             })
@@ -205,5 +216,40 @@ def _rms(a: np.ndarray) -> float | None:
     return float(np.sqrt(np.mean(a**2))) if a.size and np.isfinite(a).all() else None
 
 
-def _rms_of_mean_square(a: np.ndarray) -> float | None:
-    return float(np.sqrt(np.mean(a))) if a.size and np.isfinite(a).all() else None
+def _time_rms(mean_square: np.ndarray, dt: np.ndarray) -> float | None:
+    ok = mean_square.size > 0 and bool(np.isfinite(mean_square).all()) and float(dt.sum()) > 0.0
+    return float(np.sqrt(np.sum(mean_square * dt) / np.sum(dt))) if ok else None
+
+
+#: Spacing (m) of the prediction's poses where the vehicle accelerates or brakes.
+RAMP_SPACING_M = 0.02
+
+
+def refine_ramps(s: np.ndarray, pose: np.ndarray, visible: np.ndarray, cruise: float,
+                 accel: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Route poses with the stretches where the speed profile is below ``cruise`` cut every
+    :data:`RAMP_SPACING_M` (poses interpolated, each piece keeping the visibility of its stretch's end):
+    from rest the head makes many revolutions in the first centimetres, which a 0.5 m stretch at its
+    mean speed misses. ``s`` ``(K,)`` m, ``pose`` ``(K, 3)``, ``visible`` ``(K, S)``."""
+    ramp = cruise**2 / (2.0 * accel)  # length of the acceleration (and braking) ramp
+    length = float(s[-1])
+    out_s, out_p, out_v = [s[:1]], [pose[:1]], [visible[:1]]
+    for k in range(1, s.size):
+        a, b = float(s[k - 1]), float(s[k])
+        n = max(1, math.ceil((b - a) / RAMP_SPACING_M)) if (a < ramp or b > length - ramp) else 1
+        f = np.arange(1, n + 1) / n
+        dth = math.remainder(float(pose[k, 2] - pose[k - 1, 2]), 2.0 * math.pi)
+        piece = pose[k - 1] + f[:, None] * np.array([pose[k, 0] - pose[k - 1, 0], pose[k, 1] - pose[k - 1, 1], dth])
+        out_s.append(a + f * (b - a))
+        out_p.append(piece)
+        out_v.append(np.repeat(visible[k:k + 1], n, axis=0))
+    return np.concatenate(out_s), np.concatenate(out_p), np.concatenate(out_v)
+
+
+def profile_speed(s: np.ndarray, length: float, cruise: float, accel: float) -> np.ndarray:
+    """Speed (m/s) at arclength ``s`` (m) of a run of ``length`` m: from rest at ``accel`` (m/s²) up to
+    ``cruise`` (m/s), down at the same rate to rest at the end; at least 5 % of ``cruise`` (the measured
+    samples are those at which the vehicle moves faster than that)."""
+    up = np.sqrt(2.0 * accel * np.maximum(s, 0.0))
+    down = np.sqrt(2.0 * accel * np.maximum(length - s, 0.0))
+    return np.maximum(np.minimum(np.minimum(up, down), cruise), 0.05 * cruise)
