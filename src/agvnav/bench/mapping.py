@@ -31,6 +31,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from agvnav.campaign.overrides import apply_overrides, dump_yaml, load_base
+from agvnav.geometry import wrap_angle_scalar
 from agvnav.logs import RecordedLog, estimator_from_settings, localize, positioning_settings
 from agvnav.mapping import (
     BaselineAnchor,
@@ -235,7 +236,7 @@ def _comparison_problem(seed: int, n_poses: int) -> dict[str, Any]:
 def _between(a: np.ndarray, b: np.ndarray) -> list[float]:
     c, s = math.cos(a[2]), math.sin(a[2])
     dx, dy = b[0] - a[0], b[1] - a[1]
-    return [c * dx + s * dy, -s * dx + c * dy, math.remainder(b[2] - a[2], 2.0 * math.pi)]
+    return [c * dx + s * dy, -s * dx + c * dy, wrap_angle_scalar(b[2] - a[2])]
 
 
 def _solve_scipy(p: dict[str, Any]) -> tuple[np.ndarray, float]:

@@ -43,6 +43,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from agvnav.geometry import wrap_angle
 from agvnav.layout.prediction import information
 from agvnav.odometry import OdometryNoise
 from agvnav.positioning.bounds import inv_sym3
@@ -59,11 +60,10 @@ class FilteredPrediction:
     post_rms: NDArray[np.float64]
 
 
-def _recursion(pose: NDArray[np.float64], visible: NDArray[np.bool_], refl: NDArray[np.float64],
-               mount: NDArray[np.float64], bearing_var: float, rev_per_m: NDArray[np.float64], k_d: float,
-               k_dth: float,
-               k_th: float, p0: NDArray[np.float64], e0: NDArray[np.float64]) -> tuple[
-                   NDArray[np.float64], NDArray[np.float64]]:
+def _recursion(pose: NDArray[np.float64], turn: NDArray[np.float64], visible: NDArray[np.bool_],
+               refl: NDArray[np.float64], mount: NDArray[np.float64], bearing_var: float,
+               rev_per_m: NDArray[np.float64], k_d: float, k_dth: float, k_th: float,
+               p0: NDArray[np.float64], e0: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The bearing-by-bearing covariance recursion (compiled; see the module docstring).
 
     ``P`` is the filter's covariance (it sets the gains), ``E`` the covariance of the actual error
@@ -82,7 +82,7 @@ def _recursion(pose: NDArray[np.float64], visible: NDArray[np.bool_], refl: NDAr
         x0, y0, th0 = pose[k - 1, 0], pose[k - 1, 1], pose[k - 1, 2]
         ddx, ddy = pose[k, 0] - x0, pose[k, 1] - y0
         length = math.sqrt(ddx * ddx + ddy * ddy)
-        dth = (pose[k, 2] - th0 + math.pi) % (2.0 * math.pi) - math.pi
+        dth = turn[k - 1]  # heading change of stretch k, wrapped by geometry.wrap_angle before the call
         # bearing events inside this stretch: reflector j is crossed when the head's revolution count
         # R (rev_total at its start, rev_total + rpm * length at its end) reaches m + phase_j
         cap = n_refl * (int(length * rpm) + 2)
@@ -189,7 +189,8 @@ def filtered_prediction(pose: NDArray[np.float64], visible: NDArray[np.bool_], r
         raise ValueError(f"visible must have shape {(pose.shape[0], refl.shape[0])}, got {vis.shape}")
     p0 = np.ascontiguousarray(initial_cov, dtype=np.float64).reshape(3, 3)
     e0 = p0 if initial_error_cov is None else np.ascontiguousarray(initial_error_cov, dtype=np.float64).reshape(3, 3)
-    ms, post = _recursion_jit(pose, vis, np.ascontiguousarray(refl, dtype=np.float64).reshape(-1, 2),
+    turn = wrap_angle(np.diff(pose[:, 2]))
+    ms, post = _recursion_jit(pose, turn, vis, np.ascontiguousarray(refl, dtype=np.float64).reshape(-1, 2),
                               np.asarray(mount, dtype=np.float64), bearing_std**2, rpm,
                               noise.k_d, noise.k_dtheta, noise.k_theta, p0, e0)
     return FilteredPrediction(ms, post)

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from agvnav.geometry import wrap_angle_scalar
 from agvnav.layout.filtered import base_link_information, filtered_prediction, single_fix_rms
 from agvnav.layout.plan import LayoutPlan
 from agvnav.odometry import OdometryNoise
@@ -238,7 +239,7 @@ def refine_ramps(s: np.ndarray, pose: np.ndarray, visible: np.ndarray, cruise: f
         a, b = float(s[k - 1]), float(s[k])
         n = max(1, math.ceil((b - a) / RAMP_SPACING_M)) if (a < ramp or b > length - ramp) else 1
         f = np.arange(1, n + 1) / n
-        dth = math.remainder(float(pose[k, 2] - pose[k - 1, 2]), 2.0 * math.pi)
+        dth = wrap_angle_scalar(float(pose[k, 2] - pose[k - 1, 2]))
         piece = pose[k - 1] + f[:, None] * np.array([pose[k, 0] - pose[k - 1, 0], pose[k, 1] - pose[k - 1, 1], dth])
         out_s.append(a + f * (b - a))
         out_p.append(piece)

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.geometry import wrap_angle, wrap_angle_scalar
+
 __all__ = [
     "InitialiseOptions",
     "NewReflector",
@@ -172,7 +174,7 @@ def initialise_reflectors(heads: F64, bearings: F64, radius: float, options: Ini
             continue
         phi = np.arctan2(dirs[sup, 1], dirs[sup, 0])
         ref = phi[0]
-        rel = np.angle(np.exp(1j * (phi - ref)))
+        rel = wrap_angle(phi - ref)
         if float(rel.max() - rel.min()) < opt.min_angle_spread:  # rays along one line: a ghost, no fix
             continue
         if any(float(np.hypot(*(centre - r.xy))) < 2.0 * opt.tolerance for r in out):
@@ -205,7 +207,7 @@ def track_reflections(directions: F64, times: F64, gate: float = 0.02, max_gap: 
             if last_t[j] == t:
                 continue
             pred = last_d[j] + rate[j] * (t - last_t[j])
-            err = abs(math.remainder(d - pred, 2.0 * math.pi))
+            err = abs(wrap_angle_scalar(d - pred))
             if err < best_err:
                 best, best_err = j, err
         if best < 0:
@@ -217,7 +219,7 @@ def track_reflections(directions: F64, times: F64, gate: float = 0.02, max_gap: 
         else:
             dt = t - last_t[best]
             if dt > 0.0:  # smoothed: one revolution's heading noise must not swing the extrapolation
-                rate[best] = 0.5 * rate[best] + 0.5 * math.remainder(d - last_d[best], 2.0 * math.pi) / dt
+                rate[best] = 0.5 * rate[best] + 0.5 * wrap_angle_scalar(d - last_d[best]) / dt
             last_t[best], last_d[best] = t, d
         track[k] = best
     return track
@@ -243,7 +245,7 @@ def initialise_from_tracks(heads: F64, bearings: F64, times: F64, radius: float,
         sup = np.flatnonzero(tracks == tid)
         if sup.size < opt.min_sightings or _spread(heads[sup, :2]) < opt.min_baseline:
             continue
-        rel = np.angle(np.exp(1j * (phi[sup] - phi[sup[0]])))
+        rel = wrap_angle(phi[sup] - phi[sup[0]])
         if float(rel.max() - rel.min()) < opt.min_angle_spread:
             continue
         centre = triangulate_rays(origins[sup], dirs[sup])
