@@ -48,7 +48,7 @@ from agvnav.positioning import _fast
 from agvnav.positioning.bounds import encoder_bearing_std
 from agvnav.positioning.gating import INDEX_MIN_REFLECTORS, BearingIndex, GateSpec
 from agvnav.positioning.identification import CHI2_1DOF_999, Association, InitialPoseResult, initial_pose_search
-from agvnav.positioning.integrity import IntegrityLimits, IntegrityMonitor
+from agvnav.positioning.integrity import IntegrityLimits, IntegrityMonitor, reflectors_in_sight
 from agvnav.positioning.plausibility import DropCounter, PlausibilityLimits, check_covariance, implausible_increment
 
 __all__ = ["METHODS", "STATUSES", "StreamingEstimator", "make_estimator"]
@@ -190,6 +190,8 @@ class StreamingEstimator:
         self.n_inflations = 0
         self._recent: deque[tuple[float, bool]] = deque()
         self._recent_ok = 0  # accepted reflections in _recent
+        self._sight_mask: NDArray[np.bool_] | None = None  # reflectors in sight (see _sight)
+        self._sight_t = -math.inf
         self.last_search: InitialPoseResult | None = None
         self._t: float | None = None
         self._t_odometry: float | None = None
@@ -531,10 +533,39 @@ class StreamingEstimator:
         evaluated (a superset of the reflectors inside the gate: same association).
         """
         cand = None if self._index is None else self._index.candidates(z, self._x_t, self._P_t)
+        sight = self._sight(t)
+        if sight is not None:
+            cand = [j for j in (range(len(self._rows)) if cand is None else cand) if sight[j]]
         j, y, nis, n_in, H, S, R = _fast.gate_one(
             z, self._x_t, self._P_t, self._mount_t, self._rows, self._spec, self._claimed, t, cand
         )
         return Association(j, y, nis, n_in, np.array(H), S, R)
+
+    def _sight(self, t: float) -> NDArray[np.bool_] | None:
+        """``(N,)`` bool: the reflectors in sight of the estimated head, refreshed once per revolution.
+
+        The goniometer's own line-of-sight test
+        (:func:`~agvnav.positioning.integrity.reflectors_in_sight`, walls, racks and other
+        reflectors hide a reflector) with the monitor's map walls; None without walls (every
+        reflector is a candidate). A reflector hidden behind a rack cannot have made a
+        reflection, so it is no candidate of the gate: in the racked warehouse aisles the
+        hidden reflectors lie within a degree of the visible ones down the aisle and made
+        half of each revolution's reflections ambiguous (several reflectors in the gate),
+        so a single covariance inflation left no reflection identifiable.
+        """
+        walls = self.monitor.walls
+        if walls is None or walls.shape[0] == 0 or not self._has_pose():
+            return None
+        if self._sight_mask is None or not 0.0 <= t - self._sight_t < 1.0 / self.rate_hz:
+            x, y, psi = self._x_t[0], self._x_t[1], self._x_t[2]
+            mx, my = self._mount_t[0], self._mount_t[1]
+            c, sn = math.cos(psi), math.sin(psi)
+            hx, hy = x + c * mx - sn * my, y + sn * mx + c * my
+            self._sight_mask = reflectors_in_sight(
+                self.reflector_xy, self.reflector_radius, (hx, hy), walls, self.monitor.max_range
+            )
+            self._sight_t = t
+        return self._sight_mask
 
     def _check_time(self, t: float, what: str) -> float:
         t = _finite_float("t", t)
