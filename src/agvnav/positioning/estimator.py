@@ -388,7 +388,8 @@ class StreamingEstimator:
             self._watch_lockout(t, assoc.index >= 0)
         if assoc.index < 0:
             self.n_rejected += 1
-            self.monitor.rejected(t)
+            if assoc.n_in_gate == 0:  # off its prediction; an ambiguous one has its reflector in the gate
+                self.monitor.rejected(t)
             return False
         self.n_accepted += 1
         self._claimed[assoc.index] = t
