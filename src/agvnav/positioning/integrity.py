@@ -81,6 +81,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from agvnav.geometry import wrap_angle_scalar
 from agvnav.positioning.triangulation import triangulate
 from agvnav.sensors.beam import line_of_sight
 
@@ -243,23 +244,19 @@ class _HeadClock:
         """True when the reflection ``(t s, z rad)`` agrees with the head's phase (or it is not known yet)."""
         w = self.omega * t
         if self.sense == 0:
-            self._learn.append((_wrap(z - w), _wrap(z + w)))
+            self._learn.append((wrap_angle_scalar(z - w), wrap_angle_scalar(z + w)))
             if len(self._learn) == self.LEARN:
                 for k, sense in ((0, 1), (1, -1)):
                     ref = math.atan2(sum(math.sin(v[k]) for v in self._learn), sum(math.cos(v[k]) for v in self._learn))
-                    if all(abs(_wrap(v[k] - ref)) <= 0.5 * self.tolerance for v in self._learn):
+                    if all(abs(wrap_angle_scalar(v[k] - ref)) <= 0.5 * self.tolerance for v in self._learn):
                         self.sense, self.phase = sense, ref
                         break
             return True
-        dev = _wrap(z - self.sense * w - self.phase)
+        dev = wrap_angle_scalar(z - self.sense * w - self.phase)
         if abs(dev) <= self.tolerance:
-            self.phase = _wrap(self.phase + self.GAIN * dev)
+            self.phase = wrap_angle_scalar(self.phase + self.GAIN * dev)
             return True
         return False
-
-
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 class IntegrityMonitor:
@@ -586,7 +583,7 @@ class IntegrityMonitor:
         d = math.hypot(dx, dy)
         r = float(self.radius[i])
         edge = -math.asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * math.pi
-        return _wrap(math.atan2(dy, dx) - hpsi + edge), d
+        return wrap_angle_scalar(math.atan2(dy, dx) - hpsi + edge), d
 
     def _best_triple(self, x: np.ndarray, rows: list[int]) -> list[int] | None:
         """The three of ``rows`` with the smallest position CRLB at ``x`` (seed 000 §2.3), None if none is good.
