@@ -181,6 +181,7 @@ class StreamingEstimator:
             self.reflector_xy, self.reflector_radius, self.mount, self.bearing_std, 1.0 / self.rate_hz, integrity,
             map_std=np.maximum(survey, map_std), max_range=self.max_range,
             walls=getattr(world, "wall_segments", None),
+            odometry_noise=(self.odometry_noise.k_d, self.odometry_noise.k_dtheta, self.odometry_noise.k_theta),
         )
         self.ambiguous = False
         self.n_relocalisations = 0

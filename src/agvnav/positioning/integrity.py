@@ -280,6 +280,11 @@ class IntegrityMonitor:
     walls:
         ``(M, 2, 2)`` wall segments of the map (m) that hide reflectors from the head
         (:func:`reflectors_in_sight`); None counts every reflector in range.
+    odometry_noise:
+        ``(k_d, k_dtheta, k_theta)`` (m²/m, rad²/m, rad²/rad) of the odometry the
+        cross-check brings its bearings to one instant with (seed 002's model, as the
+        filter's :class:`~agvnav.odometry.OdometryNoise`): the error of that propagation
+        is part of each propagated bearing's variance.
     limits:
         The thresholds.
 
@@ -307,8 +312,13 @@ class IntegrityMonitor:
         map_std: ArrayLike = 0.0,
         max_range: float = math.inf,
         walls: ArrayLike | None = None,
+        odometry_noise: tuple[float, float, float] = (0.0, 0.0, 0.0),
     ) -> None:
         self.xy = np.asarray(reflector_xy, dtype=np.float64).reshape(-1, 2)
+        k_d, k_dtheta, k_theta = (float(v) for v in odometry_noise)
+        if not all(math.isfinite(v) and v >= 0.0 for v in (k_d, k_dtheta, k_theta)):
+            raise ValueError(f"odometry_noise must be three non-negative finite numbers, got {odometry_noise!r}")
+        self.odometry_noise = (k_d, k_dtheta, k_theta)
         self.radius = np.asarray(reflector_radius, dtype=np.float64).reshape(-1)
         self.mount = np.asarray(mount, dtype=np.float64).reshape(3)
         self.bearing_std = float(bearing_std)
@@ -529,31 +539,50 @@ class IntegrityMonitor:
         The bearings of the best triple seen in the last revolution are brought to now
         through the odometry (``z_now = centre + h(now) - h(then)``, seed 000 §2.2) in
         Python floats, then triangulated with :func:`~agvnav.positioning.triangulate`.
+        Each propagated bearing's variance is the bearing's, the survey's
+        ``(map_std / d)^2`` and the error of the odometry between then and now
+        (``var_th + var_pos / d^2``, ``var_th = k_dtheta s + k_theta |turn|``,
+        ``var_pos = k_d s + var_th s^2 / 3`` over the ``s`` m travelled): without that
+        last term a differential AGV, whose odometric heading wanders ~7 mrad in the 6 cm
+        of one revolution at 0.5 m/s, failed the check every ~2 s with its estimate a few
+        mm from the truth (fix 5-14 cm off, from the 10-13 m distant reflectors of a
+        revolution-old triple). The triple is chosen with these variances.
         """
         latest: dict[int, _Entry] = {}
         for e in reversed(self._entries):  # newest first (a late reflection may sit out of order)
             if t - e.t <= self.revolution_s and e.index not in latest:
                 latest[e.index] = e
-        idx = self._best_triple(x, list(latest))
-        if idx is None:
+        if len(latest) < 3:
             return math.nan
         px, py, ppsi = float(x[0]), float(x[1]), float(x[2])
         ox, oy, opsi = float(odom[0]), float(odom[1]), float(odom[2])
         co, so = math.cos(opsi), math.sin(opsi)
         cp, sp = math.cos(ppsi), math.sin(ppsi)
         head_now = _head(x, self.mount)
-        z_now, std = [], []
-        for i in idx:
-            e = latest[i]
+        k_d, k_dtheta, k_theta = self.odometry_noise
+        prop: dict[int, tuple[float, float]] = {}  # row -> (bearing brought to now, its variance)
+        for i, e in latest.items():
             ex, ey = e.odom[0] - ox, e.odom[1] - oy  # odometric pose then, seen from now (between)
             rx_, ry_ = co * ex + so * ey, -so * ex + co * ey
-            then = (px + cp * rx_ - sp * ry_, py + sp * rx_ + cp * ry_, ppsi + (e.odom[2] - opsi))
+            turn = e.odom[2] - opsi
+            then = (px + cp * rx_ - sp * ry_, py + sp * rx_ + cp * ry_, ppsi + turn)
             h_then, d_then = self._edge_bearing(then, i)
             h_now, _ = self._edge_bearing(head_now, i, is_head=True)
             r = float(self.radius[i])
-            centre = e.bearing + math.asin(min(max(r / max(d_then, 1e-12), 0.0), 1.0))  # edge -> centre
-            z_now.append(centre + (h_now - h_then))
-            std.append(math.sqrt(self.bearing_std**2 + (float(self.map_std[i]) / max(d_then, 1e-12)) ** 2))
+            d = max(d_then, 1e-12)
+            centre = e.bearing + math.asin(min(max(r / d, 0.0), 1.0))  # edge -> centre
+            # the odometry between then and now errs too [seed002 eq17]: heading by
+            # var_th, position by var_d along and by the heading error integrated across
+            s_odo = math.hypot(ex, ey)
+            var_th = k_dtheta * s_odo + k_theta * abs(wrap_angle_scalar(turn))
+            var_pos = k_d * s_odo + var_th * s_odo * s_odo / 3.0
+            var = self.bearing_std**2 + (float(self.map_std[i]) / d) ** 2 + var_th + var_pos / (d * d)
+            prop[i] = (centre + (h_now - h_then), var)
+        idx = self._best_triple(x, list(prop), [prop[i][1] for i in prop])
+        if idx is None:
+            return math.nan
+        z_now = [prop[i][0] for i in idx]
+        std = [math.sqrt(prop[i][1]) for i in idx]
         try:
             fix = triangulate(self.xy[idx], np.array(z_now), method="total", bearing_std=np.array(std))
         except ValueError:  # e.g. collinear reflectors: no fix to compare with
@@ -585,18 +614,21 @@ class IntegrityMonitor:
         edge = -math.asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * math.pi
         return wrap_angle_scalar(math.atan2(dy, dx) - hpsi + edge), d
 
-    def _best_triple(self, x: np.ndarray, rows: list[int]) -> list[int] | None:
+    def _best_triple(self, x: np.ndarray, rows: list[int], variances: list[float] | None = None) -> list[int] | None:
         """The three of ``rows`` with the smallest position CRLB at ``x`` (seed 000 §2.3), None if none is good.
 
         Near the critical circle of a triple its linearised covariance is not honest
         (issue 12), so a triple whose bound exceeds ``max_fix_std_m`` is not used. The
-        bound of every triple at once: the unit-noise information of each reflector
-        (Jacobian rows ``[dy/d², -dx/d², -1]``) summed per triple, the trace of the
-        position block of its inverse in closed form.
+        bound of every triple at once: the information of each reflector (Jacobian rows
+        ``[dy/d², -dx/d², -1]`` over its bearing variance, ``variances`` in rad², default
+        ``bearing_std^2`` for all) summed per triple, the trace of the position block of
+        its inverse in closed form.
         """
         if len(rows) < 3:
             return None
-        rows = rows[:8]
+        if variances is None:
+            variances = [self.bearing_std**2] * len(rows)
+        rows, variances = rows[:8], variances[:8]
         hx, hy, _ = _head(x, self.mount)
         info = np.empty((len(rows), 6))
         for k, j in enumerate(rows):
@@ -606,14 +638,15 @@ class IntegrityMonitor:
             if d2 <= 0.0:
                 return None
             j0, j1 = dy / d2, -dx / d2
-            info[k] = (j0 * j0, j0 * j1, -j0, j1 * j1, -j1, 1.0)
+            w = 1.0 / variances[k]
+            info[k] = (w * j0 * j0, w * j0 * j1, -w * j0, w * j1 * j1, -w * j1, w)
         tri = _triples(len(rows))
         a00, a01, a02, a11, a12, a22 = info[tri].sum(axis=1).T
         c00 = a11 * a22 - a12 * a12
         c11 = a00 * a22 - a02 * a02
         det = a00 * c00 + a01 * (a02 * a12 - a01 * a22) + a02 * (a01 * a12 - a02 * a11)
         with np.errstate(divide="ignore", invalid="ignore"):
-            score = (c00 + c11) / det * self.bearing_std**2
+            score = (c00 + c11) / det
         score = np.where(np.isfinite(score) & (score >= 0.0), score, np.inf)
         k = int(np.argmin(score))
         if not math.sqrt(score[k]) <= self.limits.max_fix_std_m:
