@@ -4,22 +4,145 @@ A kernel is written once, in the subset of Python numba compiles (loops over flo
 arrays, ``math``), and serves one vehicle or a batch alike. ``cache=True`` keeps the
 machine code on disk next to the module (``__pycache__``), so only the first run on a
 machine compiles. No ``fastmath``: IEEE arithmetic, operation for operation as written.
-numba is imported by the modules that hold kernels (the simulator's hot path), never by
-``import agvnav`` or the CLI's ``--help``.
+
+Lazy, and compiled only where it pays (issue 11, ``agvnav simulate`` start-up): the
+decorator returns a :class:`Kernel` that imports numba on its first call, and only in
+compiled mode. Importing numba and readying its CPU target (which loads the cached
+machine code) costs about 0.7 s of CPU once per process, more than the whole default
+closed loop (26 s simulated) spends in the kernels run as plain Python. So a process
+picks a mode once (:func:`set_compiled`): compiled for campaigns, benchmarks and long
+runs, interpreted for one short ``agvnav simulate``. Both modes run the same source
+operation for operation (IEEE double, no fastmath, the same ``math`` functions from the
+C library), so a seeded run gives the same numbers in either;
+``tests/test_twins.py`` checks every kernel's two modes bit for bit.
+
+The mode is ``AGVNAV_JIT=0`` / ``1`` from the environment when set, else compiled unless
+a caller said otherwise (:func:`set_compiled`). numba is never imported by
+``import agvnav``, the CLI's ``--help`` or an interpreted run.
 """
 
 from __future__ import annotations
 
+import functools
+import os
 from collections.abc import Callable
 from typing import Any, TypeVar, cast
 
-from numba import njit
-
-__all__ = ["jit"]
+__all__ = ["Kernel", "compiled", "jit", "kernels", "set_compiled", "set_compiled_for_run"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
+_ENV = "AGVNAV_JIT"
+_KERNELS: list[Kernel] = []
+_state: dict[str, bool] = {}
+
+
+def _env_mode() -> bool | None:
+    value = os.environ.get(_ENV, "").strip().lower()
+    if value in ("", "auto"):
+        return None
+    if value in ("0", "false", "no", "off"):
+        return False
+    if value in ("1", "true", "yes", "on"):
+        return True
+    raise ValueError(f"{_ENV}={value!r}: expected 0 or 1")
+
+
+def compiled() -> bool:
+    """Whether this process runs the kernels compiled (numba) rather than as plain Python."""
+    env = _env_mode()
+    if env is not None:
+        return env
+    return _state.get("compiled", True)
+
+
+def set_compiled(on: bool) -> None:
+    """Run every kernel compiled (``True``, numba) or interpreted (``False``) from now on.
+
+    ``AGVNAV_JIT`` in the environment wins over this call. Switching is allowed at any
+    time (each kernel resolves again on its next call); results are the same either way.
+    """
+    _state["compiled"] = bool(on)
+    for k in _KERNELS:
+        k._impl = None
+
+
+#: Extra CPU the kernels cost run as plain Python, per reflector in the map and simulated second (s),
+#: measured on the shipped scenarios (issue 11): 1.1-1.2 ms in guidance_test and warehouse_mission,
+#: 3.8 ms in positioning_validation; this is a round figure between them.
+INTERPRETED_S_PER_REFLECTOR_S = 2.5e-3
+
+#: CPU (s) that importing numba and loading the cached machine code costs once per process (measured 0.7-0.8 s).
+COMPILED_STARTUP_S = 0.75
+
+
+def set_compiled_for_run(sim_seconds: float, reflectors: int) -> bool:
+    """Pick the cheaper mode for one run of ``sim_seconds`` simulated seconds (s) with ``reflectors`` in the map.
+
+    Interpreted when the kernels' estimated extra cost as plain Python stays below numba's
+    start-up (:data:`COMPILED_STARTUP_S`), compiled otherwise; sets it (:func:`set_compiled`)
+    and returns whether compiled. The numbers are the same either way; only time differs.
+    """
+    if sim_seconds < 0.0 or reflectors < 0:
+        raise ValueError(f"sim_seconds {sim_seconds} and reflectors {reflectors} must be >= 0")
+    on = sim_seconds * max(reflectors, 1) * INTERPRETED_S_PER_REFLECTOR_S > COMPILED_STARTUP_S
+    set_compiled(on)
+    return on
+
+
+def kernels() -> tuple[Kernel, ...]:
+    """Every kernel defined so far (imported modules only), for the equivalence test."""
+    return tuple(_KERNELS)
+
+
+class Kernel:
+    """A scalar kernel that runs compiled by numba or as its plain Python source.
+
+    Calling it runs :attr:`py_func` or its numba dispatcher (:meth:`dispatcher`, built on
+    first use), as :func:`compiled` says. Inside another compiled kernel a ``Kernel``
+    global is typed as its dispatcher, so kernels call kernels in either mode.
+    """
+
+    def __init__(self, fn: Callable[..., Any]) -> None:
+        self.py_func = fn
+        self._impl: Callable[..., Any] | None = None
+        self._dispatcher: Any = None
+        functools.update_wrapper(self, fn)
+
+    def dispatcher(self) -> Any:
+        """The numba dispatcher (``njit(cache=True)``), created on first use (imports numba)."""
+        if self._dispatcher is None:
+            _register_with_numba()
+            from numba import njit  # noqa: PLC0415  (lazy on purpose: see the module docstring)
+
+            self._dispatcher = njit(cache=True)(self.py_func)
+        return self._dispatcher
+
+    def __call__(self, *args: Any) -> Any:
+        impl = self._impl
+        if impl is None:
+            impl = self._impl = self.dispatcher() if compiled() else self.py_func
+        return impl(*args)
+
+    def __repr__(self) -> str:
+        return f"Kernel({self.py_func.__module__}.{self.py_func.__qualname__})"
+
+
+def _register_with_numba() -> None:
+    """Teach numba's typing that a :class:`Kernel` global is its dispatcher (once per process)."""
+    if _state.get("registered"):
+        return
+    from numba.extending import typeof_impl  # noqa: PLC0415
+
+    @typeof_impl.register(Kernel)
+    def _typeof_kernel(val: Kernel, c: Any) -> Any:
+        return typeof_impl(val.dispatcher(), c)
+
+    _state["registered"] = True
+
 
 def jit(fn: F) -> F:
-    """Compile ``fn`` with numba (cached on disk), keeping its Python signature for mypy."""
-    return cast(F, njit(cache=True)(fn))
+    """Make ``fn`` a :class:`Kernel` (compiled with numba, cached on disk, when the process runs compiled)."""
+    k = Kernel(fn)
+    _KERNELS.append(k)
+    return cast(F, k)

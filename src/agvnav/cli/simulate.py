@@ -17,6 +17,7 @@ printing only; the work is :func:`agvnav.sim.simulate`.
 from __future__ import annotations
 
 import math
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -55,6 +56,17 @@ def simulate(
     wide: bool = WIDE_OPT,
 ) -> None:
     """Run a closed-loop scenario; write metrics.json, timing.json, time series (CSV) and plots."""
+    from agvnav.report.plot_worker import PlotWorker
+
+    # forked before anything else (no thread yet): it readies matplotlib on the other core during the run
+    with PlotWorker() if plots else nullcontext() as plotter:
+        _simulate(scenario, out, seed, plots, force, log, report, json, wide, plotter)
+
+
+def _simulate(
+    scenario: str | None, out: Path, seed: int | None, plots: bool, force: bool, log: Path | None,
+    report: bool, json: bool, wide: bool, plotter: Any,
+) -> None:
     from agvnav.world.scenario import default_scenario, load_scenario
 
     sc = default_scenario() if scenario is None else load_scenario(scenario)
@@ -67,17 +79,21 @@ def simulate(
         return _simulate_route(sc, out, plots, force, console, json, wide)
     if log is not None and log.suffix != ".mcap":
         raise fail(f"--log {log}: the log file must end in .mcap")
+    from agvnav._jit import set_compiled_for_run
     from agvnav.report.files import save_result
     from agvnav.sim import simulate as run_scenario
     from agvnav.sim.build import build
 
     built = build(sc)  # validate every cross-part rule before the progress bar starts
+    expected_s = _expected_sim_time(sc, built)
+    # a short run with few reflectors is cheaper without numba's start-up; the same numbers either way
+    set_compiled_for_run(expected_s, len(built.world.reflector_xy))
     _prepare_out(out, force)
-    with RunProgress(sc.name, _expected_sim_time(sc, built), "s simulated") as bar:
+    with RunProgress(sc.name, expected_s, "s simulated") as bar:
         result = run_scenario(sc, progress=bar.update)
     parts = ["plots"] * plots + ["report"] * report
     with RunProgress(f"writing {out}", key=" ".join(["simulate save", *parts])):  # plots and report take seconds
-        written = save_result(result, out, plots=plots, force=force, report=report)
+        written = save_result(result, out, plots=plots, force=force, report=report, plotter=plotter)
     if log is not None:
         try:
             from agvnav.logs import write_run_log

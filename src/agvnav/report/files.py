@@ -37,6 +37,7 @@ from agvnav.report.plots import write_plots
 from agvnav.report.reference import COLUMNS, EVENT_COLUMNS, LAP_COLUMNS, PER_OBSTACLE
 
 if TYPE_CHECKING:
+    from agvnav.report.plot_worker import PlotWorker
     from agvnav.sim.run import SimResult
 
 __all__ = [
@@ -171,16 +172,23 @@ def _replace_dir(new: Path, target: Path) -> None:
 
 
 def save_result(
-    result: SimResult, out_dir: str | Path, plots: bool = True, force: bool = False, report: bool = False
+    result: SimResult,
+    out_dir: str | Path,
+    plots: bool = True,
+    force: bool = False,
+    report: bool = False,
+    plotter: PlotWorker | None = None,
 ) -> list[Path]:
     """Write metrics.json, timing.json, layout.json, the CSVs and (optionally) the plots atomically; return the paths.
 
     ``force`` replaces a folder holding another run (see :func:`check_out_dir`); ``report``
-    adds report.html (:func:`agvnav.report.html.write_html_report`).
+    adds report.html (:func:`agvnav.report.html.write_html_report`). With a ``plotter``
+    (:class:`agvnav.report.plot_worker.PlotWorker`, started before the run) the run plots are
+    drawn in its process while this one writes the data files; the files are the same.
     """
     final = Path(out_dir)
     with atomic_dir(final, force) as tmp:
-        written = _write_all(result, tmp, plots)
+        written = _write_all(result, tmp, plots, plotter)
         if report:
             written.append(write_html_report(tmp))
     return [final / p.name for p in written]
@@ -209,8 +217,14 @@ def _json(path: Path, document: dict[str, Any]) -> Path:
     return path
 
 
-def _write_all(result: SimResult, out: Path, plots: bool) -> list[Path]:
-    """Every result file of ``result`` into ``out``."""
+def _write_all(result: SimResult, out: Path, plots: bool, plotter: PlotWorker | None = None) -> list[Path]:
+    """Every result file of ``result`` into ``out`` (the run plots through ``plotter`` when given)."""
+    pending = None
+    if plots and plotter is not None:  # the child draws while this process writes the data files
+        pending = plotter.submit(
+            result.series, result.path_polyline(), result.world.reflector_xy, result.world.wall_segments, out,
+            result.transient_end_s, result.scenario.name,
+        )
     written = [
         _json(out / "metrics.json", metrics_document(result)),
         _json(out / "timing.json", timing_document(result)),
@@ -221,7 +235,9 @@ def _write_all(result: SimResult, out: Path, plots: bool) -> list[Path]:
     refl = result.events.get("reflections")
     if refl is not None:
         written += [write_csv(out / "reflections.csv", refl, EVENT_COLUMNS), units_path(out / "reflections.csv")]
-    if plots:
+    if pending is not None:
+        written += pending()
+    elif plots:
         written += write_plots(
             result.series,
             result.path_polyline(),
@@ -231,10 +247,10 @@ def _write_all(result: SimResult, out: Path, plots: bool) -> list[Path]:
             result.transient_end_s,
             result.scenario.name,
         )
-        if result.scenario.mission is not None:  # the route network, driven route and stops (issue 14)
-            from agvnav.report.routes import write_mission_plots  # noqa: PLC0415  (lazy: mission runs only)
+    if plots and result.scenario.mission is not None:  # the route network, driven route and stops (issue 14)
+        from agvnav.report.routes import write_mission_plots  # noqa: PLC0415  (lazy: mission runs only)
 
-            written += write_mission_plots(result, out)
+        written += write_mission_plots(result, out)
     return written
 
 

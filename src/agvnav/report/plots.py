@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from agvnav.geometry import lateral_position_error
 
-__all__ = ["plot_errors", "plot_map", "plot_positioning_histogram", "pyplot", "write_plots"]
+__all__ = ["plot_errors", "plot_map", "plot_positioning_histogram", "pyplot", "warm_up", "write_plots"]
 
 
 def pyplot() -> Any:
@@ -145,8 +145,23 @@ def _figure(size: tuple[float, float]) -> Any:
 def _save(fig: Any, out: str | Path) -> Path:
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
+    # zlib level 1: a quarter of the encoding time of the default 6 for ~15 % larger files
+    fig.savefig(out, dpi=110, pil_kwargs={"compress_level": 1})
     return out
+
+
+def warm_up() -> None:
+    """Import matplotlib and draw a throw-away figure (fonts, text layout, Agg canvas), writing nothing.
+
+    :class:`agvnav.report.plot_worker.PlotWorker` calls it in its child while the run goes on,
+    so the run's plots find matplotlib ready.
+    """
+    fig = _figure((2.0, 1.5))
+    ax = fig.subplots()
+    ax.plot([0.0, 1.0], [0.0, 1.0], "o-")
+    ax.set_title("warm-up ε ξ")
+    ax.set_xlabel("x [m]")
+    fig.canvas.draw()
 
 
 def write_plots(
