@@ -437,16 +437,21 @@ class StreamingEstimator:
         self._check_time(t, "odometry")
         span = t - self._t_odometry if self._t_odometry is not None else 0.0
         try:
-            inc = tuple(_finite_float("odometry increment", v) for v in (delta_d, delta_theta, delta_lateral))
+            inc = (
+                _finite_float("odometry increment", delta_d),
+                _finite_float("odometry increment", delta_theta),
+                _finite_float("odometry increment", delta_lateral),
+            )
             reason = None if self._t_odometry is None else implausible_increment(self.plausibility, span, *inc)
+        except ValueError as exc:
+            inc, reason, message = (math.nan,) * 3, "non_finite", f"{exc} (t={t!r} s)"
+        if reason is None:  # the message is formatted only for a dropped increment (issue 11: 16 us a call)
+            return t, inc[0], inc[1], inc[2]
+        if reason != "non_finite":
             message = (
                 f"odometry increment {inc} over {span!r} s at t={t!r} s is implausible ({reason}); "
                 f"limits {self.plausibility}"
             )
-        except ValueError as exc:
-            inc, reason, message = (math.nan,) * 3, "non_finite", f"{exc} (t={t!r} s)"
-        if reason is None:
-            return t, inc[0], inc[1], inc[2]
         self._refuse(t, reason, message)
         if reason == "time_gap":
             self._blow_up(span)
