@@ -81,3 +81,22 @@ def test_bad_parameters_are_named():
         SafetyScanner(fov=0.0)
     with pytest.raises(ValueError, match="noise_std"):
         SafetyScanner(noise_std=-1.0)
+
+
+def test_a_person_who_appears_at_start_is_not_scanned_before():
+    """``appears_at_start``: the person steps out at start_s; before, the scanner sees the wall behind its spot."""
+    from agvnav.world.obstacles import ObstacleSet, ObstacleSpec, obstacle_from_spec
+
+    spec = ObstacleSpec(id="p", shape="cylinder", radius_m=0.25, path=[(3.0, 0.0), (3.0, 5.0)], speed_m_s=1.0,
+                        start_s=2.0, appears_at_start=True)
+    obs = ObstacleSet((obstacle_from_spec(spec),))
+    wall = np.array([[[5.0, -10.0], [5.0, 10.0]]])
+    sc = SafetyScanner(mount=(0.0, 0.0, 0.0), fov=math.radians(180.0), step=math.radians(1.0), noise_std=0.0)
+    ahead = []
+    for t in (1.99, 2.0):
+        circles, _ = obs.circles_at(t)
+        ranges = sc.measure([0.0, 0.0, 0.0], wall, circles, np.random.default_rng(0))[0]
+        ahead.append(float(ranges[0, 90]))
+    assert ahead == pytest.approx([5.0, 2.75], abs=1e-12)
+    assert np.isnan(obs.clearances([0.0, 0.0, 0.0], np.array([[0.5, -0.3], [0.5, 0.3], [-0.5, 0.3]]), 1.0)[0])
+    assert not obs.blocks([0.0, 0.0], [5.0, 0.0], 1.0) and obs.blocks([0.0, 0.0], [5.0, 0.0], 2.0)

@@ -2,7 +2,9 @@
 reaction, avoid a static obstacle inside the corridor, the tracked robot's front-ranger stop.
 
 The runs dead-reckon (no goniometer) on short straight paths to stay fast; the reaction does not
-depend on how the vehicle positions itself.
+depend on how the vehicle positions itself. The path runs 4 m from the hall's south wall, inside the
+approach fields of ISO 13855's K = 1.6 m/s at 1 m/s (they reach 4.07 m sideways): the runs that do not
+test the approach term set K (``approach_speed_m_s``) to 0 or 1.2 m/s (3.15 m).
 """
 
 from __future__ import annotations
@@ -90,6 +92,7 @@ def test_avoidance_passes_a_static_box_inside_the_corridor_and_rejoins():
 obstacles:
   - {id: pallet, shape: box, length_m: 1.2, width_m: 0.8, position: [11.0, 4.0]}
 reactive:
+  approach_speed_m_s: 0.0
   resume_after_s: 0.5
   avoid_segments: [0]
   corridor_left_m: 2.0
@@ -111,7 +114,7 @@ def test_without_avoidance_the_box_blocks_the_lane():
     text = DIFFERENTIAL.format(seed=1, duration=20.0, length=14.0) + SCANNER + """
 obstacles:
   - {id: pallet, shape: box, length_m: 1.2, width_m: 0.8, position: [11.0, 4.0]}
-reactive: {resume_after_s: 0.5}
+reactive: {resume_after_s: 0.5, approach_speed_m_s: 0.0}
 """
     r = simulate(parse_scenario(text, "blocked.yaml"))
     assert r.outcome == "failed" and r.reason == "timeout"

@@ -16,7 +16,8 @@ and :mod:`agvnav.reactive`:
 * :class:`ReactiveAutopilot`: the :class:`~agvnav.sim.roles.PathAutopilot` of the route whose
   speed scale is the smaller of the positioning guard's and the reaction's (:class:`ReactiveWatch`);
   field sets are chosen by ``max(|v|, v_intended)`` (the speed it would drive at, so a stop is
-  not released by the field shrinking at standstill); an emergency stop brakes at the
+  not released by the field shrinking at standstill), on a detour at the slow fraction the
+  configuration's creep set (``detour_fields``); an emergency stop brakes at the
   emergency deceleration; on a segment that allows it, a stop for a static obstacle that lasts
   ``avoid_after_s`` plans a detour (:func:`agvnav.reactive.plan_detour`) driven at the slow
   fraction, then the route resumes. A detour is planned for a *static* obstacle: one in a field
@@ -43,6 +44,7 @@ from shapely.geometry import Polygon
 from agvnav.geometry import compose
 from agvnav.reactive import (
     FieldConfig,
+    FieldSet,
     Reaction,
     ReactionLimits,
     field_demand,
@@ -238,6 +240,8 @@ class ObstacleCollisionWatch:
         pose = np.asarray(self.plant.pose, dtype=np.float64)
         body: Polygon | None = None
         for i, ob in enumerate(self.obstacles.obstacles):
+            if not ob.present(self.t):
+                continue
             c = ob.centre_at(self.t)
             if math.hypot(c[0] - pose[0], c[1] - pose[1]) > self.radius + ob.radius:
                 continue
@@ -319,14 +323,19 @@ class ReactiveAutopilot(PathAutopilot):
         self._last_try = -math.inf
         self._footprint = np.asarray(plant.footprint, dtype=np.float64)
         self._trigger = -1
+        self._field: FieldSet | None = None
 
     # ------------------------------------------------------------------ reaction
-    def _demand(self, speed: float, direction: int) -> tuple[int, float, float]:
-        """Demanded level from the latest scan and ranger reading; the selected set's v_max and length."""
+    def _demand(self, speed: float, direction: int, creep: bool = False) -> tuple[int, float, float]:
+        """Demanded level from the latest scan and ranger reading; the selected set's v_max and length.
+
+        ``creep``: on a detour at the slow fraction (the field configuration's creep set, if it has one)."""
         demand, v_max, p_len = 0, math.nan, math.nan
         self._trigger = -1
+        self._field = None
         if self.fields is not None and self.inputs.points.shape[0]:
-            fs = self.fields.select(speed, direction)
+            fs = self.fields.select(speed, direction, creep)
+            self._field = fs
             v_max, p_len = fs.v_max, fs.protective_length
             prot = self._inside(self.inputs.points, fs.protective)
             warn = self._inside(self.inputs.points, fs.warning)
@@ -337,7 +346,7 @@ class ReactiveAutopilot(PathAutopilot):
                 obs = owners[owners >= 0]
                 self._trigger = int(obs[0]) if obs.size else -2
         elif self.fields is not None:
-            fs = self.fields.select(speed, direction)
+            fs = self.fields.select(speed, direction, creep)
             v_max, p_len = fs.v_max, fs.protective_length
         stop_at = None if self.avoid is None else self.avoid.get("ranger_stop")
         if stop_at is not None and math.isfinite(self.inputs.ranger) and self.inputs.ranger < stop_at:
@@ -365,7 +374,7 @@ class ReactiveAutopilot(PathAutopilot):
         intended = abs(self.profile.cruise_speed) * min(self.rwatch.last_guard_scale, cap)
         intended = min(intended, math.sqrt(2.0 * self.normal_decel * remaining))
         speed = max(abs(self.profile.v), intended)
-        demand, v_max, p_len = self._demand(speed, direction)
+        demand, v_max, p_len = self._demand(speed, direction, creep=cap < 1.0)
         scale = self.reaction.update(t, demand)
         self.rwatch.reactive_scale = min(scale, cap)
         self.profile.max_decel = self.emergency_decel if self.reaction.level == 2 else self.normal_decel
@@ -437,11 +446,14 @@ class ReactiveAutopilot(PathAutopilot):
         self._detour_target = self._nearest_obstacle(shape)
 
     def _obstacle_points(self, pose: Any) -> NDArray[np.float64]:
-        """Latest echoes (map frame, via the estimated pose) away from the map's walls, within 6 m ahead."""
+        """Latest echoes (map frame, via the estimated pose) away from the map's walls, ahead of base_link and
+        inside the selected warning field (the field that was intruded)."""
         pts = self.inputs.points
         if pts.shape[0] == 0:
             return pts
-        ahead = (pts[:, 0] > 0.0) & (np.hypot(pts[:, 0], pts[:, 1]) < 6.0)
+        ahead = pts[:, 0] > 0.0
+        if self._field is not None:
+            ahead &= self._inside(pts, self._field.warning)
         pts = pts[ahead]
         c, s = math.cos(float(pose[2])), math.sin(float(pose[2]))
         world = np.column_stack([pose[0] + c * pts[:, 0] - s * pts[:, 1], pose[1] + s * pts[:, 0] + c * pts[:, 1]])
@@ -538,9 +550,10 @@ def wire_reactive(sc: Any, world: WorldMap, plant: Any, sensors: list[Any], pilo
     fields = None
     if sc.scanner is not None and r is not None:
         reverse = any(seg.direction < 0 for seg in pilot.path.segments)
+        creep = r.slow_speed_fraction * tc.speed_m_s if r.detour_fields == "creep" else None
         fields = generate_fields(footprint, tc.speed_m_s, decel, r.reaction_time_s, r.margin_m, r.lateral_margin_m,
                                  r.warning_time_s, r.speed_bands, reverse, r.protective_length_m, r.warning_length_m,
-                                 r.approach_speed_m_s)
+                                 r.approach_speed_m_s, creep)
     limits = ReactionLimits(r.slow_speed_fraction, r.resume_after_s) if r is not None else ReactionLimits()
     reaction = Reaction(limits, enabled=r is not None and r.enabled)
     avoid = None

@@ -12,9 +12,10 @@ its pose, its shapely shape, its edges (boxes) or circle (cylinders) for exact
 ray casting, and whether it blocks a line of sight.
 
 Motion of a moving obstacle (waypoints ``p_0 .. p_k``, speed ``u``, start time
-``t_s``): before ``t_s`` it stands at ``p_0``; then it walks the polyline at ``u``;
-after the last waypoint it stands there. A moving box faces its direction of
-travel; a static box faces ``heading``. Units: m, s, rad (degrees only in the
+``t_s``): before ``t_s`` it stands at ``p_0`` (or, with ``appears_at_start``, is not
+there at all: a person stepping out of a doorway or from behind something the map does
+not hold); then it walks the polyline at ``u``; after the last waypoint it stands there.
+A moving box faces its direction of travel; a static box faces ``heading``. Units: m, s, rad (degrees only in the
 YAML keys ending ``_deg``).
 """
 
@@ -65,6 +66,8 @@ class ObstacleSpec(StrictModel):
     """speed of a moving obstacle along its path."""
     start_s: NonNegFloat = 0.0
     """time a moving obstacle starts moving."""
+    appears_at_start: bool = False
+    """true: the obstacle is not there before start_s (it steps out then; false: it stands at its first waypoint)."""
 
     @model_validator(mode="after")
     def _consistent(self) -> ObstacleSpec:
@@ -104,8 +107,9 @@ class ReactiveSpec(StrictModel):
 
     The fields are generated from the stopping distance
     ``v t_react + v^2 / (2 a) + margin`` of each speed band's top speed, with ``a``
-    the emergency deceleration, unless ``protective_length_m`` fixes them.
-    Warning field: the protective one lengthened by ``warning_time_s`` of travel.
+    the emergency deceleration, widened all round by the approach ``K T`` (ISO 13855,
+    :mod:`agvnav.reactive.fields`), unless ``protective_length_m`` fixes them.
+    Warning field: the protective one swept ``warning_time_s`` of travel further ahead.
     """
 
     enabled: bool = True
@@ -118,9 +122,10 @@ class ReactiveSpec(StrictModel):
     """distance the protective field adds to the stopping distance."""
     lateral_margin_m: NonNegFloat = 0.1
     """fields reach this far beyond the body's sides."""
-    approach_speed_m_s: NonNegFloat = 0.0
-    """a person may walk towards the vehicle this fast while it stops: the protective field grows by
-    that speed times the reaction and braking time (ISO 13855's K T; 0: obstacles that do not approach)."""
+    approach_speed_m_s: NonNegFloat = 1.6
+    """K: a person may walk this fast from any direction towards the vehicle's swept path while it
+    stops, so the protective field reaches K (reaction + braking time) beyond the swept strip, sideways as
+    well as ahead (ISO 13855's S = K T + C, K = 1.6 m/s; 0: obstacles that stand or cross without approaching)."""
     warning_time_s: NonNegFloat = 1.5
     """the warning field is longer than the protective one by this much travel at the band's top speed."""
     speed_bands: Annotated[int, Field(ge=1, le=16)] = 4
@@ -147,6 +152,10 @@ class ReactiveSpec(StrictModel):
     """clearance the detour keeps between the body and the obstacle."""
     avoid_after_s: NonNegFloat = 1.0
     """an obstacle in a field must stay put this long before a detour round it is planned."""
+    detour_fields: Literal["creep", "approach"] = "creep"
+    """fields on a detour, driven at the slow fraction: "creep", the stopping-distance rectangle without the
+    approach term (passes a static obstacle at avoid_clearance_m; a person stepping in from the side then is
+    not covered by K T); "approach": the speed band's approach fields (the detour stops beside the obstacle)."""
 
     @model_validator(mode="after")
     def _fixed_fields(self) -> ReactiveSpec:
@@ -171,6 +180,7 @@ class Obstacle:
     speed : speed along the waypoints (m/s; ignored when static).
     start : time it starts moving (s).
     heading : heading of a static box (rad).
+    appears : not there before ``start`` (:meth:`present`).
     """
 
     id: str
@@ -180,6 +190,7 @@ class Obstacle:
     speed: float = 1.0
     start: float = 0.0
     heading: float = 0.0
+    appears: bool = False
     _cum: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -196,6 +207,10 @@ class Obstacle:
         object.__setattr__(self, "waypoints", wp)
         legs = np.hypot(*np.diff(wp, axis=0).T) if wp.shape[0] > 1 else np.zeros(0)
         object.__setattr__(self, "_cum", np.concatenate([[0.0], np.cumsum(legs)]))
+
+    def present(self, t: float) -> bool:
+        """False before ``start`` (s) for an obstacle that appears then; True otherwise."""
+        return not self.appears or t >= self.start
 
     @property
     def static(self) -> bool:
@@ -277,7 +292,7 @@ def obstacle_from_spec(spec: ObstacleSpec) -> Obstacle:
     points = [spec.position] if spec.path is None else spec.path
     return Obstacle(
         spec.id, spec.shape, tuple(float(s) for s in size if s is not None), np.asarray(points, dtype=np.float64),
-        float(spec.speed_m_s), float(spec.start_s), math.radians(spec.heading_deg),
+        float(spec.speed_m_s), float(spec.start_s), math.radians(spec.heading_deg), bool(spec.appears_at_start),
     )
 
 
@@ -316,7 +331,7 @@ class ObstacleSet:
 
     def segments_at(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         """Box edges ``(4 B, 2, 2)`` (m) at ``t`` and the obstacle index of each ``(4 B,)``."""
-        idx = self.boxes
+        idx = tuple(i for i in self.boxes if self.obstacles[i].present(t))
         if not idx:
             return np.zeros((0, 2, 2)), np.zeros(0, dtype=np.int64)
         return (np.concatenate([self.obstacles[i].edges_at(t) for i in idx]),
@@ -324,23 +339,25 @@ class ObstacleSet:
 
     def circles_at(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         """Cylinders ``(C, 3)`` as ``(x, y, r)`` (m) at ``t`` and the obstacle index of each ``(C,)``."""
-        idx = self.cylinders
+        idx = tuple(i for i in self.cylinders if self.obstacles[i].present(t))
         if not idx:
             return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
         rows = [(*self.obstacles[i].centre_at(t), self.obstacles[i].size[0]) for i in idx]
         return np.asarray(rows, dtype=np.float64), np.asarray(idx, dtype=np.int64)
 
     def shapes_at(self, t: float) -> list[Polygon]:
-        """Every obstacle as a shapely polygon at ``t`` (cylinders inscribed polygons)."""
-        return [o.shape_at(t) for o in self.obstacles]
+        """Every obstacle there at ``t`` as a shapely polygon (cylinders inscribed polygons)."""
+        return [o.shape_at(t) for o in self.obstacles if o.present(t)]
 
     def distances(self, geometry: BaseGeometry, t: float) -> NDArray[np.float64]:
-        """Exact distance (m) from ``geometry`` to every obstacle at ``t``, ``(n,)``."""
-        return np.array([o.distance(geometry, t) for o in self.obstacles], dtype=np.float64)
+        """Exact distance (m) from ``geometry`` to every obstacle at ``t``, ``(n,)`` (inf: not there yet)."""
+        return np.array([o.distance(geometry, t) if o.present(t) else math.inf for o in self.obstacles],
+                        dtype=np.float64)
 
     def clearances(self, pose: ArrayLike, footprint: ArrayLike, t: float, exact_within: float = 2.0
                    ) -> NDArray[np.float64]:
-        """Distance (m) from the footprint ``(k, 2)`` placed at ``pose`` to every obstacle at ``t``, ``(n,)``.
+        """Distance (m) from the footprint ``(k, 2)`` placed at ``pose`` to every obstacle at ``t``, ``(n,)``
+        (NaN for one not there yet).
 
         Exact (shapely) when the bounding circles come within ``exact_within`` m; beyond, the
         lower bound ``|centre - base_link| - R_body - R_obstacle`` (cheap, and never the minimum
@@ -353,6 +370,9 @@ class ObstacleSet:
         out = np.empty(len(self.obstacles))
         body = None
         for i, o in enumerate(self.obstacles):
+            if not o.present(t):
+                out[i] = math.nan
+                continue
             cx, cy = o.centre_at(t)
             bound = math.hypot(cx - x, cy - y) - r_body - o.radius
             if bound > exact_within:
@@ -375,6 +395,8 @@ class ObstacleSet:
         ee = ex * ex + ey * ey
         line = None
         for o in self.obstacles:
+            if not o.present(t):
+                continue
             cx, cy = o.centre_at(t)
             u = min(max(((cx - ax) * ex + (cy - ay) * ey) / ee, 0.0), 1.0) if ee > 0.0 else 0.0
             if math.hypot(ax + u * ex - cx, ay + u * ey - cy) > o.radius:  # the bounding circle misses the line
