@@ -9,7 +9,7 @@ from agvnav.sim.reactive import ReactiveAutopilot
 from agvnav.world.scenario import ScenarioError, builtin_scenario, load_scenario, parse_scenario
 
 
-@pytest.mark.parametrize("name", ["safety_person_crossing", "safety_lane_obstacle"])
+@pytest.mark.parametrize("name", ["safety_person_crossing", "safety_person_stepping_out", "safety_lane_obstacle"])
 def test_shipped_safety_scenarios_build_with_the_reactive_autopilot(name):
     sc = load_scenario(name)
     assert sc.obstacles and sc.scanner is not None and sc.reactive is not None
@@ -45,5 +45,5 @@ def test_avoidance_needs_a_corridor():
 
 
 def test_a_bad_obstacle_entry_names_its_key_and_line():
-    with pytest.raises(ScenarioError, match=r"lane.yaml:30: obstacles\[0\]: give either position"):
-        _lane(**{"position: [14.0, 4.0]}": "}"})
+    with pytest.raises(ScenarioError, match=r"lane.yaml:49: obstacles\[0\]: give either position"):
+        _lane(**{"position: [13.0, 8.0]}": "}"})
