@@ -1,4 +1,5 @@
-"""``agvnav bench safety``: the cases place the person where they say, rows summarise honestly, one run stops."""
+"""``agvnav bench safety``: cases place the person where they say, zones follow the design rule before any
+run, rows summarise honestly, and the 135° crossing the stopping-distance fields missed now stops."""
 
 from __future__ import annotations
 
@@ -10,43 +11,62 @@ import yaml
 
 from agvnav.bench import safety
 from agvnav.sim import simulate
-from agvnav.sim.build import build
 from agvnav.world.obstacles import ObstacleSpec, obstacle_from_spec
 from agvnav.world.scenario import parse_scenario
 
 
-def test_design_distance_is_the_cruise_stopping_distance():
+def test_design_figures():
     assert safety.design_distance() == pytest.approx(1.0 * 0.3 + 1.0 / (2 * 0.5) + 0.3)
+    assert safety.design_reach() == pytest.approx(1.6 * (0.3 + 1.0 / 0.5))  # ISO 13855 K T = 3.68 m
+
+
+def _nominal_base(doc, t, m):
+    """base_link's x at ``t`` on the nominal profile (ramp at 0.5 m/s^2 to 1 m/s, then cruise)."""
+    s = 0.25 * t * t if t <= 2.0 else 1.0 + (t - 2.0)
+    return doc["path"]["start"][0] + s - m.point_offset
 
 
 @pytest.mark.parametrize("model", ["differential", "tricycle"])
 @pytest.mark.parametrize("case", [c for c in safety.person_cases(False) if c[1] == 1.0])
-def test_the_person_reaches_the_field_edge_at_the_stated_gap(model, case):
+def test_the_person_appears_at_the_stated_distance_on_a_collision_course(model, case):
     m = safety._models()[model]
     doc = safety.scenario_doc(m, case, 0)
-    sc = parse_scenario(yaml.safe_dump(doc, sort_keys=False), "case.yaml")
-    build(sc)
     person = obstacle_from_spec(ObstacleSpec(**doc["obstacles"][0]))
     _, ratio, angle, speed = case
-    t_enter = person.start + safety.WALK_IN_M / speed
-    x, y = person.centre_at(t_enter)
-    lateral = m.half_width + safety.LATERAL_MARGIN_M + safety.PERSON_RADIUS_M
-    assert y == pytest.approx(safety.PATH_Y_M - lateral)
-    # the tracked point's nominal position then, and the gap from the body's front to the person
-    x0 = doc["path"]["start"][0]
-    ramp = 1.0 / (2 * 0.5)
-    s = ramp + (t_enter - 2.0) * 1.0
-    front = x0 + s + (m.front - m.point_offset)
-    assert x - safety.PERSON_RADIUS_M - front == pytest.approx(ratio * safety.design_distance(), abs=1e-9)
+    t_a = person.start
+    assert not person.present(t_a - 0.01) and person.present(t_a)
+    # at appearance: the person's edge is ratio x K T from the swept strip of the vehicle (independent geometry)
+    x, y = person.centre_at(t_a)
+    rel = np.array([x - _nominal_base(doc, t_a, m), y - safety.PATH_Y_M])
+    h_x = (m.front, m.front + safety.design_distance())
+    h_y = m.half_width + safety.LATERAL_MARGIN_M
+    dx = max(h_x[0] - rel[0], 0.0, rel[0] - h_x[1])
+    dy = max(abs(rel[1]) - h_y, 0.0)
+    assert math.hypot(dx, dy) - safety.PERSON_RADIUS_M == pytest.approx(ratio * safety.design_reach(), abs=1e-6)
+    # collision course: on the centre line when the nominal front reaches its edge
+    t_c = t_a + (safety.PATH_Y_M - y) / (speed * math.sin(math.radians(angle)))
+    xc, yc = person.centre_at(t_c)
+    assert (xc, yc) == pytest.approx((safety.CROSSING_X_M, safety.PATH_Y_M), abs=1e-9)
+    assert _nominal_base(doc, t_c, m) + m.front == pytest.approx(xc - safety.PERSON_RADIUS_M, abs=1e-9)
     assert math.degrees(math.atan2(*(person.waypoints[1] - person.waypoints[0])[::-1])) == pytest.approx(angle)
 
 
-def test_stop_distance_adds_the_approach_of_a_person_walking_towards_the_vehicle():
-    D = safety.design_distance()
-    assert safety.case_stop_distance(90.0, 1.6) == pytest.approx(D)
-    assert safety.case_stop_distance(45.0, 1.2) == pytest.approx(D)  # walking away: no credit taken
-    # 135 deg at 1.2 m/s closes 0.849 m/s during the 0.3 s reaction and the 2 s of braking
-    assert safety.case_stop_distance(135.0, 1.2) == pytest.approx(D + 1.2 * math.sqrt(0.5) * 2.3)
+def test_zones_follow_the_design_rule_from_the_geometry():
+    """beyond iff dist(person, H) - r >= K T: ratio 1.0 and 1.5 beyond, 0.5 inside, whatever the angle."""
+    m = safety._models()["differential"]
+    for _, ratio, angle, speed in safety.person_cases(False):
+        lead = safety.appear_lead(m, angle, speed, ratio)
+        assert safety.zone_of(m, angle, speed, lead) == ("beyond" if ratio >= 1.0 else "inside")
+    # square across at 1.6 m/s, 2.0 s before the crossing: the person 3.2 m beside the path and r + 2 m ahead
+    # of the front; its distance to the strip [front, front + D] x [-(w + 0.1), w + 0.1] by hand
+    lead = 2.0
+    rel = safety._relative(m, 90.0, 1.6, lead)
+    assert rel == pytest.approx([m.front + safety.PERSON_RADIUS_M + 2.0, -3.2], abs=1e-12)
+    dx = rel[0] - (m.front + safety.design_distance())
+    dy = 3.2 - (m.half_width + safety.LATERAL_MARGIN_M)
+    expected = math.hypot(dx, dy) - safety.PERSON_RADIUS_M
+    assert safety.appear_distance(m, 90.0, 1.6, lead) == pytest.approx(expected, abs=1e-12)
+    assert safety.zone_of(m, 90.0, 1.6, lead) == ("beyond" if expected >= safety.design_reach() else "inside")
 
 
 def test_summary_counts_and_zones():
@@ -56,30 +76,40 @@ def test_summary_counts_and_zones():
         {"outcome": "collision", "collision": True, "min_clearance_m": 0.0, "result": "collision", "stops": 1,
          "t_end": 9.0, "completed": False, "corridor_dev_m": math.nan},
     ]
-    row = safety.summarise("differential", "person", "inside", 0.8, runs, baseline=18.0)
+    row = safety.summarise("differential", "person", "inside", 0.8, runs, baseline=18.0, reach=3.68)
     assert row["runs"] == 2 and row["collisions"] == 1 and row["min_clearance_m"] == 0.0
     assert row["stops"] == 1.0 and row["avoided"] == 0 and row["time_lost_s"] == pytest.approx(2.0)
-    assert row["max_corridor_dev_m"] is None
+    assert row["max_corridor_dev_m"] is None and row["reach_m"] == 3.68
     assert row["outcomes"] == "collision 1, completed 1"
-    beyond = dict(row, zone="beyond", collisions=0, appear_m=1.6)
+    beyond = dict(row, zone="beyond", collisions=0, appear_m=3.7)
     closing = safety.summary_rows([row, beyond])
-    assert [r["case"].split(" D")[0] for r in closing] == [
-        "ALL at/beyond their stopping distance", "ALL inside their stopping distance", "ALL appearing at/beyond"]
-    assert [r["collisions"] for r in closing] == [0, 1, 0] and [r["runs"] for r in closing] == [2, 2, 2]
+    assert [r["case"] for r in closing] == ["ALL at/beyond the designed distance", "ALL inside the designed distance"]
+    assert [r["collisions"] for r in closing] == [0, 1] and [r["runs"] for r in closing] == [2, 2]
 
 
-def test_one_crossing_at_the_stopping_distance_stops_without_collision():
-    """A bench case, dead-reckoning to stay fast (the reaction does not depend on positioning)."""
-    case = next(c for c in safety.person_cases(True) if c[1] == 1.0)
+def _case_135(approach: float):
+    """The bench's 135° (slanting towards the vehicle) crossing at 1.0 K T, dead-reckoning, coarser scan."""
+    case = next(c for c in safety.person_cases(False) if c[1] == 1.0 and c[2] == 135.0)
     doc = safety.scenario_doc(safety._models()["differential"], case, 0)
     doc.pop("goniometer")
     doc["positioning"] = {"method": "dead_reckoning"}
     doc["scanner"]["step_deg"] = 1.0
-    r = simulate(parse_scenario(yaml.safe_dump(doc, sort_keys=False), "case.yaml"))
-    assert r.outcome == "completed", r.reason
+    doc["reactive"]["approach_speed_m_s"] = approach
+    doc["duration_s"] = 16.0
+    return simulate(parse_scenario(yaml.safe_dump(doc, sort_keys=False), "case.yaml"))
+
+
+def test_the_135_degree_crossing_stops_in_time_with_the_approach_fields():
+    r = _case_135(1.6)
     person = r.reactive["obstacles"]["person"]
-    assert person["result"] == "stop" and r.reactive["stops"] >= 1
-    assert person["min_clearance_m"] > 0.1
+    assert r.reason != "collision" and person["result"] == "stop"
+    assert person["min_clearance_m"] > 0.3
+
+
+def test_the_135_degree_crossing_is_hit_with_the_stopping_distance_fields():
+    """The same case with the fields of the previous design (K = 0): the person gets into the strip too late."""
+    r = _case_135(0.0)
+    assert r.reason == "collision" and r.reactive["obstacles"]["person"]["result"] == "collision"
 
 
 @pytest.mark.slow

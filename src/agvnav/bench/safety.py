@@ -1,35 +1,46 @@
 """``agvnav bench safety``: does the vehicle stop in time for a person crossing, and avoid a pallet in its lane?
 
 Two vehicles at a cruise of 1 m/s (assumptions: an indoor AGV's and an unladen stacker's
-speed), braking at 0.5 m/s², positioned by the goniometer and the EKF in the hall, with a
-safety scanner (270°, 0.5°, 25 Hz, 1 cm noise) in front: the differential AGV of
-``safety_person_crossing`` and the seed-000 tricycle stacker (``guidance_test``'s vehicle,
-tracked point C). The fields are generated from the stopping distance
-``D = v t_r + v²/(2a) + margin`` with ``t_r = 0.3 s`` and a 0.3 m margin: ``D = 1.6 m`` at 1 m/s.
+speed), braking at 0.5 m/s², positioned by the goniometer and the EKF, with a safety scanner
+(270°, 0.5°, 25 Hz, 1 cm noise) in front: the differential AGV of ``safety_person_crossing``
+and the seed-000 tricycle stacker (``guidance_test``'s vehicle, tracked point C). They drive
+the open floor of the hall (its outer walls and wall reflectors; the pillar and the rack
+removed: the approach fields reach 4.1 m either side of the path at 1 m/s, and a wall inside
+them stops the vehicle, as it would a real one). The fields follow the design rule of
+:mod:`agvnav.reactive.fields` (ISO 13855 ``S = K T + C``): the strip ``H`` the vehicle sweeps
+while it stops (``D = v t_r + v²/(2a) + C = 1.6 m`` long with ``t_r = 0.3 s``, ``C = 0.3 m``,
+the body plus 0.1 m wide) widened all round by ``K T`` (``K = 1.6 m/s``,
+``T = t_r + v/a = 2.3 s``: 3.68 m).
 
 Cases:
 
-* ``person``: a person (cylinder, radius 0.25 m) walks across the straight path at an angle
-  (90°: square across; 45°: slanting away from the vehicle; 135°: slanting towards it) and a
-  speed; the start time is set so that the person reaches the edge of the protective field's
-  width when the gap along the path between the vehicle's front and the person is
-  ``appear_m = ratio x D`` (the vehicle driving at cruise on the nominal profile). The case is
-  at/beyond its stopping distance (``zone`` ``beyond``, target: 0 collisions) when ``appear_m``
-  reaches ``stop_dist_m``: ``D``, plus for a person slanting towards the vehicle the distance it
-  walks towards it while the vehicle reacts and brakes (:func:`case_stop_distance`, the
-  approach term of ISO 13855); otherwise ``inside``, where physics allows a collision
-  (reported separately). A closing row also counts every case appearing at/beyond ``D`` itself;
+* ``person``: a person (cylinder, radius 0.25 m) steps out (it is not there before; a doorway,
+  something the map does not hold) and walks straight across the path at an angle (90°:
+  square across; 45°: slanting the vehicle's way; 135°: slanting towards it) and a speed, on
+  a collision course: without a reaction the vehicle's front would reach the person as it
+  crosses the path's centre line. Where it appears is set by ``ratio``: its edge is
+  ``appear_m = ratio x K T`` from the strip ``H`` of the vehicle (at cruise, nominal profile)
+  at that instant. **Zone, decided by the design rule from the case geometry before any
+  run** (:func:`zone_of`): ``beyond`` (at or beyond the designed stopping distance; target 0
+  collisions) when the person appears outside the designed protective field, i.e. walking at
+  up to K it needs at least the vehicle's stopping time ``T`` to reach the swept strip
+  (``dist(person, H) >= K T``); ``inside`` otherwise (physics may not allow a stop; reported
+  separately). A person walking towards the vehicle gets no special treatment: the rule
+  covers every direction;
 * ``lane``: a pallet (1.2 m x 0.8 m) on the path in the right-hand lane of a two-way aisle;
-  avoidance allowed on that segment within a corridor 2.0 m left and 0.6 m right of the path,
-  and a warning field 3 s of cruise long (4.6 m) so that the detour is planned while the vehicle
-  slows down (target: avoided, never leaving the corridor: ``max_corridor_dev_m`` 0).
+  avoidance allowed on that segment within a corridor 2.0 m left and 0.6 m right of the path;
+  the approach field stops the vehicle about 5 m short of the pallet, room to plan the detour
+  (planned once its echoes have stood still for 0.5 s); the detour is driven at the slow fraction with the
+  creep field set (the stopping-distance rectangle, no approach term: the pallet is passed at
+  0.3 m, closer than any approach field allows). Target: avoided, never leaving the corridor
+  (``max_corridor_dev_m`` 0).
 
 Records per (model, case) over 20 seeds (2 with ``--quick``): ``collisions``,
 ``min_clearance_m`` (smallest over the runs), ``stops`` (mean per run), ``avoided`` (runs whose
 encounter ended in a detour), ``time_lost_s`` (mean completion time minus that of the same
-run without the obstacle), ``max_corridor_dev_m`` (lane), ``appear_m`` (the gap at
-appearance, nominal), ``outcomes``. Two summary rows close the table: every case at/beyond
-the designed distance, and every case inside it.
+run without the obstacle), ``max_corridor_dev_m`` (lane), ``appear_m`` (the person's distance
+to the swept strip at appearance), ``reach_m`` (``K T``), ``outcomes``. Two summary rows close
+the table: every case at/beyond the designed distance, and every case inside it.
 """
 
 from __future__ import annotations
@@ -45,37 +56,41 @@ from typing import Any
 
 import numpy as np
 import yaml
+from numpy.typing import NDArray
 
-from agvnav.reactive import stopping_distance
+from agvnav.reactive import ISO13855_K_M_S, approach_clearance, approach_reach, stopping_distance
 from agvnav.sim import simulate
 from agvnav.sim.build import build
+from agvnav.world import builtin_map
 from agvnav.world.scenario import builtin_scenario, parse_scenario
 
-TITLE = "Reactive safety: crossing people and a pallet in the lane (truth-judged; issue 18)"
+TITLE = "Reactive safety: people stepping out across the path, a pallet in the lane (truth-judged; issue 18)"
 
 #: Columns a narrow terminal keeps, most important first.
 PRIORITY = ("model", "case", "zone", "runs", "collisions", "min_clearance_m", "stops", "avoided", "time_lost_s",
-            "max_corridor_dev_m", "appear_m", "stop_dist_m")
+            "max_corridor_dev_m", "appear_m", "reach_m")
 
 CRUISE_M_S = 1.0
 DECEL_M_S2 = 0.5
 REACTION_TIME_S = 0.3
 MARGIN_M = 0.3
 LATERAL_MARGIN_M = 0.1
+APPROACH_M_S = ISO13855_K_M_S
 PERSON_RADIUS_M = 0.25
-#: Path along y = 4 m of the hall; the crossing (or the pallet) at x = 16 m.
-PATH_Y_M = 4.0
+#: Path along y = 8 m of the open hall floor; the crossing (or the pallet) at x = 16 m.
+PATH_Y_M = 8.0
 CROSSING_X_M = 16.0
 #: Run-up at cruise before the appearance (m), and path beyond the crossing (m).
 RUN_UP_M = 4.0
 BEYOND_M = 5.0
-#: Walking distance of the person before it reaches the field's edge (m).
-WALK_IN_M = 2.0
-#: Lane case: corridor either side of the path (m), path beyond the pallet (m), and a warning field
-#: 3 s of cruise longer than the protective one (4.6 m): room to plan the S-curve while slowing.
+#: The person walks on to this far beyond the path's centre line (m), outside every field, and stands.
+WALK_ON_M = 6.5
+#: Lane case: the pallet at x = 13 m, corridor either side of the path (m), path beyond the pallet (m)
+#: (the warning field at cruise, 6.8 m, stays clear of the east wall at x = 30 m at the path's end).
+LANE_X_M = 13.0
 CORRIDOR = (2.0, 0.6)
 LANE_BEYOND_M = 9.0
-LANE_WARNING_S = 3.0
+LANE_WARNING_S = 1.5
 
 
 @dataclass(frozen=True)
@@ -88,6 +103,15 @@ class Model:
     point_offset: float  # tracked point ahead of base_link (m)
     front: float         # body front ahead of base_link (m)
     half_width: float    # body half-width (m)
+    footprint: tuple[tuple[float, float], ...]  # body polygon in base_link (m)
+
+
+@functools.lru_cache(maxsize=1)
+def open_floor() -> dict[str, Any]:
+    """The hall's open floor as an inline map: its outer walls and the reflectors on them."""
+    hall = yaml.safe_load(builtin_map("hall").read_text(encoding="utf-8"))
+    return {"reflectors": [r for r in hall["reflectors"] if not str(r["id"]).startswith("P")],
+            "walls": [w for w in hall["walls"] if w["id"] == "outer"]}
 
 
 @functools.lru_cache(maxsize=1)
@@ -106,24 +130,18 @@ def _models() -> dict[str, Model]:
 def _model(name: str, doc: dict[str, Any], extra: dict[str, Any], offset: float) -> Model:
     """A bench model, its body front and half-width read from the built plant's footprint."""
     fp = build(parse_scenario(yaml.safe_dump(doc, sort_keys=False), name)).plant.footprint
-    return Model(name, doc["vehicle"], extra, offset, float(np.max(fp[:, 0])), float(np.max(np.abs(fp[:, 1]))))
+    return Model(name, doc["vehicle"], extra, offset, float(np.max(fp[:, 0])), float(np.max(np.abs(fp[:, 1]))),
+                 tuple((float(x), float(y)) for x, y in fp))
 
 
 def design_distance() -> float:
-    """The protective field's reach at cruise (m): the designed stopping distance."""
+    """The swept strip's length at cruise (m): the stopping distance ``D`` with its margin."""
     return float(stopping_distance(CRUISE_M_S, REACTION_TIME_S, DECEL_M_S2, MARGIN_M))
 
 
-def case_stop_distance(angle_deg: float, speed: float) -> float:
-    """Stopping distance (m) against a person crossing at ``angle_deg`` and ``speed`` (m/s).
-
-    ``D`` plus the distance the person walks towards the vehicle while it reacts and brakes,
-    ``u_a (t_r + v/a)`` with ``u_a = max(0, -u cos(angle))`` (the approach-speed term of ISO 13855's
-    ``S = K T + C``): a person slanting towards the vehicle (135°) closes the gap while it stops;
-    one walking square across (90°) or away (45°) does not.
-    """
-    approach = max(0.0, -speed * math.cos(math.radians(angle_deg)))
-    return design_distance() + approach * (REACTION_TIME_S + CRUISE_M_S / DECEL_M_S2)
+def design_reach() -> float:
+    """``K T`` at cruise (m): how far a person at K walks while the vehicle reacts and brakes."""
+    return approach_reach(CRUISE_M_S, REACTION_TIME_S, DECEL_M_S2, APPROACH_M_S)
 
 
 def _nominal_time(distance: float) -> float:
@@ -135,56 +153,96 @@ def _nominal_time(distance: float) -> float:
 
 
 def person_cases(quick: bool) -> list[tuple[str, float, float, float]]:
-    """``(case name, ratio of D, angle deg, speed m/s)`` of the crossing cases."""
+    """``(case name, ratio of K T, angle deg, speed m/s)`` of the crossing cases."""
     ratios = (0.5, 1.0, 1.5) if not quick else (0.5, 1.0)
-    kinds = ((90.0, 1.0), (90.0, 1.6), (45.0, 1.2), (135.0, 1.2)) if not quick else ((90.0, 1.2),)
-    return [(f"person {a:.0f}deg {u:.1f}m/s at {r:.1f}D", r, a, u) for r in ratios for a, u in kinds]
+    kinds = ((90.0, 1.0), (90.0, 1.6), (45.0, 1.2), (135.0, 1.2)) if not quick else ((90.0, 1.2), (135.0, 1.2))
+    return [(f"person {a:.0f}deg {u:.1f}m/s at {r:.1f}KT", r, a, u) for r in ratios for a, u in kinds]
+
+
+def _relative(model: Model, angle_deg: float, speed: float, lead: float) -> NDArray[np.float64]:
+    """The person's centre in base_link (m) ``lead`` s before it crosses the centre line (vehicle at cruise)."""
+    a = math.radians(angle_deg)
+    # base_link when the front touches the person on the centre line, then lead s of cruise earlier
+    x_base = CROSSING_X_M - PERSON_RADIUS_M - model.front - CRUISE_M_S * lead
+    return np.array([CROSSING_X_M - speed * lead * math.cos(a) - x_base, -speed * lead * math.sin(a)])
+
+
+def appear_distance(model: Model, angle_deg: float, speed: float, lead: float) -> float:
+    """The person's edge to the swept strip ``H`` (m) ``lead`` s before the crossing: ``dist(p, H) - r``."""
+    p = _relative(model, angle_deg, speed, lead)
+    c = approach_clearance(p, np.asarray(model.footprint), CRUISE_M_S, REACTION_TIME_S, DECEL_M_S2, MARGIN_M,
+                           LATERAL_MARGIN_M, APPROACH_M_S)
+    return float(c) + design_reach() - PERSON_RADIUS_M
+
+
+def appear_lead(model: Model, angle_deg: float, speed: float, ratio: float) -> float:
+    """Time (s) before the crossing at which the person is ``ratio x K T`` from the strip (bisection; the
+    distance grows with the lead: the person and the strip move apart along a ray)."""
+    target = ratio * design_reach()
+    lo, hi = 0.0, 1.0
+    while appear_distance(model, angle_deg, speed, hi) < target:
+        hi *= 2.0
+        if hi > 1e3:
+            raise ValueError(f"the person never gets {target} m from the strip")
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if appear_distance(model, angle_deg, speed, mid) < target else (lo, mid)
+    return hi
+
+
+def zone_of(model: Model, angle_deg: float, speed: float, lead: float) -> str:
+    """``beyond`` when the person appears outside the designed protective field (a person at up to K needs at
+    least the stopping time T to reach the swept strip: ``dist(p, H) - r >= K T``), else ``inside``.
+    Decided from the case geometry before any run (see the module docstring)."""
+    return "beyond" if appear_distance(model, angle_deg, speed, lead) >= design_reach() - 1e-6 else "inside"
+
+
+def _base_doc(model: Model, seed: int) -> dict[str, Any]:
+    return {
+        "name": f"safety_{model.name}", "seed": seed, "step_s": 0.05,
+        "vehicle": model.vehicle,
+        "traction": {"speed_m_s": CRUISE_M_S, "max_accel_m_s2": DECEL_M_S2, "max_decel_m_s2": DECEL_M_S2},
+        "positioning": {"method": "ekf"}, "map": open_floor(),
+        "scanner": {"fov_deg": 270.0, "step_deg": 0.5, "max_range_m": 10.0, "noise_std_m": 0.01, "rate_hz": 25.0},
+        **model.extra,
+    }
 
 
 def scenario_doc(model: Model, case: tuple[str, float, float, float] | None, seed: int,
                  obstacle: bool = True) -> dict[str, Any]:
     """The scenario of one run: ``case`` a crossing (name, ratio, angle, speed) or None for the lane."""
-    D = design_distance()
-    doc: dict[str, Any] = {
-        "name": f"safety_{model.name}", "seed": seed, "step_s": 0.05,
-        "vehicle": model.vehicle,
-        "traction": {"speed_m_s": CRUISE_M_S, "max_accel_m_s2": DECEL_M_S2, "max_decel_m_s2": DECEL_M_S2},
-        "positioning": {"method": "ekf"}, "map": "hall",
-        "scanner": {"fov_deg": 270.0, "step_deg": 0.5, "max_range_m": 10.0, "noise_std_m": 0.01, "rate_hz": 25.0},
-        **model.extra,
-    }
+    doc = _base_doc(model, seed)
     reactive: dict[str, Any] = {"reaction_time_s": REACTION_TIME_S, "margin_m": MARGIN_M,
-                                "lateral_margin_m": LATERAL_MARGIN_M, "resume_after_s": 1.0}
+                                "lateral_margin_m": LATERAL_MARGIN_M, "approach_speed_m_s": APPROACH_M_S,
+                                "resume_after_s": 1.0}
     front = model.front - model.point_offset  # body front ahead of the tracked point
     if case is None:  # the lane: a pallet on the path at the crossing point
-        x0 = CROSSING_X_M - 10.0
+        x0 = LANE_X_M - 10.0
         doc["path"] = {"start": [x0, PATH_Y_M, 0.0], "segments": [{"type": "line", "length_m": 10.0 + LANE_BEYOND_M}]}
         if obstacle:
             doc["obstacles"] = [{"id": "pallet", "shape": "box", "length_m": 1.2, "width_m": 0.8,
-                                 "position": [CROSSING_X_M, PATH_Y_M]}]
+                                 "position": [LANE_X_M, PATH_Y_M]}]
         reactive.update(avoid_segments=[0], corridor_left_m=CORRIDOR[0], corridor_right_m=CORRIDOR[1],
-                        avoid_after_s=0.5, warning_time_s=LANE_WARNING_S)
+                        avoid_after_s=0.5, warning_time_s=LANE_WARNING_S, detour_fields="creep")
         doc["duration_s"] = 60.0
         doc["reactive"] = reactive
         return doc
     _, ratio, angle_deg, speed = case
     a = math.radians(angle_deg)
-    lateral = model.half_width + LATERAL_MARGIN_M + PERSON_RADIUS_M  # the person's centre at the field's edge
-    x_entry = CROSSING_X_M - lateral / math.tan(a)  # along the path where it gets there
-    gap = ratio * D
-    s_appear = x_entry - PERSON_RADIUS_M - gap - front  # the tracked point when the person appears
+    lead = appear_lead(model, angle_deg, speed, ratio)
+    u = np.array([math.cos(a), math.sin(a)])
+    cross = np.array([CROSSING_X_M, PATH_Y_M])
+    start = cross - speed * lead * u
+    end = cross + WALK_ON_M / math.sin(a) * u
+    s_appear = CROSSING_X_M - PERSON_RADIUS_M - front - CRUISE_M_S * lead  # the tracked point then
     x0 = min(s_appear - RUN_UP_M - CRUISE_M_S**2 / (2.0 * DECEL_M_S2), CROSSING_X_M - 8.0)
     t_appear = _nominal_time(s_appear - x0)
-    u = np.array([math.cos(a), math.sin(a)])
-    entry = np.array([x_entry, PATH_Y_M - lateral])
-    start = entry - WALK_IN_M * u
-    end = entry + (2.0 * lateral + 3.0) / math.sin(a) * u
     doc["path"] = {"start": [x0, PATH_Y_M, 0.0],
                    "segments": [{"type": "line", "length_m": CROSSING_X_M + BEYOND_M - x0}]}
     if obstacle:
         doc["obstacles"] = [{"id": "person", "shape": "cylinder", "radius_m": PERSON_RADIUS_M,
                              "path": [start.tolist(), end.tolist()], "speed_m_s": speed,
-                             "start_s": max(t_appear - WALK_IN_M / speed, 0.0)}]
+                             "start_s": t_appear, "appears_at_start": True}]
     doc["duration_s"] = _nominal_time(CROSSING_X_M + BEYOND_M - x0) + 30.0
     doc["reactive"] = reactive
     return doc
@@ -222,7 +280,7 @@ def _finite(values: list[float]) -> list[float]:
 
 
 def summarise(model: str, case: str, zone: str, appear: float | None, runs: list[dict[str, Any]],
-              baseline: float, stop: float | None = None) -> dict[str, Any]:
+              baseline: float, reach: float | None = None) -> dict[str, Any]:
     """One table row from the runs of one (model, case); ``baseline`` the completion time without the obstacle."""
     clear = _finite([r["min_clearance_m"] for r in runs])
     lost = [r["t_end"] - baseline for r in runs if r["completed"]]
@@ -232,7 +290,7 @@ def summarise(model: str, case: str, zone: str, appear: float | None, runs: list
         "case": case,
         "zone": zone,
         "appear_m": appear,
-        "stop_dist_m": stop,
+        "reach_m": reach,
         "runs": len(runs),
         "collisions": sum(r["collision"] for r in runs),
         "min_clearance_m": min(clear) if clear else None,
@@ -248,10 +306,12 @@ def run(quick: bool = False, seed: int = 0, progress: Callable[[int, int], None]
     """One record per (model, case) over 20 seeds (2 with ``quick``) from ``seed`` on, then the two summaries."""
     n = 2 if quick else 20
     models = list(_models())
-    D = design_distance()
     rows: list[tuple[str, tuple[str, float, float, float] | None]] = [
         (m, c) for m in models for c in [*person_cases(quick), None]
     ]
+    # the zones, from the design rule and the case geometry, before any run
+    zones = ["-" if c is None else zone_of(_models()[m], c[2], c[3], appear_lead(_models()[m], c[2], c[3], c[1]))
+             for m, c in rows]
     tasks = [(m, c, seed + k, True) for m, c in rows for k in range(n)] + [(m, c, seed, False) for m, c in rows]
     workers = max(1, min(len(tasks), os.cpu_count() or 1))
     results: list[dict[str, Any]] = []
@@ -273,30 +333,29 @@ def run(quick: bool = False, seed: int = 0, progress: Callable[[int, int], None]
         if c is None:
             out.append(summarise(m, "lane: pallet, avoid", "-", None, runs, base[i]["t_end"]))
         else:
-            stop = case_stop_distance(c[2], c[3])
-            zone = "beyond" if c[1] * D >= stop - 1e-9 else "inside"
-            out.append(summarise(m, c[0], zone, c[1] * D, runs, base[i]["t_end"], stop))
+            model = _models()[m]
+            lead = appear_lead(model, c[2], c[3], c[1])
+            out.append(summarise(m, c[0], zones[i], appear_distance(model, c[2], c[3], lead), runs,
+                                 base[i]["t_end"], design_reach()))
     return out + summary_rows(out)
 
 
 def summary_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The closing rows: every crossing at/beyond its stopping distance, every one inside it, and (for
-    transparency) every one at/beyond the static design distance ``D`` whatever the person's approach."""
-    D = design_distance()
+    """The closing rows: every crossing at/beyond the designed distance (zone ``beyond``), every one inside it."""
     crossings = [r for r in rows if r["zone"] in ("beyond", "inside")]
     groups = [
-        ("ALL at/beyond their stopping distance", "beyond", [r for r in crossings if r["zone"] == "beyond"]),
-        ("ALL inside their stopping distance", "inside", [r for r in crossings if r["zone"] == "inside"]),
-        (f"ALL appearing at/beyond D = {D:.2f} m", "static", [r for r in crossings if r["appear_m"] >= D - 1e-9]),
+        ("ALL at/beyond the designed distance", "beyond", [r for r in crossings if r["zone"] == "beyond"]),
+        ("ALL inside the designed distance", "inside", [r for r in crossings if r["zone"] == "inside"]),
     ]
     out = []
     for name, zone, sel in groups:
         clear = [r["min_clearance_m"] for r in sel if r["min_clearance_m"] is not None]
+        lost = [r["time_lost_s"] for r in sel if r["time_lost_s"] is not None]
         out.append({
-            "model": "all", "case": name, "zone": zone, "appear_m": None, "stop_dist_m": None,
+            "model": "all", "case": name, "zone": zone, "appear_m": None, "reach_m": None,
             "runs": sum(r["runs"] for r in sel), "collisions": sum(r["collisions"] for r in sel),
             "min_clearance_m": min(clear) if clear else None,
             "stops": float(np.mean([r["stops"] for r in sel])) if sel else None, "avoided": 0,
-            "time_lost_s": None, "max_corridor_dev_m": None, "outcomes": "",
+            "time_lost_s": float(np.mean(lost)) if lost else None, "max_corridor_dev_m": None, "outcomes": "",
         })
     return out
