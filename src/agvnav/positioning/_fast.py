@@ -23,6 +23,7 @@ from agvnav.positioning.gating import GateSpec
 Mat3 = tuple[float, ...]
 
 _PI = math.pi
+_TWO_PI = 2.0 * math.pi
 
 
 #: :func:`agvnav.geometry.wrap_angle` for one float, to ``[-pi, pi)`` (rad); an alias, no extra call.
@@ -269,6 +270,8 @@ def gate_one(
     dpx, dpy = -s * mx - c * my, c * mx - s * my
     p00, p01, p02, _, p11, p12, _, _, p22 = P
     trace_P, mount_norm = p00 + p11 + p22, math.hypot(mx, my)
+    two_gate = 2.0 * gate
+    fmod, sqrt, atan2, asin = math.fmod, math.sqrt, math.atan2, math.asin
     n_in, best = 0, None
     for j in range(len(rows)) if candidates is None else candidates:
         if t - claimed[j] < sweep:
@@ -277,15 +280,23 @@ def gate_one(
         # edge_bearing written out, the range test before the trigonometry (same values)
         dx, dy = rx - px, ry - py
         d2 = dx * dx + dy * dy
-        d = math.sqrt(d2)
+        d = sqrt(d2)
         if not d <= max_range:
             continue
-        edge = -math.asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * _PI
-        h = wrap_angle_scalar(math.atan2(dy, dx) - psi - mth + edge)
+        edge = -asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * _PI
+        # wrap_angle_scalar written out twice (the same operations: fmod, then one exact shift)
+        try:
+            h = fmod(atan2(dy, dx) - psi - mth + edge, _TWO_PI)
+            innov = fmod(z - (h - _TWO_PI if h >= _PI else h + _TWO_PI if h < -_PI else h), _TWO_PI)
+        except ValueError:  # +-inf: wrap_angle_scalar's NaN
+            innov = math.nan
+        innov = innov - _TWO_PI if innov >= _PI else innov + _TWO_PI if innov < -_PI else innov
         R = bearing_var + (map_std / d if d > 0.0 else 0.0) ** 2
-        innov = wrap_angle_scalar(z - h)
-        if surely_outside(innov, d2, r, R, trace_P, mount_norm, gate):
-            continue  # most reflectors: far from this bearing, no Jacobian needed
+        rr = r * r
+        if d2 > rr:  # surely_outside written out: most reflectors are far from this bearing, no Jacobian needed
+            g2 = 1.0 / (d2 - rr)
+            if innov * innov >= two_gate * (R + trace_P * (g2 + (sqrt(g2) * mount_norm + 1.0) ** 2)):
+                continue
         h0, h1, h2 = bearing_jacobian(dx, dy, d2, d, r, dpx, dpy)
         # quadratic_form(H, P) written out: this loop is the estimator's hottest
         S = h0 * h0 * p00 + h1 * h1 * p11 + h2 * h2 * p22 + 2.0 * (h0 * h1 * p01 + h0 * h2 * p02 + h1 * h2 * p12) + R

@@ -262,6 +262,7 @@ class Goniometer:
     phase: float = 0.0
     direction: int = 1
     _maps: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    _beam: tuple = field(default=(), init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "rate_hz", require_positive("rate_hz", self.rate_hz))
@@ -290,6 +291,9 @@ class Goniometer:
         if self.direction not in (1, -1):
             raise ValueError(f"direction must be +1 (CCW) or -1 (CW), got {self.direction!r}")
         object.__setattr__(self, "direction", int(self.direction))
+        mx, my, mth = self.mount  # the beam kernels' constants, once (see _consts)
+        beam = (mx, my, self.phase + mth, self.direction * TWO_PI * self.rate_hz, self.direction)
+        object.__setattr__(self, "_beam", beam)
 
     @property
     def resolution(self) -> float:
@@ -393,9 +397,9 @@ class Goniometer:
 
     def _consts(self) -> tuple[float, float, float, float, int]:
         """Per-scan constants of the beam kernels: mount offset ``(mx, my)`` (m), beam phase
-        ``phase + mount_theta`` (rad), ``direction * 2 pi f`` (rad/s) and the direction."""
-        mx, my, mth = self.mount
-        return mx, my, self.phase + mth, self.direction * TWO_PI * self.rate_hz, self.direction
+        ``phase + mount_theta`` (rad), ``direction * 2 pi f`` (rad/s) and the direction
+        (computed once in ``__post_init__``: the goniometer is frozen)."""
+        return self._beam
 
     def _offsets(
         self, pose_at: PoseFunction, t: NDArray[np.float64],

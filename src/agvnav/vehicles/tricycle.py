@@ -167,11 +167,16 @@ class TricyclePlant:
         start = self._state
         start[3] = ns.perturb_steering_scalar(g0 + self.systematic.steering_offset, rng)
         self._start = start.copy()
-        self._u = np.array([ds_true / dt, rate])
+        v_true = ds_true / dt
+        self._u = np.array([v_true, rate])
         self._dt = dt
-        self._state, self._deriv = stacker_rk4(cast("Sequence[float]", start), self._u[0], self._u[1], self.L_true, dt)
-        # end poses and scaled end derivatives of the step, for pose_at's Hermite cubic
-        self._hermite = np.stack([self._start[:3], self._deriv[0, :3] * dt, self._state[:3], self._deriv[1, :3] * dt])
+        self._state, self._deriv = stacker_rk4(cast("Sequence[float]", start), v_true, rate, self.L_true, dt)
+        # end poses and scaled end derivatives of the step, for pose_at's Hermite cubic (rows filled in
+        # place: np.stack's dispatch cost more than the arithmetic)
+        herm = np.empty((4, 3))
+        herm[0], herm[1] = start[:3], self._deriv[0, :3] * dt
+        herm[2], herm[3] = self._state[:3], self._deriv[1, :3] * dt
+        self._hermite = herm
         self.v = ds_true / dt
         self.distance_C += abs(ds_true)
         # encoders (nominal parameters)
