@@ -60,7 +60,7 @@ def synthetic_drive(seed: int = 0, bearing_std: float = 0.0, noise: OdometryNois
     rt_arr = np.array(rt)
     settings = {"mount": MOUNT.tolist(), "pulses_per_rev": 65535, "max_range_m": 30.0,
                 "odometry_noise": list((noise or OdometryNoise(1e-6, 1e-6, 1e-6)).__dict__.values()),
-                "initial_pose": START.tolist()}
+                "initial_pose": START.tolist(), "bearing_offset": 0.0}  # unquantised: no half pulse
     log = RecordedLog(np.asarray(t, dtype=np.float64), meas_inc, rt_arr, rt_arr.copy(), np.array(rb), settings,
                       truth=poses)
     return log, poses

@@ -22,13 +22,18 @@ F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 
 
-def head_poses(keyframe_poses: F64, keyframe: I64, offset: F64, mount: F64, scale: float = 1.0) -> F64:
+def head_poses(keyframe_poses: F64, keyframe: I64, offset: F64, mount: F64, scale: float = 1.0,
+               offset_dist: F64 | None = None, calibration: tuple[float, float] = (0.0, 0.0)) -> F64:
     """Head poses ``(B, 3)`` in map of reflections hanging on ``keyframe (B,)`` with odometry ``offset (B, 3)``.
 
-    ``X(k) ∘ [s u_t, u_ψ] ∘ mount`` (m, m, rad).
+    ``X(k) ∘ [s u_t, w_ψ] ∘ mount`` (m, m, rad) with ``w_ψ = (1 + b) u_ψ + κ u_D``: ``calibration = (κ, b)``
+    the odometry's heading rate (rad/m) and turn scale, ``offset_dist (B,)`` the distance ``u_D`` rolled (m).
     """
     X = keyframe_poses[keyframe]
-    u = offset
+    u = offset.copy()
+    kappa, b = calibration
+    if offset_dist is not None and (kappa or b):
+        u[:, 2] = (1.0 + b) * u[:, 2] + kappa * offset_dist
     cu, su = np.cos(u[:, 2]), np.sin(u[:, 2])
     wx = scale * u[:, 0] + cu * mount[0] - su * mount[1]
     wy = scale * u[:, 1] + su * mount[0] + cu * mount[1]

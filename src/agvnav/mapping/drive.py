@@ -10,6 +10,14 @@ keyframe pose composed with the odometry offset ``u`` from ``t_a`` to ``τ`` (th
 step's increment split in proportion to time, as :mod:`agvnav.logs.localize`
 does); the offset's own small covariance is carried to the bearing's variance.
 
+The odometry covariance is linear in Crowley's coefficients ``(k_d, k_dθ, k_θ)``: besides the
+covariances for the given noise, the drive keeps the three parts propagated with unit
+coefficients (``between_cov_parts``, ``refl_offset_cov_parts``) so that the batch can estimate
+the coefficients from the drive itself (variance components, :mod:`agvnav.mapping.slam`).
+It also keeps the signed distance rolled and the heading turned by odometry per keyframe
+step and per reflection offset: the graph's systematic odometry errors (a heading rate per
+metre, a turn scale: :mod:`agvnav.mapping.graph`) act on them.
+
 Increments are composed with the midpoint heading (as :func:`agvnav.logs.integrate_odometry`).
 The translation of every relative pose is linear in the odometry scale factor ``s``
 (a scale multiplies every ``ΔD`` and ``Δlateral`` and leaves ``Δθ`` alone), so the
@@ -26,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav.geometry import between
-from agvnav.odometry import OdometryNoise, propagate
+from agvnav.odometry import OdometryNoise, increment_jacobian, integrate_pose, pose_jacobian
 
 __all__ = ["Drive", "odometry_poses", "prepare_drive"]
 
@@ -54,6 +62,12 @@ class Drive:
     refl_t : (B,) stamps (s).
     bearing : (B,) bearings in the head frame (rad).
     mount : (3,) head mount on base_link (m, m, rad).
+    between_cov_parts : (3, K - 1, 3, 3) the between covariance for unit ``k_d``, ``k_dθ``, ``k_θ``
+        in turn (m², rad² per unit coefficient); ``between_cov = Σ k_c · part_c + floor``.
+    refl_offset_cov_parts : (3, B, 3, 3) the same for each reflection's offset.
+    between_dist : (K - 1,) signed distance rolled between keyframes (m, s = 1).
+    refl_offset_dist : (B,) signed distance rolled from the keyframe to the reflection (m, s = 1).
+    odometry_k : (3,) the coefficients ``k_d``, ``k_dθ``, ``k_θ`` of ``between_cov`` and ``refl_offset_cov``.
     """
 
     keyframe_t: F64
@@ -66,6 +80,28 @@ class Drive:
     refl_t: F64
     bearing: F64
     mount: F64
+    between_cov_parts: F64 | None = None
+    refl_offset_cov_parts: F64 | None = None
+    between_dist: F64 | None = None
+    refl_offset_dist: F64 | None = None
+    odometry_k: F64 | None = None
+
+
+def _unit_increment_cov(dd: float, dth: float) -> F64:
+    """``(3, 2, 2)``: the increment covariance of ``(ΔD, Δθ)`` for unit ``k_d``, ``k_dθ``, ``k_θ`` in turn."""
+    out = np.zeros((3, 2, 2))
+    out[0, 0, 0] = abs(dd)
+    out[1, 1, 1] = abs(dd)
+    out[2, 1, 1] = abs(dth)
+    return out
+
+
+def _propagate_parts(local: F64, parts: F64, dd: float, dth: float) -> tuple[F64, F64]:
+    """One midpoint step of the three unit-coefficient covariances ``(3, 3, 3)`` ([seed002 eq14, eq17])."""
+    F = pose_jacobian(local, dd, dth, rule="midpoint")
+    G = increment_jacobian(local, dd, dth, rule="midpoint")
+    new = F @ parts @ F.T + G @ _unit_increment_cov(dd, dth) @ G.T
+    return integrate_pose(local, dd, dth, rule="midpoint"), new
 
 
 def _step_poses(inc: F64) -> F64:
@@ -117,18 +153,23 @@ def prepare_drive(log: Any, keyframe_s: float = 0.1, noise: OdometryNoise | None
     kf_idx = np.array(kf, dtype=np.int64)
     poses = odometry_poses(inc)
     # covariance of the odometry from the last keyframe at or before each instant
-    cov_from_kf = np.zeros((n, 3, 3))
+    parts_from_kf = np.zeros((n, 3, 3, 3))  # (instant, component, 3, 3)
     kf_of_step = np.searchsorted(kf_idx, np.arange(n), side="right") - 1  # keyframe index at or before k
     is_kf = np.zeros(n, dtype=bool)
     is_kf[kf_idx] = True
     local = np.zeros(3)
-    cov = np.zeros((3, 3))
-    for k in range(1, n):  # cov_from_kf[k]: pose k relative to the last keyframe before it
+    parts = np.zeros((3, 3, 3))
+    for k in range(1, n):  # parts_from_kf[k]: pose k relative to the last keyframe before it
         if is_kf[k - 1]:
-            local, cov = np.zeros(3), np.zeros((3, 3))
-        local, cov = propagate(local, cov, inc[k - 1, 0], inc[k - 1, 1], noise, rule="midpoint")
-        cov_from_kf[k] = cov
+            local, parts = np.zeros(3), np.zeros((3, 3, 3))
+        local, parts = _propagate_parts(local, parts, float(inc[k - 1, 0]), float(inc[k - 1, 1]))
+        parts_from_kf[k] = parts
+    k_vec = np.array([noise.k_d, noise.k_dtheta, noise.k_theta])
+    cov_from_kf = np.einsum("c,ncij->nij", k_vec, parts_from_kf)
+    dist_cum = np.concatenate([[0.0], np.cumsum(inc[:, 0])])
     between_cov = cov_from_kf[kf_idx[1:]] + np.diag(ODOMETRY_FLOOR)
+    between_parts = np.moveaxis(parts_from_kf[kf_idx[1:]], 1, 0).copy()
+    between_dist = np.diff(dist_cum[kf_idx])
     betw = between(poses[kf_idx[:-1]], poses[kf_idx[1:]])
     betw[:, 2] = poses[kf_idx[1:], 2] - poses[kf_idx[:-1], 2]  # unwrapped heading change
     # reflections
@@ -146,8 +187,17 @@ def prepare_drive(log: Any, keyframe_s: float = 0.1, noise: OdometryNoise | None
     off = between(poses[kf_idx[a]], at)
     off[:, 2] = at[:, 2] - poses[kf_idx[a], 2]
     # offset covariance: up to t[step] (zero when the step starts at the keyframe), plus the partial step
-    base_cov = np.where(is_kf[step][:, None, None], 0.0, cov_from_kf[step])
+    base_parts = np.where(is_kf[step][:, None, None, None], 0.0, parts_from_kf[step])
     start = between(poses[kf_idx[a]], poses[step])
-    _, off_cov = propagate(start, base_cov, inc[step, 0] * frac, inc[step, 1] * frac, noise, rule="midpoint")
+    dd_p, dth_p = inc[step, 0] * frac, inc[step, 1] * frac
+    F = pose_jacobian(start, dd_p, dth_p, rule="midpoint")[:, None]  # (B, 1, 3, 3)
+    G = increment_jacobian(start, dd_p, dth_p, rule="midpoint")[:, None]  # (B, 1, 3, 2)
+    unit = np.zeros((stamp.shape[0], 3, 2, 2))
+    unit[:, 0, 0, 0] = np.abs(dd_p)
+    unit[:, 1, 1, 1] = np.abs(dd_p)
+    unit[:, 2, 1, 1] = np.abs(dth_p)
+    off_parts = F @ base_parts @ np.swapaxes(F, -1, -2) + G @ unit @ np.swapaxes(G, -1, -2)
+    off_cov = np.einsum("c,ncij->nij", k_vec, off_parts)
+    off_dist = dist_cum[step] + inc[step, 0] * frac - dist_cum[kf_idx[a]]
     return Drive(t[kf_idx], poses[kf_idx], betw, between_cov, a.astype(np.int64), off, off_cov, stamp, bearing,
-                 mount_arr)
+                 mount_arr, between_parts, np.moveaxis(off_parts, 1, 0).copy(), between_dist, off_dist, k_vec)

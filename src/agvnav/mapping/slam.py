@@ -14,8 +14,12 @@
    (:mod:`agvnav.mapping.anchors`). No anchor: :class:`~agvnav.mapping.anchors.ScaleUnobservable`.
 3. **Batch**: every reflection is re-associated against the solved trajectory with a tight gate,
    reflectors without ``min_sightings`` from ``min_baseline`` are dropped, the graph is solved to
-   convergence, bearing outliers beyond ``outlier_sigma`` are removed and it is solved again. The
-   reflector covariances are the marginals of ``(JᵀJ)⁻¹`` (:func:`agvnav.mapping.solve.marginal_covariances`).
+   convergence with the odometry's systematic errors (scale, heading rate, turn scale), bearing
+   outliers beyond ``outlier_sigma`` are removed and it is solved again. The noise is estimated
+   from the drive by variance components (Förstner; per component redundancy): the bearing std
+   and Crowley's three odometry coefficients. Bearings are corrected by half an encoder pulse (the
+   head reports the last whole pulse, as the EKF corrects it). The reflector covariances are the
+   marginals of ``(JᵀJ)⁻¹`` (:func:`agvnav.mapping.solve.marginal_covariances`).
 
 An existing map (``existing``) seeds the reflector list: its reflectors are associated from the
 start (the start pose must then be in its frame), refined with their covariance as priors, and
@@ -26,7 +30,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -44,7 +48,7 @@ from agvnav.mapping.anchors import (
     match_surveyed,
 )
 from agvnav.mapping.association import associate, head_poses, predicted_edge_bearings, ray_covariances
-from agvnav.mapping.drive import Drive, prepare_drive
+from agvnav.mapping.drive import ODOMETRY_FLOOR, Drive, prepare_drive
 from agvnav.mapping.graph import (
     BearingFactors,
     DistanceFactors,
@@ -56,7 +60,7 @@ from agvnav.mapping.graph import (
     whitener,
 )
 from agvnav.mapping.initialise import InitialiseOptions, initialise_from_tracks
-from agvnav.mapping.solve import marginal_covariances, solve
+from agvnav.mapping.solve import factorize, marginal_covariances, solve
 from agvnav.odometry import OdometryNoise
 from agvnav.positioning import encoder_bearing_std
 
@@ -85,8 +89,13 @@ class MappingOptions:
     front_sigma : bearing std (rad) the front end assumes for a reflector's own uncertainty in its gate
     (dead-reckoned poses). merge_distance : front-end reflectors closer than this (m) are one.
     front_odometry_var : the front end multiplies the odometry covariance by this (it trusts dead
-    reckoning over its window; the batch estimates the real factor). variance_passes : batch passes
-    of association, solution and variance-component estimation.
+    reckoning over its window; the batch estimates the real coefficients). variance_passes : batch passes
+    of association, solution and variance-component estimation. variance_probes : random probes of
+    the redundancy traces (Hutchinson, fixed seed). bearing_offset : added to every bearing (rad);
+    None: half an encoder pulse (``π / pulses_per_rev``, the head reports the last whole pulse passed,
+    as the EKF corrects it), unless the log's settings state ``bearing_offset``.
+    heading_rate_std, turn_scale_std : std of the zero-mean priors on the odometry's systematic heading
+    rate (rad/m) and turn scale estimated in the batch (:mod:`agvnav.mapping.graph`).
     head_yaw_std : std (rad) of the head's yaw on the vehicle: a frame given by the start pose is
     only as well oriented as the head is calibrated (added to the start pose's heading variance).
     """
@@ -103,7 +112,11 @@ class MappingOptions:
     merge_distance: float = 0.15
     use_lcov: bool = True
     front_odometry_var: float = 0.01
-    variance_passes: int = 4
+    variance_passes: int = 5
+    variance_probes: int = 48
+    bearing_offset: float | None = None
+    heading_rate_std: float = 0.05
+    turn_scale_std: float = 0.1
     head_yaw_std: float = 2e-4
     gate_sigma: float = 5.0
     position_tol: float = 0.05
@@ -149,7 +162,10 @@ class MappingResult:
     ids (N,), xy (N, 2) m, covariance (N, 2, 2) m², sightings (N,) associated reflections each;
     poses (K, 3) keyframe trajectory in map and keyframe_t (K,) s; scale and scale_std of the odometry;
     anchor: which anchors fixed frame and scale; reflections / associated / unassociated counts;
-    chi2_per_dof of the solution; runtime_s (front end and batch).
+    chi2_per_dof of the solution; runtime_s (front end and batch). heading_rate (rad/m) and turn_scale:
+    the odometry's systematic errors estimated with the map; odometry_noise ``(k_d, k_dθ, k_θ)`` and
+    bearing_std (rad): the noise estimated from the drive (variance components; the bearing's median
+    std, encoder and the odometry offset inside a keyframe step).
     """
 
     ids: tuple[str, ...]
@@ -166,6 +182,10 @@ class MappingResult:
     chi2_per_dof: float
     runtime_s: float
     existing_ids: tuple[str, ...] = ()
+    heading_rate: float = 0.0
+    turn_scale: float = 0.0
+    odometry_noise: tuple[float, float, float] | None = None
+    bearing_std: float | None = None
 
 
 def _bearing_sigma(log: Any, options: MappingOptions) -> float:
@@ -177,33 +197,132 @@ def _bearing_sigma(log: Any, options: MappingOptions) -> float:
     return max(encoder_bearing_std(float(ppr)), options.bearing_std_floor)
 
 
-def _sigma_eff(drive: Drive, sigma: float, heads: F64, landmarks: F64, assoc: I64, odo_var: float = 1.0) -> F64:
-    """Bearing std per reflection: the encoder's plus the odometry offset's (position over range, heading),
-    the offset covariance multiplied by ``odo_var``."""
-    cov = drive.refl_offset_cov * odo_var
-    var = sigma ** 2 + cov[:, 2, 2]
+def _bearing_var_parts(drive: Drive, sigma: float, heads: F64, landmarks: F64, assoc: I64,
+                       odo_var: F64 | float = 1.0, lam_b: float = 1.0) -> F64:
+    """Variance parts ``(B, 4)`` (rad²) of each bearing: the encoder's ``λ_b σ²`` and the odometry offset's
+    (position over range, heading) for ``k_d``, ``k_dθ``, ``k_θ`` in turn.
+
+    ``odo_var``: a scalar multiplies the drive's odometry covariance (all in the ``k_d`` column); a
+    ``(3,)`` vector multiplies each of Crowley's coefficients.
+    """
+    B = drive.bearing.shape[0]
+    if np.ndim(odo_var) == 0 or drive.refl_offset_cov_parts is None or drive.odometry_k is None:
+        covs = (drive.refl_offset_cov * float(np.mean(odo_var)))[None]
+    else:
+        covs = drive.refl_offset_cov_parts * (np.asarray(odo_var) * drive.odometry_k)[:, None, None, None]
+    out = np.zeros((B, 4))
+    out[:, 0] = lam_b * sigma ** 2
     ok = assoc >= 0
+    inv_d2 = np.zeros(B)
     if landmarks.shape[0] and np.any(ok):
         d = np.hypot(*(landmarks[assoc[ok]] - heads[ok, :2]).T)
-        var[ok] += (cov[ok, 0, 0] + cov[ok, 1, 1]) / np.maximum(d, 0.3) ** 2
-    return np.sqrt(var)
+        inv_d2[ok] = 1.0 / np.maximum(d, 0.3) ** 2
+    for c in range(covs.shape[0]):
+        out[:, 1 + c] = covs[c, :, 2, 2] + (covs[c, :, 0, 0] + covs[c, :, 1, 1]) * inv_d2
+    return out
+
+
+def _bearing_offset(log: Any, options: MappingOptions) -> float:
+    """Added to every bearing (rad): the option, else the log's ``bearing_offset`` setting, else half a pulse."""
+    if options.bearing_offset is not None:
+        return float(options.bearing_offset)
+    settings = getattr(log, "settings", {}) or {}
+    if settings.get("bearing_offset") is not None:
+        return float(settings["bearing_offset"])
+    return math.pi / float(settings.get("pulses_per_rev") or 65535)
+
+
+def _sigma_eff(drive: Drive, sigma: float, heads: F64, landmarks: F64, assoc: I64, odo_var: F64 | float = 1.0,
+               lam_b: float = 1.0) -> F64:
+    """Bearing std per reflection (rad): the square root of the sum of :func:`_bearing_var_parts`."""
+    return np.sqrt(_bearing_var_parts(drive, sigma, heads, landmarks, assoc, odo_var, lam_b).sum(axis=1))
+
+
+def _odometry_cov(drive: Drive, n: int, odo_var: F64 | float) -> F64:
+    """Between-keyframe covariances ``(n, 3, 3)``: scalar ``odo_var`` times the drive's, or per coefficient."""
+    if np.ndim(odo_var) == 0 or drive.between_cov_parts is None or drive.odometry_k is None:
+        return drive.between_cov[:n] * float(np.mean(odo_var))
+    k = np.asarray(odo_var) * drive.odometry_k
+    return np.einsum("c,cnij->nij", k, drive.between_cov_parts[:, :n]) + np.diag(ODOMETRY_FLOOR)
 
 
 def _graph(drive: Drive, n_poses: int, landmarks: F64, assoc: I64, sig: F64, options: MappingOptions,
            pose_priors: PosePriors, reflector_priors: ReflectorPriors | None = None,
            distances: DistanceFactors | None = None, scale_prior: tuple[float, float] | None = None,
-           odo_var: float = 1.0) -> FactorGraph:
+           odo_var: F64 | float = 1.0, calibration: bool = False) -> FactorGraph:
     use = (assoc >= 0) & (drive.refl_keyframe < n_poses)
     e = np.arange(n_poses - 1)
-    odo = OdometryFactors(e, e + 1, drive.between[:n_poses - 1], whitener(drive.between_cov[:n_poses - 1] * odo_var))
+    dist = None if drive.between_dist is None else drive.between_dist[:n_poses - 1]
+    odo = OdometryFactors(e, e + 1, drive.between[:n_poses - 1], whitener(_odometry_cov(drive, n_poses - 1, odo_var)),
+                          dist)
     bear = BearingFactors(drive.refl_keyframe[use], assoc[use], drive.refl_offset[use], drive.bearing[use], sig[use],
-                          drive.mount, options.radius, options.direction)
+                          drive.mount, options.radius, options.direction,
+                          None if drive.refl_offset_dist is None else drive.refl_offset_dist[use])
     kw: dict[str, Any] = {"pose_priors": pose_priors, "scale_prior": scale_prior}
+    if calibration:
+        kw["calibration_prior"] = (options.heading_rate_std, options.turn_scale_std)
     if reflector_priors is not None:
         kw["reflector_priors"] = reflector_priors
     if distances is not None:
         kw["distances"] = distances
     return FactorGraph(n_poses, landmarks.shape[0], odo, bear, **kw)
+
+
+def _variance_components(g: FactorGraph, x: F64, drive: Drive, odo_var: F64, lam_b: float,
+                         probes: int) -> tuple[F64, float]:
+    """One step of Förstner's variance-component estimation for the bearing std and Crowley's three
+    odometry coefficients: each component ``c`` is scaled by ``q_c / r_c``, its share of the weighted
+    square sum over its share of the redundancy.
+
+    In whitened terms (``S_c``: the component's part of a factor's covariance, whitened; ``Σ_c S_c = I``)
+    ``q_c = Σ eᵀ S_c e`` and ``r_c = Σ tr(S_c) − tr(N⁻¹ Jᵀ S_c J)`` with ``N = JᵀJ``. The trace is
+    estimated with ``probes`` Rademacher vectors (Hutchinson; fixed seed) and one sparse factorisation.
+    The earlier single factor for all odometry with the global redundancy ``1 − n/m`` let the bearings
+    (which absorb the pose degrees of freedom) take too little redundancy: bearing std too small,
+    reflector covariances 1.2-1.4x optimistic.
+    The bearings are one component ``λ_b``: it scales their whole variance, the encoder's and the
+    odometry offset's inside a keyframe step (both are white per bearing only approximately; the
+    drive's offsets are what the estimate is fitted to).
+    """
+    e, J = linearize(g, x)
+    assert J is not None
+    N = (J.T @ J).tocsc()
+    try:
+        lu = factorize(N)
+    except RuntimeError:
+        return odo_var, lam_b
+    rng = np.random.default_rng(17)
+    Z = rng.choice(np.array([-1.0, 1.0]), size=(g.n_vars, probes))
+    JZ = np.asarray(J @ Z)
+    JY = np.asarray(J @ lu.solve(Z))
+    E = g.odometry.i.size
+    n_b = g.bearings.pose.size
+    q = np.zeros(4)
+    tr_s = np.zeros(4)
+    t = np.zeros(4)
+    # odometry factors: S_c = W (k_c part_c) Wᵀ
+    if E and drive.between_cov_parts is not None and drive.odometry_k is not None:
+        W = g.odometry.W
+        eo = e[:3 * E].reshape(E, 3)
+        zo, yo = JZ[:3 * E].reshape(E, 3, probes), JY[:3 * E].reshape(E, 3, probes)
+        k = odo_var * drive.odometry_k
+        for c in range(3):
+            S = W @ (k[c] * drive.between_cov_parts[c, :E]) @ np.swapaxes(W, 1, 2)
+            q[1 + c] += float(np.einsum("ea,eab,eb->", eo, S, eo))
+            tr_s[1 + c] += float(np.trace(S, axis1=1, axis2=2).sum())
+            t[1 + c] += float(np.einsum("eap,eab,ebp->", yo, S, zo)) / probes
+    # bearings: one component scaling the whole bearing variance (encoder and the offset's odometry)
+    if n_b:
+        eb = e[3 * E:3 * E + n_b]
+        zb, yb = JZ[3 * E:3 * E + n_b], JY[3 * E:3 * E + n_b]
+        q[0] = float(eb @ eb)
+        tr_s[0] = float(n_b)
+        t[0] = float(np.einsum("bp,bp->", yb, zb)) / probes
+    r = tr_s - t
+    ratio = np.ones(4)
+    ok = r > 1e-3 * np.maximum(tr_s, 1e-300)
+    ratio[ok] = np.clip(q[ok] / r[ok], 1e-2, 1e2)
+    return odo_var * ratio[1:], lam_b * float(ratio[0])
 
 
 def _dead_reckon(drive: Drive, start: F64, poses: F64, k_from: int, k_to: int) -> None:
@@ -236,6 +355,7 @@ def front_end(log: Any, start: F64 | None = None, options: MappingOptions | None
     t0 = time.perf_counter()
     settings = getattr(log, "settings", {}) or {}
     drive = prepare_drive(log, opt.keyframe_s, opt.odometry_noise)
+    drive = replace(drive, bearing=drive.bearing + _bearing_offset(log, opt))
     max_range = float(opt.max_range or settings.get("max_range_m") or 30.0)
     init = InitialiseOptions(**{**opt.init.__dict__, "max_range": max_range})
     sigma = _bearing_sigma(log, opt)
@@ -297,7 +417,7 @@ def front_end(log: Any, start: F64 | None = None, options: MappingOptions | None
                        odo_var=lam_o)
             free = np.ones(g.n_vars, dtype=bool)
             free[: 3 * int(np.searchsorted(drive.keyframe_t, hi - opt.window_s))] = False
-            free[-1] = False
+            free[g.scale_index:] = False  # scale and systematic odometry errors: the batch estimates them
             sol = solve(g, g.pack(poses[:n], landmarks, 1.0), max_iterations=opt.front_iterations, free=free,
                         huber=3.0)
             e, _ = linearize(g, sol.x, jacobian=False)
@@ -341,11 +461,13 @@ def _similarity_poses(T: F64, poses: F64) -> F64:
 
 
 def _reassociate(fe: FrontEnd, poses: F64, landmarks: F64, scale: float, opt: MappingOptions,
-                 keep: NDArray[np.bool_], lam_o: float = 1.0, lam_b: float = 1.0) -> tuple[I64, F64]:
+                 keep: NDArray[np.bool_], odo_var: F64 | float = 1.0, lam_b: float = 1.0,
+                 calibration: tuple[float, float] = (0.0, 0.0)) -> tuple[I64, F64]:
     d = fe.drive
-    heads = head_poses(poses, d.refl_keyframe, d.refl_offset, d.mount, scale)
-    sig0 = _sigma_eff(d, fe.sigma[0], heads, landmarks, np.full(heads.shape[0], -1, dtype=np.int64), lam_o)
-    assoc = associate(d.bearing, heads, landmarks, opt.radius, sig0 * math.sqrt(max(lam_b, 1.0)), opt.gate_sigma,
+    heads = head_poses(poses, d.refl_keyframe, d.refl_offset, d.mount, scale, d.refl_offset_dist, calibration)
+    sig0 = _sigma_eff(d, fe.sigma[0], heads, landmarks, np.full(heads.shape[0], -1, dtype=np.int64),
+                      odo_var) * math.sqrt(max(lam_b, 1.0))
+    assoc = associate(d.bearing, heads, landmarks, opt.radius, sig0, opt.gate_sigma,
                       opt.final_position_tol, fe.max_range, opt.direction)
     assoc = np.where((assoc >= 0) & keep[np.maximum(assoc, 0)], assoc, -1)
     return assoc, heads
@@ -441,26 +563,24 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
                            np.array(dist_s))
     anchored = set(rpri_idx) | set(dist_a) | set(dist_b)
     K = poses.shape[0]
-    lam_o, lam_b = 1.0, 1.0
+    odo_var, lam_b = np.ones(3), 1.0
+    calib = (0.0, 0.0)
+    keep_all = keep | np.isin(np.arange(keep.size), list(anchored))
     for pas in range(opt.variance_passes):
         if pas < 2:
-            assoc, heads = _reassociate(fe, poses, landmarks, scale, opt,
-                                        keep | np.isin(np.arange(keep.size), list(anchored)), lam_o, lam_b)
-        sig = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, lam_o) * math.sqrt(lam_b)
-        g = _graph(d, K, landmarks, assoc, sig, opt, pose_prior, rpri, dist, scale_prior, lam_o)
-        sol = solve(g, g.pack(poses, landmarks, scale), max_iterations=50)
+            assoc, heads = _reassociate(fe, poses, landmarks, scale, opt, keep_all, odo_var, lam_b, calib)
+        sig = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, odo_var) * math.sqrt(lam_b)
+        g = _graph(d, K, landmarks, assoc, sig, opt, pose_prior, rpri, dist, scale_prior, odo_var, calibration=True)
+        sol = solve(g, g.pack(poses, landmarks, scale, calib), max_iterations=50)
         poses, landmarks, scale = g.unpack(sol.x)
         poses, landmarks = poses.copy(), landmarks.copy()
-        # variance components [Helmert]: odometry and bearing chi-square against their redundancy
-        e, _ = linearize(g, sol.x, jacobian=False)
-        n_o, n_b = 3 * (K - 1), int(g.bearings.pose.size)
-        red = max(0.05, 1.0 - g.n_vars / max(e.size, 1))
-        lam_o *= max(float(e[:n_o] @ e[:n_o]) / (n_o * red), 1e-6)
-        if n_b:
-            lam_b *= max(float(e[n_o:n_o + n_b] @ e[n_o:n_o + n_b]) / (n_b * red), 1e-6)
+        calib = g.calibration(sol.x)
+        # variance components [Förstner]: bearing std and Crowley's coefficients against their redundancy
+        odo_var, lam_b = _variance_components(g, sol.x, d, odo_var, lam_b, opt.variance_probes)
         # outliers
         e_use = (assoc >= 0)
-        heads = head_poses(poses, d.refl_keyframe, d.refl_offset, d.mount, scale)
+        heads = head_poses(poses, d.refl_keyframe, d.refl_offset, d.mount, scale, d.refl_offset_dist, calib)
+        sig = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, odo_var) * math.sqrt(lam_b)
         if np.any(e_use):
             pred, _ = predicted_edge_bearings(heads[e_use], landmarks, opt.radius, opt.direction)
             r = wrap_angle(d.bearing[e_use] - pred[np.arange(pred.shape[0]), assoc[e_use]]) / sig[e_use]
@@ -472,7 +592,7 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
         keep = np.array([i is not None and j < n_existing for j, i in enumerate(ids)], dtype=bool) | \
             ((counts >= opt.init.min_sightings) & spread_ok) | np.isin(np.arange(landmarks.shape[0]), list(anchored))
     assoc = np.where((assoc >= 0) & keep[np.maximum(assoc, 0)], assoc, -1)
-    sig = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, lam_o) * math.sqrt(lam_b)
+    sig = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, odo_var) * math.sqrt(lam_b)
     # drop unkept reflectors from the state: renumber
     old = np.flatnonzero(keep)
     new_of_old = np.full(landmarks.shape[0], -1, dtype=np.int64)
@@ -482,9 +602,10 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
     dist = DistanceFactors(new_of_old[dist.a], new_of_old[dist.b], dist.d, dist.sigma)
     landmarks = landmarks[old]
     ids = [ids[j] for j in old.tolist()]
-    g = _graph(d, K, landmarks, assoc, sig, opt, pose_prior, rpri, dist, scale_prior, lam_o)
-    sol = solve(g, g.pack(poses, landmarks, scale), max_iterations=50)
+    g = _graph(d, K, landmarks, assoc, sig, opt, pose_prior, rpri, dist, scale_prior, odo_var, calibration=True)
+    sol = solve(g, g.pack(poses, landmarks, scale, calib), max_iterations=50)
     poses, landmarks, scale = g.unpack(sol.x)
+    calib = g.calibration(sol.x)
     cov, scale_var = marginal_covariances(g, sol.x)
     n_res = 3 * (K - 1) + int(np.sum(assoc >= 0))
     dof = max(1, n_res - (g.n_vars - 0))
@@ -505,6 +626,9 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
         tuple(final_ids), landmarks.copy(), cov, np.bincount(assoc[assoc >= 0], minlength=landmarks.shape[0]),
         poses.copy(), d.keyframe_t.copy(), scale, math.sqrt(max(scale_var, 0.0)), kind, int(d.bearing.shape[0]),
         int(np.sum(assoc >= 0)), 2.0 * sol.cost / dof, fe.runtime_s + time.perf_counter() - t0, existing_ids,
+        calib[0], calib[1],
+        tuple(float(v) for v in odo_var * (d.odometry_k if d.odometry_k is not None else np.ones(3))),  # type: ignore[arg-type]
+        float(np.median(sig[assoc >= 0])) if np.any(assoc >= 0) else None,
     )
 
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
@@ -24,9 +24,24 @@ from numpy.typing import NDArray
 
 from agvnav.mapping.graph import FactorGraph, linearize
 
-__all__ = ["Solution", "marginal_covariances", "solve"]
+__all__ = ["PERMC", "Solution", "factorize", "marginal_covariances", "solve"]
 
 F64 = NDArray[np.float64]
+
+#: Column ordering of the sparse LU. The state is ordered poses (a chain: banded), reflectors, then
+#: the odometry's scale and systematic errors, which is already a good elimination order.
+PERMC: Literal["NATURAL"] = "NATURAL"
+
+
+def factorize(A: Any) -> Any:
+    """Sparse LU of a symmetric positive definite ``A`` (the information matrix) without pivoting.
+
+    SuperLU's default partial pivoting swapped rows of the badly scaled information matrix
+    (radians against metres, the scale's column) and filled the factor 20-fold: 0.4 s instead of
+    0.02 s per factorisation on the hall drive. ``A`` is SPD, so the diagonal pivots are safe.
+    RuntimeError when ``A`` is singular.
+    """
+    return spla.splu(sp.csc_matrix(A, dtype=np.float64), permc_spec=PERMC, diag_pivot_thresh=0.0)
 
 
 @dataclass(frozen=True)
@@ -64,7 +79,7 @@ def solve(graph: FactorGraph, x0: F64, max_iterations: int = 30, tolerance: floa
         for _ in range(10):
             A = H + sp.diags(lam * np.maximum(diag, 1e-12))
             try:
-                step = spla.splu(A.tocsc()).solve(-g)
+                step = factorize(A).solve(-g)
             except RuntimeError:
                 raise ValueError("the mapping problem is singular: its frame or scale is not fixed") from None
             if not np.all(np.isfinite(step)):
@@ -115,11 +130,11 @@ def marginal_covariances(graph: FactorGraph, x: F64) -> tuple[F64, float]:
     assert J is not None
     H = (J.T @ J).tocsc()
     sl = graph.landmark_slice()
-    cols = np.r_[np.arange(sl.start, sl.stop), graph.n_vars - 1]
+    cols = np.r_[np.arange(sl.start, sl.stop), graph.scale_index]
     E = np.zeros((graph.n_vars, cols.size))
     E[cols, np.arange(cols.size)] = 1.0
     try:
-        C = spla.splu(H).solve(E)
+        C = factorize(H).solve(E)
     except RuntimeError:
         raise ValueError("the mapping problem is singular: its frame or scale is not fixed") from None
     block = C[cols]
