@@ -11,7 +11,7 @@ import pytest
 from routes_tiny_mission import SCENARIO, run_tiny
 
 from agvnav.sim import simulate
-from agvnav.sim.mission import HeadingAligner, plan_mission, stints
+from agvnav.sim.mission import plan_mission, stints
 
 NET = """\
 nodes:
@@ -71,22 +71,3 @@ def test_tricycle_switches_points_and_stops_on_the_stations(tmp_path: Path) -> N
     # exact dead reckoning, no truth errors: each guided point stops on its station
     assert r.extra["stations"] == 3 and r.extra["max_stop_error_m"] < 0.02  # the truth wheel radius error
     assert r.extra["max_lateral_m.line"] < 0.02
-
-
-class _Est:
-    def __init__(self) -> None:
-        self.pose = np.array([0.0, 0.0, math.radians(3.0)])
-
-
-def test_heading_aligner_turns_to_the_station_heading() -> None:
-    est = _Est()
-    aligner = HeadingAligner(lambda v, w: (v, w), gain=2.0, max_rate=0.3)
-    dt, n = 0.05, 0
-    while (cmd := aligner.command(est, 0.0, dt)) is not None:
-        assert cmd[0] == 0.0 and abs(cmd[1]) <= 0.3
-        est.pose[2] += cmd[1] * dt
-        n += 1
-        assert n < 400
-    assert abs(est.pose[2]) <= math.radians(0.05)
-    with pytest.raises(ValueError, match="gain"):
-        HeadingAligner(lambda v, w: (v, w), gain=0.0)
