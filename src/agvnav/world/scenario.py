@@ -454,7 +454,8 @@ class MissionSpec(StrictModel):
     point_switching: bool = False
     """steered vehicles: guide C on runs driven forward (cruising), O on runs backing up (manoeuvres)."""
     align_heading: bool = True
-    """vehicles turning on the spot: turn to the station heading after each stop."""
+    """vehicles turning on the spot: position finely at standstill after each stop (the estimate settles, slow
+    corrections to 2 mm, the station heading: ``sim.mission.FinePositioner``)."""
 
 
 class Scenario(SourcedModel):
