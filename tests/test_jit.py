@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from agvnav import _jit
+from agvnav.geometry import wrap_angle
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
 
@@ -20,7 +21,7 @@ def _restore_mode(monkeypatch: pytest.MonkeyPatch) -> object:
     _jit.set_compiled(before)
 
 
-def _kernel_outputs() -> list[bytes]:
+def _kernel_outputs() -> list[bytes | str]:
     """Every kernel of the closed loop on fixed inputs (nested kernels included: line_of_sight calls _hits_*)."""
     rng = np.random.default_rng(7)
     n, k = 9, 40
@@ -28,7 +29,7 @@ def _kernel_outputs() -> list[bytes]:
     grid = np.linspace(0.0, 0.2, k)
     pose = np.column_stack([np.linspace(0, 0.3, k), rng.uniform(-0.1, 0.1, k), np.linspace(-3.2, 3.3, k)])
     head = (0.2, -0.1, 0.3, 2 * math.pi * 8.0)
-    out: list[bytes] = []
+    out: list[bytes | str] = []
     for direction in (1, -1):
         out += [a.tobytes() for a in beam.grid_crossings(grid, pose, rx, ry, r, *head, direction)]
         refl = rng.integers(0, n, k)
@@ -37,6 +38,12 @@ def _kernel_outputs() -> list[bytes]:
         w0x, w0y, wvx, wvy = rng.uniform(-5, 5, (4, 12))
         seen = beam.line_of_sight(refl.astype(np.int64), hx, hy, d, rx, ry, r, w0x, w0y, wvx, wvy, 0.1, 6.0)
         out.append(np.asarray(seen).tobytes())
+    raw = np.concatenate([rng.uniform(-30, 30, 20), [math.pi, -math.pi, 3 * math.pi, 0.0, -0.0]])
+    f, worst = beam.wrapped_offsets(raw)
+    assert worst == np.abs(f).max() and np.array_equal(f, wrap_angle(raw))  # the wrap it stands for, exactly
+    out += [f.tobytes(), float(worst).hex()]
+    f_nan, worst_nan = beam.wrapped_offsets(np.array([1.0, math.nan, 2.0, math.inf]))
+    assert math.isnan(worst_nan) and np.isnan(f_nan[[1, 3]]).all()
     out.append(np.asarray(hermite_poses(rng.normal(size=(4, 3)), 0.0, 0.05, np.linspace(-0.01, 0.06, 9))).tobytes())
     return out
 

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from agvnav._jit import jit
 
-__all__ = ["grid_crossings", "line_of_sight", "offset_one", "offsets_at"]
+__all__ = ["grid_crossings", "line_of_sight", "offset_one", "offsets_at", "wrapped_offsets"]
 
 _TWO_PI = 2.0 * math.pi
 
@@ -112,6 +112,35 @@ def offsets_at(
         off[i], hx[i], hy[i], d[i] = offset_one(pose[i, 0], pose[i, 1], pose[i, 2], t[i], rx[i], ry[i], r[i],
                                                 mx, my, phase, omega, direction)
     return off, hx, hy, d
+
+
+@jit
+def wrapped_offsets(raw: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
+    """The offsets ``raw (c,)`` (rad) wrapped to ``[-pi, pi)`` and the largest ``|wrapped|`` (rad).
+
+    The wrap is :func:`agvnav.geometry.wrap_angle`'s, operation for operation (``fmod``,
+    then one exact shift by ``2 pi``), so the values are bit-identical; ``+-inf`` gives NaN
+    and a NaN makes the largest NaN, as ``np.abs(f).max()`` does. The root finder's
+    convergence test in one call instead of four NumPy calls on a few elements.
+    """
+    c = raw.shape[0]
+    f = np.empty(c)
+    worst = 0.0
+    for i in range(c):
+        a = raw[i]
+        if math.isinf(a):
+            w = math.nan
+        else:
+            w = np.fmod(a, _TWO_PI)  # C fmod (numba has no math.fmod): exact, sign of a
+            if w >= math.pi:
+                w -= _TWO_PI
+            elif w < -math.pi:
+                w += _TWO_PI
+        f[i] = w
+        m = abs(w)
+        if m > worst or m != m:  # a NaN stays the largest
+            worst = m
+    return f, worst
 
 
 @jit

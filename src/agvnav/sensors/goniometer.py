@@ -41,7 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import require_finite, require_nonnegative, require_positive
 from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
-from agvnav.sensors.beam import grid_crossings, line_of_sight, offsets_at
+from agvnav.sensors.beam import grid_crossings, line_of_sight, offsets_at, wrapped_offsets
 from agvnav.world.map import WorldMap
 
 __all__ = [
@@ -457,8 +457,8 @@ class Goniometer:
         target = (m.rx[refl], m.ry[refl], m.r[refl])  # the same reflectors at every iteration
         for _ in range(_CHORD_ITER):
             raw, hx, hy, d = self._offsets(pose_at, t, target)
-            f = wrap_angle(raw)  # continuous on the bracket (see _BRACKETS_PER_REV)
-            if np.abs(f).max() <= tol:
+            f, worst = wrapped_offsets(raw)  # wrap_angle: continuous on the bracket (see _BRACKETS_PER_REV)
+            if worst <= tol:
                 return t, hx, hy, d
             t = np.minimum(np.maximum(t - f / slope, lo), hi)  # np.clip, without its dispatch cost
         return self._illinois(pose_at, lo, hi, f_lo, f_hi, target, tol)
