@@ -36,6 +36,7 @@ from agvnav.odometry.scalar import differential_increments_scalar, track_increme
 from agvnav.positioning import _fast as pos_fast
 from agvnav.positioning.gating import GateSpec
 from agvnav.positioning.identification import bearing_model, gate_reflection
+from agvnav.sensors.beam import wrapped_offsets
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.twins import TWINS, Twin, twin_names
 from agvnav.world import load_builtin_map
@@ -210,6 +211,13 @@ def _gate_one(rng: np.random.Generator) -> Pair:
     return [got[0], got[3], got[1], got[2]], [ref.index, ref.n_in_gate, ref.innovation, ref.nis]
 
 
+def _wrapped_offsets(rng: np.random.Generator) -> Pair:
+    raw = np.concatenate([rng.uniform(-40, 40, 8), [math.pi, -math.pi, 3 * math.pi, 0.0]])
+    f, worst = wrapped_offsets(raw)
+    ref = wrap_angle(raw)
+    return [*f, worst], [*ref, np.abs(ref).max()]
+
+
 CASES: dict[str, Callable[[np.random.Generator], Pair]] = {
     "wrap_angle": _wrap, "stacker_rk4": _stacker_rk4, "stacker_rate": _stacker_rate, "twist_pose": _twist_pose,
     "track_twist": _track_twist, "track_factors": _track_factors, "tricycle_increments": _tricycle_increments,
@@ -219,6 +227,7 @@ CASES: dict[str, Callable[[np.random.Generator], Pair]] = {
     "line_point": _segment_point("line"), "line_project": _segment_project("line"),
     "arc_point": _segment_point("arc"), "arc_project": _segment_project("arc"),
     "path_project": _path_project, "encoder_bearing": _encoder_bearing, "gate_one": _gate_one,
+    "wrapped_offsets": _wrapped_offsets,
 }
 
 

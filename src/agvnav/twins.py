@@ -88,6 +88,8 @@ TWINS: tuple[Twin, ...] = (
          "agvnav.sensors.goniometer:Goniometer.encoder_bearing", "seed 000 §2.1", 0.0),
     Twin("gate_one", "agvnav.positioning._fast:gate_one", "agvnav.positioning.identification:gate_reflection",
          "[seed000 eq2] chi-square gate", 1e-10),
+    Twin("wrapped_offsets", "agvnav.sensors.beam:wrapped_offsets", "agvnav.geometry.angles:wrap_angle",
+         "[-pi, pi) convention (the goniometer's root finder)", 0.0),
 )
 
 
