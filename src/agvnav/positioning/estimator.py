@@ -395,8 +395,9 @@ class StreamingEstimator:
         self.n_accepted += 1
         self._claimed[assoc.index] = t
         self._t_last_accept = t
+        before = (self._x_t, self._P_t)
         self._accept(t, z, assoc)
-        self.monitor.accepted(t, assoc.nis, assoc.index, z, self._odom_t)
+        self.monitor.accepted(t, assoc.nis, assoc.index, z, self._odom_t, self._correction(*before))
         self._watch_integrity(t)
         return True
 
@@ -507,12 +508,22 @@ class StreamingEstimator:
         self.n_accepted += 1
         self._claimed[j] = t
         self._t_last_accept = max(t, self._t_last_accept or t)
+        before = (self._x_t, self._P_t)
         self._accept(t, z, Association(j, y, nis, n_in, np.array(H_now), S, R))
         ox, oy, opsi = self._odom_t
-        self.monitor.accepted(t, nis, j, z, _fast.twist_step(ox, oy, opsi, *back)[:3])
+        self.monitor.accepted(t, nis, j, z, _fast.twist_step(ox, oy, opsi, *back)[:3], self._correction(*before))
         return True
 
     # ------------------------------------------------------------------ integrity (issue 12)
+    def _correction(
+        self, x0: tuple[float, ...], P0: tuple[float, ...]
+    ) -> tuple[float, float, float, float, float] | None:
+        """The last update's position correction and covariance decrease (the EKF's), for the monitor."""
+        if self.method != "ekf":
+            return None
+        x1, P1 = self._x_t, self._P_t
+        return (x1[0] - x0[0], x1[1] - x0[1], P0[0] - P1[0], P0[1] - P1[1], P0[4] - P1[4])
+
     def _watch_integrity(self, t: float) -> None:
         """Once per revolution: the monitor's check; inflate ``P`` when it asks (see :mod:`.integrity`)."""
         if not self._has_pose() or self.monitor.verdict == "lost" or not self.monitor.due(t):

@@ -27,6 +27,11 @@ navigators report one:
   the estimate is built on late bearings (an uncompensated latency leaves it lagging
   ``v * latency`` behind with consistent innovations): ``"timing"``. A latency of a
   whole number of revolutions is invisible to this check;
+* the drift of the Kalman corrections: the updates of the window move the estimate
+  by ``sum K y``, whose covariance for a consistent filter is the sum of the covariance
+  decreases ``P- - P+``; a sum beyond that chi-square bound (and ``max_correction_m``)
+  is odometry carrying the estimate off the bearings faster than its noise model allows
+  (wheel slip): ``"corrections"`` (:meth:`IntegrityMonitor._corrections_drift`);
 * per reflector, the exponentially weighted mean of its NIS ``y^2 / S`` (weight 1/8,
   about 8 sightings; squared, so a bias that changes sign as the vehicle moves still
   counts): a reflector whose mean exceeds ``exclude_sigmas^2`` and ``exclude_ratio^2``
@@ -43,7 +48,9 @@ navigators report one:
 * a cross-check against an independent triangulation when three distinct reflectors
   were seen in the last revolution: their bearings are brought to one instant through
   the odometry (the angle propagation of seed 000 §2.2) and triangulated with ToTal
-  (:func:`~agvnav.positioning.triangulate`, ``valid=False`` near the critical circle);
+  (:func:`~agvnav.positioning.triangulate`, ``valid=False`` near the critical circle),
+  each bearing's variance counting the odometry error of its propagation (the
+  monitor's ``odometry_noise``, the filter's seed-002 coefficients);
   the fix and the estimate must agree within the chi-square bound of their summed
   covariances, or within ``crosscheck_min_m`` (the check looks for gross errors such as
   a wrong association; a fixed survey error of the three reflectors can bias one triple's
@@ -62,9 +69,10 @@ covariance (the estimate says it is less sure); the verdict returns to ``ok`` on
 after ``recover_s`` seconds of passing checks (a full window of fresh innovations
 after an inflation: without it a persistent fault that each inflation hides for one
 revolution flips the status between ``tracking`` and ``degraded``). A failure of the
-cross-check alone is not held: that single-triple test fails on about 6 % of the
-checks of the sound differential_loop run (fix and estimate 5-10 cm apart), and holding
-each for ``recover_s`` kept that vehicle slow until its time ran out; a verdict
+cross-check alone is not held: one triple of one revolution is a thin basis (before its
+bearings carried the odometry error of their propagation it failed on about 6 % of the
+checks of the sound differential_loop run, fix and estimate 5-14 cm apart, and holding
+each for ``recover_s`` kept that vehicle slow until its time ran out); a verdict
 ``degraded`` for longer than
 ``lost_after_s``, or a position or heading uncertainty beyond what the bearing gate
 can identify reflectors with (``lost_position_std_m``, ``lost_heading_std_rad``), makes
@@ -135,6 +143,7 @@ class IntegrityLimits:
     max_fix_std_m: float = 0.05
     crosscheck_bound: float = CHI2_2DOF_999
     crosscheck_min_m: float = 0.05
+    max_correction_m: float = 0.02
     max_reject_fraction: float = 0.75
     min_rejections: int = 8
     min_explained_fraction: float = 0.5
@@ -154,7 +163,8 @@ class IntegrityLimits:
             raise ValueError(f"min_explained_fraction must be in [0, 1], got {self.min_explained_fraction!r}")
         if not 0.0 < self.max_reject_fraction <= 1.0:
             raise ValueError(f"max_reject_fraction must be in (0, 1], got {self.max_reject_fraction!r}")
-        for name in ("window_s", "max_fix_std_m", "crosscheck_bound", "crosscheck_min_m", "lost_after_s",
+        for name in ("window_s", "max_fix_std_m", "crosscheck_bound", "crosscheck_min_m", "max_correction_m",
+                     "lost_after_s",
                      "lost_position_std_m", "lost_heading_std_rad", "max_latency_s", "exclude_sigmas",
                      "exclude_ratio"):
             v = getattr(self, name)
@@ -179,6 +189,8 @@ class _Entry:
     bearing: float  # edge bearing in the head frame (rad)
     odom: tuple[float, float, float]  # odometric base_link pose at t
     on_time: bool = True  # stamp consistent with the head's rotation (:class:`_HeadClock`)
+    # the update's position correction (dx, dy) (m) and covariance decrease P- - P+ (00, 01, 11) (m²)
+    correction: tuple[float, float, float, float, float] | None = None
 
 
 def reflectors_in_sight(
@@ -345,6 +357,7 @@ class IntegrityMonitor:
         self.reflectors_used = 0
         self.nis_ratio = math.nan
         self.crosscheck = math.nan
+        self.correction_d2 = math.nan
         self.reasons: tuple[str, ...] = ()
         self.survey_floor = np.zeros((3, 3))
         self._degraded_since: float | None = None
@@ -354,10 +367,21 @@ class IntegrityMonitor:
         self._mean_nu = [0.0] * self.xy.shape[0]
         self._n_nu = [0] * self.xy.shape[0]
 
-    def accepted(self, t: float, nis: float, index: int, bearing: float, odom: tuple[float, ...]) -> None:
-        """One accepted reflection at ``t`` (s): its NIS, reflector row, edge bearing (rad), odometric pose."""
+    def accepted(
+        self, t: float, nis: float, index: int, bearing: float, odom: tuple[float, ...],
+        correction: tuple[float, float, float, float, float] | None = None,
+    ) -> None:
+        """One accepted reflection at ``t`` (s): its NIS, reflector row, edge bearing (rad), odometric pose.
+
+        ``correction``: a Kalman update's position correction ``(dx, dy)`` (m) and the
+        decrease of the position covariance it made, ``P- - P+`` as ``(00, 01, 11)`` (m²),
+        for the correction check (module docstring); None for estimators that are no
+        Kalman filter.
+        """
         on_time = self._clock.on_time(t, bearing)
-        self._entries.append(_Entry(t, float(nis), int(index), float(bearing), (odom[0], odom[1], odom[2]), on_time))
+        self._entries.append(
+            _Entry(t, float(nis), int(index), float(bearing), (odom[0], odom[1], odom[2]), on_time, correction)
+        )
         while self._entries and t - self._entries[0].t > self.limits.window_s:
             self._entries.popleft()
         if math.isfinite(nis):
@@ -421,6 +445,8 @@ class IntegrityMonitor:
             self.nis_ratio = _nis_per_reflector(entries) / chi2_upper(len(used), lim.nis_confidence)
             if self.nis_ratio > 1.0:
                 out.append("nis")
+            if not young and self._corrections_drift(entries):
+                out.append("corrections")
             if self._clock.sense and 2 * sum(not e.on_time for e in entries) > len(entries) >= 4:
                 out.append("timing")
         while self._rejects and t - self._rejects[0] > lim.window_s:
@@ -441,6 +467,35 @@ class IntegrityMonitor:
         if self.crosscheck > lim.crosscheck_bound:
             out.append("crosscheck")
         return out
+
+    def _corrections_drift(self, entries: list[_Entry]) -> bool:
+        """True when the window's Kalman corrections add up to a drift the filter does not expect.
+
+        Each update moves the estimate by ``K y``; for a consistent filter these are
+        white with covariance ``P- - P+`` (``K S K^T``), so their sum ``D`` over the window
+        has covariance ``C``, the sum of the decreases. ``D^T C^-1 D`` beyond the
+        chi-square bound (2 dof, 0.999) with ``|D|`` above ``max_correction_m`` means the
+        odometry keeps carrying the estimate off the bearings: wheel slip beyond the noise
+        model. A 30 % slip burst left a truth-noise tricycle "tracking" 25-29 mm (5-6 sigma)
+        off for 3 s with its NIS within bounds: the per-revolution corrections (7 mm,
+        always forward) are small, their sum is not.
+        """
+        dx = dy = c00 = c01 = c11 = 0.0
+        n = 0
+        for e in entries:
+            c = e.correction
+            if c is None:
+                continue
+            dx, dy = dx + c[0], dy + c[1]
+            c00, c01, c11 = c00 + c[2], c01 + c[3], c11 + c[4]
+            n += 1
+        if n < 8 or math.hypot(dx, dy) <= self.limits.max_correction_m:
+            return False
+        det = c00 * c11 - c01 * c01
+        if not det > 0.0:
+            return True  # a drift beyond the floor where the filter expects none
+        self.correction_d2 = (c11 * dx * dx - 2.0 * c01 * dx * dy + c00 * dy * dy) / det
+        return self.correction_d2 > CHI2_2DOF_999
 
     def _information(self, head: tuple[float, float, float], used: list[int]) -> tuple[float, np.ndarray]:
         """PDOP² of ``used`` from the head (m²/rad², inf if unobservable) and the survey floor ``(3, 3)``.
@@ -546,7 +601,8 @@ class IntegrityMonitor:
         last term a differential AGV, whose odometric heading wanders ~7 mrad in the 6 cm
         of one revolution at 0.5 m/s, failed the check every ~2 s with its estimate a few
         mm from the truth (fix 5-14 cm off, from the 10-13 m distant reflectors of a
-        revolution-old triple). The triple is chosen with these variances.
+        revolution-old triple). The triple is chosen with these variances, among those
+        whose geometry alone (bearing noise) bounds the fix within ``max_fix_std_m``.
         """
         latest: dict[int, _Entry] = {}
         for e in reversed(self._entries):  # newest first (a late reflection may sit out of order)
@@ -581,10 +637,9 @@ class IntegrityMonitor:
         idx = self._best_triple(x, list(prop), [prop[i][1] for i in prop])
         if idx is None:
             return math.nan
-        z_now = [prop[i][0] for i in idx]
-        std = [math.sqrt(prop[i][1]) for i in idx]
         try:
-            fix = triangulate(self.xy[idx], np.array(z_now), method="total", bearing_std=np.array(std))
+            fix = triangulate(self.xy[idx], np.array([prop[i][0] for i in idx]), method="total",
+                              bearing_std=np.sqrt([prop[i][1] for i in idx]))
         except ValueError:  # e.g. collinear reflectors: no fix to compare with
             return math.nan
         if not bool(fix.valid) or fix.covariance is None or not np.all(np.isfinite(fix.covariance)):
@@ -592,13 +647,8 @@ class IntegrityMonitor:
         dx, dy = float(fix.x) - head_now[0], float(fix.y) - head_now[1]
         if math.hypot(dx, dy) <= self.limits.crosscheck_min_m:
             return 0.0  # agreement within the gross-error floor
-        s00 = float(fix.covariance[0, 0]) + float(P[0, 0])
-        s01 = float(fix.covariance[0, 1]) + float(P[0, 1])
-        s11 = float(fix.covariance[1, 1]) + float(P[1, 1])
-        det = s00 * s11 - s01 * s01
-        if not det > 0.0:
-            return math.nan
-        return (s11 * dx * dx - 2.0 * s01 * dx * dy + s00 * dy * dy) / det
+        c = fix.covariance
+        return _mahalanobis2(dx, dy, float(c[0, 0] + P[0, 0]), float(c[0, 1] + P[0, 1]), float(c[1, 1] + P[1, 1]))
 
     def _edge_bearing(self, pose: tuple[float, float, float], i: int, is_head: bool = False) -> tuple[float, float]:
         """Leading-edge bearing (rad, head frame, wrapped) of reflector ``i`` and its distance (m).
@@ -618,11 +668,12 @@ class IntegrityMonitor:
         """The three of ``rows`` with the smallest position CRLB at ``x`` (seed 000 §2.3), None if none is good.
 
         Near the critical circle of a triple its linearised covariance is not honest
-        (issue 12), so a triple whose bound exceeds ``max_fix_std_m`` is not used. The
+        (issue 12), so a triple whose bound with the bearing noise alone exceeds
+        ``max_fix_std_m`` is not used; of the others, the one with the smallest bound
+        with ``variances`` (rad², one per row, default ``bearing_std^2``) is chosen. The
         bound of every triple at once: the information of each reflector (Jacobian rows
-        ``[dy/d², -dx/d², -1]`` over its bearing variance, ``variances`` in rad², default
-        ``bearing_std^2`` for all) summed per triple, the trace of the position block of
-        its inverse in closed form.
+        ``[dy/d², -dx/d², -1]`` over its variance) summed per triple, the trace of the
+        position block of its inverse in closed form.
         """
         if len(rows) < 3:
             return None
@@ -638,18 +689,13 @@ class IntegrityMonitor:
             if d2 <= 0.0:
                 return None
             j0, j1 = dy / d2, -dx / d2
-            w = 1.0 / variances[k]
-            info[k] = (w * j0 * j0, w * j0 * j1, -w * j0, w * j1 * j1, -w * j1, w)
+            info[k] = (j0 * j0, j0 * j1, -j0, j1 * j1, -j1, 1.0)
         tri = _triples(len(rows))
-        a00, a01, a02, a11, a12, a22 = info[tri].sum(axis=1).T
-        c00 = a11 * a22 - a12 * a12
-        c11 = a00 * a22 - a02 * a02
-        det = a00 * c00 + a01 * (a02 * a12 - a01 * a22) + a02 * (a01 * a12 - a02 * a11)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            score = (c00 + c11) / det
-        score = np.where(np.isfinite(score) & (score >= 0.0), score, np.inf)
+        geometry = _position_crlb(info[tri].sum(axis=1)) * self.bearing_std**2
+        weighted = info / np.asarray(variances, dtype=np.float64)[:, None]
+        score = np.where(geometry <= self.limits.max_fix_std_m**2, _position_crlb(weighted[tri].sum(axis=1)), np.inf)
         k = int(np.argmin(score))
-        if not math.sqrt(score[k]) <= self.limits.max_fix_std_m:
+        if not math.isfinite(score[k]):
             return None
         return [rows[i] for i in tri[k]]
 
@@ -686,7 +732,7 @@ class IntegrityMonitor:
             self._degraded_since = None
             self.verdict = "ok"
         self.quality = self._score()
-        suspect = {"nis", "crosscheck", "rejections", "unexplained"}
+        suspect = {"nis", "crosscheck", "rejections", "unexplained", "corrections"}
         inflate = bool(suspect.intersection(reasons)) and self.verdict != "lost"
         if inflate:  # judge the inflated estimate on fresh innovations
             self._entries.clear()
@@ -700,9 +746,17 @@ class IntegrityMonitor:
         q_count = min(self.reflectors_used, 4) / 4.0
         ratio = self.nis_ratio if math.isfinite(self.nis_ratio) else 1.0
         q_nis = 1.0 / (1.0 + max(0.0, 2.0 * ratio - 1.0) ** 2) if ratio > 0.5 else 1.0
-        bad = {"geometry", "crosscheck", "rejections", "unexplained", "timing"}
+        bad = {"geometry", "crosscheck", "rejections", "unexplained", "timing", "corrections"}
         q_check = 0.5 if bad & set(self.reasons) or self.verdict == "degraded" else 1.0
         return q_count * q_nis * q_check
+
+
+def _mahalanobis2(dx: float, dy: float, s00: float, s01: float, s11: float) -> float:
+    """``[dx dy] S^-1 [dx dy]^T`` for the symmetric 2x2 ``S`` (NaN if not positive definite)."""
+    det = s00 * s11 - s01 * s01
+    if not det > 0.0:
+        return math.nan
+    return (s11 * dx * dx - 2.0 * s01 * dx * dy + s00 * dy * dy) / det
 
 
 def _nis_per_reflector(entries: list[_Entry]) -> float:
@@ -723,6 +777,17 @@ def _nis_per_reflector(entries: list[_Entry]) -> float:
         a[0] += e.nis
         a[1] += 1.0
     return sum(a[0] / a[1] for a in acc.values())
+
+
+def _position_crlb(a: np.ndarray) -> np.ndarray:
+    """Trace of the position block of the inverse of each symmetric 3x3 ``a (k, 6)`` (inf where singular)."""
+    a00, a01, a02, a11, a12, a22 = a.T
+    c00 = a11 * a22 - a12 * a12
+    c11 = a00 * a22 - a02 * a02
+    det = a00 * c00 + a01 * (a02 * a12 - a01 * a22) + a02 * (a01 * a12 - a02 * a11)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        score = (c00 + c11) / det
+    return np.where(np.isfinite(score) & (score >= 0.0), score, np.inf)
 
 
 _TRIPLES: dict[int, np.ndarray] = {}
