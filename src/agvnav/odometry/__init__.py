@@ -1,6 +1,6 @@
 """Odometry (seed 002 §3): increments, pose integration rules, covariance, error models, UMBmark."""
 
-from agvnav.odometry.covariance import OdometryNoise, motion_covariance, propagate
+from agvnav.odometry.covariance import TRUTH_MODELS, OdometryNoise, motion_covariance, noise_from_truth, propagate
 from agvnav.odometry.errors import (
     DifferentialGeometry,
     NonSystematicErrors,
@@ -16,6 +16,7 @@ from agvnav.odometry.umbmark import UMBmarkResult, estimate_errors, square_run, 
 
 __all__ = [
     "RULES",
+    "TRUTH_MODELS",
     "DifferentialGeometry",
     "DifferentialOdometer",
     "NonSystematicErrors",
@@ -32,6 +33,7 @@ __all__ = [
     "increment_jacobian",
     "integrate_pose",
     "motion_covariance",
+    "noise_from_truth",
     "pose_jacobian",
     "propagate",
     "square_run",

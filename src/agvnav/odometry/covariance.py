@@ -56,6 +56,68 @@ class OdometryNoise:
         return cov
 
 
+#: Vehicle models :func:`noise_from_truth` derives coefficients for.
+TRUTH_MODELS = ("tricycle", "tricycle_rear", "differential")
+
+
+def noise_from_truth(model: str, slip_k: float, base_m: float, steering_std: float = 0.0,
+                     step_m: float = 0.0) -> OdometryNoise:
+    """Crowley's coefficients [seed002 eq17] of a vehicle's random odometry errors, mapped through its kinematics.
+
+    In a simulation the truth's random errors are known: a filter whose ``Q`` is those
+    errors carried through the same increment rule is consistent by design (issue 12:
+    seed 002's typical values, made for a small differential platform, left the
+    tricycle EKF's heading variance ~7x its error). Seed 002 §3.2 says to adjust the
+    three constants to the platform's error sources; this is that adjustment.
+
+    Parameters
+    ----------
+    model:
+        ``"tricycle"`` (front drive wheel C steered, base_link O on the fixed axle,
+        [seed000 eq8]), ``"tricycle_rear"`` (driven rear axle at O, steered front
+        wheel) or ``"differential"`` (two driven wheels, [seed002 eq16]).
+    slip_k:
+        Variance of a driven wheel's ground distance per metre rolled (m²/m): the
+        truth's ``slip_std**2`` (steered) or ``slip_k`` (differential).
+    base_m:
+        Wheelbase L (steered) or track b (differential), m.
+    steering_std:
+        Std (rad) of the steered wheel's random angle error, drawn afresh per step.
+    step_m:
+        Distance (m) travelled per control step (speed x step), over which one
+        steering error acts.
+
+    Returns
+    -------
+    OdometryNoise with, for a wheel rolling ``s`` (variance ``slip_k |s|``):
+
+    * tricycle: ``dD = s cos g``, ``dtheta = s sin g / L``: ``var(dD) = slip_k |dD| cos g``
+      gives ``k_d = slip_k``; ``var(dtheta) = slip_k |dtheta| sin g / L`` gives
+      ``k_theta = slip_k / L``; the steering error turns the heading by
+      ``dD dg / L`` per step: ``k_dtheta = steering_std² step_m / L²``. Each is exact
+      at its extreme (straight, or ``g = 90°``) and an upper bound elsewhere;
+    * tricycle_rear: ``dD = s``, ``dtheta = s tan g / L``: ``k_d = slip_k``,
+      ``k_theta = slip_k / L`` (exact at ``R = L``, an upper bound on wider turns),
+      ``k_dtheta = steering_std² step_m / L²`` (straight);
+    * differential: ``dD = (s_R + s_L) / 2``, ``dtheta = (s_R - s_L) / b``:
+      ``k_d = slip_k / 2`` and ``k_dtheta = 2 slip_k / b²`` (exact straight),
+      ``k_theta = slip_k / b`` (exact turning on the spot).
+
+    Systematic errors (wheel radius, steering offset, track) are no random walk and
+    are left out: the reflector updates bound them.
+    """
+    if model not in TRUTH_MODELS:
+        raise ValueError(f"noise_from_truth: unknown model {model!r}; choose one of {', '.join(TRUTH_MODELS)}")
+    for name, value in (("slip_k", slip_k), ("steering_std", steering_std), ("step_m", step_m)):
+        if not (np.isfinite(value) and value >= 0.0):
+            raise ValueError(f"{name} must be a non-negative finite number, got {value!r}")
+    if not (np.isfinite(base_m) and base_m > 0.0):
+        raise ValueError(f"base_m must be a positive finite length (m), got {base_m!r}")
+    if model == "differential":
+        return OdometryNoise(k_d=0.5 * slip_k, k_dtheta=2.0 * slip_k / base_m**2, k_theta=slip_k / base_m)
+    return OdometryNoise(k_d=slip_k, k_dtheta=steering_std**2 * step_m / base_m**2, k_theta=slip_k / base_m)
+
+
 def motion_covariance(pose: ArrayLike, delta_d: ArrayLike, delta_theta: ArrayLike,
                       noise: OdometryNoise | None = None, rule: str = "arc") -> FloatArray:
     """Process noise ``Q (..., 3, 3)`` of one odometry increment ([seed002 eq17], corrected; see module doc).
