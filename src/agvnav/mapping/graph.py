@@ -133,8 +133,8 @@ class FactorGraph:
     """All factors over ``n_poses`` keyframes and ``n_landmarks`` reflectors (+ the scale).
 
     ``scale_prior``: ``(mean, sigma)`` of the odometry scale, or None (free: the map then needs another
-    scale reference). ``calibration_prior``: ``(σ_κ, σ_b)`` of zero-mean priors on the heading rate
-    (rad/m) and the turn scale (a drive that never turns cannot tell ``b``). State layout:
+    scale reference). ``calibration_prior``: ``(σ_κ, σ_b)`` of priors on the heading rate (rad/m) and
+    the turn scale (a drive that never turns cannot tell ``b``), centred on ``calibration_mean``. State layout:
     ``[X(0..K-1) (3K), L(0..N-1) (2N), s, κ, b]``.
     """
 
@@ -150,6 +150,7 @@ class FactorGraph:
         default_factory=lambda: DistanceFactors(_empty_i(), _empty_i(), np.zeros(0), np.zeros(0)))
     scale_prior: tuple[float, float] | None = None
     calibration_prior: tuple[float, float] = (1e-6, 1e-6)
+    calibration_mean: tuple[float, float] = (0.0, 0.0)
 
     @property
     def n_vars(self) -> int:
@@ -335,9 +336,10 @@ def linearize(graph: FactorGraph, x: F64, jacobian: bool = True) -> tuple[F64, s
         start = b.block(np.array([(scale - mean) / sigma]))
         if jacobian:
             b.add(np.array([start]), np.array([svar]), np.array([1.0 / sigma]))
-    # zero-mean priors on the heading rate and the turn scale
+    # priors on the heading rate and the turn scale
     sk, sb = graph.calibration_prior
-    start = b.block(np.array([kappa / sk, tscale / sb]))
+    mk, mb = graph.calibration_mean
+    start = b.block(np.array([(kappa - mk) / sk, (tscale - mb) / sb]))
     if jacobian:
         b.add(start + np.arange(2), cal_cols[1:], np.array([1.0 / sk, 1.0 / sb]))
     res = np.concatenate(b.res) if b.res else np.zeros(0)

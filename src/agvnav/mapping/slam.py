@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from agvnav.geometry import compose, wrap_angle
@@ -94,6 +95,9 @@ class MappingOptions:
     the redundancy traces (Hutchinson, fixed seed). bearing_offset : added to every bearing (rad);
     None: half an encoder pulse (``π / pulses_per_rev``, the head reports the last whole pulse passed,
     as the EKF corrects it), unless the log's settings state ``bearing_offset``.
+    gate_odometry_var : the front end's gate takes the odometry offset's heading variance times at least
+    this (the stated odometry noise: the gate must not trust dead reckoning inside a step more than it).
+    front_calibration : the front end also solves the heading rate and turn scale per window.
     heading_rate_std, turn_scale_std : std of the zero-mean priors on the odometry's systematic heading
     rate (rad/m) and turn scale estimated in the batch (:mod:`agvnav.mapping.graph`).
     head_yaw_std : std (rad) of the head's yaw on the vehicle: a frame given by the start pose is
@@ -117,6 +121,8 @@ class MappingOptions:
     bearing_offset: float | None = None
     heading_rate_std: float = 0.05
     turn_scale_std: float = 0.1
+    front_calibration: bool = False
+    gate_odometry_var: float = 1.0
     head_yaw_std: float = 2e-4
     gate_sigma: float = 5.0
     position_tol: float = 0.05
@@ -143,7 +149,7 @@ class MappingOptions:
 class FrontEnd:
     """The provisional map: keyframe poses ``(K, 3)``, reflectors ``(N, 2)``, the association ``(B,)`` of
     every reflection (-1: none), ids of the reflectors (existing ones keep theirs, new ones are None),
-    and the drive."""
+    the drive, and the odometry's heading rate and turn scale ``calibration`` (rad/m, -)."""
 
     drive: Drive
     poses: F64
@@ -153,6 +159,7 @@ class FrontEnd:
     sigma: F64
     max_range: float
     runtime_s: float
+    calibration: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -268,6 +275,54 @@ def _graph(drive: Drive, n_poses: int, landmarks: F64, assoc: I64, sig: F64, opt
     return FactorGraph(n_poses, landmarks.shape[0], odo, bear, **kw)
 
 
+def _window_graph(drive: Drive, k0: int, n: int, poses: F64, landmarks: F64, assoc: I64, sig: F64, heads: F64,
+                  options: MappingOptions, prior_cov: F64 | None,
+                  odo_var: float, calibration: tuple[float, float]) -> tuple[FactorGraph, NDArray[np.bool_]]:
+    """The front end's sliding window: poses ``k0 .. n-1`` (the first held), every reflector, and
+    ``free`` (the variables to solve). The bearings from poses before ``k0`` (held for good) enter
+    as a prior on each reflector, their information ``Σ g gᵀ / σ²`` at the current estimate (plus
+    an existing map's prior and 1 m⁻² so a reflector seen only in the past stays regular): the
+    cost of a chunk no longer grows with the drive (the whole history was relinearised each second).
+    The odometry's heading rate and turn scale are solved in each window, their prior centred on the
+    previous window's (a random walk): dead reckoning with a 1 % turn error (the differential AGV's
+    track) put reflectors 0.2 m off after a half turn, and they were created twice.
+    """
+    N = landmarks.shape[0]
+    past = (assoc >= 0) & (drive.refl_keyframe < k0)
+    info = np.zeros((N, 2, 2))
+    if np.any(past):
+        a = assoc[past]
+        dx = landmarks[a, 0] - heads[past, 0]
+        dy = landmarks[a, 1] - heads[past, 1]
+        d2 = np.maximum(dx * dx + dy * dy, 1e-12)
+        gv = np.column_stack([-dy / d2, dx / d2]) / sig[past, None]
+        np.add.at(info, a, gv[:, :, None] * gv[:, None, :])
+    if prior_cov is not None:
+        info[: prior_cov.shape[0]] += np.linalg.inv(prior_cov)
+    info += np.eye(2)
+    W = np.asarray(np.linalg.cholesky(info).transpose(0, 2, 1), dtype=np.float64)  # WᵀW = info
+    rpri = ReflectorPriors(np.arange(N, dtype=np.int64), landmarks.copy(), W)
+    m = n - k0
+    e = np.arange(m - 1)
+    odo = OdometryFactors(e, e + 1, drive.between[k0:n - 1],
+                          whitener(_odometry_cov(drive, n - 1, odo_var)[k0:]),
+                          None if drive.between_dist is None else drive.between_dist[k0:n - 1])
+    use = (assoc >= 0) & (drive.refl_keyframe >= k0) & (drive.refl_keyframe < n)
+    bear = BearingFactors(drive.refl_keyframe[use] - k0, assoc[use], drive.refl_offset[use], drive.bearing[use],
+                          sig[use], drive.mount, options.radius, options.direction,
+                          None if drive.refl_offset_dist is None else drive.refl_offset_dist[use])
+    pp = PosePriors(np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 3, 3)))
+    g = FactorGraph(m, N, odo, bear, pose_priors=pp, reflector_priors=rpri, scale_prior=(1.0, 1e-6),
+                    calibration_prior=(options.heading_rate_std, options.turn_scale_std),
+                    calibration_mean=calibration)
+    free = np.ones(g.n_vars, dtype=bool)
+    free[:3] = False  # the window's first pose is held (it is tied to the poses before it)
+    free[g.scale_index] = False  # the scale: the batch estimates it with the anchors
+    if not options.front_calibration:
+        free[g.scale_index:] = False
+    return g, free
+
+
 def _variance_components(g: FactorGraph, x: F64, drive: Drive, odo_var: F64, lam_b: float,
                          probes: int) -> tuple[F64, float]:
     """One step of Förstner's variance-component estimation for the bearing std and Crowley's three
@@ -275,8 +330,10 @@ def _variance_components(g: FactorGraph, x: F64, drive: Drive, odo_var: F64, lam
     square sum over its share of the redundancy.
 
     In whitened terms (``S_c``: the component's part of a factor's covariance, whitened; ``Σ_c S_c = I``)
-    ``q_c = Σ eᵀ S_c e`` and ``r_c = Σ tr(S_c) − tr(N⁻¹ Jᵀ S_c J)`` with ``N = JᵀJ``. The trace is
-    estimated with ``probes`` Rademacher vectors (Hutchinson; fixed seed) and one sparse factorisation.
+    ``q_c = Σ eᵀ S_c e`` and ``r_c = Σ tr(S_c) − tr(S_c^½ J N⁻¹ Jᵀ S_c^½)`` with ``N = JᵀJ``. The trace
+    is estimated with ``probes`` Rademacher vectors in the residual space (Hutchinson; fixed seed) and
+    one sparse factorisation (probing ``N⁻¹ Jᵀ S J`` in the state space instead had a variance set
+    by the badly scaled ``N⁻¹`` and failed on the warehouse drive).
     The earlier single factor for all odometry with the global redundancy ``1 − n/m`` let the bearings
     (which absorb the pose degrees of freedom) take too little redundancy: bearing std too small,
     reflector covariances 1.2-1.4x optimistic.
@@ -286,38 +343,46 @@ def _variance_components(g: FactorGraph, x: F64, drive: Drive, odo_var: F64, lam
     """
     e, J = linearize(g, x)
     assert J is not None
+    J = J.tocsr()
     N = (J.T @ J).tocsc()
     try:
         lu = factorize(N)
     except RuntimeError:
         return odo_var, lam_b
     rng = np.random.default_rng(17)
-    Z = rng.choice(np.array([-1.0, 1.0]), size=(g.n_vars, probes))
-    JZ = np.asarray(J @ Z)
-    JY = np.asarray(J @ lu.solve(Z))
     E = g.odometry.i.size
     n_b = g.bearings.pose.size
     q = np.zeros(4)
     tr_s = np.zeros(4)
     t = np.zeros(4)
-    # odometry factors: S_c = W (k_c part_c) Wᵀ
+
+    def hat_trace(rows: Any) -> float:
+        """``tr(A N⁻¹ Aᵀ)`` for the (whitened, weighted) rows ``A``: a block of the hat matrix, symmetric
+        with eigenvalues in [0, 1], so Hutchinson's estimate has a variance below ``2 tr / probes``."""
+        w = rng.choice(np.array([-1.0, 1.0]), size=(rows.shape[0], probes))
+        v = np.asarray(rows.T @ w)
+        return float(np.einsum("np,np->", v, lu.solve(v))) / probes
+
+    # odometry factors: S_c = W (k_c part_c) Wᵀ, rows S_c^½ J
     if E and drive.between_cov_parts is not None and drive.odometry_k is not None:
         W = g.odometry.W
         eo = e[:3 * E].reshape(E, 3)
-        zo, yo = JZ[:3 * E].reshape(E, 3, probes), JY[:3 * E].reshape(E, 3, probes)
+        Jo = J[:3 * E]
         k = odo_var * drive.odometry_k
         for c in range(3):
             S = W @ (k[c] * drive.between_cov_parts[c, :E]) @ np.swapaxes(W, 1, 2)
+            S = 0.5 * (S + np.swapaxes(S, 1, 2))
+            val, vec = np.linalg.eigh(S)
+            half = (vec * np.sqrt(np.maximum(val, 0.0))[:, None, :]) @ np.swapaxes(vec, 1, 2)
             q[1 + c] += float(np.einsum("ea,eab,eb->", eo, S, eo))
             tr_s[1 + c] += float(np.trace(S, axis1=1, axis2=2).sum())
-            t[1 + c] += float(np.einsum("eap,eab,ebp->", yo, S, zo)) / probes
+            t[1 + c] += hat_trace(sp.block_diag(list(half), format="csr") @ Jo)
     # bearings: one component scaling the whole bearing variance (encoder and the offset's odometry)
     if n_b:
         eb = e[3 * E:3 * E + n_b]
-        zb, yb = JZ[3 * E:3 * E + n_b], JY[3 * E:3 * E + n_b]
         q[0] = float(eb @ eb)
         tr_s[0] = float(n_b)
-        t[0] = float(np.einsum("bp,bp->", yb, zb)) / probes
+        t[0] = hat_trace(J[3 * E:3 * E + n_b])
     r = tr_s - t
     ratio = np.ones(4)
     ok = r > 1e-3 * np.maximum(tr_s, 1e-300)
@@ -325,11 +390,17 @@ def _variance_components(g: FactorGraph, x: F64, drive: Drive, odo_var: F64, lam
     return odo_var * ratio[1:], lam_b * float(ratio[0])
 
 
-def _dead_reckon(drive: Drive, start: F64, poses: F64, k_from: int, k_to: int) -> None:
-    """Poses ``k_from+1 .. k_to`` (inclusive) composed from pose ``k_from`` with the odometry (scale 1)."""
+def _dead_reckon(drive: Drive, start: F64, poses: F64, k_from: int, k_to: int,
+                 calibration: tuple[float, float] = (0.0, 0.0)) -> None:
+    """Poses ``k_from+1 .. k_to`` (inclusive) composed from pose ``k_from`` with the odometry (scale 1),
+    its turns corrected by ``calibration = (κ, b)``: ``(1 + b) θ + κ D``."""
+    kappa, b = calibration
     for k in range(k_from, k_to):
-        poses[k + 1] = compose(poses[k], drive.between[k])
-        poses[k + 1, 2] = poses[k, 2] + drive.between[k, 2]
+        z = drive.between[k].copy()
+        if drive.between_dist is not None:
+            z[2] = (1.0 + b) * z[2] + kappa * drive.between_dist[k]
+        poses[k + 1] = compose(poses[k], z)
+        poses[k + 1, 2] = poses[k, 2] + z[2]
 
 
 def _existing_priors(existing: Any, options: MappingOptions) -> ReflectorPriors:
@@ -368,32 +439,39 @@ def front_end(log: Any, start: F64 | None = None, options: MappingOptions | None
     rpriors = None if existing is None else _existing_priors(existing, opt)
     prior_cov = None if rpriors is None else np.linalg.inv(np.einsum("nji,njk->nik", rpriors.W, rpriors.W))
     assoc = np.full(B, -1, dtype=np.int64)
-    pose_prior = PosePriors(np.array([0]), poses[:1].copy(), whitener(np.diag([1e-6, 1e-6, 1e-6])[None]))
     solved_to = 0
     lam_o = opt.front_odometry_var
+    calib = (0.0, 0.0)
+    offd = drive.refl_offset_dist if drive.refl_offset_dist is not None else np.zeros(B)
     pool = np.zeros(0, dtype=np.int64)
     t_start, t_end = float(drive.keyframe_t[0]), float(drive.keyframe_t[-1])
     n_chunks = max(1, math.ceil((t_end - t_start) / opt.chunk_s))
     for c in range(n_chunks):
         lo, hi = t_start + c * opt.chunk_s, (t_end + 1.0 if c == n_chunks - 1 else t_start + (c + 1) * opt.chunk_s)
         k_hi = int(np.searchsorted(drive.keyframe_t, hi, side="right")) - 1
-        _dead_reckon(drive, poses[0], poses, solved_to, k_hi)
+        _dead_reckon(drive, poses[0], poses, solved_to, k_hi, calib)
         idx = np.flatnonzero((drive.refl_t > lo) & (drive.refl_t <= hi))
         if idx.size:
             lcov = None
             if landmarks.shape[0]:
                 done = np.flatnonzero(assoc >= 0)
-                h_done = head_poses(poses, drive.refl_keyframe[done], drive.refl_offset[done], drive.mount)
+                h_done = head_poses(poses, drive.refl_keyframe[done], drive.refl_offset[done], drive.mount, 1.0,
+                                    offd[done], calib)
                 lcov = ray_covariances(h_done, assoc[done], landmarks, opt.front_sigma, prior_cov)
-            heads = head_poses(poses, drive.refl_keyframe[idx], drive.refl_offset[idx], drive.mount)
-            a = associate(drive.bearing[idx], heads, landmarks, opt.radius, sigma, opt.gate_sigma, opt.position_tol,
-                          max_range, opt.direction, lcov if opt.use_lcov else None)
+            heads = head_poses(poses, drive.refl_keyframe[idx], drive.refl_offset[idx], drive.mount, 1.0, offd[idx],
+                               calib)
+            # gate on the bearing's own std: the encoder's and the odometry offset's heading inside the keyframe
+            # step (a differential AGV's wheel slip turns it by milliradians within a step)
+            sig_idx = np.sqrt(sigma ** 2 + drive.refl_offset_cov[idx, 2, 2] * max(lam_o, opt.gate_odometry_var))
+            a = associate(drive.bearing[idx], heads, landmarks, opt.radius, sig_idx, opt.gate_sigma,
+                          opt.position_tol, max_range, opt.direction, lcov if opt.use_lcov else None)
             assoc[idx] = a
             pool = np.concatenate([pool, idx[a < 0]])
         pool = pool[drive.refl_t[pool] > hi - opt.pool_s]
         added = idx.size > 0 and bool(np.any(assoc[idx] >= 0))
         if pool.size >= init.min_sightings:
-            heads = head_poses(poses, drive.refl_keyframe[pool], drive.refl_offset[pool], drive.mount)
+            heads = head_poses(poses, drive.refl_keyframe[pool], drive.refl_offset[pool], drive.mount, 1.0,
+                               offd[pool], calib)
             taken = np.zeros(pool.size, dtype=bool)
             for new in initialise_from_tracks(heads, drive.bearing[pool], drive.refl_t[pool], opt.radius, init,
                                               opt.direction):
@@ -411,25 +489,24 @@ def front_end(log: Any, start: F64 | None = None, options: MappingOptions | None
             pool = pool[~taken]
         if added and landmarks.shape[0]:
             n = k_hi + 1
-            heads = head_poses(poses, drive.refl_keyframe, drive.refl_offset, drive.mount)
+            k0 = min(int(np.searchsorted(drive.keyframe_t, hi - opt.window_s)), n - 1)
+            heads = head_poses(poses, drive.refl_keyframe, drive.refl_offset, drive.mount, 1.0, offd, calib)
             sig = _sigma_eff(drive, sigma, heads, landmarks, assoc, lam_o)
-            g = _graph(drive, n, landmarks, assoc, sig, opt, pose_prior, rpriors, scale_prior=(1.0, 1e-6),
-                       odo_var=lam_o)
-            free = np.ones(g.n_vars, dtype=bool)
-            free[: 3 * int(np.searchsorted(drive.keyframe_t, hi - opt.window_s))] = False
-            free[g.scale_index:] = False  # scale and systematic odometry errors: the batch estimates them
-            sol = solve(g, g.pack(poses[:n], landmarks, 1.0), max_iterations=opt.front_iterations, free=free,
-                        huber=3.0)
+            g, free = _window_graph(drive, k0, n, poses, landmarks, assoc, sig, heads, opt, prior_cov, lam_o, calib)
+            sol = solve(g, g.pack(poses[k0:n], landmarks, 1.0, calib), max_iterations=opt.front_iterations,
+                        free=free, huber=3.0)
+            calib = g.calibration(sol.x)
             e, _ = linearize(g, sol.x, jacobian=False)
-            n_o, n_b = 3 * (n - 1), int(g.bearings.pose.size)
+            n_o, n_b = 3 * (n - k0 - 1), int(g.bearings.pose.size)
             if n_b >= 100 and landmarks.shape[0] >= 3:  # variance components, as in the batch
-                red = max(0.05, 1.0 - g.n_vars / max(e.size, 1))
-                lam_o = float(np.clip(lam_o * float(e[:n_o] @ e[:n_o]) / (n_o * red), 1e-4, 10.0))
+                red = max(0.05, 1.0 - int(free.sum()) / max(n_o + n_b, 1))
+                lam_o = float(np.clip(lam_o * float(e[:n_o] @ e[:n_o]) / max(n_o * red, 1.0), 1e-4, 10.0))
             p, landmarks, _ = g.unpack(sol.x)
-            poses[:n] = p
+            poses[k0:n] = p
             landmarks, assoc, ids = _merge(landmarks.copy(), assoc, ids, opt.merge_distance)
         solved_to = k_hi
-    return FrontEnd(drive, poses, landmarks, assoc, ids, np.full(B, sigma), max_range, time.perf_counter() - t0)
+    return FrontEnd(drive, poses, landmarks, assoc, ids, np.full(B, sigma), max_range, time.perf_counter() - t0,
+                    calib)
 
 
 def _merge(landmarks: F64, assoc: I64, ids: list[str | None], distance: float) -> tuple[F64, I64, list[str | None]]:
@@ -564,7 +641,7 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
     anchored = set(rpri_idx) | set(dist_a) | set(dist_b)
     K = poses.shape[0]
     odo_var, lam_b = np.ones(3), 1.0
-    calib = (0.0, 0.0)
+    calib = fe.calibration
     keep_all = keep | np.isin(np.arange(keep.size), list(anchored))
     for pas in range(opt.variance_passes):
         if pas < 2:
