@@ -9,6 +9,7 @@ import pytest
 
 from agvnav import _jit
 from agvnav.geometry import wrap_angle
+from agvnav.positioning.gating import near_rows
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
 
@@ -44,6 +45,11 @@ def _kernel_outputs() -> list[bytes | str]:
     out += [f.tobytes(), float(worst).hex()]
     f_nan, worst_nan = beam.wrapped_offsets(np.array([1.0, math.nan, 2.0, math.inf]))
     assert math.isnan(worst_nan) and np.isnan(f_nan[[1, 3]]).all()
+    rx2, ry2 = rng.uniform(-10, 10, 64), rng.uniform(-10, 10, 64)
+    r2 = rng.uniform(0.02, 0.1, 64) ** 2
+    for beam_dir in rng.uniform(-7, 7, 5):
+        rows = near_rows(rx2, ry2, r2, 0.5 * math.pi * np.sqrt(r2), 0.3, -0.2, beam_dir, 1e-4, 1e-3, 8.0)
+        out.append(np.asarray(rows).tobytes())
     out.append(np.asarray(hermite_poses(rng.normal(size=(4, 3)), 0.0, 0.05, np.linspace(-0.01, 0.06, 9))).tobytes())
     return out
 

@@ -7,7 +7,7 @@ reflector in Python, that gate costs about 2 us per reflector and per reflection
 the reflections per second grow with the number of reflectors too: the cost of a run
 grows as N^2 (issue 11: 46x real time at N = 64, 5x at N = 256).
 
-:class:`BearingIndex` finds, with one vectorised NumPy pass over the map, the few
+:class:`BearingIndex` finds, with one compiled pass over the map (:func:`near_rows`), the few
 reflectors whose predicted leading-edge bearing lies close enough to the measured one to
 possibly pass the gate -- within a bound on ``sqrt(gate S)`` of the reflector's predicted
 edge, i.e. a few sigma plus the reflector's angular radius ``asin(r / d)``. Only those go
@@ -37,16 +37,20 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
-from agvnav.geometry.angles import wrap_angle
+from agvnav._jit import jit
 
-__all__ = ["INDEX_MIN_REFLECTORS", "BearingIndex", "GateSpec"]
+__all__ = ["INDEX_MIN_REFLECTORS", "BearingIndex", "GateSpec", "near_rows"]
+
+_TWO_PI = 2.0 * math.pi
 
 #: Maps with at least this many reflectors use :class:`BearingIndex`; below it the plain
 #: loop over every reflector (about 1.1 us per reflector) is cheaper than the ~25 NumPy
-#: calls of one vectorised pass (about 17 us, nearly flat in N): measured crossover on
-#: the 2-core development machine, 16 reflectors.
+#: calls of the vectorised pass it once was (about 17 us, nearly flat in N): measured
+#: crossover on the 2-core development machine, 16 reflectors. The pass is now one compiled
+#: loop (:func:`near_rows`), cheaper still, but a process that runs its kernels interpreted
+#: (:mod:`agvnav._jit`: short runs on small maps) would pay ~1 us per reflector in it.
 INDEX_MIN_REFLECTORS = 16
 
 
@@ -113,15 +117,47 @@ class BearingIndex:
         x, y, psi = pose
         mx, my, mth = self._mount
         c, s = math.cos(psi), math.sin(psi)
-        dx = self._rx - (x + c * mx - s * my)
-        dy = self._ry - (y + s * mx + c * my)
-        d2 = dx * dx + dy * dy
-        d = np.sqrt(d2)
-        e = d2 - self._r2
         var_xy, var_psi = P[0] + P[4], P[8]
         a4 = 4.0 * spec.gate * (spec.bearing_var + 4.0 * var_psi)  # 4 gate S_max = a4 + b4 g
         b4 = 4.0 * spec.gate * (spec.map_std**2 + 2.0 * var_xy + 4.0 * self._mount_norm**2 * var_psi)
-        window = np.sqrt(a4 + b4 / np.maximum(e, 1e-300)) + self._half_pi_r / np.maximum(d, 1e-300)
-        centre = np.abs(wrap_angle(z + psi + mth - np.arctan2(dy, dx)))
-        near = (centre < window) | (e <= 0.0)
-        return np.flatnonzero(near & (d <= spec.max_range)).tolist()
+        rows = near_rows(
+            self._rx, self._ry, self._r2, self._half_pi_r, x + c * mx - s * my, y + s * mx + c * my,
+            z + psi + mth, a4, b4, spec.max_range,
+        )
+        return rows.tolist()
+
+
+@jit
+def near_rows(
+    rx: NDArray[np.float64], ry: NDArray[np.float64], r2: NDArray[np.float64], half_pi_r: NDArray[np.float64],
+    hx: float, hy: float, beam: float, a4: float, b4: float, max_range: float,
+) -> NDArray[np.int64]:
+    """Rows (ascending) of the reflectors within ``max_range`` (m) of the head ``(hx, hy)`` (m) whose
+    centre lies within the gate bound of the absolute bearing ``beam`` (rad; see the module docstring).
+
+    ``r2`` the squared radii (m^2), ``half_pi_r`` ``(pi / 2) r`` (m), ``4 gate S_max = a4 + b4 g``
+    with ``g = 1 / (d^2 - r^2)``. A compiled loop over the map (:mod:`agvnav._jit`): one pass,
+    no per-call NumPy temporaries (it was ~20 NumPy calls per reflection).
+    """
+    n = rx.shape[0]
+    out = np.empty(n, np.int64)
+    c = 0
+    for j in range(n):
+        dx, dy = rx[j] - hx, ry[j] - hy
+        d2 = dx * dx + dy * dy
+        d = math.sqrt(d2)
+        if not d <= max_range:
+            continue
+        e = d2 - r2[j]
+        if e > 0.0:
+            window = math.sqrt(a4 + b4 / max(e, 1e-300)) + half_pi_r[j] / max(d, 1e-300)
+            w = np.fmod(beam - math.atan2(dy, dx), _TWO_PI)  # wrap_angle (fmod, one exact shift)
+            if w >= math.pi:
+                w -= _TWO_PI
+            elif w < -math.pi:
+                w += _TWO_PI
+            if not abs(w) < window:
+                continue
+        out[c] = j  # inside a reflector (e <= 0) it always stays a candidate
+        c += 1
+    return out[:c]
