@@ -146,17 +146,21 @@ def joseph_update(
     S = h0 * b0 + h1 * b1 + h2 * b2 + R
     k0, k1, k2 = b0 / S, b1 / S, b2 / S
     xn = (x[0] + k0 * innovation, x[1] + k1 * innovation, wrap(x[2] + k2 * innovation))
-    # rows of M = (I - K H) P: M[i, j] = P[i, j] - K[i] b[j]
-    m = (
-        (p00 - k0 * b0, p01 - k0 * b1, p02 - k0 * b2),
-        (p01 - k1 * b0, p11 - k1 * b1, p12 - k1 * b2),
-        (p02 - k2 * b0, p12 - k2 * b1, p22 - k2 * b2),
-    )
-    k = (k0, k1, k2)
-    # (M (I - K H)^T)[i, j] = M[i, j] - (M H^T)[i] K[j], plus R K[i] K[j]
-    mh = [row[0] * h0 + row[1] * h1 + row[2] * h2 for row in m]
-    c = [[m[i][j] - mh[i] * k[j] + R * k[i] * k[j] for j in range(i, 3)] for i in range(3)]
-    return xn, (c[0][0], c[0][1], c[0][2], c[0][1], c[1][0], c[1][1], c[0][2], c[1][1], c[2][0])
+    # rows of M = (I - K H) P: M[i, j] = P[i, j] - K[i] b[j] (written out: no loops, same operations)
+    m00, m01, m02 = p00 - k0 * b0, p01 - k0 * b1, p02 - k0 * b2
+    m10, m11, m12 = p01 - k1 * b0, p11 - k1 * b1, p12 - k1 * b2
+    m20, m21, m22 = p02 - k2 * b0, p12 - k2 * b1, p22 - k2 * b2
+    # (M (I - K H)^T)[i, j] = M[i, j] - (M H^T)[i] K[j], plus R K[i] K[j]; upper triangle, mirrored
+    mh0 = m00 * h0 + m01 * h1 + m02 * h2
+    mh1 = m10 * h0 + m11 * h1 + m12 * h2
+    mh2 = m20 * h0 + m21 * h1 + m22 * h2
+    c00 = m00 - mh0 * k0 + R * k0 * k0
+    c01 = m01 - mh0 * k1 + R * k0 * k1
+    c02 = m02 - mh0 * k2 + R * k0 * k2
+    c11 = m11 - mh1 * k1 + R * k1 * k1
+    c12 = m12 - mh1 * k2 + R * k1 * k2
+    c22 = m22 - mh2 * k2 + R * k2 * k2
+    return xn, (c00, c01, c02, c01, c11, c12, c02, c12, c22)
 
 
 def reflector_rows(
