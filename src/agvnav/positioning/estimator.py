@@ -641,8 +641,8 @@ class StreamingEstimator:
         """
         ox, oy, opsi = self._odom_t
         self._odom_t = _fast.twist_step(ox, oy, opsi, delta_d, delta_theta, delta_lateral)[:3]
-        if self._has_pose():
-            x, y, psi = self._x_t
+        x, y, psi = self._x_t
+        if math.isfinite(x) and math.isfinite(y) and math.isfinite(psi):  # self._has_pose(), inlined
             nx, ny, npsi, f02, f12 = _fast.twist_step(x, y, psi, delta_d, delta_theta, delta_lateral)
             k = self.odometry_noise
             Q = _fast.process_noise(
