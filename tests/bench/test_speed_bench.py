@@ -63,6 +63,7 @@ def test_startup_records_shape() -> None:
     recs = speed.startup_records(repeat=1)
     assert [r["case"] for r in recs] == ["startup_help", "startup_simulate"]
     assert all(r["startup_s"] > 0 for r in recs)
+    assert all(r["cpu_s"] > 0 for r in recs)  # the command's own CPU (simulate: with its plot child)
 
 
 def test_campaign_record_shape() -> None:
