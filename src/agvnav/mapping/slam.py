@@ -345,6 +345,10 @@ def _variance_components(g: FactorGraph, x: F64, drive: Drive, odo_var: F64, lam
     assert J is not None
     J = J.tocsr()
     N = (J.T @ J).tocsc()
+    # reflectors dropped in this pass have no factor: a unit diagonal keeps N regular (they touch no row)
+    empty = N.diagonal() == 0.0
+    if np.any(empty):
+        N = (N + sp.diags(empty.astype(np.float64))).tocsc()
     try:
         lu = factorize(N)
     except RuntimeError:
@@ -642,10 +646,11 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
     K = poses.shape[0]
     odo_var, lam_b = np.ones(3), 1.0
     calib = fe.calibration
-    keep_all = keep | np.isin(np.arange(keep.size), list(anchored))
+    is_anchored = np.isin(np.arange(keep.size), list(anchored))
+    reassociate = True
     for pas in range(opt.variance_passes):
-        if pas < 2:
-            assoc, heads = _reassociate(fe, poses, landmarks, scale, opt, keep_all, odo_var, lam_b, calib)
+        if pas < 2 or reassociate:
+            assoc, heads = _reassociate(fe, poses, landmarks, scale, opt, keep | is_anchored, odo_var, lam_b, calib)
         sig = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, odo_var) * math.sqrt(lam_b)
         g = _graph(d, K, landmarks, assoc, sig, opt, pose_prior, rpri, dist, scale_prior, odo_var, calibration=True)
         sol = solve(g, g.pack(poses, landmarks, scale, calib), max_iterations=50)
@@ -664,10 +669,14 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
             bad = np.flatnonzero(e_use)[np.abs(r) > opt.outlier_sigma]
             assoc[bad] = -1
         counts = np.bincount(assoc[assoc >= 0], minlength=landmarks.shape[0])
-        spread_ok = np.array([_spread_ok(heads[assoc == j, :2], opt.init.min_baseline)
-                              for j in range(landmarks.shape[0])])
-        keep = np.array([i is not None and j < n_existing for j, i in enumerate(ids)], dtype=bool) | \
-            ((counts >= opt.init.min_sightings) & spread_ok) | np.isin(np.arange(landmarks.shape[0]), list(anchored))
+        track_ok = np.array([_track_ok(heads[assoc == j, :2], d.refl_t[assoc == j], opt.init)
+                             for j in range(landmarks.shape[0])])
+        protected = np.array([i is not None and j < n_existing for j, i in enumerate(ids)], dtype=bool) | \
+            np.isin(np.arange(landmarks.shape[0]), list(anchored))
+        new_keep = protected | ((counts >= opt.init.min_sightings) & track_ok)
+        new_keep &= ~_duplicates(landmarks, counts, new_keep, protected, opt.merge_distance)
+        reassociate = bool(np.any(new_keep != keep)) and pas < opt.variance_passes - 2
+        keep = new_keep
     assoc = np.where((assoc >= 0) & keep[np.maximum(assoc, 0)], assoc, -1)
     sig = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, odo_var) * math.sqrt(lam_b)
     # drop unkept reflectors from the state: renumber
@@ -707,6 +716,40 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
         tuple(float(v) for v in odo_var * (d.odometry_k if d.odometry_k is not None else np.ones(3))),  # type: ignore[arg-type]
         float(np.median(sig[assoc >= 0])) if np.any(assoc >= 0) else None,
     )
+
+
+def _track_ok(points: F64, times: F64, init: InitialiseOptions) -> bool:
+    """A reflector is kept when one continuous track of its sightings (no gap over ``max_gap_s``) has
+    ``min_sightings`` from head positions spanning ``min_baseline``: a real reflector is seen revolution
+    after revolution; sightings gathered by chance (clutter, reflections of another reflector while the
+    front end's poses were off) are scattered in time and made a false reflector on the differential AGV."""
+    if points.shape[0] < init.min_sightings:
+        return False
+    order = np.argsort(times, kind="stable")
+    cuts = np.flatnonzero(np.diff(times[order]) > init.max_gap_s) + 1
+    for part in np.split(points[order], cuts):
+        if part.shape[0] >= init.min_sightings and _spread_ok(part, init.min_baseline):
+            return True
+    return False
+
+
+def _duplicates(landmarks: F64, counts: I64, keep: NDArray[np.bool_], protected: NDArray[np.bool_],
+                distance: float) -> NDArray[np.bool_]:
+    """Kept reflectors closer than ``distance`` (m) to a kept one with more sightings (or a protected one):
+    one reflector initialised twice; dropping the weaker lets the next association give its sightings back."""
+    out = np.zeros(landmarks.shape[0], dtype=bool)
+    idx = np.flatnonzero(keep)
+    for a in idx:
+        if protected[a]:
+            continue
+        for b in idx:
+            if b == a or out[b]:
+                continue
+            if float(np.hypot(*(landmarks[a] - landmarks[b]))) < distance and \
+                    (protected[b] or counts[b] > counts[a] or (counts[b] == counts[a] and b < a)):
+                out[a] = True
+                break
+    return out
 
 
 def _spread_ok(points: F64, min_baseline: float) -> bool:
