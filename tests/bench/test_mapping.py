@@ -46,3 +46,25 @@ def test_lab_record_finds_every_reflector() -> None:
     assert {r["anchor"] for r in rows} == {"surveyed2", "baseline", "start_pose", "none"}
     base = next(r for r in rows if r["anchor"] == "baseline")
     assert base["reflectors_found"] == 9 and base["spurious_created"] == 0
+
+
+def test_calibrated_scale_is_the_taped_run_over_the_odometry() -> None:
+    """A 6 m straight then a turn: the scale is the taped distance over the odometry's, with the tape's and
+    the slip's std; a drive that turns at once gets the uncalibrated 1 +- 0.2 %."""
+    from agvnav.logs import RecordedLog
+
+    n = 800
+    inc = np.zeros((n, 3))
+    inc[:, 0] = 0.01
+    inc[600:, 1] = 0.01  # turns after 6 m
+    t = np.arange(n + 1) * 0.05
+    x = 1.003 * np.concatenate([[0.0], np.cumsum(inc[:, 0])])
+    truth = np.column_stack([x, np.zeros(n + 1), np.zeros(n + 1)])
+    log = RecordedLog(t, inc, np.zeros(0), np.zeros(0), np.zeros(0), {}, truth=truth)
+    scale, std, length = bm.calibrated_scale(log, np.random.default_rng(0))
+    assert length == pytest.approx(6.0, abs=0.02)
+    assert scale == pytest.approx(1.003, abs=3 * 0.001 * np.sqrt(2) / 6.0)
+    assert std == pytest.approx(np.hypot(0.001 * np.sqrt(2), 0.01 * np.sqrt(length)) / length)
+    inc[:, 1] = 0.01
+    turning = RecordedLog(t, inc, np.zeros(0), np.zeros(0), np.zeros(0), {}, truth=truth)
+    assert bm.calibrated_scale(turning, np.random.default_rng(0)) == (1.0, 0.002, 0.0)

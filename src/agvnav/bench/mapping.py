@@ -3,13 +3,16 @@
 The drive is a shipped scenario simulated with clutter (``goniometer.spurious_rate_hz``
 spurious reflections per second) and the real reflectors exactly where the map says
 (``world_truth.reflector_survey_std_m = 0``): the lab (``positioning_validation``, 9
-reflectors) and the hall (``differential_loop``, 14 reflectors). The warehouse's map
-comes from the layout planner and has no shipped driving scenario: not benchmarked here.
+reflectors, tricycle), the hall (``tricycle_rear_loop``, 14 reflectors, rear-drive tow tractor),
+the hall with the differential AGV (``differential_loop``: 1 % track and 0.2 % wheel errors) and
+the warehouse (``warehouse_mission``, 102 reflectors, racks occlude; the mission through aisles
+B and A, the north lane, the charger and the dock is its commissioning drive).
 
-Anchors, each drawn with its stated error from the seed: ``surveyed2`` (the two reflectors
+Anchors, each drawn with its stated error: ``surveyed2`` (the two reflectors
 farthest apart, surveyed with 1 mm std per axis), ``baseline`` (the same two, taped to 1 mm,
 named by positions 10 cm off), ``start_pose`` (the true start pose with 1 mm / 0.05° std and
-the odometry scale 1 ± 0.2 %), ``none`` (the command refuses: "unobservable").
+the odometry scale of a taped calibration run, :func:`calibrated_scale`), ``none`` (the command
+refuses: "unobservable").
 
 Records: ``reflectors_seen`` counts the true reflectors with at least ``min_sightings``
 reflections in the drive (the hall's N2 and N3 sit behind the rack from the loop: never seen);
@@ -17,14 +20,17 @@ reflections in the drive (the hall's N2 and N3 sit behind the rack from the loop
 ``spurious_created`` mapped ones with no true reflector within 0.25 m; ``map_rms_m`` and
 ``map_max_m`` over the found ones, in the map frame (no alignment: the anchor defines the
 frame); ``nees_mean`` the mean of ``eᵀC⁻¹e`` over reflectors (2 expected) with its 95 % band
-from chi-square with 2n dof divided by n; positioning RMS of the EKF replaying the same drive
-with the mapped map and with the true map.
+from chi-square with 2n dof divided by n (the summary pools runs x reflectors); positioning
+RMS of the EKF replaying the same drive with the mapped map and with the true map.
+``--quick``: 2 seeds and no warehouse (its drive takes minutes).
 """
 
 from __future__ import annotations
 
 import math
+import os
 import time
+from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -53,12 +59,24 @@ __all__ = ["HALLS", "TITLE", "log_from_result", "run"]
 TITLE = "Reflector mapping: reflectors found, spurious, map error and NEES per anchor; positioning on the mapped map"
 
 #: hall name -> shipped scenario driven as the commissioning drive.
-HALLS = {"lab": "positioning_validation", "hall": "tricycle_rear_loop"}
+HALLS = {"lab": "positioning_validation", "hall": "tricycle_rear_loop", "hall_differential": "differential_loop",
+         "warehouse": "warehouse_mission"}
+
+#: worker processes over the (hall, seed) drives (at most the CPU count).
+WORKERS = 2
+
+#: halls left out of ``--quick``.
+SLOW_HALLS = ("warehouse",)
 
 #: Spurious reflections per second during the commissioning drive.
 CLUTTER_HZ = 1.0
 
 MATCH_M = 0.25
+
+#: Calibration run: tape std per mark (m), wheel slip (m per √m, assumption), longest run (m).
+TAPE_STD_M = 0.001
+SLIP_STD = 0.01
+CAL_MAX_M = 10.0
 
 
 def log_from_result(result: SimResult) -> RecordedLog:
@@ -80,9 +98,39 @@ def _drive(scenario: str, seed: int) -> SimResult:
     return simulate(parse_scenario(dump_yaml(mapping), source=scenario, base_dir=base.base_dir))
 
 
-def _anchors(world: WorldMap, start: np.ndarray, rng: np.random.Generator) -> dict[str, Anchor | None]:
+def calibrated_scale(log: RecordedLog, rng: np.random.Generator, tape_std: float = TAPE_STD_M,
+                     slip_std: float = SLIP_STD) -> tuple[float, float, float]:
+    """The odometry scale from a taped calibration run: ``(scale, std, length_m)``.
+
+    The run is the drive's first straight (odometry heading within 0.5° of the start, at most
+    ``CAL_MAX_M``): the distance between its end marks is taped (``tape_std`` m per mark, from the
+    true positions) and divided by the odometry's distance over it. The std combines the tape and
+    the wheel slip over the run (``slip_std`` m per √m, an assumption: the shipped vehicles' 1 cm).
+    A drive that starts with less than 1 m straight gets the uncalibrated ``1 ± 0.2 %``.
+    The scale comes from the run's measurement, never from the simulator's truth parameters.
+    """
+    assert log.truth is not None
+    heading = np.concatenate([[0.0], np.cumsum(log.increments[:, 1])])
+    rolled = np.concatenate([[0.0], np.cumsum(np.abs(log.increments[:, 0]))])
+    straight = (np.abs(heading) < math.radians(0.5)) & (rolled <= CAL_MAX_M)
+    n = int(np.argmin(straight)) if not straight.all() else straight.size
+    end = max(n - 1, 0)
+    odo = float(np.sum(log.increments[:end, 0]))
+    if odo < 1.0:
+        return 1.0, 0.002, 0.0
+    taped = float(np.hypot(*(log.truth[end, :2] - log.truth[0, :2]))) + float(rng.normal(0.0, tape_std * math.sqrt(2)))
+    std = math.hypot(tape_std * math.sqrt(2.0), slip_std * math.sqrt(odo)) / odo
+    return taped / odo, std, odo
+
+
+def _anchors(world: WorldMap, start: np.ndarray, rng: np.random.Generator,
+             scale: tuple[float, float] = (1.0, 0.002), seen: np.ndarray | None = None) -> dict[str, Anchor | None]:
+    """The anchors of one run; ``seen (N,)``: the reflectors the drive sees (the surveyed pair is the farthest
+    apart among them: a site surveys reflectors its commissioning drive passes)."""
     xy = world.reflector_xy
     d = np.hypot(*(xy[:, None, :] - xy[None, :, :]).transpose(2, 0, 1))
+    if seen is not None and int(np.sum(seen)) >= 2:
+        d = np.where(seen[:, None] & seen[None, :], d, -1.0)
     i, j = np.unravel_index(int(np.argmax(d)), d.shape)
     surveyed = SurveyedAnchor((world.reflector_ids[i], world.reflector_ids[j]),
                               xy[[i, j]] + rng.normal(0.0, 0.001, (2, 2)), np.array([0.001, 0.001]))
@@ -92,7 +140,7 @@ def _anchors(world: WorldMap, start: np.ndarray, rng: np.random.Generator) -> di
     sp = StartPoseAnchor()
     pose = start + rng.normal(0.0, 1.0, 3) * np.array(sp.pose_std)
     return {"surveyed2": surveyed, "baseline": baseline,
-            "start_pose": StartPoseAnchor(tuple(pose.tolist()), sp.pose_std, 1.0, sp.scale_std), "none": None}
+            "start_pose": StartPoseAnchor(tuple(pose.tolist()), sp.pose_std, scale[0], scale[1]), "none": None}
 
 
 def _positioning_rms(log: RecordedLog, world: WorldMap) -> float | None:
@@ -118,9 +166,11 @@ def _record(hall: str, seed: int, with_positioning: bool) -> list[dict[str, Any]
     rms_true = _positioning_rms(log, world) if with_positioning else None
     index = np.asarray(result.events["reflections"]["reflector_index"]).astype(np.int64)
     spurious_in = int(np.sum(index < 0))
-    seen = int(np.sum(np.bincount(index[index >= 0], minlength=true.shape[0]) >= opt.init.min_sightings))
+    seen_mask = np.bincount(index[index >= 0], minlength=true.shape[0]) >= opt.init.min_sightings
+    seen = int(np.sum(seen_mask))
     rows = []
-    for name, anchor in _anchors(world, start, rng).items():
+    cal = calibrated_scale(log, np.random.default_rng([seed, 171]))
+    for name, anchor in _anchors(world, start, rng, cal[:2], seen_mask).items():
         rec: dict[str, Any] = {"hall": hall, "seed": seed, "anchor": name, "reflectors_true": int(true.shape[0]),
                                "reflectors_seen": seen}
         t1 = time.perf_counter()
@@ -129,6 +179,11 @@ def _record(hall: str, seed: int, with_positioning: bool) -> list[dict[str, Any]
         except ScaleUnobservable:
             rec.update(reflectors_found="unobservable", spurious_created=None, map_rms_m=None, map_max_m=None,
                        nees_mean=None, nees_band=None, runtime_s=round(time.perf_counter() - t1, 3))
+            rows.append(rec)
+            continue
+        except ValueError as exc:  # an anchor that matches no mapped reflector: a failed run, recorded
+            rec.update(reflectors_found=0, spurious_created=0, map_rms_m=None, map_max_m=None, nees_mean=None,
+                       nees_band=None, error=str(exc), runtime_s=round(time.perf_counter() - t1, 3))
             rows.append(rec)
             continue
         d = np.hypot(*(res.xy[:, None, :] - true[None]).transpose(2, 0, 1))
@@ -146,6 +201,8 @@ def _record(hall: str, seed: int, with_positioning: bool) -> list[dict[str, Any]
             nees_mean=float(nees.mean()) if nees.size else None,
             nees_band=f"{lo:.2f}-{hi:.2f}",
             odometry_scale=round(res.scale, 5),
+            calibrated_scale=round(cal[0], 5) if name == "start_pose" else None,
+            heading_rate=round(res.heading_rate, 5),
             runtime_s=round(fe.runtime_s + time.perf_counter() - t1, 2),
         )
         if with_positioning:
@@ -156,6 +213,15 @@ def _record(hall: str, seed: int, with_positioning: bool) -> list[dict[str, Any]
         rec.update(spurious_reflections=spurious_in, sim_s=round(sim_s, 1))
         rows.append(rec)
     return rows
+
+
+def _record_task(task: tuple[str, int]) -> list[dict[str, Any]]:
+    """The records of one drive; a drive whose mapping raises is one error record (the table goes on)."""
+    try:
+        return _record(task[0], task[1], with_positioning=True)
+    except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
+        return [{"hall": task[0], "seed": task[1], "anchor": "all", "reflectors_true": None,
+                 "reflectors_found": 0, "spurious_created": 0, "error": f"{type(exc).__name__}: {exc}"}]
 
 
 def _summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -171,10 +237,14 @@ def _summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                             "reflectors_found": "unobservable" if all(r["reflectors_found"] == "unobservable"
                                                                       for r in rs) else "MAPPED"})
                 continue
+            rs = [r for r in rs if "error" not in r or r.get("reflectors_true") is not None]
+            if not rs:
+                continue
             n = sum(r["reflectors_true"] for r in rs)
-            nees = [r["nees_mean"] for r in rs if r["nees_mean"] is not None]
+            # pooled over runs x reflectors (the band's definition), not the mean of the runs' means
             k = sum(r["reflectors_found"] for r in rs)
-            lo, hi = chi2.ppf(0.025, 2 * k) / k, chi2.ppf(0.975, 2 * k) / k
+            nees = [r["nees_mean"] * r["reflectors_found"] for r in rs if r["nees_mean"] is not None]
+            lo, hi = (chi2.ppf(0.025, 2 * k) / k, chi2.ppf(0.975, 2 * k) / k) if k else (math.nan, math.nan)
             rms = [r["map_rms_m"] for r in rs if r["map_rms_m"] is not None]
             ratio = [float(r["positioning_ratio"]) for r in rs if r.get("positioning_ratio") is not None]
             out.append({
@@ -182,8 +252,8 @@ def _summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "reflectors_seen": sum(r["reflectors_seen"] for r in rs),
                 "reflectors_found": k, "spurious_created": sum(r["spurious_created"] for r in rs),
                 "map_rms_m": float(np.sqrt(np.mean(np.square(rms)))) if rms else None,
-                "map_max_m": max(r["map_max_m"] for r in rs if r["map_max_m"] is not None),
-                "nees_mean": float(np.mean(nees)) if nees else None, "nees_band": f"{lo:.2f}-{hi:.2f}",
+                "map_max_m": max((r["map_max_m"] for r in rs if r["map_max_m"] is not None), default=None),
+                "nees_mean": float(np.sum(nees)) / k if nees and k else None, "nees_band": f"{lo:.2f}-{hi:.2f}",
                 "runtime_s": round(float(np.mean([r["runtime_s"] for r in rs])), 2),
                 "positioning_ratio": round(float(np.mean(ratio)), 3) if ratio else None,
             })
@@ -194,13 +264,19 @@ def run(quick: bool, seed: int) -> list[dict[str, Any]]:
     """Per hall, seed and anchor one record, then one summary record per hall and anchor, then the
     solver comparison (:func:`compare_solvers`, GTSAM rows only where it is installed).
 
-    ``quick``: 2 seeds per hall; else 10.
+    ``quick``: 2 seeds per hall and no warehouse; else 10.
     """
     seeds = [seed + k for k in range(2 if quick else 10)]
+    tasks = [(hall, s) for hall in HALLS if not (quick and hall in SLOW_HALLS) for s in seeds]
     rows: list[dict[str, Any]] = []
-    for hall in HALLS:
-        for s in seeds:
-            rows += _record(hall, s, with_positioning=True)
+    workers = min(WORKERS, len(tasks), os.cpu_count() or 1)
+    if workers > 1:  # each (hall, seed) is independent and seeded: the same records in the same order
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            for part in pool.map(_record_task, tasks):
+                rows += part
+    else:
+        for task in tasks:
+            rows += _record_task(task)
     for r in rows:
         for key in ("map_rms_m", "map_max_m", "nees_mean", "positioning_rms_mapped_m", "positioning_rms_true_m"):
             if isinstance(r.get(key), float):
