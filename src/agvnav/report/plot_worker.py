@@ -37,6 +37,7 @@ class PlotWorker:
     def __init__(self) -> None:
         self._conn: Connection | None = None
         self._proc: Any = None
+        self._submitted = False
         if "fork" not in multiprocessing.get_all_start_methods():
             return
         ctx = multiprocessing.get_context("fork")
@@ -62,6 +63,7 @@ class PlotWorker:
         for the files and returns their paths (it raises what drawing raised).
         """
         args = (dict(series), path_xy, reflector_xy, wall_segments, Path(out_dir), transient_end_s, title)
+        self._submitted = True
         conn = self._conn
         if conn is not None:
             try:
@@ -88,11 +90,13 @@ class PlotWorker:
         return wait
 
     def close(self) -> None:
-        """End the child (it ends by itself once its one job is done)."""
+        """End the child: it ends by itself once its one job is done; one never given a job is stopped."""
         if self._conn is not None:
             self._conn.close()
             self._conn = None
         if self._proc is not None:
+            if not self._submitted:  # e.g. a route scenario or a user error: do not wait for its warm-up
+                self._proc.terminate()
             self._proc.join(timeout=5.0)
             if self._proc.is_alive():
                 self._proc.terminate()
