@@ -61,7 +61,8 @@ def map_command(
         print(json_document("log", str(log), summary, None, None))
         return
     print(f"{len(world.reflectors)} reflectors ({summary['new_reflectors']} new), anchored by {result.anchor}; "
-          f"odometry scale {result.scale:.5f} ± {result.scale_std:.5f}")
+          f"odometry scale {result.scale:.5f} ± {result.scale_std:.5f}, heading drift "
+          f"{result.heading_rate * 1000:.2f} mrad/m, turns {result.turn_scale * 100:+.2f} %")
     print(f"{'id':>8} {'x (m)':>10} {'y (m)':>10} {'std (mm)':>9} {'sightings':>9}")
     for r, n in zip(world.reflectors, result.sightings.tolist(), strict=True):
         print(f"{r.id:>8} {r.x:10.4f} {r.y:10.4f} {r.survey_std_m * 1000:9.2f} {n:9d}")
