@@ -83,3 +83,18 @@ def test_a_gross_error_still_fails_with_the_odometry_noise(lab: WorldMap) -> Non
 def test_odometry_noise_is_checked(lab: WorldMap) -> None:
     with pytest.raises(ValueError, match="odometry_noise"):
         _monitor(lab, (0.001, -1.0, 0.0))
+
+
+def test_a_dense_map_triple_comes_from_the_whole_revolution() -> None:
+    # 64 reflectors on a 5 m circle around the head, seen in angle (= time) order: the
+    # eight newest span 45 degrees; the triple must come from the whole revolution
+    n = 64
+    ang = np.arange(n) * 2.0 * math.pi / n
+    xy = np.column_stack([5.0 * np.cos(ang), 5.0 * np.sin(ang)])
+    mon = IntegrityMonitor(xy, np.full(n, 0.04), np.zeros(3), 1e-4, REV, map_std=0.005)
+    rows = list(range(n - 1, -1, -1))  # newest first, as the cross-check lists them
+    idx = mon._best_triple(np.zeros(3), rows, [1e-6] * n)
+    assert idx is not None
+    spread = np.sort(ang[idx])
+    gaps = np.diff(np.concatenate([spread, [spread[0] + 2.0 * math.pi]]))
+    assert gaps.max() < math.radians(180.0)  # around the head, not one sector (the newest eight: 39 deg)

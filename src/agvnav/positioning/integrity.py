@@ -673,13 +673,20 @@ class IntegrityMonitor:
         with ``variances`` (rad², one per row, default ``bearing_std^2``) is chosen. The
         bound of every triple at once: the information of each reflector (Jacobian rows
         ``[dy/d², -dx/d², -1]`` over its variance) summed per triple, the trace of the
-        position block of its inverse in closed form.
+        position block of its inverse in closed form. Of more than eight rows (``rows``
+        in time order), eight spread evenly over them are candidates: with 256 reflectors
+        in the lab the eight newest reflections came from one 15° sector, and the best of
+        their triples (three reflectors 1.7 m apart on one wall: 19 x 48 cm fix std with
+        the 5 mm survey error, far from Gaussian) put fixes 5-7 cm off a sound estimate
+        on 3 % of the checks.
         """
         if len(rows) < 3:
             return None
         if variances is None:
             variances = [self.bearing_std**2] * len(rows)
-        rows, variances = rows[:8], variances[:8]
+        if len(rows) > 8:  # a dense map: eight spread over the revolution, not the eight newest in one sector
+            pick = np.linspace(0, len(rows) - 1, 8).round().astype(int).tolist()
+            rows, variances = [rows[k] for k in pick], [variances[k] for k in pick]
         hx, hy, _ = _head(x, self.mount)
         info = np.empty((len(rows), 6))
         for k, j in enumerate(rows):
