@@ -132,3 +132,11 @@ def test_commanded_moves_end_where_asked_despite_the_run_on() -> None:
     assert math.hypot(veh.truth[0], veh.truth[1]) <= 0.002 + 0.0005  # tolerance + what the estimate still owes
     assert abs(veh.truth[2]) <= math.radians(0.1) + 1e-6
     assert np.all(np.abs(veh.owed) < 1e-4)  # at rest when the stop is counted
+
+
+def test_no_correction_on_an_estimate_that_contradicts_the_arrival() -> None:
+    veh = _Vehicle((-0.15, 0.0, 0.0), (0.0, 0.0))  # 15 cm short: beyond the autopilot's 10 cm end tolerance
+    fine = FinePositioner(_twist, 0.125, 0.3, 1.2, 0.5)
+    _run(fine, veh)
+    assert fine.corrections == 0
+    np.testing.assert_allclose(veh.truth, [-0.15, 0.0, 0.0])

@@ -474,6 +474,13 @@ class FinePositioner:
     ``speed`` (m/s, default half the tolerance per revolution: 8 mm/s at 8 Hz): the
     goniometer fixes during a correction are never more than half the tolerance
     apart along it, and the speed loops' lag stays a fraction of a mm.
+
+    ``attempts`` (default 3): a correction driven on a settled estimate removes most of
+    the error; the second takes up what the first one's turns translated the base
+    (the two wheels' loops lag unequally: up to ~3 mm on a 50 deg turn); the third is
+    margin. ``max_correction`` (m, default 0.1, the path autopilot's ``end_tolerance``):
+    a settled estimate further off than the autopilot accepted as arrived contradicts
+    the arrival (a positioning fault, not a stop error): no correction is driven on it.
     """
 
     def __init__(
@@ -489,10 +496,11 @@ class FinePositioner:
         settle_timeout: float = 5.0,
         speed: float | None = None,
         attempts: int = 3,
+        max_correction: float = 0.1,
     ) -> None:
         for name, v in (("revolution_s", revolution_s), ("max_accel", max_accel), ("turn_accel", turn_accel),
                         ("turn_rate", turn_rate), ("tolerance", tolerance), ("heading_tolerance", heading_tolerance),
-                        ("settle_timeout", settle_timeout)):
+                        ("settle_timeout", settle_timeout), ("max_correction", max_correction)):
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f"{name} must be positive, got {v!r}")
         if settle_revolutions < 1:
@@ -510,6 +518,7 @@ class FinePositioner:
         if not (math.isfinite(self.speed) and self.speed > 0.0):
             raise ValueError(f"speed must be positive, got {speed!r}")
         self.attempts = int(attempts)
+        self.max_correction = float(max_correction)
         self.corrections = 0
         """position corrections driven at the current station."""
         self.turns = 0
@@ -567,7 +576,8 @@ class FinePositioner:
         heading_ok = abs(wrap_angle_scalar(psi - self._target[2])) <= self.heading_tolerance
         px, py = x + self._offset * math.cos(psi), y + self._offset * math.sin(psi)
         point_ok = math.hypot(self._target[0] - px, self._target[1] - py) <= self.tolerance
-        if not point_ok and self.corrections < self.attempts:
+        miss = math.hypot(self._target[0] - px, self._target[1] - py)
+        if not point_ok and self.corrections < self.attempts and miss <= self.max_correction:
             self.corrections += 1
             tx, ty = self._base_target()
             bearing = math.atan2(ty - y, tx - x)
