@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +33,7 @@ def _args(out: Path) -> tuple[Any, ...]:
 def test_forked_plots_equal_inline_plots(tmp_path: Path) -> None:
     inline = write_plots(*_args(tmp_path / "inline"))
     with PlotWorker() as worker:
+        assert worker.forked == (threading.active_count() == 1)  # a threaded process draws inline
         forked = worker.submit(*_args(tmp_path / "forked"))()
     names = ["map.png", "errors.png", "positioning_histogram.png"]
     assert [p.name for p in forked] == [p.name for p in inline] == names

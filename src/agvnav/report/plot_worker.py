@@ -7,13 +7,14 @@ the child imports matplotlib and draws a throw-away figure (fonts, Agg canvas) o
 second core while the parent runs the simulation, then draws the run's plots
 (:func:`agvnav.report.plots.write_plots`, the same function, the same files) while the
 parent writes the JSON and CSV files. Where ``fork`` is unavailable (Windows, macOS
-defaults) or the child has died, the plots are drawn in the calling process instead, so
-the files are the same either way.
+defaults), the caller already runs threads (forking them is unsafe) or the child has died,
+the plots are drawn in the calling process instead, so the files are the same either way.
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import threading
 from collections.abc import Callable, Mapping
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -38,14 +39,19 @@ class PlotWorker:
         self._conn: Connection | None = None
         self._proc: Any = None
         self._submitted = False
-        if "fork" not in multiprocessing.get_all_start_methods():
-            return
+        if "fork" not in multiprocessing.get_all_start_methods() or threading.active_count() > 1:
+            return  # no fork, or forking a process with threads (unsafe): the plots are drawn inline
         ctx = multiprocessing.get_context("fork")
         parent, child = ctx.Pipe()
         proc = ctx.Process(target=_serve, args=(child,), daemon=True, name="agvnav-plots")
         proc.start()
         child.close()
         self._conn, self._proc = parent, proc
+
+    @property
+    def forked(self) -> bool:
+        """Whether a child draws the plots (False: :meth:`submit` draws them in this process)."""
+        return self._proc is not None
 
     def submit(
         self,
