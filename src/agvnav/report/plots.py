@@ -23,6 +23,11 @@ from agvnav.geometry import lateral_position_error
 
 __all__ = ["plot_errors", "plot_map", "plot_positioning_histogram", "pyplot", "warm_up", "write_plots"]
 
+#: Titles sit at the top of their axes (``y`` given): matplotlib otherwise measures every tick
+#: label of the axis to lift the title clear of top-side decorations these plots never have,
+#: about a fifth of the drawing time.
+_TITLE_Y = 1.0
+
 
 def pyplot() -> Any:
     """``matplotlib.pyplot`` with the non-interactive Agg backend, imported on first use.
@@ -77,8 +82,8 @@ def plot_map(
     pad = 0.15 * max(hi - lo) + 0.2
     axes[1].set_xlim(lo[0] - pad, hi[0] + pad)
     axes[1].set_ylim(lo[1] - pad, hi[1] + pad)
-    axes[0].set_title(title or "map")
-    axes[1].set_title("path detail")
+    axes[0].set_title(title or "map", y=_TITLE_Y)
+    axes[1].set_title("path detail", y=_TITLE_Y)
     axes[1].legend(loc="best", fontsize=8)
     return _save(fig, out)
 
@@ -107,7 +112,7 @@ def plot_errors(
             ax.axvline(transient_end_s, color="k", ls=":", lw=1.0, label="end of transient")
     if transient_end_s is not None:
         a1.legend(loc="best", fontsize=8)
-    a1.set_title(title or "guidance errors")
+    a1.set_title(title or "guidance errors", y=_TITLE_Y)
     return _save(fig, out)
 
 
@@ -122,10 +127,11 @@ def plot_positioning_histogram(e_lat: NDArray[np.float64], out: str | Path, titl
         ax.hist(e, bins=min(40, max(5, e.size // 20)), color="tab:blue", edgecolor="k", alpha=0.8)
         ax.set_title(
             (title or "positioning lateral error")
-            + f"\nmean |e| {np.mean(np.abs(e)):.1f} mm, std {np.std(e):.1f} mm, max |e| {np.max(np.abs(e)):.1f} mm"
+            + f"\nmean |e| {np.mean(np.abs(e)):.1f} mm, std {np.std(e):.1f} mm, max |e| {np.max(np.abs(e)):.1f} mm",
+            y=_TITLE_Y,
         )
     else:
-        ax.set_title((title or "positioning lateral error") + "\n(no position fix)")
+        ax.set_title((title or "positioning lateral error") + "\n(no position fix)", y=_TITLE_Y)
     ax.set_xlabel("lateral error e_lat [mm]")
     ax.set_ylabel("samples")
     ax.grid(True, alpha=0.3)
