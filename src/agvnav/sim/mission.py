@@ -8,7 +8,8 @@ point, C cruising and O on each final approach and backing up [seed000 §3.1]):
 for each a :class:`~agvnav.sim.roles.PathAutopilot` (speed profile + follower,
 stops at cusps) follows that stint's path with a :class:`LimitedSpeedProfile`
 that caps the cruise speed by the speed limit (edge limits, curvature,
-creep-in before the station); once the pilot of a leg's last stint has stopped
+creep-in before the station; a steered vehicle holds the station heading over the
+creep-in, :class:`agvnav.guidance.approach.HeadingHoldApproach`); once the pilot of a leg's last stint has stopped
 at the station the mission autopilot lets a spot-turning vehicle position finely at
 standstill (:class:`FinePositioner`: the estimate settles, slow commanded corrections,
 the station heading), records the stop, holds for the job's dwell time and starts
@@ -44,6 +45,7 @@ from numpy.typing import NDArray
 from agvnav.actuators import SpeedProfile
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.guidance import GuidanceError, make_follower
+from agvnav.guidance.approach import HeadingHoldApproach
 from agvnav.guidance.paths import LineSegment, Path, Segment
 from agvnav.kinematics.differential import wheel_speeds_unchecked
 from agvnav.routes.mission import Job, MissionError, MissionPlan, chain_mission, plan_legs, speed_limits
@@ -249,8 +251,9 @@ def sub_path(plan: MissionPlan, a: float, b: float) -> tuple[list[Segment], NDAr
 class MissionAutopilot:
     """Drives a :class:`MissionPlan` stint by stint with one :class:`PathAutopilot` each (module doc).
 
-    ``make_pilot(path, profile, point)`` builds a stint's PathAutopilot (the follower of
-    ``point``, or the scenario's for None, is given the path by it); ``profile`` is the shared
+    ``make_pilot(path, profile, point, station)`` builds a stint's PathAutopilot (the follower of
+    ``point``, or the scenario's for None, is given the path by it; ``station`` the point (x, y), m,
+    where the stint stops at its leg's station, None for a stint that does not); ``profile`` is the shared
     :class:`LimitedSpeedProfile`; ``limits`` (lateral accel, creep distance, creep speed) shape
     its speed limit. ``switching`` (and the nominal ``wheelbase``, m) guide C cruising and O in
     manoeuvres (:func:`stints`); a handover stint gives way to the next one, on the move, once
@@ -263,7 +266,7 @@ class MissionAutopilot:
     def __init__(
         self,
         plan: MissionPlan,
-        make_pilot: Callable[[Path, LimitedSpeedProfile, str | None], PathAutopilot],
+        make_pilot: Callable[[Path, LimitedSpeedProfile, str | None, tuple[float, float] | None], PathAutopilot],
         profile: LimitedSpeedProfile,
         lateral_accel: float,
         creep_distance: float,
@@ -324,7 +327,7 @@ class MissionAutopilot:
         self.profile.reset(self.profile.v if moving_on else 0.0)
         self.profile.carry_on = self._stints[i + 1].s1 - self._stints[i + 1].s0 if st.handover else 0.0
         self._handover_at = path.length - 1e-6 if st.handover else math.inf
-        pilot = self._make(path, self.profile, st.point)
+        pilot = self._make(path, self.profile, st.point, self._station_point(st) if st.last else None)
         i_s = pilot.signal_names.index("s_est")
         step = float(s_grid[1] - s_grid[0])
 
@@ -334,6 +337,11 @@ class MissionAutopilot:
 
         self.profile.limit = limit
         return pilot
+
+    def _station_point(self, st: Stint) -> tuple[float, float]:
+        """Where (m) the guided point of stint ``st`` stops: the end of its leg."""
+        p = self.plan.path.point_at(float(self.plan.leg_bounds[st.leg, 1]))
+        return float(p[0]), float(p[1])
 
     def command(self, t: float, estimator: Any, plant: Any, dt: float) -> tuple[float, ...]:
         """The plant command: the current stint's pilot, the heading alignment, or standstill while dwelling."""
@@ -781,7 +789,11 @@ def mission_autopilot(
 
     Without point switching every stint uses ``follower`` (the scenario's point, ``point_offset``
     m ahead of base_link); with ``mission.point_switching`` (steered vehicles) a second follower
-    of the same law guides the other point. Unicycle and holonomic vehicles position finely at
+    of the same law guides the other point. A steered vehicle (it cannot turn at standstill) holds the
+    station heading over the last ``mission.creep_distance_m`` before each station instead of correcting
+    the lateral error there (:class:`~agvnav.guidance.approach.HeadingHoldApproach`: a lateral correction
+    within the creep would cost a heading swing of about twice the error over the creep distance, left
+    at the stop). Unicycle and holonomic vehicles position finely at
     standstill after each station stop (:class:`FinePositioner`, ``mission.align_heading``): the
     estimate settles for up to ``goniometer.rate_hz`` based revolutions, then a correction move.
     """
@@ -801,10 +813,13 @@ def mission_autopilot(
         followers["C"] = (_twin_follower(sc, follower, plant, plan.path, "C"), wheelbase)
         followers["O"] = (_twin_follower(sc, follower, plant, plan.path, "O"), 0.0)
 
-    def make(path: Path, prof: LimitedSpeedProfile, point: str | None) -> PathAutopilot:
+    def make(path: Path, prof: LimitedSpeedProfile, point: str | None,
+             station: tuple[float, float] | None) -> PathAutopilot:
         f, off = followers[point]
         f.set_path(path)
         f.reset()
+        if station is not None and plant.family == "steered" and m.creep_distance_m > 0.0:
+            f = HeadingHoldApproach(f, station, m.creep_distance_m)  # the creep-in holds the station heading
         return PathAutopilot(f, path, prof, plant, off, watch=watch)
 
     align = None
