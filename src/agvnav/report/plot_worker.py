@@ -14,6 +14,7 @@ the plots are drawn in the calling process instead, so the files are the same ei
 from __future__ import annotations
 
 import multiprocessing
+import os
 import threading
 from collections.abc import Callable, Mapping
 from multiprocessing.connection import Connection
@@ -36,17 +37,20 @@ class PlotWorker:
     """
 
     def __init__(self) -> None:
-        self._conn: Connection | None = None
+        self._conns: list[Connection] = []
         self._proc: Any = None
         self._submitted = False
         if "fork" not in multiprocessing.get_all_start_methods() or threading.active_count() > 1:
             return  # no fork, or forking a process with threads (unsafe): the plots are drawn inline
         ctx = multiprocessing.get_context("fork")
-        parent, child = ctx.Pipe()
-        proc = ctx.Process(target=_serve, args=(child,), daemon=True, name="agvnav-plots")
+        pipes = [ctx.Pipe() for _ in _SHARES]
+        proc = ctx.Process(
+            target=_serve, args=([c for _, c in pipes], [p for p, _ in pipes]), daemon=True, name="agvnav-plots"
+        )
         proc.start()
-        child.close()
-        self._conn, self._proc = parent, proc
+        for _, c in pipes:
+            c.close()
+        self._conns, self._proc = [p for p, _ in pipes], proc
 
     @property
     def forked(self) -> bool:
@@ -68,38 +72,50 @@ class PlotWorker:
         Arguments as :func:`agvnav.report.plots.write_plots`. Returns a function that waits
         for the files and returns their paths (it raises what drawing raised).
         """
-        args = (dict(series), path_xy, reflector_xy, wall_segments, Path(out_dir), transient_end_s, title)
+        job: dict[str, Any] = {
+            "series": dict(series), "path_xy": path_xy, "reflector_xy": reflector_xy,
+            "wall_segments": wall_segments, "out_dir": Path(out_dir), "transient_end_s": transient_end_s,
+            "title": title,
+        }
         self._submitted = True
-        conn = self._conn
-        if conn is not None:
+        sent: list[Connection | None] = []
+        for k in range(len(_SHARES)):
+            conn: Connection | None = self._conns[k] if self._conns else None
             try:
-                conn.send(args)
-            except (OSError, ValueError):  # the child has gone: draw here
+                if conn is not None:
+                    conn.send(job)
+            except (OSError, ValueError):  # that child has gone: its share is drawn here
                 conn = None
-        if conn is None:
-            from agvnav.report.plots import write_plots  # noqa: PLC0415  (lazy: matplotlib)
-
-            paths = write_plots(*args)
-            return lambda: paths
+            sent.append(conn)
 
         def wait() -> list[Path]:
-            try:
-                status, value = conn.recv()
-            except (EOFError, OSError):  # the child died while drawing: draw here
-                from agvnav.report.plots import write_plots  # noqa: PLC0415
+            from agvnav.report.plots import write_plots  # noqa: PLC0415  (lazy: matplotlib)
 
-                return write_plots(*args)
-            if status != "ok":
-                raise RuntimeError(f"drawing the plots failed: {value}")
-            return [Path(p) for p in value]
+            paths: list[Path] = []
+            for conn, share in zip(sent, _SHARES, strict=True):
+                if conn is None:
+                    paths += write_plots(**job, only=share)
+                    continue
+                try:
+                    status, value = conn.recv()
+                except (EOFError, OSError):  # the child died while drawing: draw its share here
+                    paths += write_plots(**job, only=share)
+                    continue
+                if status != "ok":
+                    raise RuntimeError(f"drawing the plots failed: {value}")
+                paths += [Path(p) for p in value]
+            return paths
 
+        if not self._conns:  # no child: draw now, as the caller expects the work to be under way
+            done = wait()
+            return lambda: done
         return wait
 
     def close(self) -> None:
         """End the child: it ends by itself once its one job is done; one never given a job is stopped."""
-        if self._conn is not None:
-            self._conn.close()
-            self._conn = None
+        for conn in self._conns:
+            conn.close()
+        self._conns = []
         if self._proc is not None:
             if not self._submitted:  # e.g. a route scenario or a user error: do not wait for its warm-up
                 self._proc.terminate()
@@ -118,17 +134,57 @@ class PlotWorker:
         self.close()
 
 
-def _serve(conn: Connection) -> None:
-    """The child: ready matplotlib, wait for one job, draw it, send back the paths or the error."""
+#: How the three run plots are shared out: the map in the child, errors and histogram in the
+#: grandchild it forks once matplotlib is ready (each about half of the drawing), so both
+#: cores draw once the run is over.
+_SHARES: tuple[tuple[str, ...], ...] = (("map",), ("errors", "histogram"))
+
+
+def _serve(conns: list[Connection], parent_ends: list[Connection]) -> None:
+    """The child: ready matplotlib, fork one helper per further share, each draws its share of one job.
+
+    The parent's ends of the pipes, inherited through the fork, are closed first: once the
+    parent closes its own, a child waiting for a job then sees the end of the pipe and leaves.
+    """
+    for end in parent_ends:
+        end.close()
     try:
-        from agvnav.report.plots import warm_up, write_plots  # noqa: PLC0415  (the child's own imports)
+        from agvnav.report.plots import warm_up  # noqa: PLC0415  (the child's own imports)
 
         warm_up()
-        args = conn.recv()
+    except KeyboardInterrupt:
+        return
+    helpers: list[int] = []
+    mine = 0
+    for k in range(1, len(conns)):  # helpers forked from a warm, single-threaded process: nothing to import
+        pid = os.fork()
+        if pid == 0:
+            mine = k
+            helpers = []
+            break
+        helpers.append(pid)
+    for k, conn in enumerate(conns):
+        if k != mine:
+            conn.close()
+    try:
+        _draw_one(conns[mine], _SHARES[mine])
+    finally:
+        if mine:  # a helper: leave at once (no atexit handlers, no flushing of the parent's buffers)
+            os._exit(0)
+        for pid in helpers:
+            os.waitpid(pid, 0)
+
+
+def _draw_one(conn: Connection, share: tuple[str, ...]) -> None:
+    """Wait for one job on ``conn``, draw ``share`` of it, send back the paths or the error."""
+    from agvnav.report.plots import write_plots  # noqa: PLC0415
+
+    try:
+        job: dict[str, Any] = conn.recv()
     except (EOFError, OSError, KeyboardInterrupt):
         return
     try:
-        paths = write_plots(*args)
+        paths = write_plots(**job, only=share)
         conn.send(("ok", [str(p) for p in paths]))
     except Exception as exc:  # reported to the parent, which raises it
         conn.send(("error", f"{type(exc).__name__}: {exc}"))

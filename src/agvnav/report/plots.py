@@ -12,7 +12,7 @@ margins are fixed instead of measured by ``tight_layout`` (a second text layout 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +21,9 @@ from numpy.typing import NDArray
 
 from agvnav.geometry import lateral_position_error
 
-__all__ = ["plot_errors", "plot_map", "plot_positioning_histogram", "pyplot", "warm_up", "write_plots"]
+__all__ = [
+    "RUN_PLOTS", "plot_errors", "plot_map", "plot_positioning_histogram", "pyplot", "warm_up", "write_plots",
+]
 
 #: Titles sit at the top of their axes (``y`` given): matplotlib otherwise measures every tick
 #: label of the axis to lift the title clear of top-side decorations these plots never have,
@@ -170,6 +172,10 @@ def warm_up() -> None:
     fig.canvas.draw()
 
 
+#: The run plots :func:`write_plots` draws, in its order.
+RUN_PLOTS = ("map", "errors", "histogram")
+
+
 def write_plots(
     series: Mapping[str, NDArray[np.float64]],
     path_xy: NDArray[np.float64],
@@ -178,30 +184,38 @@ def write_plots(
     out_dir: str | Path,
     transient_end_s: float | None = None,
     title: str = "",
+    only: Collection[str] = RUN_PLOTS,
 ) -> list[Path]:
     """Write map.png, errors.png and positioning_histogram.png from a run's series.
 
     ``series`` needs ``t``, ``x_tracked``, ``y_tracked`` (the true tracked point), ``x``,
     ``y``, ``psi``, ``est_x``, ``est_y``, ``est_psi``, ``est_valid``, ``lateral_error``,
     ``heading_error`` (the columns the simulator records); with ``est_x_C``/``est_y_C``
-    the estimated path of the tracked point is drawn.
+    the estimated path of the tracked point is drawn. ``only`` names the plots to draw
+    (of :data:`RUN_PLOTS`: ``map``, ``errors``, ``histogram``); the paths come in that order.
     """
+    unknown = sorted(set(only) - set(RUN_PLOTS))
+    if unknown:
+        raise ValueError(f"unknown plots {unknown}; the run plots are {list(RUN_PLOTS)}")
     out_dir = Path(out_dir)
-    driven = np.column_stack([series["x_tracked"], series["y_tracked"]])
-    valid = series["est_valid"] > 0.5
-    true_pose = np.column_stack([series["x"], series["y"], series["psi"]])
-    est_pose = np.column_stack([series["est_x"], series["est_y"], series["est_psi"]])
-    if "est_x_C" in series:
-        est_c = np.column_stack([series["est_x_C"], series["est_y_C"]])
-        est_xy = est_c[valid] if np.any(valid) else None
-    else:
-        est_xy = est_pose[valid, :2] if np.any(valid) else None
-    e_lat = lateral_position_error(true_pose[valid], est_pose[valid])
-    return [
-        plot_map(path_xy, driven, reflector_xy, wall_segments, out_dir / "map.png", est_xy, title),
-        plot_errors(
+    written = []
+    if "map" in only:
+        driven = np.column_stack([series["x_tracked"], series["y_tracked"]])
+        valid = series["est_valid"] > 0.5
+        if "est_x_C" in series:
+            est_xy = np.column_stack([series["est_x_C"], series["est_y_C"]])[valid] if np.any(valid) else None
+        else:
+            est_xy = np.column_stack([series["est_x"], series["est_y"]])[valid] if np.any(valid) else None
+        written.append(plot_map(path_xy, driven, reflector_xy, wall_segments, out_dir / "map.png", est_xy, title))
+    if "errors" in only:
+        written.append(plot_errors(
             series["t"], series["lateral_error"], series["heading_error"], out_dir / "errors.png",
             transient_end_s, title,
-        ),
-        plot_positioning_histogram(e_lat, out_dir / "positioning_histogram.png", title),
-    ]
+        ))
+    if "histogram" in only:
+        valid = series["est_valid"] > 0.5
+        true_pose = np.column_stack([series["x"], series["y"], series["psi"]])
+        est_pose = np.column_stack([series["est_x"], series["est_y"], series["est_psi"]])
+        e_lat = lateral_position_error(true_pose[valid], est_pose[valid])
+        written.append(plot_positioning_histogram(e_lat, out_dir / "positioning_histogram.png", title))
+    return written
