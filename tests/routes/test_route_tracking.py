@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from routes_tiny_mission import run_tiny
 
-from agvnav.sim.mission import mission_figures, plan_mission, route_tracking, run_bounds
+from agvnav.sim.mission import mission_figures, near_line_curve_joints, plan_mission, route_tracking, run_bounds
 
 
 def synthetic_series(tmp_path: Path, offsets: dict[int, float]) -> tuple[dict[str, np.ndarray], object]:
     """A drive of the tiny mission exactly along its plan, the guided point ``offsets[run]`` m left of it."""
-    plan = plan_mission(run_tiny(tmp_path))  # type: ignore[arg-type]
+    plan = plan_mission(run_tiny(tmp_path))
     bounds = run_bounds(plan)
     s = np.concatenate([np.linspace(bounds[r], bounds[r + 1], 200) for r in range(len(bounds) - 1)])
     run = np.concatenate([np.full(200, r) for r in range(len(bounds) - 1)])
@@ -54,3 +54,14 @@ def test_a_projection_on_the_whole_path_would_jump(tmp_path: Path) -> None:
     s, lat = route_tracking(series, plan)  # type: ignore[arg-type]
     assert s[400:] == pytest.approx(series["s_est"][400:], abs=1e-9)
     assert np.abs(lat[401:599]) == pytest.approx(np.full(198, 0.1), abs=1e-9)
+
+
+def test_joint_windows_are_the_same_around_every_forward_line_curve_joint(tmp_path: Path) -> None:
+    # forward joints: A-B line -> B-C arc at s = 4, arc -> C-D line at s = 4 + pi; the run back is reverse
+    series, plan = synthetic_series(tmp_path, {1: 0.05})
+    j1, j2 = 4.0, 4.0 + math.pi
+    s = np.array([3.4, 3.6, 5.4, 5.6, j2 - 0.6, j2 - 0.4, j2 + 1.4, j2 + 1.6])
+    assert near_line_curve_joints(plan, s).tolist() == [False, True, True, False, False, True, True, False]  # type: ignore[arg-type]
+    assert near_line_curve_joints(plan, np.array([j1, j2])).all()  # type: ignore[arg-type]
+    fig = mission_figures(series, plan, [])  # type: ignore[arg-type]
+    assert fig["max_lateral_m.line_curve_joints"] == pytest.approx(0.05, abs=1e-9)  # C-D after the arc

@@ -67,6 +67,7 @@ __all__ = [
     "mission_duration",
     "mission_figures",
     "move_profile",
+    "near_line_curve_joints",
     "plan_mission",
     "route_tracking",
     "run_bounds",
@@ -760,13 +761,13 @@ def mission_figures(
         lat = np.abs(lateral[m])
         out[f"max_lateral_m.{name}"] = float(lat.max()) if lat.size else math.nan
         out[f"rms_lateral_m.{name}"] = float(np.sqrt(np.mean(lat**2))) if lat.size else math.nan
-    near = moving & _near_line_curve_joints(plan, s_route)
+    near = moving & near_line_curve_joints(plan, s_route)
     lat = np.abs(lateral[near])
     out["max_lateral_m.line_curve_joints"] = float(lat.max()) if lat.size else math.nan
     return out
 
 
-def _near_line_curve_joints(plan: MissionPlan, s: NDArray[np.float64], before: float = 0.5,
+def near_line_curve_joints(plan: MissionPlan, s: NDArray[np.float64], before: float = 0.5,
                             after: float = 1.5) -> NDArray[np.bool_]:
     """True where ``s`` lies from ``before`` m ahead of to ``after`` m past a joint between a line edge and an
     arc or clothoid edge driven forward (where a plain arc makes the steering jump)."""
