@@ -34,7 +34,8 @@ with clothoids.
 ``stops``: per station, the worst stop error over the seeds, as ``station mm/deg``.
 Targets (issue 14): every mission completes; stop error <= 10 mm and 0.5 deg. The differential
 AGV positions finely at standstill at each station (``sim.mission.FinePositioner``) and its
-stop is measured at rest after that; the tricycle's where the creep-in stopped it.
+stop is measured at rest after that; the tricycle's where the creep-in stopped it (it holds the
+station heading over the creep-in, ``guidance.approach.HeadingHoldApproach``).
 
 Last row: ``plan_ms``, the median time of 100 random station-to-station
 queries (20 with ``--quick``) on a generated 100 x 100 grid (10,000 nodes,
