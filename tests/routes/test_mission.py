@@ -31,7 +31,7 @@ def test_speed_limit_follows_its_definition() -> None:
 
 
 def test_tiny_mission_closed_loop(tmp_path: Path) -> None:
-    r = simulate(run_tiny(tmp_path))  # type: ignore[arg-type]
+    r = simulate(run_tiny(tmp_path))
     assert r.outcome == "completed", r.reason
     x = r.extra
     assert x["stations"] == 3
@@ -51,10 +51,10 @@ def test_tiny_mission_closed_loop(tmp_path: Path) -> None:
 
 def test_mission_errors_name_key_and_line(tmp_path: Path) -> None:
     with pytest.raises(ScenarioError) as info:
-        simulate(run_tiny(tmp_path, SCENARIO.replace("station: D}", "station: Z}")))  # type: ignore[arg-type]
+        simulate(run_tiny(tmp_path, SCENARIO.replace("station: D}", "station: Z}")))
     assert "tiny_mission.yaml:14: mission.jobs[1].station: unknown station 'Z'" in str(info.value)
     with pytest.raises(ScenarioError) as info:
-        simulate(run_tiny(tmp_path, SCENARIO.replace("- {action: goto, station: D}", "- {action: goto, station: A}")))  # type: ignore[arg-type]
+        simulate(run_tiny(tmp_path, SCENARIO.replace("- {action: goto, station: D}", "- {action: goto, station: A}")))
     assert "mission.jobs[1].station: no route to station 'A'" in str(info.value) and info.value.line == 14
     with pytest.raises(ScenarioError, match="mission replaces the path"):
         parse_scenario(SCENARIO + "path: {start: [0, 0, 0], segments: [{type: line, length_m: 1}]}\n")
