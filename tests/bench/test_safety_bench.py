@@ -120,3 +120,19 @@ def test_quick_bench_has_no_collision_beyond_the_design_distance():
     lanes = [r for r in rows if r["case"].startswith("lane")]
     assert all(r["avoided"] == r["runs"] and r["max_corridor_dev_m"] == 0.0 for r in lanes)
     assert np.all([r["collisions"] == 0 for r in lanes])
+
+
+def test_one_shipped_open_floor_map_for_the_bench_and_the_scenarios():
+    """``hall_open`` is the hall without the pillar, the rack and the pillar's reflectors; the bench and the two
+    safety scenarios on the open floor name it instead of carrying copies."""
+    from agvnav.world import builtin_map_names, load_builtin_map
+    from agvnav.world.scenario import builtin_scenario
+
+    assert "hall_open" in builtin_map_names()
+    hall, open_floor = load_builtin_map("hall"), load_builtin_map("hall_open")
+    assert [r.to_dict() for r in open_floor.reflectors] == [
+        r.to_dict() for r in hall.reflectors if not r.id.startswith("P")]
+    assert [w.to_dict() for w in open_floor.walls] == [w.to_dict() for w in hall.walls if w.id == "outer"]
+    assert safety.scenario_doc(safety._models()["differential"], None, 0)["map"] == "hall_open"
+    for name in ("safety_lane_obstacle", "safety_person_stepping_out"):
+        assert yaml.safe_load(builtin_scenario(name).read_text(encoding="utf-8"))["map"] == "hall_open"

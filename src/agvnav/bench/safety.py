@@ -4,8 +4,8 @@ Two vehicles at a cruise of 1 m/s (assumptions: an indoor AGV's and an unladen s
 speed), braking at 0.5 m/s², positioned by the goniometer and the EKF, with a safety scanner
 (270°, 0.5°, 25 Hz, 1 cm noise) in front: the differential AGV of ``safety_person_crossing``
 and the seed-000 tricycle stacker (``guidance_test``'s vehicle, tracked point C). They drive
-the open floor of the hall (its outer walls and wall reflectors; the pillar and the rack
-removed: the approach fields reach 4.1 m either side of the path at 1 m/s, and a wall inside
+the open floor of the hall (the shipped map ``hall_open``: its outer walls and wall reflectors; the
+pillar and the rack removed: the approach fields reach 4.1 m either side of the path at 1 m/s, and a wall inside
 them stops the vehicle, as it would a real one). The fields follow the design rule of
 :mod:`agvnav.reactive.fields` (ISO 13855 ``S = K T + C``): the strip ``H`` the vehicle sweeps
 while it stops (``D = v t_r + v²/(2a) + C = 1.6 m`` long with ``t_r = 0.3 s``, ``C = 0.3 m``,
@@ -61,7 +61,6 @@ from numpy.typing import NDArray
 from agvnav.reactive import ISO13855_K_M_S, approach_clearance, approach_reach, stopping_distance
 from agvnav.sim import simulate
 from agvnav.sim.build import build
-from agvnav.world import builtin_map
 from agvnav.world.scenario import builtin_scenario, parse_scenario
 
 TITLE = "Reactive safety: people stepping out across the path, a pallet in the lane (truth-judged; issue 18)"
@@ -106,12 +105,8 @@ class Model:
     footprint: tuple[tuple[float, float], ...]  # body polygon in base_link (m)
 
 
-@functools.lru_cache(maxsize=1)
-def open_floor() -> dict[str, Any]:
-    """The hall's open floor as an inline map: its outer walls and the reflectors on them."""
-    hall = yaml.safe_load(builtin_map("hall").read_text(encoding="utf-8"))
-    return {"reflectors": [r for r in hall["reflectors"] if not str(r["id"]).startswith("P")],
-            "walls": [w for w in hall["walls"] if w["id"] == "outer"]}
+#: The shipped map the bench drives: the hall's open floor (``hall`` without the pillar and the rack).
+MAP = "hall_open"
 
 
 @functools.lru_cache(maxsize=1)
@@ -202,7 +197,7 @@ def _base_doc(model: Model, seed: int) -> dict[str, Any]:
         "name": f"safety_{model.name}", "seed": seed, "step_s": 0.05,
         "vehicle": model.vehicle,
         "traction": {"speed_m_s": CRUISE_M_S, "max_accel_m_s2": DECEL_M_S2, "max_decel_m_s2": DECEL_M_S2},
-        "positioning": {"method": "ekf"}, "map": open_floor(),
+        "positioning": {"method": "ekf"}, "map": MAP,
         "scanner": {"fov_deg": 270.0, "step_deg": 0.5, "max_range_m": 10.0, "noise_std_m": 0.01, "rate_hz": 25.0},
         **model.extra,
     }
