@@ -9,6 +9,7 @@ import shapely
 from shapely.geometry import Polygon
 
 from agvnav.reactive import (
+    FieldConfig,
     approach_clearance,
     approach_field,
     approach_reach,
@@ -96,6 +97,25 @@ def test_warning_field_is_the_protective_one_swept_ahead_and_the_creep_set_is_th
     creep_len = 0.3 * 0.3 + 0.09 / 1.0 + 0.3
     np.testing.assert_allclose(cfg.creep.protective, field_rectangle(BODY, creep_len, 0.1), atol=1e-12)
 
+
+
+def test_a_reversing_detour_never_gets_the_forward_creep_set():
+    """The creep set lies ahead of the body: reversing selects the reverse creep set, or the reverse bands."""
+    cfg = generate_fields(BODY, 1.0, 0.5, 0.3, margin=0.3, bands=1, reverse=True, creep_speed=0.3)
+    assert cfg.select(0.3, 1, creep=True) is cfg.creep and cfg.creep.direction == 1
+    back = cfg.select(-0.3, -1, creep=True)
+    assert back is cfg.creep_reverse and back.direction == -1
+    assert cfg.select(-0.3, creep=True) is back  # direction from the sign of v
+    np.testing.assert_allclose(back.protective, field_rectangle(BODY, 0.3 * 0.3 + 0.09 + 0.3, 0.1, -1), atol=1e-12)
+    assert Polygon(back.protective).bounds[2] < 0.0  # wholly behind base_link
+    # a configuration without a reverse creep set: the reverse band, not the forward creep set
+    fwd_creep = generate_fields(BODY, 1.0, 0.5, 0.3, margin=0.3, bands=1, creep_speed=0.3).creep
+    no_rev = FieldConfig(cfg.sets, fwd_creep)
+    assert no_rev.select(-0.3, -1, creep=True) is next(s for s in cfg.sets if s.direction == -1)
+    with pytest.raises(ValueError, match="direction"):
+        cfg.select(0.3, 0, creep=True)
+    with pytest.raises(ValueError, match="creep set must be a forward"):
+        FieldConfig(cfg.sets, back)
 
 def test_reverse_fields_mirror_the_forward_ones():
     cfg = generate_fields(BODY, 1.0, 0.5, 0.3, margin=0.3, bands=1, reverse=True)

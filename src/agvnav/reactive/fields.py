@@ -33,7 +33,9 @@ warning time). A set holds for ``|v|`` up to its band's top speed; the fields of
 faster band contain those of a slower one. An optional *creep* set (``creep_speed``)
 is the ``K = 0`` rectangle at a low speed, for a local avoidance manoeuvre that passes
 a static obstacle closer than any approach field allows (a stated limit: a person
-stepping in from the side during a detour is not covered by the ``K T`` rule).
+stepping in from the side during a detour is not covered by the ``K T`` rule); with
+``reverse`` a mirrored one behind the body (``creep_reverse``). Reversing on a detour never
+gets the forward creep set: without a reverse creep set the reverse bands apply.
 """
 
 from __future__ import annotations
@@ -179,22 +181,33 @@ class FieldSet:
 @dataclass(frozen=True)
 class FieldConfig:
     """The field sets of one scanner, selected by speed and direction (:meth:`select`); ``creep`` the
-    optional set of a local avoidance manoeuvre (see the module docstring)."""
+    optional forward set of a local avoidance manoeuvre, ``creep_reverse`` its reverse one (see the module
+    docstring)."""
 
     sets: tuple[FieldSet, ...]
     creep: FieldSet | None = None
+    creep_reverse: FieldSet | None = None
 
     def __post_init__(self) -> None:
         if not self.sets:
             raise ValueError("a field configuration needs at least one field set")
+        if self.creep is not None and self.creep.direction != 1:
+            raise ValueError(f"the creep set must be a forward set (direction 1), got {self.creep.direction}")
+        if self.creep_reverse is not None and self.creep_reverse.direction != -1:
+            raise ValueError(f"the reverse creep set must be a reverse set (direction -1), "
+                             f"got {self.creep_reverse.direction}")
 
     def select(self, v: float, direction: int | None = None, creep: bool = False) -> FieldSet:
         """The set for speed ``v`` (m/s, signed): the slowest band whose ``v_max >= |v|`` in the direction
         of ``v`` (``direction`` when given, else forward at standstill); the fastest band beyond all.
-        ``creep`` (a detour driven at most at the creep set's speed): the creep set, when there is one."""
-        if creep and self.creep is not None and abs(v) <= self.creep.v_max + 1e-12:
-            return self.creep
+        ``creep`` (a detour driven at most at the creep set's speed): the creep set of that direction, when
+        there is one (reversing: ``creep_reverse``; never the forward set, whose fields lie ahead of the body)."""
         d = direction if direction is not None else (-1 if v < 0.0 else 1)
+        if d not in (1, -1):
+            raise ValueError(f"direction must be +1 (forward) or -1 (reverse), got {direction!r}")
+        slow = self.creep if d == 1 else self.creep_reverse
+        if creep and slow is not None and abs(v) <= slow.v_max + 1e-12:
+            return slow
         sets = [s for s in self.sets if s.direction == d] or list(self.sets)
         speed = abs(v)
         fitting = [s for s in sets if s.v_max >= speed - 1e-12]
@@ -249,7 +262,8 @@ def generate_fields(
     ahead. ``approach_speed`` K (m/s, default ISO 13855's 1.6; 0: the plain stopping-distance rectangles).
     ``protective_length``/``warning_length`` (m) fix one rectangular set per direction instead (no
     approach term). ``reverse``: mirrored sets behind the body for reversing. ``creep_speed`` (m/s): also a
-    ``K = 0`` set for a local avoidance manoeuvre driven at most that fast (:meth:`FieldConfig.select`).
+    ``K = 0`` set for a local avoidance manoeuvre driven at most that fast (:meth:`FieldConfig.select`), and
+    with ``reverse`` its mirror behind the body.
     """
     if not (math.isfinite(approach_speed) and approach_speed >= 0.0):
         raise ValueError(f"approach_speed must be >= 0 and finite, got {approach_speed!r}")
@@ -276,11 +290,14 @@ def generate_fields(
             p_len = float(stopping_distance(v, reaction_time, decel, margin))
             reach = approach_reach(v, reaction_time, decel, approach_speed)
             sets.append(_field_set(footprint, v, d, p_len, v * warning_time, lateral_margin, reach))
-    creep = None
+    creep = creep_reverse = None
     if creep_speed is not None:
         p_len = float(stopping_distance(creep_speed, reaction_time, decel, margin))
         creep = _field_set(footprint, creep_speed, 1, p_len, creep_speed * warning_time, lateral_margin, 0.0)
-    return FieldConfig(tuple(sets), creep)
+        if reverse:
+            creep_reverse = _field_set(footprint, creep_speed, -1, p_len, creep_speed * warning_time,
+                                       lateral_margin, 0.0)
+    return FieldConfig(tuple(sets), creep, creep_reverse)
 
 
 def intrusions(points: ArrayLike, polygon: ArrayLike) -> NDArray[np.bool_]:
