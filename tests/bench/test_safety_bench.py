@@ -76,15 +76,35 @@ def test_summary_counts_and_zones():
         {"outcome": "collision", "collision": True, "min_clearance_m": 0.0, "result": "collision", "stops": 1,
          "t_end": 9.0, "completed": False, "corridor_dev_m": math.nan},
     ]
-    row = safety.summarise("differential", "person", "inside", 0.8, runs, baseline=18.0, reach=3.68)
+    baselines = [{"t_end": 18.0, "completed": True}, {"t_end": 17.0, "completed": True}]
+    row = safety.summarise("differential", "person", "inside", 0.8, runs, baselines, reach=3.68)
     assert row["runs"] == 2 and row["collisions"] == 1 and row["min_clearance_m"] == 0.0
     assert row["stops"] == 1.0 and row["avoided"] == 0 and row["time_lost_s"] == pytest.approx(2.0)
+    with pytest.raises(ValueError, match="one baseline per run"):
+        safety.summarise("differential", "person", "inside", 0.8, runs, baselines[:1], reach=3.68)
     assert row["max_corridor_dev_m"] is None and row["reach_m"] == 3.68
     assert row["outcomes"] == "collision 1, completed 1"
     beyond = dict(row, zone="beyond", collisions=0, appear_m=3.7)
     closing = safety.summary_rows([row, beyond])
     assert [r["case"] for r in closing] == ["ALL at/beyond the designed distance", "ALL inside the designed distance"]
     assert [r["collisions"] for r in closing] == [0, 1] and [r["runs"] for r in closing] == [2, 2]
+
+
+def _fake_run(model_name, case, seed, obstacle=True):
+    """A stand-in for one run: completion at 100 + 10 seed s, 5 s later with the obstacle."""
+    return {"outcome": "completed", "collision": False, "min_clearance_m": 0.5, "result": "stop", "stops": 1,
+            "t_end": 100.0 + 10.0 * seed + (5.0 if obstacle else 0.0), "completed": True,
+            "corridor_dev_m": math.nan, "seed": seed, "obstacle": obstacle}
+
+
+def test_time_lost_compares_each_run_with_the_same_seed_without_the_obstacle(monkeypatch):
+    """Every seed gets its own baseline: the time lost is 5 s in every row, whatever the seeds' own times."""
+    monkeypatch.setattr(safety, "run_one", _fake_run)
+    monkeypatch.setattr(safety.os, "cpu_count", lambda: 1)  # in-process, so the stand-in is used
+    rows = safety.run(quick=True, seed=3)
+    cases = [r for r in rows if r["model"] != "all"]
+    assert len(cases) == 2 * (len(safety.person_cases(True)) + 1) and all(r["runs"] == 2 for r in cases)
+    assert [r["time_lost_s"] for r in rows] == pytest.approx([5.0] * len(rows))
 
 
 def _case_135(approach: float):

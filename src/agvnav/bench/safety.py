@@ -37,10 +37,11 @@ Cases:
 
 Records per (model, case) over 20 seeds (2 with ``--quick``): ``collisions``,
 ``min_clearance_m`` (smallest over the runs), ``stops`` (mean per run), ``avoided`` (runs whose
-encounter ended in a detour), ``time_lost_s`` (mean completion time minus that of the same
-run without the obstacle), ``max_corridor_dev_m`` (lane), ``appear_m`` (the person's distance
-to the swept strip at appearance), ``reach_m`` (``K T``), ``outcomes``. Two summary rows close
-the table: every case at/beyond the designed distance, and every case inside it.
+encounter ended in a detour), ``time_lost_s`` (mean over the completed runs of each run's
+completion time minus that of the same run without the obstacle: same seed, obstacle removed; one
+baseline run per seed), ``max_corridor_dev_m`` (lane), ``appear_m`` (the person's distance to the
+swept strip at appearance), ``reach_m`` (``K T``), ``outcomes``. Two summary rows close the table:
+every case at/beyond the designed distance, and every case inside it.
 """
 
 from __future__ import annotations
@@ -275,10 +276,14 @@ def _finite(values: list[float]) -> list[float]:
 
 
 def summarise(model: str, case: str, zone: str, appear: float | None, runs: list[dict[str, Any]],
-              baseline: float, reach: float | None = None) -> dict[str, Any]:
-    """One table row from the runs of one (model, case); ``baseline`` the completion time without the obstacle."""
+              baselines: list[dict[str, Any]], reach: float | None = None) -> dict[str, Any]:
+    """One table row from the runs of one (model, case); ``baselines[i]`` the run of ``runs[i]``'s seed without
+    the obstacle (time lost: each completed run's time minus its own baseline's; runs whose baseline did not
+    complete are left out)."""
+    if len(baselines) != len(runs):
+        raise ValueError(f"one baseline per run: {len(runs)} runs, {len(baselines)} baselines")
     clear = _finite([r["min_clearance_m"] for r in runs])
-    lost = [r["t_end"] - baseline for r in runs if r["completed"]]
+    lost = [r["t_end"] - b["t_end"] for r, b in zip(runs, baselines, strict=True) if r["completed"] and b["completed"]]
     dev = _finite([r["corridor_dev_m"] for r in runs])
     return {
         "model": model,
@@ -307,7 +312,8 @@ def run(quick: bool = False, seed: int = 0, progress: Callable[[int, int], None]
     # the zones, from the design rule and the case geometry, before any run
     zones = ["-" if c is None else zone_of(_models()[m], c[2], c[3], appear_lead(_models()[m], c[2], c[3], c[1]))
              for m, c in rows]
-    tasks = [(m, c, seed + k, True) for m, c in rows for k in range(n)] + [(m, c, seed, False) for m, c in rows]
+    # each run, then the same run without the obstacle (same seed) for its time lost
+    tasks = [(m, c, seed + k, obstacle) for obstacle in (True, False) for m, c in rows for k in range(n)]
     workers = max(1, min(len(tasks), os.cpu_count() or 1))
     results: list[dict[str, Any]] = []
     if workers > 1:
@@ -324,14 +330,14 @@ def run(quick: bool = False, seed: int = 0, progress: Callable[[int, int], None]
     base = results[len(rows) * n:]
     out = []
     for i, (m, c) in enumerate(rows):
-        runs = results[i * n:(i + 1) * n]
+        runs, baselines = results[i * n:(i + 1) * n], base[i * n:(i + 1) * n]
         if c is None:
-            out.append(summarise(m, "lane: pallet, avoid", "-", None, runs, base[i]["t_end"]))
+            out.append(summarise(m, "lane: pallet, avoid", "-", None, runs, baselines))
         else:
             model = _models()[m]
             lead = appear_lead(model, c[2], c[3], c[1])
             out.append(summarise(m, c[0], zones[i], appear_distance(model, c[2], c[3], lead), runs,
-                                 base[i]["t_end"], design_reach()))
+                                 baselines, design_reach()))
     return out + summary_rows(out)
 
 
