@@ -12,9 +12,18 @@ machine code) costs about 0.7 s of CPU once per process, more than the whole def
 closed loop (26 s simulated) spends in the kernels run as plain Python. So a process
 picks a mode once (:func:`set_compiled`): compiled for campaigns, benchmarks and long
 runs, interpreted for one short ``agvnav simulate``. Both modes run the same source
-operation for operation (IEEE double, no fastmath, the same ``math`` functions from the
-C library), so a seeded run gives the same numbers in either;
-``tests/test_twins.py`` checks every kernel's two modes bit for bit.
+operation for operation (IEEE double, no fastmath, no contraction to fused multiply-adds),
+so a seeded run gives the same numbers in either; ``tests/test_jit.py`` checks every
+kernel's two modes bit for bit on 1e5 random inputs. That holds only for functions both
+modes take from the same place or that are correctly rounded: ``+ - * /``, ``math.sqrt``,
+``abs``, ``min``/``max``, ``%`` and ``np.fmod`` (exact), and ``math.sin``, ``cos``,
+``asin`` and ``atan2``, which CPython and numba both take from the C library. A kernel
+must not use ``math.hypot`` (CPython 3.10+ has its own algorithm, numba calls libm's:
+they differ in the last bit on about 0.6 % of pairs; write ``math.sqrt(dx * dx + dy * dy)``),
+``**`` / ``math.pow`` with a non-integer exponent, ``math.fma`` (none in numba), nor NumPy
+reductions (``np.sum`` sums pairwise in NumPy and in order in numba). One difference stays
+by design: where ``math`` raises ``ValueError`` on a non-finite or out-of-domain argument
+(``cos(inf)``, ``sqrt(-1)``), a compiled kernel returns NaN; the kernels' inputs are finite.
 
 The mode is ``AGVNAV_JIT=0`` / ``1`` from the environment when set, else compiled unless
 a caller said otherwise (:func:`set_compiled`). numba is never imported by
@@ -81,13 +90,14 @@ def set_compiled_for_run(sim_seconds: float, reflectors: int) -> bool:
 
     Interpreted when the kernels' estimated extra cost as plain Python stays below numba's
     start-up (:data:`COMPILED_STARTUP_S`), compiled otherwise; sets it (:func:`set_compiled`)
-    and returns whether compiled. The numbers are the same either way; only time differs.
+    and returns whether the kernels now run compiled (:func:`compiled`: ``AGVNAV_JIT`` wins).
+    The numbers are the same either way; only time differs.
     """
     if sim_seconds < 0.0 or reflectors < 0:
         raise ValueError(f"sim_seconds {sim_seconds} and reflectors {reflectors} must be >= 0")
     on = sim_seconds * max(reflectors, 1) * INTERPRETED_S_PER_REFLECTOR_S > COMPILED_STARTUP_S
     set_compiled(on)
-    return on
+    return compiled()  # the mode in force: AGVNAV_JIT in the environment wins over the estimate
 
 
 def kernels() -> tuple[Kernel, ...]:
