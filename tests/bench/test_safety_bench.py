@@ -90,11 +90,48 @@ def test_summary_counts_and_zones():
     assert [r["collisions"] for r in closing] == [0, 1] and [r["runs"] for r in closing] == [2, 2]
 
 
+@pytest.mark.parametrize("model", ["differential", "tricycle"])
+def test_the_true_appearance_distance_from_the_pose(model):
+    """On the nominal pose it is the case's ratio x K T; a vehicle 0.2 m ahead of the nominal is closer (below
+    K T at 1.0 K T); the distance does not depend on how the map is turned."""
+    m = safety._models()[model]
+    case = next(c for c in safety.person_cases(False) if c[1] == 1.0 and c[2] == 90.0)
+    doc = safety.scenario_doc(m, case, 0)
+    person = doc["obstacles"][0]
+    t_a, p = person["start_s"], tuple(person["path"][0])
+    nominal = (_nominal_base(doc, t_a, m), safety.PATH_Y_M, 0.0)
+    kt = safety.design_reach()
+    assert safety.appear_distance_at(m, p, nominal) == pytest.approx(kt, abs=1e-6)
+    ahead = safety.appear_distance_at(m, p, (nominal[0] + 0.2, nominal[1], 0.0))
+    # square across: the person is beside the strip's far end plus K T; 0.2 m more along x brings it closer
+    rel = np.array([p[0] - nominal[0] - 0.2, p[1] - nominal[1]])
+    dx = max(rel[0] - (m.front + safety.design_distance()), 0.0)
+    dy = abs(rel[1]) - (m.half_width + safety.LATERAL_MARGIN_M)
+    assert ahead == pytest.approx(math.hypot(dx, dy) - safety.PERSON_RADIUS_M, abs=1e-9) and ahead < kt
+    # the same relative placement with the map turned by 90 degrees
+    turned = safety.appear_distance_at(m, (-rel[1], rel[0]), (0.0, 0.0, math.pi / 2))
+    assert turned == pytest.approx(ahead, abs=1e-9)
+
+
+def test_rows_report_the_true_appearance_distance_and_the_runs_below_the_design():
+    run = {"outcome": "completed", "collision": False, "min_clearance_m": 0.4, "result": "stop", "stops": 1,
+           "t_end": 20.0, "completed": True, "corridor_dev_m": math.nan}
+    runs = [dict(run, appear_dist_m=3.70), dict(run, appear_dist_m=3.675), dict(run, appear_dist_m=3.68)]
+    base = [{"t_end": 18.0, "completed": True}] * 3
+    row = safety.summarise("differential", "person", "beyond", 3.68, runs, base, reach=3.68)
+    assert row["appear_dist_min_m"] == pytest.approx(3.675) and row["runs_below_design"] == 1
+    lane = safety.summarise("differential", "lane", "-", None, [dict(run, appear_dist_m=math.nan)], base[:1])
+    assert lane["appear_dist_min_m"] is None and lane["runs_below_design"] is None
+    closing = safety.summary_rows([row, dict(row, appear_dist_min_m=3.9, runs_below_design=2), lane])
+    assert closing[0]["appear_dist_min_m"] == pytest.approx(3.675) and closing[0]["runs_below_design"] == 3
+    assert closing[1]["appear_dist_min_m"] is None and closing[1]["runs_below_design"] == 0
+
+
 def _fake_run(model_name, case, seed, obstacle=True):
     """A stand-in for one run: completion at 100 + 10 seed s, 5 s later with the obstacle."""
     return {"outcome": "completed", "collision": False, "min_clearance_m": 0.5, "result": "stop", "stops": 1,
             "t_end": 100.0 + 10.0 * seed + (5.0 if obstacle else 0.0), "completed": True,
-            "corridor_dev_m": math.nan, "seed": seed, "obstacle": obstacle}
+            "corridor_dev_m": math.nan, "appear_dist_m": 4.0 if obstacle and case is not None else math.nan}
 
 
 def test_time_lost_compares_each_run_with_the_same_seed_without_the_obstacle(monkeypatch):
@@ -156,3 +193,11 @@ def test_one_shipped_open_floor_map_for_the_bench_and_the_scenarios():
     assert safety.scenario_doc(safety._models()["differential"], None, 0)["map"] == "hall_open"
     for name in ("safety_lane_obstacle", "safety_person_stepping_out"):
         assert yaml.safe_load(builtin_scenario(name).read_text(encoding="utf-8"))["map"] == "hall_open"
+
+
+@pytest.mark.slow
+def test_a_run_records_its_true_appearance_distance_near_the_nominal():
+    case = next(c for c in safety.person_cases(True) if c[1] == 1.0)
+    rec = safety.run_one("differential", case, 0)
+    assert rec["appear_dist_m"] == pytest.approx(safety.design_reach(), abs=0.1) and rec["appear_dist_m"] != 3.68
+    assert math.isnan(safety.run_one("differential", None, 0, obstacle=False)["appear_dist_m"])
