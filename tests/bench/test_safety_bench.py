@@ -88,6 +88,9 @@ def test_summary_counts_and_zones():
     closing = safety.summary_rows([row, beyond])
     assert [r["case"] for r in closing] == ["ALL at/beyond the designed distance", "ALL inside the designed distance"]
     assert [r["collisions"] for r in closing] == [0, 1] and [r["runs"] for r in closing] == [2, 2]
+    # a crossing that ended in a detour (avoidance allowed there) counts in its summary row
+    swerved = safety.summary_rows([row, dict(beyond, avoided=2), dict(beyond, avoided=1)])
+    assert [r["avoided"] for r in swerved] == [3, 0] and swerved[0]["runs"] == 4
 
 
 @pytest.mark.parametrize("model", ["differential", "tricycle"])

@@ -394,7 +394,8 @@ def summary_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "runs_below_design": sum(r.get("runs_below_design") or 0 for r in sel), "reach_m": None,
             "runs": sum(r["runs"] for r in sel), "collisions": sum(r["collisions"] for r in sel),
             "min_clearance_m": min(clear) if clear else None,
-            "stops": float(np.mean([r["stops"] for r in sel])) if sel else None, "avoided": 0,
+            "stops": float(np.mean([r["stops"] for r in sel])) if sel else None,
+            "avoided": sum(r["avoided"] for r in sel),
             "time_lost_s": float(np.mean(lost)) if lost else None, "max_corridor_dev_m": None, "outcomes": "",
         })
     return out
