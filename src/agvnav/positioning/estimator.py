@@ -619,6 +619,12 @@ class StreamingEstimator:
         of the visible ones down the aisle, so half of each revolution is ambiguous there;
         counting those inflated ``P`` x4 per 1.5 revolutions until the verdict was ``lost``
         with the estimate 6 mm from the truth.
+
+        An inflation makes the monitor's verdict ``degraded`` at once
+        (:meth:`~agvnav.positioning.integrity.IntegrityMonitor.flag`): the differential AGV
+        whose encoders dropped out (zero increments while it drove on, so ``Q = 0`` and ``P``
+        shrank) stood 14-25 cm and 160 mrad off while "tracking" for 1.05 s, the gates
+        rejecting and the inflations following, before the once-a-revolution check caught up.
         """
         window = 1.5 / self.rate_hz
         recent = self._recent
@@ -632,6 +638,7 @@ class StreamingEstimator:
         if n_bad >= 4 and 2 * n_ok < n_bad and room:
             self._P_t = tuple(4.0 * v for v in self._P_t)
             self.n_inflations += 1
+            self.monitor.flag(t, "lockout")  # not trustworthy until the gates admit the reflectors again
             recent.clear()
             self._recent_ok = 0
 
