@@ -45,5 +45,7 @@ def test_avoidance_needs_a_corridor():
 
 
 def test_a_bad_obstacle_entry_names_its_key_and_line():
-    with pytest.raises(ScenarioError, match=r"lane.yaml:49: obstacles\[0\]: give either position"):
+    text = builtin_scenario("safety_lane_obstacle").read_text(encoding="utf-8")
+    line = next(i for i, s in enumerate(text.splitlines(), 1) if "id: pallet" in s)  # the entry's line
+    with pytest.raises(ScenarioError, match=rf"lane.yaml:{line}: obstacles\[0\]: give either position"):
         _lane(**{"position: [13.0, 8.0]}": "}"})
