@@ -10,9 +10,13 @@
 * :mod:`.follower` - the path-follower role (``PathFollower``), its failures
   (``GuidanceError``, ``InfeasiblePathError``) and errors (``FollowErrors``);
 * :mod:`.steered`, :mod:`.unicycle`, :mod:`.holonomic` - followers per family;
-* :mod:`.followers` - ``FOLLOWERS``, ``make_follower``, ``check_path_feasible``.
+* :mod:`.followers` - ``FOLLOWERS``, ``make_follower``, ``check_path_feasible``;
+* :mod:`.approach` - ``HeadingHoldApproach``, a steered station approach holding the heading;
+* :mod:`.fine_positioning` - ``FinePositioner``, ``move_profile``: a spot-turning vehicle's
+  corrections at standstill after a station stop.
 """
 
+from agvnav.guidance.approach import HeadingHoldApproach
 from agvnav.guidance.baselines import (
     MAX_STEERING_RAD,
     lookahead_for_distance,
@@ -44,6 +48,7 @@ from agvnav.guidance.errors import (
     tracking_errors,
     tracking_errors_scalar,
 )
+from agvnav.guidance.fine_positioning import FinePositioner, move_profile
 from agvnav.guidance.follower import (
     FAMILIES,
     FollowErrors,
@@ -118,10 +123,12 @@ __all__ = [
     "SETTLING_FRACTION",
     "SIMPLE_FORMS",
     "ArcSegment",
+    "FinePositioner",
     "FollowErrors",
     "GeneralGains",
     "GuidanceController",
     "GuidanceError",
+    "HeadingHoldApproach",
     "HolonomicFollower",
     "InfeasiblePathError",
     "KanayamaGains",
@@ -167,6 +174,7 @@ __all__ = [
     "make_follower",
     "min_turning_radius",
     "modal_response",
+    "move_profile",
     "path_from_moves",
     "point_c",
     "poles_for_convergence",

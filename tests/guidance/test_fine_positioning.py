@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from agvnav.sim.mission import FinePositioner, move_profile
+from agvnav.guidance import FinePositioner, move_profile
 
 DT = 0.05
 TAU = 1.0  # s, the estimate's error decay at standstill
