@@ -10,12 +10,16 @@ positioning waits for the estimate to settle, drives one correction and ends wit
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from agvnav.guidance import FinePositioner, move_profile
+from agvnav.guidance.fine_positioning import stopping_rate
 
 DT = 0.05
 TAU = 1.0  # s, the estimate's error decay at standstill
@@ -103,6 +107,64 @@ def test_move_profile_commands_exactly_the_move() -> None:
     assert sum(turn) * DT == pytest.approx(-1.05, abs=1e-12)
     assert min(turn) == pytest.approx(-0.3) and turn[0] == pytest.approx(-0.06)  # up at 1.2 rad/s^2
     assert move_profile(0.0, 0.3, 1.2, DT) == []
+
+
+def _steps(rates: list[float]) -> list[float]:
+    r = [0.0, *rates, 0.0]  # from rest, and at rest after the last step
+    return [abs(b - a) for a, b in itertools.pairwise(r)]
+
+
+def test_move_profile_brakes_within_the_acceleration_limit() -> None:
+    # 9 mrad at peak 0.3 rad/s, 1.2 rad/s^2: the continuous bound sqrt(2 a left) let the step before
+    # the remainder be 0.12 rad/s and the remainder 0.0 -> the old profile braked at 2.4 rad/s^2
+    rates = move_profile(0.009, 0.3, 1.2, DT)
+    assert max(_steps(rates)) / DT <= 1.2 * (1.0 + 1e-9)
+    # known answer: 0.06 up; from 0.12 left the stopping rate is 0.12 / 2 + 0.06 / 2; then the 0.03 left
+    assert rates == pytest.approx([0.06, 0.09, 0.03], rel=1e-12)
+    # a triangle of whole steps: 0.06 + 0.12 + 0.06 = 0.24 rad/s over 0.05 s is 12 mrad
+    assert move_profile(0.012, 0.3, 1.2, DT) == pytest.approx([0.06, 0.12, 0.06])
+
+
+def test_stopping_rate_is_the_exact_discrete_bound() -> None:
+    step = 0.06
+    for k in range(1, 8):  # whole steps: the closed form step (sqrt(1/4 + 2 left / step) - 1/2)
+        left = step * k * (k + 1) / 2
+        assert stopping_rate(left, step) == pytest.approx(k * step, rel=1e-12)
+        assert stopping_rate(left, step) == pytest.approx(step * (math.sqrt(0.25 + 2 * left / step) - 0.5))
+    left = 0.2  # between 0.18 (k = 2) and 0.36 (k = 3): r = left / 3 + step
+    r = stopping_rate(left, step)
+    assert r == pytest.approx(0.2 / 3 + 0.06, rel=1e-12)
+    assert r + (r - step) + (r - 2 * step if r > 2 * step else 0.0) == pytest.approx(left)  # brakes exactly on left
+    assert stopping_rate(0.0, step) == 0.0
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    amount=st.floats(-2.0, 2.0, allow_nan=False),
+    peak=st.floats(0.02, 1.0),
+    accel=st.floats(0.01, 5.0),
+    dt=st.sampled_from([0.01, 0.02, 0.05, 0.1]),
+)
+def test_move_profile_properties(amount: float, peak: float, accel: float, dt: float) -> None:
+    rates = move_profile(amount, peak, accel, dt)
+    assert sum(rates) * dt == pytest.approx(amount, abs=1e-12 + 1e-12 * abs(amount))  # the integral is the move
+    if rates:
+        assert max(_steps(rates)) / dt <= accel * (1.0 + 1e-9)  # every step, the first and the stop included
+        assert max(abs(r) for r in rates) <= peak
+        assert all(r * amount > 0.0 for r in rates)  # one direction, no reversing
+        assert abs(rates[-1]) <= accel * dt * (1.0 + 1e-9)  # ends at rest
+
+
+def test_move_profile_bad_input() -> None:
+    for kwargs, name in (({"peak": 0.0}, "peak"), ({"peak": -0.3}, "peak"), ({"accel": 0.0}, "accel"),
+                         ({"dt": math.nan}, "dt")):
+        args = {"amount": 0.5, "peak": 0.3, "accel": 1.2, "dt": DT} | kwargs
+        with pytest.raises(ValueError, match=name):
+            move_profile(**args)
+    with pytest.raises(ValueError, match="amount"):
+        move_profile(math.inf, 0.3, 1.2, DT)
+    with pytest.raises(ValueError, match="steps"):
+        move_profile(1e6, 0.001, 1.2, DT)
 
 
 class _LaggingVehicle(_Vehicle):

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from agvnav.geometry import wrap_angle_scalar
 
-__all__ = ["FinePositioner", "move_profile"]
+__all__ = ["MAX_MOVE_STEPS", "FinePositioner", "move_profile", "stopping_rate"]
 
 
 class FinePositioner:
@@ -246,17 +246,59 @@ class FinePositioner:
         return self.command_pose(pose, dt)
 
 
+#: Most steps :func:`move_profile` plans (a move beyond it is a parameter error, not a fine correction).
+MAX_MOVE_STEPS = 1_000_000
+
+
+def stopping_rate(left: float, step: float) -> float:
+    """The largest rate (per s) from which a move held ``dt`` s per step can still stop exactly on ``left``.
+
+    ``left`` is what is left to move divided by ``dt`` (the sum of the remaining rates, m/s or rad/s),
+    ``step`` the largest change of rate per step (``accel * dt``). From a rate ``r = n step``
+    the shortest stop drives ``r, r - step, r - 2 step, ...`` while positive and then rests,
+    whose sum is ``f(r) = r + sum_j max(r - j step, 0) = step k (n - (k - 1) / 2)`` with
+    ``k = ceil(n)``; any sum above it is reachable too (rates may dwell before braking).
+    So the bound is ``f^-1(left)``: with ``k`` the least integer with ``k (k + 1) / 2 >= left / step``,
+    ``r = left / k + (k - 1) step / 2``. It equals the continuous-looking bound
+    ``step (sqrt(1/4 + 2 left / step) - 1/2)`` at whole ``k`` and lies below it in between
+    (by ``step (k - n)(n + 1 - k) / (2 k)``), where that one would leave a last step
+    more than ``step`` below its predecessor (or past the target).
+    """
+    if left <= 0.0:
+        return 0.0
+    q = left / step
+    k = max(1, math.ceil(0.5 * (math.sqrt(1.0 + 8.0 * q) - 1.0)))
+    while k > 1 and (k - 1) * k >= 2.0 * q:  # rounding: the least k with k (k + 1) / 2 >= q
+        k -= 1
+    while k * (k + 1) < 2.0 * q:
+        k += 1
+    return left / k + 0.5 * (k - 1) * step
+
+
 def move_profile(amount: float, peak: float, accel: float, dt: float) -> list[float]:
     """Per-step rates (signed; m/s or rad/s) of a move of ``amount`` (m or rad) held ``dt`` s each.
 
-    Trapezoidal: up at ``accel``, at most ``peak``, down so as to end at rest; the rates
-    times ``dt`` sum to ``amount`` exactly (the last step takes the remainder, at most the rate before it).
+    Trapezoidal in discrete steps: each rate is the previous one plus at most ``accel * dt``
+    (m/s^2 or rad/s^2, times s), at most ``peak`` (m/s or rad/s), and at most the
+    :func:`stopping_rate` of what is left, so that braking at ``accel`` ends exactly on
+    ``amount``. Every step (the first from rest, and the rest after the last) changes the
+    rate by at most ``accel * dt``, and the rates times ``dt`` sum to ``amount`` (to rounding).
+    ``peak``, ``accel`` and ``dt`` must be positive and ``amount`` finite (ValueError naming it);
+    a move needing more than :data:`MAX_MOVE_STEPS` steps is refused (ValueError).
     """
-    total, done, rate = abs(amount), 0.0, 0.0
+    for name, v in (("peak", peak), ("accel", accel), ("dt", dt)):
+        if not (math.isfinite(v) and v > 0.0):
+            raise ValueError(f"{name} must be positive and finite, got {v!r}")
+    if not math.isfinite(amount):
+        raise ValueError(f"amount must be finite (m or rad), got {amount!r}")
+    total = abs(float(amount))
+    step = accel * dt
+    if total / (peak * dt) + peak / step + 2.0 > MAX_MOVE_STEPS:
+        raise ValueError(f"amount {amount!r} at peak {peak!r} needs more than {MAX_MOVE_STEPS} steps of {dt!r} s")
+    left, rate = total / dt, 0.0
     out: list[float] = []
-    while total - done > 1e-12 and len(out) < 100_000:
-        left = total - done  # the last step takes what is left (left / dt the smallest)
-        rate = min(peak, rate + accel * dt, math.sqrt(2.0 * accel * left), left / dt)
+    while left > 1e-12 / dt:
+        rate = min(peak, rate + step, stopping_rate(left, step))  # the last: left itself (k = 1)
         out.append(math.copysign(rate, amount))
-        done += rate * dt
+        left -= rate
     return out
