@@ -225,19 +225,16 @@ def _write_all(result: SimResult, out: Path, plots: bool, plotter: PlotWorker | 
             result.series, result.path_polyline(), result.world.reflector_xy, result.world.wall_segments, out,
             result.transient_end_s, result.scenario.name,
         )
-    written = [
-        _json(out / "metrics.json", metrics_document(result)),
-        _json(out / "timing.json", timing_document(result)),
-        _json(out / "layout.json", layout_document(result)),
-        write_csv(out / "timeseries.csv", result.series),
-        units_path(out / "timeseries.csv"),
-    ]
-    refl = result.events.get("reflections")
-    if refl is not None:
-        written += [write_csv(out / "reflections.csv", refl, EVENT_COLUMNS), units_path(out / "reflections.csv")]
-    if pending is not None:
-        written += pending()
-    elif plots:
+    try:
+        written = _write_data(result, out)
+        if pending is not None:
+            written += pending()
+    finally:
+        if pending is not None and plotter is not None:
+            # success or not (a failed write, Ctrl-C), the drawing children are done before the caller
+            # (atomic_dir) removes ``out``: none may write into it afterwards
+            plotter.close()
+    if pending is None and plots:
         written += write_plots(
             result.series,
             result.path_polyline(),
@@ -251,6 +248,21 @@ def _write_all(result: SimResult, out: Path, plots: bool, plotter: PlotWorker | 
         from agvnav.report.routes import write_mission_plots  # noqa: PLC0415  (lazy: mission runs only)
 
         written += write_mission_plots(result, out)
+    return written
+
+
+def _write_data(result: SimResult, out: Path) -> list[Path]:
+    """metrics.json, timing.json, layout.json and the CSVs (with their units) of ``result`` into ``out``."""
+    written = [
+        _json(out / "metrics.json", metrics_document(result)),
+        _json(out / "timing.json", timing_document(result)),
+        _json(out / "layout.json", layout_document(result)),
+        write_csv(out / "timeseries.csv", result.series),
+        units_path(out / "timeseries.csv"),
+    ]
+    refl = result.events.get("reflections")
+    if refl is not None:
+        written += [write_csv(out / "reflections.csv", refl, EVENT_COLUMNS), units_path(out / "reflections.csv")]
     return written
 
 

@@ -9,12 +9,18 @@ second core while the parent runs the simulation, then draws the run's plots
 parent writes the JSON and CSV files. Where ``fork`` is unavailable (Windows, macOS
 defaults), the caller already runs threads (forking them is unsafe) or the child has died,
 the plots are drawn in the calling process instead, so the files are the same either way.
+
+The children never create folders (the caller does, in :meth:`PlotWorker.submit`), so a
+folder removed while they draw, e.g. an atomic output folder cleaned up after an error,
+is not created again.
 """
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
+import signal
 import threading
 from collections.abc import Callable, Mapping
 from multiprocessing.connection import Connection
@@ -69,13 +75,16 @@ class PlotWorker:
     ) -> Callable[[], list[Path]]:
         """Start drawing map.png, errors.png and positioning_histogram.png into ``out_dir``.
 
-        Arguments as :func:`agvnav.report.plots.write_plots`. Returns a function that waits
-        for the files and returns their paths (it raises what drawing raised).
+        Arguments as :func:`agvnav.report.plots.write_plots`; ``out_dir`` is created here, in
+        this process. Returns a function that waits for every share of the drawing, then returns
+        the paths or raises what drawing raised (the first error, with its type).
         """
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)  # here, not in a child (see the module docstring)
         job: dict[str, Any] = {
             "series": dict(series), "path_xy": path_xy, "reflector_xy": reflector_xy,
-            "wall_segments": wall_segments, "out_dir": Path(out_dir), "transient_end_s": transient_end_s,
-            "title": title,
+            "wall_segments": wall_segments, "out_dir": out, "transient_end_s": transient_end_s,
+            "title": title, "make_dir": False,
         }
         self._submitted = True
         sent: list[Connection | None] = []
@@ -92,18 +101,32 @@ class PlotWorker:
             from agvnav.report.plots import write_plots  # noqa: PLC0415  (lazy: matplotlib)
 
             paths: list[Path] = []
-            for conn, share in zip(sent, _SHARES, strict=True):
+            error: BaseException | None = None
+            for conn, share in zip(sent, _SHARES, strict=True):  # every share answers before anything is raised
                 if conn is None:
-                    paths += write_plots(**job, only=share)
+                    if error is None:
+                        try:
+                            paths += write_plots(**job, only=share)
+                        except Exception as exc:  # raised below, once every child is done
+                            error = exc
                     continue
                 try:
                     status, value = conn.recv()
                 except (EOFError, OSError):  # the child died while drawing: draw its share here
-                    paths += write_plots(**job, only=share)
-                    continue
-                if status != "ok":
-                    raise RuntimeError(f"drawing the plots failed: {value}")
-                paths += [Path(p) for p in value]
+                    status, value = "redraw", None
+                if status == "redraw" and error is None:
+                    try:
+                        paths += write_plots(**job, only=share)
+                    except Exception as exc:
+                        error = exc
+                elif status == "ok":
+                    paths += [Path(p) for p in value]
+                elif status == "error" and error is None:
+                    error = value  # the child's exception, its type kept
+                elif status == "error_text" and error is None:
+                    error = RuntimeError(f"drawing the plots failed: {value}")
+            if error is not None:
+                raise error
             return paths
 
         if not self._conns:  # no child: draw now, as the caller expects the work to be under way
@@ -166,6 +189,8 @@ def _serve(conns: list[Connection], parent_ends: list[Connection]) -> None:
     for k, conn in enumerate(conns):
         if k != mine:
             conn.close()
+    if not mine and helpers:  # terminated (PlotWorker.close): the helpers end too, none draws on alone
+        signal.signal(signal.SIGTERM, lambda signum, frame: _end(helpers))
     try:
         _draw_one(conns[mine], _SHARES[mine])
     finally:
@@ -184,9 +209,33 @@ def _draw_one(conn: Connection, share: tuple[str, ...]) -> None:
     except (EOFError, OSError, KeyboardInterrupt):
         return
     try:
-        paths = write_plots(**job, only=share)
-        conn.send(("ok", [str(p) for p in paths]))
-    except Exception as exc:  # reported to the parent, which raises it
-        conn.send(("error", f"{type(exc).__name__}: {exc}"))
+        try:
+            paths = write_plots(**job, only=share)
+        except Exception as exc:  # reported to the parent, which raises it
+            _reply(conn, exc)
+        else:
+            _send(conn, ("ok", [str(p) for p in paths]))
     finally:
         conn.close()
+
+
+def _reply(conn: Connection, exc: BaseException) -> None:
+    """Send the type and text of ``exc``."""
+    _send(conn, ("error_text", f"{type(exc).__name__}: {exc}"))
+
+
+def _send(conn: Connection, message: tuple[str, Any]) -> None:
+    """Send ``message``; a parent that has stopped listening is not an error of the child."""
+    with contextlib.suppress(OSError, ValueError):
+        conn.send(message)
+
+
+def _end(helpers: list[int]) -> None:
+    """SIGTERM in the child: end its helpers, wait for them, leave."""
+    for pid in helpers:
+        try:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+        except OSError:
+            pass
+    os._exit(1)

@@ -53,6 +53,8 @@ def plot_map(
     out: str | Path,
     estimated_xy: NDArray[np.float64] | None = None,
     title: str = "",
+    *,
+    make_dir: bool = True,
 ) -> Path:
     """Map with walls, reflectors, the planned path and the driven path (seed 000 Fig. 10).
 
@@ -87,7 +89,7 @@ def plot_map(
     axes[0].set_title(title or "map", y=_TITLE_Y)
     axes[1].set_title("path detail", y=_TITLE_Y)
     axes[1].legend(loc="best", fontsize=8)
-    return _save(fig, out)
+    return _save(fig, out, make_dir)
 
 
 def plot_errors(
@@ -97,6 +99,8 @@ def plot_errors(
     out: str | Path,
     transient_end_s: float | None = None,
     title: str = "",
+    *,
+    make_dir: bool = True,
 ) -> Path:
     """Lateral error eps_c (mm) and wheel heading error xi_r (deg) against time (seed 000 Fig. 11)."""
     fig = _figure((9, 6))
@@ -115,10 +119,12 @@ def plot_errors(
     if transient_end_s is not None:
         a1.legend(loc="best", fontsize=8)
     a1.set_title(title or "guidance errors", y=_TITLE_Y)
-    return _save(fig, out)
+    return _save(fig, out, make_dir)
 
 
-def plot_positioning_histogram(e_lat: NDArray[np.float64], out: str | Path, title: str = "") -> Path:
+def plot_positioning_histogram(
+    e_lat: NDArray[np.float64], out: str | Path, title: str = "", *, make_dir: bool = True
+) -> Path:
     """Histogram of the positioning lateral error e_lat (mm), as seed 000 Fig. 8."""
     e = 1000.0 * np.asarray(e_lat, dtype=np.float64)
     e = e[np.isfinite(e)]
@@ -137,7 +143,7 @@ def plot_positioning_histogram(e_lat: NDArray[np.float64], out: str | Path, titl
     ax.set_xlabel("lateral error e_lat [mm]")
     ax.set_ylabel("samples")
     ax.grid(True, alpha=0.3)
-    return _save(fig, out)
+    return _save(fig, out, make_dir)
 
 
 def _figure(size: tuple[float, float]) -> Any:
@@ -150,9 +156,11 @@ def _figure(size: tuple[float, float]) -> Any:
     return fig
 
 
-def _save(fig: Any, out: str | Path) -> Path:
+def _save(fig: Any, out: str | Path, make_dir: bool = True) -> Path:
+    """Write ``fig`` as a PNG to ``out``; its folder is created only with ``make_dir`` (else it must exist)."""
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    if make_dir:
+        out.parent.mkdir(parents=True, exist_ok=True)
     # zlib level 1: a quarter of the encoding time of the default 6 for ~15 % larger files
     fig.savefig(out, dpi=110, pil_kwargs={"compress_level": 1})
     return out
@@ -185,6 +193,7 @@ def write_plots(
     transient_end_s: float | None = None,
     title: str = "",
     only: Collection[str] = RUN_PLOTS,
+    make_dir: bool = True,
 ) -> list[Path]:
     """Write map.png, errors.png and positioning_histogram.png from a run's series.
 
@@ -193,11 +202,15 @@ def write_plots(
     ``heading_error`` (the columns the simulator records); with ``est_x_C``/``est_y_C``
     the estimated path of the tracked point is drawn. ``only`` names the plots to draw
     (of :data:`RUN_PLOTS`: ``map``, ``errors``, ``histogram``); the paths come in that order.
+    ``make_dir`` creates ``out_dir`` (with its parents) first; without it ``out_dir`` must exist
+    (the plot worker's children: a folder removed under them is never created again).
     """
     unknown = sorted(set(only) - set(RUN_PLOTS))
     if unknown:
         raise ValueError(f"unknown plots {unknown}; the run plots are {list(RUN_PLOTS)}")
     out_dir = Path(out_dir)
+    if make_dir:
+        out_dir.mkdir(parents=True, exist_ok=True)
     written = []
     if "map" in only:
         driven = np.column_stack([series["x_tracked"], series["y_tracked"]])
@@ -206,16 +219,18 @@ def write_plots(
             est_xy = np.column_stack([series["est_x_C"], series["est_y_C"]])[valid] if np.any(valid) else None
         else:
             est_xy = np.column_stack([series["est_x"], series["est_y"]])[valid] if np.any(valid) else None
-        written.append(plot_map(path_xy, driven, reflector_xy, wall_segments, out_dir / "map.png", est_xy, title))
+        written.append(plot_map(path_xy, driven, reflector_xy, wall_segments, out_dir / "map.png", est_xy, title,
+                                make_dir=False))
     if "errors" in only:
         written.append(plot_errors(
             series["t"], series["lateral_error"], series["heading_error"], out_dir / "errors.png",
-            transient_end_s, title,
+            transient_end_s, title, make_dir=False,
         ))
     if "histogram" in only:
         valid = series["est_valid"] > 0.5
         true_pose = np.column_stack([series["x"], series["y"], series["psi"]])
         est_pose = np.column_stack([series["est_x"], series["est_y"], series["est_psi"]])
         e_lat = lateral_position_error(true_pose[valid], est_pose[valid])
-        written.append(plot_positioning_histogram(e_lat, out_dir / "positioning_histogram.png", title))
+        written.append(plot_positioning_histogram(e_lat, out_dir / "positioning_histogram.png", title,
+                                                  make_dir=False))
     return written
