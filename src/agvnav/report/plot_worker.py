@@ -10,9 +10,13 @@ parent writes the JSON and CSV files. Where ``fork`` is unavailable (Windows, ma
 defaults), the caller already runs threads (forking them is unsafe) or the child has died,
 the plots are drawn in the calling process instead, so the files are the same either way.
 
-The children never create folders (the caller does, in :meth:`PlotWorker.submit`), so a
-folder removed while they draw, e.g. an atomic output folder cleaned up after an error,
-is not created again.
+Failures behave as inline too: the exception a drawing raised in a child is sent back
+(pickled) and raised again by the caller with its own type (a full disk stays an
+``OSError``, one line from the CLI); only an exception that cannot cross a pipe becomes a
+``RuntimeError`` naming it. A failing warm-up is reported the same way when the plots are
+collected, not printed mid-run. The children never create folders (the caller does, in
+:meth:`PlotWorker.submit`), so a folder removed while they draw, e.g. an atomic output
+folder cleaned up after an error, is not created again.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import os
+import pickle
 import signal
 import threading
 from collections.abc import Callable, Mapping
@@ -177,6 +182,15 @@ def _serve(conns: list[Connection], parent_ends: list[Connection]) -> None:
         warm_up()
     except KeyboardInterrupt:
         return
+    except Exception as exc:  # no traceback mid-run: reported when the plots are collected
+        for conn in conns:
+            try:
+                conn.recv()
+            except (EOFError, OSError, KeyboardInterrupt):
+                continue
+            _reply(conn, exc)
+            conn.close()
+        return
     helpers: list[int] = []
     mine = 0
     for k in range(1, len(conns)):  # helpers forked from a warm, single-threaded process: nothing to import
@@ -220,8 +234,13 @@ def _draw_one(conn: Connection, share: tuple[str, ...]) -> None:
 
 
 def _reply(conn: Connection, exc: BaseException) -> None:
-    """Send the type and text of ``exc``."""
-    _send(conn, ("error_text", f"{type(exc).__name__}: {exc}"))
+    """Send ``exc`` itself when it survives pickling both ways, else its type and text."""
+    try:
+        pickle.loads(pickle.dumps(exc))
+    except Exception:  # any failure to cross the pipe: send the text
+        _send(conn, ("error_text", f"{type(exc).__name__}: {exc}"))
+    else:
+        _send(conn, ("error", exc))
 
 
 def _send(conn: Connection, message: tuple[str, Any]) -> None:
