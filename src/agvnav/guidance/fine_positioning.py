@@ -57,7 +57,9 @@ class FinePositioner:
     Parameters (SI units): ``twist(v, omega)`` the plant command of a body twist (m/s,
     rad/s); ``revolution_s`` the goniometer's revolution period (s); ``max_accel`` (m/s^2)
     the traction limit; ``turn_accel`` (rad/s^2) the spot-turn acceleration (the traction
-    limit at the wheels: ``max_accel`` over half the track); ``turn_rate`` (rad/s) the
+    limit at the wheels: ``max_accel`` over the wheels' lever, half the track of a differential
+    base, half length plus half width of an X mecanum one: ``sim.mission.spot_turn_lever``);
+    ``turn_rate`` (rad/s) the
     vehicle's spot-turn rate (``mission.turn_rate_deg_s``, the planner's).
 
     ``tolerance`` (m, default 2 mm): the position the correction aims within. Standing

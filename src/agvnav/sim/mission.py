@@ -51,7 +51,9 @@ from agvnav.routes.mission import Job, MissionError, MissionPlan, chain_mission,
 from agvnav.routes.network import EDGE_KINDS, RouteNetwork, load_network
 from agvnav.routes.planning import Planner, VehicleLimits
 from agvnav.sim.roles import PathAutopilot
+from agvnav.vehicles import HolonomicGeometry, UnicycleGeometry
 from agvnav.world.scenario import GoniometerSpec, Scenario, ScenarioError
+from agvnav.world.vehicle_specs import MecanumSpec
 
 __all__ = [
     "ALIGN_WHEELBASES",
@@ -68,6 +70,7 @@ __all__ = [
     "plan_mission",
     "route_tracking",
     "run_bounds",
+    "spot_turn_lever",
     "stints",
     "sub_path",
     "tracked_point",
@@ -582,13 +585,41 @@ def mission_autopilot(
     if plant.family in ("unicycle", "holonomic") and bool(getattr(m, "align_heading", True)):
         twist = _twist_command(plant)
         rate = (sc.goniometer or GoniometerSpec()).rate_hz  # no goniometer: nothing to settle, the seed's rate
-        g = plant.geometry  # spot-turn acceleration: the traction limit at the wheels (half track, or the wheel radius)
-        lever = 0.5 * g.track if hasattr(g, "track") else math.hypot(getattr(g, "half_length", 0.5),
-                                                                      getattr(g, "half_width", 0.5))
+        layout = sc.vehicle.layout if isinstance(sc.vehicle, MecanumSpec) else "X"
+        try:  # spot-turn acceleration: the traction limit at the wheels over their lever
+            lever = spot_turn_lever(plant.geometry, layout)
+        except ValueError as exc:
+            raise sc.error(("vehicle",), str(exc)) from None
         a = sc.traction.max_accel_m_s2
         align = FinePositioner(twist, 1.0 / rate, a, a / lever, math.radians(m.turn_rate_deg_s))
     return MissionAutopilot(plan, make, profile, m.lateral_accel_m_s2, m.creep_distance_m, m.creep_speed_m_s,
                             switching, wheelbase, point_offset, align)
+
+
+def spot_turn_lever(geometry: object, layout: str = "X") -> float:
+    """A wheel's ground speed per unit yaw rate in a spot turn (m per rad): the traction limit
+    ``max_accel`` (m/s^2) over it is the spot-turn acceleration (rad/s^2).
+
+    * differential or tracked base (:class:`~agvnav.vehicles.UnicycleGeometry`): each wheel at half
+      the track, ``v_wheel = v +- (track / 2) omega`` (:func:`agvnav.kinematics.differential.wheel_speeds`);
+    * mecanum base (:class:`~agvnav.vehicles.HolonomicGeometry`, :mod:`agvnav.kinematics.omnidirectional`):
+      ``r omega_i = (v_x - omega y_i) + s_i (v_y + omega x_i)``, so a pure yaw turns each wheel at
+      ``|s_i x_i - y_i| omega``: ``a + b`` (half length plus half width) in the ``"X"`` layout,
+      ``|a - b|`` in ``"O"`` (``layout``).
+
+    Any other geometry (a steered vehicle cannot turn on the spot) or layout raises ValueError.
+    """
+    if isinstance(geometry, UnicycleGeometry):
+        return 0.5 * geometry.track
+    if isinstance(geometry, HolonomicGeometry):
+        a, b = geometry.half_length, geometry.half_width
+        if layout == "X":
+            return a + b
+        if layout == "O" and a != b:
+            return abs(a - b)
+        raise ValueError(f"mecanum layout {layout!r} with half_length {a!r}, half_width {b!r} cannot turn on the spot")
+    raise ValueError(f"no spot-turn lever for geometry {type(geometry).__name__}: a differential, tracked or "
+                     "mecanum base turns on the spot")
 
 
 def _twist_command(plant: Any) -> Callable[[float, float], tuple[float, ...]]:
