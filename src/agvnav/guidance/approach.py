@@ -18,11 +18,32 @@ error stays what the approach left (the law on O has had at least 0.5 m to bring
 ``sim.mission.MIN_APPROACH_M``), plus the heading error integrated over the hold (at most
 ``xi0 * heading_distance``: 0.8 deg over 0.1 m is 1.4 mm).
 
-The heading law: with O's arclength ``s`` along the motion, ``d psi / ds = tan(gamma) / L``
-([seed000 eq8]: ``psi' = v sin(gamma) / L``, ``v_O = v cos(gamma)``), so the steering target
-``gamma* = gamma_ss + atan(-sign(v) L xi / heading_distance)`` makes the heading error ``xi``
-decay as ``exp(-s / heading_distance)`` in distance, whatever the speed; a first-order
-servo (``servo_tau``, :func:`agvnav.guidance.baselines.servo_rate`) steers towards it.
+The heading law (derived from the tricycle kinematics [seed000 eq8]: ``psi' = v sin(gamma) / L``,
+O moving at ``v cos(gamma)`` along the body axis, C at ``v`` along the wheel). With ``d`` the
+sign of ``v``, ``kappa`` the path curvature and ``lat`` the guided point's lateral offset
+(left of the tangent along the motion, ``d eps``), the path tangent at the guided point's
+projection turns at ``kappa |v_P| cos(a) / (1 - kappa lat)`` (``a`` the angle of the point's
+velocity to the tangent: ``xi`` for O, ``xi_r`` for C). The heading error
+``xi = psi - psi_ref`` (relative to the feed-forward, :mod:`agvnav.guidance.errors`) then
+evolves along the guided point's own arclength ``s`` as
+
+* point O (``ds = |v| cos(gamma) dt``): ``d xi / ds = d tan(gamma) / L - kappa cos(xi) / (1 - kappa lat)``;
+* point C (``ds = |v| dt``): ``d xi / ds = d sin(gamma) / L - kappa cos(xi_r) / (1 - kappa lat)``.
+
+Setting ``d xi / ds = -xi / heading_distance`` gives the steering target (:func:`hold_steering`),
+with the feed-forward ``tan(gamma_ss) = d L kappa`` (O) or ``sin(gamma_ss) = d L kappa`` (C) and
+``q = cos(.) / (1 - kappa lat)``:
+
+* O: ``gamma* = atan(q tan(gamma_ss) - d L xi / heading_distance)``;
+* C: ``gamma* = asin(q sin(gamma_ss) - d L xi / heading_distance)``, where ``q`` holds
+  ``xi_r = xi + gamma* - gamma_ss`` and so ``gamma*`` itself (solved in closed form by :func:`hold_steering`),
+
+so that ``xi`` decays as ``exp(-s / heading_distance)`` in distance, whatever the speed and
+the curvature (on a line ``gamma_ss = 0``, ``q`` drops out). The earlier
+``gamma_ss + atan(-d L xi / heading_distance)`` was this only on a line: on an arc its decay rate
+was ``1 + tan(gamma_ss)^2`` times too fast for O to first order (measured at L / R = 0.4 and 0.8 deg:
+1.10 forward, 1.22 backing; 0.92 for C). A first-order servo
+(``servo_tau``, :func:`agvnav.guidance.baselines.servo_rate`) steers towards the target.
 """
 
 from __future__ import annotations
@@ -37,7 +58,7 @@ from agvnav.guidance.errors import TrackingErrors
 from agvnav.guidance.follower import GuidanceError
 from agvnav.guidance.paths import Path
 
-__all__ = ["HeadingHoldApproach"]
+__all__ = ["HeadingHoldApproach", "hold_steering"]
 
 
 class HeadingHoldApproach:
@@ -136,8 +157,8 @@ class HeadingHoldApproach:
             return v_lat, rate
         if v == 0.0:
             return 0.0, 0.0
-        lever = float(self.follower.wheelbase) * float(e.xi) / self.heading_distance
-        target = float(e.gamma_ss) + math.atan(-lever if v > 0.0 else lever)
+        target = hold_steering(e, float(self.follower.wheelbase), self.point, 1.0 if v > 0.0 else -1.0,
+                               self.heading_distance)
         hold = float(servo_rate(target, float(steering), self.servo_tau))
         if abs(steering) >= self.follower.max_steer and hold * steering > 0.0:
             hold = 0.0
@@ -146,3 +167,31 @@ class HeadingHoldApproach:
     def drive_speed(self, v: float, steering: float) -> float:
         """Speed (m/s) of the driven wheel for the tracked point's speed ``v`` (m/s): the wrapped follower's."""
         return float(self.follower.drive_speed(v, steering))
+
+
+def hold_steering(errors: TrackingErrors, wheelbase: float, point: str, direction: float,
+                  heading_distance: float) -> float:
+    """The steering angle (rad) that makes the heading error decay as ``exp(-s / heading_distance)``.
+
+    ``errors`` the guided ``point``'s errors ("O" or "C", :mod:`agvnav.guidance.errors`: ``xi``,
+    ``xi_r``, ``eps_o``/``eps_c``, ``kappa``), ``wheelbase`` L (m), ``direction`` the sign of the
+    speed, ``heading_distance`` hd (m); ``s`` is the guided point's arclength. Derived from
+    [seed000 eq8] in the module doc: ``tan(gamma*)`` (O) or ``sin(gamma*)`` (C) ``= d L (q kappa - xi / hd)``
+    with ``q = cos(xi or xi_r) / (1 - kappa d eps)``; on a line ``atan(-d L xi / hd)`` or its asin.
+    For C, ``xi_r = xi + gamma* - gamma_ss`` depends on the target itself: ``sin(g) = A cos(g + phi) - B``
+    (``A = d L kappa / (1 - kappa d eps_c)``, ``B = d L xi / hd``, ``phi = xi - gamma_ss``) is solved in
+    closed form, ``g = atan2(A cos(phi), 1 + A sin(phi)) + asin(-B / R)``,
+    ``R = hypot(1 + A sin(phi), A cos(phi))``.
+    """
+    d = 1.0 if direction > 0.0 else -1.0
+    kappa, xi = float(errors.kappa), float(errors.xi)
+    if point == "O":
+        q = math.cos(xi) / (1.0 - kappa * d * float(errors.eps_o))
+        return math.atan(d * wheelbase * (q * kappa - xi / heading_distance))
+    if point == "C":  # xi_r = xi + gamma - gamma_ss moves with gamma: sin(g) = A cos(g + phi) - B
+        a = d * wheelbase * kappa / (1.0 - kappa * d * float(errors.eps_c))
+        b, phi = d * wheelbase * xi / heading_distance, xi - float(errors.gamma_ss)
+        c1, c2 = 1.0 + a * math.sin(phi), a * math.cos(phi)  # c1 sin(g) - c2 cos(g) = R sin(g - delta) = -b
+        r = math.hypot(c1, c2)
+        return math.atan2(c2, c1) + math.asin(min(1.0, max(-1.0, -b / r)))
+    raise ValueError(f"point must be 'O' or 'C', got {point!r}")
