@@ -139,7 +139,6 @@ class FinePositioner:
         self._move: list[float] = []
         self._move_kind = ""
         self._turn_to = 0.0
-        self._direction = 1.0
 
     def start(self, x: float, y: float, heading: float, offset: float = 0.0) -> None:
         """Begin at a station: guided point ``offset`` m ahead of base_link onto ``(x, y)`` (m), ``heading`` (rad)."""
@@ -182,14 +181,12 @@ class FinePositioner:
         x, y, psi = (float(c) for c in pose)
         heading_ok = abs(wrap_angle_scalar(psi - self._target[2])) <= self.heading_tolerance
         px, py = x + self._offset * math.cos(psi), y + self._offset * math.sin(psi)
-        point_ok = math.hypot(self._target[0] - px, self._target[1] - py) <= self.tolerance
         miss = math.hypot(self._target[0] - px, self._target[1] - py)
-        if not point_ok and self.corrections < self.attempts and miss <= self.max_correction:
+        if self.tolerance < miss <= self.max_correction and self.corrections < self.attempts:
             self.corrections += 1
             tx, ty = self._base_target()
             bearing = math.atan2(ty - y, tx - x)
-            forward = abs(wrap_angle_scalar(bearing - psi)) <= 0.5 * math.pi
-            self._direction = 1.0 if forward else -1.0
+            forward = abs(wrap_angle_scalar(bearing - psi)) <= 0.5 * math.pi  # else back up: the smaller turn
             self._turn_to = bearing if forward else wrap_angle_scalar(bearing + math.pi)
             self._queue = ["face", "drive", "heading"]
         elif not heading_ok and self.turns < self.attempts:
