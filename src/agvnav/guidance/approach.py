@@ -185,12 +185,13 @@ def hold_steering(errors: TrackingErrors, wheelbase: float, point: str, directio
     """
     d = 1.0 if direction > 0.0 else -1.0
     kappa, xi = float(errors.kappa), float(errors.xi)
+    b = d * wheelbase * xi / heading_distance  # on a line O's target is atan(-b), bit for bit the earlier one
     if point == "O":
         q = math.cos(xi) / (1.0 - kappa * d * float(errors.eps_o))
-        return math.atan(d * wheelbase * (q * kappa - xi / heading_distance))
+        return math.atan(d * wheelbase * q * kappa - b)
     if point == "C":  # xi_r = xi + gamma - gamma_ss moves with gamma: sin(g) = A cos(g + phi) - B
         a = d * wheelbase * kappa / (1.0 - kappa * d * float(errors.eps_c))
-        b, phi = d * wheelbase * xi / heading_distance, xi - float(errors.gamma_ss)
+        phi = xi - float(errors.gamma_ss)
         c1, c2 = 1.0 + a * math.sin(phi), a * math.cos(phi)  # c1 sin(g) - c2 cos(g) = R sin(g - delta) = -b
         r = math.hypot(c1, c2)
         return math.atan2(c2, c1) + math.asin(min(1.0, max(-1.0, -b / r)))
