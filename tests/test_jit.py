@@ -9,6 +9,7 @@ import pytest
 
 from agvnav import _jit
 from agvnav.geometry import wrap_angle
+from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
 from agvnav.positioning.gating import near_rows
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
@@ -77,7 +78,9 @@ def _random_outputs() -> dict[str, list[bytes]]:
         out[f"grid_crossings {direction}"] = [
             a.tobytes() for a in beam.grid_crossings(grid, gpose, rx[:60], ry[:60], r[:60], *head)
         ]
-    f, worst = beam.wrapped_offsets(rng.uniform(-50.0, 50.0, 100_000))
+    angles = np.concatenate([rng.uniform(-50.0, 50.0, 100_000), [math.pi, -math.pi, 3 * math.pi, 0.0, -0.0, 1e-300]])
+    out["wrap_angle_kernel"] = [np.array([wrap_angle_kernel(float(a)) for a in angles[:20_000]]).tobytes()]
+    f, worst = beam.wrapped_offsets(angles)
     out["wrapped_offsets"] = [f.tobytes(), float(worst).hex().encode()]
     n, k = 200, 5_000
     refl = rng.integers(0, n, k)
@@ -110,8 +113,8 @@ def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
     compiled = _random_outputs()
     for name, got in compiled.items():
         assert got == interpreted[name], name
-    tested = {"offset_one", "offsets_at", "grid_crossings", "wrapped_offsets", "line_of_sight", "_hits_wall",
-              "_hits_disc", "near_rows", "hermite_poses"}
+    tested = {"wrap_angle_scalar", "offset_one", "offsets_at", "grid_crossings", "wrapped_offsets", "line_of_sight",
+              "_hits_wall", "_hits_disc", "near_rows", "hermite_poses"}
     known = {k.py_func.__name__ for k in _jit.kernels()}
     assert known <= tested, f"kernels without a bit-for-bit test here: {sorted(known - tested)}"
 
@@ -152,3 +155,17 @@ def test_set_compiled_for_run_reports_the_mode_in_force(monkeypatch: pytest.Monk
     assert _jit.set_compiled_for_run(26.0, 9)  # the estimate says interpreted; the environment wins
     monkeypatch.setenv("AGVNAV_JIT", "0")
     assert not _jit.set_compiled_for_run(406.0, 102)
+
+
+def test_the_wrap_kernel_is_wrap_angle_bit_for_bit_in_both_modes() -> None:
+    """One scalar wrap (geometry.angles), compiled or not: wrap_angle's bits, NaN for NaN and +-inf."""
+    rng = np.random.default_rng(5)
+    a = np.concatenate([rng.uniform(-40.0, 40.0, 2_000), rng.normal(0.0, 1e-3, 200),
+                        [math.pi, -math.pi, 3 * math.pi, -3 * math.pi, 0.0, -0.0, 5e-324, 1e300, -1e300]])
+    want = wrap_angle(a)
+    for on in (False, True):
+        _jit.set_compiled(on)
+        got = np.array([wrap_angle_kernel(float(v)) for v in a])
+        assert got.tobytes() == want.tobytes()
+        assert all(math.isnan(wrap_angle_kernel(v)) for v in (math.nan, math.inf, -math.inf))
+    assert np.array([wrap_angle_scalar(float(v)) for v in a]).tobytes() == want.tobytes()

@@ -33,6 +33,7 @@ a caller said otherwise (:func:`set_compiled`). numba is never imported by
 from __future__ import annotations
 
 import functools
+import math
 import os
 from collections.abc import Callable
 from typing import Any, TypeVar, cast
@@ -142,11 +143,20 @@ def _register_with_numba() -> None:
     """Teach numba's typing that a :class:`Kernel` global is its dispatcher (once per process)."""
     if _state.get("registered"):
         return
-    from numba.extending import typeof_impl  # noqa: PLC0415
+    import numpy as np  # noqa: PLC0415
+    from numba import types  # noqa: PLC0415
+    from numba.extending import overload, typeof_impl  # noqa: PLC0415
 
     @typeof_impl.register(Kernel)
     def _typeof_kernel(val: Kernel, c: Any) -> Any:
         return typeof_impl(val.dispatcher(), c)
+
+    @overload(math.fmod)
+    def _fmod(x, y):  # type: ignore[no-untyped-def]  # unannotated: numba compares it with the lambda's
+        # numba has no math.fmod: C's fmod, as CPython's (exact), NaN where CPython raises (+-inf)
+        if isinstance(x, types.Float) and isinstance(y, types.Float):
+            return lambda x, y: np.fmod(x, y)
+        return None
 
     _state["registered"] = True
 

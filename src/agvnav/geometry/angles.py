@@ -8,7 +8,10 @@ an angle already in ``[-pi, pi)`` comes back bit for bit, however small. ``TWO_P
 double nearest ``2 pi``; for ``|a|`` far beyond ``2 pi`` the result is the exact remainder
 modulo that double, which differs from the true remainder modulo ``2 pi`` by about
 ``|a| * 2.4e-16``. ``wrap_angle`` is the vectorised form, ``wrap_angle_scalar`` the one-float
-fast path of the scalar loops; both give the same bits.
+fast path of the scalar loops; both give the same bits. ``wrap_angle_kernel`` is
+``wrap_angle_scalar`` as a kernel (:mod:`agvnav._jit`): the same source, called by the compiled
+kernels (``sensors.beam``, ``positioning.gating``) in either mode, so the scalar wrap is written
+once.
 """
 
 from __future__ import annotations
@@ -18,12 +21,17 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["PI", "TWO_PI", "angle_diff", "deg2rad", "rad2deg", "wrap_angle", "wrap_angle_scalar"]
+from agvnav._jit import jit
+
+__all__ = [
+    "PI", "TWO_PI", "angle_diff", "deg2rad", "rad2deg", "wrap_angle", "wrap_angle_kernel", "wrap_angle_scalar",
+]
 
 #: ``pi`` (rad), the double nearest it; the open end of the wrap interval.
 PI = math.pi
 #: ``2 pi`` (rad), the double nearest it (exactly ``2 * PI``); the wrap modulus.
 TWO_PI = 2.0 * math.pi
+_INF = math.inf
 
 
 def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
@@ -61,22 +69,28 @@ def wrap_angle_scalar(angle: float) -> float:
     """:func:`wrap_angle` for one Python float (rad): the same ``[-pi, pi)`` result, bit for bit.
 
     About ten times faster than the array form on one value; for the scalar loops of the
-    simulator and the single-fix kernels. NaN and ``+-inf`` give NaN.
+    simulator and the single-fix kernels. NaN and ``+-inf`` give NaN. Written in the subset
+    numba compiles (:data:`wrap_angle_kernel` is this function as a kernel; ``math.fmod`` is
+    C's ``fmod`` there too, see :mod:`agvnav._jit`).
 
     Examples
     --------
     >>> wrap_angle_scalar(math.pi), wrap_angle_scalar(7.0) == 7.0 - TWO_PI
     (-3.141592653589793, True)
     """
-    try:
-        r = math.fmod(angle, TWO_PI)
-    except ValueError:  # +-inf: math.fmod raises where np.fmod returns NaN
-        return math.nan
-    if r >= PI:
+    if not -_INF < angle < _INF:  # NaN: itself (its bits, as fmod keeps them); +-inf (math.fmod raises): NaN
+        return float(angle) if angle != angle else math.nan
+    r = math.fmod(angle, TWO_PI)  # exact, in (-2 pi, 2 pi), sign of angle
+    if r >= PI:  # one exact shift (Sterbenz)
         return r - TWO_PI
     if r < -PI:
         return r + TWO_PI
     return r
+
+
+#: :func:`wrap_angle_scalar` as a compiled-capable kernel (:mod:`agvnav._jit`), for other kernels to call:
+#: the one scalar wrap, bit for bit the same in either mode.
+wrap_angle_kernel = jit(wrap_angle_scalar)
 
 
 def angle_diff(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:

@@ -23,7 +23,6 @@ from agvnav.positioning.gating import GateSpec
 Mat3 = tuple[float, ...]
 
 _PI = math.pi
-_TWO_PI = 2.0 * math.pi
 
 
 #: :func:`agvnav.geometry.wrap_angle` for one float, to ``[-pi, pi)`` (rad); an alias, no extra call.
@@ -275,7 +274,7 @@ def gate_one(
     p00, p01, p02, _, p11, p12, _, _, p22 = P
     trace_P, mount_norm = p00 + p11 + p22, math.hypot(mx, my)
     two_gate = 2.0 * gate
-    fmod, sqrt, atan2, asin = math.fmod, math.sqrt, math.atan2, math.asin
+    sqrt, atan2, asin, wrap_ = math.sqrt, math.atan2, math.asin, wrap
     n_in, best = 0, None
     for j in range(len(rows)) if candidates is None else candidates:
         if t - claimed[j] < sweep:
@@ -288,13 +287,7 @@ def gate_one(
         if not d <= max_range:
             continue
         edge = -asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * _PI
-        # wrap_angle_scalar written out twice (the same operations: fmod, then one exact shift)
-        try:
-            h = fmod(atan2(dy, dx) - psi - mth + edge, _TWO_PI)
-            innov = fmod(z - (h - _TWO_PI if h >= _PI else h + _TWO_PI if h < -_PI else h), _TWO_PI)
-        except ValueError:  # +-inf: wrap_angle_scalar's NaN
-            innov = math.nan
-        innov = innov - _TWO_PI if innov >= _PI else innov + _TWO_PI if innov < -_PI else innov
+        innov = wrap_(z - wrap_(atan2(dy, dx) - psi - mth + edge))
         R = bearing_var + (map_std / d if d > 0.0 else 0.0) ** 2
         rr = r * r
         if d2 > rr:  # surely_outside written out: most reflectors are far from this bearing, no Jacobian needed

@@ -40,10 +40,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav._jit import jit
+from agvnav.geometry.angles import wrap_angle_kernel
 
 __all__ = ["INDEX_MIN_REFLECTORS", "BearingIndex", "GateSpec", "near_rows"]
 
-_TWO_PI = 2.0 * math.pi
 
 #: Maps with at least this many reflectors use :class:`BearingIndex`; below it the plain
 #: loop over every reflector (about 1.1 us per reflector) is cheaper than the ~25 NumPy
@@ -151,11 +151,7 @@ def near_rows(
         e = d2 - r2[j]
         if e > 0.0:
             window = math.sqrt(a4 + b4 / max(e, 1e-300)) + half_pi_r[j] / max(d, 1e-300)
-            w = np.fmod(beam - math.atan2(dy, dx), _TWO_PI)  # wrap_angle (fmod, one exact shift)
-            if w >= math.pi:
-                w -= _TWO_PI
-            elif w < -math.pi:
-                w += _TWO_PI
+            w = wrap_angle_kernel(beam - math.atan2(dy, dx))
             if not abs(w) < window:
                 continue
         out[c] = j  # inside a reflector (e <= 0) it always stays a candidate

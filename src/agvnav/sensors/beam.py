@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav._jit import jit
+from agvnav.geometry.angles import wrap_angle_kernel
 
 __all__ = ["grid_crossings", "line_of_sight", "offset_one", "offsets_at", "wrapped_offsets"]
 
@@ -118,8 +119,8 @@ def offsets_at(
 def wrapped_offsets(raw: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
     """The offsets ``raw (c,)`` (rad) wrapped to ``[-pi, pi)`` and the largest ``|wrapped|`` (rad).
 
-    The wrap is :func:`agvnav.geometry.wrap_angle`'s, operation for operation (``fmod``,
-    then one exact shift by ``2 pi``), so the values are bit-identical; ``+-inf`` gives NaN
+    The wrap is :func:`agvnav.geometry.angles.wrap_angle_kernel` (the scalar form of
+    :func:`agvnav.geometry.wrap_angle`), so the values are bit-identical; ``+-inf`` gives NaN
     and a NaN makes the largest NaN, as ``np.abs(f).max()`` does. The root finder's
     convergence test in one call instead of four NumPy calls on a few elements.
     """
@@ -127,15 +128,7 @@ def wrapped_offsets(raw: NDArray[np.float64]) -> tuple[NDArray[np.float64], floa
     f = np.empty(c)
     worst = 0.0
     for i in range(c):
-        a = raw[i]
-        if math.isinf(a):
-            w = math.nan
-        else:
-            w = np.fmod(a, _TWO_PI)  # C fmod (numba has no math.fmod): exact, sign of a
-            if w >= math.pi:
-                w -= _TWO_PI
-            elif w < -math.pi:
-                w += _TWO_PI
+        w = wrap_angle_kernel(raw[i])
         f[i] = w
         m = abs(w)
         if m > worst or m != m:  # a NaN stays the largest
