@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -169,3 +170,13 @@ def test_the_wrap_kernel_is_wrap_angle_bit_for_bit_in_both_modes() -> None:
         assert got.tobytes() == want.tobytes()
         assert all(math.isnan(wrap_angle_kernel(v)) for v in (math.nan, math.inf, -math.inf))
     assert np.array([wrap_angle_scalar(float(v)) for v in a]).tobytes() == want.tobytes()
+
+
+def test_the_public_module_is_the_cli_s_way_in() -> None:
+    """agvnav.jit exposes the mode functions; the CLI uses it, not the private agvnav._jit."""
+    import agvnav.jit as public
+
+    assert public.set_compiled_for_run is _jit.set_compiled_for_run and public.compiled is _jit.compiled
+    cli = Path(public.__file__).parent / "cli"
+    users = [p.name for p in cli.rglob("*.py") if "agvnav._jit" in p.read_text(encoding="utf-8")]
+    assert users == []

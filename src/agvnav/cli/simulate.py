@@ -79,7 +79,7 @@ def _simulate(
         return _simulate_route(sc, out, plots, force, console, json, wide)
     if log is not None and log.suffix != ".mcap":
         raise fail(f"--log {log}: the log file must end in .mcap")
-    from agvnav._jit import set_compiled_for_run
+    from agvnav.jit import set_compiled_for_run
     from agvnav.report.files import save_result
     from agvnav.sim import simulate as run_scenario
     from agvnav.sim.build import build
