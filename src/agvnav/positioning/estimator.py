@@ -402,7 +402,8 @@ class StreamingEstimator:
         self._t_last_accept = t
         before = (self._x_t, self._P_t)
         self._accept(t, z, assoc)
-        self.monitor.accepted(t, assoc.nis, assoc.index, z, self._odom_t, self._correction(*before))
+        self.monitor.accepted(t, assoc.nis, assoc.index, z, self._odom_t, self._correction(*before),
+                              self._innovation(assoc.innovation, assoc.S, assoc.H))
         self._watch_integrity(t)
         return True
 
@@ -516,7 +517,8 @@ class StreamingEstimator:
         before = (self._x_t, self._P_t)
         self._accept(t, z, Association(j, y, nis, n_in, np.array(H_now), S, R))
         ox, oy, opsi = self._odom_t
-        self.monitor.accepted(t, nis, j, z, _fast.twist_step(ox, oy, opsi, *back)[:3], self._correction(*before))
+        self.monitor.accepted(t, nis, j, z, _fast.twist_step(ox, oy, opsi, *back)[:3], self._correction(*before),
+                              self._innovation(y, S, H_now))
         return True
 
     # ------------------------------------------------------------------ integrity (issue 12)
@@ -528,6 +530,15 @@ class StreamingEstimator:
             return None
         x1, P1 = self._x_t, self._P_t
         return (x1[0] - x0[0], x1[1] - x0[1], P0[0] - P1[0], P0[1] - P1[1], P0[4] - P1[4])
+
+    def _innovation(
+        self, y: float, S: float, H: ArrayLike
+    ) -> tuple[float, float, float, float, float] | None:
+        """The update's innovation, its variance and Jacobian row for the monitor's RAIM (EKF only)."""
+        if self.method != "ekf":
+            return None
+        h = np.asarray(H, dtype=np.float64).reshape(-1)
+        return (float(y), float(S), float(h[0]), float(h[1]), float(h[2]))
 
     def _watch_integrity(self, t: float) -> None:
         """Once per revolution: the monitor's check; inflate ``P`` when it asks (see :mod:`.integrity`)."""
