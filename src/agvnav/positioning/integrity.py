@@ -49,10 +49,12 @@ navigators report one:
   with ``reflectors - 3`` dof at the false-alarm probability ``raim_false_alarm`` per
   check (``"raim"``); leaving each reflector out in turn, the one whose removal makes the
   others consistent (``reflectors - 4`` dof, same probability) is excluded once
-  ``raim_confirm`` failing checks have named it. The per-reflector NIS test above misses
-  a moved reflector whose pull spreads its error over its neighbours (the differential
-  AGV's nearest side reflector moved 0.1 m: the estimate 60-90 mm off with sigma 11 mm,
-  the offender's NIS only ~3x its neighbours');
+  ``raim_confirm`` failing checks have named it, more often than any other. The
+  per-reflector NIS test above misses a moved reflector whose pull spreads its error over
+  its neighbours (the differential AGV's nearest side reflector moved 0.1 m: the estimate
+  60-90 mm off with sigma 11 mm, the offender's NIS only ~3x its neighbours'), and its
+  ratio rule, blind to the pull, excluded sound neighbours of the moved one: where the
+  RAIM can run (four reflectors or more with EKF innovations) it owns the exclusion;
 * the number and geometry of the reflectors that supported the recent fixes: at least
   ``min_reflectors`` distinct ones in the window, and a best achievable position error
   ``PDOP * bearing_std`` (:func:`~agvnav.positioning.bounds.pdop`, the CRLB of seed 000
@@ -151,8 +153,8 @@ class IntegrityLimits:
     ``exclude_ratio``, ``max_excluded``: the exclusion of an inconsistent reflector
     (``max_excluded = 0`` disables it); ``raim_false_alarm``: probability per check
     that the leave-one-out test (:meth:`IntegrityMonitor.raim`) fails on a sound
-    revolution, ``raim_confirm``: consecutive failing checks naming the same reflector
-    before it is excluded. See the module docstring.
+    revolution, ``raim_confirm``: failing checks of one episode that must name a reflector
+    (more often than any other) before it is excluded. See the module docstring.
     """
 
     window_s: float = 1.0
@@ -393,8 +395,8 @@ class IntegrityMonitor:
         self._mean_nu = [0.0] * self.xy.shape[0]
         self._n_nu = [0] * self.xy.shape[0]
         self.raim_statistic = math.nan
-        self._raim_suspect = -1  # the reflector the last failing RAIM check named
-        self._raim_count = 0  # consecutive failing checks that named it
+        self._raim_tally: dict[int, int] = {}  # map row -> failing RAIM checks that named it (this episode)
+        self._raim_ran = False  # the last check could run the RAIM (it then owns the exclusion)
 
     def accepted(
         self, t: float, nis: float, index: int, bearing: float, odom: tuple[float, ...],
@@ -469,13 +471,14 @@ class IntegrityMonitor:
             self._since = t
         young = t - self._since < self.limits.window_s  # no full window of support yet
         reasons = [] if dead_reckoning else self._support_failures(t, x, cov, odom, young)
+        self._raim_ran = False
         if self.limits.enabled and not dead_reckoning and not young:
             reasons += self._raim_failures(t)
         reasons += self._uncertainty_failures(cov)
         self.reasons = tuple(reasons) if self.limits.enabled else ()
         reasons = list(self.reasons)
-        if self.limits.enabled and not dead_reckoning and not young:
-            self._exclude()
+        if self.limits.enabled and not dead_reckoning and not young and not self._raim_ran:
+            self._exclude()  # the NIS-ratio exclusion only where the RAIM has no redundancy to judge with
         return self._judge(t, reasons)
 
     # ------------------------------------------------------------------ checks
@@ -799,26 +802,35 @@ class IntegrityMonitor:
         return rows, leave_one_out_fde(r, H, var, self.limits.raim_false_alarm)
 
     def _raim_failures(self, t: float) -> list[str]:
-        """``["raim"]`` when the last revolution fails :meth:`raim`; excludes one named ``raim_confirm`` times."""
+        """``["raim"]`` when the window fails :meth:`raim`; may exclude the reflector it keeps naming.
+
+        One failure episode (until the verdict could recover) tallies the reflector each
+        failing check names; the first to be named ``raim_confirm`` times, and more often
+        than any other, is excluded (reflectors along one wall are confused with each other
+        on some checks: a moved one is named most often, not every time).
+        """
         out = self.raim(t)
+        self._raim_ran = out is not None
         if out is None or not out[1].detected:
-            # a passing check right after an inflation sees few sightings: the count of
-            # checks naming one reflector is forgotten only once the verdict could recover
+            # a passing check right after an inflation sees few sightings: the tally is
+            # forgotten only once the verdict could recover
             if t - self._failed_at >= self.limits.recover_s:
-                self._raim_suspect, self._raim_count = -1, 0
+                self._raim_tally.clear()
             if out is not None:
                 self.raim_statistic = out[1].statistic / out[1].threshold
             return []
         rows, res = out
         self.raim_statistic = res.statistic / res.threshold
-        j = rows[res.faulty] if res.faulty >= 0 else -1
-        self._raim_count = self._raim_count + 1 if j >= 0 and j == self._raim_suspect else (1 if j >= 0 else 0)
-        self._raim_suspect = j
+        if res.faulty < 0:
+            return ["raim"]
+        j = rows[res.faulty]
+        tally = self._raim_tally
+        tally[j] = tally.get(j, 0) + 1
         lim = self.limits
-        if (j >= 0 and self._raim_count >= lim.raim_confirm and len(self.excluded) < lim.max_excluded
-                and len(rows) - 1 >= lim.min_reflectors + 1):
+        if (tally[j] >= lim.raim_confirm and all(n < tally[j] for k, n in tally.items() if k != j)
+                and len(self.excluded) < lim.max_excluded and len(rows) - 1 >= lim.min_reflectors + 1):
             self._drop(j)
-            self._raim_suspect, self._raim_count = -1, 0
+            tally.clear()
         return ["raim"]
 
     def _drop(self, j: int) -> None:
