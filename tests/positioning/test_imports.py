@@ -14,7 +14,10 @@ from agvnav.world import load_builtin_map
 PACKAGE = Path(agvnav.positioning.__file__).parent
 
 #: The one deferred import allowed: a heavy third-party module inside the one function that uses it.
-DEFERRED_THIRD_PARTY = {("identification.py", "associate_sweep", "scipy.optimize")}
+DEFERRED_THIRD_PARTY = {
+    ("identification.py", "associate_sweep", "scipy.optimize"),
+    ("integrity.py", "chi2_threshold", "scipy.stats"),
+}
 
 
 def _function_local_imports(path: Path) -> list[tuple[str, str, str]]:
