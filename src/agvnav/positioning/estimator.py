@@ -540,9 +540,9 @@ class StreamingEstimator:
         h = np.asarray(H, dtype=np.float64).reshape(-1)
         return (float(y), float(S), float(h[0]), float(h[1]), float(h[2]))
 
-    def _watch_integrity(self, t: float) -> None:
-        """Once per revolution: the monitor's check; inflate ``P`` when it asks (see :mod:`.integrity`)."""
-        if not self._has_pose() or self.monitor.verdict == "lost" or not self.monitor.due(t):
+    def _watch_integrity(self, t: float, force: bool = False) -> None:
+        """Once per revolution, or now with ``force``: the monitor's check; inflate ``P`` when it asks."""
+        if not self._has_pose() or self.monitor.verdict == "lost" or not (force or self.monitor.due(t)):
             return
         n_excluded = len(self.monitor.excluded)
         if self.monitor.check(t, self._x, self._P, self._odom_t, self._dead_reckoning()):
@@ -649,7 +649,7 @@ class StreamingEstimator:
         if n_bad >= 4 and 2 * n_ok < n_bad and room:
             self._P_t = tuple(4.0 * v for v in self._P_t)
             self.n_inflations += 1
-            self.monitor.flag(t, "lockout")  # not trustworthy until the gates admit the reflectors again
+            self._watch_integrity(t, force=True)  # judge the estimate now, not a revolution later
             recent.clear()
             self._recent_ok = 0
 
