@@ -208,3 +208,28 @@ def test_survey_std_per_reflector_reaches_the_gate_and_the_floor(lab: WorldMap, 
     excess = np.linalg.eigvalsh(est.covariance - est.monitor.survey_floor)
     assert excess.min() > -1e-12  # never more certain than the survey floor
     assert np.all(np.linalg.eigvalsh(est.covariance - est.filter_covariance) > -1e-12)  # nor than the filter
+
+
+def test_a_lockout_inflation_is_judged_at_once_not_a_revolution_later(lab: WorldMap) -> None:
+    """A lock-out inflation runs the monitor's check at its own instant (the estimator asks; the check decides)."""
+    truth = np.array([4.0, 3.0, 0.3])
+    est = make_estimator("ekf", lab, MOUNT, initial_pose=truth + [0.3, 0.0, 0.0],
+                         initial_covariance=np.diag([1e-3, 1e-3, 1e-4]) ** 2)
+    checked: list[float] = []
+    check = est.monitor.check
+
+    def recording_check(t: float, *args, **kwargs) -> bool:  # type: ignore[no-untyped-def]
+        checked.append(t)
+        return check(t, *args, **kwargs)
+
+    est.monitor.check = recording_check  # type: ignore[method-assign]
+    refl = Goniometer(mount=tuple(MOUNT)).scan(lab, arc_pose_at(truth, 0.0, 0.0), 0.0, 2.0)
+    inflated_at = []
+    for t, z in zip(refl.t, refl.bearing, strict=True):
+        est.predict(float(t), 0.0, 0.0)
+        before = est.n_inflations
+        est.update(float(t), float(z))
+        if est.n_inflations > before:
+            inflated_at.append(float(t))
+    assert inflated_at, "the wrong prior must lock the gates out"
+    assert set(inflated_at) <= set(checked)

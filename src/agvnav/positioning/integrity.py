@@ -423,21 +423,6 @@ class IntegrityMonitor:
             self._n_nu[j] += 1
             self._mean_nu[j] += (nis - self._mean_nu[j]) / min(self._n_nu[j], 8)
 
-    def flag(self, t: float, reason: str) -> None:
-        """The estimator's own alarm at ``t`` (s), e.g. a lock-out inflation: ``degraded`` now, held ``recover_s``.
-
-        A ``lost`` verdict stays lost; the next :meth:`check` judges as usual (the failure
-        time holds the verdict ``degraded`` for ``recover_s`` seconds).
-        """
-        if not self.limits.enabled or self.verdict == "lost":
-            return
-        self._failed_at = t
-        if self._degraded_since is None:
-            self._degraded_since = t
-        self.verdict = "degraded"
-        self.reasons = (*self.reasons, reason) if reason not in self.reasons else self.reasons
-        self.quality = self._score()
-
     @property
     def used(self) -> tuple[int, ...]:
         """Map rows of the distinct reflectors accepted in the window, ascending."""
