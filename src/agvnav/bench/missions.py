@@ -33,7 +33,7 @@ the hall mission is guided at O, where the body must turn into the curve: ~24 mm
 with clothoids.
 ``stops``: per station, the worst stop error over the seeds, as ``station mm/deg``.
 Targets (issue 14): every mission completes; stop error <= 10 mm and 0.5 deg. The differential
-AGV positions finely at standstill at each station (``sim.mission.FinePositioner``) and its
+AGV positions finely at standstill at each station (``guidance.FinePositioner``) and its
 stop is measured at rest after that; the tricycle's where the creep-in stopped it (it holds the
 station heading over the creep-in, ``guidance.approach.HeadingHoldApproach``).
 

@@ -455,7 +455,7 @@ class MissionSpec(StrictModel):
     """steered vehicles: guide C on runs driven forward (cruising), O on runs backing up (manoeuvres)."""
     align_heading: bool = True
     """vehicles turning on the spot: position finely at standstill after each stop (the estimate settles, slow
-    corrections to 2 mm, the station heading: ``sim.mission.FinePositioner``)."""
+    corrections to 2 mm, the station heading: ``guidance.FinePositioner``)."""
 
 
 class Scenario(SourcedModel):
