@@ -97,7 +97,7 @@ def _unit_increment_cov(dd: float, dth: float) -> F64:
 
 
 def _propagate_parts(local: F64, parts: F64, dd: float, dth: float) -> tuple[F64, F64]:
-    """One midpoint step of the three unit-coefficient covariances ``(3, 3, 3)`` ([seed002 eq14, eq17])."""
+    """One midpoint step of the three unit-coefficient covariances ``(3, 3, 3)`` ([seed002 eq14] [seed002 eq17])."""
     F = pose_jacobian(local, dd, dth, rule="midpoint")
     G = increment_jacobian(local, dd, dth, rule="midpoint")
     new = F @ parts @ F.T + G @ _unit_increment_cov(dd, dth) @ G.T
