@@ -34,17 +34,16 @@ def test_fault_scenarios_build_with_their_wrappers(name):
     assert isinstance(b.loop.sensors[0], FaultySensor) is bool(sensor_kinds)
 
 
-def test_blackout_slows_stops_and_resumes():
+def test_blackout_slows_and_resumes():
+    # with the truth-consistent odometry Q (a21e70c) 3 sigma grows only to ~16 mm in the 12 s
+    # blackout: the guard slows in dead reckoning and resumes; no 3-sigma stop is due
     r = simulate(load_scenario("fault_blackout"))
     s, fig = r.series, r.integrity
     level = s["guard_level"]
-    assert r.completed  # the reflections came back and the vehicle finished its path
-    assert set(np.unique(level)) == {0.0, 1.0, 2.0}
-    first_stop = int(np.argmax(level == 2.0))
-    assert np.all(level[:first_stop] <= 1.0) and np.any(level[:first_stop] == 1.0)  # slowed before stopping
+    assert r.completed
+    assert set(np.unique(level)) == {0.0, 1.0}
     assert np.all(s["t"][level >= 1.0] >= 4.0)  # nothing before the blackout
-    assert fig["stop_demands"] == 1 and fig["stops_within_braking_distance"] is True
-    assert fig["time_stopped_for_positioning_s"] > 1.0
+    assert fig["stop_demands"] == 0
 
 
 def test_unknown_reflector_is_named_with_its_key_and_line():
