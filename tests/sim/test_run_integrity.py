@@ -11,7 +11,7 @@ import agvnav.sim.run as run_mod
 from agvnav.guidance import GuidanceError
 from agvnav.sim import simulate
 from agvnav.sim.integrity import CHI2_3_95, integrity_figures, longest_run, nees, silent_mask, stop_episodes
-from agvnav.world.scenario import parse_scenario
+from agvnav.world.scenario import builtin_scenario, parse_scenario
 
 
 def test_nees_against_the_explicit_formula_and_its_chi2_mean():
@@ -207,3 +207,21 @@ def test_an_undefined_estimate_while_moving_brakes_at_the_deceleration_limit(nam
     expected = np.maximum(v0 - sc.traction.max_decel_m_s2 * 0.05 * np.arange(1, 40), 0.0)
     np.testing.assert_allclose(speeds, expected, atol=1e-9)
     assert all(c == 0.0 for c in cmd)
+
+
+def test_true_lateral_error_does_not_follow_a_wrong_estimate_along_the_path():
+    """The truth 2 cm left of the path throughout; for 2 s the estimate (and its progress) sits
+    at the path's end, as after a wrong relocalisation: the true lateral error stays 2 cm."""
+    built = build_mod.build(parse_scenario(builtin_scenario("differential_loop").read_text(), "differential_loop"))
+    path = built.path
+    s = np.linspace(0.0, 0.5 * path.length, 201)
+    psi = path.heading_at(s)
+    xy = path.point_at(s) + 0.02 * np.column_stack([-np.sin(psi), np.cos(psi)])
+    wrong = slice(80, 121)
+    est_xy, s_est = xy.copy(), s.copy()
+    est_xy[wrong], s_est[wrong] = path.point_at(path.length), path.length
+    series = {"x": xy[:, 0], "y": xy[:, 1], "psi": psi, "est_x": est_xy[:, 0], "est_y": est_xy[:, 1],
+              "s_est": s_est, "distance": s.copy()}
+    run_mod._add_true_errors(series, built)
+    assert np.allclose(series["lateral_error"], 0.02, atol=1e-9)
+    assert np.allclose(series["s_true"], s, atol=1e-6)

@@ -140,8 +140,21 @@ def _distance(series: dict[str, NDArray[np.float64]]) -> NDArray[np.float64]:
     raise KeyError("the plant records no distance signal")
 
 
+#: Slack (m) of the truth's progress between two samples beyond twice the distance its
+#: reference point travelled: a larger step is a projection that followed a wrong hint.
+PROGRESS_SLACK_M = 0.05
+
+
 def _add_true_errors(series: dict[str, NDArray[np.float64]], built: Built) -> None:
-    """Lateral and heading errors of the true pose against the path (see the module docstring)."""
+    """Lateral and heading errors of the true pose against the path (see the module docstring).
+
+    The projection searches 1 m around a hint, the estimate's progress ``s_est``. Where
+    the truth's progress then jumps further than its reference point travelled (the
+    estimate relocalised wrongly, or the autopilot's progress ran on while positioning
+    was lost), those samples are projected again one by one around the truth's own
+    progress at the previous sample, until the two projections agree again: a wrong
+    estimate never moves the truth's projection onto another part of the path.
+    """
     pose = np.column_stack([series["x"], series["y"], series["psi"]])
     hint = np.nan_to_num(series["s_est"], nan=0.0)
     path, off = built.path, built.point_offset
@@ -149,22 +162,41 @@ def _add_true_errors(series: dict[str, NDArray[np.float64]], built: Built) -> No
         off = float(getattr(built.plant, "L_true", off))
     point = pose[:, :2] + off * np.column_stack([np.cos(pose[:, 2]), np.sin(pose[:, 2])])
     series["x_tracked"], series["y_tracked"] = point[:, 0].copy(), point[:, 1].copy()
-    if built.plant.family == "steered":
-        L_true = float(getattr(built.plant, "L_true", built.plant.geometry.wheelbase))
-        err = tracking_errors(path, pose, series["gamma"] if "gamma" in series else series["phi"], L_true,
-                              built.point, s_hint=hint, window=1.0)
-        for name in ("eps_c", "eps_o", "xi", "xi_r"):
-            series[name] = np.asarray(getattr(err, name), dtype=np.float64)
-        series["s_true"] = np.asarray(err.s, dtype=np.float64)
-        series["lateral_error"] = series["eps_c"]
-        series["heading_error"] = series["xi_r"]
-        return
-    proj = path.project(point, s_hint=hint, window=1.0)
-    reverse = np.where(np.asarray(proj.direction) < 0, math.pi, 0.0)
-    yaw = np.asarray(path.yaw_offset_at(proj.s)) if built.plant.family == "holonomic" else 0.0
-    series["s_true"] = np.asarray(proj.s, dtype=np.float64)
-    series["lateral_error"] = np.asarray(proj.lateral, dtype=np.float64)
-    series["heading_error"] = np.asarray(wrap_angle(pose[:, 2] - proj.heading - reverse - yaw), dtype=np.float64)
+    steered = built.plant.family == "steered"
+    L_true = float(getattr(built.plant, "L_true", built.plant.geometry.wheelbase)) if steered else 0.0
+    gamma = (series["gamma"] if "gamma" in series else series["phi"]) if steered else None
+
+    def errors(k: slice, s_hint: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
+        if gamma is not None:
+            err = tracking_errors(path, pose[k], gamma[k], L_true, built.point, s_hint=s_hint, window=1.0)
+            out = {name: np.asarray(getattr(err, name), dtype=np.float64) for name in ("eps_c", "eps_o", "xi", "xi_r")}
+            out.update(s_true=np.asarray(err.s, dtype=np.float64), lateral_error=out["eps_c"])
+            out["heading_error"] = out["xi_r"]
+            return out
+        proj = path.project(point[k], s_hint=s_hint, window=1.0)
+        reverse = np.where(np.asarray(proj.direction) < 0, math.pi, 0.0)
+        yaw = np.asarray(path.yaw_offset_at(proj.s)) if built.plant.family == "holonomic" else 0.0
+        return {
+            "s_true": np.asarray(proj.s, dtype=np.float64),
+            "lateral_error": np.asarray(proj.lateral, dtype=np.float64),
+            "heading_error": np.asarray(wrap_angle(pose[k, 2] - proj.heading - reverse - yaw), dtype=np.float64),
+        }
+
+    found = errors(slice(None), hint)
+    s_true, step = found["s_true"], np.abs(np.diff(_distance(series)))
+    jumps = np.flatnonzero(np.abs(np.diff(s_true)) > 2.0 * step + PROGRESS_SLACK_M) + 1
+    i, n = 0, s_true.size
+    for j in jumps:
+        i = max(i, int(j))
+        while i < n:  # re-project around the truth's own progress until the first pass agrees
+            one = errors(slice(i, i + 1), s_true[i - 1:i].copy())
+            agrees = abs(float(one["s_true"][0]) - float(s_true[i])) < 1e-9
+            for name, values in one.items():
+                found[name][i] = values[0]
+            i += 1
+            if agrees:
+                break
+    series.update(found)
 
 
 def _outcome(
