@@ -94,3 +94,19 @@ def test_reaching_the_end_of_s_far_from_the_end_point_is_not_completion():
     assert v == 0.0 and not pilot.finished
     v, _ = pilot.command(0.05, _Estimator((2.0, 0.01, 0.0)), _Plant(), 0.05)
     assert v == 0.0 and pilot.finished
+
+
+def test_progress_holds_while_the_estimator_is_lost():
+    """A lost estimate wandering along the path does not carry the progress with it."""
+    path = path_from_moves([0.0, 0.0, 0.0], [("line", 6.0)])
+    profile = SpeedProfile(cruise_speed=0.2, max_accel=0.3, max_decel=0.3)
+    pilot = PathAutopilot(_Controller(path), path, profile, _Plant(), point_offset=1.0)
+    est = _Estimator((0.0, 0.0, 0.0))
+    s_est = pilot.signal_names.index("s_est")
+    for k in range(40):  # the lost estimate runs ahead 0.1 m a step
+        est.status, est.pose = "lost", (0.1 * k, 0.0, 0.0)
+        pilot.command(0.05 * k, est, _Plant(), 0.05)
+    assert pilot.signals()[s_est] == pytest.approx(0.0)
+    est.status = "tracking"  # the same pose, trusted: the progress follows again
+    pilot.command(2.0, est, _Plant(), 0.05)
+    assert pilot.signals()[s_est] > 0.5

@@ -66,7 +66,8 @@ class PathAutopilot:
     Progress ``s`` along the path advances only through a projection of the
     estimated tracked point searched within ``progress_window`` metres ahead of
     the previous ``s`` (starting from 0): a start far off the path cannot project
-    onto the path end. The speed profile brings the vehicle to a stop at every
+    onto the path end. It holds while the estimator's status is ``lost``, so a
+    wandering lost estimate cannot carry it to the path end. The speed profile brings the vehicle to a stop at every
     cusp (where the direction of travel changes) before it drives on in the
     other direction, and the follower is given one run of same-direction
     segments at a time (a reverse segment often retraces a forward one, where
@@ -181,7 +182,8 @@ class PathAutopilot:
         pose = estimator.pose
         if not (math.isfinite(pose[0]) and math.isfinite(pose[1]) and math.isfinite(pose[2])):
             return self._brake_blind(dt, plant)
-        self._advance(pose)
+        if getattr(estimator, "status", "tracking") != "lost":  # a lost estimate says nothing of progress
+            self._advance(pose)
         remaining = self._run_end - self._s
         scale = 1.0 if self.watch is None else self.watch.scale(t, estimator)
         v = self.profile.command(remaining, dt, self._run_dir * abs(self.profile.cruise_speed) * scale)
