@@ -12,6 +12,7 @@ from scipy.stats import chi2
 
 from agvnav.positioning import bearing_model, crlb, make_estimator
 from agvnav.positioning.integrity import IntegrityLimits, IntegrityMonitor, chi2_upper
+from agvnav.positioning.plausibility import PlausibilityLimits
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.world import Reflector, WorldMap, load_builtin_map, load_map, save_map
 
@@ -233,3 +234,25 @@ def test_a_lockout_inflation_is_judged_at_once_not_a_revolution_later(lab: World
             inflated_at.append(float(t))
     assert inflated_at, "the wrong prior must lock the gates out"
     assert set(inflated_at) <= set(checked)
+
+
+def test_relocalisation_beyond_the_vehicles_reach_waits_until_it_is_reachable(lab: WorldMap) -> None:
+    # the vehicle is carried 8.1 m at t = 1 s while its odometry reads zero (an encoder dropout):
+    # the revolution seen from there fits that pose, which a 0.5 m/s vehicle cannot reach
+    # before t ~ 17 s; until then the estimator refuses it and stays lost
+    a, b = np.array([4.0, 3.0, 0.3]), np.array([12.0, 4.0, 0.3])
+
+    def carried(t: np.ndarray) -> np.ndarray:
+        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        return np.where((t < 1.0)[..., None], a, b)
+
+    est = make_estimator("ekf", lab, MOUNT, initial_pose=a, initial_covariance=np.diag([0.01, 0.01, 0.005]) ** 2,
+                         strict=False, plausibility=PlausibilityLimits(max_speed_m_s=0.5))
+    times, poses, _ = feed(est, lab, Goniometer(mount=tuple(MOUNT)), carried, 0.0, 0.0, 12.0)
+    assert est.n_unreachable >= 1 and est.n_relocalisations == 0 and est.status == "lost"
+    est = make_estimator("ekf", lab, MOUNT, initial_pose=a, initial_covariance=np.diag([0.01, 0.01, 0.005]) ** 2,
+                         strict=False, plausibility=PlausibilityLimits(max_speed_m_s=0.5))
+    times, poses, _ = feed(est, lab, Goniometer(mount=tuple(MOUNT)), carried, 0.0, 0.0, 20.0)
+    assert est.n_unreachable >= 1 and est.n_relocalisations == 1 and est.status == "tracking"
+    assert np.hypot(*(est.pose[:2] - b[:2])) < 5e-3
+    assert np.all(np.hypot(*(poses[times < 16.0, :2] - b[:2]).T) > 1.0)  # never at b before it was reachable

@@ -119,7 +119,13 @@ class StreamingEstimator:
         when the support of the estimate fails; lost, the estimator stops correcting and
         relocalises with :func:`~agvnav.positioning.identification.initial_pose_search`
         once a revolution of reflections at standstill is collected, accepting only an
-        unambiguous pose (``ambiguous`` reports the other case; ``n_relocalisations``).
+        unambiguous pose (``ambiguous`` reports the other case; ``n_relocalisations``)
+        and within reach of the last trusted one: no farther from the pose of the last
+        reflection accepted with the verdict ok than ``plausibility.max_speed_m_s`` times the time since, plus
+        3 sigma of that pose and ``plausibility.slack_m`` (``n_unreachable`` counts the
+        refused ones). Odometry that reads zero while the vehicle moves (an encoder
+        dropout) makes the estimator believe it stands still, and a revolution of
+        bearings taken on the move can fit a wrong pose metres away.
     """
 
     method: ClassVar[str] = "base"
@@ -185,6 +191,8 @@ class StreamingEstimator:
         )
         self.ambiguous = False
         self.n_relocalisations = 0
+        self.n_unreachable = 0
+        self._trusted: tuple[float, float, float, float] | None = None  # x, y (m), var x + var y (m²), t (s)
         self._next_search_t = -math.inf
         self.n_accepted = 0
         self.n_rejected = 0
@@ -402,6 +410,8 @@ class StreamingEstimator:
         self._t_last_accept = t
         before = (self._x_t, self._P_t)
         self._accept(t, z, assoc)
+        if self.monitor.verdict == "ok":
+            self._trusted = (self._x_t[0], self._x_t[1], self._P_t[0] + self._P_t[4], t)
         self.monitor.accepted(t, assoc.nis, assoc.index, z, self._odom_t, self._correction(*before),
                               self._innovation(assoc.innovation, assoc.S, assoc.H))
         self._watch_integrity(t)
@@ -707,6 +717,10 @@ class StreamingEstimator:
         self.ambiguous = bool(result.ambiguous)
         self._init_buffer = [b for b in self._init_buffer if times[-1] - b[0] < 1.0 / self.rate_hz]
         relocalising = self._has_pose()
+        if result.found and relocalising and not self._reachable(result.pose, float(times[-1])):
+            self.n_unreachable += 1
+            self._next_search_t = float(times[-1]) + 1.0
+            return
         if result.found:
             self._start(result.pose, result.covariance + np.diag([1e-6, 1e-6, 1e-8]))
             self.n_relocalisations += relocalising
@@ -714,6 +728,15 @@ class StreamingEstimator:
             self._on_start()
         elif relocalising:  # lost: the search costs ~0.1 s, try again a second later
             self._next_search_t = float(times[-1]) + 1.0
+
+    def _reachable(self, pose: NDArray[np.float64], t: float) -> bool:
+        """Whether base_link could have reached ``pose`` (m) at ``t`` (s) from the last trusted pose."""
+        if self._trusted is None:
+            return True
+        x, y, var, t0 = self._trusted
+        lim = self.plausibility
+        reach = lim.max_speed_m_s * max(t - t0, 0.0) + 3.0 * math.sqrt(max(var, 0.0)) + lim.slack_m
+        return math.hypot(float(pose[0]) - x, float(pose[1]) - y) <= reach
 
     def _on_start(self) -> None:
         """Hook for subclasses: called once the start-up search has set the pose."""
