@@ -196,9 +196,12 @@ class EkfEstimator(StreamingEstimator):
         return M, self._C, self._svar
 
     def _consider_move(self, f02: float, f12: float) -> None:
-        M = self._M = _fast.shear(self._M, f02, f12)  # det F = 1: only rows 0 and 1 change, and grow
-        if max(abs(M[0]), abs(M[1]), abs(M[2]), abs(M[3]), abs(M[4]), abs(M[5])) > CONSIDER_MAX_ENTRY:
-            self._fold(M)
+        # F M (_fast.shear written out). det F = 1 and F^-1 is F with -f: no fold needed here; rows 0
+        # and 1 grow with the distance driven, and the next update's check (_left) folds them
+        M = self._M
+        m6, m7, m8 = M[6], M[7], M[8]
+        self._M = (M[0] + f02 * m6, M[1] + f02 * m7, M[2] + f02 * m8, M[3] + f12 * m6, M[4] + f12 * m7,
+                   M[5] + f12 * m8, m6, m7, m8)
 
     def _fold(self, M: tuple[float, ...]) -> None:
         """``C <- C M^T`` (``P_xp = M C^T`` unchanged) and ``M <- I``: O(N), rare."""
@@ -266,14 +269,14 @@ class EkfEstimator(StreamingEstimator):
         )
         # P_xp <- A P_xp - K H_p P_pp,j: M <- A M, then reflector j's columns get K (h0, h1) svar_j
         M = self._left(K, H)
-        tx = (K[0] * h0 * svar, K[1] * h0 * svar, K[2] * h0 * svar)
-        ty = (K[0] * h1 * svar, K[1] * h1 * svar, K[2] * h1 * svar)
         if M is not _IDENTITY:
-            d = _fast.det3(M)
-            tx, ty = _fast.solve3(M, tx, d), _fast.solve3(M, ty, d)
+            u0, u1, u2 = _fast.solve3(M, K, _fast.det3(M))  # M^-1 K: both new terms are multiples of K
         else:  # folded: C[j] now holds the old P_xp,j transformed by A
+            u0, u1, u2 = K
             row = self._C[j].tolist()
-        self._C[j] = (row[0] + tx[0], row[1] + tx[1], row[2] + tx[2], row[3] + ty[0], row[4] + ty[1], row[5] + ty[2])
+        ax, ay = h0 * svar, h1 * svar
+        self._C[j] = (row[0] + u0 * ax, row[1] + u1 * ax, row[2] + u2 * ax, row[3] + u0 * ay, row[4] + u1 * ay,
+                      row[5] + u2 * ay)
         self.last_innovation = assoc.innovation
         self.last_nis = assoc.nis
         self.last_reflector = assoc.index
