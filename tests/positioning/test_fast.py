@@ -115,12 +115,17 @@ def test_gate_one_matches_gate_reflection(seed: int) -> None:
 
 
 def test_estimator_fast_path_matches_the_kernels_over_a_drive() -> None:
-    """The EKF driven by the fast paths equals a replay with the vectorised kernels."""
+    """The EKF driven by the fast paths equals a replay with the vectorised kernels.
+
+    Without a survey error (``map_std=0``) the EKF's Schmidt-Kalman update is the plain
+    Joseph update of :func:`ekf_update`; with one, ``tests/positioning/test_consider.py``
+    checks it against the augmented-state form.
+    """
     world = load_builtin_map("lab")
     mount = np.array([0.3, 0.0, 0.0])
     x0 = np.array([6.0, 3.0, 0.4])
     P0 = np.diag([0.01, 0.01, 0.003]) ** 2
-    est = make_estimator("ekf", world, mount, initial_pose=x0, initial_covariance=P0)
+    est = make_estimator("ekf", world, mount, initial_pose=x0, initial_covariance=P0, map_std=0.0)
     noise = est.odometry_noise
     x, P = x0.copy(), P0.copy()
     t = 0.0

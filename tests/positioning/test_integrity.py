@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+import scipy.linalg
 from _drive import arc_pose_at, feed
 from scipy.stats import chi2
 
@@ -205,10 +206,13 @@ def test_survey_std_per_reflector_reaches_the_gate_and_the_floor(lab: WorldMap, 
     T = np.array([[1.0, 0.0, 0.3 * math.sin(psi)], [0.0, 1.0, -0.3 * math.cos(psi)], [0.0, 0.0, 1.0]])
     np.testing.assert_allclose(est.monitor.survey_floor, T @ head_floor @ T.T, rtol=1e-3, atol=1e-12)
     # the floor is the head fix's, carried to base_link (base = head - R(psi) mount)
-    np.testing.assert_allclose(est.covariance, est.filter_covariance + est.monitor.survey_floor, rtol=1e-12)
-    excess = np.linalg.eigvalsh(est.covariance - est.monitor.survey_floor)
-    assert excess.min() > -1e-12  # never more certain than the survey floor
-    assert np.all(np.linalg.eigvalsh(est.covariance - est.filter_covariance) > -1e-12)  # nor than the filter
+    # the EKF carries each reflector's own survey std as a consider parameter and reports its P alone
+    # (issue 12). At standstill, 20 revolutions on, that P is the survey floor: the error a constant
+    # survey error leaves, found independently by the monitor's CRLB (ratios 0.98-1.02 measured)
+    np.testing.assert_array_equal(est.survey_std, loaded.reflector_survey_std)
+    np.testing.assert_array_equal(est.covariance, est.filter_covariance)
+    ratios = scipy.linalg.eigvalsh(est.covariance, est.monitor.survey_floor)
+    assert ratios.min() > 0.95 and ratios.max() < 1.1
 
 
 def test_a_lockout_inflation_is_judged_at_once_not_a_revolution_later(lab: WorldMap) -> None:

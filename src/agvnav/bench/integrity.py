@@ -18,7 +18,10 @@ Per row, over its runs (all figures from the truth, :mod:`agvnav.sim.integrity`)
   distance travelled from a demand to standstill;
 * ``max_true_lateral_m``: largest true lateral error of the tracked point;
 * ``nees_mean``: mean over the runs of each run's mean NEES (3 dof: 95 % of
-  samples below 7.81 and a mean near 3 for a consistent filter);
+  samples below 7.81 and a mean near 3 for a consistent filter); ``nees_band``: the
+  95 % band of the mean of that many chi-square(3) samples and ``nees_inside`` whether
+  the mean lies in it (:func:`agvnav.bench.consistency.band`; ``agvnav bench
+  consistency`` gives the position and heading parts over 200 runs);
 * ``outcomes``: how the runs ended (``completed`` or the failure reason).
 
 Targets (issue 12): 0 silent failures in every row, NEES mean consistent in the
@@ -43,6 +46,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from agvnav.bench.consistency import band
 from agvnav.sim import simulate
 from agvnav.world.scenario import builtin_scenario, parse_scenario
 
@@ -134,6 +138,7 @@ def summarise(fault: str, severity: str, model: str, runs: list[dict[str, Any]])
     lat = _finite([r["max_true_lateral_m"] for r in runs])
     nees = _finite([r["nees_mean"] for r in runs])
     outcomes = Counter(r["outcome"] for r in runs)
+    lohi = band(len(nees), 3) if nees else None
     return {
         "fault": fault,
         "severity": severity,
@@ -145,6 +150,8 @@ def summarise(fault: str, severity: str, model: str, runs: list[dict[str, Any]])
         "max_stop_distance_m": max(stops) if stops else None,
         "max_true_lateral_m": max(lat) if lat else None,
         "nees_mean": float(np.mean(nees)) if nees else None,
+        "nees_band": f"{lohi[0]:.2f}-{lohi[1]:.2f}" if lohi else None,
+        "nees_inside": bool(lohi[0] < np.mean(nees) < lohi[1]) if lohi else None,
         "outcomes": ", ".join(f"{k} {v}" for k, v in sorted(outcomes.items())),
     }
 

@@ -100,6 +100,13 @@ def integrity(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_O
     _run("integrity", json, quick, seed, wide)
 
 
+@bench_app.command("consistency")
+@user_errors
+def consistency(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
+    """EKF consistency: NEES (full, position, heading) over 200 runs of the fault-free EKF scenarios, 95 % bands."""
+    _run("consistency", json, quick, seed, wide)
+
+
 @bench_app.command("speed")
 @user_errors
 def speed(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:

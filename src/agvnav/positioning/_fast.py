@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
+from typing import Any
 
 from agvnav.geometry.angles import wrap_angle_scalar
 from agvnav.positioning.gating import GateSpec
@@ -162,6 +163,133 @@ def joseph_update(
     return xn, (c00, c01, c02, c01, c11, c12, c02, c12, c22)
 
 
+def gain(P: Sequence[float], H: Sequence[float], R: float) -> tuple[float, float, float]:
+    """Kalman gain ``K = P H^T / (H P H^T + R)`` of a scalar measurement on a flat symmetric 3x3 ``P``."""
+    p00, p01, p02, _, p11, p12, _, _, p22 = P
+    h0, h1, h2 = H
+    b0 = p00 * h0 + p01 * h1 + p02 * h2
+    b1 = p01 * h0 + p11 * h1 + p12 * h2
+    b2 = p02 * h0 + p12 * h1 + p22 * h2
+    S = h0 * b0 + h1 * b1 + h2 * b2 + R
+    return b0 / S, b1 / S, b2 / S
+
+
+# ---------------------------------------------------------------------- Schmidt-Kalman consider filter
+# The EKF's consider parameters are the 2-D survey errors p_j of the reflectors (true minus
+# surveyed position), fixed covariance diag(svar_j, svar_j). Their cross-covariance with the
+# pose, P_xp (3 x 2N), is kept factored as ``P_xp = M C^T``: ``M`` a flat 3x3 (every
+# left-multiplication -- a prediction's F, an update's (I - K H) -- touches only M, O(1)),
+# ``C`` a (2N, 3) array whose rows 2j and 2j+1 belong to reflector j (see
+# :class:`agvnav.positioning.ekf.EkfEstimator`).
+
+
+def consider_cross(
+    M: Sequence[float], cx: Sequence[float], cy: Sequence[float], hp0: float, hp1: float
+) -> tuple[float, float, float]:
+    """``v = P_xp,j H_p^T`` (3,): the pose / survey-error cross-covariance of one reflector times its row.
+
+    ``P_xp,j = M [cx cy]`` (3 x 2, ``cx``, ``cy`` the reflector's two rows of ``C``),
+    ``H_p = (hp0, hp1)`` the bearing's derivative with respect to the reflector position
+    (rad/m; ``-(H0, H1)`` of the pose row).
+    """
+    w0 = cx[0] * hp0 + cy[0] * hp1
+    w1 = cx[1] * hp0 + cy[1] * hp1
+    w2 = cx[2] * hp0 + cy[2] * hp1
+    return (
+        M[0] * w0 + M[1] * w1 + M[2] * w2,
+        M[3] * w0 + M[4] * w1 + M[5] * w2,
+        M[6] * w0 + M[7] * w1 + M[8] * w2,
+    )
+
+
+def schmidt_update(
+    x: Sequence[float], P: Sequence[float], innovation: float, H: Sequence[float], R: float,
+    v: Sequence[float], b: float,
+) -> tuple[tuple[float, float, float], Mat3, tuple[float, float, float], float]:
+    """Scalar Schmidt-Kalman (consider) update of the pose for a measurement that also sees consider parameters.
+
+    The linearised innovation is ``y = H e + H_p p + w`` (``e`` the pose error, ``p`` the
+    consider parameters, ``w`` white with variance ``R``). With ``v = P_xp H_p^T`` and
+    ``b = H_p P_pp H_p^T``:
+
+        S = H P H^T + 2 H v + b + R,   K = (P H^T + v) / S,   x' = x + K y,
+        P' = A P A^T - A v K^T - K v^T A^T + (b + R) K K^T,  A = I - K H
+
+    (the Joseph form of the error ``e' = A e - K (H_p p + w)``; the gain only on ``x``,
+    the consider parameters never updated). ``P`` flat symmetric 3x3; only the upper
+    triangle of ``P'`` is computed and mirrored. With ``v = 0`` and ``b = 0`` this is
+    :func:`joseph_update`. The caller updates ``P_xp' = A P_xp - K H_p P_pp``.
+
+    Returns ``(x', P', K, S)``.
+    """
+    p00, p01, p02, _, p11, p12, _, _, p22 = P
+    h0, h1, h2 = H
+    v0, v1, v2 = v
+    b0 = p00 * h0 + p01 * h1 + p02 * h2  # P H^T
+    b1 = p01 * h0 + p11 * h1 + p12 * h2
+    b2 = p02 * h0 + p12 * h1 + p22 * h2
+    u0, u1, u2 = b0 + v0, b1 + v1, b2 + v2
+    hv = h0 * v0 + h1 * v1 + h2 * v2
+    S = h0 * b0 + h1 * b1 + h2 * b2 + 2.0 * hv + b + R
+    k0, k1, k2 = u0 / S, u1 / S, u2 / S
+    xn = (x[0] + k0 * innovation, x[1] + k1 * innovation, wrap(x[2] + k2 * innovation))
+    # M = A P = P - K (P H^T)^T, rows
+    m00, m01, m02 = p00 - k0 * b0, p01 - k0 * b1, p02 - k0 * b2
+    m10, m11, m12 = p01 - k1 * b0, p11 - k1 * b1, p12 - k1 * b2
+    m20, m21, m22 = p02 - k2 * b0, p12 - k2 * b1, p22 - k2 * b2
+    mh0 = m00 * h0 + m01 * h1 + m02 * h2  # (A P) H^T
+    mh1 = m10 * h0 + m11 * h1 + m12 * h2
+    mh2 = m20 * h0 + m21 * h1 + m22 * h2
+    a0, a1, a2 = v0 - k0 * hv, v1 - k1 * hv, v2 - k2 * hv  # A v
+    q = b + R
+    # (A P A^T)[i, j] = (A P)[i, j] - ((A P) H^T)[i] K[j]; minus (A v)[i] K[j] + K[i] (A v)[j]; plus q K[i] K[j]
+    c00 = m00 - mh0 * k0 - 2.0 * a0 * k0 + q * k0 * k0
+    c01 = m01 - mh0 * k1 - (a0 * k1 + k0 * a1) + q * k0 * k1
+    c02 = m02 - mh0 * k2 - (a0 * k2 + k0 * a2) + q * k0 * k2
+    c11 = m11 - mh1 * k1 - 2.0 * a1 * k1 + q * k1 * k1
+    c12 = m12 - mh1 * k2 - (a1 * k2 + k1 * a2) + q * k1 * k2
+    c22 = m22 - mh2 * k2 - 2.0 * a2 * k2 + q * k2 * k2
+    return xn, (c00, c01, c02, c01, c11, c12, c02, c12, c22), (k0, k1, k2), S
+
+
+def left_update(M: Sequence[float], K: Sequence[float], H: Sequence[float]) -> Mat3:
+    """``(I - K H) M`` for flat 3x3 ``M``, column ``K`` and row ``H`` (3,)."""
+    h0, h1, h2 = H
+    r0 = h0 * M[0] + h1 * M[3] + h2 * M[6]  # H M
+    r1 = h0 * M[1] + h1 * M[4] + h2 * M[7]
+    r2 = h0 * M[2] + h1 * M[5] + h2 * M[8]
+    k0, k1, k2 = K
+    return (
+        M[0] - k0 * r0, M[1] - k0 * r1, M[2] - k0 * r2,
+        M[3] - k1 * r0, M[4] - k1 * r1, M[5] - k1 * r2,
+        M[6] - k2 * r0, M[7] - k2 * r1, M[8] - k2 * r2,
+    )
+
+
+def shear(M: Sequence[float], f02: float, f12: float) -> Mat3:
+    """``F M`` for the prediction Jacobian ``F = I`` except ``F[0,2] = f02``, ``F[1,2] = f12`` (flat 3x3)."""
+    m6, m7, m8 = M[6], M[7], M[8]
+    return (M[0] + f02 * m6, M[1] + f02 * m7, M[2] + f02 * m8, M[3] + f12 * m6, M[4] + f12 * m7, M[5] + f12 * m8,
+            m6, m7, m8)
+
+
+def det3(M: Sequence[float]) -> float:
+    """Determinant of a flat 3x3."""
+    return (M[0] * (M[4] * M[8] - M[5] * M[7]) - M[1] * (M[3] * M[8] - M[5] * M[6])
+            + M[2] * (M[3] * M[7] - M[4] * M[6]))
+
+
+def solve3(M: Sequence[float], r: Sequence[float], det: float) -> tuple[float, float, float]:
+    """``M^-1 r`` by the adjugate (``det = det3(M)``, nonzero; the caller keeps ``M`` well conditioned)."""
+    a, b_, c, d, e, f, g, h, i = M
+    r0, r1, r2 = r
+    return (
+        ((e * i - f * h) * r0 - (b_ * i - c * h) * r1 + (b_ * f - c * e) * r2) / det,
+        (-(d * i - f * g) * r0 + (a * i - c * g) * r1 - (a * f - c * d) * r2) / det,
+        ((d * h - e * g) * r0 - (a * h - b_ * g) * r1 + (a * e - b_ * d) * r2) / det,
+    )
+
+
 def reflector_rows(
     reflector_xy: Iterable[Sequence[float]], radius: Iterable[float]
 ) -> tuple[tuple[float, float, float], ...]:
@@ -253,6 +381,7 @@ def gate_one(
     claimed: Sequence[float],
     t: float,
     candidates: Iterable[int] | None = None,
+    consider: tuple[Sequence[float], Any, Sequence[float]] | None = None,
 ) -> tuple[int, float, float, int, tuple[float, float, float], float, float]:
     """Chi-square gate of one bearing against the map's reflectors, for one pose.
 
@@ -264,6 +393,15 @@ def gate_one(
     inside the gate); None loops over every reflector. Returns
     ``(index, y, nis, n_in_gate, H, S, R)`` of the only reflector inside, or index -1
     (and ``n_in_gate``) when none or several are.
+
+    ``consider = (M, C, svar)``: the Schmidt-Kalman EKF's survey errors as consider
+    parameters (:func:`schmidt_update`; ``P_xp = M C^T`` with ``C (N, 6)``, reflector j's
+    two columns in ``C[j]``, ``svar[j]`` its survey variance, m² per axis). The innovation
+    variance is then the update's own, ``S = H P H^T + 2 H v + b + sigma^2`` with
+    ``b = svar_j |H_xy|^2`` (``|H_xy|^2 = 1 / (d^2 - r^2)``, so ``b = (std_j / d)^2`` to
+    first order) and ``v = P_xp,j H_p^T``; ``R`` returned is ``sigma^2 + b``. The
+    cheap pre-test bounds ``S`` by ``sigma^2 + 2 (a + b)`` with ``a`` the bound on
+    ``H P H^T`` (``|H v| <= sqrt(a b)``: the joint covariance is positive semi-definite).
     """
     x, y, psi = pose
     mx, my, mth = mount
@@ -276,6 +414,9 @@ def gate_one(
     two_gate = 2.0 * gate
     sqrt, atan2, asin, wrap_ = math.sqrt, math.atan2, math.asin, wrap
     n_in, best = 0, None
+    if consider is not None:
+        cM, cC, svar = consider
+        m0, m1, m2, m3, m4, m5, m6, m7, m8 = cM
     for j in range(len(rows)) if candidates is None else candidates:
         if t - claimed[j] < sweep:
             continue
@@ -288,15 +429,28 @@ def gate_one(
             continue
         edge = -asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * _PI
         innov = wrap_(z - wrap_(atan2(dy, dx) - psi - mth + edge))
-        R = bearing_var + (map_std / d if d > 0.0 else 0.0) ** 2
         rr = r * r
-        if d2 > rr:  # surely_outside written out: most reflectors are far from this bearing, no Jacobian needed
+        if consider is None:
+            R = bearing_var + (map_std / d if d > 0.0 else 0.0) ** 2
+            if d2 > rr:  # surely_outside written out: most reflectors are far from this bearing, no Jacobian needed
+                g2 = 1.0 / (d2 - rr)
+                if innov * innov >= two_gate * (R + trace_P * (g2 + (sqrt(g2) * mount_norm + 1.0) ** 2)):
+                    continue
+        elif d2 > rr:  # the same pre-test with the consider bound (docstring)
             g2 = 1.0 / (d2 - rr)
-            if innov * innov >= two_gate * (R + trace_P * (g2 + (sqrt(g2) * mount_norm + 1.0) ** 2)):
+            a_max = trace_P * (g2 + (sqrt(g2) * mount_norm + 1.0) ** 2)
+            if innov * innov >= two_gate * (bearing_var + 2.0 * (a_max + svar[j] * g2)):
                 continue
         h0, h1, h2 = bearing_jacobian(dx, dy, d2, d, r, dpx, dpy)
+        if consider is not None:
+            R = bearing_var + svar[j] * (h0 * h0 + h1 * h1)
         # quadratic_form(H, P) written out: this loop is the estimator's hottest
         S = h0 * h0 * p00 + h1 * h1 * p11 + h2 * h2 * p22 + 2.0 * (h0 * h1 * p01 + h0 * h2 * p02 + h1 * h2 * p12) + R
+        if consider is not None:  # + 2 H P_xp,j H_p^T, consider_cross written out
+            cx0, cx1, cx2, cy0, cy1, cy2 = cC[j].tolist()
+            w0, w1, w2 = -(cx0 * h0 + cy0 * h1), -(cx1 * h0 + cy1 * h1), -(cx2 * h0 + cy2 * h1)
+            S += 2.0 * (h0 * (m0 * w0 + m1 * w1 + m2 * w2) + h1 * (m3 * w0 + m4 * w1 + m5 * w2)
+                        + h2 * (m6 * w0 + m7 * w1 + m8 * w2))
         nis = innov * innov / S
         if nis < gate:
             n_in += 1

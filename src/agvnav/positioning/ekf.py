@@ -12,7 +12,38 @@ State ``x = [x, y, psi]`` of base_link in ``map``, covariance ``P``.
   leading-edge bearing of the identified reflector from the head
   (:func:`~agvnav.positioning.identification.bearing_model`, seed 000 §2.1),
   ``S = H P H^T + R``, ``K = P H^T S^-1``, ``x <- x + K y``,
-  ``P <- (I - K H) P (I - K H)^T + K R K^T`` (Joseph form, stays symmetric positive).
+  ``P <- (I - K H) P (I - K H)^T + K R K^T`` (Joseph form, stays symmetric positive);
+  :func:`ekf_update` is that update, the estimator's own is its Schmidt-Kalman form below.
+
+Survey errors as consider parameters (issue 12). A reflector's surveyed position errs by a
+constant ``p_j`` (2-D, std ``survey_std_j`` per axis: the map's ``survey_std_m``, else
+``map_std``), the same in every revolution. Taken as white bearing noise
+``(map_std / d)^2`` the filter averages it away and ends overconfident; adding a survey
+floor afterwards counts it twice. The estimator instead keeps the survey errors as
+*consider* parameters (Schmidt-Kalman filter): never estimated, fixed covariance
+``P_pp = diag(survey_std_j^2)``, but their cross-covariance with the pose, ``P_xp``
+(3 x 2N), is carried:
+
+* predict: ``P_xp <- F P_xp``;
+* a bearing of reflector j, ``y = H e + H_p p_j + w`` with ``H_p = -H[:2]`` (the bearing
+  moves with the reflector as against the head), ``v = P_xp,j H_p^T``,
+  ``b = H_p P_pp,j H_p^T``: ``S = H P H^T + 2 H v + b + sigma^2``, ``K = (P H^T + v) / S``
+  on the pose only, ``P <- A P A^T - A v K^T - K v^T A^T + (b + sigma^2) K K^T`` with
+  ``A = I - K H`` (:func:`~agvnav.positioning._fast.schmidt_update`), and
+  ``P_xp <- A P_xp - K H_p P_pp,j`` (only reflector j's columns get the last term);
+* an ultrasonic range (no survey error): the ordinary update, ``P_xp <- A P_xp``.
+
+The gate uses the same ``S`` (:func:`~agvnav.positioning._fast.gate_one` with
+``consider``). ``P`` is then the covariance of the pose error survey errors included,
+and :attr:`EkfEstimator.covariance` reports it alone (no survey floor).
+
+Cost: ``P_xp`` is kept factored, ``P_xp = M C^T`` with ``M`` 3x3 and ``C (N, 6)`` (row j:
+reflector j's two columns). Every left multiplication (``F``, ``A``) touches ``M`` only, and
+an update writes reflector j's row, ``C[j] += M^-1 (K h_p svar_j)``: O(1) per prediction
+and per bearing, whatever the map. ``M`` shrinks with every update (``det A = 1 - H K``),
+so once ``|det M| < CONSIDER_MIN_DET`` or an entry of ``M`` exceeds ``CONSIDER_MAX_ENTRY``
+it is folded into ``C`` (``C <- C M^T`` per reflector, one NumPy call over the map, O(N))
+and reset to ``I``; ``M^-1`` is only applied to a well-conditioned ``M``.
 
 Because every bearing updates the state at the instant it was measured, the motion
 between reflections never enters the measurement: this is the filter-based answer to
@@ -24,7 +55,7 @@ filter never sees those errors, only the bearing noise and the odometry noise.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -35,7 +66,14 @@ from agvnav.positioning import _fast
 from agvnav.positioning.estimator import StreamingEstimator
 from agvnav.positioning.wall_ranges import WallRangeModel
 
-__all__ = ["EkfEstimator", "ekf_predict", "ekf_update"]
+__all__ = ["CONSIDER_MAX_ENTRY", "CONSIDER_MIN_DET", "EkfEstimator", "ekf_predict", "ekf_update"]
+
+#: ``M`` of the factored ``P_xp = M C^T`` is folded into ``C`` below this ``|det M|`` ...
+CONSIDER_MIN_DET = 0.05
+#: ... or above this largest ``|M_ik|`` (keeps ``M^-1`` well conditioned, see the module docstring).
+CONSIDER_MAX_ENTRY = 20.0
+
+_IDENTITY = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 
 
 def ekf_predict(
@@ -101,6 +139,7 @@ class EkfEstimator(StreamingEstimator):
 
     method = "ekf"
     late_updates = True
+    consider = True
 
     def __init__(
         self,
@@ -125,6 +164,59 @@ class EkfEstimator(StreamingEstimator):
         self.n_ranges_accepted = 0
         self.n_ranges_rejected = 0
         self.last_range: Any = None
+        if not hasattr(self, "_C"):  # no initial pose: the consider state starts with the search
+            self._consider_reset()
+
+    @property
+    def covariance(self) -> NDArray[np.float64]:
+        """``(3, 3)`` covariance of :attr:`pose` (m², rad²; NaN while initialising).
+
+        The consider filter's ``P`` alone: it already holds the reflectors' survey errors
+        (module docstring), so no survey floor is added (the fix-based estimators add one).
+        """
+        return self._P
+
+    @property
+    def cross_covariance(self) -> NDArray[np.float64]:
+        """``(3, 2N)`` ``P_xp``: covariance of the pose error with the reflectors' survey errors (m², m rad).
+
+        Columns ``2j, 2j+1``: reflector j's x and y error (map rows).
+        """
+        return np.asarray(self._M).reshape(3, 3) @ self._C.reshape(-1, 3).T
+
+    # ------------------------------------------------------------------ consider state
+    def _consider_reset(self) -> None:
+        n = self.reflector_xy.shape[0]
+        self._M: tuple[float, ...] = _IDENTITY
+        self._C = np.zeros((n, 6))
+        self._svar = (self.survey_std**2).tolist()
+
+    def _consider_args(self, f02: float, f12: float) -> Any:
+        M = self._M if f02 == 0.0 and f12 == 0.0 else _fast.shear(self._M, f02, f12)
+        return M, self._C, self._svar
+
+    def _consider_move(self, f02: float, f12: float) -> None:
+        # F M (_fast.shear written out). det F = 1 and F^-1 is F with -f: no fold needed here; rows 0
+        # and 1 grow with the distance driven, and the next update's check (_left) folds them
+        M = self._M
+        m6, m7, m8 = M[6], M[7], M[8]
+        self._M = (M[0] + f02 * m6, M[1] + f02 * m7, M[2] + f02 * m8, M[3] + f12 * m6, M[4] + f12 * m7,
+                   M[5] + f12 * m8, m6, m7, m8)
+
+    def _fold(self, M: tuple[float, ...]) -> None:
+        """``C <- C M^T`` (``P_xp = M C^T`` unchanged) and ``M <- I``: O(N), rare."""
+        C3 = self._C.reshape(-1, 3)
+        C3[...] = C3 @ np.asarray(M).reshape(3, 3).T
+        self._M = _IDENTITY
+
+    def _left(self, K: Sequence[float], H: Sequence[float]) -> tuple[float, ...]:
+        """``M <- (I - K H) M``; returns the new ``M`` folded to ``I`` when ill-conditioned."""
+        M = _fast.left_update(self._M, K, H)
+        if not (abs(_fast.det3(M)) >= CONSIDER_MIN_DET and max(map(abs, M)) <= CONSIDER_MAX_ENTRY):
+            self._fold(M)
+            M = _IDENTITY
+        self._M = M
+        return M
 
     def update_ranges(self, t: float, ranges: Mapping[str, float]) -> int:
         """Ultrasonic readings ``{sensor: range (m)}`` made at ``t`` (s); returns how many were fused.
@@ -153,7 +245,9 @@ class EkfEstimator(StreamingEstimator):
             if assoc is None:
                 self.n_ranges_rejected += 1
                 continue
+            K = _fast.gain(self._P_t, assoc.H, assoc.R)
             self._x_t, self._P_t = _fast.joseph_update(self._x_t, self._P_t, assoc.innovation, assoc.H, assoc.R)
+            self._left(K, tuple(assoc.H))  # P_xp <- (I - K H) P_xp: a range does not see the survey errors
             self.last_range = assoc
             fused += 1
         self.n_ranges_accepted += fused
@@ -162,9 +256,27 @@ class EkfEstimator(StreamingEstimator):
         return fused
 
     def _accept(self, t: float, bearing: float, assoc: Any) -> None:
-        # scalar fast path of ekf_update (Joseph form), tested against it to 1e-12
-        H = (float(assoc.H[0]), float(assoc.H[1]), float(assoc.H[2]))
-        self._x_t, self._P_t = _fast.joseph_update(self._x_t, self._P_t, assoc.innovation, H, assoc.R)
+        """The Schmidt-Kalman update of one identified bearing (module docstring)."""
+        j = assoc.index
+        h0, h1 = float(assoc.H[0]), float(assoc.H[1])
+        H = (h0, h1, float(assoc.H[2]))
+        svar = self._svar[j]
+        row = self._C[j].tolist()
+        v = _fast.consider_cross(self._M, row[:3], row[3:], -h0, -h1)
+        b = svar * (h0 * h0 + h1 * h1)
+        self._x_t, self._P_t, K, _ = _fast.schmidt_update(
+            self._x_t, self._P_t, assoc.innovation, H, self.bearing_std**2, v, b
+        )
+        # P_xp <- A P_xp - K H_p P_pp,j: M <- A M, then reflector j's columns get K (h0, h1) svar_j
+        M = self._left(K, H)
+        if M is not _IDENTITY:
+            u0, u1, u2 = _fast.solve3(M, K, _fast.det3(M))  # M^-1 K: both new terms are multiples of K
+        else:  # folded: C[j] now holds the old P_xp,j transformed by A
+            u0, u1, u2 = K
+            row = self._C[j].tolist()
+        ax, ay = h0 * svar, h1 * svar
+        self._C[j] = (row[0] + u0 * ax, row[1] + u1 * ax, row[2] + u2 * ax, row[3] + u0 * ay, row[4] + u1 * ay,
+                      row[5] + u2 * ay)
         self.last_innovation = assoc.innovation
         self.last_nis = assoc.nis
         self.last_reflector = assoc.index

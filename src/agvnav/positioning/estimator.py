@@ -101,7 +101,9 @@ class StreamingEstimator:
         variance of a bearing at distance d (seed 000 §4.1: topographically measured).
         A map stating a reflector's ``survey_std_m`` raises it to the largest one in the
         gate (conservative: the gate takes one value) and sets that reflector's own value
-        in the survey floor of :attr:`covariance`.
+        in the survey floor of :attr:`covariance`. The EKF instead keeps each reflector's
+        survey error as a consider parameter of std :attr:`survey_std` (the map's
+        ``survey_std_m``, else ``map_std``; :mod:`agvnav.positioning.ekf`).
     bearing_offset:
         Added to every reported bearing (rad). Default half a pulse, ``pi / pulses_per_rev``:
         an incremental encoder reports the last whole pulse passed, so a CCW head's reading
@@ -132,6 +134,11 @@ class StreamingEstimator:
     #: Whether a late reflection (within ``plausibility.late_window_s``) is applied at its
     #: own instant through the odometry (:meth:`_late`); else it is dropped as ``"late"``.
     late_updates: ClassVar[bool] = False
+    #: Whether the estimator keeps the reflectors' survey errors as Schmidt-Kalman consider
+    #: parameters (the EKF): its gate then takes the consider filter's ``S``
+    #: (:func:`~agvnav.positioning._fast.gate_one`), and :meth:`_consider_args`,
+    #: :meth:`_consider_move` and :meth:`_consider_reset` keep the cross-covariance.
+    consider: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Register a concrete estimator under its ``method`` name (one of :data:`METHODS`)."""
@@ -173,6 +180,8 @@ class StreamingEstimator:
         survey = np.asarray(getattr(world, "reflector_survey_std", np.zeros(len(self.reflector_radius))), float)
         map_std = require_nonnegative("map_std", map_std)
         self.map_std = max(map_std, float(survey.max(initial=0.0)))
+        #: ``(N,)`` survey std of each reflector (m per axis): the map's ``survey_std_m``, else ``map_std``.
+        self.survey_std = np.where(survey > 0.0, survey, map_std)
         self.odometry_noise = OdometryNoise() if odometry_noise is None else odometry_noise
         k_lat = self.odometry_noise.k_d if k_lateral is None else k_lateral
         self.k_lateral = require_nonnegative("k_lateral", k_lat)
@@ -213,7 +222,9 @@ class StreamingEstimator:
         self._init_buffer: list[tuple[float, float]] = []
         self._rows = _fast.reflector_rows(self.reflector_xy, self.reflector_radius)
         self._mount_t = tuple(float(v) for v in self.mount)
-        self._spec = GateSpec(self.bearing_std**2, self.max_range, self.gate, self.map_std, 0.75 / self.rate_hz)
+        self._spec = GateSpec(
+            self.bearing_std**2, self.max_range, self.gate, self.map_std, 0.75 / self.rate_hz, self.consider
+        )
         self._index = (
             BearingIndex(self.reflector_xy, self.reflector_radius, self.mount, self._spec)
             if len(self._rows) >= INDEX_MIN_REFLECTORS else None
@@ -265,23 +276,18 @@ class StreamingEstimator:
     def covariance(self) -> NDArray[np.float64]:
         """``(3, 3)`` covariance of :attr:`pose` (m², rad²; NaN while initialising).
 
-        The filter's ``P`` plus the survey floor of the reflectors that support it
+        For the fix-based estimators (``naive``, ``angle_propagation``, ``batch_ml``): the
+        filter's ``P`` plus the survey floor of the reflectors that support it
         (:attr:`~agvnav.positioning.integrity.IntegrityMonitor.survey_floor`): the
         error a constant survey error of the reflectors leaves, which ``P``, taking it
         as white bearing noise, averages away. The two add (the estimate's error is the
         filter's white error plus the survey bias, independent of each other); the part
         of the survey error ``P`` still holds after averaging over ``n`` revolutions is
-        about ``floor / n``, a small double count on the safe side. Raising ``P`` to
-        the floor instead, ``P + [F - P]_+``, reports too little where the two are
-        comparable, as along the track of the ``guidance_test`` tricycle. With the
-        filter's odometry noise taken from the truth
-        (:func:`~agvnav.odometry.noise_from_truth`), over 200 runs of ``guidance_test``
-        the NEES is 2.40 (band 2.67-3.35): position part 1.89 (2 dof), heading part 0.54
-        (1 dof; 0.14 with seed 002's typical coefficients). The heading is the pessimistic
-        part: ``P`` takes the survey error as white bearing noise (1.7 mrad a bearing at
-        3 m), which the floor adds again as the bias it is; a filter that kept a second
-        ``P`` for the white errors alone under the same gain (a consider filter) would
-        report the sum without the double count.
+        about ``floor / n``, a double count on the safe side. The EKF overrides this:
+        its Schmidt-Kalman consider filter carries the survey errors' correlation with
+        the pose, so its ``P`` alone is the covariance (:mod:`agvnav.positioning.ekf`;
+        with the floor added, 200 runs of ``guidance_test`` gave NEES 2.40, band
+        2.67-3.35, the heading part 0.54 of 1: the double count).
         """
         P = self._P
         floor = self.monitor.survey_floor
@@ -503,8 +509,9 @@ class StreamingEstimator:
 
         The pose then is the current one moved back along the last odometry rate
         (``x_r = x (+) exp(-rate (t_now - t))``, :func:`~agvnav.positioning._fast.twist_step`),
-        with ``P_r = F P F^T``; the measurement row on the current state is ``H_r F``
-        (``F = d x_r / d x``), so the update corrects the current pose.
+        with ``P_r = F P F^T`` (and a consider filter's ``P_xp,r = F P_xp``); the
+        measurement row on the current state is ``H_r F`` (``F = d x_r / d x``), so the
+        update corrects the current pose.
         """
         if not self.late_updates or not self._has_pose() or self.monitor.verdict == "lost":
             self._refuse(t, "late", f"reflection at t={t!r} s arrived after t={self._t!r} s")
@@ -515,7 +522,8 @@ class StreamingEstimator:
         xr, yr, psir, f02, f12 = _fast.twist_step(x, y, psi, *back)
         P_r = _fast.predict_covariance(self._P_t, f02, f12, (0.0,) * 9)
         j, y, nis, n_in, H, S, R = _fast.gate_one(
-            z, (xr, yr, _fast.wrap(psir)), P_r, self._mount_t, self._rows, self._spec, self._claimed, t
+            z, (xr, yr, _fast.wrap(psir)), P_r, self._mount_t, self._rows, self._spec, self._claimed, t, None,
+            self._consider_args(f02, f12) if self.consider else None,
         )
         if j < 0:
             self.n_rejected += 1
@@ -581,7 +589,8 @@ class StreamingEstimator:
         if sight is not None:
             cand = [j for j in (range(len(self._rows)) if cand is None else cand) if sight[j]]
         j, y, nis, n_in, H, S, R = _fast.gate_one(
-            z, self._x_t, self._P_t, self._mount_t, self._rows, self._spec, self._claimed, t, cand
+            z, self._x_t, self._P_t, self._mount_t, self._rows, self._spec, self._claimed, t, cand,
+            self._consider_args(0.0, 0.0) if self.consider else None,
         )
         return Association(j, y, nis, n_in, np.array(H), S, R)
 
@@ -686,6 +695,8 @@ class StreamingEstimator:
             )
             self._x_t = (nx, ny, _fast.wrap(npsi))
             self._P_t = _fast.predict_covariance(self._P_t, f02, f12, Q)
+            if self.consider:
+                self._consider_move(f02, f12)
 
     def _start(self, pose: ArrayLike, covariance: ArrayLike | None) -> None:
         x = require_finite("initial_pose", pose)
@@ -696,6 +707,8 @@ class StreamingEstimator:
             raise ValueError(f"initial_covariance must have shape (3, 3), got {P.shape}")
         self._x = (x[0], x[1], wrap_angle(x[2]))
         self._P = 0.5 * (P + P.T)
+        if self.consider:
+            self._consider_reset()  # a new start is independent of the survey errors
         self._t_last_accept = self._t  # None before the first input: counted from the first one
         self.monitor.reset()
         self._claimed = [-math.inf] * self.reflector_xy.shape[0]
@@ -740,6 +753,19 @@ class StreamingEstimator:
 
     def _on_start(self) -> None:
         """Hook for subclasses: called once the start-up search has set the pose."""
+
+    # consider-filter hooks (``consider = True``; :class:`~agvnav.positioning.ekf.EkfEstimator`)
+    def _consider_args(self, f02: float, f12: float) -> Any:  # pragma: no cover - abstract
+        """``(M, C, svar)`` for :func:`~agvnav.positioning._fast.gate_one`, ``M`` moved by ``F(f02, f12)``."""
+        raise NotImplementedError
+
+    def _consider_move(self, f02: float, f12: float) -> None:  # pragma: no cover - abstract
+        """``P_xp <- F P_xp`` for the prediction Jacobian ``F`` (``F[0,2] = f02``, ``F[1,2] = f12``)."""
+        raise NotImplementedError
+
+    def _consider_reset(self) -> None:  # pragma: no cover - abstract
+        """``P_xp <- 0`` (a new start)."""
+        raise NotImplementedError
 
     def _accept(self, t: float, bearing: float, assoc: Any) -> None:  # pragma: no cover - abstract
         raise NotImplementedError

@@ -70,6 +70,12 @@ class GateSpec:
         Survey error std (m) of a reflector position; adds ``(map_std / d)^2`` to ``R``.
     sweep:
         A reflector claimed less than ``sweep`` seconds ago cannot be claimed again (s).
+    consider:
+        The gate of the Schmidt-Kalman EKF (survey errors as consider parameters,
+        :func:`agvnav.positioning._fast.schmidt_update`): ``S`` holds the cross term
+        ``2 H P_xp H_p^T`` too, bounded by ``S <= sigma^2 + 2 (H P H^T + b) <= 2 S_max``
+        (``|H P_xp H_p^T| <= sqrt(H P H^T b)``, ``b = (map_std / d)^2`` at most), so
+        :meth:`BearingIndex.candidates` doubles its bound (the factor 4 of margin stays).
     """
 
     bearing_var: float
@@ -77,6 +83,7 @@ class GateSpec:
     gate: float
     map_std: float
     sweep: float
+    consider: bool = False
 
 
 class BearingIndex:
@@ -120,6 +127,8 @@ class BearingIndex:
         var_xy, var_psi = P[0] + P[4], P[8]
         a4 = 4.0 * spec.gate * (spec.bearing_var + 4.0 * var_psi)  # 4 gate S_max = a4 + b4 g
         b4 = 4.0 * spec.gate * (spec.map_std**2 + 2.0 * var_xy + 4.0 * self._mount_norm**2 * var_psi)
+        if spec.consider:  # the consider gate's S is bounded by 2 S_max (GateSpec)
+            a4, b4 = 2.0 * a4, 2.0 * b4
         rows = near_rows(
             self._rx, self._ry, self._r2, self._half_pi_r, x + c * mx - s * my, y + s * mx + c * my,
             z + psi + mth, a4, b4, spec.max_range,
