@@ -12,6 +12,7 @@ from agvnav import _jit
 from agvnav.geometry import wrap_angle
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
 from agvnav.positioning.gating import near_rows
+from agvnav.positioning.integrity import _fit_wssr
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
 
@@ -99,6 +100,12 @@ def _random_outputs() -> dict[str, list[bytes]]:
         np.asarray(hermite_poses(rng.normal(size=(4, 3)), 0.0, 0.05, rng.uniform(-0.01, 0.06, 1_000))).tobytes()
         for _ in range(100)
     ]
+    fits = []
+    for _ in range(300):  # the RAIM's weighted least-squares fits, every row left out in turn
+        n = int(rng.integers(4, 16))
+        H, res, w = rng.normal(size=(n, 3)), rng.normal(size=n), rng.uniform(0.1, 10.0, n)
+        fits += [_fit_wssr(res, H.reshape(-1), w, 3, skip) for skip in range(-1, n)]
+    out["_fit_wssr"] = [np.array(fits).tobytes()]
     return out
 
 
@@ -115,7 +122,7 @@ def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
     for name, got in compiled.items():
         assert got == interpreted[name], name
     tested = {"wrap_angle_scalar", "offset_one", "offsets_at", "grid_crossings", "wrapped_offsets", "line_of_sight",
-              "_hits_wall", "_hits_disc", "near_rows", "hermite_poses"}
+              "_hits_wall", "_hits_disc", "near_rows", "hermite_poses", "_fit_wssr"}
     known = {k.py_func.__name__ for k in _jit.kernels()}
     assert known <= tested, f"kernels without a bit-for-bit test here: {sorted(known - tested)}"
 

@@ -50,6 +50,42 @@ def test_a_sound_window_flags_nothing() -> None:
     assert not res.detected and res.faulty == -1
 
 
+def test_statistics_match_a_least_squares_reference() -> None:
+    """Every statistic (all rows, each row left out) is the residual of numpy's lstsq fit, in either kernel mode."""
+    from agvnav import _jit
+
+    rng = np.random.default_rng(9)
+    H = _jacobian(POSE)
+    var = rng.uniform(0.5, 2.0, len(XY)) * STD**2
+    r = H @ np.array([0.03, 0.01, -0.004]) + rng.normal(0.0, STD, len(XY))
+    r[2] += 15 * STD
+
+    def reference(keep: np.ndarray) -> float:
+        sw = 1.0 / np.sqrt(var[keep])
+        dx = np.linalg.lstsq(H[keep] * sw[:, None], r[keep] * sw, rcond=None)[0]
+        return float(np.sum((r[keep] - H[keep] @ dx) ** 2 / var[keep]))
+
+    before = _jit.compiled()
+    try:
+        for on in (False, True):
+            _jit.set_compiled(on)
+            res = leave_one_out_fde(r, H, var, 1e-5)
+            assert res.statistic == pytest.approx(reference(np.ones(len(XY), bool)), rel=1e-9)
+            for k in range(len(XY)):
+                assert res.without[k] == pytest.approx(reference(np.arange(len(XY)) != k), rel=1e-9)
+            assert res.detected and res.faulty == 2
+    finally:
+        _jit.set_compiled(before)
+
+
+def test_chi2_threshold_is_scipy_s_quantile_cached() -> None:
+    from scipy.stats import chi2
+
+    for dof in (1, 3, 7):
+        assert chi2_threshold(dof, 1e-5) == float(chi2.isf(1e-5, dof))
+        assert chi2_threshold(dof, 1e-5) is chi2_threshold(dof, 1e-5)  # the cached float
+
+
 def test_bad_input_is_named() -> None:
     H = _jacobian(POSE)
     with pytest.raises(ValueError, match="more rows"):

@@ -99,10 +99,12 @@ import itertools
 import math
 from collections import deque
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from agvnav._jit import compiled, jit
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.positioning.triangulation import triangulate
 from agvnav.sensors.beam import line_of_sight
@@ -899,26 +901,81 @@ class FdeResult:
 
 
 def chi2_threshold(dof: int, false_alarm: float) -> float:
-    """Upper quantile of a chi-square with ``dof`` degrees of freedom exceeded with probability ``false_alarm``."""
+    """Upper quantile of a chi-square with ``dof`` degrees of freedom exceeded with probability ``false_alarm``.
+
+    scipy's ``chi2.isf``, computed once per ``(dof, false_alarm)`` and kept: the RAIM asks
+    for the same few quantiles at every check (issue 11).
+    """
     if dof < 1:
         raise ValueError(f"dof must be >= 1, got {dof!r}")
     if not 0.0 < false_alarm < 1.0:
         raise ValueError(f"false_alarm must be in (0, 1), got {false_alarm!r}")
-    from scipy.stats import chi2  # noqa: PLC0415 - heavy third-party import, deferred (issue 11)
+    key = (int(dof), float(false_alarm))
+    value = _CHI2_QUANTILES.get(key)
+    if value is None:
+        from scipy.stats import chi2  # noqa: PLC0415 - heavy third-party import, deferred (issue 11)
 
-    return float(chi2.isf(false_alarm, dof))
+        value = _CHI2_QUANTILES[key] = float(chi2.isf(key[1], key[0]))
+    return value
 
 
-def _wssr(r: np.ndarray, H: np.ndarray, w: np.ndarray) -> float:
-    """Weighted sum of squared residuals of the weighted least-squares fit of ``r = H dx`` (NaN if singular)."""
-    a = H.T @ (w[:, None] * H)
-    b = H.T @ (w * r)
-    try:
-        dx = np.linalg.solve(a, b)
-    except np.linalg.LinAlgError:
-        return math.nan
-    e = r - H @ dx
-    return float(np.sum(w * e * e))
+_CHI2_QUANTILES: dict[tuple[int, float], float] = {}
+
+
+@jit
+def _fit_wssr(r: Any, h: Any, w: Any, m: int, skip: int) -> float:
+    """Weighted sum of squared residuals of the weighted least-squares fit of ``r = H dx`` (NaN if singular).
+
+    ``r (n,)`` residuals, ``h (n m,)`` the Jacobian ``H (n, m)`` row by row, ``w (n,)`` weights;
+    row ``skip`` is left out (-1: none). The normal equations ``H^T W H dx = H^T W r`` are
+    solved by Gaussian elimination with partial pivoting (singular: a zero pivot, as
+    ``numpy.linalg.solve`` raises on), then ``sum w (r - H dx)^2``. Plain loops: compiled by
+    numba, or interpreted on Python lists (:func:`leave_one_out_fde` passes lists then).
+    """
+    n = len(r)
+    c = m + 1  # augmented columns
+    a = [0.0] * (m * c)
+    for k in range(n):
+        if k == skip:
+            continue
+        wk = w[k]
+        for i in range(m):
+            hi = wk * h[k * m + i]
+            for j in range(i, m):
+                a[i * c + j] += hi * h[k * m + j]
+            a[i * c + m] += hi * r[k]
+    for i in range(m):
+        for j in range(i):
+            a[i * c + j] = a[j * c + i]
+    for col in range(m):  # forward elimination, partial pivoting
+        p = col
+        for i in range(col + 1, m):
+            if abs(a[i * c + col]) > abs(a[p * c + col]):
+                p = i
+        if a[p * c + col] == 0.0:
+            return math.nan
+        if p != col:
+            for j in range(c):
+                a[col * c + j], a[p * c + j] = a[p * c + j], a[col * c + j]
+        for i in range(col + 1, m):
+            f = a[i * c + col] / a[col * c + col]
+            for j in range(col, c):
+                a[i * c + j] -= f * a[col * c + j]
+    dx = [0.0] * m
+    for i in range(m - 1, -1, -1):
+        acc = a[i * c + m]
+        for j in range(i + 1, m):
+            acc -= a[i * c + j] * dx[j]
+        dx[i] = acc / a[i * c + i]
+    total = 0.0
+    for k in range(n):
+        if k == skip:
+            continue
+        e = r[k]
+        for i in range(m):
+            e -= h[k * m + i] * dx[i]
+        total += w[k] * e * e
+    return total
 
 
 def leave_one_out_fde(
@@ -954,19 +1011,18 @@ def leave_one_out_fde(
     if not (np.all(np.isfinite(v)) and np.all(v > 0.0)):
         raise ValueError("variances must be positive and finite")
     w = 1.0 / v
+    h = np.ascontiguousarray(H).reshape(-1)
+    # interpreted, the kernel indexes Python lists faster than arrays
+    args: tuple[Any, Any, Any] = (r, h, w) if compiled() else (r.tolist(), h.tolist(), w.tolist())
     dof = n - m
-    stat = _wssr(r, H, w)
+    stat = _fit_wssr(*args, m, -1)
     thr = chi2_threshold(dof, false_alarm)
     detected = bool(stat > thr)
     without = [math.nan] * n
     thr_x = chi2_threshold(dof - 1, false_alarm) if dof >= 2 else math.nan
     faulty = -1
     if dof >= 2:
-        keep = np.ones(n, dtype=bool)
-        for k in range(n):
-            keep[k] = False
-            without[k] = _wssr(r[keep], H[keep], w[keep])
-            keep[k] = True
+        without = [_fit_wssr(*args, m, k) for k in range(n)]
         if detected:
             ok = [(without[k], k) for k in range(n) if without[k] <= thr_x]
             if ok:
