@@ -12,7 +12,7 @@ from agvnav import _jit
 from agvnav.geometry import wrap_angle
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
 from agvnav.positioning.gating import near_rows
-from agvnav.positioning.integrity import _fit_wssr
+from agvnav.positioning.integrity import _best_triple_kernel, _fit_wssr
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
 
@@ -106,6 +106,12 @@ def _random_outputs() -> dict[str, list[bytes]]:
         H, res, w = rng.normal(size=(n, 3)), rng.normal(size=n), rng.uniform(0.1, 10.0, n)
         fits += [_fit_wssr(res, H.reshape(-1), w, 3, skip) for skip in range(-1, n)]
     out["_fit_wssr"] = [np.array(fits).tobytes()]
+    triples = []  # the cross-check's choice of triple (its CRLB per triple through _position_crlb_one)
+    for _ in range(2_000):
+        n = int(rng.integers(3, 9))
+        rx3, ry3, var3 = rng.uniform(-10, 10, n), rng.uniform(-10, 10, n), rng.uniform(1e-7, 1e-4, n)
+        triples.append(_best_triple_kernel(0.3, -0.2, rx3, ry3, var3, 1e-6, float(rng.uniform(1e-5, 1e-2))))
+    out["_best_triple_kernel"] = [np.array(triples).tobytes()]
     return out
 
 
@@ -122,7 +128,8 @@ def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
     for name, got in compiled.items():
         assert got == interpreted[name], name
     tested = {"wrap_angle_scalar", "offset_one", "offsets_at", "grid_crossings", "wrapped_offsets", "line_of_sight",
-              "_hits_wall", "_hits_disc", "near_rows", "hermite_poses", "_fit_wssr"}
+              "_hits_wall", "_hits_disc", "near_rows", "hermite_poses", "_fit_wssr",
+              "_best_triple_kernel", "_position_crlb_one"}
     known = {k.py_func.__name__ for k in _jit.kernels()}
     assert known <= tested, f"kernels without a bit-for-bit test here: {sorted(known - tested)}"
 

@@ -710,9 +710,9 @@ class IntegrityMonitor:
         (issue 12), so a triple whose bound with the bearing noise alone exceeds
         ``max_fix_std_m`` is not used; of the others, the one with the smallest bound
         with ``variances`` (rad², one per row, default ``bearing_std^2``) is chosen. The
-        bound of every triple at once: the information of each reflector (Jacobian rows
-        ``[dy/d², -dx/d², -1]`` over its variance) summed per triple, the trace of the
-        position block of its inverse in closed form. Of more than eight rows (``rows``
+        bound of every triple in one pass (:func:`_best_triple_kernel`): the information of
+        each reflector (Jacobian rows ``[dy/d², -dx/d², -1]`` over its variance) summed per
+        triple, the trace of the position block of its inverse in closed form. Of more than eight rows (``rows``
         in time order), eight spread evenly over them are candidates: with 256 reflectors
         in the lab the eight newest reflections came from one 15° sector, and the best of
         their triples (three reflectors 1.7 m apart on one wall: 19 x 48 cm fix std with
@@ -727,23 +727,15 @@ class IntegrityMonitor:
             pick = np.linspace(0, len(rows) - 1, 8).round().astype(int).tolist()
             rows, variances = [rows[k] for k in pick], [variances[k] for k in pick]
         hx, hy, _ = _head(x, self.mount)
-        info = np.empty((len(rows), 6))
-        for k, j in enumerate(rows):
-            rx, ry = self._rows[j]
-            dx, dy = rx - hx, ry - hy
-            d2 = dx * dx + dy * dy
-            if d2 <= 0.0:
-                return None
-            j0, j1 = dy / d2, -dx / d2
-            info[k] = (j0 * j0, j0 * j1, -j0, j1 * j1, -j1, 1.0)
-        tri = _triples(len(rows))
-        geometry = _position_crlb(info[tri].sum(axis=1)) * self.bearing_std**2
-        weighted = info / np.asarray(variances, dtype=np.float64)[:, None]
-        score = np.where(geometry <= self.limits.max_fix_std_m**2, _position_crlb(weighted[tri].sum(axis=1)), np.inf)
-        k = int(np.argmin(score))
-        if not math.isfinite(score[k]):
+        rx, ry = [self._rows[j][0] for j in rows], [self._rows[j][1] for j in rows]
+        var = [float(v) for v in variances]
+        if compiled():
+            rx, ry, var = np.array(rx), np.array(ry), np.array(var)  # type: ignore[assignment]
+        best = _best_triple_kernel(hx, hy, rx, ry, var, self.bearing_std**2, self.limits.max_fix_std_m**2)
+        if best < 0:
             return None
-        return [rows[i] for i in tri[k]]
+        i, j, k = _TRIPLE_CODES[len(rows)][best]
+        return [rows[i], rows[j], rows[k]]
 
     # ------------------------------------------------------------------ RAIM
     def raim(self, t: float) -> tuple[tuple[int, ...], FdeResult] | None:
@@ -1058,25 +1050,67 @@ def _nis_per_reflector(entries: list[_Entry]) -> float:
     return sum(a[0] / a[1] for a in acc.values())
 
 
-def _position_crlb(a: np.ndarray) -> np.ndarray:
-    """Trace of the position block of the inverse of each symmetric 3x3 ``a (k, 6)`` (inf where singular)."""
-    a00, a01, a02, a11, a12, a22 = a.T
+@jit
+def _position_crlb_one(a00: float, a01: float, a02: float, a11: float, a12: float, a22: float) -> float:
+    """Trace of the position block of the inverse of the symmetric 3x3 ``a`` (upper triangle; inf if singular)."""
     c00 = a11 * a22 - a12 * a12
     c11 = a00 * a22 - a02 * a02
     det = a00 * c00 + a01 * (a02 * a12 - a01 * a22) + a02 * (a01 * a12 - a02 * a11)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        score = (c00 + c11) / det
-    return np.where(np.isfinite(score) & (score >= 0.0), score, np.inf)
+    if det == 0.0:
+        return math.inf
+    score = (c00 + c11) / det
+    return score if score >= 0.0 and score < math.inf else math.inf
 
 
-_TRIPLES: dict[int, np.ndarray] = {}
+@jit
+def _best_triple_kernel(
+    hx: float, hy: float, rx: Any, ry: Any, var: Any, bearing_var: float, max_var: float,
+) -> int:
+    """Rank (in ``itertools.combinations`` order) of the triple of reflectors with the smallest position CRLB.
+
+    Head at ``(hx, hy)`` (m); candidates ``rx, ry (n,)`` (m) with bearing variances ``var (n,)``
+    (rad²; arrays compiled, Python lists interpreted). Each reflector's information is its
+    bearing Jacobian row ``[dy/d², -dx/d², -1]`` (seed 000 §2.3) squared, summed over a
+    triple; triples whose bound with ``bearing_var`` (rad²) exceeds ``max_var`` (m²) are
+    skipped, the rest ranked by their bound with ``var``.
+    -1 when none qualifies or a reflector sits on the head.
+    """
+    n = len(rx)
+    info = [0.0] * (6 * n)  # row k: the upper triangle 00 01 02 11 12 22 of its information
+    for k in range(n):
+        dx, dy = rx[k] - hx, ry[k] - hy
+        d2 = dx * dx + dy * dy
+        if d2 <= 0.0:
+            return -1
+        j0, j1 = dy / d2, -dx / d2
+        info[6 * k], info[6 * k + 1], info[6 * k + 2] = j0 * j0, j0 * j1, -j0
+        info[6 * k + 3], info[6 * k + 4], info[6 * k + 5] = j1 * j1, -j1, 1.0
+    best, best_score, rank = -1, math.inf, 0
+    for a in range(n):
+        for b in range(a + 1, n):
+            for c in range(b + 1, n):
+                pa, pb, pc = 6 * a, 6 * b, 6 * c
+                bound = _position_crlb_one(
+                    info[pa] + info[pb] + info[pc], info[pa + 1] + info[pb + 1] + info[pc + 1],
+                    info[pa + 2] + info[pb + 2] + info[pc + 2], info[pa + 3] + info[pb + 3] + info[pc + 3],
+                    info[pa + 4] + info[pb + 4] + info[pc + 4], info[pa + 5] + info[pb + 5] + info[pc + 5])
+                if bound * bearing_var <= max_var:
+                    wa, wb, wc = var[a], var[b], var[c]
+                    score = _position_crlb_one(
+                        info[pa] / wa + info[pb] / wb + info[pc] / wc,
+                        info[pa + 1] / wa + info[pb + 1] / wb + info[pc + 1] / wc,
+                        info[pa + 2] / wa + info[pb + 2] / wb + info[pc + 2] / wc,
+                        info[pa + 3] / wa + info[pb + 3] / wb + info[pc + 3] / wc,
+                        info[pa + 4] / wa + info[pb + 4] / wb + info[pc + 4] / wc,
+                        info[pa + 5] / wa + info[pb + 5] / wb + info[pc + 5] / wc)
+                    if score < best_score:
+                        best, best_score = rank, score
+                rank += 1
+    return best
 
 
-def _triples(n: int) -> np.ndarray:
-    """``(C(n, 3), 3)`` index triples of ``range(n)``, cached."""
-    if n not in _TRIPLES:
-        _TRIPLES[n] = np.array(list(itertools.combinations(range(n), 3)), dtype=np.intp)
-    return _TRIPLES[n]
+#: ``n -> (C(n, 3), 3)`` index triples of ``range(n)`` in :func:`_best_triple_kernel`'s rank order.
+_TRIPLE_CODES = {n: tuple(itertools.combinations(range(n), 3)) for n in range(3, 9)}
 
 
 def _head(x: np.ndarray, mount: np.ndarray) -> tuple[float, float, float]:
