@@ -78,12 +78,17 @@ def test_statistics_match_a_least_squares_reference() -> None:
         _jit.set_compiled(before)
 
 
-def test_chi2_threshold_is_scipy_s_quantile_cached() -> None:
+def test_chi2_threshold_is_scipy_s_quantile_bit_for_bit() -> None:
     from scipy.stats import chi2
 
-    for dof in (1, 3, 7):
+    from agvnav.positioning._chi2_table import QUANTILES_1E5
+
+    assert len(QUANTILES_1E5) == 512
+    for dof in range(1, 520):  # the table (1e-5, dof <= 512), then scipy
         assert chi2_threshold(dof, 1e-5) == float(chi2.isf(1e-5, dof))
-        assert chi2_threshold(dof, 1e-5) is chi2_threshold(dof, 1e-5)  # the cached float
+    for dof in (1, 3, 7):
+        assert chi2_threshold(dof, 1e-3) == float(chi2.isf(1e-3, dof))
+        assert chi2_threshold(dof, 1e-3) is chi2_threshold(dof, 1e-3)  # the cached float
 
 
 def test_bad_input_is_named() -> None:
@@ -138,3 +143,14 @@ def test_the_monitor_leaves_a_sound_stream_alone() -> None:
     _feed(mon, -1, 0.0, 0.0, 40)
     assert mon.excluded == () and mon.verdict == "ok"
     assert math.isfinite(mon.raim_statistic) and mon.raim_statistic < 1.0
+
+
+def test_the_default_false_alarm_needs_no_scipy_stats() -> None:
+    """The RAIM's quantiles come from the table: agvnav simulate does not pay scipy.stats' import (issue 11)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from agvnav.positioning.integrity import chi2_threshold; "
+            "[chi2_threshold(k, 1e-5) for k in range(1, 300)]; print('scipy.stats' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout
+    assert out.strip() == "False"

@@ -107,6 +107,7 @@ from numpy.typing import ArrayLike
 
 from agvnav._jit import compiled, jit
 from agvnav.geometry import wrap_angle_scalar
+from agvnav.positioning._chi2_table import FALSE_ALARM, QUANTILES_1E5
 from agvnav.positioning.triangulation import triangulate
 from agvnav.sensors.beam import line_of_sight
 
@@ -1002,13 +1003,16 @@ class FdeResult:
 def chi2_threshold(dof: int, false_alarm: float) -> float:
     """Upper quantile of a chi-square with ``dof`` degrees of freedom exceeded with probability ``false_alarm``.
 
-    scipy's ``chi2.isf``, computed once per ``(dof, false_alarm)`` and kept: the RAIM asks
-    for the same few quantiles at every check (issue 11).
+    scipy's ``chi2.isf``: from a table for the RAIM's default 1e-5
+    (:mod:`agvnav.positioning._chi2_table`, the same bits), else computed once per
+    ``(dof, false_alarm)`` and kept: the RAIM asks for the same few quantiles at every check (issue 11).
     """
     if dof < 1:
         raise ValueError(f"dof must be >= 1, got {dof!r}")
     if not 0.0 < false_alarm < 1.0:
         raise ValueError(f"false_alarm must be in (0, 1), got {false_alarm!r}")
+    if false_alarm == FALSE_ALARM and dof <= len(QUANTILES_1E5):
+        return QUANTILES_1E5[dof - 1]  # the RAIM's default: no scipy.stats import (half a second)
     key = (int(dof), float(false_alarm))
     value = _CHI2_QUANTILES.get(key)
     if value is None:
