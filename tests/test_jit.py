@@ -12,7 +12,7 @@ from agvnav import _jit
 from agvnav.geometry import wrap_angle
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
 from agvnav.positioning.gating import near_rows
-from agvnav.positioning.integrity import _best_triple_kernel, _fit_wssr, _information_sums, _window_tally
+from agvnav.positioning.integrity import _best_triple_kernel, _fde_statistics, _information_sums, _window_tally
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
 
@@ -104,8 +104,8 @@ def _random_outputs() -> dict[str, list[bytes]]:
     for _ in range(300):  # the RAIM's weighted least-squares fits, every row left out in turn
         n = int(rng.integers(4, 16))
         H, res, w = rng.normal(size=(n, 3)), rng.normal(size=n), rng.uniform(0.1, 10.0, n)
-        fits += [_fit_wssr(res, H.reshape(-1), w, 3, skip) for skip in range(-1, n)]
-    out["_fit_wssr"] = [np.array(fits).tobytes()]
+        fits.append(_fde_statistics(res, H.reshape(-1), w, 3))
+    out["_fde_statistics"] = [np.concatenate(fits).tobytes()]
     triples = []  # the cross-check's choice of triple (its CRLB per triple through _position_crlb_one)
     for _ in range(2_000):
         n = int(rng.integers(3, 9))
@@ -138,7 +138,8 @@ def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
     for name, got in compiled.items():
         assert got == interpreted[name], name
     tested = {"wrap_angle_scalar", "offset_one", "offsets_at", "grid_crossings", "wrapped_offsets", "line_of_sight",
-              "_hits_wall", "_hits_disc", "near_rows", "hermite_poses", "_fit_wssr",
+              "_hits_wall", "_hits_disc", "near_rows", "hermite_poses", "_fde_statistics", "_solve_augmented",
+              "_normal_equations",
               "_best_triple_kernel", "_position_crlb_one", "_window_tally",
               "_information_sums"}
     known = {k.py_func.__name__ for k in _jit.kernels()}
