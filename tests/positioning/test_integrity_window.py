@@ -71,3 +71,16 @@ def test_the_tally_is_the_plain_loop_s_sums(on: bool) -> None:
     with_c = live[live[:, 8] != 0]
     assert corr[5] == len(with_c) and np.allclose(corr[:5], with_c[:, 9:14].sum(axis=0), rtol=1e-12, atol=1e-12)
     assert late == int(np.count_nonzero(live[:, 7] == 0))
+
+
+def test_drop_older_keeps_the_rows_within_the_window() -> None:
+    rows = _rows(900)
+    rows[:, 0] = np.arange(900) / 128.0  # stamps 1/128 s apart, exact in binary
+    w = _Window()
+    for k, r in enumerate(rows):
+        w.append(tuple(r))
+        w.drop_older(float(r[0]), 1.0)
+        assert w.first_t() == rows[max(0, k - 128), 0]  # 1.0 s back: 128 rows, the row at exactly 1 s stays
+    assert np.array_equal(w.rows(), rows[-129:])
+    w.drop_older(100.0, 1.0)
+    assert len(w) == 0

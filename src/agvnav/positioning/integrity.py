@@ -303,6 +303,16 @@ class _Window:
         """Stamp (s) of the oldest row (the window must not be empty)."""
         return self._flat[self._head * _WIDTH]
 
+    def drop_older(self, t: float, window_s: float) -> None:
+        """Drop the oldest rows while their stamp is more than ``window_s`` (s) before ``t`` (s)."""
+        flat, head, width = self._flat, self._head, _WIDTH
+        end = len(flat)
+        while head * width < end and t - flat[head * width] > window_s:
+            head += 1
+        if head != self._head:
+            self._head = head - 1
+            self.popleft()  # the last one through popleft: it compacts the buffer when due
+
     def popleft(self) -> None:
         """Drop the oldest row (the buffer is compacted once half of it is dropped rows)."""
         self._head += 1
@@ -539,13 +549,11 @@ class IntegrityMonitor:
         """
         on_time = self._clock.on_time(t, bearing)
         self._entries.append((
-            float(t), float(nis), float(int(index)), float(bearing), float(odom[0]), float(odom[1]), float(odom[2]),
-            1.0 if on_time else 0.0, 0.0 if correction is None else 1.0, *(correction or _NO_FIVE),
+            t, nis, int(index), bearing, odom[0], odom[1], odom[2], 1.0 if on_time else 0.0,
+            0.0 if correction is None else 1.0, *(correction or _NO_FIVE),
             0.0 if innovation is None else 1.0, *(innovation or _NO_FIVE),
-        ))
-        entries = self._entries
-        while len(entries) and t - entries.first_t() > self.limits.window_s:
-            entries.popleft()
+        ))  # stored as doubles
+        self._entries.drop_older(t, self.limits.window_s)
         if math.isfinite(nis):
             j = int(index)
             self._n_nu[j] += 1
@@ -578,8 +586,7 @@ class IntegrityMonitor:
         self._last_check = t
         x = np.asarray(pose, dtype=np.float64)
         cov = np.asarray(P, dtype=np.float64)
-        while len(self._entries) and t - self._entries.first_t() > self.limits.window_s:
-            self._entries.popleft()
+        self._entries.drop_older(t, self.limits.window_s)
         if self._since is None:
             self._since = t
         young = t - self._since < self.limits.window_s  # no full window of support yet
