@@ -828,7 +828,7 @@ class IntegrityMonitor:
         ``pose`` is base_link's, or the head's with ``is_head`` (the scalar form of
         :func:`~agvnav.positioning.identification.bearing_model`).
         """
-        hx, hy, hpsi = pose if is_head else _head(np.asarray(pose), self.mount)
+        hx, hy, hpsi = pose if is_head else _head(pose, self.mount)
         rx, ry = self._rows[i]
         dx, dy = rx - hx, ry - hy
         d = math.hypot(dx, dy)
@@ -1326,8 +1326,8 @@ def _best_triple_kernel(
 _TRIPLE_CODES = {n: tuple(itertools.combinations(range(n), 3)) for n in range(3, 9)}
 
 
-def _head(x: np.ndarray, mount: np.ndarray) -> tuple[float, float, float]:
-    """Head pose in ``map`` from the base_link pose ``x`` and the ``mount`` (floats)."""
+def _head(x: Any, mount: np.ndarray) -> tuple[float, float, float]:
+    """Head pose in ``map`` from the base_link pose ``x`` (array or floats) and the ``mount`` (floats)."""
     c, s = math.cos(float(x[2])), math.sin(float(x[2]))
     mx, my = float(mount[0]), float(mount[1])
     return float(x[0]) + c * mx - s * my, float(x[1]) + s * mx + c * my, float(x[2]) + float(mount[2])
