@@ -84,3 +84,21 @@ def test_drop_older_keeps_the_rows_within_the_window() -> None:
     assert np.array_equal(w.rows(), rows[-129:])
     w.drop_older(100.0, 1.0)
     assert len(w) == 0
+
+
+def test_the_in_range_count_is_hypot_s_on_the_boundary() -> None:
+    """Reflectors exactly at, just inside and just outside max_range: counted as math.hypot decides."""
+    import math
+
+    from agvnav.positioning.integrity import IntegrityMonitor
+
+    rng = np.random.default_rng(8)
+    ang = rng.uniform(-math.pi, math.pi, 400)
+    dist = 7.5 * (1.0 + rng.choice([-1e-15, 0.0, 1e-15, -1e-3, 1e-3, 0.5, -0.5], 400))
+    xy = np.column_stack([1.0 + dist * np.cos(ang), 2.0 + dist * np.sin(ang)])
+    mon = IntegrityMonitor(xy, np.full(400, 0.04), np.zeros(3), 1e-3, 0.125, max_range=7.5)
+    want = sum(math.hypot(x - 1.0, y - 2.0) <= 7.5 for x, y in xy.tolist())
+    assert 0 < want < 400 and mon._in_range(1.0, 2.0) == want
+    mon.excluded = (int(np.argmin(dist)),)
+    assert mon._in_range(1.0, 2.0) == want - 1
+    assert mon._in_range(math.nan, 2.0) == 0

@@ -733,15 +733,31 @@ class IntegrityMonitor:
         in range bound those in sight from above, so a fraction already above
         ``min_explained_fraction`` over those in range stands.
         """
-        hx, hy = head[0], head[1]
-        n_range = sum(1 for j, (rx, ry) in enumerate(self._rows)
-                      if math.hypot(rx - hx, ry - hy) <= self.max_range and j not in self.excluded)
+        n_range = self._in_range(head[0], head[1])
         if n_range == 0:
             return 1.0
         if n_used >= self.limits.min_explained_fraction * n_range:
             return n_used / n_range
         n_sight = self._in_sight(head)
         return 1.0 if n_sight == 0 else n_used / n_sight
+
+    def _in_range(self, hx: float, hy: float) -> int:
+        """How many reflectors (not excluded) are within ``max_range`` (m) of ``(hx, hy)`` (m).
+
+        ``math.hypot(dx, dy) <= max_range``, decided in NumPy over the whole map where the
+        squared distance clears the boundary by a relative 1e-9 (far beyond rounding) and
+        with ``math.hypot`` itself for the few near it: the same count, without a Python
+        loop over every reflector at every check (issue 11: 256 reflectors).
+        """
+        dx, dy = self.xy[:, 0] - hx, self.xy[:, 1] - hy
+        d2, r2 = dx * dx + dy * dy, self.max_range * self.max_range
+        ok = d2 <= r2 * (1.0 - 1e-9)
+        for j in np.flatnonzero(~ok & ~(d2 > r2 * (1.0 + 1e-9))).tolist():  # near the boundary, or NaN
+            rx, ry = self._rows[j]
+            ok[j] = math.hypot(rx - hx, ry - hy) <= self.max_range
+        if self.excluded:
+            ok[list(self.excluded)] = False
+        return int(np.count_nonzero(ok))
 
     def _uncertainty_failures(self, P: np.ndarray) -> list[str]:
         """``["uncertainty"]`` when the position (largest eigenvalue of ``P``'s position block, m²) or
