@@ -12,6 +12,7 @@ from agvnav import _jit
 from agvnav.geometry import wrap_angle
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
 from agvnav.positioning.gating import near_rows
+from agvnav.positioning.integrity import _best_triple_kernel, _fde_statistics, _information_sums, _window_tally
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
 
@@ -99,6 +100,28 @@ def _random_outputs() -> dict[str, list[bytes]]:
         np.asarray(hermite_poses(rng.normal(size=(4, 3)), 0.0, 0.05, rng.uniform(-0.01, 0.06, 1_000))).tobytes()
         for _ in range(100)
     ]
+    fits = []
+    for _ in range(300):  # the RAIM's weighted least-squares fits, every row left out in turn
+        n = int(rng.integers(4, 16))
+        H, res, w = rng.normal(size=(n, 3)), rng.normal(size=n), rng.uniform(0.1, 10.0, n)
+        fits.append(_fde_statistics(res, H.reshape(-1), w, 3))
+    out["_fde_statistics"] = [np.concatenate(fits).tobytes()]
+    triples = []  # the cross-check's choice of triple (its CRLB per triple through _position_crlb_one)
+    for _ in range(2_000):
+        n = int(rng.integers(3, 9))
+        rx3, ry3, var3 = rng.uniform(-10, 10, n), rng.uniform(-10, 10, n), rng.uniform(1e-7, 1e-4, n)
+        triples.append(_best_triple_kernel(0.3, -0.2, rx3, ry3, var3, 1e-6, float(rng.uniform(1e-5, 1e-2))))
+    out["_best_triple_kernel"] = [np.array(triples).tobytes()]
+    rows = rng.normal(size=(3_000, 20))  # an integrity window: stamps, map rows of 40, flags 0/1, sums
+    rows[:, 0] = np.sort(rng.uniform(0.0, 2.0, 3_000))
+    rows[:, 2] = rng.integers(0, 40, 3_000)
+    rows[:, [7, 8, 14]] = rng.integers(0, 2, (3_000, 3))
+    excluded = (rng.uniform(size=40) < 0.1).astype(np.int64)
+    tally = _window_tally(rows.reshape(-1), 0, 3_000, 2.1, 1.0, 0.125, excluded)
+    out["_window_tally"] = [np.asarray(a).tobytes() for a in tally]
+    std = np.where(rng.uniform(size=200) < 0.05, 0.0, rng.uniform(1e-3, 1e-2, 200))
+    info = [_information_sums(float(hx[i]), float(hy[i]), rx[:200], ry[:200], std) for i in range(50)]
+    out["_information_sums"] = [np.array([[ok, *a, *b, sv] for ok, a, b, sv in info], dtype=np.float64).tobytes()]
     return out
 
 
@@ -115,7 +138,10 @@ def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
     for name, got in compiled.items():
         assert got == interpreted[name], name
     tested = {"wrap_angle_scalar", "offset_one", "offsets_at", "grid_crossings", "wrapped_offsets", "line_of_sight",
-              "_hits_wall", "_hits_disc", "near_rows", "hermite_poses"}
+              "_hits_wall", "_hits_disc", "near_rows", "hermite_poses", "_fde_statistics", "_solve_augmented",
+              "_normal_equations",
+              "_best_triple_kernel", "_position_crlb_one", "_window_tally",
+              "_information_sums"}
     known = {k.py_func.__name__ for k in _jit.kernels()}
     assert known <= tested, f"kernels without a bit-for-bit test here: {sorted(known - tested)}"
 

@@ -173,7 +173,12 @@ def _segment_project(kind: str) -> Callable[[np.random.Generator], Pair]:
 def _path_project(rng: np.random.Generator) -> Pair:
     path, (x, y) = _path(), rng.uniform(-1, 6, 2)
     pr, ref = path.project_point(x, y), path.project(np.array([x, y]))  # type: ignore[attr-defined]
-    return [pr.s, pr.lateral, pr.heading], [float(ref.s), float(ref.lateral), float(ref.heading)]
+    length = float(path.length)  # type: ignore[attr-defined]
+    hint, window = float(rng.uniform(0.0, length)), float(rng.uniform(0.05, 0.5 * length))  # a windowed search
+    pw = path.project_point(x, y, hint, window)  # type: ignore[attr-defined]
+    rw = path.project(np.array([x, y]), hint, window)  # type: ignore[attr-defined]
+    return ([pr.s, pr.lateral, pr.heading, pw.s, pw.lateral, pw.heading],
+            [float(ref.s), float(ref.lateral), float(ref.heading), float(rw.s), float(rw.lateral), float(rw.heading)])
 
 
 def _tracking_errors(rng: np.random.Generator) -> Pair:

@@ -9,6 +9,7 @@ the past (12 mrad one revolution back).
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -98,3 +99,39 @@ def test_a_dense_map_triple_comes_from_the_whole_revolution() -> None:
     spread = np.sort(ang[idx])
     gaps = np.diff(np.concatenate([spread, [spread[0] + 2.0 * math.pi]]))
     assert gaps.max() < math.radians(180.0)  # around the head, not one sector (the newest eight: 39 deg)
+
+
+def _reference_best_triple(head: tuple[float, float], xy: np.ndarray, var: np.ndarray, bearing_var: float,
+                           max_var: float) -> tuple[int, ...] | None:
+    """Brute force in NumPy: the CRLB (seed 000 §2.3) of every triple from its 3x3 information matrix."""
+    d = xy - np.asarray(head)
+    d2 = np.sum(d * d, axis=1)
+    rows = np.column_stack([d[:, 1] / d2, -d[:, 0] / d2, -np.ones(len(xy))])
+    best, best_score = None, math.inf
+    for tri in itertools.combinations(range(len(xy)), 3):
+        h = rows[list(tri)]
+        try:
+            geometry = np.trace(np.linalg.inv(h.T @ h)[:2, :2]) * bearing_var
+            score = np.trace(np.linalg.inv(h.T @ (h / var[list(tri), None]))[:2, :2])
+        except np.linalg.LinAlgError:
+            continue
+        if 0.0 <= geometry <= max_var and 0.0 <= score < best_score:
+            best, best_score = tri, score
+    return best
+
+
+def test_the_chosen_triple_has_the_smallest_bound() -> None:
+    rng = np.random.default_rng(21)
+    agree = 0
+    for _ in range(200):
+        n = int(rng.integers(3, 9))
+        xy = rng.uniform(-8.0, 8.0, (n, 2))
+        var = rng.uniform(1e-7, 1e-5, n)
+        mon = IntegrityMonitor(xy, np.full(n, 0.04), np.zeros(3), 1e-3, REV, IntegrityLimits(max_fix_std_m=0.05))
+        got = mon._best_triple(np.zeros(3), list(range(n)), var.tolist())
+        want = _reference_best_triple((0.0, 0.0), xy, var, 1e-6, 0.05**2)
+        assert (got is None) == (want is None)
+        if got is not None:
+            assert tuple(sorted(got)) == want
+            agree += 1
+    assert agree >= 100  # the others: no triple within max_fix_std_m, on both sides

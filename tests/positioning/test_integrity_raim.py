@@ -50,6 +50,47 @@ def test_a_sound_window_flags_nothing() -> None:
     assert not res.detected and res.faulty == -1
 
 
+def test_statistics_match_a_least_squares_reference() -> None:
+    """Every statistic (all rows, each row left out) is the residual of numpy's lstsq fit, in either kernel mode."""
+    from agvnav import _jit
+
+    rng = np.random.default_rng(9)
+    H = _jacobian(POSE)
+    var = rng.uniform(0.5, 2.0, len(XY)) * STD**2
+    r = H @ np.array([0.03, 0.01, -0.004]) + rng.normal(0.0, STD, len(XY))
+    r[2] += 15 * STD
+
+    def reference(keep: np.ndarray) -> float:
+        sw = 1.0 / np.sqrt(var[keep])
+        dx = np.linalg.lstsq(H[keep] * sw[:, None], r[keep] * sw, rcond=None)[0]
+        return float(np.sum((r[keep] - H[keep] @ dx) ** 2 / var[keep]))
+
+    before = _jit.compiled()
+    try:
+        for on in (False, True):
+            _jit.set_compiled(on)
+            res = leave_one_out_fde(r, H, var, 1e-5)
+            assert res.statistic == pytest.approx(reference(np.ones(len(XY), bool)), rel=1e-9)
+            for k in range(len(XY)):
+                assert res.without[k] == pytest.approx(reference(np.arange(len(XY)) != k), rel=1e-9)
+            assert res.detected and res.faulty == 2
+    finally:
+        _jit.set_compiled(before)
+
+
+def test_chi2_threshold_is_scipy_s_quantile_bit_for_bit() -> None:
+    from scipy.stats import chi2
+
+    from agvnav.positioning._chi2_table import QUANTILES_1E5
+
+    assert len(QUANTILES_1E5) == 512
+    for dof in range(1, 520):  # the table (1e-5, dof <= 512), then scipy
+        assert chi2_threshold(dof, 1e-5) == float(chi2.isf(1e-5, dof))
+    for dof in (1, 3, 7):
+        assert chi2_threshold(dof, 1e-3) == float(chi2.isf(1e-3, dof))
+        assert chi2_threshold(dof, 1e-3) is chi2_threshold(dof, 1e-3)  # the cached float
+
+
 def test_bad_input_is_named() -> None:
     H = _jacobian(POSE)
     with pytest.raises(ValueError, match="more rows"):
@@ -102,3 +143,14 @@ def test_the_monitor_leaves_a_sound_stream_alone() -> None:
     _feed(mon, -1, 0.0, 0.0, 40)
     assert mon.excluded == () and mon.verdict == "ok"
     assert math.isfinite(mon.raim_statistic) and mon.raim_statistic < 1.0
+
+
+def test_the_default_false_alarm_needs_no_scipy_stats() -> None:
+    """The RAIM's quantiles come from the table: agvnav simulate does not pay scipy.stats' import (issue 11)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from agvnav.positioning.integrity import chi2_threshold; "
+            "[chi2_threshold(k, 1e-5) for k in range(1, 300)]; print('scipy.stats' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout
+    assert out.strip() == "False"

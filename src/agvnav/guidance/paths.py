@@ -21,6 +21,7 @@ positive for a left (CCW) turn. Degrees appear only in YAML keys named
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -339,6 +340,9 @@ class Path:
         self._segments = tuple(segs)
         lengths = np.array([s.length for s in segs])
         self._s0 = np.concatenate([[0.0], np.cumsum(lengths)])
+        # the same abscissae as floats, and each segment's end, for project_point's search (issue 11)
+        self._starts = self._s0[:-1].tolist()
+        self._ends = [s0 + seg.length for s0, seg in zip(self._starts, segs, strict=True)]
         self._curv = np.array([s.curvature for s in segs])
         self._dir = np.array([s.direction for s in segs], dtype=np.int64)
         self._yaw = np.array([s.yaw_offset for s in segs])
@@ -495,9 +499,13 @@ class Path:
             raise ValueError("point contains NaN or inf")
         best = None
         best_d2 = math.inf
-        for i, seg in enumerate(self._segments):
-            s0 = float(self._s0[i])
-            if hi < s0 or lo > s0 + seg.length:
+        starts, ends = self._starts, self._ends
+        # the segments overlapping [lo, hi], in order: the first whose end reaches lo (ends ascend), up to hi
+        for i in range(bisect.bisect_left(ends, lo), len(starts)):
+            s0, seg = starts[i], self._segments[i]
+            if s0 > hi:
+                break
+            if lo > ends[i]:
                 continue
             u_lo, u_hi = min(max(lo - s0, 0.0), seg.length), min(max(hi - s0, 0.0), seg.length)
             u, fx, fy, h = seg.project_scalar(x, y, u_lo, u_hi)

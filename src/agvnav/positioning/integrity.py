@@ -97,13 +97,17 @@ from __future__ import annotations
 
 import itertools
 import math
+from array import array
 from collections import deque
 from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from agvnav._jit import compiled, jit
 from agvnav.geometry import wrap_angle_scalar
+from agvnav.positioning._chi2_table import FALSE_ALARM, QUANTILES_1E5
 from agvnav.positioning.triangulation import triangulate
 from agvnav.sensors.beam import line_of_sight
 
@@ -207,18 +211,150 @@ class IntegrityLimits:
         chi2_upper(1, self.nis_confidence)
 
 
-@dataclass(frozen=True)
-class _Entry:
-    t: float
-    nis: float
-    index: int
-    bearing: float  # edge bearing in the head frame (rad)
-    odom: tuple[float, float, float]  # odometric base_link pose at t
-    on_time: bool = True  # stamp consistent with the head's rotation (:class:`_HeadClock`)
-    # the update's position correction (dx, dy) (m) and covariance decrease P- - P+ (00, 01, 11) (m²)
-    correction: tuple[float, float, float, float, float] | None = None
-    # the EKF's innovation y (rad), its variance S (rad²) and Jacobian row H (3,) of this update
-    innovation: tuple[float, float, float, float, float] | None = None
+#: Columns of a window row (:class:`_Window`): stamp (s), NIS, map row, edge bearing (rad, head frame),
+#: odometric base_link pose then (m, m, rad), on time (1/0, :class:`_HeadClock`), has a correction (1/0),
+#: the update's position correction (dx, dy) (m) and covariance decrease P- - P+ (00, 01, 11) (m²),
+#: has an innovation (1/0), the EKF's innovation y (rad), its variance S (rad²) and Jacobian row H (3,).
+_T, _NIS, _IDX, _BEAR, _OX, _OY, _OPSI, _ON_TIME, _HAS_C, _C0 = range(10)
+_HAS_I, _Y, _S, _H0 = 14, 15, 16, 17
+_WIDTH = 20
+_NO_FIVE = (0.0, 0.0, 0.0, 0.0, 0.0)
+
+
+class _Tally(NamedTuple):
+    """The window's sums per map row (:func:`_window_tally`; ``N`` map rows).
+
+    ``sightings (N,)`` per reflector, ``first (N,)`` position of the first (-1: none), ``nis (N,)``
+    their NIS summed, ``innovations (N, 6)`` the EKF's ``y, S, H0, H1, H2`` summed over the
+    sightings within ``window_s`` of the check and not excluded, and their count,
+    ``newest (N,)`` position of the newest sighting within one revolution (-1: none),
+    ``corrections (6,)`` the Kalman corrections ``dx, dy, c00, c01, c11`` summed and their
+    count, ``late`` the sightings off the head's phase. Every sum in window order.
+    """
+
+    sightings: np.ndarray
+    first: np.ndarray
+    nis: np.ndarray
+    innovations: np.ndarray
+    newest: np.ndarray
+    corrections: tuple[float, ...]
+    late: int
+
+
+@jit
+def _window_tally(
+    buf: Any, start: int, n: int, t: float, window_s: float, revolution_s: float, excluded: Any,
+) -> tuple[Any, Any, Any, Any, Any, tuple[float, float, float, float, float, float], int]:
+    """One pass over the ``n`` window rows of ``buf`` from offset ``start`` (:class:`_Window`), at ``t`` (s).
+
+    Returns the fields of :class:`_Tally`; ``excluded (N,)`` flags the excluded map rows
+    (non-zero), ``window_s`` and ``revolution_s`` (s) bound the innovations and the newest
+    sightings. Every sum adds in window order from 0.0 (as the checks' loops did).
+    """
+    m = excluded.shape[0]
+    count, nis = np.zeros(m), np.zeros(m)
+    first, newest = np.full(m, -1, np.int64), np.full(m, -1, np.int64)
+    innov = np.zeros((m, 6))
+    dx = dy = c00 = c01 = c11 = n_corr = 0.0
+    late = 0
+    for k in range(n):
+        o = start + k * _WIDTH
+        j = int(buf[o + _IDX])
+        if count[j] == 0.0:
+            first[j] = k
+        count[j] += 1.0
+        nis[j] += buf[o + _NIS]
+        if buf[o + _ON_TIME] == 0.0:
+            late += 1
+        if buf[o + _HAS_C] != 0.0:
+            dx, dy = dx + buf[o + _C0], dy + buf[o + _C0 + 1]
+            c00, c01, c11 = c00 + buf[o + _C0 + 2], c01 + buf[o + _C0 + 3], c11 + buf[o + _C0 + 4]
+            n_corr += 1.0
+        age = t - buf[o + _T]
+        if buf[o + _HAS_I] != 0.0 and not age > window_s and excluded[j] == 0:
+            for c in range(5):
+                innov[j, c] += buf[o + _Y + c]
+            innov[j, 5] += 1.0
+        if age <= revolution_s:
+            newest[j] = k
+    return count, first, nis, innov, newest, (dx, dy, c00, c01, c11, n_corr), late
+
+
+class _Window:
+    """The accepted reflections of the window, oldest first: rows of :data:`_WIDTH` floats in one flat buffer.
+
+    Appending a row is one ``array.extend``; :meth:`rows` hands the checks the whole window
+    as one ``(n, 20)`` array, so their sums run in NumPy instead of a Python loop per
+    reflection (issue 11: 1,400 reflections in the window of a 256-reflector map).
+    """
+
+    def __init__(self) -> None:
+        self._flat = array("d")
+        self._head = 0  # rows before it have left the window
+
+    def __len__(self) -> int:
+        return len(self._flat) // _WIDTH - self._head
+
+    def append(self, row: tuple[float, ...]) -> None:
+        """Add one row (:data:`_WIDTH` floats) at the new end."""
+        self._flat.extend(row)
+
+    def first_t(self) -> float:
+        """Stamp (s) of the oldest row (the window must not be empty)."""
+        return self._flat[self._head * _WIDTH]
+
+    def drop_older(self, t: float, window_s: float) -> None:
+        """Drop the oldest rows while their stamp is more than ``window_s`` (s) before ``t`` (s)."""
+        flat, head, width = self._flat, self._head, _WIDTH
+        end = len(flat)
+        while head * width < end and t - flat[head * width] > window_s:
+            head += 1
+        if head != self._head:
+            self._head = head - 1
+            self.popleft()  # the last one through popleft: it compacts the buffer when due
+
+    def popleft(self) -> None:
+        """Drop the oldest row (the buffer is compacted once half of it is dropped rows)."""
+        self._head += 1
+        if self._head >= 256 and 2 * self._head >= len(self._flat) // _WIDTH:
+            del self._flat[: self._head * _WIDTH]
+            self._head = 0
+
+    def clear(self) -> None:
+        """Drop every row."""
+        del self._flat[:]
+        self._head = 0
+
+    def rows(self) -> np.ndarray:
+        """``(n, 20)`` copy of the window's rows, oldest first."""
+        if not len(self):
+            return np.empty((0, _WIDTH))
+        return np.frombuffer(self._flat, dtype=np.float64, offset=self._head * _WIDTH * 8).reshape(-1, _WIDTH).copy()
+
+    def keep(self, mask: np.ndarray) -> None:
+        """Keep only the rows where ``mask (n,)`` is True, in order."""
+        kept = self.rows()[mask]
+        self.clear()
+        self._flat.frombytes(np.ascontiguousarray(kept).tobytes())
+
+    def indices(self) -> list[int]:
+        """Map rows of the window's reflections, oldest first."""
+        return list(map(int, self._flat[self._head * _WIDTH + _IDX::_WIDTH]))
+
+    def row(self, k: int) -> list[float]:
+        """Row ``k`` (0: the oldest) as floats."""
+        o = (self._head + k) * _WIDTH
+        return self._flat[o:o + _WIDTH].tolist()
+
+    def buffer(self) -> tuple[Any, int]:
+        """The flat buffer for :func:`_window_tally` and the offset of the oldest row in it.
+
+        Compiled: a NumPy copy of the window (numba takes arrays); interpreted: the buffer
+        itself (Python indexes it faster than an array).
+        """
+        if compiled():
+            return np.frombuffer(self._flat, dtype=np.float64, offset=self._head * _WIDTH * 8).copy(), 0
+        return self._flat, self._head * _WIDTH
 
 
 def reflectors_in_sight(
@@ -367,7 +503,7 @@ class IntegrityMonitor:
         self.revolution_s = float(revolution_s)
         self.limits = IntegrityLimits() if limits is None else limits
         self.walls = None if walls is None else np.asarray(walls, dtype=np.float64).reshape(-1, 2, 2)
-        self._entries: deque[_Entry] = deque()
+        self._entries = _Window()
         self._rejects: deque[float] = deque()
         self._rows = [(float(a), float(b)) for a, b in self.xy]
         self._clock = _HeadClock(self.revolution_s, self.limits.max_latency_s * 2.0 * math.pi / self.revolution_s)
@@ -412,12 +548,12 @@ class IntegrityMonitor:
         bearing Jacobian row) for the leave-one-out test (:meth:`raim`); None without one.
         """
         on_time = self._clock.on_time(t, bearing)
-        self._entries.append(
-            _Entry(t, float(nis), int(index), float(bearing), (odom[0], odom[1], odom[2]), on_time, correction,
-                   innovation)
-        )
-        while self._entries and t - self._entries[0].t > self.limits.window_s:
-            self._entries.popleft()
+        self._entries.append((
+            t, nis, int(index), bearing, odom[0], odom[1], odom[2], 1.0 if on_time else 0.0,
+            0.0 if correction is None else 1.0, *(correction or _NO_FIVE),
+            0.0 if innovation is None else 1.0, *(innovation or _NO_FIVE),
+        ))  # stored as doubles
+        self._entries.drop_older(t, self.limits.window_s)
         if math.isfinite(nis):
             j = int(index)
             self._n_nu[j] += 1
@@ -426,7 +562,7 @@ class IntegrityMonitor:
     @property
     def used(self) -> tuple[int, ...]:
         """Map rows of the distinct reflectors accepted in the window, ascending."""
-        return tuple(sorted({e.index for e in self._entries}))
+        return tuple(sorted(set(self._entries.indices())))
 
     def rejected(self, t: float) -> None:
         """One reflection at ``t`` (s) that the gate rejected (spurious, ambiguous or off its prediction)."""
@@ -450,15 +586,15 @@ class IntegrityMonitor:
         self._last_check = t
         x = np.asarray(pose, dtype=np.float64)
         cov = np.asarray(P, dtype=np.float64)
-        while self._entries and t - self._entries[0].t > self.limits.window_s:
-            self._entries.popleft()
+        self._entries.drop_older(t, self.limits.window_s)
         if self._since is None:
             self._since = t
         young = t - self._since < self.limits.window_s  # no full window of support yet
-        reasons = [] if dead_reckoning else self._support_failures(t, x, cov, odom, young)
+        tally = self._tally(t)
+        reasons = [] if dead_reckoning else self._support_failures(t, x, cov, odom, young, tally)
         self._raim_ran = False
         if self.limits.enabled and not dead_reckoning and not young:
-            reasons += self._raim_failures(t)
+            reasons += self._raim_failures(t, tally)
         reasons += self._uncertainty_failures(cov)
         self.reasons = tuple(reasons) if self.limits.enabled else ()
         reasons = list(self.reasons)
@@ -467,29 +603,37 @@ class IntegrityMonitor:
         return self._judge(t, reasons)
 
     # ------------------------------------------------------------------ checks
+    def _tally(self, t: float) -> _Tally:
+        """The window's sums per reflector at ``t`` (s), in one pass (:func:`_window_tally`)."""
+        buf, start = self._entries.buffer()
+        flags = np.zeros(self.xy.shape[0], dtype=np.int64)
+        flags[list(self.excluded)] = 1
+        return _Tally(*_window_tally(buf, start, len(self._entries), t, self.limits.window_s, self.revolution_s,
+                                     flags))
+
     def _support_failures(
-        self, t: float, x: np.ndarray, P: np.ndarray, odom: tuple[float, ...], young: bool
+        self, t: float, x: np.ndarray, P: np.ndarray, odom: tuple[float, ...], young: bool, tally: _Tally
     ) -> list[str]:
         lim = self.limits
-        entries = list(self._entries)
-        used = sorted({e.index for e in entries})
+        n_entries = len(self._entries)
+        used = np.flatnonzero(tally.sightings).tolist()
         self.reflectors_used = len(used)
         head = _head(x, self.mount)
         unit, floor = self._information(head, used)
         self.survey_floor = floor
         out: list[str] = []
-        if entries:
-            self.nis_ratio = _nis_per_reflector(entries) / chi2_upper(len(used), lim.nis_confidence)
+        if n_entries:
+            self.nis_ratio = _nis_per_reflector(tally) / chi2_upper(len(used), lim.nis_confidence)
             if self.nis_ratio > 1.0:
                 out.append("nis")
-            if not young and self._corrections_drift(entries):
+            if not young and self._corrections_drift(tally.corrections):
                 out.append("corrections")
-            if self._clock.sense and 2 * sum(not e.on_time for e in entries) > len(entries) >= 4:
+            if self._clock.sense and 2 * tally.late > n_entries >= 4:
                 out.append("timing")
         while self._rejects and t - self._rejects[0] > lim.window_s:
             self._rejects.popleft()
         n_rej = len(self._rejects)
-        if n_rej >= lim.min_rejections and n_rej > lim.max_reject_fraction * (n_rej + len(entries)):
+        if n_rej >= lim.min_rejections and n_rej > lim.max_reject_fraction * (n_rej + n_entries):
             out.append("rejections")
         if not young and self._explained(head, len(used)) < lim.min_explained_fraction:
             out.append("unexplained")
@@ -500,12 +644,12 @@ class IntegrityMonitor:
             fix_std = math.sqrt(unit) * self.bearing_std if math.isfinite(unit) else math.inf
             if not fix_std <= lim.max_fix_std_m:
                 out.append("geometry")
-        self.crosscheck = self._crosscheck(t, x, P, odom)
+        self.crosscheck = self._crosscheck(t, x, P, odom, tally)
         if self.crosscheck > lim.crosscheck_bound:
             out.append("crosscheck")
         return out
 
-    def _corrections_drift(self, entries: list[_Entry]) -> bool:
+    def _corrections_drift(self, sums: tuple[float, ...]) -> bool:
         """True when the window's Kalman corrections add up to a drift the filter does not expect.
 
         Each update moves the estimate by ``K y``; for a consistent filter these are
@@ -515,18 +659,13 @@ class IntegrityMonitor:
         odometry keeps carrying the estimate off the bearings: wheel slip beyond the noise
         model. A 30 % slip burst left a truth-noise tricycle "tracking" 25-29 mm (5-6 sigma)
         off for 3 s with its NIS within bounds: the per-revolution corrections (7 mm,
-        always forward) are small, their sum is not.
+        always forward) are small, their sum is not. ``sums``: the window's corrections
+        summed in order, ``(dx, dy, c00, c01, c11, count)`` (:func:`_window_tally`).
         """
-        dx = dy = c00 = c01 = c11 = 0.0
-        n = 0
-        for e in entries:
-            c = e.correction
-            if c is None:
-                continue
-            dx, dy = dx + c[0], dy + c[1]
-            c00, c01, c11 = c00 + c[2], c01 + c[3], c11 + c[4]
-            n += 1
-        if n < 8 or math.hypot(dx, dy) <= self.limits.max_correction_m:
+        dx, dy, c00, c01, c11, n = sums
+        if n < 8:
+            return False
+        if math.hypot(dx, dy) <= self.limits.max_correction_m:
             return False
         det = c00 * c11 - c01 * c01
         if not det > 0.0:
@@ -538,38 +677,24 @@ class IntegrityMonitor:
         """PDOP² of ``used`` from the head (m²/rad², inf if unobservable) and the survey floor ``(3, 3)``.
 
         One pass over the bearing Jacobian rows ``[dy/d², -dx/d², -1]`` (seed 000 §2.3,
-        :func:`~agvnav.positioning.bounds.crlb`) in Python floats: the unit-noise
+        :func:`~agvnav.positioning.bounds.crlb`; :func:`_information_sums`): the unit-noise
         information gives the PDOP, the information weighted by ``(d / map_std)^2`` the
         covariance of a static fix of the head whose bearings err only by the survey
         error, carried to base_link through ``base = head - R(psi) mount`` (zero without
         ``map_std`` or with fewer than three reflectors).
         """
-        hx, hy = head[0], head[1]
-        a = [0.0] * 6  # unit information, upper triangle 00 01 02 11 12 22
-        b = [0.0] * 6  # survey-weighted information
-        survey = len(used) >= 3
-        for j in used:
-            rx, ry = self._rows[j]
-            dx, dy = rx - hx, ry - hy
-            d2 = dx * dx + dy * dy
-            if d2 <= 0.0:
-                return math.inf, np.zeros((3, 3))
-            j0, j1 = dy / d2, -dx / d2
-            row = (j0 * j0, j0 * j1, -j0, j1 * j1, -j1, 1.0)
-            for k in range(6):
-                a[k] += row[k]
-            std = float(self.map_std[j])
-            if std > 0.0:
-                w = d2 / (std * std)
-                for k in range(6):
-                    b[k] += w * row[k]
-            else:
-                survey = False
-        unit = _inverse3(a)
+        rx, ry, std = self.xy[used, 0], self.xy[used, 1], self.map_std[used]
+        if not compiled():
+            rx, ry, std = rx.tolist(), ry.tolist(), std.tolist()
+        ok, a, b, survey = _information_sums(head[0], head[1], rx, ry, std)
+        if not ok:
+            return math.inf, np.zeros((3, 3))
+        survey = survey and len(used) >= 3
+        unit = _inverse3(list(a))
         pdop2 = math.inf if unit is None else unit[0] + unit[3]
         if not (math.isfinite(pdop2) and pdop2 >= 0.0):
             pdop2 = math.inf
-        cov = _inverse3(b) if survey else None
+        cov = _inverse3(list(b)) if survey else None
         if cov is None or not all(math.isfinite(v) for v in cov):
             return pdop2, np.zeros((3, 3))
         c00, c01, c02, c11, c12, c22 = cov
@@ -608,9 +733,7 @@ class IntegrityMonitor:
         in range bound those in sight from above, so a fraction already above
         ``min_explained_fraction`` over those in range stands.
         """
-        hx, hy = head[0], head[1]
-        n_range = sum(1 for j, (rx, ry) in enumerate(self._rows)
-                      if math.hypot(rx - hx, ry - hy) <= self.max_range and j not in self.excluded)
+        n_range = self._in_range(head[0], head[1])
         if n_range == 0:
             return 1.0
         if n_used >= self.limits.min_explained_fraction * n_range:
@@ -618,14 +741,38 @@ class IntegrityMonitor:
         n_sight = self._in_sight(head)
         return 1.0 if n_sight == 0 else n_used / n_sight
 
+    def _in_range(self, hx: float, hy: float) -> int:
+        """How many reflectors (not excluded) are within ``max_range`` (m) of ``(hx, hy)`` (m).
+
+        ``math.hypot(dx, dy) <= max_range``, decided in NumPy over the whole map where the
+        squared distance clears the boundary by a relative 1e-9 (far beyond rounding) and
+        with ``math.hypot`` itself for the few near it: the same count, without a Python
+        loop over every reflector at every check (issue 11: 256 reflectors).
+        """
+        dx, dy = self.xy[:, 0] - hx, self.xy[:, 1] - hy
+        d2, r2 = dx * dx + dy * dy, self.max_range * self.max_range
+        ok = d2 <= r2 * (1.0 - 1e-9)
+        for j in np.flatnonzero(~ok & ~(d2 > r2 * (1.0 + 1e-9))).tolist():  # near the boundary, or NaN
+            rx, ry = self._rows[j]
+            ok[j] = math.hypot(rx - hx, ry - hy) <= self.max_range
+        if self.excluded:
+            ok[list(self.excluded)] = False
+        return int(np.count_nonzero(ok))
+
     def _uncertainty_failures(self, P: np.ndarray) -> list[str]:
+        """``["uncertainty"]`` when the position (largest eigenvalue of ``P``'s position block, m²) or
+        heading variance (rad²) is beyond what the gate can identify reflectors with."""
         lim = self.limits
-        pos_var = float(np.max(np.linalg.eigvalsh(0.5 * (P[:2, :2] + P[:2, :2].T))))
+        a, b, c = float(P[0, 0]), 0.5 * (float(P[0, 1]) + float(P[1, 0])), float(P[1, 1])
+        half = 0.5 * (a - c)
+        pos_var = 0.5 * (a + c) + math.sqrt(half * half + b * b)  # largest eigenvalue of [[a, b], [b, c]]
         if not (pos_var <= lim.lost_position_std_m**2 and P[2, 2] <= lim.lost_heading_std_rad**2):
             return ["uncertainty"]
         return []
 
-    def _crosscheck(self, t: float, x: np.ndarray, P: np.ndarray, odom: tuple[float, ...]) -> float:
+    def _crosscheck(
+        self, t: float, x: np.ndarray, P: np.ndarray, odom: tuple[float, ...], tally: _Tally
+    ) -> float:
         """Mahalanobis distance² between the head position of the estimate and a ToTal fix (NaN if none).
 
         The bearings of the best triple seen in the last revolution are brought to now
@@ -639,14 +786,17 @@ class IntegrityMonitor:
         of one revolution at 0.5 m/s, failed the check every ~2 s with its estimate a few
         mm from the truth (fix 5-14 cm off, from the 10-13 m distant reflectors of a
         revolution-old triple). The triple is chosen with these variances, among those
-        whose geometry alone (bearing noise) bounds the fix within ``max_fix_std_m``.
+        whose geometry alone (bearing noise) bounds the fix within ``max_fix_std_m``
+        (of more than eight reflectors seen, the eight :meth:`_best_triple` spreads over the
+        revolution: only theirs are propagated).
         """
-        latest: dict[int, _Entry] = {}
-        for e in reversed(self._entries):  # newest first (a late reflection may sit out of order)
-            if t - e.t <= self.revolution_s and e.index not in latest:
-                latest[e.index] = e
-        if len(latest) < 3:
+        seen = np.flatnonzero(tally.newest >= 0)
+        pos = np.sort(tally.newest[seen])[::-1].tolist()  # each reflector's newest sighting, newest first
+        if len(pos) < 3:
             return math.nan
+        if len(pos) > 8:
+            pos = [pos[k] for k in _spread8(len(pos))]
+        latest = [self._entries.row(k) for k in pos]
         px, py, ppsi = float(x[0]), float(x[1]), float(x[2])
         ox, oy, opsi = float(odom[0]), float(odom[1]), float(odom[2])
         co, so = math.cos(opsi), math.sin(opsi)
@@ -654,16 +804,17 @@ class IntegrityMonitor:
         head_now = _head(x, self.mount)
         k_d, k_dtheta, k_theta = self.odometry_noise
         prop: dict[int, tuple[float, float]] = {}  # row -> (bearing brought to now, its variance)
-        for i, e in latest.items():
-            ex, ey = e.odom[0] - ox, e.odom[1] - oy  # odometric pose then, seen from now (between)
+        for e in latest:
+            i = int(e[_IDX])
+            ex, ey = e[_OX] - ox, e[_OY] - oy  # odometric pose then, seen from now (between)
             rx_, ry_ = co * ex + so * ey, -so * ex + co * ey
-            turn = e.odom[2] - opsi
+            turn = e[_OPSI] - opsi
             then = (px + cp * rx_ - sp * ry_, py + sp * rx_ + cp * ry_, ppsi + turn)
             h_then, d_then = self._edge_bearing(then, i)
             h_now, _ = self._edge_bearing(head_now, i, is_head=True)
             r = float(self.radius[i])
             d = max(d_then, 1e-12)
-            centre = e.bearing + math.asin(min(max(r / d, 0.0), 1.0))  # edge -> centre
+            centre = e[_BEAR] + math.asin(min(max(r / d, 0.0), 1.0))  # edge -> centre
             # the odometry between then and now errs too [seed002 eq17]: heading by
             # var_th, position by var_d along and by the heading error integrated across
             s_odo = math.hypot(ex, ey)
@@ -693,7 +844,7 @@ class IntegrityMonitor:
         ``pose`` is base_link's, or the head's with ``is_head`` (the scalar form of
         :func:`~agvnav.positioning.identification.bearing_model`).
         """
-        hx, hy, hpsi = pose if is_head else _head(np.asarray(pose), self.mount)
+        hx, hy, hpsi = pose if is_head else _head(pose, self.mount)
         rx, ry = self._rows[i]
         dx, dy = rx - hx, ry - hy
         d = math.hypot(dx, dy)
@@ -708,9 +859,9 @@ class IntegrityMonitor:
         (issue 12), so a triple whose bound with the bearing noise alone exceeds
         ``max_fix_std_m`` is not used; of the others, the one with the smallest bound
         with ``variances`` (rad², one per row, default ``bearing_std^2``) is chosen. The
-        bound of every triple at once: the information of each reflector (Jacobian rows
-        ``[dy/d², -dx/d², -1]`` over its variance) summed per triple, the trace of the
-        position block of its inverse in closed form. Of more than eight rows (``rows``
+        bound of every triple in one pass (:func:`_best_triple_kernel`): the information of
+        each reflector (Jacobian rows ``[dy/d², -dx/d², -1]`` over its variance) summed per
+        triple, the trace of the position block of its inverse in closed form. Of more than eight rows (``rows``
         in time order), eight spread evenly over them are candidates: with 256 reflectors
         in the lab the eight newest reflections came from one 15° sector, and the best of
         their triples (three reflectors 1.7 m apart on one wall: 19 x 48 cm fix std with
@@ -722,29 +873,21 @@ class IntegrityMonitor:
         if variances is None:
             variances = [self.bearing_std**2] * len(rows)
         if len(rows) > 8:  # a dense map: eight spread over the revolution, not the eight newest in one sector
-            pick = np.linspace(0, len(rows) - 1, 8).round().astype(int).tolist()
+            pick = _spread8(len(rows))
             rows, variances = [rows[k] for k in pick], [variances[k] for k in pick]
         hx, hy, _ = _head(x, self.mount)
-        info = np.empty((len(rows), 6))
-        for k, j in enumerate(rows):
-            rx, ry = self._rows[j]
-            dx, dy = rx - hx, ry - hy
-            d2 = dx * dx + dy * dy
-            if d2 <= 0.0:
-                return None
-            j0, j1 = dy / d2, -dx / d2
-            info[k] = (j0 * j0, j0 * j1, -j0, j1 * j1, -j1, 1.0)
-        tri = _triples(len(rows))
-        geometry = _position_crlb(info[tri].sum(axis=1)) * self.bearing_std**2
-        weighted = info / np.asarray(variances, dtype=np.float64)[:, None]
-        score = np.where(geometry <= self.limits.max_fix_std_m**2, _position_crlb(weighted[tri].sum(axis=1)), np.inf)
-        k = int(np.argmin(score))
-        if not math.isfinite(score[k]):
+        rx, ry = [self._rows[j][0] for j in rows], [self._rows[j][1] for j in rows]
+        var = [float(v) for v in variances]
+        if compiled():
+            rx, ry, var = np.array(rx), np.array(ry), np.array(var)  # type: ignore[assignment]
+        best = _best_triple_kernel(hx, hy, rx, ry, var, self.bearing_std**2, self.limits.max_fix_std_m**2)
+        if best < 0:
             return None
-        return [rows[i] for i in tri[k]]
+        i, j, k = _TRIPLE_CODES[len(rows)][best]
+        return [rows[i], rows[j], rows[k]]
 
     # ------------------------------------------------------------------ RAIM
-    def raim(self, t: float) -> tuple[tuple[int, ...], FdeResult] | None:
+    def raim(self, t: float, tally: _Tally | None = None) -> tuple[tuple[int, ...], FdeResult] | None:
         """Innovation-based leave-one-out fault detection and exclusion over the window (:func:`leave_one_out_fde`).
 
         Each reflector ``k`` accepted in the window contributes the mean ``ybar_k`` of its
@@ -756,37 +899,23 @@ class IntegrityMonitor:
         part ``(map_std / d)^2``, constant in time, so ``var(ybar_k) = (map_std / d)^2 +
         (Sbar_k - (map_std / d)^2) / n_k`` over ``n_k`` sightings. Returns the map rows
         (in the order of the result's rows) and the result, or None with fewer than 4
-        reflectors (no redundancy) or without innovations (not a Kalman filter).
+        reflectors (no redundancy) or without innovations (not a Kalman filter). ``tally``: the
+        window's sums at ``t`` when the caller has them (:meth:`_tally`).
         """
-        acc: dict[int, list[float]] = {}
-        for e in self._entries:
-            if e.innovation is None or t - e.t > self.limits.window_s or e.index in self.excluded:
-                continue
-            y, S, h0, h1, h2 = e.innovation
-            a = acc.setdefault(e.index, [0.0] * 6)
-            a[0] += y
-            a[1] += S
-            a[2] += h0
-            a[3] += h1
-            a[4] += h2
-            a[5] += 1.0
-        if len(acc) < 4:
+        tally = self._tally(t) if tally is None else tally
+        found = np.flatnonzero(tally.innovations[:, 5])
+        if len(found) < 4:
             return None
-        rows = tuple(sorted(acc))
-        r = np.empty(len(rows))
-        H = np.empty((len(rows), 3))
-        var = np.empty(len(rows))
-        for k, i in enumerate(rows):
-            a = acc[i]
-            n = a[5]
-            r[k] = a[0] / n
-            H[k] = (a[2] / n, a[3] / n, a[4] / n)
-            survey = float(self.map_std[i]) ** 2 * (H[k, 0] ** 2 + H[k, 1] ** 2)  # (map_std / d)^2
-            white = max(a[1] / n - survey, self.bearing_std**2)
-            var[k] = survey + white / n
+        rows = tuple(found.tolist())
+        sums = tally.innovations[found]
+        n = sums[:, 5]  # sightings per reflector
+        r, s_bar, H = sums[:, 0] / n, sums[:, 1] / n, sums[:, 2:5] / n[:, None]
+        survey = self.map_std[found] ** 2 * (H[:, 0] * H[:, 0] + H[:, 1] * H[:, 1])  # (map_std / d)^2
+        white = np.maximum(s_bar - survey, self.bearing_std**2)
+        var = survey + white / n
         return rows, leave_one_out_fde(r, H, var, self.limits.raim_false_alarm)
 
-    def _raim_failures(self, t: float) -> list[str]:
+    def _raim_failures(self, t: float, sums: _Tally | None = None) -> list[str]:
         """``["raim"]`` when the window fails :meth:`raim`; may exclude the reflector it keeps naming.
 
         One failure episode (until the verdict could recover) tallies the reflector each
@@ -794,7 +923,7 @@ class IntegrityMonitor:
         than any other, is excluded (reflectors along one wall are confused with each other
         on some checks: a moved one is named most often, not every time).
         """
-        out = self.raim(t)
+        out = self.raim(t, sums)
         self._raim_ran = out is not None
         if out is None or not out[1].detected:
             # a passing check right after an inflation sees few sightings: the tally is
@@ -823,7 +952,7 @@ class IntegrityMonitor:
         if j in self.excluded:
             return
         self.excluded = (*self.excluded, j)
-        self._entries = deque(e for e in self._entries if e.index != j)
+        self._entries.keep(self._entries.rows()[:, _IDX] != j)
         self._n_nu = [0] * len(self._n_nu)
         self._mean_nu = [0.0] * len(self._mean_nu)
 
@@ -833,7 +962,7 @@ class IntegrityMonitor:
         lim = self.limits
         if len(self.excluded) >= lim.max_excluded:
             return
-        seen = [j for j in {e.index for e in self._entries} if self._n_nu[j] >= 8]
+        seen = [j for j in set(self._entries.indices()) if self._n_nu[j] >= 8]  # the set's order, as before
         if len(seen) < lim.min_reflectors + 2:
             return
         worst = max(seen, key=lambda j: self._mean_nu[j])
@@ -899,26 +1028,136 @@ class FdeResult:
 
 
 def chi2_threshold(dof: int, false_alarm: float) -> float:
-    """Upper quantile of a chi-square with ``dof`` degrees of freedom exceeded with probability ``false_alarm``."""
+    """Upper quantile of a chi-square with ``dof`` degrees of freedom exceeded with probability ``false_alarm``.
+
+    scipy's ``chi2.isf``: from a table for the RAIM's default 1e-5
+    (:mod:`agvnav.positioning._chi2_table`, the same bits), else computed once per
+    ``(dof, false_alarm)`` and kept: the RAIM asks for the same few quantiles at every check (issue 11).
+    """
     if dof < 1:
         raise ValueError(f"dof must be >= 1, got {dof!r}")
     if not 0.0 < false_alarm < 1.0:
         raise ValueError(f"false_alarm must be in (0, 1), got {false_alarm!r}")
-    from scipy.stats import chi2  # noqa: PLC0415 - heavy third-party import, deferred (issue 11)
+    if false_alarm == FALSE_ALARM and dof <= len(QUANTILES_1E5):
+        return QUANTILES_1E5[dof - 1]  # the RAIM's default: no scipy.stats import (half a second)
+    key = (int(dof), float(false_alarm))
+    value = _CHI2_QUANTILES.get(key)
+    if value is None:
+        from scipy.stats import chi2  # noqa: PLC0415 - heavy third-party import, deferred (issue 11)
 
-    return float(chi2.isf(false_alarm, dof))
+        value = _CHI2_QUANTILES[key] = float(chi2.isf(key[1], key[0]))
+    return value
 
 
-def _wssr(r: np.ndarray, H: np.ndarray, w: np.ndarray) -> float:
-    """Weighted sum of squared residuals of the weighted least-squares fit of ``r = H dx`` (NaN if singular)."""
-    a = H.T @ (w[:, None] * H)
-    b = H.T @ (w * r)
-    try:
-        dx = np.linalg.solve(a, b)
-    except np.linalg.LinAlgError:
-        return math.nan
-    e = r - H @ dx
-    return float(np.sum(w * e * e))
+_CHI2_QUANTILES: dict[tuple[int, float], float] = {}
+
+
+@jit
+def _solve_augmented(a: Any, m: int, dx: Any) -> bool:
+    """Solve the ``m x (m + 1)`` augmented system ``a`` (row by row, destroyed) into ``dx (m,)``; False if singular.
+
+    Gaussian elimination with partial pivoting; singular is a zero pivot (as ``numpy.linalg.solve`` raises on).
+    """
+    c = m + 1
+    for col in range(m):
+        p = col
+        for i in range(col + 1, m):
+            if abs(a[i * c + col]) > abs(a[p * c + col]):
+                p = i
+        if a[p * c + col] == 0.0:
+            return False
+        if p != col:
+            for j in range(c):
+                a[col * c + j], a[p * c + j] = a[p * c + j], a[col * c + j]
+        for i in range(col + 1, m):
+            f = a[i * c + col] / a[col * c + col]
+            for j in range(col, c):
+                a[i * c + j] -= f * a[col * c + j]
+    for i in range(m - 1, -1, -1):
+        acc = a[i * c + m]
+        for j in range(i + 1, m):
+            acc -= a[i * c + j] * dx[j]
+        dx[i] = acc / a[i * c + i]
+    return True
+
+
+@jit
+def _normal_equations(e: Any, h: Any, w: Any, m: int, skip: int, a: Any) -> float:
+    """``[H^T W H | H^T W e]`` of the rows but ``skip`` (-1: none) into ``a`` (``m x (m + 1)``); returns ``e^T W e``."""
+    c = m + 1
+    for q in range(m * c):
+        a[q] = 0.0
+    ewe = 0.0
+    for k in range(len(e)):
+        if k == skip:
+            continue
+        wk = w[k]
+        ewe += wk * e[k] * e[k]
+        for i in range(m):
+            hi = wk * h[k * m + i]
+            for j in range(i, m):
+                a[i * c + j] += hi * h[k * m + j]
+            a[i * c + m] += hi * e[k]
+    for i in range(m):
+        for j in range(i):
+            a[i * c + j] = a[j * c + i]
+    return ewe
+
+
+@jit
+def _fde_statistics(r: Any, h: Any, w: Any, m: int) -> Any:
+    """Weighted sums of squared residuals of the least-squares fits of ``r = H dx``: all rows, then each left out.
+
+    ``r (n,)`` residuals, ``h (n m,)`` the Jacobian ``H (n, m)`` row by row, ``w (n,)``
+    weights. The fit of all rows gives ``dx0`` and the residuals ``e = r - H dx0`` (the
+    statistics are those of ``e``: fitting ``e`` instead of ``r`` only shifts ``dx``); over
+    ``e`` the normal equations ``A = H^T W H``, ``b = H^T W e`` and ``e^T W e`` are summed
+    once, leaving row ``k`` out subtracts its terms (a rank-one downdate), and the fit's
+    statistic is ``e^T W e - b^T dx``. O(n m^2) for all ``n + 1`` fits instead of
+    O(n^2 m^2) (170 reflectors in the window of a 256-reflector map); working on ``e``
+    keeps the subtraction from cancelling a large common pull. NaN where singular (a
+    zero pivot). Returns ``(n + 1,)``: index 0 all rows, ``1 + k`` without row ``k``.
+    Plain loops: compiled by numba, or interpreted on Python lists (:func:`leave_one_out_fde`).
+    """
+    n = len(r)
+    c = m + 1
+    out = np.full(n + 1, math.nan)
+    a = [0.0] * (m * c)
+    dx = [0.0] * m
+    _normal_equations(r, h, w, m, -1, a)
+    if not _solve_augmented(a, m, dx):
+        return out
+    e = [0.0] * n
+    for k in range(n):
+        ek = r[k]
+        for i in range(m):
+            ek -= h[k * m + i] * dx[i]
+        e[k] = ek
+    full = [0.0] * (m * c)
+    ewe = _normal_equations(e, h, w, m, -1, full)
+    for skip in range(-1, n):
+        total = ewe
+        for q in range(m * c):
+            a[q] = full[q]
+        if skip >= 0:
+            ws = w[skip]
+            total -= ws * e[skip] * e[skip]
+            for i in range(m):
+                hi = ws * h[skip * m + i]
+                for j in range(i, m):
+                    a[i * c + j] -= hi * h[skip * m + j]
+                a[i * c + m] -= hi * e[skip]
+            for i in range(m):
+                for j in range(i):
+                    a[i * c + j] = a[j * c + i]
+        b = [a[i * c + m] for i in range(m)]  # the right-hand side, before elimination
+        if not _solve_augmented(a, m, dx):
+            continue
+        bdx = 0.0
+        for i in range(m):
+            bdx += b[i] * dx[i]
+        out[skip + 1] = total - bdx
+    return out
 
 
 def leave_one_out_fde(
@@ -954,19 +1193,19 @@ def leave_one_out_fde(
     if not (np.all(np.isfinite(v)) and np.all(v > 0.0)):
         raise ValueError("variances must be positive and finite")
     w = 1.0 / v
+    h = np.ascontiguousarray(H).reshape(-1)
+    # interpreted, the kernel indexes Python lists faster than arrays
+    args: tuple[Any, Any, Any] = (r, h, w) if compiled() else (r.tolist(), h.tolist(), w.tolist())
     dof = n - m
-    stat = _wssr(r, H, w)
+    stats = _fde_statistics(*args, m).tolist()
+    stat = stats[0]
     thr = chi2_threshold(dof, false_alarm)
     detected = bool(stat > thr)
     without = [math.nan] * n
     thr_x = chi2_threshold(dof - 1, false_alarm) if dof >= 2 else math.nan
     faulty = -1
     if dof >= 2:
-        keep = np.ones(n, dtype=bool)
-        for k in range(n):
-            keep[k] = False
-            without[k] = _wssr(r[keep], H[keep], w[keep])
-            keep[k] = True
+        without = stats[1:]
         if detected:
             ok = [(without[k], k) for k in range(n) if without[k] <= thr_x]
             if ok:
@@ -982,7 +1221,7 @@ def _mahalanobis2(dx: float, dy: float, s00: float, s01: float, s11: float) -> f
     return (s11 * dx * dx - 2.0 * s01 * dx * dy + s00 * dy * dy) / det
 
 
-def _nis_per_reflector(entries: list[_Entry]) -> float:
+def _nis_per_reflector(tally: _Tally) -> float:
     """Sum over the distinct reflectors of the mean NIS of their sightings in the window.
 
     The bearings of one reflector repeat its survey error every revolution (constant in
@@ -992,39 +1231,119 @@ def _nis_per_reflector(entries: list[_Entry]) -> float:
     error once per revolution and failed a sound estimate standing at a warehouse station
     (NIS ratio 1.01-1.09 for 5 s, verdict ``lost`` 2 mm from the truth). Each reflector
     contributes one degree of freedom: the mean of its NIS values (its fixed error squared
-    over ``S``, plus the averaged white part).
+    over ``S``, plus the averaged white part). From the window's sums (:func:`_window_tally`).
     """
-    acc: dict[int, list[float]] = {}
-    for e in entries:
-        a = acc.setdefault(e.index, [0.0, 0.0])
-        a[0] += e.nis
-        a[1] += 1.0
-    return sum(a[0] / a[1] for a in acc.values())
+    seen = np.flatnonzero(tally.sightings)
+    means = tally.nis[seen] / tally.sightings[seen]  # each summed in window order (:func:`_window_tally`)
+    return sum(means[np.argsort(tally.first[seen])].tolist())  # in order of first sighting
 
 
-def _position_crlb(a: np.ndarray) -> np.ndarray:
-    """Trace of the position block of the inverse of each symmetric 3x3 ``a (k, 6)`` (inf where singular)."""
-    a00, a01, a02, a11, a12, a22 = a.T
+@jit
+def _information_sums(hx: float, hy: float, rx: Any, ry: Any, std: Any) -> tuple[
+    bool, tuple[float, float, float, float, float, float], tuple[float, float, float, float, float, float], bool
+]:
+    """Bearing information of reflectors ``rx, ry (n,)`` (m) from the head ``(hx, hy)`` (m), summed in order.
+
+    Each reflector's Jacobian row ``[dy/d², -dx/d², -1]`` (seed 000 §2.3) gives the upper
+    triangle ``00 01 02 11 12 22`` of its unit-noise information; weighted by
+    ``(d / std)^2`` (``std (n,)`` its survey std, m) the survey-error information. Returns
+    ``(ok, unit, survey, every std > 0)``; ``ok`` False when a reflector sits on the head.
+    Arrays compiled, Python lists interpreted.
+    """
+    a0 = a1 = a2 = a3 = a4 = a5 = 0.0
+    b0 = b1 = b2 = b3 = b4 = b5 = 0.0
+    survey = True
+    for k in range(len(rx)):
+        dx, dy = rx[k] - hx, ry[k] - hy
+        d2 = dx * dx + dy * dy
+        if d2 <= 0.0:
+            return False, (a0, a1, a2, a3, a4, a5), (b0, b1, b2, b3, b4, b5), False
+        j0, j1 = dy / d2, -dx / d2
+        r0, r1, r2, r3, r4 = j0 * j0, j0 * j1, -j0, j1 * j1, -j1
+        a0, a1, a2, a3, a4, a5 = a0 + r0, a1 + r1, a2 + r2, a3 + r3, a4 + r4, a5 + 1.0
+        s = std[k]
+        if s > 0.0:
+            w = d2 / (s * s)
+            b0, b1, b2, b3, b4, b5 = b0 + w * r0, b1 + w * r1, b2 + w * r2, b3 + w * r3, b4 + w * r4, b5 + w * 1.0
+        else:
+            survey = False
+    return True, (a0, a1, a2, a3, a4, a5), (b0, b1, b2, b3, b4, b5), survey
+
+
+def _spread8(n: int) -> list[int]:
+    """Eight positions spread evenly over ``range(n)`` (n > 8), first and last included.
+
+    ``numpy.linspace(0, n - 1, 8).round()`` in floats: ``k (n - 1) / 7`` rounded half to even.
+    """
+    step = (n - 1) / 7
+    return [round(k * step) for k in range(7)] + [n - 1]
+
+
+@jit
+def _position_crlb_one(a00: float, a01: float, a02: float, a11: float, a12: float, a22: float) -> float:
+    """Trace of the position block of the inverse of the symmetric 3x3 ``a`` (upper triangle; inf if singular)."""
     c00 = a11 * a22 - a12 * a12
     c11 = a00 * a22 - a02 * a02
     det = a00 * c00 + a01 * (a02 * a12 - a01 * a22) + a02 * (a01 * a12 - a02 * a11)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        score = (c00 + c11) / det
-    return np.where(np.isfinite(score) & (score >= 0.0), score, np.inf)
+    if det == 0.0:
+        return math.inf
+    score = (c00 + c11) / det
+    return score if score >= 0.0 and score < math.inf else math.inf
 
 
-_TRIPLES: dict[int, np.ndarray] = {}
+@jit
+def _best_triple_kernel(
+    hx: float, hy: float, rx: Any, ry: Any, var: Any, bearing_var: float, max_var: float,
+) -> int:
+    """Rank (in ``itertools.combinations`` order) of the triple of reflectors with the smallest position CRLB.
+
+    Head at ``(hx, hy)`` (m); candidates ``rx, ry (n,)`` (m) with bearing variances ``var (n,)``
+    (rad²; arrays compiled, Python lists interpreted). Each reflector's information is its
+    bearing Jacobian row ``[dy/d², -dx/d², -1]`` (seed 000 §2.3) squared, summed over a
+    triple; triples whose bound with ``bearing_var`` (rad²) exceeds ``max_var`` (m²) are
+    skipped, the rest ranked by their bound with ``var``.
+    -1 when none qualifies or a reflector sits on the head.
+    """
+    n = len(rx)
+    info = [0.0] * (6 * n)  # row k: the upper triangle 00 01 02 11 12 22 of its information
+    for k in range(n):
+        dx, dy = rx[k] - hx, ry[k] - hy
+        d2 = dx * dx + dy * dy
+        if d2 <= 0.0:
+            return -1
+        j0, j1 = dy / d2, -dx / d2
+        info[6 * k], info[6 * k + 1], info[6 * k + 2] = j0 * j0, j0 * j1, -j0
+        info[6 * k + 3], info[6 * k + 4], info[6 * k + 5] = j1 * j1, -j1, 1.0
+    best, best_score, rank = -1, math.inf, 0
+    for a in range(n):
+        for b in range(a + 1, n):
+            for c in range(b + 1, n):
+                pa, pb, pc = 6 * a, 6 * b, 6 * c
+                bound = _position_crlb_one(
+                    info[pa] + info[pb] + info[pc], info[pa + 1] + info[pb + 1] + info[pc + 1],
+                    info[pa + 2] + info[pb + 2] + info[pc + 2], info[pa + 3] + info[pb + 3] + info[pc + 3],
+                    info[pa + 4] + info[pb + 4] + info[pc + 4], info[pa + 5] + info[pb + 5] + info[pc + 5])
+                if bound * bearing_var <= max_var:
+                    wa, wb, wc = var[a], var[b], var[c]
+                    score = _position_crlb_one(
+                        info[pa] / wa + info[pb] / wb + info[pc] / wc,
+                        info[pa + 1] / wa + info[pb + 1] / wb + info[pc + 1] / wc,
+                        info[pa + 2] / wa + info[pb + 2] / wb + info[pc + 2] / wc,
+                        info[pa + 3] / wa + info[pb + 3] / wb + info[pc + 3] / wc,
+                        info[pa + 4] / wa + info[pb + 4] / wb + info[pc + 4] / wc,
+                        info[pa + 5] / wa + info[pb + 5] / wb + info[pc + 5] / wc)
+                    if score < best_score:
+                        best, best_score = rank, score
+                rank += 1
+    return best
 
 
-def _triples(n: int) -> np.ndarray:
-    """``(C(n, 3), 3)`` index triples of ``range(n)``, cached."""
-    if n not in _TRIPLES:
-        _TRIPLES[n] = np.array(list(itertools.combinations(range(n), 3)), dtype=np.intp)
-    return _TRIPLES[n]
+#: ``n -> (C(n, 3), 3)`` index triples of ``range(n)`` in :func:`_best_triple_kernel`'s rank order.
+_TRIPLE_CODES = {n: tuple(itertools.combinations(range(n), 3)) for n in range(3, 9)}
 
 
-def _head(x: np.ndarray, mount: np.ndarray) -> tuple[float, float, float]:
-    """Head pose in ``map`` from the base_link pose ``x`` and the ``mount`` (floats)."""
+def _head(x: Any, mount: np.ndarray) -> tuple[float, float, float]:
+    """Head pose in ``map`` from the base_link pose ``x`` (array or floats) and the ``mount`` (floats)."""
     c, s = math.cos(float(x[2])), math.sin(float(x[2]))
     mx, my = float(mount[0]), float(mount[1])
     return float(x[0]) + c * mx - s * my, float(x[1]) + s * mx + c * my, float(x[2]) + float(mount[2])

@@ -8,9 +8,6 @@ it writes is in :data:`COLUMNS`, and that docs/scenarios.md equals this output.
 
 from __future__ import annotations
 
-from agvnav.routes.reference import network_reference
-from agvnav.world.reference import scenario_reference
-
 __all__ = ["COLUMNS", "EVENT_COLUMNS", "LAP_COLUMNS", "PER_OBSTACLE", "outputs_reference", "reference_markdown"]
 
 #: timeseries.csv columns: name -> (unit, meaning). One row per control step.
@@ -201,7 +198,14 @@ def outputs_reference() -> list[str]:
 
 
 def reference_markdown() -> str:
-    """The whole of docs/scenarios.md."""
+    """The whole of docs/scenarios.md.
+
+    The schema references are imported here: the output columns above are read by every
+    ``agvnav simulate``, which should not load the route and scenario schemas' documentation (issue 11).
+    """
+    from agvnav.routes.reference import network_reference  # noqa: PLC0415 (deferred: see the docstring)
+    from agvnav.world.reference import scenario_reference  # noqa: PLC0415
+
     return scenario_reference([*outputs_reference(), "", *network_reference()])
 
 

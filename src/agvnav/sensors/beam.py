@@ -152,9 +152,9 @@ def line_of_sight(
     ``start (wall_x0, wall_y0) + [0, 1] (wall_vx, wall_vy)`` (parallel pairs do not block:
     with ``a`` the wall start from the head, ``u`` the ray and ``v`` the wall, ``s = (a x v)/(u x v)``
     and ``w = (a x u)/(u x v)`` both in [0, 1] block) and passes no other reflector closer than
-    its radius.
+    its radius. Arrays compiled; interpreted, Python lists serve as well (and faster).
     """
-    c = refl.shape[0]
+    c = len(refl)
     out = np.zeros(c, np.bool_)
     for i in range(c):
         j = refl[i]
@@ -175,7 +175,7 @@ def _hits_wall(
     wall_vx: NDArray[np.float64], wall_vy: NDArray[np.float64],
 ) -> bool:
     """True if the segment ``o -> o + u`` crosses any wall segment (see :func:`line_of_sight`)."""
-    for m in range(wall_x0.shape[0]):
+    for m in range(len(wall_x0)):
         vx, vy = wall_vx[m], wall_vy[m]
         ax, ay = wall_x0[m] - ox, wall_y0[m] - oy
         den = ux * vy - uy * vx
@@ -197,7 +197,7 @@ def _hits_disc(
 ) -> bool:
     """True if the segment ``o -> o + u`` passes within the radius of a reflector other than ``target``."""
     length2 = max(ux * ux + uy * uy, 1e-300)
-    for j in range(rx.shape[0]):
+    for j in range(len(rx)):
         if j == target:
             continue
         cx, cy = rx[j] - ox, ry[j] - oy

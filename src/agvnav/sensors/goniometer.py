@@ -35,10 +35,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agvnav._jit import compiled
 from agvnav._validate import require_finite, require_nonnegative, require_positive
 from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 from agvnav.sensors.beam import grid_crossings, line_of_sight, offsets_at, wrapped_offsets
@@ -89,6 +91,21 @@ class _MapArrays:
             seg[:, 0, 0].copy(), seg[:, 0, 1].copy(),
             seg[:, 1, 0] - seg[:, 0, 0], seg[:, 1, 1] - seg[:, 0, 1],
         )
+
+    def sight(self) -> tuple[Any, ...]:
+        """The reflector and wall columns for :func:`~agvnav.sensors.beam.line_of_sight`.
+
+        Arrays when the kernels run compiled; Python lists (made once) when they run
+        interpreted, which index and multiply faster than NumPy scalars (issue 11:
+        ``agvnav simulate`` runs interpreted).
+        """
+        cols = (self.rx, self.ry, self.r, self.wall_x0, self.wall_y0, self.wall_vx, self.wall_vy)
+        if compiled():
+            return cols
+        if "_lists" not in self.__dict__:
+            object.__setattr__(self, "_lists", tuple(c.tolist() for c in cols))
+        lists: tuple[Any, ...] = self.__dict__["_lists"]
+        return lists
 
 
 @dataclass(frozen=True, eq=False)
@@ -424,8 +441,9 @@ class Goniometer:
         if interval.size == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
         t_star, hx, hy, d = self._refine(m, pose_at, grid[interval], grid[interval + 1], f_lo, f_hi, refl)
-        seen = line_of_sight(refl, hx, hy, d, m.rx, m.ry, m.r, m.wall_x0, m.wall_y0, m.wall_vx, m.wall_vy,
-                             self.min_range, self.max_range)
+        b = (refl, hx, hy, d) if compiled() else (refl.tolist(), hx.tolist(), hy.tolist(), d.tolist())
+        rx, ry, r, w0x, w0y, wvx, wvy = m.sight()
+        seen = line_of_sight(b[0], b[1], b[2], b[3], rx, ry, r, w0x, w0y, wvx, wvy, self.min_range, self.max_range)
         t_seen, r_seen = t_star[seen], refl[seen]
         if t_seen.size > 1:
             order = np.argsort(t_seen, kind="stable")
