@@ -23,6 +23,7 @@ from agvnav.geometry import angle_diff, wrap_angle
 from agvnav.odometry import OdometryNoise, integrate_pose, motion_covariance, pose_jacobian
 from agvnav.positioning import _fast
 from agvnav.positioning.ekf import EkfEstimator
+from agvnav.positioning.gating import BearingIndex, GateSpec
 from agvnav.positioning.identification import bearing_model
 from agvnav.positioning.integrity import IntegrityLimits
 from agvnav.sensors.goniometer import Goniometer
@@ -217,3 +218,39 @@ def test_consider_ekf_nees_consistent_with_a_survey_error_small() -> None:
 def test_consider_ekf_nees_consistent_with_a_survey_error_large() -> None:
     nees = _nees_runs(EkfEstimator, 150, 8.0, seed=22)
     assert _inside(nees) > 0.8 and 2.6 < nees.mean() < 3.4
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_gate_takes_the_consider_update_s_and_the_index_keeps_its_reflector(seed: int) -> None:
+    """``gate_one`` with ``consider``: ``S = H_a P_a H_a^T + sigma^2`` (augmented form); the index agrees."""
+    world = load_builtin_map("lab")
+    xy, radius = world.reflector_xy, world.reflector_radius
+    n = xy.shape[0]
+    rng = np.random.default_rng(seed)
+    pose = np.array([6.0, 4.0, 0.3]) + rng.normal(0.0, [1.0, 1.0, 0.5])
+    std = 0.005
+    L = rng.normal(size=(3 + 2 * n, 3 + 2 * n)) * 1e-3
+    Pa = L @ L.T
+    Pa[3:, 3:] = 0.0
+    Pa[3:, 3:] += std**2 * np.eye(2 * n)
+    w = np.linalg.eigvalsh(Pa)
+    if w.min() <= 0.0:
+        Pa[:3, :3] += (1e-9 - w.min()) * np.eye(3)
+    M = tuple(np.eye(3).ravel() + rng.normal(0.0, 0.2, 9))
+    C = np.linalg.solve(np.reshape(M, (3, 3)), Pa[:3, 3:]).T.reshape(n, 6).copy()
+    j_true = int(rng.integers(n))
+    h, _, _ = bearing_model(pose, MOUNT, xy[j_true], radius[j_true])
+    z = float(wrap_angle(h + rng.normal(0.0, 1e-3)))
+    spec = GateSpec(bearing_var=1e-8, max_range=30.0, gate=10.8, map_std=std, sweep=0.1, consider=True)
+    P = tuple(Pa[:3, :3].ravel())
+    consider = (M, C, [std**2] * n)
+    rows = _fast.reflector_rows(xy, radius)
+    claimed = [-np.inf] * n
+    got = _fast.gate_one(z, tuple(pose), P, tuple(MOUNT), rows, spec, claimed, 1.0, None, consider)
+    assert got[0] == j_true
+    Ha = np.zeros(3 + 2 * n)
+    Ha[:3] = got[4]
+    Ha[3 + 2 * j_true: 5 + 2 * j_true] = -np.asarray(got[4][:2])
+    np.testing.assert_allclose(got[5], Ha @ Pa @ Ha + 1e-8, rtol=1e-9)
+    cand = BearingIndex(xy, radius, MOUNT, spec).candidates(z, tuple(pose), P)
+    assert _fast.gate_one(z, tuple(pose), P, tuple(MOUNT), rows, spec, claimed, 1.0, cand, consider)[:4] == got[:4]
