@@ -408,7 +408,9 @@ def _variance_components(g: FactorGraph, x: F64, drive: Drive, odo_var: F64, lam
     ratio = np.ones(4)
     ok = r > 1e-3 * np.maximum(tr_s, 1e-300)
     ratio[ok] = np.clip(q[ok] / r[ok], 1e-2, 1e2)
-    return odo_var * ratio[1:], lam_b * float(ratio[0])
+    # floors on the accumulated factors (std 1/1000 of the stated noise, odometry variance 1e-8 of it): a noise-free
+    # drive has no residual to estimate from, and iterated to convergence the factors ran to 0 (a singular graph)
+    return np.maximum(odo_var * ratio[1:], 1e-8), max(lam_b * float(ratio[0]), 1e-6)
 
 
 def _dead_reckon(drive: Drive, start: F64, poses: F64, k_from: int, k_to: int,
