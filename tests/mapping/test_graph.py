@@ -144,3 +144,35 @@ def test_interpolated_drive_carries_no_odometry_noise_when_every_instant_is_a_ke
     sparse = interpolate_drive(sparse_drive)
     var = sparse.refl_offset_cov[:, 2, 2]
     assert np.all(var > 0.0) and np.all(var < sparse_drive.refl_offset_cov[:, 2, 2])
+
+
+def test_in_step_slip_is_a_brownian_bridge_shared_by_the_bearings_of_one_step() -> None:
+    """Two reflections a quarter and three quarters through one odometry step, a reflector 100 m off (the
+    bearing moves with the heading alone): their in-step covariance is ``(min f − f_i f_j) C_ψψ``, i.e.
+    0.1875, 0.1875 and 0.0625 times the step's heading variance; a reflection of the next step is
+    independent of them."""
+    from agvnav.logs import RecordedLog
+    from agvnav.mapping.drive import interpolate_drive, prepare_drive
+    from agvnav.mapping.slam import MappingOptions, _step_noise, _used
+
+    n = 4
+    t = np.arange(n + 1) * 0.05
+    inc = np.column_stack([np.full(n, 0.02), np.full(n, 0.01), np.zeros(n)])
+    stamps = np.array([0.0625, 0.0875, 0.1125])
+    log = RecordedLog(t, inc, stamps, stamps.copy(), np.zeros(3), {"odometry_noise": [1e-4, 1e-5, 1e-4]})
+    d = interpolate_drive(prepare_drive(log, 0.0))
+    poses = np.zeros((d.keyframe_t.size, 3))
+    heads = np.zeros((3, 3))
+    assoc = np.zeros(3, dtype=np.int64)
+    use = _used(d, assoc, poses.shape[0])
+    noise = _step_noise(d, use, heads, np.array([[100.0, 0.0]]), assoc, poses, np.full(3, 1e-5), np.ones(3),
+                        MappingOptions(radius=0.0))
+    assert noise is not None and noise.blocks.shape == (2, 2)
+    assert d.step_parts is not None and d.odometry_k is not None
+    c_psi = float(np.einsum("c,c->", d.odometry_k, d.step_parts[:, 0, 2, 2]))
+    first = noise.step[0]
+    np.testing.assert_allclose(first, np.array([[0.1875, 0.0625], [0.0625, 0.1875]]) * c_psi, rtol=1e-3)
+    assert noise.step[1, 0, 1] == 0.0 and noise.blocks[1, 1] == -1
+    W, _ = noise.whitener(1.0, 1.0, 3)
+    cov = noise.covariance(1.0, 1.0)
+    np.testing.assert_allclose((W.T @ W).toarray()[:2, :2], np.linalg.inv(cov[0]), rtol=1e-9)

@@ -75,6 +75,10 @@ class Drive:
     refl_alpha : (B,) None, or the reflections are interpolated between keyframes (:func:`interpolate_drive`).
     interp_alpha : (B,) each reflection's time fraction of its keyframe interval, for :func:`interpolate_drive`.
     interp_bridge_parts : (3, B, 3, 3) the interpolated offset's covariance per unit coefficient.
+    step_id, step_frac, step_parts : each reflection's odometry step, the fraction ``f`` of it at the stamp and
+    the step's covariance per unit coefficient ``(3, B, 3, 3)`` (keyframe frame): slip that acts within the
+    step (a wheel slipping continuously) moves the pose off the interpolation by a Brownian bridge,
+    ``cov = (f_i − f_i f_j) C_S`` between two reflections ``f_i <= f_j`` of one step, common to its bearings.
     """
 
     keyframe_t: F64
@@ -95,6 +99,9 @@ class Drive:
     refl_alpha: F64 | None = None
     interp_alpha: F64 | None = None
     interp_bridge_parts: F64 | None = None
+    step_id: I64 | None = None
+    step_frac: F64 | None = None
+    step_parts: F64 | None = None
 
 
 def interpolate_drive(drive: Drive) -> Drive:
@@ -115,7 +122,7 @@ def interpolate_drive(drive: Drive) -> Drive:
     cov = np.einsum("c,cnij->nij", drive.odometry_k, parts)
     return Drive(drive.keyframe_t, drive.odom_poses, drive.between, drive.between_cov, a_kf, v, cov, drive.refl_t,
                  drive.bearing, drive.mount, drive.between_cov_parts, parts, drive.between_dist, vd, drive.odometry_k,
-                 alpha, alpha, parts)
+                 alpha, alpha, parts, drive.step_id, drive.step_frac, drive.step_parts)
 
 
 def _clip_diagonal(cov: F64) -> F64:
@@ -256,4 +263,5 @@ def prepare_drive(log: Any, keyframe_s: float = 0.0, noise: OdometryNoise | None
     bridge = w((1.0 - alpha) ** 2) * base_parts + w((frac - alpha) ** 2) * c_s + w(alpha ** 2) * c_r
     return Drive(t[kf_idx], poses[kf_idx], betw, between_cov, a.astype(np.int64), off, off_cov, stamp, bearing,
                  mount_arr, between_parts, np.moveaxis(off_parts, 1, 0).copy(), between_dist, off_dist, k_vec,
-                 None, alpha, np.moveaxis(bridge, 1, 0).copy())
+                 None, alpha, np.moveaxis(bridge, 1, 0).copy(), step.astype(np.int64), frac,
+                 np.moveaxis(c_s, 1, 0).copy())

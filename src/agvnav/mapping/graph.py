@@ -89,6 +89,8 @@ class BearingFactors:
     ``ψ_k + α wrap(ψ_{k+1} − ψ_k) + (1 + b) v_ψ + κ v_D``: the odometry's error over the interval, which
     both keyframe poses know, is shared out in proportion, so the bearings no longer carry it as noise
     (it is common to every bearing of the interval, and as independent noise it made them over-weighted).
+    ``whitener (B, B)``: correlated bearing noise, ``WᵀW = Σ⁻¹`` (block diagonal: the bearings of one odometry
+    step share its in-step slip); the residuals are then ``W wrap(β − z)`` and ``sigma`` is not used.
     """
 
     pose: I64
@@ -101,6 +103,7 @@ class BearingFactors:
     direction: int = 1
     offset_dist: F64 | None = None
     alpha: F64 | None = None
+    whitener: sp.csr_matrix | None = None
 
 
 @dataclass(frozen=True)
@@ -303,16 +306,22 @@ def linearize(graph: FactorGraph, x: F64, jacobian: bool = True) -> tuple[F64, s
     f = graph.bearings
     if f.pose.size:
         beta, jx, jl, jc = bearing_prediction(poses, landmarks, scale, f, jacobian, (kappa, tscale))
-        start = b.block(wrap_angle(beta - f.z) / f.sigma)
+        r = wrap_angle(beta - f.z)
+        start = b.block(r / f.sigma if f.whitener is None else f.whitener @ r)
         if jacobian:
             assert jx is not None and jl is not None and jc is not None
             B = f.pose.size
-            vals = np.concatenate([jx, jl, jc], axis=1) / f.sigma[:, None]
             n_pose = jx.shape[1]
-            rows = start + np.repeat(np.arange(B)[:, None], n_pose + 2 + N_CALIBRATION, axis=1)
+            vals = np.concatenate([jx, jl, jc], axis=1)
+            rows = np.repeat(np.arange(B)[:, None], n_pose + 2 + N_CALIBRATION, axis=1)
             cols = np.concatenate([3 * f.pose[:, None] + np.arange(n_pose), k3 + 2 * f.landmark[:, None] + np.arange(2),
                                    np.broadcast_to(cal_cols, (B, N_CALIBRATION))], axis=1)
-            b.add(rows, cols, vals)
+            if f.whitener is None:
+                b.add(start + rows, cols, vals / f.sigma[:, None])
+            else:
+                Jw = (f.whitener @ sp.csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())),
+                                                 shape=(B, graph.n_vars))).tocoo()
+                b.add(start + Jw.row.astype(np.int64), Jw.col.astype(np.int64), Jw.data)
     # pose priors
     pp = graph.pose_priors
     if pp.index.size:
