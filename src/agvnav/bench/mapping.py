@@ -15,7 +15,8 @@ the odometry scale of a taped calibration run, :func:`calibrated_scale`), ``none
 refuses: "unobservable").
 
 Records: ``reflectors_seen`` counts the true reflectors with at least ``min_sightings``
-reflections in the drive (the hall's N2 and N3 sit behind the rack from the loop: never seen);
+reflections in the drive (the hall's N2 and N3 sit behind the rack from the loop: never seen),
+``not_seen`` names the others and ``seen_not_found`` the seen ones the map lacks;
 ``reflectors_found`` counts true reflectors with a mapped one within 0.25 m;
 ``spurious_created`` mapped ones with no true reflector within 0.25 m; ``map_rms_m`` and
 ``map_max_m`` over the found ones, in the map frame (no alignment: the anchor defines the
@@ -205,8 +206,11 @@ def _record(hall: str, seed: int, with_positioning: bool) -> list[dict[str, Any]
         n = max(int(ok.sum()), 1)
         consistency = nees_statistics(err, res.joint_covariance, np.flatnonzero(ok)) if ok.any() else {}
         rec.update(consistency)
+        found_idx = set(nearest[ok].tolist())
         rec.update(
-            reflectors_found=len(set(nearest[ok].tolist())),
+            seen_not_found=[world.reflector_ids[j] for j in np.flatnonzero(seen_mask) if j not in found_idx],
+            not_seen=[world.reflector_ids[j] for j in np.flatnonzero(~seen_mask)],
+            reflectors_found=len(found_idx),
             spurious_created=int((~ok).sum()),
             map_rms_m=float(np.sqrt(np.mean(np.sum(err ** 2, axis=1)))) if ok.any() else None,
             map_max_m=float(dist[ok].max()) if ok.any() else None,
