@@ -75,8 +75,9 @@ POSITIONING_ANCHORS = ("surveyed2", "baseline")
 WORKERS = 2
 
 #: halls left out of ``--quick``, and run with only ``SLOW_SEEDS`` seeds in the full benchmark: one
-#: warehouse drive (406 s, 44 000 reflections, 102 reflectors) takes about 6 CPU-minutes to simulate,
-#: map with three anchors and replay (a runtime limit, stated in the table, not a result).
+#: warehouse drive (406 s, 44 000 reflections, 102 reflectors) takes about 10 CPU-minutes to simulate,
+#: map with three anchors (a keyframe per odometry instant, the in-step noise blocks) and replay (a
+#: runtime limit, stated in the table, not a result).
 SLOW_HALLS = ("warehouse",)
 SLOW_SEEDS = 2
 
