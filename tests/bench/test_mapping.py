@@ -27,16 +27,20 @@ def test_anchors_use_the_two_farthest_reflectors_with_their_stated_errors() -> N
 def test_summary_pools_seeds_and_bands_nees_by_chi_square() -> None:
     rows = [{"hall": "lab", "seed": s, "anchor": "baseline", "reflectors_true": 9, "reflectors_seen": 9,
              "reflectors_found": 9,
-             "spurious_created": 0, "map_rms_m": 0.001, "map_max_m": 0.002 + s * 1e-3, "nees_mean": 2.0,
+             "spurious_created": 0, "map_rms_m": 0.001, "map_max_m": 0.002 + s * 1e-3, "nees_mean": 2.0 + s,
+             "nees_joint": 1.0 + s, "nees_sum_sq": 18.0, "nees_n": 9,
              "runtime_s": 1.0, "positioning_ratio": 1.1} for s in range(2)]
     rows += [{"hall": "lab", "seed": s, "anchor": "none", "reflectors_true": 9, "reflectors_found": "unobservable"}
              for s in range(2)]
     out = bm._summary(rows)
     base = next(r for r in out if r["anchor"] == "baseline")
     assert base["reflectors_found"] == 18 and base["map_max_m"] == pytest.approx(0.003)
-    lo, hi = (float(v) for v in base["nees_band"].split("-"))
-    assert lo == pytest.approx(chi2.ppf(0.025, 36) / 18, abs=0.01) and hi == pytest.approx(chi2.ppf(0.975, 36) / 18,
-                                                                                            abs=0.01)
+    assert base["nees_mean"] == pytest.approx(2.5) and base["nees_joint"] == pytest.approx(1.5)
+    # independent reflectors (sum of squared weights 2n): the marginal band is chi2(2n)/n, as the joint's
+    for key in ("nees_band", "nees_joint_band"):
+        lo, hi = (float(v) for v in base[key].split("-"))
+        assert lo == pytest.approx(chi2.ppf(0.025, 36) / 18, abs=0.01)
+        assert hi == pytest.approx(chi2.ppf(0.975, 36) / 18, abs=0.01)
     assert next(r for r in out if r["anchor"] == "none")["reflectors_found"] == "unobservable"
 
 
@@ -68,3 +72,28 @@ def test_calibrated_scale_is_the_taped_run_over_the_odometry() -> None:
     inc[:, 1] = 0.01
     turning = RecordedLog(t, inc, np.zeros(0), np.zeros(0), np.zeros(0), {}, truth=truth)
     assert bm.calibrated_scale(turning, np.random.default_rng(0)) == (1.0, 0.002, 0.0)
+
+
+def test_nees_statistics_of_correlated_reflectors_against_a_monte_carlo() -> None:
+    """Reflectors sharing one error (an anchor 1 mm off moves all of them): draws from the joint covariance
+    give a joint NEES per reflector of 2 and marginal means whose spread matches marginal_band, a
+    Welch-Satterthwaite approximation (a chi2(2n)/n band would hold far fewer than 95 %)."""
+    rng = np.random.default_rng(1)
+    n = 6
+    C = np.eye(2 * n) * 0.2e-6 + np.kron(np.ones((n, n)), np.eye(2)) * 1e-6  # shared 1 mm, own 0.45 mm
+    L = np.linalg.cholesky(C)
+    marg, joint = [], []
+    stats = {}
+    for _ in range(4000):
+        e = (L @ rng.normal(size=2 * n)).reshape(n, 2)
+        stats = bm.nees_statistics(e, C, np.arange(n))
+        joint.append(stats["nees_joint"])
+        marg.append(np.mean([v @ np.linalg.solve(C[2 * j:2 * j + 2, 2 * j:2 * j + 2], v) for j, v in enumerate(e)]))
+    assert np.mean(joint) == pytest.approx(2.0, rel=0.03) and np.mean(marg) == pytest.approx(2.0, rel=0.05)
+    lo, hi = bm.marginal_band(2.0 * n, stats["nees_sum_sq"], n)
+    inside = np.mean((np.array(marg) > lo) & (np.array(marg) < hi))
+    assert 0.93 < inside < 0.98  # Welch-Satterthwaite is approximate: 97.4 % here
+    naive = np.mean((np.array(marg) > chi2.ppf(0.025, 2 * n) / n) & (np.array(marg) < chi2.ppf(0.975, 2 * n) / n))
+    assert naive < 0.85
+    jlo, jhi = bm.joint_band(n)
+    assert 0.93 < np.mean((np.array(joint) > jlo) & (np.array(joint) < jhi)) < 0.97

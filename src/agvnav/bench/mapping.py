@@ -15,12 +15,16 @@ the odometry scale of a taped calibration run, :func:`calibrated_scale`), ``none
 refuses: "unobservable").
 
 Records: ``reflectors_seen`` counts the true reflectors with at least ``min_sightings``
-reflections in the drive (the hall's N2 and N3 sit behind the rack from the loop: never seen);
+reflections in the drive (the hall's N2 and N3 sit behind the rack from the loop: never seen),
+``not_seen`` names the others and ``seen_not_found`` the seen ones the map lacks;
 ``reflectors_found`` counts true reflectors with a mapped one within 0.25 m;
 ``spurious_created`` mapped ones with no true reflector within 0.25 m; ``map_rms_m`` and
 ``map_max_m`` over the found ones, in the map frame (no alignment: the anchor defines the
-frame); ``nees_mean`` the mean of ``eᵀC⁻¹e`` over reflectors (2 expected) with its 95 % band
-from chi-square with 2n dof divided by n (the summary pools runs x reflectors); positioning
+frame); ``nees_mean`` the mean of ``eᵀC⁻¹e`` over reflectors, each against its own covariance (2 expected);
+its 95 % band counts that the reflectors of one map share the anchor's and the trajectory's errors
+(:func:`marginal_band`: a chi-square with 2n dof would be far too narrow); ``nees_joint`` the NEES of
+all reflectors together against their joint covariance, per reflector (2 expected), whose band
+``chi2(2n)/n`` is exact and pools over runs (:func:`joint_band`); the summary pools runs; positioning
 RMS of the EKF replaying the same drive with the mapped map and with the true map.
 ``--quick``: 2 seeds and no warehouse (its drive takes minutes); the full run gives the warehouse
 ``SLOW_SEEDS`` seeds. Positioning is replayed with the surveyed2 and baseline maps (the start-pose map's
@@ -56,7 +60,7 @@ from agvnav.sim.run import SimResult, simulate
 from agvnav.world import WorldMap
 from agvnav.world.scenario import parse_scenario
 
-__all__ = ["HALLS", "TITLE", "log_from_result", "run"]
+__all__ = ["HALLS", "TITLE", "joint_band", "log_from_result", "marginal_band", "nees_statistics", "run"]
 
 TITLE = "Reflector mapping: reflectors found, spurious, map error and NEES per anchor; positioning on the mapped map"
 
@@ -71,8 +75,9 @@ POSITIONING_ANCHORS = ("surveyed2", "baseline")
 WORKERS = 2
 
 #: halls left out of ``--quick``, and run with only ``SLOW_SEEDS`` seeds in the full benchmark: one
-#: warehouse drive (406 s, 44 000 reflections, 102 reflectors) takes about 6 CPU-minutes to simulate,
-#: map with three anchors and replay (a runtime limit, stated in the table, not a result).
+#: warehouse drive (406 s, 44 000 reflections, 102 reflectors) takes about 10 CPU-minutes to simulate,
+#: map with three anchors (a keyframe per odometry instant, the in-step noise blocks) and replay (a
+#: runtime limit, stated in the table, not a result).
 SLOW_HALLS = ("warehouse",)
 SLOW_SEEDS = 2
 
@@ -200,14 +205,18 @@ def _record(hall: str, seed: int, with_positioning: bool) -> list[dict[str, Any]
         err = res.xy[ok] - true[nearest[ok]]
         nees = np.array([e @ np.linalg.solve(c, e) for e, c in zip(err, res.covariance[ok], strict=True)])
         n = max(int(ok.sum()), 1)
-        lo, hi = chi2.ppf(0.025, 2 * n) / n, chi2.ppf(0.975, 2 * n) / n
+        consistency = nees_statistics(err, res.joint_covariance, np.flatnonzero(ok)) if ok.any() else {}
+        rec.update(consistency)
+        found_idx = set(nearest[ok].tolist())
         rec.update(
-            reflectors_found=len(set(nearest[ok].tolist())),
+            seen_not_found=[world.reflector_ids[j] for j in np.flatnonzero(seen_mask) if j not in found_idx],
+            not_seen=[world.reflector_ids[j] for j in np.flatnonzero(~seen_mask)],
+            reflectors_found=len(found_idx),
             spurious_created=int((~ok).sum()),
             map_rms_m=float(np.sqrt(np.mean(np.sum(err ** 2, axis=1)))) if ok.any() else None,
             map_max_m=float(dist[ok].max()) if ok.any() else None,
             nees_mean=float(nees.mean()) if nees.size else None,
-            nees_band=f"{lo:.2f}-{hi:.2f}",
+            nees_band=_band(*marginal_band(2.0 * n, consistency["nees_sum_sq"], n)) if ok.any() else None,
             odometry_scale=round(res.scale, 5),
             calibrated_scale=round(cal[0], 5) if name == "start_pose" else None,
             heading_rate=round(res.heading_rate, 5),
@@ -221,6 +230,47 @@ def _record(hall: str, seed: int, with_positioning: bool) -> list[dict[str, Any]
         rec.update(spurious_reflections=spurious_in, sim_s=round(sim_s, 1))
         rows.append(rec)
     return rows
+
+
+def joint_band(n: int, level: float = 0.95) -> tuple[float, float]:
+    """The ``level`` band of the joint NEES per reflector of ``n`` reflectors: ``chi2(2n) / n`` (exact when the
+    joint covariance is right, pooled over independent runs as well)."""
+    q = 0.5 * (1.0 - level)
+    return float(chi2.ppf(q, 2 * n) / n), float(chi2.ppf(1.0 - q, 2 * n) / n)
+
+
+def marginal_band(sum_w: float, sum_sq: float, n: int, level: float = 0.95) -> tuple[float, float]:
+    """The ``level`` band of the mean marginal NEES of ``n`` reflectors whose errors are correlated.
+
+    ``Σ_j e_jᵀ C_jj⁻¹ e_j = Σ_i λ_i χ²₁`` with ``λ`` the eigenvalues of ``D C`` (``C`` the joint covariance,
+    ``D`` the inverse diagonal blocks): ``Σλ = 2n`` always, and the spread grows with ``Σλ²`` (``2n`` when the
+    reflectors are independent, up to ``4n²`` when one shared error moves them all). Welch-Satterthwaite:
+    ``g χ²(dof)`` with ``g = Σλ² / Σλ``, ``dof = (Σλ)² / Σλ²``. Pooled runs add their ``Σλ`` and ``Σλ²``.
+    """
+    q = 0.5 * (1.0 - level)
+    g, nu = sum_sq / sum_w, sum_w ** 2 / sum_sq
+    return float(g * chi2.ppf(q, nu) / n), float(g * chi2.ppf(1.0 - q, nu) / n)
+
+
+def nees_statistics(err: np.ndarray, joint: np.ndarray | None, rows: np.ndarray) -> dict[str, Any]:
+    """Consistency of one map: ``nees_joint`` (``eᵀC⁻¹e / n`` over the matched reflectors ``rows`` with their
+    joint covariance), its exact band, ``nees_sum_sq`` (``Σλ²`` of :func:`marginal_band`) and ``nees_n``."""
+    n = int(rows.size)
+    if joint is None:
+        raise ValueError("the map has no joint covariance")
+    cols = np.ravel(np.column_stack([2 * rows, 2 * rows + 1]))
+    C = joint[np.ix_(cols, cols)]
+    e = np.asarray(err, dtype=np.float64).ravel()
+    D = np.zeros_like(C)
+    for j in range(n):
+        D[2 * j:2 * j + 2, 2 * j:2 * j + 2] = np.linalg.inv(C[2 * j:2 * j + 2, 2 * j:2 * j + 2])
+    DC = D @ C
+    return {"nees_joint": float(e @ np.linalg.solve(C, e)) / n, "nees_joint_band": _band(*joint_band(n)),
+            "nees_sum_sq": float(np.trace(DC @ DC)), "nees_n": n}
+
+
+def _band(lo: float, hi: float) -> str:
+    return f"{lo:.2f}-{hi:.2f}"
 
 
 def _record_task(task: tuple[str, int]) -> list[dict[str, Any]]:
@@ -251,8 +301,11 @@ def _summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             n = sum(r["reflectors_true"] for r in rs)
             # pooled over runs x reflectors (the band's definition), not the mean of the runs' means
             k = sum(r["reflectors_found"] for r in rs)
-            nees = [r["nees_mean"] * r["reflectors_found"] for r in rs if r["nees_mean"] is not None]
-            lo, hi = (chi2.ppf(0.025, 2 * k) / k, chi2.ppf(0.975, 2 * k) / k) if k else (math.nan, math.nan)
+            with_nees = [r for r in rs if r.get("nees_mean") is not None and r.get("nees_n")]
+            m = sum(r["nees_n"] for r in with_nees)
+            marg = sum(r["nees_mean"] * r["nees_n"] for r in with_nees) / m if m else None
+            joint = sum(r["nees_joint"] * r["nees_n"] for r in with_nees) / m if m else None
+            sum_sq = sum(r["nees_sum_sq"] for r in with_nees)
             rms = [r["map_rms_m"] for r in rs if r["map_rms_m"] is not None]
             ratio = [float(r["positioning_ratio"]) for r in rs if r.get("positioning_ratio") is not None]
             out.append({
@@ -261,7 +314,8 @@ def _summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "reflectors_found": k, "spurious_created": sum(r["spurious_created"] for r in rs),
                 "map_rms_m": float(np.sqrt(np.mean(np.square(rms)))) if rms else None,
                 "map_max_m": max((r["map_max_m"] for r in rs if r["map_max_m"] is not None), default=None),
-                "nees_mean": float(np.sum(nees)) / k if nees and k else None, "nees_band": f"{lo:.2f}-{hi:.2f}",
+                "nees_mean": marg, "nees_band": _band(*marginal_band(2.0 * m, sum_sq, m)) if m else None,
+                "nees_joint": joint, "nees_joint_band": _band(*joint_band(m)) if m else None, "nees_n": m,
                 "runtime_s": round(float(np.mean([r["runtime_s"] for r in rs])), 2),
                 "positioning_ratio": round(float(np.mean(ratio)), 3) if ratio else None,
             })
@@ -288,7 +342,8 @@ def run(quick: bool, seed: int) -> list[dict[str, Any]]:
         for task in tasks:
             rows += _record_task(task)
     for r in rows:
-        for key in ("map_rms_m", "map_max_m", "nees_mean", "positioning_rms_mapped_m", "positioning_rms_true_m"):
+        for key in ("map_rms_m", "map_max_m", "nees_mean", "nees_joint", "nees_sum_sq", "positioning_rms_mapped_m",
+                    "positioning_rms_true_m"):
             if isinstance(r.get(key), float):
                 r[key] = float(f"{r[key]:.3g}") if math.isfinite(r[key]) else None
     return rows + _summary(rows) + compare_solvers(seed)

@@ -23,7 +23,7 @@ from agvnav.mapping.graph import FactorGraph, linearize
 from agvnav.mapping.initialise import InitialiseOptions, initialise_from_tracks, track_reflections, triangulate_rays
 from agvnav.mapping.output import map_summary, result_to_map, write_map
 from agvnav.mapping.slam import MappingOptions, MappingResult, build_map, front_end, solve_anchored
-from agvnav.mapping.solve import marginal_covariances, solve
+from agvnav.mapping.solve import marginal_covariances, reflector_covariance, solve
 
 __all__ = [
     "Anchor",
@@ -49,6 +49,7 @@ __all__ = [
     "parse_anchor",
     "predicted_edge_bearings",
     "prepare_drive",
+    "reflector_covariance",
     "result_to_map",
     "solve",
     "solve_anchored",

@@ -23,22 +23,31 @@ I64 = NDArray[np.int64]
 
 
 def head_poses(keyframe_poses: F64, keyframe: I64, offset: F64, mount: F64, scale: float = 1.0,
-               offset_dist: F64 | None = None, calibration: tuple[float, float] = (0.0, 0.0)) -> F64:
+               offset_dist: F64 | None = None, calibration: tuple[float, float] = (0.0, 0.0),
+               alpha: F64 | None = None) -> F64:
     """Head poses ``(B, 3)`` in map of reflections hanging on ``keyframe (B,)`` with odometry ``offset (B, 3)``.
 
     ``X(k) ∘ [s u_t, w_ψ] ∘ mount`` (m, m, rad) with ``w_ψ = (1 + b) u_ψ + κ u_D``: ``calibration = (κ, b)``
     the odometry's heading rate (rad/m) and turn scale, ``offset_dist (B,)`` the distance ``u_D`` rolled (m).
+    ``alpha (B,)``: interpolated between ``X(k)`` and ``X(k+1)`` as the graph's bearing factor
+    (:class:`agvnav.mapping.graph.BearingFactors`; ``offset`` is then ``u − α z``).
     """
     X = keyframe_poses[keyframe]
     u = offset.copy()
     kappa, b = calibration
     if offset_dist is not None and (kappa or b):
         u[:, 2] = (1.0 + b) * u[:, 2] + kappa * offset_dist
+    px, py = X[:, 0], X[:, 1]
+    if alpha is not None:
+        Xn = keyframe_poses[keyframe + 1]
+        u[:, 2] += alpha * wrap_angle(Xn[:, 2] - X[:, 2])
+        px = px + alpha * (Xn[:, 0] - X[:, 0])
+        py = py + alpha * (Xn[:, 1] - X[:, 1])
     cu, su = np.cos(u[:, 2]), np.sin(u[:, 2])
     wx = scale * u[:, 0] + cu * mount[0] - su * mount[1]
     wy = scale * u[:, 1] + su * mount[0] + cu * mount[1]
     c, s = np.cos(X[:, 2]), np.sin(X[:, 2])
-    return np.column_stack([X[:, 0] + c * wx - s * wy, X[:, 1] + s * wx + c * wy, X[:, 2] + u[:, 2] + mount[2]])
+    return np.column_stack([px + c * wx - s * wy, py + s * wx + c * wy, X[:, 2] + u[:, 2] + mount[2]])
 
 
 def predicted_edge_bearings(heads: F64, reflectors: F64, radius: float, direction: int = 1) -> tuple[F64, F64]:

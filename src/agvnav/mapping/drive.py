@@ -8,7 +8,11 @@ A reflection measured at instant ``τ`` inside the odometry step ``(t_k, t_{k+1}
 hangs on the last keyframe ``a`` at or before ``t_k``: its base_link pose is the
 keyframe pose composed with the odometry offset ``u`` from ``t_a`` to ``τ`` (the
 step's increment split in proportion to time, as :mod:`agvnav.logs.localize`
-does); the offset's own small covariance is carried to the bearing's variance.
+does); the offset's own small covariance is carried to the bearing's variance. The batch
+interpolates instead (:func:`interpolate_drive`): the reflection's pose lies between its keyframe
+and the next, both in the state, and with a keyframe at every odometry instant (the default) the
+bearing carries no odometry noise; hung on one keyframe, the offset's error was common to every
+bearing of the interval and, taken as independent bearing noise, over-weighted them.
 
 The odometry covariance is linear in Crowley's coefficients ``(k_d, k_dθ, k_θ)``: besides the
 covariances for the given noise, the drive keeps the three parts propagated with unit
@@ -36,7 +40,7 @@ from numpy.typing import NDArray
 from agvnav.geometry import between
 from agvnav.odometry import OdometryNoise, increment_jacobian, integrate_pose, pose_jacobian
 
-__all__ = ["Drive", "odometry_poses", "prepare_drive"]
+__all__ = ["Drive", "interpolate_drive", "odometry_poses", "prepare_drive"]
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -68,6 +72,13 @@ class Drive:
     between_dist : (K - 1,) signed distance rolled between keyframes (m, s = 1).
     refl_offset_dist : (B,) signed distance rolled from the keyframe to the reflection (m, s = 1).
     odometry_k : (3,) the coefficients ``k_d``, ``k_dθ``, ``k_θ`` of ``between_cov`` and ``refl_offset_cov``.
+    refl_alpha : (B,) None, or the reflections are interpolated between keyframes (:func:`interpolate_drive`).
+    interp_alpha : (B,) each reflection's time fraction of its keyframe interval, for :func:`interpolate_drive`.
+    interp_bridge_parts : (3, B, 3, 3) the interpolated offset's covariance per unit coefficient.
+    step_id, step_frac, step_parts : each reflection's odometry step, the fraction ``f`` of it at the stamp and
+    the step's covariance per unit coefficient ``(3, B, 3, 3)`` (keyframe frame): slip that acts within the
+    step (a wheel slipping continuously) moves the pose off the interpolation by a Brownian bridge,
+    ``cov = (f_i − f_i f_j) C_S`` between two reflections ``f_i <= f_j`` of one step, common to its bearings.
     """
 
     keyframe_t: F64
@@ -85,6 +96,41 @@ class Drive:
     between_dist: F64 | None = None
     refl_offset_dist: F64 | None = None
     odometry_k: F64 | None = None
+    refl_alpha: F64 | None = None
+    interp_alpha: F64 | None = None
+    interp_bridge_parts: F64 | None = None
+    step_id: I64 | None = None
+    step_frac: F64 | None = None
+    step_parts: F64 | None = None
+
+
+def interpolate_drive(drive: Drive) -> Drive:
+    """The drive with each reflection interpolated between its keyframe and the next (graph's BearingFactors).
+
+    ``refl_alpha (B,)`` the fraction of the keyframe interval's time at the stamp; the offsets become
+    ``v = u − α z`` (``z`` the interval's odometry, ``u`` the offset to the stamp) and their covariance the
+    bridge's (``interp_bridge_parts``, :func:`prepare_drive`): zero when every odometry instant is a keyframe.
+    """
+    if drive.interp_alpha is None or drive.interp_bridge_parts is None or drive.odometry_k is None:
+        raise ValueError("interpolate_drive needs a drive from prepare_drive (interp_alpha, interp_bridge_parts)")
+    a_kf = drive.refl_keyframe
+    alpha = drive.interp_alpha
+    v = drive.refl_offset - alpha[:, None] * drive.between[a_kf]
+    vd = None if drive.refl_offset_dist is None or drive.between_dist is None else \
+        drive.refl_offset_dist - alpha * drive.between_dist[a_kf]
+    parts = drive.interp_bridge_parts
+    cov = np.einsum("c,cnij->nij", drive.odometry_k, parts)
+    return Drive(drive.keyframe_t, drive.odom_poses, drive.between, drive.between_cov, a_kf, v, cov, drive.refl_t,
+                 drive.bearing, drive.mount, drive.between_cov_parts, parts, drive.between_dist, vd, drive.odometry_k,
+                 alpha, alpha, parts, drive.step_id, drive.step_frac, drive.step_parts)
+
+
+def _clip_diagonal(cov: F64) -> F64:
+    """``cov (..., 3, 3)`` with negative diagonal entries (rounding of the bridge formula) set to 0."""
+    out = cov.copy()
+    for i in range(3):
+        out[..., i, i] = np.maximum(out[..., i, i], 0.0)
+    return out
 
 
 def _unit_increment_cov(dd: float, dth: float) -> F64:
@@ -126,16 +172,17 @@ def odometry_poses(increments: F64) -> F64:
     return np.column_stack([np.concatenate([[0.0], np.cumsum(dx)]), np.concatenate([[0.0], np.cumsum(dy)]), theta])
 
 
-def prepare_drive(log: Any, keyframe_s: float = 0.1, noise: OdometryNoise | None = None,
+def prepare_drive(log: Any, keyframe_s: float = 0.0, noise: OdometryNoise | None = None,
                   mount: Any = None) -> Drive:
-    """Cut ``log`` (a :class:`agvnav.logs.RecordedLog`) into keyframes every ``keyframe_s`` seconds.
+    """Cut ``log`` (a :class:`agvnav.logs.RecordedLog`) into keyframes every ``keyframe_s`` seconds (0: every
+    odometry instant, where interpolated bearings carry no odometry noise of their own).
 
     ``noise`` defaults to the log's ``odometry_noise`` setting, else :class:`OdometryNoise`'s
     defaults; ``mount`` (m, m, rad) to the log's ``mount`` setting, else the origin.
     Reflections stamped at or before the first odometry instant or after the last are dropped.
     """
-    if not (math.isfinite(keyframe_s) and keyframe_s > 0.0):
-        raise ValueError(f"keyframe_s must be a positive number of seconds, got {keyframe_s!r}")
+    if not (math.isfinite(keyframe_s) and keyframe_s >= 0.0):
+        raise ValueError(f"keyframe_s must be a non-negative number of seconds, got {keyframe_s!r}")
     settings = getattr(log, "settings", {}) or {}
     if noise is None:
         noise = OdometryNoise(*settings["odometry_noise"]) if settings.get("odometry_noise") else OdometryNoise()
@@ -199,5 +246,22 @@ def prepare_drive(log: Any, keyframe_s: float = 0.1, noise: OdometryNoise | None
     off_parts = F @ base_parts @ np.swapaxes(F, -1, -2) + G @ unit @ np.swapaxes(G, -1, -2)
     off_cov = np.einsum("c,ncij->nij", k_vec, off_parts)
     off_dist = dist_cum[step] + inc[step, 0] * frac - dist_cum[kf_idx[a]]
+    # interpolation between keyframes a and a+1 (interpolate_drive): the time fraction alpha, and the bridge's
+    # covariance per unit coefficient. The reflection's step S lies after whole steps W from keyframe a and
+    # before the rest R up to a+1; an odometry step's error is spread over it in proportion (the motion
+    # between two odometry instants is interpolated, as the offset is), so the interpolated offset's
+    # error is (1 - α) e_W + (f - α) e_S - α e_R: zero when every odometry instant is a keyframe.
+    alpha = np.clip((stamp - t[kf_idx[a]]) / (t[kf_idx[a + 1]] - t[kf_idx[a]]), 0.0, 1.0)
+    G_full = increment_jacobian(start, inc[step, 0], inc[step, 1], rule="midpoint")[:, None]
+    unit_full = np.zeros((stamp.shape[0], 3, 2, 2))
+    unit_full[:, 0, 0, 0] = np.abs(inc[step, 0])
+    unit_full[:, 1, 1, 1] = np.abs(inc[step, 0])
+    unit_full[:, 2, 1, 1] = np.abs(inc[step, 1])
+    c_s = G_full @ unit_full @ np.swapaxes(G_full, -1, -2)
+    c_r = _clip_diagonal(parts_from_kf[kf_idx[a + 1]] - base_parts - c_s)
+    w = lambda x: x[:, None, None, None]  # noqa: E731 - (B,) weights over (B, 3, 3, 3)
+    bridge = w((1.0 - alpha) ** 2) * base_parts + w((frac - alpha) ** 2) * c_s + w(alpha ** 2) * c_r
     return Drive(t[kf_idx], poses[kf_idx], betw, between_cov, a.astype(np.int64), off, off_cov, stamp, bearing,
-                 mount_arr, between_parts, np.moveaxis(off_parts, 1, 0).copy(), between_dist, off_dist, k_vec)
+                 mount_arr, between_parts, np.moveaxis(off_parts, 1, 0).copy(), between_dist, off_dist, k_vec,
+                 None, alpha, np.moveaxis(bridge, 1, 0).copy(), step.astype(np.int64), frac,
+                 np.moveaxis(c_s, 1, 0).copy())

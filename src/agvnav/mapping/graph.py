@@ -82,6 +82,15 @@ class BearingFactors:
     ``offset_dist (B,)``: the signed distance rolled over that offset (m; None: zero);
     ``sigma (B,)`` the bearing std (rad); ``mount (3,)`` the head on base_link; ``radius`` (m) and
     ``direction`` (+1 CCW head) of the leading-edge model.
+    ``alpha (B,)``: interpolated between keyframes ``pose`` and ``pose + 1`` (None: hung on ``pose`` alone).
+    The reflection's instant lies ``alpha`` of the way through the interval; ``offset`` and ``offset_dist``
+    are then the odometry offset minus ``alpha`` times the interval's odometry (``v = u − α z``), and the
+    base_link pose is ``p_k + α (p_{k+1} − p_k) + R(ψ_k) s v_t`` with heading
+    ``ψ_k + α wrap(ψ_{k+1} − ψ_k) + (1 + b) v_ψ + κ v_D``: the odometry's error over the interval, which
+    both keyframe poses know, is shared out in proportion, so the bearings no longer carry it as noise
+    (it is common to every bearing of the interval, and as independent noise it made them over-weighted).
+    ``whitener (B, B)``: correlated bearing noise, ``WᵀW = Σ⁻¹`` (block diagonal: the bearings of one odometry
+    step share its in-step slip); the residuals are then ``W wrap(β − z)`` and ``sigma`` is not used.
     """
 
     pose: I64
@@ -93,6 +102,8 @@ class BearingFactors:
     radius: float = 0.0
     direction: int = 1
     offset_dist: F64 | None = None
+    alpha: F64 | None = None
+    whitener: sp.csr_matrix | None = None
 
 
 @dataclass(frozen=True)
@@ -185,8 +196,8 @@ class FactorGraph:
 def bearing_prediction(poses: F64, landmarks: F64, scale: float, f: BearingFactors,
                        jacobians: bool = False, calibration: tuple[float, float] = (0.0, 0.0),
                        ) -> tuple[F64, F64 | None, F64 | None, F64 | None]:
-    """Predicted leading-edge bearings ``(B,)`` and, with ``jacobians``, ``∂β/∂X (B, 3)``, ``∂β/∂L (B, 2)``,
-    ``∂β/∂(s, κ, b) (B, 3)``.
+    """Predicted leading-edge bearings ``(B,)`` and, with ``jacobians``, ``∂β/∂X (B, 3)`` (``(B, 6)`` for
+    ``X(k), X(k+1)`` when ``f.alpha`` interpolates), ``∂β/∂L (B, 2)``, ``∂β/∂(s, κ, b) (B, 3)``.
 
     Offset heading ``w_ψ = (1 + b) u_ψ + κ u_D``; head position ``h = p + R(ψ)(s u_t + R(w_ψ) m_t)``,
     heading ``ψ + w_ψ + m_ψ``; ``δ = L − h``, ``d = |δ|``; ``β = atan2(δ) − ψ_head − dir·asin(r/d)``
@@ -198,12 +209,18 @@ def bearing_prediction(poses: F64, landmarks: F64, scale: float, f: BearingFacto
     kappa, b = calibration
     u_dist = np.zeros(u.shape[0]) if f.offset_dist is None else f.offset_dist
     w = (1.0 + b) * u[:, 2] + kappa * u_dist
+    px, py = X[:, 0], X[:, 1]
+    if f.alpha is not None:
+        Xn = poses[f.pose + 1]
+        w = w + f.alpha * wrap_angle(Xn[:, 2] - X[:, 2])
+        px = px + f.alpha * (Xn[:, 0] - X[:, 0])
+        py = py + f.alpha * (Xn[:, 1] - X[:, 1])
     cu, su = np.cos(w), np.sin(w)
     wx = scale * u[:, 0] + cu * m[0] - su * m[1]
     wy = scale * u[:, 1] + su * m[0] + cu * m[1]
     c, s = np.cos(X[:, 2]), np.sin(X[:, 2])
     rx, ry = c * wx - s * wy, s * wx + c * wy
-    dx, dy = L[:, 0] - X[:, 0] - rx, L[:, 1] - X[:, 1] - ry
+    dx, dy = L[:, 0] - px - rx, L[:, 1] - py - ry
     d2 = dx * dx + dy * dy
     d = np.sqrt(d2)
     ratio = np.clip(f.radius / np.maximum(d, 1e-12), 0.0, 0.999999)
@@ -222,6 +239,9 @@ def bearing_prediction(poses: F64, landmarks: F64, scale: float, f: BearingFacto
     ax, ay = -su * m[0] - cu * m[1], cu * m[0] - su * m[1]
     jw = -(gx * (c * ax - s * ay) + gy * (s * ax + c * ay)) - 1.0
     jc = np.column_stack([js, jw * u_dist, jw * u[:, 2]])
+    if f.alpha is not None:  # (B, 6): X(k) then X(k+1)
+        a = f.alpha
+        jx = np.column_stack([-(1.0 - a) * gx, -(1.0 - a) * gy, jx[:, 2] - a * jw, -a * gx, -a * gy, a * jw])
     return beta, jx, jl, jc
 
 
@@ -286,15 +306,22 @@ def linearize(graph: FactorGraph, x: F64, jacobian: bool = True) -> tuple[F64, s
     f = graph.bearings
     if f.pose.size:
         beta, jx, jl, jc = bearing_prediction(poses, landmarks, scale, f, jacobian, (kappa, tscale))
-        start = b.block(wrap_angle(beta - f.z) / f.sigma)
+        r = wrap_angle(beta - f.z)
+        start = b.block(r / f.sigma if f.whitener is None else f.whitener @ r)
         if jacobian:
             assert jx is not None and jl is not None and jc is not None
             B = f.pose.size
-            vals = np.concatenate([jx, jl, jc], axis=1) / f.sigma[:, None]
-            rows = start + np.repeat(np.arange(B)[:, None], 5 + N_CALIBRATION, axis=1)
-            cols = np.concatenate([3 * f.pose[:, None] + np.arange(3), k3 + 2 * f.landmark[:, None] + np.arange(2),
+            n_pose = jx.shape[1]
+            vals = np.concatenate([jx, jl, jc], axis=1)
+            rows = np.repeat(np.arange(B)[:, None], n_pose + 2 + N_CALIBRATION, axis=1)
+            cols = np.concatenate([3 * f.pose[:, None] + np.arange(n_pose), k3 + 2 * f.landmark[:, None] + np.arange(2),
                                    np.broadcast_to(cal_cols, (B, N_CALIBRATION))], axis=1)
-            b.add(rows, cols, vals)
+            if f.whitener is None:
+                b.add(start + rows, cols, vals / f.sigma[:, None])
+            else:
+                Jw = (f.whitener @ sp.csr_matrix((vals.ravel(), (rows.ravel(), cols.ravel())),
+                                                 shape=(B, graph.n_vars))).tocoo()
+                b.add(start + Jw.row.astype(np.int64), Jw.col.astype(np.int64), Jw.data)
     # pose priors
     pp = graph.pose_priors
     if pp.index.size:

@@ -12,14 +12,18 @@
    surveyed reflectors, or the start pose), and the anchors become priors: reflector priors,
    distance factors, a start-pose prior, a prior on the odometry scale
    (:mod:`agvnav.mapping.anchors`). No anchor: :class:`~agvnav.mapping.anchors.ScaleUnobservable`.
-3. **Batch**: every reflection is re-associated against the solved trajectory with a tight gate,
+3. **Batch**: each bearing factor interpolates the pose between the two keyframes around its reflection
+   (a keyframe at every odometry instant: :func:`agvnav.mapping.drive.interpolate_drive`); every
+   reflection is re-associated against the solved trajectory with a tight gate,
    reflectors without ``min_sightings`` from ``min_baseline`` are dropped, the graph is solved to
    convergence with the odometry's systematic errors (scale, heading rate, turn scale), bearing
    outliers beyond ``outlier_sigma`` are removed and it is solved again. The noise is estimated
    from the drive by variance components (Förstner; per component redundancy): the bearing std
-   and Crowley's three odometry coefficients. Bearings are corrected by half an encoder pulse (the
+   and Crowley's three odometry coefficients, iterated to their fixed point in each pass before the
+   outlier cut (a cut with an unconverged, too small bearing std censors the residuals and shrinks the
+   std further: the cause of the optimistic covariances, issue 17). Bearings are corrected by half an encoder pulse (the
    head reports the last whole pulse, as the EKF corrects it). The reflector covariances are the
-   marginals of ``(JᵀJ)⁻¹`` (:func:`agvnav.mapping.solve.marginal_covariances`).
+   blocks of ``(JᵀJ)⁻¹``, jointly (:func:`agvnav.mapping.solve.reflector_covariance`).
 
 An existing map (``existing``) seeds the reflector list: its reflectors are associated from the
 start (the start pose must then be in its frame), refined with their covariance as priors, and
@@ -49,7 +53,7 @@ from agvnav.mapping.anchors import (
     match_surveyed,
 )
 from agvnav.mapping.association import associate, head_poses, predicted_edge_bearings, ray_covariances
-from agvnav.mapping.drive import ODOMETRY_FLOOR, Drive, prepare_drive
+from agvnav.mapping.drive import ODOMETRY_FLOOR, Drive, interpolate_drive, prepare_drive
 from agvnav.mapping.graph import (
     BearingFactors,
     DistanceFactors,
@@ -61,7 +65,7 @@ from agvnav.mapping.graph import (
     whitener,
 )
 from agvnav.mapping.initialise import InitialiseOptions, initialise_from_tracks
-from agvnav.mapping.solve import factorize, marginal_covariances, solve
+from agvnav.mapping.solve import factorize, reflector_covariance, solve
 from agvnav.odometry import OdometryNoise
 from agvnav.positioning import encoder_bearing_std
 
@@ -82,7 +86,9 @@ class MappingOptions:
     radius : reflector radius (m) of the leading-edge model. direction : +1 for a CCW head.
     bearing_std : bearing std (rad); None: the encoder's quantisation (from the log's pulses_per_rev,
     else 65535) with a floor of ``bearing_std_floor``.
-    keyframe_s, chunk_s, pool_s : keyframe spacing, front-end chunk, pool memory (s).
+    keyframe_s, chunk_s, pool_s : keyframe spacing (0: every odometry instant, so that an interpolated bearing
+    factor carries no odometry noise: a 0.1 s spacing left joint NEES 5-15 on the lab drive), front-end
+    chunk, pool memory (s).
     gate_sigma, position_tol : front-end gate (σ, m); final_position_tol : batch gate (m).
     outlier_sigma : bearings with a whitened residual beyond this are dropped in the batch.
     existing_std : prior std (m) of an existing map's reflector that states no covariance or survey std.
@@ -91,7 +97,9 @@ class MappingOptions:
     (dead-reckoned poses). merge_distance : front-end reflectors closer than this (m) are one.
     front_odometry_var : the front end multiplies the odometry covariance by this (it trusts dead
     reckoning over its window; the batch estimates the real coefficients). variance_passes : batch passes
-    of association, solution and variance-component estimation. variance_probes : random probes of
+    of association, solution and variance-component estimation. variance_iterations, variance_tolerance :
+    per pass, the variance components are iterated (each step a solution) until no component changes by
+    more than ``variance_tolerance`` in log (at most ``variance_iterations`` steps). variance_probes : random probes of
     the redundancy traces (Hutchinson, fixed seed). bearing_offset : added to every bearing (rad);
     None: half an encoder pulse (``π / pulses_per_rev``, the head reports the last whole pulse passed,
     as the EKF corrects it), unless the log's settings state ``bearing_offset``.
@@ -100,6 +108,13 @@ class MappingOptions:
     front_calibration : the front end also solves the heading rate and turn scale per window.
     heading_rate_std, turn_scale_std : std of the zero-mean priors on the odometry's systematic heading
     rate (rad/m) and turn scale estimated in the batch (:mod:`agvnav.mapping.graph`).
+    interpolate : the batch's bearing factors interpolate the pose between the two keyframes around the
+    reflection (:func:`agvnav.mapping.drive.interpolate_drive`) instead of hanging it on the earlier one
+    with the odometry offset's variance as bearing noise (shared by every bearing of the interval, it
+    over-weighted them: joint NEES 5-15 on the lab drive).
+    in_step_slip : the bearings of one odometry step share the slip inside it (a Brownian bridge between the
+    two keyframes, :class:`StepNoise`), its own variance component ``λ_s`` (a vehicle whose wheels do not
+    slip within a step drives it to zero).
     head_yaw_std : std (rad) of the head's yaw on the vehicle: a frame given by the start pose is
     only as well oriented as the head is calibrated (added to the start pose's heading variance).
     """
@@ -108,7 +123,7 @@ class MappingOptions:
     direction: int = 1
     bearing_std: float | None = None
     bearing_std_floor: float = 2e-5
-    keyframe_s: float = 0.1
+    keyframe_s: float = 0.0
     chunk_s: float = 1.0
     pool_s: float = 10.0
     window_s: float = 10.0
@@ -117,6 +132,8 @@ class MappingOptions:
     use_lcov: bool = True
     front_odometry_var: float = 0.01
     variance_passes: int = 5
+    variance_iterations: int = 8
+    variance_tolerance: float = 0.05
     variance_probes: int = 48
     bearing_offset: float | None = None
     heading_rate_std: float = 0.05
@@ -131,6 +148,8 @@ class MappingOptions:
     max_range: float | None = None
     existing_std: float = 0.001
     front_iterations: int = 3
+    interpolate: bool = True
+    in_step_slip: bool = True
     odometry_noise: OdometryNoise | None = None
     init: InitialiseOptions = field(default_factory=InitialiseOptions)
 
@@ -139,7 +158,9 @@ class MappingOptions:
             raise ValueError(f"radius must be >= 0 m, got {self.radius!r}")
         if self.direction not in (1, -1):
             raise ValueError(f"direction must be +1 or -1, got {self.direction!r}")
-        for name in ("keyframe_s", "chunk_s", "pool_s", "gate_sigma", "position_tol", "final_position_tol",
+        if not self.keyframe_s >= 0.0:
+            raise ValueError(f"keyframe_s must be >= 0 s, got {self.keyframe_s!r}")
+        for name in ("chunk_s", "pool_s", "gate_sigma", "position_tol", "final_position_tol",
                      "outlier_sigma"):
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)!r}")
@@ -172,7 +193,9 @@ class MappingResult:
     chi2_per_dof of the solution; runtime_s (front end and batch). heading_rate (rad/m) and turn_scale:
     the odometry's systematic errors estimated with the map; odometry_noise ``(k_d, k_dθ, k_θ)`` and
     bearing_std (rad): the noise estimated from the drive (variance components; the bearing's median
-    std, encoder and the odometry offset inside a keyframe step).
+    std, encoder and the odometry offset inside a keyframe step). joint_covariance (2N, 2N) m²: all
+    reflector centres ``[x_0, y_0, x_1, ...]`` together (their errors share the anchor's and the
+    trajectory's; ``covariance`` holds its diagonal blocks).
     """
 
     ids: tuple[str, ...]
@@ -193,6 +216,7 @@ class MappingResult:
     turn_scale: float = 0.0
     odometry_noise: tuple[float, float, float] | None = None
     bearing_std: float | None = None
+    joint_covariance: F64 | None = None
 
 
 def _bearing_sigma(log: Any, options: MappingOptions) -> float:
@@ -245,6 +269,14 @@ def _sigma_eff(drive: Drive, sigma: float, heads: F64, landmarks: F64, assoc: I6
     return np.sqrt(_bearing_var_parts(drive, sigma, heads, landmarks, assoc, odo_var, lam_b).sum(axis=1))
 
 
+def _odometry_total(drive: Drive, odo_var: F64) -> F64:
+    """``(2,)``: the summed position (m²) and heading (rad²) variance of all between-keyframe factors for the
+    coefficient multipliers ``odo_var``: what the variance iteration must settle (a component the drive cannot
+    tell from zero keeps halving without changing these)."""
+    cov = _odometry_cov(drive, drive.between.shape[0], odo_var)
+    return np.array([float(np.sum(cov[:, 0, 0] + cov[:, 1, 1])), float(np.sum(cov[:, 2, 2]))])
+
+
 def _odometry_cov(drive: Drive, n: int, odo_var: F64 | float) -> F64:
     """Between-keyframe covariances ``(n, 3, 3)``: scalar ``odo_var`` times the drive's, or per coefficient."""
     if np.ndim(odo_var) == 0 or drive.between_cov_parts is None or drive.odometry_k is None:
@@ -256,15 +288,17 @@ def _odometry_cov(drive: Drive, n: int, odo_var: F64 | float) -> F64:
 def _graph(drive: Drive, n_poses: int, landmarks: F64, assoc: I64, sig: F64, options: MappingOptions,
            pose_priors: PosePriors, reflector_priors: ReflectorPriors | None = None,
            distances: DistanceFactors | None = None, scale_prior: tuple[float, float] | None = None,
-           odo_var: F64 | float = 1.0, calibration: bool = False) -> FactorGraph:
-    use = (assoc >= 0) & (drive.refl_keyframe < n_poses)
+           odo_var: F64 | float = 1.0, calibration: bool = False,
+           bearing_whitener: sp.csr_matrix | None = None) -> FactorGraph:
+    use = _used(drive, assoc, n_poses)
     e = np.arange(n_poses - 1)
     dist = None if drive.between_dist is None else drive.between_dist[:n_poses - 1]
     odo = OdometryFactors(e, e + 1, drive.between[:n_poses - 1], whitener(_odometry_cov(drive, n_poses - 1, odo_var)),
                           dist)
     bear = BearingFactors(drive.refl_keyframe[use], assoc[use], drive.refl_offset[use], drive.bearing[use], sig[use],
                           drive.mount, options.radius, options.direction,
-                          None if drive.refl_offset_dist is None else drive.refl_offset_dist[use])
+                          None if drive.refl_offset_dist is None else drive.refl_offset_dist[use],
+                          None if drive.refl_alpha is None else drive.refl_alpha[use], bearing_whitener)
     kw: dict[str, Any] = {"pose_priors": pose_priors, "scale_prior": scale_prior}
     if calibration:
         kw["calibration_prior"] = (options.heading_rate_std, options.turn_scale_std)
@@ -323,8 +357,127 @@ def _window_graph(drive: Drive, k0: int, n: int, poses: F64, landmarks: F64, ass
     return g, free
 
 
+def _instep_heading_var(drive: Drive, odo_var: F64 | float, options: MappingOptions) -> F64:
+    """``(B,)`` the in-step slip's heading variance at each reflection, ``f (1 − f) C_S,ψψ`` at unit ``λ_s``
+    (rad²; zeros when ``options.in_step_slip`` is off or the drive has no steps)."""
+    B = drive.bearing.shape[0]
+    if not options.in_step_slip or drive.step_frac is None or drive.step_parts is None or drive.odometry_k is None:
+        return np.zeros(B)
+    k = np.broadcast_to(np.asarray(odo_var, dtype=np.float64), (3,)) * drive.odometry_k
+    f = drive.step_frac
+    return f * (1.0 - f) * np.einsum("c,cn->n", k, drive.step_parts[:, :, 2, 2])
+
+
+def _used(drive: Drive, assoc: I64, n_poses: int) -> NDArray[np.bool_]:
+    """The reflections that enter the graph as bearing factors (associated, their keyframes in the graph)."""
+    use = (assoc >= 0) & (drive.refl_keyframe < n_poses)
+    if drive.refl_alpha is not None:
+        use &= drive.refl_keyframe + 1 < n_poses
+    return use
+
+
+@dataclass(frozen=True)
+class StepNoise:
+    """The bearing noise of the graph's bearings, in blocks of one odometry step each.
+
+    ``blocks (G, m)``: indices into the graph's bearings (-1: padding); ``indep (G, m, m)``: the
+    independent part (encoder, diagonal) at unit ``λ_b``; ``step (G, m, m)``: the in-step slip's Brownian
+    bridge at unit ``λ_s``, ``(f_i − f_i f_j) g_iᵀ C_S g_j`` (``g`` the bearing's gradient with respect to
+    the base_link offset, ``C_S`` the step's odometry covariance). Bearings of one step share it: as
+    independent noise (or none, as before) the differential AGV's bearings, whose true in-step heading
+    wanders by ~2 mrad (its wheels slip in every 5 ms substep), were over-weighted.
+    """
+
+    blocks: I64
+    indep: F64
+    step: F64
+
+    def covariance(self, lam_b: float, lam_s: float) -> F64:
+        """``(G, m, m)`` block covariances (rad²); padding on the diagonal is 1."""
+        pad = self.blocks < 0
+        cov = np.where(pad[:, :, None] | pad[:, None, :], 0.0, lam_b * self.indep + lam_s * self.step)
+        g, a = np.nonzero(pad)
+        cov[g, a, a] = 1.0
+        return cov
+
+    def whitener(self, lam_b: float, lam_s: float, n: int) -> tuple[sp.csr_matrix, F64]:
+        """``(W (n, n), Wb (G, m, m))``: ``WᵀW = Σ⁻¹`` of the ``n`` bearings, and its blocks."""
+        L = np.linalg.cholesky(self.covariance(lam_b, lam_s))
+        Wb = np.linalg.solve(L, np.broadcast_to(np.eye(L.shape[-1]), L.shape))
+        return _block_matrix(self.blocks, Wb, n), Wb
+
+    def total(self, lam_b: float, lam_s: float) -> float:
+        """The summed variance of all bearings (rad²)."""
+        ok = self.blocks >= 0
+        diag = np.diagonal(lam_b * self.indep + lam_s * self.step, axis1=1, axis2=2)
+        return float(np.sum(diag[ok]))
+
+    def marginal_var(self, lam_b: float, lam_s: float, n: int) -> F64:
+        """``(n,)`` each bearing's own variance (rad²)."""
+        out = np.zeros(n)
+        ok = self.blocks >= 0
+        diag = np.diagonal(lam_b * self.indep + lam_s * self.step, axis1=1, axis2=2)
+        out[self.blocks[ok]] = diag[ok]
+        return out
+
+
+def _block_matrix(blocks: I64, vals: F64, n: int) -> sp.csr_matrix:
+    """The ``(n, n)`` sparse matrix with ``vals[g, a, b]`` at ``(blocks[g, a], blocks[g, b])`` (padding dropped)."""
+    m = blocks.shape[1]
+    r = np.broadcast_to(blocks[:, :, None], (blocks.shape[0], m, m))
+    c = np.broadcast_to(blocks[:, None, :], (blocks.shape[0], m, m))
+    ok = (r >= 0) & (c >= 0) & (vals != 0.0)
+    return sp.csr_matrix((vals[ok], (r[ok], c[ok])), shape=(n, n))
+
+
+def _step_noise(drive: Drive, use: NDArray[np.bool_], heads: F64, landmarks: F64, assoc: I64, poses: F64,
+                sig_indep: F64, odo_var: F64, options: MappingOptions) -> StepNoise | None:
+    """The :class:`StepNoise` of the used bearings at the current estimate (None: the drive has no steps)."""
+    if drive.step_id is None or drive.step_frac is None or drive.step_parts is None or drive.odometry_k is None:
+        return None
+    idx = np.flatnonzero(use)
+    n = idx.size
+    h, L = heads[idx], landmarks[assoc[idx]]
+    dx, dy = L[:, 0] - h[:, 0], L[:, 1] - h[:, 1]
+    d2 = np.maximum(dx * dx + dy * dy, 1e-12)
+    d = np.sqrt(d2)
+    ratio = np.clip(options.radius / d, 0.0, 0.999999)
+    k = options.direction * options.radius / (d2 * d * np.sqrt(1.0 - ratio * ratio))
+    gx, gy = -dy / d2 + k * dx, dx / d2 + k * dy
+    psi_k = poses[drive.refl_keyframe[idx], 2]
+    c, s = np.cos(psi_k), np.sin(psi_k)
+    base = h[:, 2] - drive.mount[2]
+    cb, sb = np.cos(base), np.sin(base)
+    arm_x, arm_y = cb * drive.mount[0] - sb * drive.mount[1], sb * drive.mount[0] + cb * drive.mount[1]
+    grad = np.column_stack([-(gx * c + gy * s), -(-gx * s + gy * c), -(gx * -arm_y + gy * arm_x) - 1.0])
+    C = np.einsum("c,cnij->nij", odo_var * drive.odometry_k, drive.step_parts[:, idx])
+    step, frac = drive.step_id[idx], drive.step_frac[idx]
+    order = np.lexsort((frac, step))
+    bounds = np.flatnonzero(np.diff(step[order])) + 1
+    starts = np.r_[0, bounds]
+    sizes = np.diff(np.r_[starts, n])
+    G, m = starts.size, int(sizes.max(initial=1))
+    blocks = np.full((G, m), -1, dtype=np.int64)
+    pos = np.arange(n) - np.repeat(starts, sizes)
+    grp = np.repeat(np.arange(G), sizes)
+    blocks[grp, pos] = order
+    ok = blocks >= 0
+    safe = np.where(ok, blocks, 0)
+    f = np.where(ok, frac[safe], 0.0)
+    gb = np.where(ok[:, :, None], grad[safe], 0.0)
+    Cb = C[safe[:, 0]]  # one step, one covariance
+    gCg = np.einsum("gai,gij,gbj->gab", gb, Cb, gb)
+    fi, fj = f[:, :, None], f[:, None, :]
+    step_cov = (np.minimum(fi, fj) - fi * fj) * gCg
+    indep = np.zeros((G, m, m))
+    ga, pa = np.nonzero(ok)
+    indep[ga, pa, pa] = sig_indep[idx][blocks[ga, pa]] ** 2
+    return StepNoise(blocks, indep, step_cov)
+
+
 def _variance_components(g: FactorGraph, x: F64, drive: Drive, odo_var: F64, lam_b: float,
-                         probes: int) -> tuple[F64, float]:
+                         probes: int, noise: StepNoise | None = None,
+                         lam_s: float = 1.0) -> tuple[F64, float, float]:
     """One step of Förstner's variance-component estimation for the bearing std and Crowley's three
     odometry coefficients: each component ``c`` is scaled by ``q_c / r_c``, its share of the weighted
     square sum over its share of the redundancy.
@@ -352,7 +505,7 @@ def _variance_components(g: FactorGraph, x: F64, drive: Drive, odo_var: F64, lam
     try:
         lu = factorize(N)
     except RuntimeError:
-        return odo_var, lam_b
+        return odo_var, lam_b, lam_s
     rng = np.random.default_rng(17)
     E = g.odometry.i.size
     n_b = g.bearings.pose.size
@@ -381,17 +534,38 @@ def _variance_components(g: FactorGraph, x: F64, drive: Drive, odo_var: F64, lam
             q[1 + c] += float(np.einsum("ea,eab,eb->", eo, S, eo))
             tr_s[1 + c] += float(np.trace(S, axis1=1, axis2=2).sum())
             t[1 + c] += hat_trace(sp.block_diag(list(half), format="csr") @ Jo)
-    # bearings: one component scaling the whole bearing variance (encoder and the offset's odometry)
-    if n_b:
+    # bearings: one component scaling the independent bearing variance (encoder and the offset's odometry),
+    # and with the in-step slip (StepNoise) a second, its blocks S_c = W Σ_c Wᵀ
+    q_s = tr_ss = t_s = 0.0
+    if n_b and noise is None:
         eb = e[3 * E:3 * E + n_b]
         q[0] = float(eb @ eb)
         tr_s[0] = float(n_b)
         t[0] = hat_trace(J[3 * E:3 * E + n_b])
+    elif n_b and noise is not None:
+        eb = e[3 * E:3 * E + n_b]
+        Jb = J[3 * E:3 * E + n_b]
+        _, Wb = noise.whitener(lam_b, lam_s, n_b)
+        ok_b = noise.blocks >= 0
+        e_blk = np.where(ok_b, eb[np.where(ok_b, noise.blocks, 0)], 0.0)
+        res = []
+        for part, lam in ((noise.indep, lam_b), (noise.step, lam_s)):
+            S = Wb @ (lam * part) @ np.swapaxes(Wb, 1, 2)
+            S = np.where(ok_b[:, :, None] & ok_b[:, None, :], 0.5 * (S + np.swapaxes(S, 1, 2)), 0.0)
+            val, vec = np.linalg.eigh(S)
+            half = (vec * np.sqrt(np.maximum(val, 0.0))[:, None, :]) @ np.swapaxes(vec, 1, 2)
+            res.append((float(np.einsum("ga,gab,gb->", e_blk, S, e_blk)), float(np.trace(S, axis1=1, axis2=2).sum()),
+                        hat_trace(_block_matrix(noise.blocks, half, n_b) @ Jb)))
+        q[0], tr_s[0], t[0] = res[0]
+        q_s, tr_ss, t_s = res[1]
     r = tr_s - t
     ratio = np.ones(4)
     ok = r > 1e-3 * np.maximum(tr_s, 1e-300)
     ratio[ok] = np.clip(q[ok] / r[ok], 1e-2, 1e2)
-    return odo_var * ratio[1:], lam_b * float(ratio[0])
+    ratio_s = float(np.clip(q_s / (tr_ss - t_s), 1e-2, 1e2)) if tr_ss - t_s > 1e-3 * max(tr_ss, 1e-300) else 1.0
+    # floors on the accumulated factors (std 1/1000 of the stated noise, odometry variance 1e-8 of it): a noise-free
+    # drive has no residual to estimate from, and iterated to convergence the factors ran to 0 (a singular graph)
+    return np.maximum(odo_var * ratio[1:], 1e-8), max(lam_b * float(ratio[0]), 1e-6), max(lam_s * ratio_s, 1e-6)
 
 
 def _dead_reckon(drive: Drive, start: F64, poses: F64, k_from: int, k_to: int,
@@ -541,13 +715,19 @@ def _similarity_poses(T: F64, poses: F64) -> F64:
     return out
 
 
+def _batch_drive(fe: FrontEnd, opt: MappingOptions) -> Drive:
+    """The batch's drive: each reflection interpolated between its two keyframes when ``opt.interpolate``."""
+    return interpolate_drive(fe.drive) if opt.interpolate else fe.drive
+
+
 def _reassociate(fe: FrontEnd, poses: F64, landmarks: F64, scale: float, opt: MappingOptions,
                  keep: NDArray[np.bool_], odo_var: F64 | float = 1.0, lam_b: float = 1.0,
-                 calibration: tuple[float, float] = (0.0, 0.0)) -> tuple[I64, F64]:
-    d = fe.drive
-    heads = head_poses(poses, d.refl_keyframe, d.refl_offset, d.mount, scale, d.refl_offset_dist, calibration)
-    sig0 = _sigma_eff(d, fe.sigma[0], heads, landmarks, np.full(heads.shape[0], -1, dtype=np.int64),
-                      odo_var) * math.sqrt(max(lam_b, 1.0))
+                 calibration: tuple[float, float] = (0.0, 0.0), lam_s: float = 1.0) -> tuple[I64, F64]:
+    d = _batch_drive(fe, opt)
+    heads = head_poses(poses, d.refl_keyframe, d.refl_offset, d.mount, scale, d.refl_offset_dist, calibration,
+                       d.refl_alpha)
+    sig0 = np.sqrt(_sigma_eff(d, fe.sigma[0], heads, landmarks, np.full(heads.shape[0], -1, dtype=np.int64),
+                              odo_var) ** 2 * max(lam_b, 1.0) + max(lam_s, 1.0) * _instep_heading_var(d, odo_var, opt))
     assoc = associate(d.bearing, heads, landmarks, opt.radius, sig0, opt.gate_sigma,
                       opt.final_position_tol, fe.max_range, opt.direction)
     assoc = np.where((assoc >= 0) & keep[np.maximum(assoc, 0)], assoc, -1)
@@ -571,7 +751,7 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
     n_existing = 0 if existing is None else len(existing.reflectors)
     if not surveyed and not baselines and not starts and n_existing < 2:
         raise ScaleUnobservable(UNOBSERVABLE)
-    d = fe.drive
+    d = _batch_drive(fe, opt)
     poses, landmarks, scale = fe.poses.copy(), fe.landmarks.copy(), 1.0
     ids = list(fe.ids)
     kind = anchor_kind(anchors) if anchors else f"existing_map{n_existing}"
@@ -644,25 +824,48 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
                            np.array(dist_s))
     anchored = set(rpri_idx) | set(dist_a) | set(dist_b)
     K = poses.shape[0]
-    odo_var, lam_b = np.ones(3), 1.0
+    odo_var, lam_b, lam_s = np.ones(3), 1.0, 1.0
     calib = fe.calibration
     is_anchored = np.isin(np.arange(keep.size), list(anchored))
     reassociate = True
     for pas in range(opt.variance_passes):
         if pas < 2 or reassociate:
-            assoc, heads = _reassociate(fe, poses, landmarks, scale, opt, keep | is_anchored, odo_var, lam_b, calib)
-        sig = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, odo_var) * math.sqrt(lam_b)
-        g = _graph(d, K, landmarks, assoc, sig, opt, pose_prior, rpri, dist, scale_prior, odo_var, calibration=True)
-        sol = solve(g, g.pack(poses, landmarks, scale, calib), max_iterations=50)
-        poses, landmarks, scale = g.unpack(sol.x)
-        poses, landmarks = poses.copy(), landmarks.copy()
-        calib = g.calibration(sol.x)
-        # variance components [Förstner]: bearing std and Crowley's coefficients against their redundancy
-        odo_var, lam_b = _variance_components(g, sol.x, d, odo_var, lam_b, opt.variance_probes)
+            assoc, heads = _reassociate(fe, poses, landmarks, scale, opt, keep | is_anchored, odo_var, lam_b, calib,
+                                        lam_s)
+        # variance components [Förstner]: bearing std and Crowley's coefficients against their redundancy,
+        # iterated to their fixed point before any outlier is judged: one step per pass left the bearing std
+        # 3-10x too small after five passes (the first step is clipped at 1/100), and a 5-sigma cut with that
+        # std censored the bearings (40 % dropped on the lab drive), which shrank it further: reflector
+        # covariances 5-40x optimistic in the joint NEES
+        for _ in range(opt.variance_iterations):
+            sig_ind = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, odo_var)
+            use = _used(d, assoc, K)
+            noise = _step_noise(d, use, heads, landmarks, assoc, poses, sig_ind, odo_var, opt) \
+                if opt.in_step_slip else None
+            wb = None if noise is None else noise.whitener(lam_b, lam_s, int(use.sum()))[0]
+            g = _graph(d, K, landmarks, assoc, sig_ind * math.sqrt(lam_b), opt, pose_prior, rpri, dist, scale_prior,
+                       odo_var, calibration=True, bearing_whitener=wb)
+            sol = solve(g, g.pack(poses, landmarks, scale, calib), max_iterations=50)
+            poses, landmarks, scale = g.unpack(sol.x)
+            poses, landmarks = poses.copy(), landmarks.copy()
+            calib = g.calibration(sol.x)
+            new_odo, new_lam, new_s = _variance_components(g, sol.x, d, odo_var, lam_b, opt.variance_probes, noise,
+                                                           lam_s)
+            # settled when the bearings' and the odometry's total variances are (a component the drive cannot
+            # tell from zero keeps shrinking without changing them)
+            bearing_change = new_lam / lam_b if noise is None else \
+                noise.total(new_lam, new_s) / noise.total(lam_b, lam_s)
+            change = float(np.max(np.abs(np.log(np.r_[bearing_change,
+                                                      _odometry_total(d, new_odo) / _odometry_total(d, odo_var)]))))
+            odo_var, lam_b, lam_s = new_odo, new_lam, new_s
+            if change < opt.variance_tolerance:
+                break
         # outliers
         e_use = (assoc >= 0)
-        heads = head_poses(poses, d.refl_keyframe, d.refl_offset, d.mount, scale, d.refl_offset_dist, calib)
-        sig = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, odo_var) * math.sqrt(lam_b)
+        heads = head_poses(poses, d.refl_keyframe, d.refl_offset, d.mount, scale, d.refl_offset_dist, calib,
+                           d.refl_alpha)
+        sig = np.sqrt(_sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, odo_var) ** 2 * lam_b
+                      + lam_s * _instep_heading_var(d, odo_var, opt))
         if np.any(e_use):
             pred, _ = predicted_edge_bearings(heads[e_use], landmarks, opt.radius, opt.direction)
             r = wrap_angle(d.bearing[e_use] - pred[np.arange(pred.shape[0]), assoc[e_use]]) / sig[e_use]
@@ -678,7 +881,7 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
         reassociate = bool(np.any(new_keep != keep)) and pas < opt.variance_passes - 2
         keep = new_keep
     assoc = np.where((assoc >= 0) & keep[np.maximum(assoc, 0)], assoc, -1)
-    sig = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, odo_var) * math.sqrt(lam_b)
+    sig_ind = _sigma_eff(d, fe.sigma[0], heads, landmarks, assoc, odo_var)
     # drop unkept reflectors from the state: renumber
     old = np.flatnonzero(keep)
     new_of_old = np.full(landmarks.shape[0], -1, dtype=np.int64)
@@ -688,11 +891,19 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
     dist = DistanceFactors(new_of_old[dist.a], new_of_old[dist.b], dist.d, dist.sigma)
     landmarks = landmarks[old]
     ids = [ids[j] for j in old.tolist()]
-    g = _graph(d, K, landmarks, assoc, sig, opt, pose_prior, rpri, dist, scale_prior, odo_var, calibration=True)
+    use = _used(d, assoc, K)
+    noise = _step_noise(d, use, heads, landmarks, assoc, poses, sig_ind, odo_var, opt) if opt.in_step_slip else None
+    wb = None if noise is None else noise.whitener(lam_b, lam_s, int(use.sum()))[0]
+    sig = sig_ind * math.sqrt(lam_b)
+    g = _graph(d, K, landmarks, assoc, sig, opt, pose_prior, rpri, dist, scale_prior, odo_var, calibration=True,
+               bearing_whitener=wb)
     sol = solve(g, g.pack(poses, landmarks, scale, calib), max_iterations=50)
+    if noise is not None:
+        sig = np.sqrt(sig ** 2 + lam_s * _instep_heading_var(d, odo_var, opt))
     poses, landmarks, scale = g.unpack(sol.x)
     calib = g.calibration(sol.x)
-    cov, scale_var = marginal_covariances(g, sol.x)
+    joint, scale_var = reflector_covariance(g, sol.x)
+    cov = np.array([joint[2 * j:2 * j + 2, 2 * j:2 * j + 2] for j in range(landmarks.shape[0])]).reshape(-1, 2, 2)
     n_res = 3 * (K - 1) + int(np.sum(assoc >= 0))
     dof = max(1, n_res - (g.n_vars - 0))
     k = 0
@@ -714,7 +925,7 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
         int(np.sum(assoc >= 0)), 2.0 * sol.cost / dof, fe.runtime_s + time.perf_counter() - t0, existing_ids,
         calib[0], calib[1],
         tuple(float(v) for v in odo_var * (d.odometry_k if d.odometry_k is not None else np.ones(3))),  # type: ignore[arg-type]
-        float(np.median(sig[assoc >= 0])) if np.any(assoc >= 0) else None,
+        float(np.median(sig[assoc >= 0])) if np.any(assoc >= 0) else None, joint,
     )
 
 

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from agvnav.mapping.graph import FactorGraph, linearize
 
-__all__ = ["PERMC", "Solution", "factorize", "marginal_covariances", "solve"]
+__all__ = ["PERMC", "Solution", "factorize", "marginal_covariances", "reflector_covariance", "solve"]
 
 F64 = NDArray[np.float64]
 
@@ -123,8 +123,26 @@ def _lin(graph: FactorGraph, x: F64, cols: NDArray[np.int64] | None, huber: floa
 def marginal_covariances(graph: FactorGraph, x: F64) -> tuple[F64, float]:
     """``(cov (N, 2, 2), scale_var)``: reflector covariances (m²) and the scale variance at ``x``.
 
-    Solves ``(JᵀJ) C = E`` for the reflector and scale columns ``E`` only. ValueError when the
-    information matrix is singular (the map's frame or scale is not fixed).
+    The diagonal blocks of :func:`reflector_covariance`. ValueError when the information matrix is
+    singular (the map's frame or scale is not fixed).
+    """
+    joint, scale_var = reflector_covariance(graph, x)
+    n = graph.n_landmarks
+    cov = np.zeros((n, 2, 2))
+    for j in range(n):
+        cov[j] = joint[2 * j:2 * j + 2, 2 * j:2 * j + 2]
+    return cov, scale_var
+
+
+def reflector_covariance(graph: FactorGraph, x: F64) -> tuple[F64, float]:
+    """``(cov (2N, 2N), scale_var)``: the joint covariance (m²) of all reflector centres
+    ``[x_0, y_0, x_1, ...]`` and the scale variance at ``x``.
+
+    Solves ``(JᵀJ) C = E`` for the reflector and scale columns ``E`` only. The off-diagonal blocks
+    matter: the reflectors of one map share the anchor's error and the trajectory's (a surveyed
+    reflector 1 mm off shifts every reflector), so their errors are correlated and only the joint
+    covariance gives a NEES whose chi-square band is exact. ValueError when the information matrix
+    is singular (the map's frame or scale is not fixed).
     """
     _, J = linearize(graph, x)
     assert J is not None
@@ -140,11 +158,8 @@ def marginal_covariances(graph: FactorGraph, x: F64) -> tuple[F64, float]:
     block = C[cols]
     if not np.all(np.isfinite(block)):
         raise ValueError("the mapping problem is singular: its frame or scale is not fixed")
-    n = graph.n_landmarks
-    cov = np.zeros((n, 2, 2))
-    for j in range(n):
-        cov[j] = block[2 * j:2 * j + 2, 2 * j:2 * j + 2]
     scale_var = float(block[-1, -1])
     if not math.isfinite(scale_var):
         raise ValueError("the mapping problem is singular: its frame or scale is not fixed")
-    return 0.5 * (cov + np.swapaxes(cov, 1, 2)), scale_var
+    joint = block[:-1, :-1]
+    return 0.5 * (joint + joint.T), scale_var
