@@ -126,14 +126,9 @@ def test_interpolated_drive_carries_no_odometry_noise_when_every_instant_is_a_ke
     ``u − α z`` is only the arc's sagitta (the offset is the step split by time) and its covariance is 0;
     with keyframes 3 steps
     apart the bridge covariance is positive inside the interval and below the offset's own."""
-    from agvnav.logs import RecordedLog
     from agvnav.mapping.drive import interpolate_drive, prepare_drive
 
-    n = 12
-    t = np.arange(n + 1) * 0.05
-    inc = np.column_stack([np.full(n, 0.02), np.full(n, 0.01), np.zeros(n)])
-    stamps = np.array([0.12, 0.33, 0.41])
-    log = RecordedLog(t, inc, stamps, stamps.copy(), np.zeros(3), {"odometry_noise": [1e-4, 1e-5, 1e-4]})
+    log = _arc_log(12, [0.12, 0.33, 0.41])
     every = interpolate_drive(prepare_drive(log, 0.0))
     # what remains of the offset is the arc's departure from the straight interpolation (its sagitta)
     np.testing.assert_allclose(every.refl_offset[:, 2], 0.0, atol=1e-15)
@@ -151,15 +146,10 @@ def test_in_step_slip_is_a_brownian_bridge_shared_by_the_bearings_of_one_step() 
     bearing moves with the heading alone): their in-step covariance is ``(min f − f_i f_j) C_ψψ``, i.e.
     0.1875, 0.1875 and 0.0625 times the step's heading variance; a reflection of the next step is
     independent of them."""
-    from agvnav.logs import RecordedLog
     from agvnav.mapping.drive import interpolate_drive, prepare_drive
     from agvnav.mapping.slam import MappingOptions, _step_noise, _used
 
-    n = 4
-    t = np.arange(n + 1) * 0.05
-    inc = np.column_stack([np.full(n, 0.02), np.full(n, 0.01), np.zeros(n)])
-    stamps = np.array([0.0625, 0.0875, 0.1125])
-    log = RecordedLog(t, inc, stamps, stamps.copy(), np.zeros(3), {"odometry_noise": [1e-4, 1e-5, 1e-4]})
+    log = _arc_log(4, [0.0625, 0.0875, 0.1125])
     d = interpolate_drive(prepare_drive(log, 0.0))
     poses = np.zeros((d.keyframe_t.size, 3))
     heads = np.zeros((3, 3))
@@ -176,3 +166,13 @@ def test_in_step_slip_is_a_brownian_bridge_shared_by_the_bearings_of_one_step() 
     W, _ = noise.whitener(1.0, 1.0, 3)
     cov = noise.covariance(1.0, 1.0)
     np.testing.assert_allclose((W.T @ W).toarray()[:2, :2], np.linalg.inv(cov[0]), rtol=1e-9)
+
+
+def _arc_log(n: int, stamps: list[float]):
+    """A log of ``n`` 50 ms odometry steps of 2 cm and 0.01 rad each, with reflections at ``stamps`` (s)."""
+    from agvnav.logs import RecordedLog
+
+    t = np.arange(n + 1) * 0.05
+    inc = np.column_stack([np.full(n, 0.02), np.full(n, 0.01), np.zeros(n)])
+    z = np.asarray(stamps, dtype=np.float64)
+    return RecordedLog(t, inc, z, z.copy(), np.zeros(3), {"odometry_noise": [1e-4, 1e-5, 1e-4]})

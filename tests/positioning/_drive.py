@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from agvnav.geometry import angle_diff
 from agvnav.kinematics.base import twist_step
 from agvnav.odometry import OdometryNoise
 from agvnav.positioning.estimator import StreamingEstimator
@@ -73,3 +74,20 @@ def feed(
             out_x.append(est.pose)
             out_p.append(est.covariance)
     return np.array(out_t), np.array(out_x), np.array(out_p)
+
+
+def drive_nees(est: StreamingEstimator, world: WorldMap, gon: Goniometer, start: np.ndarray, speed: float,
+               omega: float, seconds: float, dt: float, rng: np.random.Generator, noise: OdometryNoise,
+               bearing_noise: float, sample_every: int) -> np.ndarray:
+    """NEES (3 dof) of ``est`` at the sampled instants of a constant-arc drive from ``start``.
+
+    The drive is :func:`feed`'s with odometry read at every reflection (the filter sees no
+    extrapolation) and increment errors matched to ``noise``.
+    """
+    pose_at = arc_pose_at(start, speed, omega)
+    t, x, P = feed(est, world, gon, pose_at, speed, omega, seconds, dt, rng, noise, bearing_noise,
+                   sample_every=sample_every, odometry_at_reflections=True)
+    truth = pose_at(t)
+    e = x - truth
+    e[:, 2] = angle_diff(x[:, 2], truth[:, 2])
+    return np.einsum("ki,kij,kj->k", e, np.linalg.inv(P), e)

@@ -16,10 +16,10 @@ import dataclasses
 
 import numpy as np
 import pytest
-from _drive import arc_pose_at, feed
+from _drive import arc_pose_at, drive_nees
 from scipy.stats import chi2
 
-from agvnav.geometry import angle_diff, wrap_angle
+from agvnav.geometry import wrap_angle
 from agvnav.odometry import OdometryNoise, integrate_pose, motion_covariance, pose_jacobian
 from agvnav.positioning import _fast
 from agvnav.positioning.ekf import EkfEstimator
@@ -190,12 +190,7 @@ def _nees_runs(cls: type[EkfEstimator], n_runs: int, seconds: float, seed: int) 
             initial_pose=start + rng.multivariate_normal(np.zeros(3), P0), initial_covariance=P0,
             integrity=IntegrityLimits(enabled=False),
         )
-        pose_at = arc_pose_at(start, speed, omega)
-        t, x, P = feed(est, truth, gon, pose_at, speed, omega, seconds, dt, rng, noise, sigma,
-                       sample_every=25, odometry_at_reflections=True)
-        e = x - pose_at(t)
-        e[:, 2] = angle_diff(x[:, 2], pose_at(t)[:, 2])
-        out.append(np.einsum("ki,kij,kj->k", e, np.linalg.inv(P), e))
+        out.append(drive_nees(est, truth, gon, start, speed, omega, seconds, dt, rng, noise, sigma, 25))
     return np.array(out)
 
 

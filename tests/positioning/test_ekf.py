@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _drive import arc_pose_at, feed
+from _drive import arc_pose_at, drive_nees, feed
 from hypothesis import given
 from hypothesis import strategies as st
 from scipy.stats import chi2
@@ -81,27 +81,8 @@ def _nees_runs(n_runs: int, seconds: float, seed: int) -> np.ndarray:
             initial_pose=start + rng.multivariate_normal(np.zeros(3), P0),
             initial_covariance=P0,
         )
-        # odometry noise matched to the filter's Q on each increment (Crowley, seed 002 §3.2),
-        # odometry read at every reflection instant so the filter sees no extrapolation
-        pose_at = arc_pose_at(start, speed, omega)
-        t, x, P = feed(
-            est,
-            world,
-            gon,
-            pose_at,
-            speed,
-            omega,
-            seconds,
-            dt,
-            rng,
-            noise,
-            sigma,
-            sample_every=10,
-            odometry_at_reflections=True,
-        )
-        e = x - pose_at(t)
-        e[:, 2] = angle_diff(x[:, 2], pose_at(t)[:, 2])
-        out.append(np.einsum("ki,kij,kj->k", e, np.linalg.inv(P), e))
+        # odometry noise matched to the filter's Q on each increment (Crowley, seed 002 §3.2)
+        out.append(drive_nees(est, world, gon, start, speed, omega, seconds, dt, rng, noise, sigma, 10))
     return np.array(out)
 
 
