@@ -103,8 +103,9 @@ class MappingOptions:
     the redundancy traces (Hutchinson, fixed seed). bearing_offset : added to every bearing (rad);
     None: half an encoder pulse (``π / pulses_per_rev``, the head reports the last whole pulse passed,
     as the EKF corrects it), unless the log's settings state ``bearing_offset``.
-    gate_odometry_var : the front end's gate takes the odometry offset's heading variance times at least
-    this (the stated odometry noise: the gate must not trust dead reckoning inside a step more than it).
+    gate_odometry_var : the front end's gate takes the odometry offset's heading variance inside the step times at
+    least this (the stated odometry noise: the gate must not trust dead reckoning inside a step more than it); the
+    heading dead-reckoned since the last window solution enters at the windows' estimated factor of the noise.
     front_calibration : the front end also solves the heading rate and turn scale per window.
     heading_rate_std, turn_scale_std : std of the zero-mean priors on the odometry's systematic heading
     rate (rad/m) and turn scale estimated in the batch (:mod:`agvnav.mapping.graph`).
@@ -618,6 +619,11 @@ def front_end(log: Any, start: F64 | None = None, options: MappingOptions | None
     prior_cov = None if rpriors is None else np.linalg.inv(np.einsum("nji,njk->nik", rpriors.W, rpriors.W))
     assoc = np.full(B, -1, dtype=np.int64)
     solved_to = 0
+    # the last keyframe a window solution placed (the start pose: given); later ones are dead-reckoned
+    fixed_to = 0
+    # heading variance of the odometry from keyframe 0 to each keyframe (rad², stated noise): heading
+    # composes additively, so the dead-reckoned heading's variance since keyframe a is a difference
+    head_var_cum = np.concatenate([[0.0], np.cumsum(drive.between_cov[:, 2, 2] - ODOMETRY_FLOOR[2])])
     lam_o = opt.front_odometry_var
     calib = (0.0, 0.0)
     offd = drive.refl_offset_dist if drive.refl_offset_dist is not None else np.zeros(B)
@@ -638,9 +644,16 @@ def front_end(log: Any, start: F64 | None = None, options: MappingOptions | None
                 lcov = ray_covariances(h_done, assoc[done], landmarks, opt.front_sigma, prior_cov)
             heads = head_poses(poses, drive.refl_keyframe[idx], drive.refl_offset[idx], drive.mount, 1.0, offd[idx],
                                calib)
-            # gate on the bearing's own std: the encoder's and the odometry offset's heading inside the keyframe
-            # step (a differential AGV's wheel slip turns it by milliradians within a step)
-            sig_idx = np.sqrt(sigma ** 2 + drive.refl_offset_cov[idx, 2, 2] * max(lam_o, opt.gate_odometry_var))
+            # gate on the bearing's own std: the encoder's, the heading dead-reckoned since the last keyframe a window
+            # solution placed (up to a chunk of odometry; the stated random noise [seed002 eq17] times the factor
+            # lam_o the windows estimate for it) and the offset inside the keyframe step (at least the stated noise).
+            # With a keyframe at every odometry instant the offset alone covers one partial step: the differential
+            # AGV's stated heading noise (8e-4 rad²/m) gives ~20 mrad over the chunk's 0.5 m, and its reflections fell
+            # outside a gate of the partial step's ~3 mrad and became false reflectors (issue 17). At the stated
+            # noise instead of lam_o, the lab's loose default noise widened its gate into wrong associations.
+            dr_var = head_var_cum[drive.refl_keyframe[idx]] - head_var_cum[min(fixed_to, K - 1)]
+            sig_idx = np.sqrt(sigma ** 2 + np.maximum(dr_var, 0.0) * lam_o
+                              + drive.refl_offset_cov[idx, 2, 2] * max(lam_o, opt.gate_odometry_var))
             a = associate(drive.bearing[idx], heads, landmarks, opt.radius, sig_idx, opt.gate_sigma,
                           opt.position_tol, max_range, opt.direction, lcov if opt.use_lcov else None)
             assoc[idx] = a
@@ -681,6 +694,7 @@ def front_end(log: Any, start: F64 | None = None, options: MappingOptions | None
                 lam_o = float(np.clip(lam_o * float(e[:n_o] @ e[:n_o]) / max(n_o * red, 1.0), 1e-4, 10.0))
             p, landmarks, _ = g.unpack(sol.x)
             poses[k0:n] = p
+            fixed_to = n - 1
             landmarks, assoc, ids = _merge(landmarks.copy(), assoc, ids, opt.merge_distance)
         solved_to = k_hi
     return FrontEnd(drive, poses, landmarks, assoc, ids, np.full(B, sigma), max_range, time.perf_counter() - t0,
