@@ -11,7 +11,7 @@ import pytest
 from agvnav import _jit
 from agvnav.geometry import wrap_angle
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
-from agvnav.positioning.gating import near_rows
+from agvnav.positioning.gating import BearingIndex, GateSpec, near_rows
 from agvnav.positioning.integrity import _best_triple_kernel, _fde_statistics, _information_sums, _window_tally
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
@@ -100,6 +100,13 @@ def _random_outputs() -> dict[str, list[bytes]]:
         np.asarray(hermite_poses(rng.normal(size=(4, 3)), 0.0, 0.05, rng.uniform(-0.01, 0.06, 1_000))).tobytes()
         for _ in range(100)
     ]
+    spec = GateSpec(1e-8, 15.0, 10.83, 0.005, 0.09)  # grid_rows (and _visit_box) through the index
+    index = BearingIndex(np.column_stack([rx[:500], ry[:500]]), r[:500] * 0.2, (0.3, 0.1, 0.2), spec)
+    P = (1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-5)
+    out["grid_rows"] = [
+        np.asarray(index.candidates(float(z), (float(x), float(y), float(p)), P)).tobytes()
+        for x, y, p, z in rng.uniform(-10, 10, (200, 4))
+    ]
     fits = []
     for _ in range(300):  # the RAIM's weighted least-squares fits, every row left out in turn
         n = int(rng.integers(4, 16))
@@ -138,7 +145,7 @@ def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
     for name, got in compiled.items():
         assert got == interpreted[name], name
     tested = {"wrap_angle_scalar", "offset_one", "offsets_at", "grid_crossings", "wrapped_offsets", "line_of_sight",
-              "_hits_wall", "_hits_disc", "near_rows", "hermite_poses", "_fde_statistics", "_solve_augmented",
+              "_hits_wall", "_hits_disc", "near_rows", "near_one", "grid_rows", "_visit_box", "hermite_poses", "_fde_statistics", "_solve_augmented",
               "_normal_equations",
               "_best_triple_kernel", "_position_crlb_one", "_window_tally",
               "_information_sums"}
@@ -164,9 +171,12 @@ def test_mode_switches_and_environment_wins(monkeypatch: pytest.MonkeyPatch) -> 
     monkeypatch.setenv("AGVNAV_JIT", "1")
     _jit.set_compiled(False)
     assert _jit.compiled()
+    monkeypatch.setenv("AGVNAV_JIT", "0")
+    assert _jit.compiled()  # the environment is read when the mode is resolved, not on every call
     monkeypatch.setenv("AGVNAV_JIT", "maybe")
     with pytest.raises(ValueError, match="AGVNAV_JIT"):
-        _jit.compiled()
+        _jit.set_compiled(True)
+    monkeypatch.delenv("AGVNAV_JIT")
 
 
 def test_set_compiled_for_run_picks_by_work() -> None:

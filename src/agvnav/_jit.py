@@ -32,8 +32,10 @@ own file changes or ``__pycache__`` is cleared; ``tests/test_jit.py`` then fails
 modes differ), which is how such a stale cache shows.
 
 The mode is ``AGVNAV_JIT=0`` / ``1`` from the environment when set, else compiled unless
-a caller said otherwise (:func:`set_compiled`). numba is never imported by
-``import agvnav``, the CLI's ``--help`` or an interpreted run.
+a caller said otherwise (:func:`set_compiled`). It is resolved once, at the first call of
+:func:`compiled` and again at each :func:`set_compiled` (the environment is read then, not
+on every call: the closed loop asks for the mode a few times per step). numba is never
+imported by ``import agvnav``, the CLI's ``--help`` or an interpreted run.
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ F = TypeVar("F", bound=Callable[..., Any])
 _ENV = "AGVNAV_JIT"
 _KERNELS: list[Kernel] = []
 _state: dict[str, bool] = {}
+_mode: list[bool] = []  # the resolved mode (empty until the first compiled() or set_compiled())
 
 
 def _env_mode() -> bool | None:
@@ -64,21 +67,31 @@ def _env_mode() -> bool | None:
     raise ValueError(f"{_ENV}={value!r}: expected 0 or 1")
 
 
-def compiled() -> bool:
-    """Whether this process runs the kernels compiled (numba) rather than as plain Python."""
+def _resolve() -> bool:
+    """The mode from ``AGVNAV_JIT`` (when set) or the last :func:`set_compiled` (default compiled), kept."""
     env = _env_mode()
-    if env is not None:
-        return env
-    return _state.get("compiled", True)
+    mode = env if env is not None else _state.get("compiled", True)
+    _mode[:] = [mode]
+    return mode
+
+
+def compiled() -> bool:
+    """Whether this process runs the kernels compiled (numba) rather than as plain Python.
+
+    Resolved at the first call and at each :func:`set_compiled` (``AGVNAV_JIT`` is read then).
+    """
+    return _mode[0] if _mode else _resolve()
 
 
 def set_compiled(on: bool) -> None:
     """Run every kernel compiled (``True``, numba) or interpreted (``False``) from now on.
 
-    ``AGVNAV_JIT`` in the environment wins over this call. Switching is allowed at any
-    time (each kernel resolves again on its next call); results are the same either way.
+    ``AGVNAV_JIT`` in the environment wins over this call (read now: a malformed value raises
+    ValueError here). Switching is allowed at any time (each kernel resolves again on its next
+    call); results are the same either way.
     """
     _state["compiled"] = bool(on)
+    _resolve()
     for k in _KERNELS:
         k._impl = None
 

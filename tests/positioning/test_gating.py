@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from agvnav.positioning import _fast, make_estimator
 from agvnav.positioning import estimator as estimator_module
-from agvnav.positioning.gating import INDEX_MIN_REFLECTORS, BearingIndex, GateSpec
+from agvnav.positioning.gating import INDEX_MIN_REFLECTORS, BearingIndex, GateSpec, grid_rows, near_rows
 from agvnav.positioning.identification import bearing_model, measurement_variance
 from agvnav.positioning.integrity import IntegrityLimits
 from agvnav.world import Reflector, WorldMap
@@ -76,6 +76,61 @@ def test_candidates_hold_every_reflector_inside_the_gate(seed: int, n: int, hit:
     candidates = BearingIndex(xy, radius, mount, spec).candidates(z, pose, P)
     assert inside <= set(candidates)
     assert candidates == sorted(candidates)
+
+
+def _grid_and_plain(index: BearingIndex, hx: float, hy: float, beam: float, a4: float, b4: float,
+                    max_range: float) -> tuple[list[int], list[int]]:
+    g = index._grid
+    args = (index._rx, index._ry, index._r2, index._half_pi_r, hx, hy, beam, a4, b4, max_range)
+    grid = grid_rows(g.start, g.rows, g.x0, g.y0, g.cell, g.nx, g.ny, *args, index._r_max).tolist()
+    return grid, near_rows(*args).tolist()
+
+
+@settings(max_examples=300, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 300), hit=st.booleans())
+def test_the_grid_returns_exactly_the_rows_of_the_plain_pass(seed: int, n: int, hit: bool) -> None:
+    """grid_rows searches a disc and a strip along the beam: the rows of near_rows, no more, no fewer."""
+    xy, radius, pose, _, mount, z, spec, _ = _case(seed, n, hit)
+    rng = np.random.default_rng(seed)
+    index = BearingIndex(xy, radius, mount, spec)
+    for _ in range(5):  # gates from a few mrad (the strip) to over a radian (the plain pass)
+        a4, b4 = 10.0 ** rng.uniform(-9.0, 0.5), 10.0 ** rng.uniform(-8.0, 1.0)
+        beam = z + pose[2] + mount[2] + float(rng.normal(0.0, 0.05))
+        grid, plain = _grid_and_plain(index, pose[0], pose[1], beam, a4, b4, spec.max_range)
+        assert grid == plain
+
+
+def test_the_grid_searches_few_cells_on_the_bench_map(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The 256 reflectors of bench speed's lab: a narrow gate takes the strip, not the plain pass, and agrees."""
+    from agvnav import _jit
+    from agvnav.bench.speed import reflector_map
+    from agvnav.positioning import gating
+
+    refl = reflector_map(256)["reflectors"]
+    xy = np.array([[r["x"], r["y"]] for r in refl])
+    spec = GateSpec(bearing_var=1e-8, max_range=30.0, gate=10.83, map_std=0.005, sweep=0.09)
+    index = BearingIndex(xy, np.full(len(refl), 0.04), (0.3, 0.0, 0.0), spec)
+    g = index._grid
+    assert g.nx * g.ny < 256 and g.rows.tolist() != list(range(256))  # a real grid, rows sorted by cell
+    rng = np.random.default_rng(1)
+    cases = rng.uniform([1.0, 1.0, -4.0], [19.0, 11.0, 4.0], (200, 3))
+    a4, b4 = 4.0 * 10.83 * 1e-6, 4.0 * 10.83 * 3e-4
+    plain = [near_rows(index._rx, index._ry, index._r2, index._half_pi_r, hx, hy, beam, a4, b4, 30.0).tolist()
+             for hx, hy, beam in cases]
+
+    def no_plain_pass(*args: object) -> None:
+        raise AssertionError("grid_rows fell back to the plain pass")
+
+    before = _jit.compiled()
+    _jit.set_compiled(False)  # interpreted, grid_rows finds its fallback in the module: patched to fail here
+    monkeypatch.setattr(gating, "near_rows", no_plain_pass)
+    try:
+        grid = [grid_rows(g.start, g.rows, g.x0, g.y0, g.cell, g.nx, g.ny, index._rx, index._ry, index._r2,
+                          index._half_pi_r, hx, hy, beam, a4, b4, 30.0, index._r_max).tolist()
+                for hx, hy, beam in cases]
+    finally:
+        _jit.set_compiled(before)
+    assert grid == plain and min(len(p) for p in plain) >= 1
 
 
 def _fast_wrap_all(a: np.ndarray) -> list[float]:

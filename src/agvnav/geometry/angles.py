@@ -78,6 +78,8 @@ def wrap_angle_scalar(angle: float) -> float:
     >>> wrap_angle_scalar(math.pi), wrap_angle_scalar(7.0) == 7.0 - TWO_PI
     (-3.141592653589793, True)
     """
+    if -PI <= angle < PI:  # already wrapped (most calls): fmod would return it unchanged
+        return float(angle)
     if not -_INF < angle < _INF:  # NaN: itself (its bits, as fmod keeps them); +-inf (math.fmod raises): NaN
         return float(angle) if angle != angle else math.nan
     r = math.fmod(angle, TWO_PI)  # exact, in (-2 pi, 2 pi), sign of angle

@@ -7,12 +7,29 @@ reflector in Python, that gate costs about 2 us per reflector and per reflection
 the reflections per second grow with the number of reflectors too: the cost of a run
 grows as N^2 (issue 11: 46x real time at N = 64, 5x at N = 256).
 
-:class:`BearingIndex` finds, with one compiled pass over the map (:func:`near_rows`), the few
-reflectors whose predicted leading-edge bearing lies close enough to the measured one to
-possibly pass the gate -- within a bound on ``sqrt(gate S)`` of the reflector's predicted
-edge, i.e. a few sigma plus the reflector's angular radius ``asin(r / d)``. Only those go
-through the exact scalar gate, so the accepted association is the one the full loop
-gives (a test compares both on random maps).
+:class:`BearingIndex` finds the few reflectors whose predicted leading-edge bearing lies
+close enough to the measured one to possibly pass the gate -- within a bound on
+``sqrt(gate S)`` of the reflector's predicted edge, i.e. a few sigma plus the reflector's
+angular radius ``asin(r / d)`` (the test of :func:`near_rows`, one compiled pass over the
+map). Only those go through the exact scalar gate, so the accepted association is the one
+the full loop gives (a test compares both on random maps).
+
+Sub-linear in the map (issue 11: ``near_rows`` at N = 256 cost ~15-20 us per reflection,
+~70 reflections per step): :func:`grid_rows` applies the same per-reflector test
+(:func:`near_one`) only to the reflectors of the cells of a uniform grid that a strip along
+the beam covers, and returns exactly the rows :func:`near_rows` returns (tested). The strip:
+a reflector that passes at distance ``d > D`` from the head, ``D >= 2 r_max``, has
+``|w| < window(d) <= sqrt(a4) + (k sqrt(b4) + (pi / 2) r_max) / d`` with ``k = 2 / sqrt(3)``
+(``d / sqrt(d^2 - r^2) <= k``); with ``D = max(2 r_max, 2 (k sqrt(b4) + (pi / 2) r_max))``
+that is below ``sqrt(a4) + 1/2``, so while ``sqrt(a4) < 1`` the angle stays below ``pi / 2``
+and the reflector lies ahead of the head, ``0 <= a = d cos w <= L`` along the beam (``L`` the
+range, or the farthest corner of the map), and beside it ``|d sin w| <= d window(d) <=
+L sqrt(a4) + k sqrt(b4) + (pi / 2) r_max = W``. Every reflector that passes therefore lies in
+the disc ``d <= D`` or in the strip ``[0, L] x [-W, W]`` along the beam; the grid covers the
+disc with one square and the strip with squares of half-side ``W + c / 2`` centred every
+``c`` along the beam (``c`` the cell side), both widened by a relative 1e-9. Wider gates
+(``sqrt(a4) >= 1``, e.g. the first fixes) or strips that would cover the map take the
+plain pass.
 
 The bound: the innovation is ``y = wrap(c + asin(r / d))`` with ``c = wrap(z - atan2(R - P)
 + psi_P)`` the innovation of the reflector's centre, so ``|y| >= |c| - asin(r / d)`` and
@@ -42,7 +59,7 @@ from numpy.typing import ArrayLike, NDArray
 from agvnav._jit import jit
 from agvnav.geometry.angles import wrap_angle_kernel
 
-__all__ = ["INDEX_MIN_REFLECTORS", "BearingIndex", "GateSpec", "near_rows"]
+__all__ = ["INDEX_MIN_REFLECTORS", "BearingIndex", "GateSpec", "grid_rows", "near_one", "near_rows"]
 
 
 #: Maps with at least this many reflectors use :class:`BearingIndex`; below it the plain
@@ -86,8 +103,43 @@ class GateSpec:
     consider: bool = False
 
 
+@dataclass(frozen=True, eq=False)
+class _Grid:
+    """A uniform grid over the reflector centres, cells in compressed rows (CSR).
+
+    Cell ``(ix, iy)`` (``ix = floor((x - x0) / cell)`` clipped to ``[0, nx)``, likewise ``iy``) is
+    ``iy * nx + ix``; its reflector rows, ascending, are ``rows[start[k]:start[k + 1]]``.
+    """
+
+    start: NDArray[np.int64]
+    rows: NDArray[np.int64]
+    x0: float
+    y0: float
+    cell: float
+    nx: int
+    ny: int
+
+    @classmethod
+    def of(cls, rx: NDArray[np.float64], ry: NDArray[np.float64]) -> _Grid:
+        """About two reflectors per cell of a map spread over an area (cell side ``2 sqrt(area / N)``)."""
+        n = rx.shape[0]
+        if n == 0:
+            return cls(np.zeros(2, np.int64), np.zeros(0, np.int64), 0.0, 0.0, 1.0, 1, 1)
+        x0, y0 = float(rx.min()), float(ry.min())
+        ex, ey = float(rx.max()) - x0, float(ry.max()) - y0
+        floor = max(ex, ey, 1e-6) / max(n, 1)
+        cell = max(2.0 * math.sqrt(max(ex, floor) * max(ey, floor) / n), max(ex, ey) / 64.0, 1e-6)
+        nx, ny = int(ex / cell) + 1, int(ey / cell) + 1
+        ix = np.clip(np.floor((rx - x0) / cell).astype(np.int64), 0, nx - 1)
+        iy = np.clip(np.floor((ry - y0) / cell).astype(np.int64), 0, ny - 1)
+        key = iy * nx + ix
+        rows = np.argsort(key, kind="stable").astype(np.int64)  # by cell, rows ascending inside a cell
+        start = np.searchsorted(key[rows], np.arange(nx * ny + 1)).astype(np.int64)
+        return cls(start, rows, x0, y0, cell, nx, ny)
+
+
 class BearingIndex:
-    """Vectorised pre-selection of the reflectors that may lie inside one bearing's gate.
+    """Pre-selection of the reflectors that may lie inside one bearing's gate (a grid, :func:`grid_rows`).
 
     Parameters
     ----------
@@ -112,6 +164,8 @@ class BearingIndex:
         self._mount = (mx, my, mth)
         self._mount_norm = math.hypot(mx, my)
         self._spec = spec
+        self._grid = _Grid.of(self._rx, self._ry)
+        self._r_max = float(self._r.max()) if self._r.size else 0.0
 
     def candidates(self, z: float, pose: tuple[float, ...], P: tuple[float, ...]) -> list[int]:
         """Rows (ascending) of the reflectors in range that the gate of bearing ``z`` may admit.
@@ -129,11 +183,38 @@ class BearingIndex:
         b4 = 4.0 * spec.gate * (spec.map_std**2 + 2.0 * var_xy + 4.0 * self._mount_norm**2 * var_psi)
         if spec.consider:  # the consider gate's S is bounded by 2 S_max (GateSpec)
             a4, b4 = 2.0 * a4, 2.0 * b4
-        rows = near_rows(
+        g = self._grid
+        rows = grid_rows(
+            g.start, g.rows, g.x0, g.y0, g.cell, g.nx, g.ny,
             self._rx, self._ry, self._r2, self._half_pi_r, x + c * mx - s * my, y + s * mx + c * my,
-            z + psi + mth, a4, b4, spec.max_range,
+            z + psi + mth, a4, b4, spec.max_range, self._r_max,
         )
         return rows.tolist()
+
+
+@jit
+def near_one(
+    j: int, rx: NDArray[np.float64], ry: NDArray[np.float64], r2: NDArray[np.float64],
+    half_pi_r: NDArray[np.float64], hx: float, hy: float, beam: float, a4: float, b4: float, max_range: float,
+) -> bool:
+    """Whether reflector ``j`` is within ``max_range`` (m) of the head ``(hx, hy)`` (m) and its centre
+    within the gate bound of the absolute bearing ``beam`` (rad; see the module docstring).
+
+    ``r2`` the squared radii (m^2), ``half_pi_r`` ``(pi / 2) r`` (m), ``4 gate S_max = a4 + b4 g``
+    with ``g = 1 / (d^2 - r^2)``. A head inside a reflector (``d^2 <= r^2``) keeps it.
+    """
+    dx, dy = rx[j] - hx, ry[j] - hy
+    d2 = dx * dx + dy * dy
+    d = math.sqrt(d2)
+    if not d <= max_range:
+        return False
+    e = d2 - r2[j]
+    if e > 0.0:
+        window = math.sqrt(a4 + b4 / max(e, 1e-300)) + half_pi_r[j] / max(d, 1e-300)
+        w = wrap_angle_kernel(beam - math.atan2(dy, dx))
+        if not abs(w) < window:
+            return False
+    return True  # inside a reflector (e <= 0) it always stays a candidate
 
 
 @jit
@@ -141,28 +222,90 @@ def near_rows(
     rx: NDArray[np.float64], ry: NDArray[np.float64], r2: NDArray[np.float64], half_pi_r: NDArray[np.float64],
     hx: float, hy: float, beam: float, a4: float, b4: float, max_range: float,
 ) -> NDArray[np.int64]:
-    """Rows (ascending) of the reflectors within ``max_range`` (m) of the head ``(hx, hy)`` (m) whose
-    centre lies within the gate bound of the absolute bearing ``beam`` (rad; see the module docstring).
+    """Rows (ascending) of the reflectors that pass :func:`near_one`, one compiled pass over the map.
 
-    ``r2`` the squared radii (m^2), ``half_pi_r`` ``(pi / 2) r`` (m), ``4 gate S_max = a4 + b4 g``
-    with ``g = 1 / (d^2 - r^2)``. A compiled loop over the map (:mod:`agvnav._jit`): one pass,
-    no per-call NumPy temporaries (it was ~20 NumPy calls per reflection).
+    Arguments as :func:`near_one`. The reference of :func:`grid_rows` (which returns the same rows)
+    and its fallback for wide gates.
     """
     n = rx.shape[0]
     out = np.empty(n, np.int64)
     c = 0
     for j in range(n):
-        dx, dy = rx[j] - hx, ry[j] - hy
-        d2 = dx * dx + dy * dy
-        d = math.sqrt(d2)
-        if not d <= max_range:
-            continue
-        e = d2 - r2[j]
-        if e > 0.0:
-            window = math.sqrt(a4 + b4 / max(e, 1e-300)) + half_pi_r[j] / max(d, 1e-300)
-            w = wrap_angle_kernel(beam - math.atan2(dy, dx))
-            if not abs(w) < window:
-                continue
-        out[c] = j  # inside a reflector (e <= 0) it always stays a candidate
-        c += 1
+        if near_one(j, rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range):
+            out[c] = j
+            c += 1
     return out[:c]
+
+
+#: ``2 / sqrt(3)``: ``d / sqrt(d^2 - r^2)`` at most, for ``d >= 2 r`` (module docstring).
+_K0 = 2.0 / math.sqrt(3.0)
+_SLACK = 1e-9  # relative widening of the disc and the strip: far above rounding, far below a cell
+
+
+@jit
+def _visit_box(
+    start: NDArray[np.int64], rows: NDArray[np.int64], x0: float, y0: float, cell: float, nx: int, ny: int,
+    cx: float, cy: float, half: float, seen: NDArray[np.bool_], out: NDArray[np.int64], c: int,
+    rx: NDArray[np.float64], ry: NDArray[np.float64], r2: NDArray[np.float64], half_pi_r: NDArray[np.float64],
+    hx: float, hy: float, beam: float, a4: float, b4: float, max_range: float,
+) -> int:
+    """:func:`near_one` on the rows of the cells not yet ``seen`` that overlap the square ``c +- half``;
+    appends the rows that pass to ``out`` from index ``c`` and returns the new count."""
+    ix_lo, ix_hi = math.floor((cx - half - x0) / cell), math.floor((cx + half - x0) / cell)
+    iy_lo, iy_hi = math.floor((cy - half - y0) / cell), math.floor((cy + half - y0) / cell)
+    if ix_hi < 0 or iy_hi < 0 or ix_lo > nx - 1 or iy_lo > ny - 1:
+        return c
+    for iy in range(max(iy_lo, 0), min(iy_hi, ny - 1) + 1):
+        for ix in range(max(ix_lo, 0), min(ix_hi, nx - 1) + 1):
+            k = iy * nx + ix
+            if seen[k]:
+                continue
+            seen[k] = True
+            for m in range(start[k], start[k + 1]):
+                j = rows[m]
+                if near_one(j, rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range):
+                    out[c] = j
+                    c += 1
+    return c
+
+
+@jit
+def grid_rows(
+    start: NDArray[np.int64], rows: NDArray[np.int64], x0: float, y0: float, cell: float, nx: int, ny: int,
+    rx: NDArray[np.float64], ry: NDArray[np.float64], r2: NDArray[np.float64], half_pi_r: NDArray[np.float64],
+    hx: float, hy: float, beam: float, a4: float, b4: float, max_range: float, r_max: float,
+) -> NDArray[np.int64]:
+    """:func:`near_rows`'s rows (ascending, the same ones), testing only the reflectors near the beam.
+
+    The grid (``start``, ``rows``: cells in CSR, origin ``(x0, y0)`` (m), side ``cell`` (m),
+    ``nx * ny`` cells; see :class:`BearingIndex`) is searched in the disc of radius ``D`` around
+    the head and the strip of half-width ``W`` along the beam (the module docstring derives both
+    from ``a4``, ``b4`` and the largest radius ``r_max`` (m)); other arguments as :func:`near_one`.
+    Falls back to :func:`near_rows` when the gate is too wide for the strip or the strip would
+    cover about as many cells as the grid has.
+    """
+    sa, sb = math.sqrt(a4), math.sqrt(b4)
+    n_cells = nx * ny
+    if not sa < 1.0:
+        return near_rows(rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range)
+    far = 0.0  # the farthest corner of the grid from the head: no reflector lies beyond
+    for gx in (x0, x0 + nx * cell):
+        for gy in (y0, y0 + ny * cell):
+            far = max(far, math.sqrt((gx - hx) * (gx - hx) + (gy - hy) * (gy - hy)))
+    length = min(max_range, far)
+    lateral = _K0 * sb + 0.5 * math.pi * r_max
+    disc = max(2.0 * r_max, 2.0 * lateral) * (1.0 + _SLACK) + _SLACK
+    half = (length * sa + lateral) * (1.0 + _SLACK) + _SLACK + 0.5 * cell
+    n_steps = int(length / cell) + 2  # squares every cell from a = 0 to a >= length
+    if not n_steps * (2.0 * half / cell + 2.0) < n_cells:  # cells the strip covers (consecutive squares overlap)
+        return near_rows(rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range)
+    seen = np.zeros(n_cells, np.bool_)
+    out = np.empty(rx.shape[0], np.int64)
+    c = _visit_box(start, rows, x0, y0, cell, nx, ny, hx, hy, disc, seen, out, 0,
+                   rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range)
+    ux, uy = math.cos(beam), math.sin(beam)
+    for k in range(n_steps):
+        a = k * cell
+        c = _visit_box(start, rows, x0, y0, cell, nx, ny, hx + a * ux, hy + a * uy, half, seen, out, c,
+                       rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range)
+    return np.sort(out[:c])
