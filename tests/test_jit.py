@@ -80,6 +80,32 @@ def _random_outputs() -> dict[str, list[bytes]]:
         out[f"grid_crossings {direction}"] = [
             a.tobytes() for a in beam.grid_crossings(grid, gpose, rx[:60], ry[:60], r[:60], *head)
         ]
+        interval, refl, f_lo, f_hi = beam.grid_crossings(grid, gpose, rx[:60], ry[:60], r[:60], *head)
+        start = beam.chord_brackets(grid, interval, f_lo, f_hi, refl, rx[:60], ry[:60], r[:60])
+        out[f"chord_brackets {direction}"] = [a.tobytes() for a in start]
+        lo, hi, slope, t1, trx, try_, tr, _ = start
+        tpose = np.column_stack([lo * 0.1, hi * 0.2, lo])  # any finite poses at the chord instants
+        for tol in (1e-10, 10.0):  # not converged (the next instants) and converged (the same ones)
+            done, *arrays = beam.chord_step(t1, tpose, trx, try_, tr, *head[:4], direction, slope, lo, hi, tol)
+            out[f"chord_step {direction} {tol}"] = [str(bool(done)).encode(), *(a.tobytes() for a in arrays)]
+    from agvnav.world import load_builtin_map
+
+    lab = load_builtin_map("lab")
+    seg = lab.wall_segments
+    walls = (seg[:, 0, 0].copy(), seg[:, 0, 1].copy(), seg[:, 1, 0] - seg[:, 0, 0], seg[:, 1, 1] - seg[:, 0, 1])
+    lx, ly = lab.reflector_xy[:, 0].copy(), lab.reflector_xy[:, 1].copy()
+    scans = []
+    for k in range(400):  # scan_hermite (and _finite_poses) on random steps through the lab
+        p0 = np.array([rng.uniform(2.0, 18.0), rng.uniform(2.0, 10.0), rng.uniform(-4.0, 4.0)])
+        table = np.array([p0, rng.normal(0.0, 0.05, 3), p0 + rng.normal(0.0, 0.04, 3), rng.normal(0.0, 0.05, 3)])
+        grid = np.linspace(0.05 * k, 0.05 * k + 0.05, 3)
+        status, ts, rs = beam.scan_hermite(table, 0.05 * k, 0.05, grid, lx, ly, lab.reflector_radius, 0.3, 0.0,
+                                           0.0, 2.0 * math.pi * 8.0, 1, *walls, 0.0, 30.0, 8.0, 1e-10, 2.2e-16, 6)
+        scans += [str(status).encode(), ts.tobytes(), rs.tobytes()]
+    out["scan_hermite"] = scans
+    ts = np.round(rng.uniform(0.0, 1.0, 300), 2)  # ties: a stable sort keeps their order
+    picked = beam.seen_in_order(ts, np.arange(300, dtype=np.int64), rng.uniform(size=300) < 0.7)
+    out["seen_in_order"] = [a.tobytes() for a in picked]
     angles = np.concatenate([rng.uniform(-50.0, 50.0, 100_000), [math.pi, -math.pi, 3 * math.pi, 0.0, -0.0, 1e-300]])
     out["wrap_angle_kernel"] = [np.array([wrap_angle_kernel(float(a)) for a in angles[:20_000]]).tobytes()]
     f, worst = beam.wrapped_offsets(angles)
@@ -145,9 +171,9 @@ def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
     for name, got in compiled.items():
         assert got == interpreted[name], name
     tested = {"wrap_angle_scalar", "offset_one", "offsets_at", "grid_crossings", "wrapped_offsets", "line_of_sight",
-              "_hits_wall", "_hits_disc", "near_rows", "near_one", "grid_rows", "_visit_box", "hermite_poses", "_fde_statistics", "_solve_augmented",
-              "_normal_equations",
-              "_best_triple_kernel", "_position_crlb_one", "_window_tally",
+              "_hits_wall", "_hits_disc", "near_rows", "near_one", "grid_rows", "_visit_box", "chord_brackets",
+              "chord_step", "seen_in_order", "scan_hermite", "_finite_poses", "hermite_poses", "_fde_statistics",
+              "_solve_augmented", "_normal_equations", "_best_triple_kernel", "_position_crlb_one", "_window_tally",
               "_information_sums"}
     known = {k.py_func.__name__ for k in _jit.kernels()}
     assert known <= tested, f"kernels without a bit-for-bit test here: {sorted(known - tested)}"

@@ -27,8 +27,9 @@ by design: where ``math`` raises ``ValueError`` on a non-finite or out-of-domain
 
 numba's on-disk cache keys a kernel on its own source file only: a kernel that calls one in
 another file (``wrap_angle_kernel`` of ``geometry.angles`` from ``sensors.beam`` and
-``positioning.gating``) keeps stale machine code after an edit of the callee alone until its
-own file changes or ``__pycache__`` is cleared; ``tests/test_jit.py`` then fails (the two
+``positioning.gating``, ``hermite_poses`` of ``geometry.hermite`` from ``sensors.beam``) keeps
+stale machine code after an edit of the callee alone until its own file changes or ``__pycache__``
+is cleared; ``tests/test_jit.py`` then fails (the two
 modes differ), which is how such a stale cache shows.
 
 The mode is ``AGVNAV_JIT=0`` / ``1`` from the environment when set, else compiled unless

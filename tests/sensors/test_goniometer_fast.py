@@ -51,3 +51,62 @@ def test_compiled_crossings_solve_the_crossing_equation() -> None:
     np.testing.assert_allclose(wrap_angle(beam - edge), 0.0, atol=1e-9)
     # the quantised bearing is the encoder reading at that instant, one step below the beam
     assert np.all(wrap_angle(beam - out.bearing) < g.resolution + 1e-12)
+
+
+def test_seen_in_order_is_the_stable_argsort_of_the_seen_crossings() -> None:
+    """The scan's last step: the seen crossings in time order, equal instants in their order (as argsort stable)."""
+    from agvnav.sensors.beam import seen_in_order
+
+    rng = np.random.default_rng(4)
+    for n in (0, 1, 2, 5, 40):
+        t = np.round(rng.uniform(0.0, 0.05, n), 3)  # rounded: ties
+        refl, seen = rng.integers(0, 9, n).astype(np.int64), rng.uniform(size=n) < 0.7
+        order = np.argsort(t[seen], kind="stable")
+        ts, rs = seen_in_order(t, refl, seen)
+        np.testing.assert_array_equal(ts, t[seen][order])
+        np.testing.assert_array_equal(rs, refl[seen][order])
+
+
+def test_chord_step_clips_to_the_bracket_and_stops_within_tolerance() -> None:
+    """One chord iteration: converged instants come back unchanged, the others move by -f/slope inside [lo, hi]."""
+    from agvnav.sensors.beam import chord_step, offsets_at
+
+    t = np.array([0.01, 0.02, 0.03])
+    pose = np.zeros((3, 3))
+    rx, ry, r = np.array([3.0, 0.0, -2.0]), np.array([0.5, 4.0, -1.0]), np.full(3, 0.04)
+    head = (0.0, 0.0, 0.0, 2.0 * np.pi * 8.0)
+    lo, hi, slope = t - 0.005, t + 0.005, np.full(3, 2.0 * np.pi * 8.0)
+    raw = offsets_at(t, pose, rx, ry, r, *head, 1)[0]
+    f = wrap_angle(raw)
+    done, nxt, *_ = chord_step(t, pose, rx, ry, r, *head, 1, slope, lo, hi, 1e-10)
+    assert not done
+    np.testing.assert_array_equal(nxt, np.minimum(np.maximum(t - f / slope, lo), hi))
+    done, same, *_ = chord_step(t, pose, rx, ry, r, *head, 1, slope, lo, hi, 10.0)
+    assert done and np.array_equal(same, t)
+
+
+@pytest.mark.parametrize("mount, direction", [((0.3, 0.0, 0.0), 1), ((0.2, -0.1, 0.4), -1)])
+def test_the_fused_hermite_scan_equals_the_generic_scan(mount: tuple, direction: int) -> None:
+    """scan_hermite (one compiled call) gives the generic path's reflections bit for bit, and its errors."""
+    from agvnav import _jit
+    from agvnav.geometry.hermite import HermitePoses
+
+    world = load_builtin_map("lab")
+    g = Goniometer(mount=mount, direction=direction, p_miss=0.1, spurious_rate=0.5, jitter_std=1e-4)
+    rng = np.random.default_rng(2)
+    before = _jit.compiled()
+    _jit.set_compiled(True)
+    try:
+        for k in range(120):  # a wandering drive through the lab, 0.05 s steps
+            t0 = 0.05 * k
+            p0 = np.array([10.0 + np.cos(0.1 * k), 6.0 + np.sin(0.13 * k), 0.2 * k])
+            table = np.array([p0, rng.normal(0.0, 0.05, 3), p0 + rng.normal(0.0, 0.04, 3), rng.normal(0.0, 0.05, 3)])
+            poses = HermitePoses(table, t0, 0.05)
+            fused = g.scan(world, poses, t0, t0 + 0.05, np.random.default_rng(k))
+            generic = g.scan(world, lambda t, p=poses: p(t), t0, t0 + 0.05, np.random.default_rng(k))
+            assert fused == generic
+        bad = HermitePoses(np.full((4, 3), np.nan), 0.0, 0.05)
+        with pytest.raises(ValueError, match="NaN or inf"):
+            g.scan(world, bad, 0.0, 0.05, rng)
+    finally:
+        _jit.set_compiled(before)

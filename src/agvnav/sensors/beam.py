@@ -6,10 +6,14 @@ the beam direction and the reflector's leading tangent edge passes a whole turn
 offset (:func:`offset_one`, the one formulation), find the brackets where it passes
 ``2 pi`` on a time grid for every reflector (:func:`grid_crossings`), evaluate it for
 one reflector per instant (:func:`offsets_at`) and test the line of sight
-(:func:`line_of_sight`). They are compiled by numba (``cache=True``: compiled once per
-machine, reused across runs; :mod:`agvnav._jit`), loop over plain float64 arrays, and
-serve one vehicle or a batch of instants alike: the goniometer calls them with the pose samples its
-``pose_at`` gave, so no NumPy per-call overhead remains in the scan's inner loops.
+(:func:`line_of_sight`); :func:`chord_brackets`, :func:`chord_step` and :func:`seen_in_order` are the
+root finder's bookkeeping around them (one call each instead of a dozen NumPy calls on a few
+elements: issue 11), and :func:`scan_hermite` runs the whole scan of one window in one call
+when the motion is a Hermite curve (:class:`agvnav.geometry.hermite.HermitePoses`). They are
+compiled by numba (``cache=True``: compiled once per machine, reused across runs;
+:mod:`agvnav._jit`), loop over plain float64 arrays, and serve one vehicle or a batch of
+instants alike: the goniometer calls them with the pose samples its ``pose_at`` gave, so no NumPy
+per-call overhead remains in the scan's inner loops.
 No ``fastmath``: the arithmetic is IEEE, operation for operation as written.
 """
 
@@ -22,8 +26,12 @@ from numpy.typing import NDArray
 
 from agvnav._jit import jit
 from agvnav.geometry.angles import wrap_angle_kernel
+from agvnav.geometry.hermite import hermite_poses
 
-__all__ = ["grid_crossings", "line_of_sight", "offset_one", "offsets_at", "wrapped_offsets"]
+__all__ = [
+    "chord_brackets", "chord_step", "grid_crossings", "line_of_sight", "offset_one", "offsets_at", "scan_hermite",
+    "seen_in_order", "wrapped_offsets",
+]
 
 _TWO_PI = 2.0 * math.pi
 
@@ -134,6 +142,139 @@ def wrapped_offsets(raw: NDArray[np.float64]) -> tuple[NDArray[np.float64], floa
         if m > worst or m != m:  # a NaN stays the largest
             worst = m
     return f, worst
+
+
+@jit
+def chord_brackets(
+    grid: NDArray[np.float64], interval: NDArray[np.int64], f_lo: NDArray[np.float64], f_hi: NDArray[np.float64],
+    refl: NDArray[np.int64], rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], ...]:
+    """The chord iteration's start from the brackets of :func:`grid_crossings`.
+
+    For crossing ``i`` in ``[lo, hi] = [grid[interval[i]], grid[interval[i] + 1]]`` (s) with offsets
+    ``f_lo < 0 <= f_hi`` (rad) there: the secant slope ``(f_hi - f_lo) / (hi - lo)`` (rad/s), the
+    first chord instant ``lo - f_lo / slope`` (s) and the reflector's centre and radius (m).
+    Returns ``lo, hi, slope, t, rx, ry, r`` (each ``(c,)``) and ``max |hi|`` (s) as a 1-element array.
+    """
+    c = interval.shape[0]
+    lo, hi, slope, t = np.empty(c), np.empty(c), np.empty(c), np.empty(c)
+    trx, try_, tr = np.empty(c), np.empty(c), np.empty(c)
+    h_max = np.zeros(1)
+    for i in range(c):
+        lo[i], hi[i] = grid[interval[i]], grid[interval[i] + 1]
+        slope[i] = (f_hi[i] - f_lo[i]) / (hi[i] - lo[i])  # > 0: f_hi >= 0 > f_lo
+        t[i] = lo[i] - f_lo[i] / slope[i]
+        j = refl[i]
+        trx[i], try_[i], tr[i] = rx[j], ry[j], r[j]
+        h_max[0] = max(h_max[0], abs(hi[i]))
+    return lo, hi, slope, t, trx, try_, tr, h_max
+
+
+@jit
+def chord_step(
+    t: NDArray[np.float64], pose: NDArray[np.float64],
+    rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64],
+    mx: float, my: float, phase: float, omega: float, direction: int,
+    slope: NDArray[np.float64], lo: NDArray[np.float64], hi: NDArray[np.float64], tol: float,
+) -> tuple[bool, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """One chord iteration of the goniometer's root finder at the instants ``t (c,)`` (s).
+
+    The offsets there (:func:`offsets_at`, base_link poses ``pose (c, 3)``, one reflector per
+    instant), wrapped (:func:`wrapped_offsets`). Returns ``(True, t, hx, hy, d)`` when every
+    ``|offset| <= tol`` (rad), else ``(False, t', hx, hy, d)`` with the next instants
+    ``t' = clip(t - f / slope, lo, hi)`` (a NaN stays NaN, as ``np.minimum``/``np.maximum`` keep it).
+    """
+    off, hx, hy, d = offsets_at(t, pose, rx, ry, r, mx, my, phase, omega, direction)
+    f, worst = wrapped_offsets(off)
+    if worst <= tol:
+        return True, t, hx, hy, d
+    c = t.shape[0]
+    nxt = np.empty(c)
+    for i in range(c):
+        v = t[i] - f[i] / slope[i]
+        if v < lo[i]:
+            v = lo[i]
+        if v > hi[i]:
+            v = hi[i]
+        nxt[i] = v
+    return False, nxt, hx, hy, d
+
+
+@jit
+def seen_in_order(
+    t: NDArray[np.float64], refl: NDArray[np.int64], seen: NDArray[np.bool_],
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The instants ``t`` (s) and reflector rows ``refl`` where ``seen``, in time order (a stable sort:
+    equal instants keep their order, as ``np.argsort(kind="stable")``)."""
+    c = 0
+    for i in range(t.shape[0]):
+        if seen[i]:
+            c += 1
+    ts, rs = np.empty(c), np.empty(c, np.int64)
+    k = 0
+    for i in range(t.shape[0]):
+        if not seen[i]:
+            continue
+        m = k  # insertion: shift the later instants right
+        while m > 0 and ts[m - 1] > t[i]:
+            ts[m], rs[m] = ts[m - 1], rs[m - 1]
+            m -= 1
+        ts[m], rs[m] = t[i], refl[i]
+        k += 1
+    return ts, rs
+
+
+@jit
+def _finite_poses(pose: NDArray[np.float64]) -> bool:
+    """True if every element of ``pose (k, 3)`` is finite."""
+    for i in range(pose.shape[0]):
+        for j in range(3):
+            v = pose[i, j]
+            if v - v != 0.0:  # NaN and +-inf give NaN
+                return False
+    return True
+
+
+@jit
+def scan_hermite(
+    hermite: NDArray[np.float64], t0: float, dt: float, grid: NDArray[np.float64],
+    rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64],
+    mx: float, my: float, phase: float, omega: float, direction: int,
+    wall_x0: NDArray[np.float64], wall_y0: NDArray[np.float64],
+    wall_vx: NDArray[np.float64], wall_vy: NDArray[np.float64],
+    min_range: float, max_range: float, rate_hz: float, angle_tol: float, eps: float, chord_iter: int,
+) -> tuple[int, NDArray[np.float64], NDArray[np.int64]]:
+    """The goniometer's exact crossings on the bracket ``grid`` (s) of one window, all in one call.
+
+    The same steps as :meth:`agvnav.sensors.goniometer.Goniometer.scan`'s generic path, in the
+    same order and arithmetic, with the base_link poses from :func:`hermite_poses` of
+    ``(hermite, t0, dt)`` instead of a call back into Python: :func:`grid_crossings`,
+    :func:`chord_brackets`, up to ``chord_iter`` :func:`chord_step` to the tolerance
+    ``max(angle_tol, 8 eps max|hi| 2 pi rate_hz)`` (rad), :func:`line_of_sight` and
+    :func:`seen_in_order`. Returns ``(0, t, rows)``: the seen instants (s) and reflector rows in
+    time order; ``(1, ...)`` when the chord iterations did not converge and ``(2, ...)`` on a
+    non-finite pose (the caller then takes the generic path, which falls back to Illinois or
+    raises). Walls ``start + [0, 1] direction`` (m), ranges (m) as in :func:`line_of_sight`.
+    """
+    no_t, no_rows = np.empty(0), np.empty(0, np.int64)
+    pose = hermite_poses(hermite, t0, dt, grid)
+    if not _finite_poses(pose):
+        return 2, no_t, no_rows
+    interval, refl, f_lo, f_hi = grid_crossings(grid, pose, rx, ry, r, mx, my, phase, omega, direction)
+    if interval.shape[0] == 0:
+        return 0, no_t, no_rows
+    lo, hi, slope, t, trx, try_, tr, h_max = chord_brackets(grid, interval, f_lo, f_hi, refl, rx, ry, r)
+    tol = max(angle_tol, 8.0 * eps * h_max[0] * _TWO_PI * rate_hz)
+    for _ in range(chord_iter):
+        pose = hermite_poses(hermite, t0, dt, t)
+        if not _finite_poses(pose):
+            return 2, no_t, no_rows
+        done, t, hx, hy, d = chord_step(t, pose, trx, try_, tr, mx, my, phase, omega, direction, slope, lo, hi, tol)
+        if done:
+            seen = line_of_sight(refl, hx, hy, d, rx, ry, r, wall_x0, wall_y0, wall_vx, wall_vy, min_range, max_range)
+            ts, rs = seen_in_order(t, refl, seen)
+            return 0, ts, rs
+    return 1, no_t, no_rows
 
 
 @jit

@@ -43,7 +43,16 @@ from numpy.typing import ArrayLike, NDArray
 from agvnav._jit import compiled
 from agvnav._validate import require_finite, require_nonnegative, require_positive
 from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
-from agvnav.sensors.beam import grid_crossings, line_of_sight, offsets_at, wrapped_offsets
+from agvnav.geometry.hermite import HermitePoses
+from agvnav.sensors.beam import (
+    chord_brackets,
+    chord_step,
+    grid_crossings,
+    line_of_sight,
+    offsets_at,
+    scan_hermite,
+    seen_in_order,
+)
 from agvnav.world.map import WorldMap
 
 __all__ = [
@@ -437,53 +446,56 @@ class Goniometer:
         n_int = max(1, math.ceil((t1 - t0) * self.rate_hz * _BRACKETS_PER_REV))
         grid = _bracket_grid(t0, t1, n_int)
         consts = self._consts()
+        if isinstance(pose_at, HermitePoses) and compiled():  # the whole scan in one compiled call, same numbers
+            status, t_seen, r_seen = scan_hermite(
+                pose_at.table, pose_at.t0, pose_at.dt, grid, m.rx, m.ry, m.r, *consts, m.wall_x0, m.wall_y0,
+                m.wall_vx, m.wall_vy, self.min_range, self.max_range, self.rate_hz, _ANGLE_TOL, _EPS, _CHORD_ITER,
+            )
+            if status == 0:
+                return t_seen, r_seen  # else (rare): the generic path below, Illinois or the error
         interval, refl, f_lo, f_hi = grid_crossings(grid, _call_pose(pose_at, grid), m.rx, m.ry, m.r, *consts)
         if interval.size == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
-        t_star, hx, hy, d = self._refine(m, pose_at, grid[interval], grid[interval + 1], f_lo, f_hi, refl)
+        t_star, hx, hy, d = self._refine(m, pose_at, grid, interval, f_lo, f_hi, refl)
         b = (refl, hx, hy, d) if compiled() else (refl.tolist(), hx.tolist(), hy.tolist(), d.tolist())
         rx, ry, r, w0x, w0y, wvx, wvy = m.sight()
         seen = line_of_sight(b[0], b[1], b[2], b[3], rx, ry, r, w0x, w0y, wvx, wvy, self.min_range, self.max_range)
-        t_seen, r_seen = t_star[seen], refl[seen]
-        if t_seen.size > 1:
-            order = np.argsort(t_seen, kind="stable")
-            t_seen, r_seen = t_seen[order], r_seen[order]
-        return t_seen, r_seen
+        return seen_in_order(t_star, refl, np.asarray(seen))
 
     def _refine(
         self,
         m: _MapArrays,
         pose_at: PoseFunction,
-        lo: NDArray[np.float64],
-        hi: NDArray[np.float64],
+        grid: NDArray[np.float64],
+        interval: NDArray[np.int64],
         f_lo: NDArray[np.float64],
         f_hi: NDArray[np.float64],
         refl: NDArray[np.int64],
     ) -> tuple[NDArray[np.float64], ...]:
-        """Crossing instants in the brackets ``[lo, hi]`` (``f_lo < 0 <= f_hi``), all at once.
+        """Crossing instants in the brackets ``[grid[interval], grid[interval + 1]]`` (``f_lo < 0 <= f_hi``).
 
-        Common path: chord iterations ``t <- t - f(t) / slope`` with the bracket's
-        secant slope. The offset is dominated by the head term 2*pi*f*t, so the
+        All crossings at once. Common path: chord iterations ``t <- t - f(t) / slope`` with the bracket's
+        secant slope (:func:`~agvnav.sensors.beam.chord_brackets`, :func:`~agvnav.sensors.beam.chord_step`).
+        The offset is dominated by the head term 2*pi*f*t, so the
         slope is right to ~1e-4 and two pose evaluations reach 1e-10 rad. If that
         fails (a reflector within centimetres of a fast-moving head), a bracketed
         Illinois iteration takes over. Returns the instants, the head position there
         ``x (c,), y (c,)`` and the head-to-centre distances (m).
         """
-        tol = self._tolerance(hi)
-        slope = (f_hi - f_lo) / (hi - lo)  # > 0: f_hi >= 0 > f_lo
-        t = lo - f_lo / slope
-        target = (m.rx[refl], m.ry[refl], m.r[refl])  # the same reflectors at every iteration
+        lo, hi, slope, t, trx, try_, tr, h_max = chord_brackets(grid, interval, f_lo, f_hi, refl, m.rx, m.ry, m.r)
+        tol = self._tolerance(float(h_max[0]))
+        mx, my, phase, omega, direction = self._consts()
         for _ in range(_CHORD_ITER):
-            raw, hx, hy, d = self._offsets(pose_at, t, target)
-            f, worst = wrapped_offsets(raw)  # wrap_angle: continuous on the bracket (see _BRACKETS_PER_REV)
-            if worst <= tol:
+            done, t, hx, hy, d = chord_step(t, _call_pose(pose_at, t), trx, try_, tr, mx, my, phase, omega, direction,
+                                            slope, lo, hi, tol)
+            if done:  # every |wrap(offset)| <= tol (wrap: continuous on the bracket, see _BRACKETS_PER_REV)
                 return t, hx, hy, d
-            t = np.minimum(np.maximum(t - f / slope, lo), hi)  # np.clip, without its dispatch cost
-        return self._illinois(pose_at, lo, hi, f_lo, f_hi, target, tol)
+        return self._illinois(pose_at, lo, hi, f_lo, f_hi, (trx, try_, tr), tol)
 
-    def _tolerance(self, t: NDArray[np.float64]) -> float:
-        """Root tolerance (rad): 1e-10, or the float noise of t itself if larger (t ~ 1 h: ~2e-11 rad)."""
-        return max(_ANGLE_TOL, 8.0 * _EPS * float(np.abs(t).max()) * TWO_PI * self.rate_hz)
+    def _tolerance(self, t_max: float) -> float:
+        """Root tolerance (rad): 1e-10, or the float noise of instants up to ``|t| = t_max`` (s) if larger
+        (t ~ 1 h: ~2e-11 rad)."""
+        return max(_ANGLE_TOL, 8.0 * _EPS * t_max * TWO_PI * self.rate_hz)
 
     def _illinois(
         self,
