@@ -121,14 +121,17 @@ class _Grid:
 
     @classmethod
     def of(cls, rx: NDArray[np.float64], ry: NDArray[np.float64]) -> _Grid:
-        """About two reflectors per cell of a map spread over an area (cell side ``2 sqrt(area / N)``)."""
+        """About one reflector per cell of a map spread over an area: cell side ``sqrt(area / N)``.
+
+        The fastest of 0.5-3 times that side on bench speed's 256-reflector lab (3.2 us per query).
+        """
         n = rx.shape[0]
         if n == 0:
             return cls(np.zeros(2, np.int64), np.zeros(0, np.int64), 0.0, 0.0, 1.0, 1, 1)
         x0, y0 = float(rx.min()), float(ry.min())
         ex, ey = float(rx.max()) - x0, float(ry.max()) - y0
         floor = max(ex, ey, 1e-6) / max(n, 1)
-        cell = max(2.0 * math.sqrt(max(ex, floor) * max(ey, floor) / n), max(ex, ey) / 64.0, 1e-6)
+        cell = max(math.sqrt(max(ex, floor) * max(ey, floor) / n), max(ex, ey) / 64.0, 1e-6)
         nx, ny = int(ex / cell) + 1, int(ey / cell) + 1
         ix = np.clip(np.floor((rx - x0) / cell).astype(np.int64), 0, nx - 1)
         iy = np.clip(np.floor((ry - y0) / cell).astype(np.int64), 0, ny - 1)
