@@ -14,8 +14,9 @@ angular radius ``asin(r / d)`` (the test of :func:`near_rows`, one compiled pass
 map). Only those go through the exact scalar gate, so the accepted association is the one
 the full loop gives (a test compares both on random maps).
 
-Sub-linear in the map (issue 11: ``near_rows`` at N = 256 cost ~15-20 us per reflection,
-~70 reflections per step): :func:`grid_rows` applies the same per-reflector test
+Sub-linear in the map (issue 11: ``near_rows`` at N = 256 costs ~7 us per reflection on the
+2-core development machine, ~70 reflections per step; :func:`grid_rows` ~3.2 us on the same
+queries of bench speed's ``reflectors_256``): :func:`grid_rows` applies the same per-reflector test
 (:func:`near_one`) only to the reflectors of the cells of a uniform grid that a strip along
 the beam covers, and returns exactly the rows :func:`near_rows` returns (tested). The strip:
 a reflector that passes at distance ``d > D`` from the head, ``D >= 2 r_max``, has
