@@ -54,7 +54,21 @@ navigators report one:
   its neighbours (the differential AGV's nearest side reflector moved 0.1 m: the estimate
   60-90 mm off with sigma 11 mm, the offender's NIS only ~3x its neighbours'), and its
   ratio rule, blind to the pull, excluded sound neighbours of the moved one: where the
-  RAIM can run (four reflectors or more with EKF innovations) it owns the exclusion;
+  RAIM can run (four reflectors or more with EKF innovations) it owns the exclusion.
+  The RAIM's chi-square holds for untruncated innovations, while the identification gate
+  keeps only those within 3.3 sigma: a reflector moved by a few sigmas (the differential's
+  side reflector moved 0.1 m, 10-20 mrad at 4-6 m against ``sqrt(S)`` 3.4-5 mrad) had one
+  sighting in four accepted -- each a 2-3 sigma innovation that pulled the estimate -- and
+  the test of those passed while the AGV stayed ``tracking`` 20-26 mm (5 sigma) off for
+  1-3 s. So the estimator also hands the monitor each gated-out reflection that one
+  reflector not yet seen in the sweep explains within the attribution gate
+  (:meth:`IntegrityMonitor.attribution_gate`, the chi-square quantile at
+  ``raim_false_alarm``: a sound reflection lies beyond it as rarely as the RAIM may fail;
+  :meth:`IntegrityMonitor.attributed`): one more sighting for the RAIM, never support of
+  the estimate. A failure that names a reflector is a measurement fault: it leaves the
+  covariance alone (an inflation widens that reflector's gate and lets its pull in:
+  a synthetic drive past it ended 120 mm off while degraded); the check that excludes a
+  reflector inflates it, since the estimate still holds the excluded one's past pull;
 * the number and geometry of the reflectors that supported the recent fixes: at least
   ``min_reflectors`` distinct ones in the window, and a best achievable position error
   ``PDOP * bearing_std`` (:func:`~agvnav.positioning.bounds.pdop`, the CRLB of seed 000
@@ -79,7 +93,8 @@ head to base_link): the part of the error no averaging removes, which the estima
 adds to the covariance it reports.
 
 A failed check makes the verdict ``degraded`` and asks the estimator to inflate its
-covariance (the estimate says it is less sure); the verdict returns to ``ok`` only
+covariance (the estimate says it is less sure; not for a RAIM failure that names a reflector,
+and always on an exclusion: see above); the verdict returns to ``ok`` only
 after ``recover_s`` seconds of passing checks (a full window of fresh innovations
 after an inflation: without it a persistent fault that each inflation hides for one
 revolution flips the status between ``tracking`` and ``degraded``). A failure of the
