@@ -29,8 +29,8 @@ no-fault rows, every stop within braking distance + 0.2 m. What catches each fau
 the estimator's side (:mod:`agvnav.positioning.integrity`): blindness and lost odometry
 by the uncertainty and the support checks, clutter and wrong associations by the
 rejections, the NIS and the triangulation cross-check, a moved reflector by its own
-innovations (it is excluded), a reflection delay by the stamps against the head's phase,
-implausible increments (counter wrap) by :mod:`agvnav.positioning.plausibility`.
+innovations, those its gate rejected included (the RAIM excludes it), a reflection delay
+by the stamps against the head's phase, implausible increments (counter wrap) by :mod:`agvnav.positioning.plausibility`.
 A run that "times out" crawled or stood while positioning was degraded or lost: slow,
 but never silent.
 """

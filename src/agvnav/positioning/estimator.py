@@ -34,6 +34,7 @@ never jumps.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import deque
 from typing import Any, ClassVar
@@ -229,6 +230,8 @@ class StreamingEstimator:
             BearingIndex(self.reflector_xy, self.reflector_radius, self.mount, self._spec)
             if len(self._rows) >= INDEX_MIN_REFLECTORS else None
         )
+        self._wide_spec: GateSpec | None = None  # the monitor's attribution gate (:meth:`_attribute`), made once needed
+        self._wide_index: BearingIndex | None = None
         self._x_t: tuple[float, ...] = (math.nan,) * 3  # pose [x, y, psi]
         self._P_t: tuple[float, ...] = (math.nan,) * 9  # covariance, flat row-major
         if initial_covariance is not None:
@@ -410,6 +413,7 @@ class StreamingEstimator:
             self.n_rejected += 1
             if assoc.n_in_gate == 0:  # off its prediction; an ambiguous one has its reflector in the gate
                 self.monitor.rejected(t)
+                self._attribute(t, z)
             return False
         self.n_accepted += 1
         self._claimed[assoc.index] = t
@@ -557,6 +561,35 @@ class StreamingEstimator:
             return None
         h = np.asarray(H, dtype=np.float64).reshape(-1)
         return (float(y), float(S), float(h[0]), float(h[1]), float(h[2]))
+
+    def _attribute(self, t: float, z: float) -> None:
+        """Hand the monitor a rejected bearing ``z`` (rad) at ``t`` (s) that one unseen reflector explains.
+
+        The gate of :meth:`_gate` widened to the monitor's attribution gate
+        (:meth:`~agvnav.positioning.integrity.IntegrityMonitor.attribution_gate`), over every
+        reflector in sight but the excluded ones, claimed in this sweep or not: when exactly
+        one lies inside and it is not yet claimed in the sweep, the reflection is its
+        sighting for the RAIM only (:meth:`~agvnav.positioning.integrity.IntegrityMonitor.attributed`;
+        the filter never uses it). EKF only (the RAIM judges Kalman innovations).
+        """
+        if self.method != "ekf" or not self.monitor.limits.attribute:
+            return
+        spec = self._wide_spec
+        if spec is None:
+            spec = self._wide_spec = dataclasses.replace(self._spec, gate=self.monitor.attribution_gate())
+            if self._index is not None:
+                self._wide_index = BearingIndex(self.reflector_xy, self.reflector_radius, self.mount, spec)
+        cand = None if self._wide_index is None else self._wide_index.candidates(z, self._x_t, self._P_t)
+        sight = self._sight(t)
+        if sight is not None:
+            cand = [j for j in (range(len(self._rows)) if cand is None else cand) if sight[j]]
+        seen_or_not = [math.inf if c == math.inf else -math.inf for c in self._claimed]  # excluded: claimed forever
+        j, y, _, _, H, S, _ = _fast.gate_one(
+            z, self._x_t, self._P_t, self._mount_t, self._rows, spec, seen_or_not, t, cand,
+            self._consider_args(0.0, 0.0) if self.consider else None,
+        )
+        if j >= 0 and not t - self._claimed[j] < spec.sweep:
+            self.monitor.attributed(t, j, (float(y), float(S), float(H[0]), float(H[1]), float(H[2])))
 
     def _watch_integrity(self, t: float, force: bool = False) -> None:
         """Once per revolution, or now with ``force``: the monitor's check; inflate ``P`` when it asks."""

@@ -54,7 +54,21 @@ navigators report one:
   its neighbours (the differential AGV's nearest side reflector moved 0.1 m: the estimate
   60-90 mm off with sigma 11 mm, the offender's NIS only ~3x its neighbours'), and its
   ratio rule, blind to the pull, excluded sound neighbours of the moved one: where the
-  RAIM can run (four reflectors or more with EKF innovations) it owns the exclusion;
+  RAIM can run (four reflectors or more with EKF innovations) it owns the exclusion.
+  The RAIM's chi-square holds for untruncated innovations, while the identification gate
+  keeps only those within 3.3 sigma: a reflector moved by a few sigmas (the differential's
+  side reflector moved 0.1 m, 10-20 mrad at 4-6 m against ``sqrt(S)`` 3.4-5 mrad) had one
+  sighting in four accepted -- each a 2-3 sigma innovation that pulled the estimate -- and
+  the test of those passed while the AGV stayed ``tracking`` 20-26 mm (5 sigma) off for
+  1-3 s. So the estimator also hands the monitor each gated-out reflection that one
+  reflector not yet seen in the sweep explains within the attribution gate
+  (:meth:`IntegrityMonitor.attribution_gate`, the chi-square quantile at
+  ``raim_false_alarm``: a sound reflection lies beyond it as rarely as the RAIM may fail;
+  :meth:`IntegrityMonitor.attributed`): one more sighting for the RAIM, never support of
+  the estimate. A failure that names a reflector is a measurement fault: it leaves the
+  covariance alone (an inflation widens that reflector's gate and lets its pull in:
+  a synthetic drive past it ended 120 mm off while degraded); the check that excludes a
+  reflector inflates it, since the estimate still holds the excluded one's past pull;
 * the number and geometry of the reflectors that supported the recent fixes: at least
   ``min_reflectors`` distinct ones in the window, and a best achievable position error
   ``PDOP * bearing_std`` (:func:`~agvnav.positioning.bounds.pdop`, the CRLB of seed 000
@@ -79,7 +93,8 @@ head to base_link): the part of the error no averaging removes, which the estima
 adds to the covariance it reports.
 
 A failed check makes the verdict ``degraded`` and asks the estimator to inflate its
-covariance (the estimate says it is less sure); the verdict returns to ``ok`` only
+covariance (the estimate says it is less sure; not for a RAIM failure that names a reflector,
+and always on an exclusion: see above); the verdict returns to ``ok`` only
 after ``recover_s`` seconds of passing checks (a full window of fresh innovations
 after an inflation: without it a persistent fault that each inflation hides for one
 revolution flips the status between ``tracking`` and ``degraded``). A failure of the
@@ -158,7 +173,10 @@ class IntegrityLimits:
     (``max_excluded = 0`` disables it); ``raim_false_alarm``: probability per check
     that the leave-one-out test (:meth:`IntegrityMonitor.raim`) fails on a sound
     revolution, ``raim_confirm``: failing checks of one episode that must name a reflector
-    (more often than any other) before it is excluded. See the module docstring.
+    (more often than any other) before it is excluded; ``attribute``: the RAIM also sees the
+    gated-out reflections that only one reflector, unseen in that sweep, explains within the
+    attribution gate (:meth:`IntegrityMonitor.attribution_gate`, :meth:`IntegrityMonitor.attributed`).
+    See the module docstring.
     """
 
     window_s: float = 1.0
@@ -182,6 +200,7 @@ class IntegrityLimits:
     max_excluded: int = 2
     raim_false_alarm: float = 1e-5
     raim_confirm: int = 3
+    attribute: bool = True
     enabled: bool = True
 
     def __post_init__(self) -> None:
@@ -219,6 +238,8 @@ _T, _NIS, _IDX, _BEAR, _OX, _OY, _OPSI, _ON_TIME, _HAS_C, _C0 = range(10)
 _HAS_I, _Y, _S, _H0 = 14, 15, 16, 17
 _WIDTH = 20
 _NO_FIVE = (0.0, 0.0, 0.0, 0.0, 0.0)
+#: Fraction of a revolution in which a reflector reflects once (the estimator's claim window).
+_SWEEP = 0.75
 
 
 class _Tally(NamedTuple):
@@ -505,6 +526,8 @@ class IntegrityMonitor:
         self.walls = None if walls is None else np.asarray(walls, dtype=np.float64).reshape(-1, 2, 2)
         self._entries = _Window()
         self._rejects: deque[float] = deque()
+        #: gated-out reflections attributed to one reflector: (t, map row, y, S, H0, H1, H2) (:meth:`attributed`)
+        self._attributed: deque[tuple[float, int, float, float, float, float, float]] = deque()
         self._rows = [(float(a), float(b)) for a, b in self.xy]
         self._clock = _HeadClock(self.revolution_s, self.limits.max_latency_s * 2.0 * math.pi / self.revolution_s)
         self._mean_nu = [0.0] * self.xy.shape[0]  # EWMA of the NIS y^2 / S per reflector
@@ -516,6 +539,7 @@ class IntegrityMonitor:
         """Forget the support (after a relocalisation or a fresh start); exclusions and the head clock stay."""
         self._entries.clear()
         self._rejects.clear()
+        self._attributed.clear()
         self.verdict = "ok"
         self.quality = 0.0
         self.reflectors_used = 0
@@ -533,6 +557,7 @@ class IntegrityMonitor:
         self.raim_statistic = math.nan
         self._raim_tally: dict[int, int] = {}  # map row -> failing RAIM checks that named it (this episode)
         self._raim_ran = False  # the last check could run the RAIM (it then owns the exclusion)
+        self._raim_named = False  # the last check's RAIM failure named one reflector (a measurement fault)
 
     def accepted(
         self, t: float, nis: float, index: int, bearing: float, odom: tuple[float, ...],
@@ -554,10 +579,56 @@ class IntegrityMonitor:
             0.0 if innovation is None else 1.0, *(innovation or _NO_FIVE),
         ))  # stored as doubles
         self._entries.drop_older(t, self.limits.window_s)
+        if self._attributed:
+            self._void_attributions(t, int(index))
         if math.isfinite(nis):
             j = int(index)
             self._n_nu[j] += 1
             self._mean_nu[j] += (nis - self._mean_nu[j]) / min(self._n_nu[j], 8)
+
+    def attribution_gate(self) -> float:
+        """Chi-square bound (1 dof) on ``y^2 / S`` of the attribution gate (:meth:`attributed`).
+
+        The upper ``raim_false_alarm`` quantile: a sound reflector's reflection falls beyond
+        it no more often than the RAIM may fail on a sound window, so the innovations the
+        RAIM sees through this gate are those of a consistent filter, untruncated at the
+        level of its own false-alarm probability (the identification gate, 0.999, cuts
+        the tail a thousand times more often).
+        """
+        return chi2_threshold(1, self.limits.raim_false_alarm)
+
+    def attributed(self, t: float, index: int, innovation: tuple[float, float, float, float, float]) -> None:
+        """A reflection at ``t`` (s) the gate rejected that only reflector ``index`` explains (the attribution gate).
+
+        ``innovation``: its ``(y, S, H0, H1, H2)`` about the current estimate (rad, rad²,
+        the bearing Jacobian row), as :meth:`accepted` takes them. The estimator calls
+        this for a reflection outside every identification gate when exactly one
+        reflector lies inside :meth:`attribution_gate` and that one was not yet seen in
+        the sweep; an acceptance of the same reflector within the sweep (``0.75``
+        revolution) voids it afterwards (it was a spurious reflection next to a sound
+        reflector). Only the RAIM (:meth:`raim`) counts it: as one more sighting of that
+        reflector, never as support of the estimate.
+
+        Why: a reflector moved by a few of its innovation sigmas lands outside its gate on
+        most revolutions and inside on the others, so the filter and the RAIM saw only the
+        sightings of the least bias (the gate's truncated tail) -- they still pulled the
+        estimate, while each looked like a 2-3 sigma innovation. The differential AGV with
+        its nearest side reflector moved 0.1 m (10-20 mrad at 4-6 m, ``sqrt(S)`` 3.4-5
+        mrad from its 7 mrad of heading noise per revolution) had one sighting in four
+        accepted, ended 20-26 mm off with sigma 5 mm and stayed ``tracking`` for 1-3 s.
+        """
+        if not self.limits.attribute:
+            return
+        y, s, h0, h1, h2 = (float(v) for v in innovation)
+        self._attributed.append((float(t), int(index), y, s, h0, h1, h2))
+        while self._attributed and t - self._attributed[0][0] > self.limits.window_s:
+            self._attributed.popleft()
+
+    def _void_attributions(self, t: float, j: int) -> None:
+        """Forget the attributions to reflector ``j`` within the sweep (0.75 revolution) before ``t`` (s)."""
+        sweep = _SWEEP * self.revolution_s
+        if any(a[1] == j and t - a[0] < sweep for a in self._attributed):
+            self._attributed = deque(a for a in self._attributed if not (a[1] == j and t - a[0] < sweep))
 
     @property
     def used(self) -> tuple[int, ...]:
@@ -584,6 +655,7 @@ class IntegrityMonitor:
         only the uncertainty can make the verdict ``lost``).
         """
         self._last_check = t
+        n_excluded = len(self.excluded)
         x = np.asarray(pose, dtype=np.float64)
         cov = np.asarray(P, dtype=np.float64)
         self._entries.drop_older(t, self.limits.window_s)
@@ -592,7 +664,7 @@ class IntegrityMonitor:
         young = t - self._since < self.limits.window_s  # no full window of support yet
         tally = self._tally(t)
         reasons = [] if dead_reckoning else self._support_failures(t, x, cov, odom, young, tally)
-        self._raim_ran = False
+        self._raim_ran = self._raim_named = False
         if self.limits.enabled and not dead_reckoning and not young:
             reasons += self._raim_failures(t, tally)
         reasons += self._uncertainty_failures(cov)
@@ -600,7 +672,7 @@ class IntegrityMonitor:
         reasons = list(self.reasons)
         if self.limits.enabled and not dead_reckoning and not young and not self._raim_ran:
             self._exclude()  # the NIS-ratio exclusion only where the RAIM has no redundancy to judge with
-        return self._judge(t, reasons)
+        return self._judge(t, reasons, len(self.excluded) > n_excluded)
 
     # ------------------------------------------------------------------ checks
     def _tally(self, t: float) -> _Tally:
@@ -903,11 +975,17 @@ class IntegrityMonitor:
         window's sums at ``t`` when the caller has them (:meth:`_tally`).
         """
         tally = self._tally(t) if tally is None else tally
-        found = np.flatnonzero(tally.innovations[:, 5])
+        innovations = tally.innovations
+        if self._attributed:  # the gated-out sightings attributed to a reflector (:meth:`attributed`)
+            innovations = innovations.copy()
+            for ta, j, y, s, h0, h1, h2 in self._attributed:
+                if not t - ta > self.limits.window_s and j not in self.excluded:
+                    innovations[j] += (y, s, h0, h1, h2, 1.0)
+        found = np.flatnonzero(innovations[:, 5])
         if len(found) < 4:
             return None
         rows = tuple(found.tolist())
-        sums = tally.innovations[found]
+        sums = innovations[found]
         n = sums[:, 5]  # sightings per reflector
         r, s_bar, H = sums[:, 0] / n, sums[:, 1] / n, sums[:, 2:5] / n[:, None]
         survey = self.map_std[found] ** 2 * (H[:, 0] * H[:, 0] + H[:, 1] * H[:, 1])  # (map_std / d)^2
@@ -937,6 +1015,7 @@ class IntegrityMonitor:
         self.raim_statistic = res.statistic / res.threshold
         if res.faulty < 0:
             return ["raim"]
+        self._raim_named = True
         j = rows[res.faulty]
         tally = self._raim_tally
         tally[j] = tally.get(j, 0) + 1
@@ -972,7 +1051,7 @@ class IntegrityMonitor:
             self._drop(worst)
 
     # ------------------------------------------------------------------ verdict
-    def _judge(self, t: float, reasons: list[str]) -> bool:
+    def _judge(self, t: float, reasons: list[str], excluded_now: bool = False) -> bool:
         lim = self.limits
         if set(reasons) - {"crosscheck"}:
             self._failed_at = t  # a lone cross-check failure is not held (see the module docstring)
@@ -987,10 +1066,15 @@ class IntegrityMonitor:
             self.verdict = "ok"
         self.quality = self._score()
         suspect = {"nis", "crosscheck", "rejections", "unexplained", "corrections", "raim"}
-        inflate = bool(suspect.intersection(reasons)) and self.verdict != "lost"
+        if self._raim_named:  # a measurement fault: exclude the reflector, do not widen the gates for it
+            suspect.discard("raim")
+        # an exclusion leaves the estimate with the pull of the excluded reflector's past updates,
+        # which P does not hold: inflated, the sound reflectors take it back (its gates no longer admit it)
+        inflate = (excluded_now or bool(suspect.intersection(reasons))) and self.verdict != "lost"
         if inflate:  # judge the inflated estimate on fresh innovations
             self._entries.clear()
             self._rejects.clear()
+            self._attributed.clear()
         return inflate
 
     def _score(self) -> float:
