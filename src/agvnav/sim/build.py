@@ -39,7 +39,7 @@ from agvnav.guidance import (
 )
 from agvnav.guidance.errors import feedforward_steering
 from agvnav.kinematics import TractorTrailer
-from agvnav.odometry import OdometryNoise
+from agvnav.odometry import OdometryNoise, steered_noise
 from agvnav.positioning import make_estimator
 from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
 from agvnav.sensors.goniometer import Goniometer
@@ -422,8 +422,15 @@ def _estimator(
     err = np.array([ps.initial_error[0], ps.initial_error[1], math.radians(ps.initial_error[2])])
     std = np.array([ps.initial_std[0], ps.initial_std[1], math.radians(ps.initial_std[2])])
     g = sc.goniometer
+    wo = ps.wheel_odometry
+    # steered vehicles (the scenario validates it): the exact wheel model, one steering draw per control step
+    noise = OdometryNoise(*ps.odometry_noise) if wo is None else steered_noise(
+        sc.vehicle.model, wo.slip_std**2, float(sc.vehicle.wheelbase_m),  # type: ignore[union-attr]
+        math.radians(wo.steering_noise_std_deg), sc.traction.speed_m_s * sc.step_s, wo.wheel_radius_std,
+        math.radians(wo.steering_offset_std_deg),
+    )
     kwargs: dict[str, Any] = {
-        "odometry_noise": OdometryNoise(*ps.odometry_noise),
+        "odometry_noise": noise,
         "initial_pose": x0[:3] + err,
         "initial_covariance": np.diag(np.maximum(std, 1e-6) ** 2),
         "strict": False,  # a running vehicle: implausible readings are dropped and counted (issue 12)
