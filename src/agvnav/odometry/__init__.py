@@ -3,6 +3,7 @@
 from agvnav.odometry.covariance import (
     STEERED_MODELS,
     TRUTH_MODELS,
+    WHEEL_ODOMETRY_KEYS,
     OdometryNoise,
     SteeredOdometryNoise,
     calibration_jacobian,
@@ -28,6 +29,7 @@ __all__ = [
     "RULES",
     "STEERED_MODELS",
     "TRUTH_MODELS",
+    "WHEEL_ODOMETRY_KEYS",
     "DifferentialGeometry",
     "DifferentialOdometer",
     "NonSystematicErrors",

@@ -240,6 +240,11 @@ class SteeredOdometryNoise(OdometryNoise):
         return np.diag([self.radius_scale_std**2, self.steering_offset_std**2])
 
 
+#: The constructor fields of :class:`SteeredOdometryNoise` (a run log's ``wheel_odometry`` settings).
+WHEEL_ODOMETRY_KEYS = ("model", "wheelbase_m", "slip_k", "steering_std", "step_m", "radius_scale_std",
+                       "steering_offset_std")
+
+
 def steered_noise(model: str, slip_k: float, wheelbase_m: float, steering_std: float = 0.0, step_m: float = 0.0,
                   radius_scale_std: float = 0.0, steering_offset_std: float = 0.0) -> SteeredOdometryNoise:
     """:class:`SteeredOdometryNoise` of a steered vehicle (same arguments as :func:`noise_from_truth`, plus the
