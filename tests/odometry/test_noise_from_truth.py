@@ -86,8 +86,11 @@ DERIVED = ("guidance_test", "seed000_guidance_agvnav", "seed000_positioning_agvn
 
 @pytest.mark.parametrize("name", DERIVED)
 def test_shipped_scenarios_carry_their_truths_noise(name: str) -> None:
+    """The exact steered-wheel model (issue 12) with the truth's random errors and, as the labelled
+    assumption of a calibration tolerance, the truth's systematic magnitudes."""
     sc = load_scenario(builtin_scenario(name))
-    v = sc.vehicle
-    k = noise_from_truth(v.model, v.truth.slip_std**2, v.wheelbase_m, math.radians(v.truth.steering_noise_std_deg),
-                         sc.traction.speed_m_s * sc.step_s)
-    assert sc.positioning.odometry_noise == pytest.approx((k.k_d, k.k_dtheta, k.k_theta), rel=0.01)
+    v, wo = sc.vehicle, sc.positioning.wheel_odometry
+    assert wo is not None
+    assert (wo.slip_std, wo.steering_noise_std_deg) == (v.truth.slip_std, v.truth.steering_noise_std_deg)
+    assert wo.wheel_radius_std == abs(v.truth.wheel_radius_error)
+    assert wo.steering_offset_std_deg == abs(v.truth.steering_offset_deg)

@@ -8,7 +8,7 @@ from its surveyed position; the EKF models it as Schmidt-Kalman consider paramet
 (``map_std``; :mod:`agvnav.positioning.ekf`). A run's time average is less spread than
 one chi-square sample, so the band is conservative for the spread and exact for the
 mean. ``agvnav bench consistency`` gives the same figures split into position and
-heading (200 runs: guidance_test 2.47, below its band; see the EKF's ``covariance``).
+heading (200 runs: guidance_test 2.80, inside its band; see the EKF's ``covariance``).
 """
 
 from __future__ import annotations
@@ -51,15 +51,16 @@ def test_band_is_the_issue_band() -> None:
 
 
 def test_guidance_test_nees_inside_its_band_over_8_runs() -> None:
-    """CI version: 8 seeds of guidance_test, mean NEES in [1.55, 4.92] (measured 3.49; 2.43 over 40 seeds)."""
+    """CI version: 8 seeds of guidance_test, mean NEES in [1.55, 4.92] (measured 4.10; 2.74 over 40 seeds)."""
     lo, hi = _band(8)
     assert lo < _mean_nees("guidance_test", 8) < hi
 
 
-#: Known misses (issue 12, open), measured with ``agvnav bench consistency`` over 200 runs: the
-#: filter is pessimistic in heading (its white-noise odometry model bounds the truth's slip from
-#: above on every curve). Strict: a fix that lands them in the band makes these tests say so.
-KNOWN_PESSIMISTIC = {"guidance_test": 2.47, "seed000_guidance_agvnav": 2.34, "seed000_positioning_agvnav": 2.57}
+#: Known misses (strict xfails with their 200-run NEES). Empty since the exact steered-wheel model
+#: with the calibration consider parameters (issue 12): ``agvnav bench consistency`` measured
+#: guidance_test 2.80, seed000_guidance_agvnav 2.73, seed000_positioning_agvnav 2.80 (band
+#: 2.67-3.35; they were 2.47, 2.34, 2.57 with Crowley's bound and no systematic errors).
+KNOWN_PESSIMISTIC: dict[str, float] = {}
 
 
 @pytest.mark.slow

@@ -1,9 +1,13 @@
 """``agvnav bench consistency``: is the EKF's reported covariance honest? NEES over Monte Carlo runs (issue 12).
 
-Every shipped fault-free EKF scenario whose vehicle's random odometry errors the filter
-models from the truth (:func:`agvnav.odometry.noise_from_truth`): the tricycles
-``guidance_test``, ``seed000_guidance_agvnav``, ``seed000_positioning_agvnav``,
-``tricycle_rear_loop`` and the differential ``differential_loop``. Each is run with
+Every shipped fault-free EKF scenario whose vehicle's odometry errors the filter models
+from the truth: the tricycles ``guidance_test``, ``seed000_guidance_agvnav``,
+``seed000_positioning_agvnav`` and ``tricycle_rear_loop`` (``positioning.wheel_odometry``:
+the exact slip and steering model of :class:`agvnav.odometry.SteeredOdometryNoise`, the
+wheel-radius scale and steering offset as the EKF's consider parameters, their tolerance
+set to the truth's errors) and the differential ``differential_loop`` (Crowley's
+coefficients of its random slip, :func:`agvnav.odometry.noise_from_truth`; its systematic
+errors are not modelled). Each is run with
 seeds ``seed .. seed + n - 1`` (200 runs, 10 with ``--quick``); a seed draws the
 reflectors' survey errors, the odometry and goniometer noise afresh.
 

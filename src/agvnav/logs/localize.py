@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from agvnav.logs.reader import RecordedLog
 from agvnav.logs.runlog import COV_COLUMNS
-from agvnav.odometry import OdometryNoise
+from agvnav.odometry import OdometryNoise, SteeredOdometryNoise
 from agvnav.positioning import ESTIMATOR_METHODS, make_estimator
 from agvnav.sim.engine import STATUS_CODES
 
@@ -49,7 +49,8 @@ def estimator_from_settings(settings: dict[str, Any], world: Any, method: str | 
 
     ``method`` overrides the document's. Keys (SI, rad): ``mount`` [x, y, yaw], ``initial_pose``
     [x, y, psi], ``initial_covariance`` 3x3, ``pulses_per_rev``, ``rate_hz``, ``max_range_m``,
-    ``map_std_m``, ``odometry_noise`` [k_d, k_dtheta, k_theta] (:class:`agvnav.odometry.OdometryNoise`),
+    ``map_std_m``, ``odometry_noise`` [k_d, k_dtheta, k_theta] (:class:`agvnav.odometry.OdometryNoise`)
+    or ``wheel_odometry`` (the fields of :class:`agvnav.odometry.SteeredOdometryNoise`),
     ``params`` (further estimator keywords). Missing keys take the estimator's defaults.
     """
     name = method or settings.get("method") or "ekf"
@@ -63,6 +64,8 @@ def estimator_from_settings(settings: dict[str, Any], world: Any, method: str | 
             kwargs[arg] = settings[key]
     if settings.get("odometry_noise") is not None:
         kwargs["odometry_noise"] = OdometryNoise(*settings["odometry_noise"])
+    if settings.get("wheel_odometry") is not None:
+        kwargs["odometry_noise"] = SteeredOdometryNoise(**settings["wheel_odometry"])
     kwargs.update(settings.get("params") or {})
     mount = settings.get("mount") or (0.0, 0.0, 0.0)
     return make_estimator(name, world, mount, **kwargs)

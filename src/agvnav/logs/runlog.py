@@ -28,6 +28,8 @@ from agvnav.geometry import compose, inverse
 from agvnav.logs import topics as tp
 from agvnav.logs.messages import covariance6, header, planar_pose, transform, vector3
 from agvnav.logs.writer import LogWriter
+from agvnav.odometry import WHEEL_ODOMETRY_KEYS
+from agvnav.sim.build import odometry_noise
 from agvnav.world import builtin_map_names
 
 if TYPE_CHECKING:
@@ -78,6 +80,10 @@ def positioning_settings(scenario: Scenario, series: Series) -> dict[str, Any]:
         )
     if scenario.world_truth.reflector_survey_std_m > 0.0:
         doc["map_std_m"] = scenario.world_truth.reflector_survey_std_m
+    if ps.wheel_odometry is not None:  # the exact steered-wheel model (SI), as build() makes it, and its
+        noise = odometry_noise(scenario)  # Crowley bound for the readers of three coefficients (mapping)
+        doc["wheel_odometry"] = {k: getattr(noise, k) for k in WHEEL_ODOMETRY_KEYS}
+        doc["odometry_noise"] = [noise.k_d, noise.k_dtheta, noise.k_theta]
     return doc
 
 

@@ -1,6 +1,17 @@
 """Odometry (seed 002 §3): increments, pose integration rules, covariance, error models, UMBmark."""
 
-from agvnav.odometry.covariance import TRUTH_MODELS, OdometryNoise, motion_covariance, noise_from_truth, propagate
+from agvnav.odometry.covariance import (
+    STEERED_MODELS,
+    TRUTH_MODELS,
+    WHEEL_ODOMETRY_KEYS,
+    OdometryNoise,
+    SteeredOdometryNoise,
+    calibration_jacobian,
+    motion_covariance,
+    noise_from_truth,
+    propagate,
+    steered_noise,
+)
 from agvnav.odometry.errors import (
     DifferentialGeometry,
     NonSystematicErrors,
@@ -16,17 +27,21 @@ from agvnav.odometry.umbmark import UMBmarkResult, estimate_errors, square_run, 
 
 __all__ = [
     "RULES",
+    "STEERED_MODELS",
     "TRUTH_MODELS",
+    "WHEEL_ODOMETRY_KEYS",
     "DifferentialGeometry",
     "DifferentialOdometer",
     "NonSystematicErrors",
     "OdometryNoise",
+    "SteeredOdometryNoise",
     "SystematicErrors",
     "TricycleErrors",
     "TricycleOdometer",
     "TrueDifferentialVehicle",
     "TrueTricycleVehicle",
     "UMBmarkResult",
+    "calibration_jacobian",
     "differential_increments",
     "differential_wheel_distances",
     "estimate_errors",
@@ -37,6 +52,7 @@ __all__ = [
     "pose_jacobian",
     "propagate",
     "square_run",
+    "steered_noise",
     "tricycle_increments",
     "umbmark",
 ]

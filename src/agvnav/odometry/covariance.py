@@ -12,11 +12,16 @@ The earlier ``J = [[cos θ_m, 0], [sin θ_m, 0], [0, 1]]`` (midpoint heading
 (``∂x'/∂Δθ = −ΔD/2 · sin θ_m`` for the midpoint and arc rules): over 4 steps of
 0.625 m and 0.25 rad along an arc its lateral variance was about 26 % below a Monte
 Carlo of the same noise model (issue 12; ``tests/odometry/test_covariance_montecarlo.py``).
+
+For a steered vehicle the three coefficients can only bound the errors of its two
+readings (drive-wheel distance and steering angle): :class:`SteeredOdometryNoise` maps
+them exactly (rank-one terms along the directions each reading moves the increment) and
+names the systematic ones (radius scale, steering offset) for the EKF's consider filter.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -104,7 +109,10 @@ def noise_from_truth(model: str, slip_k: float, base_m: float, steering_std: flo
       ``k_theta = slip_k / b`` (exact turning on the spot).
 
     Systematic errors (wheel radius, steering offset, track) are no random walk and
-    are left out: the reflector updates bound them.
+    are left out. Taken alone, these bounds leave the tricycles' heading pessimistic
+    (everywhere but at 90 deg of steering) while the systematic errors they omit make it
+    optimistic on straights: :class:`SteeredOdometryNoise` is the exact model of a steered
+    vehicle, with the systematic errors as the EKF's consider parameters (issue 12).
     """
     if model not in TRUTH_MODELS:
         raise ValueError(f"noise_from_truth: unknown model {model!r}; choose one of {', '.join(TRUTH_MODELS)}")
@@ -116,6 +124,142 @@ def noise_from_truth(model: str, slip_k: float, base_m: float, steering_std: flo
     if model == "differential":
         return OdometryNoise(k_d=0.5 * slip_k, k_dtheta=2.0 * slip_k / base_m**2, k_theta=slip_k / base_m)
     return OdometryNoise(k_d=slip_k, k_dtheta=steering_std**2 * step_m / base_m**2, k_theta=slip_k / base_m)
+
+
+#: Steered vehicles :class:`SteeredOdometryNoise` models exactly.
+STEERED_MODELS = ("tricycle", "tricycle_rear")
+
+
+@dataclass(frozen=True)
+class SteeredOdometryNoise(OdometryNoise):
+    """The exact odometry error model of a steered vehicle's one driven wheel (issue 12).
+
+    A tricycle's increments come from two readings, the driven wheel's rolled distance
+    ``s`` and the steering angle ``g``: front drive ``(dD, dtheta) = (s cos g, s sin g / L)``
+    ([seed000 eq8]), rear drive (driven axle at base_link) ``(s, s tan g / L)``. Their errors
+    are not the three independent terms of Crowley's form [seed002 eq17], which can only bound
+    them (:func:`noise_from_truth`), but move the increment along fixed directions:
+
+    * random slip, ``var(s) = slip_k |s|``: the increment moves along
+      ``d(dD, dtheta)/ds = (dD, dtheta) / s`` (both drives), so
+      ``Sigma_slip = slip_k / |s| * u u^T`` with ``u = (dD, dtheta)``: rank one;
+    * random steering error of std ``steering_std``, drawn afresh per control step of
+      ``step_m`` metres: the increment moves along ``w = d(dD, dtheta)/dg``, front
+      ``(-L dtheta, dD / L)``, rear ``(0, s (1 + tan^2 g) / L) = (0, dD / L + L dtheta^2 / dD)``:
+      ``Sigma_steer = steering_std^2 step_m / |s| * w w^T`` (exact for one full step,
+      white in the distance otherwise);
+    * systematic errors, the same in every step: a drive-wheel radius scale error ``eps``
+      (``s_true = (1 + eps) s``) moves the increment by ``eps u``, a steering offset
+      ``beta`` (``g_true = g + beta``) by ``beta w``. They are no random walk: the EKF keeps
+      them as consider parameters of prior std ``radius_scale_std`` and
+      ``steering_offset_std`` (:mod:`agvnav.positioning.ekf`); :meth:`systematic_jacobian`
+      is ``B = d(dD, dtheta)/d(eps, beta) = [u, w]``.
+
+    ``|s|`` is ``hypot(dD, L dtheta)`` (front) or ``|dD|`` (rear). The inherited
+    ``k_d, k_dtheta, k_theta`` are not inputs: they hold Crowley's upper bound of the same
+    random errors (:func:`noise_from_truth`) for the consumers that take three coefficients
+    (the integrity monitor's dead-reckoning growth).
+
+    Parameters
+    ----------
+    model : ``"tricycle"`` (front drive) or ``"tricycle_rear"``.
+    wheelbase_m : nominal wheelbase L (m).
+    slip_k : the driven wheel's slip variance per metre rolled (m²/m).
+    steering_std : std (rad) of the random steering error per control step.
+    step_m : distance (m) per control step over which one steering error acts.
+    radius_scale_std : prior std of the drive-wheel radius scale error (fraction, e.g. 0.003).
+    steering_offset_std : prior std of the steering offset (rad).
+    """
+
+    k_d: float = field(default=0.0, init=False)
+    k_dtheta: float = field(default=0.0, init=False)
+    k_theta: float = field(default=0.0, init=False)
+    model: str = "tricycle"
+    wheelbase_m: float = 1.0
+    slip_k: float = 0.0
+    steering_std: float = 0.0
+    step_m: float = 0.0
+    radius_scale_std: float = 0.0
+    steering_offset_std: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.model not in STEERED_MODELS:
+            raise ValueError(f"SteeredOdometryNoise: unknown model {self.model!r}; choose one of "
+                             f"{', '.join(STEERED_MODELS)}")
+        for name in ("radius_scale_std", "steering_offset_std"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{name} must be a non-negative finite number, got {value!r}")
+        bound = noise_from_truth(self.model, self.slip_k, self.wheelbase_m, self.steering_std, self.step_m)
+        for name in ("k_d", "k_dtheta", "k_theta"):
+            object.__setattr__(self, name, getattr(bound, name))
+        super().__post_init__()
+
+    @property
+    def front(self) -> bool:
+        """Whether the steered wheel is the driven one (front drive)."""
+        return self.model == "tricycle"
+
+    def driven_distance(self, delta_d: ArrayLike, delta_theta: ArrayLike) -> FloatArray:
+        """``|s|`` (m), the driven wheel's rolled distance behind the increments."""
+        dd = np.asarray(delta_d, dtype=np.float64)
+        dth = np.asarray(delta_theta, dtype=np.float64)
+        if self.front:
+            return np.hypot(dd, self.wheelbase_m * dth)
+        return np.abs(dd) + np.zeros_like(dth)
+
+    def systematic_jacobian(self, delta_d: ArrayLike, delta_theta: ArrayLike) -> FloatArray:
+        """``B = d(dD, dtheta)/d(eps, beta) = [u, w]`` ``(..., 2, 2)`` (m, rad per unit scale and per rad)."""
+        dd = np.asarray(delta_d, dtype=np.float64)
+        dth = np.asarray(delta_theta, dtype=np.float64)
+        dd, dth = np.broadcast_arrays(dd, dth)
+        L = self.wheelbase_m
+        B = np.zeros(dd.shape + (2, 2))
+        B[..., 0, 0], B[..., 1, 0] = dd, dth
+        if self.front:
+            B[..., 0, 1], B[..., 1, 1] = -L * dth, dd / L
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                wt = np.where(dd != 0.0, dd / L + L * dth * dth / np.where(dd != 0.0, dd, 1.0), 0.0)
+            B[..., 1, 1] = wt
+        return B
+
+    def increment_covariance(self, delta_d: ArrayLike, delta_theta: ArrayLike) -> FloatArray:
+        """``slip_k/|s| u u^T + steering_std² step_m/|s| w w^T`` ``(..., 2, 2)`` (class docstring; 0 at ``s = 0``)."""
+        B = self.systematic_jacobian(delta_d, delta_theta)
+        s = self.driven_distance(delta_d, delta_theta)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = np.where(s > 0.0, 1.0 / np.where(s > 0.0, s, 1.0), 0.0)
+        u, w = B[..., :, 0], B[..., :, 1]
+        q_slip = (self.slip_k * inv)[..., None, None]
+        q_steer = (self.steering_std**2 * self.step_m * inv)[..., None, None]
+        return q_slip * u[..., :, None] * u[..., None, :] + q_steer * w[..., :, None] * w[..., None, :]
+
+    def calibration_covariance(self) -> FloatArray:
+        """``P_cc = diag(radius_scale_std², steering_offset_std²)`` of the consider parameters ``(eps, beta)``."""
+        return np.diag([self.radius_scale_std**2, self.steering_offset_std**2])
+
+
+#: The constructor fields of :class:`SteeredOdometryNoise` (a run log's ``wheel_odometry`` settings).
+WHEEL_ODOMETRY_KEYS = ("model", "wheelbase_m", "slip_k", "steering_std", "step_m", "radius_scale_std",
+                       "steering_offset_std")
+
+
+def steered_noise(model: str, slip_k: float, wheelbase_m: float, steering_std: float = 0.0, step_m: float = 0.0,
+                  radius_scale_std: float = 0.0, steering_offset_std: float = 0.0) -> SteeredOdometryNoise:
+    """:class:`SteeredOdometryNoise` of a steered vehicle (same arguments as :func:`noise_from_truth`, plus the
+    calibration tolerance: ``radius_scale_std`` (fraction) and ``steering_offset_std`` (rad))."""
+    return SteeredOdometryNoise(model=model, wheelbase_m=wheelbase_m, slip_k=slip_k, steering_std=steering_std,
+                                step_m=step_m, radius_scale_std=radius_scale_std,
+                                steering_offset_std=steering_offset_std)
+
+
+def calibration_jacobian(pose: ArrayLike, delta_d: ArrayLike, delta_theta: ArrayLike,
+                         noise: SteeredOdometryNoise, rule: str = "arc") -> FloatArray:
+    """``W = G B`` ``(..., 3, 2)``: how the pose after one increment moves per unit radius scale error and per rad
+    of steering offset (:meth:`SteeredOdometryNoise.systematic_jacobian` through the rule's Jacobian ``G``)."""
+    G = increment_jacobian(pose, delta_d, delta_theta, rule)
+    return G @ noise.systematic_jacobian(delta_d, delta_theta)
 
 
 def motion_covariance(pose: ArrayLike, delta_d: ArrayLike, delta_theta: ArrayLike,

@@ -109,6 +109,93 @@ def process_noise(
     return (q00, q01, q02, q01, q11, q12, q02, q12, var_th)
 
 
+def steered_noise(
+    psi: float, dd: float, dth: float, front: bool, L: float, slip_k: float, steer_q: float
+) -> tuple[Mat3, tuple[float, float, float, float, float, float]]:
+    """Process noise ``Q`` (flat 3x3) and calibration Jacobian ``W = G B`` (3x2, row-major) of one steered increment.
+
+    Mirrors :class:`agvnav.odometry.SteeredOdometryNoise` through
+    :func:`agvnav.odometry.motion_covariance` and :func:`agvnav.odometry.calibration_jacobian`
+    (``rule="arc"``, ``dl = 0``). With ``G`` the Jacobian of :func:`twist_step` with
+    respect to ``(dd, dth)``, ``a = G u`` (``u = (dd, dth)``: the slip and wheel-radius
+    direction) and ``b = G w`` (``w`` the steering direction, front ``(-L dth, dd / L)``,
+    rear ``(0, dd / L + L dth^2 / dd)``):
+
+        Q = slip_k / |s| a a^T + steer_q / |s| b b^T,   W = [a, b]
+
+    with ``|s|`` the driven wheel's distance (front ``hypot(dd, L dth)``, rear ``|dd|``) and
+    ``steer_q = steering_std^2 step_m``. Returns ``(Q, (a0, b0, a1, b1, a2, b2))``.
+    """
+    h = 0.5 * dth
+    k, dk = _sinc(h), _dsinc(h)
+    heading = psi + h
+    c, s = math.cos(heading), math.sin(heading)
+    gd0, gd1 = k * c, k * s  # d displacement / d dd
+    tx, ty = 0.5 * dd * (dk * c - k * s), 0.5 * dd * (dk * s + k * c)  # d displacement / d dth
+    if front:
+        dist = math.hypot(dd, L * dth)
+        w0, w1 = -L * dth, dd / L
+    else:
+        dist = abs(dd)
+        w0, w1 = 0.0, (dd / L + L * dth * dth / dd) if dd != 0.0 else 0.0
+    a0, a1, a2 = dd * gd0 + dth * tx, dd * gd1 + dth * ty, dth
+    b0, b1, b2 = w0 * gd0 + w1 * tx, w0 * gd1 + w1 * ty, w1
+    if dist > 0.0:
+        qa, qb = slip_k / dist, steer_q / dist
+    else:
+        qa = qb = 0.0
+    q00 = qa * a0 * a0 + qb * b0 * b0
+    q01 = qa * a0 * a1 + qb * b0 * b1
+    q02 = qa * a0 * a2 + qb * b0 * b2
+    q11 = qa * a1 * a1 + qb * b1 * b1
+    q12 = qa * a1 * a2 + qb * b1 * b2
+    q22 = qa * a2 * a2 + qb * b2 * b2
+    return (q00, q01, q02, q01, q11, q12, q02, q12, q22), (a0, b0, a1, b1, a2, b2)
+
+
+def calibration_predict(
+    P: Sequence[float], X: Sequence[float], f02: float, f12: float, W: Sequence[float], cvar: Sequence[float]
+) -> tuple[Mat3, tuple[float, ...]]:
+    """The calibration consider parameters' share of a prediction (:class:`agvnav.positioning.ekf.EkfEstimator`).
+
+    With the pose error ``e' = F e + G (B c + noise)`` and consider parameters ``c`` of fixed
+    covariance ``P_cc = diag(cvar)`` (the augmented transition ``[[F, W], [0, I]]``):
+
+        P' = P + (F X) W^T + W (F X)^T + W P_cc W^T,   X' = F X + W P_cc
+
+    where ``P`` is already ``F P F^T + Q`` (:func:`predict_covariance`) and ``X = P_xc``
+    (3x2 row-major) the cross-covariance before the step. Returns ``(P', X')``.
+    """
+    x0, x1, x2, x3, x4, x5 = X
+    fx0, fx1 = x0 + f02 * x4, x1 + f02 * x5  # F X: rows 0 and 1 get F[i,2] times row 2
+    fx2, fx3 = x2 + f12 * x4, x3 + f12 * x5
+    a0, b0, a1, b1, a2, b2 = W
+    ce, cb = cvar
+    # V = W P_cc, and (F X) W^T + W (F X)^T + V W^T for the upper triangle
+    v0, u0, v1, u1, v2, u2 = a0 * ce, b0 * cb, a1 * ce, b1 * cb, a2 * ce, b2 * cb
+    r0, s0 = fx0 + 0.5 * v0, fx1 + 0.5 * u0  # (F X + V / 2) row i: the sum below is R W^T + W R^T
+    r1, s1 = fx2 + 0.5 * v1, fx3 + 0.5 * u1
+    r2, s2 = x4 + 0.5 * v2, x5 + 0.5 * u2
+    d00 = 2.0 * (r0 * a0 + s0 * b0)
+    d01 = r0 * a1 + s0 * b1 + a0 * r1 + b0 * s1
+    d02 = r0 * a2 + s0 * b2 + a0 * r2 + b0 * s2
+    d11 = 2.0 * (r1 * a1 + s1 * b1)
+    d12 = r1 * a2 + s1 * b2 + a1 * r2 + b1 * s2
+    d22 = 2.0 * (r2 * a2 + s2 * b2)
+    Pn = (P[0] + d00, P[1] + d01, P[2] + d02, P[1] + d01, P[4] + d11, P[5] + d12, P[2] + d02, P[5] + d12,
+          P[8] + d22)
+    return Pn, (fx0 + v0, fx1 + u0, fx2 + v1, fx3 + u1, x4 + v2, x5 + u2)
+
+
+def calibration_update(X: Sequence[float], K: Sequence[float], H: Sequence[float]) -> tuple[float, ...]:
+    """``X' = (I - K H) X`` for the pose / calibration cross-covariance ``X`` (3x2 row-major)."""
+    h0, h1, h2 = H
+    r0 = h0 * X[0] + h1 * X[2] + h2 * X[4]
+    r1 = h0 * X[1] + h1 * X[3] + h2 * X[5]
+    k0, k1, k2 = K
+    return (X[0] - k0 * r0, X[1] - k0 * r1, X[2] - k1 * r0, X[3] - k1 * r1, X[4] - k2 * r0, X[5] - k2 * r1)
+
+
 def predict_covariance(P: Sequence[float], f02: float, f12: float, Q: Sequence[float]) -> Mat3:
     """``P' = F P F^T + Q`` for ``F = I`` except ``F[0,2], F[1,2]``; ``P`` symmetric.
 

@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import as_float_array, require_finite, require_nonnegative, require_positive
 from agvnav.geometry import wrap_angle
-from agvnav.odometry import OdometryNoise
+from agvnav.odometry import OdometryNoise, SteeredOdometryNoise
 from agvnav.positioning import _fast
 from agvnav.positioning.bounds import encoder_bearing_std
 from agvnav.positioning.gating import INDEX_MIN_REFLECTORS, BearingIndex, GateSpec
@@ -78,7 +78,10 @@ class StreamingEstimator:
     bearing_std:
         Std (rad) of one bearing; default the encoder quantisation of ``pulses_per_rev``.
     odometry_noise:
-        :class:`~agvnav.odometry.OdometryNoise` for the covariance growth ``Q``.
+        :class:`~agvnav.odometry.OdometryNoise` for the covariance growth ``Q``; a
+        :class:`~agvnav.odometry.SteeredOdometryNoise` gives a steered vehicle's exact
+        model instead (:func:`~agvnav.positioning._fast.steered_noise`), and the EKF keeps
+        its calibration errors as consider parameters (:mod:`agvnav.positioning.ekf`).
     k_lateral:
         Variance of the lateral increment per metre of sideways travel (m²/m), the
         holonomic extension of ``Q`` (see :meth:`predict`); default ``odometry_noise.k_d``,
@@ -184,6 +187,15 @@ class StreamingEstimator:
         #: ``(N,)`` survey std of each reflector (m per axis): the map's ``survey_std_m``, else ``map_std``.
         self.survey_std = np.where(survey > 0.0, survey, map_std)
         self.odometry_noise = OdometryNoise() if odometry_noise is None else odometry_noise
+        noise = self.odometry_noise
+        #: The exact steered-wheel model's constants for :func:`~agvnav.positioning._fast.steered_noise`
+        #: (``front, L, slip_k, steering_std^2 step_m``), None for Crowley's coefficients; and the
+        #: calibration consider parameters' variances (radius scale, steering offset rad²), EKF only.
+        self._steered: tuple[bool, float, float, float] | None = None
+        self._calibration_var = (0.0, 0.0)
+        if isinstance(noise, SteeredOdometryNoise):
+            self._steered = (noise.front, noise.wheelbase_m, noise.slip_k, noise.steering_std**2 * noise.step_m)
+            self._calibration_var = (noise.radius_scale_std**2, noise.steering_offset_std**2)
         k_lat = self.odometry_noise.k_d if k_lateral is None else k_lateral
         self.k_lateral = require_nonnegative("k_lateral", k_lat)
         self.rate_hz = require_positive("rate_hz", rate_hz)
@@ -366,6 +378,8 @@ class StreamingEstimator:
         ``var_th = K_Dtheta hypot(delta_d, delta_lateral) + K_theta |delta_theta|`` and the
         holonomic term ``var_l = k_lateral |delta_lateral|``. With ``delta_lateral = 0``
         the prediction is today's non-holonomic one, bit for bit.
+        A :class:`~agvnav.odometry.SteeredOdometryNoise` replaces this ``Q`` by its exact
+        rank-one model of the drive wheel's slip and steering error (issue 12).
         """
         checked = self._checked_odometry(t, delta_d, delta_theta, delta_lateral)
         if checked is None:
@@ -722,14 +736,19 @@ class StreamingEstimator:
         x, y, psi = self._x_t
         if math.isfinite(x) and math.isfinite(y) and math.isfinite(psi):  # self._has_pose(), inlined
             nx, ny, npsi, f02, f12 = _fast.twist_step(x, y, psi, delta_d, delta_theta, delta_lateral)
-            k = self.odometry_noise
-            Q = _fast.process_noise(
-                psi, delta_d, delta_theta, k.k_d, k.k_dtheta, k.k_theta, delta_lateral, self.k_lateral
-            )
+            steered = self._steered
+            W = None
+            if steered is None or delta_lateral != 0.0:
+                k = self.odometry_noise
+                Q = _fast.process_noise(
+                    psi, delta_d, delta_theta, k.k_d, k.k_dtheta, k.k_theta, delta_lateral, self.k_lateral
+                )
+            else:  # the exact steered-wheel model (issue 12)
+                Q, W = _fast.steered_noise(psi, delta_d, delta_theta, *steered)
             self._x_t = (nx, ny, _fast.wrap(npsi))
             self._P_t = _fast.predict_covariance(self._P_t, f02, f12, Q)
             if self.consider:
-                self._consider_move(f02, f12)
+                self._consider_move(f02, f12, W)
 
     def _start(self, pose: ArrayLike, covariance: ArrayLike | None) -> None:
         x = require_finite("initial_pose", pose)
@@ -792,8 +811,13 @@ class StreamingEstimator:
         """``(M, C, svar)`` for :func:`~agvnav.positioning._fast.gate_one`, ``M`` moved by ``F(f02, f12)``."""
         raise NotImplementedError
 
-    def _consider_move(self, f02: float, f12: float) -> None:  # pragma: no cover - abstract
-        """``P_xp <- F P_xp`` for the prediction Jacobian ``F`` (``F[0,2] = f02``, ``F[1,2] = f12``)."""
+    def _consider_move(self, f02: float, f12: float, W: Any = None) -> None:  # pragma: no cover - abstract
+        """``P_xp <- F P_xp`` for the prediction Jacobian ``F`` (``F[0,2] = f02``, ``F[1,2] = f12``).
+
+        ``W`` (the steered-wheel model's calibration Jacobian of
+        :func:`~agvnav.positioning._fast.steered_noise`, else None): the calibration consider
+        parameters' share of ``P`` and their cross-covariance too.
+        """
         raise NotImplementedError
 
     def _consider_reset(self) -> None:  # pragma: no cover - abstract

@@ -39,7 +39,7 @@ from agvnav.guidance import (
 )
 from agvnav.guidance.errors import feedforward_steering
 from agvnav.kinematics import TractorTrailer
-from agvnav.odometry import OdometryNoise
+from agvnav.odometry import OdometryNoise, steered_noise
 from agvnav.positioning import make_estimator
 from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
 from agvnav.sensors.goniometer import Goniometer
@@ -414,6 +414,24 @@ def wall_ids(world: WorldMap) -> list[str]:
     return ids
 
 
+def odometry_noise(sc: Scenario) -> OdometryNoise:
+    """The estimator's odometry model: ``positioning.odometry_noise``, or its ``wheel_odometry``.
+
+    ``wheel_odometry`` (steered vehicles; the scenario validates it) gives the exact wheel model
+    :class:`~agvnav.odometry.SteeredOdometryNoise`, one steering draw per control step of
+    ``traction.speed_m_s x step_s`` metres.
+    """
+    ps = sc.positioning
+    wo = ps.wheel_odometry
+    if wo is None:
+        return OdometryNoise(*ps.odometry_noise)
+    return steered_noise(
+        sc.vehicle.model, wo.slip_std**2, float(sc.vehicle.wheelbase_m),  # type: ignore[union-attr]
+        math.radians(wo.steering_noise_std_deg), sc.traction.speed_m_s * sc.step_s, wo.wheel_radius_std,
+        math.radians(wo.steering_offset_std_deg),
+    )
+
+
 def _estimator(
     sc: Scenario, world: WorldMap, x0: NDArray[np.float64], rangers: UltrasonicArray | None
 ) -> Any:
@@ -423,7 +441,7 @@ def _estimator(
     std = np.array([ps.initial_std[0], ps.initial_std[1], math.radians(ps.initial_std[2])])
     g = sc.goniometer
     kwargs: dict[str, Any] = {
-        "odometry_noise": OdometryNoise(*ps.odometry_noise),
+        "odometry_noise": odometry_noise(sc),
         "initial_pose": x0[:3] + err,
         "initial_covariance": np.diag(np.maximum(std, 1e-6) ** 2),
         "strict": False,  # a running vehicle: implausible readings are dropped and counted (issue 12)

@@ -276,6 +276,27 @@ class ControllerSpec(StrictModel):
         return self
 
 
+class WheelOdometrySpec(StrictModel):
+    """A steered vehicle's odometry errors as the filter models them exactly (issue 12).
+
+    Replaces ``odometry_noise`` (Crowley's three coefficients, an upper bound for a
+    steered vehicle): the random slip and steering errors are mapped along the
+    directions they move the increment (:class:`agvnav.odometry.SteeredOdometryNoise`;
+    the steering error acts per control step, ``traction.speed_m_s x step_s`` metres),
+    and the calibration tolerances are the prior stds of the wheel-radius scale error
+    and the steering offset, which the EKF keeps as consider parameters.
+    """
+
+    slip_std: NonNegFloat = 0.0
+    """random slip of the drive wheel: std (m) after 1 m rolled (variance slip_std² per metre)."""
+    steering_noise_std_deg: NonNegFloat = 0.0
+    """random steering-angle error, drawn afresh per control step (std)."""
+    wheel_radius_std: Annotated[float, Field(ge=0.0, le=0.2)] = 0.0
+    """calibration tolerance of the drive-wheel radius: std of true/nominal - 1 (fraction)."""
+    steering_offset_std_deg: Annotated[float, Field(ge=0.0, le=10.0)] = 0.0
+    """calibration tolerance of the steering zero (std)."""
+
+
 class PositioningSpec(StrictModel):
     """Positioning method and its initialisation.
 
@@ -296,6 +317,14 @@ class PositioningSpec(StrictModel):
     odometry_noise: tuple[NonNegFloat, NonNegFloat, NonNegFloat] = Field(
         (0.001, 0.003, 0.001), description="k_d, k_dtheta, k_theta of the odometry covariance model"
     )
+    wheel_odometry: WheelOdometrySpec | None = None
+    """steered vehicles: the exact odometry error model and calibration tolerance (replaces odometry_noise)."""
+
+    @model_validator(mode="after")
+    def _one_noise_model(self) -> PositioningSpec:
+        if self.wheel_odometry is not None and "odometry_noise" in self.model_fields_set:
+            raise ValueError("give either odometry_noise (Crowley's coefficients) or wheel_odometry, not both")
+        return self
 
 
 class SafetySpec(StrictModel):
@@ -541,6 +570,9 @@ class Scenario(SourcedModel):
             raise ValueError("the seed-004 route is driven by the hybrid automaton (controller.name: hybrid)")
         if self.route is None and self.controller.name == "hybrid":
             raise ValueError("the hybrid automaton drives the seed-004 square: give the route key")
+        if self.positioning.wheel_odometry is not None and self.vehicle.model not in ("tricycle", "tricycle_rear"):
+            raise ValueError("positioning.wheel_odometry models a steered drive wheel (tricycle, tricycle_rear); "
+                             "give odometry_noise for this vehicle")
         if self.route is not None and self.ultrasonic is None:
             raise ValueError("the hybrid automaton's landmarks are seen by ultrasonic rangers: give the ultrasonic key")
         return self
