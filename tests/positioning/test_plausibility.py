@@ -132,3 +132,29 @@ def test_too_late_reflections_raise_or_are_dropped(lab: WorldMap) -> None:
     running.predict(1.0, 0.0, 0.0)
     assert not running.update(0.5, 0.1)
     assert running.n_dropped == {"late": 1}
+
+
+def test_a_burst_of_missed_odometry_is_neither_extrapolated_nor_trusted(lab: WorldMap) -> None:
+    """Seconds of missed motion arrive in one step, split at reflection instants (``odometry_lost``).
+
+    The first piece, 4.2 mm in 0.8 ms (5.25 m/s), passes on the slack; the pieces after
+    it are refused as too fast and replaced by the motion at the last rate. That rate
+    must be one the vehicle can have (at most ``max_speed_m_s``), and the variance must
+    grow by what the vehicle could have done in each refused piece's span: before,
+    the estimate ran at 5.25 m/s (0.25 m in 50 ms) while its sigma stayed at millimetres.
+    """
+    est = make_estimator("ekf", lab, MOUNT, initial_pose=START, initial_covariance=np.diag([1e-6, 1e-6, 1e-6]),
+                         plausibility=LIMITS, strict=False)
+    est.predict(0.0, 0.0, 0.0)
+    est.predict(0.0008, 0.0042, 0.0)  # plausible only on the 10 mm slack
+    before, var_before = est.pose.copy(), est.covariance[0, 0] + est.covariance[1, 1]
+    spans = (0.0049, 0.0095, 0.0224, 0.0124)
+    t = 0.0008
+    for span in spans:  # 0.26 m in 49 ms: every piece too fast
+        t += span
+        est.predict(t, 5.25 * span, 0.0)
+    assert est.n_dropped == {"too_fast": 4}
+    moved = float(np.hypot(*(est.pose[:2] - before[:2])))
+    assert moved <= LIMITS.max_speed_m_s * sum(spans) + 1e-12  # at most the limit speed, not 5.25 m/s
+    grown = est.covariance[0, 0] + est.covariance[1, 1] - var_before
+    assert grown >= 2.0 * sum((LIMITS.max_speed_m_s * s) ** 2 for s in spans)  # sigma ~ the motion possible
