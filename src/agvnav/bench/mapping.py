@@ -24,8 +24,14 @@ frame); ``nees_mean`` the mean of ``eᵀC⁻¹e`` over reflectors, each against 
 its 95 % band counts that the reflectors of one map share the anchor's and the trajectory's errors
 (:func:`marginal_band`: a chi-square with 2n dof would be far too narrow); ``nees_joint`` the NEES of
 all reflectors together against their joint covariance, per reflector (2 expected), whose band
-``chi2(2n)/n`` is exact and pools over runs (:func:`joint_band`); the summary pools runs; positioning
-RMS of the EKF replaying the same drive with the mapped map and with the true map.
+``chi2(2n)/n`` is exact and pools over runs (:func:`joint_band`); the summary pools runs.
+``positioning_ratio``: position RMS of the EKF replaying the same drive (same seed, log and settings) on the
+mapped map over its RMS on the true map; each map tells the EKF its own survey std and nothing else
+(``map_std_m = 0``: the true map is exact, the mapped one states each reflector's frame-free std,
+:mod:`agvnav.mapping.output`). ``frame_error_m``: the RMS move of the similarity that fits the mapped
+reflectors onto the true ones (the anchor's frame error, shared by every reflector: no positioning filter
+removes it); ``positioning_ratio_frame_free``: the ratio with the mapped map moved by that similarity,
+what the mapping's own relative errors cost.
 ``--quick``: 2 seeds and no warehouse (its drive takes minutes); the full run gives the warehouse
 ``SLOW_SEEDS`` seeds. Positioning is replayed with the surveyed2 and baseline maps (the start-pose map's
 frame is the start pose's, centimetres off the site's).
