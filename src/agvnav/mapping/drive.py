@@ -133,12 +133,35 @@ def _clip_diagonal(cov: F64) -> F64:
     return out
 
 
-def _unit_increment_cov(dd: float, dth: float) -> F64:
-    """``(3, 2, 2)``: the increment covariance of ``(ΔD, Δθ)`` for unit ``k_d``, ``k_dθ``, ``k_θ`` in turn."""
-    out = np.zeros((3, 2, 2))
-    out[0, 0, 0] = abs(dd)
-    out[1, 1, 1] = abs(dd)
-    out[2, 1, 1] = abs(dth)
+#: Length (m) below which a turn's radius no longer scales the slip's heading error with the distance: the traction
+#: slip's increment covariance is ``z zᵀ / max(|ΔD|, SLIP_LENGTH |Δθ|)`` (:func:`unit_increment_cov`), bounded
+#: when a steered wheel turns the vehicle on the spot (``ΔD → 0``). An assumption (about a wheelbase); no shipped
+#: drive turns tighter than a 1.5 m radius, where it does not act.
+SLIP_LENGTH = 0.5
+
+
+def unit_increment_cov(dd: Any, dth: Any) -> F64:
+    """``(..., 3, 2, 2)``: the covariance of the increment ``z = (ΔD, Δθ)`` (m, rad) for unit ``k_d``, ``k_dθ``,
+    ``k_θ`` in turn.
+
+    ``k_d`` is the traction slip, variance per metre rolled: a wheel that slips rolls more or less of the same
+    arc, so the slip scales the whole increment, ``δz = z ε`` with ``var ε = k_d / |ΔD|``: its part is
+    ``z zᵀ / |ΔD|``, the distance's ``k_d |ΔD|`` and the turn's ``k_d |ΔD| κ²`` perfectly correlated (``κ = Δθ/ΔD``;
+    [seed002 eq17] has the distance part alone, and a steered vehicle's turns then carried the slip's heading
+    error as independent ``k_θ`` noise). For a differential drive with independent wheel slips the common mode
+    has this form too (``cov(ΔD, Δθ) = k_d Δθ``); the wheels' difference is ``k_dθ``. ``k_dθ``: heading variance
+    per metre, ``k_θ``: per radian turned, as in [seed002 eq17].
+    """
+    dd = np.asarray(dd, dtype=np.float64)
+    dth = np.asarray(dth, dtype=np.float64)
+    out = np.zeros(dd.shape + (3, 2, 2))
+    norm = np.maximum(np.abs(dd), SLIP_LENGTH * np.abs(dth))
+    inv = np.divide(1.0, norm, out=np.zeros_like(norm), where=norm > 0.0)
+    out[..., 0, 0, 0] = dd * dd * inv
+    out[..., 0, 0, 1] = out[..., 0, 1, 0] = dd * dth * inv
+    out[..., 0, 1, 1] = dth * dth * inv
+    out[..., 1, 1, 1] = np.abs(dd)
+    out[..., 2, 1, 1] = np.abs(dth)
     return out
 
 
@@ -146,7 +169,7 @@ def _propagate_parts(local: F64, parts: F64, dd: float, dth: float) -> tuple[F64
     """One midpoint step of the three unit-coefficient covariances ``(3, 3, 3)`` ([seed002 eq14] [seed002 eq17])."""
     F = pose_jacobian(local, dd, dth, rule="midpoint")
     G = increment_jacobian(local, dd, dth, rule="midpoint")
-    new = F @ parts @ F.T + G @ _unit_increment_cov(dd, dth) @ G.T
+    new = F @ parts @ F.T + G @ unit_increment_cov(dd, dth) @ G.T
     return integrate_pose(local, dd, dth, rule="midpoint"), new
 
 
@@ -239,10 +262,7 @@ def prepare_drive(log: Any, keyframe_s: float = 0.0, noise: OdometryNoise | None
     dd_p, dth_p = inc[step, 0] * frac, inc[step, 1] * frac
     F = pose_jacobian(start, dd_p, dth_p, rule="midpoint")[:, None]  # (B, 1, 3, 3)
     G = increment_jacobian(start, dd_p, dth_p, rule="midpoint")[:, None]  # (B, 1, 3, 2)
-    unit = np.zeros((stamp.shape[0], 3, 2, 2))
-    unit[:, 0, 0, 0] = np.abs(dd_p)
-    unit[:, 1, 1, 1] = np.abs(dd_p)
-    unit[:, 2, 1, 1] = np.abs(dth_p)
+    unit = unit_increment_cov(dd_p, dth_p)
     off_parts = F @ base_parts @ np.swapaxes(F, -1, -2) + G @ unit @ np.swapaxes(G, -1, -2)
     off_cov = np.einsum("c,ncij->nij", k_vec, off_parts)
     off_dist = dist_cum[step] + inc[step, 0] * frac - dist_cum[kf_idx[a]]
@@ -253,10 +273,7 @@ def prepare_drive(log: Any, keyframe_s: float = 0.0, noise: OdometryNoise | None
     # error is (1 - α) e_W + (f - α) e_S - α e_R: zero when every odometry instant is a keyframe.
     alpha = np.clip((stamp - t[kf_idx[a]]) / (t[kf_idx[a + 1]] - t[kf_idx[a]]), 0.0, 1.0)
     G_full = increment_jacobian(start, inc[step, 0], inc[step, 1], rule="midpoint")[:, None]
-    unit_full = np.zeros((stamp.shape[0], 3, 2, 2))
-    unit_full[:, 0, 0, 0] = np.abs(inc[step, 0])
-    unit_full[:, 1, 1, 1] = np.abs(inc[step, 0])
-    unit_full[:, 2, 1, 1] = np.abs(inc[step, 1])
+    unit_full = unit_increment_cov(inc[step, 0], inc[step, 1])
     c_s = G_full @ unit_full @ np.swapaxes(G_full, -1, -2)
     c_r = _clip_diagonal(parts_from_kf[kf_idx[a + 1]] - base_parts - c_s)
     w = lambda x: x[:, None, None, None]  # noqa: E731 - (B,) weights over (B, 3, 3, 3)
