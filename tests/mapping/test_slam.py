@@ -219,7 +219,8 @@ def test_a_reflector_the_front_end_missed_is_initialised_from_the_leftovers(syn:
     keep = np.arange(fe.landmarks.shape[0]) != j
     renum = np.cumsum(keep) - 1
     assoc = np.where((fe.assoc >= 0) & keep[np.maximum(fe.assoc, 0)], renum[np.maximum(fe.assoc, 0)], -1)
-    missed = replace(fe, landmarks=fe.landmarks[keep], assoc=assoc, ids=[i for i, k in zip(fe.ids, keep) if k])
+    ids = [i for i, k in zip(fe.ids, keep, strict=True) if k]
+    missed = replace(fe, landmarks=fe.landmarks[keep], assoc=assoc, ids=ids)
     anchor = SurveyedAnchor(("A", "B"), REFLECTORS[:2], np.array([0.001, 0.001]))
     res = solve_anchored(missed, [anchor], None, opt, START)
     idx, dist = _nearest(res.xy)

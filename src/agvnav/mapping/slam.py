@@ -14,7 +14,9 @@
    (:mod:`agvnav.mapping.anchors`). No anchor: :class:`~agvnav.mapping.anchors.ScaleUnobservable`.
 3. **Batch**: each bearing factor interpolates the pose between the two keyframes around its reflection
    (a keyframe at every odometry instant: :func:`agvnav.mapping.drive.interpolate_drive`); every
-   reflection is re-associated against the solved trajectory with a tight gate,
+   reflection is re-associated against the solved trajectory with a tight gate (the first pass keeps the front
+   end's association where that gate finds none; after the first solve the reflections no reflector claims are
+   triangulated into new reflectors, :func:`_initialise_leftovers`),
    reflectors without ``min_sightings`` from ``min_baseline`` are dropped, the graph is solved to
    convergence with the odometry's systematic errors (scale, heading rate, turn scale), bearing
    outliers beyond ``outlier_sigma`` are removed and it is solved again. The noise is estimated
