@@ -11,6 +11,7 @@ from agvnav.mapping.drive import (
     SLIP_LENGTH,
     odometry_poses,
     prepare_drive,
+    repeated_readings,
     step_fractions,
     unit_increment_cov,
 )
@@ -73,7 +74,7 @@ def test_a_reflection_inside_an_accelerating_step_is_placed_where_the_vehicle_wa
     psi = 0.1 * t ** 2
     inc = np.column_stack([np.diff(s), np.diff(psi), np.zeros(n)])
     stamp = t[10:30] + 0.5 * dt
-    log = RecordedLog(t, inc, stamp, stamp.copy(), np.zeros(stamp.size), {"odometry_noise": [1e-6, 1e-6, 1e-6]})
+    log = RecordedLog(t, inc, stamp, stamp.copy(), 0.01 * np.arange(stamp.size), {"odometry_noise": [1e-6, 1e-6, 1e-6]})
     drive = prepare_drive(log, 0.0)
     k = drive.refl_keyframe
     true_d = 0.2 * stamp + 0.15 * stamp ** 2 - (0.2 * t[k] + 0.15 * t[k] ** 2)
@@ -85,3 +86,21 @@ def test_a_reflection_inside_an_accelerating_step_is_placed_where_the_vehicle_wa
     inc_c = np.column_stack([np.full(n, 0.05), np.full(n, 0.01), np.zeros(n)])
     fr = np.full(5, 0.3)
     np.testing.assert_allclose(step_fractions(inc_c, t, np.arange(5, 10), fr), 0.3 * inc_c[5:10, :2], atol=1e-15)
+
+
+def test_a_run_of_identical_readings_is_one_measurement() -> None:
+    """Standing 3 s at 8 Hz: two reflectors repeat their counts 24 times each, one reading of each run stays (its
+    middle); a count seen again after a pause longer than 1.5 revolutions is a new run; prepare_drive drops the
+    rest (and keeps them all with drop_repeats=False)."""
+    stamp = np.concatenate([np.arange(24) / 8.0 + 0.01, np.arange(24) / 8.0 + 0.07, [3.01, 5.0, 5.125]])
+    bearing = np.concatenate([np.full(24, 0.5), np.full(24, -1.25), [0.7, 0.5, 0.5]])
+    drop = repeated_readings(stamp, bearing, 8.0)
+    kept = np.flatnonzero(~drop)
+    assert kept.tolist() == [12, 36, 48, 50]  # middles of the two runs, the single 0.7, the new 0.5 run's (of 2)
+    n = 120
+    t = np.arange(n + 1) * 0.05
+    order = np.argsort(stamp, kind="stable")
+    log = RecordedLog(t, np.zeros((n, 3)), stamp[order], stamp[order], bearing[order],
+                      {"odometry_noise": [1e-6, 1e-6, 1e-6], "rate_hz": 8.0})
+    assert prepare_drive(log, 0.0).bearing.size == 4
+    assert prepare_drive(log, 0.0, drop_repeats=False).bearing.size == stamp.size

@@ -41,7 +41,8 @@ from numpy.typing import NDArray
 from agvnav.geometry import between
 from agvnav.odometry import OdometryNoise, increment_jacobian, integrate_pose, pose_jacobian
 
-__all__ = ["Drive", "interpolate_drive", "odometry_poses", "prepare_drive", "step_fractions", "unit_increment_cov"]
+__all__ = ["Drive", "interpolate_drive", "odometry_poses", "prepare_drive", "repeated_readings", "step_fractions",
+           "unit_increment_cov"]
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
@@ -218,14 +219,54 @@ def step_fractions(increments: F64, t: F64, step: I64, frac: F64) -> F64:
     return np.asarray(h10 * at[step] * h + h01 * inc[step] + h11 * at[step + 1] * h)
 
 
+def repeated_readings(stamp: F64, bearing: F64, rate_hz: float) -> NDArray[np.bool_]:
+    """``(B,)`` True for the reflections to drop: all but the middle one of each run of identical readings.
+
+    A head that sees a reflector at the same encoder count revolution after revolution (standing, or moving
+    so slowly that the bearing stays inside one pulse) repeats one reading with one quantisation error: the
+    run is one measurement, not ``n`` independent ones. A run is the same bearing value (rad, exactly: another
+    reflector at the same count is a 1-in-65535 chance) again within 1.5 revolutions (``rate_hz``, Hz) of
+    ``stamp`` (s); its middle reading is kept (moving through the pulse, the middle is where the bearing is
+    nearest the pulse's centre). Warehouse drive, seed 0: 2907 of 44 000 readings in runs (stops at the
+    stations, creeping); the quantisation errors of one reflector summed over 64 readings had 2.2 times the
+    variance of independent ones, 1.09 times without the runs, and the reflector covariances were ~2x
+    optimistic (joint NEES 4.4 with the simulator's quantisation against 2.0 with independent errors).
+    """
+    order = np.argsort(stamp, kind="stable")
+    drop = np.zeros(stamp.shape[0], dtype=bool)
+    runs: dict[float, list[int]] = {}
+    last: dict[float, float] = {}
+    window = 1.5 / rate_hz
+
+    def close(run: list[int]) -> None:
+        if len(run) > 1:
+            mid = run[len(run) // 2]
+            drop[[i for i in run if i != mid]] = True
+
+    for i in order.tolist():
+        v = float(bearing[i])
+        if v in last and stamp[i] - last[v] <= window:
+            runs[v].append(i)
+        else:
+            if v in runs:
+                close(runs[v])
+            runs[v] = [i]
+        last[v] = float(stamp[i])
+    for run in runs.values():
+        close(run)
+    return drop
+
+
 def prepare_drive(log: Any, keyframe_s: float = 0.0, noise: OdometryNoise | None = None,
-                  mount: Any = None) -> Drive:
+                  mount: Any = None, drop_repeats: bool = True) -> Drive:
     """Cut ``log`` (a :class:`agvnav.logs.RecordedLog`) into keyframes every ``keyframe_s`` seconds (0: every
     odometry instant, where interpolated bearings carry no odometry noise of their own).
 
     ``noise`` defaults to the log's ``odometry_noise`` setting, else :class:`OdometryNoise`'s
     defaults; ``mount`` (m, m, rad) to the log's ``mount`` setting, else the origin.
-    Reflections stamped at or before the first odometry instant or after the last are dropped.
+    Reflections stamped at or before the first odometry instant or after the last are dropped, and with
+    ``drop_repeats`` all but one of each run of identical readings (:func:`repeated_readings`; the log's
+    ``rate_hz``, default 8 Hz).
     """
     if not (math.isfinite(keyframe_s) and keyframe_s >= 0.0):
         raise ValueError(f"keyframe_s must be a non-negative number of seconds, got {keyframe_s!r}")
@@ -269,6 +310,8 @@ def prepare_drive(log: Any, keyframe_s: float = 0.0, noise: OdometryNoise | None
     stamp = np.asarray(log.reflection_stamp, dtype=np.float64)
     bearing = np.asarray(log.bearing, dtype=np.float64)
     keep = (stamp > t[0]) & (stamp <= t[-1])
+    if drop_repeats and stamp.size:
+        keep &= ~repeated_readings(stamp, bearing, float(settings.get("rate_hz") or 8.0))
     stamp, bearing = stamp[keep], bearing[keep]
     step = np.clip(np.searchsorted(t, stamp, side="left") - 1, 0, n - 2)  # t[step] < stamp <= t[step + 1]
     frac = (stamp - t[step]) / (t[step + 1] - t[step])

@@ -118,6 +118,8 @@ class MappingOptions:
     in_step_slip : the bearings of one odometry step share the slip inside it (a Brownian bridge between the
     two keyframes, :class:`StepNoise`), its own variance component ``λ_s`` (a vehicle whose wheels do not
     slip within a step drives it to zero).
+    drop_repeats : one reading of each run of identical readings (:func:`agvnav.mapping.drive.repeated_readings`: a
+    head standing or creeping repeats one quantisation error).
     batch_initialise : after the batch's first solve, reflectors are initialised from the reflections no reflector
     claims (tracks against the solved trajectory: a reflector the front end missed beside others).
     head_yaw_std : std (rad) of the head's yaw on the vehicle: a frame given by the start pose is
@@ -155,6 +157,7 @@ class MappingOptions:
     front_iterations: int = 3
     interpolate: bool = True
     batch_initialise: bool = True
+    drop_repeats: bool = True
     in_step_slip: bool = True
     odometry_noise: OdometryNoise | None = None
     init: InitialiseOptions = field(default_factory=InitialiseOptions)
@@ -609,7 +612,7 @@ def front_end(log: Any, start: F64 | None = None, options: MappingOptions | None
     opt = options or MappingOptions()
     t0 = time.perf_counter()
     settings = getattr(log, "settings", {}) or {}
-    drive = prepare_drive(log, opt.keyframe_s, opt.odometry_noise)
+    drive = prepare_drive(log, opt.keyframe_s, opt.odometry_noise, drop_repeats=opt.drop_repeats)
     drive = replace(drive, bearing=drive.bearing + _bearing_offset(log, opt))
     max_range = float(opt.max_range or settings.get("max_range_m") or 30.0)
     init = InitialiseOptions(**{**opt.init.__dict__, "max_range": max_range})
