@@ -12,7 +12,6 @@ from agvnav.mapping.drive import (
     odometry_poses,
     prepare_drive,
     repeated_readings,
-    step_fractions,
     unit_increment_cov,
 )
 from agvnav.odometry import OdometryNoise
@@ -62,30 +61,6 @@ def test_unit_increment_cov_is_bounded_when_the_vehicle_turns_on_the_spot() -> N
     np.testing.assert_allclose(u[:, 1, 1, 1], [0.02, 0.0, 0.02])
     np.testing.assert_allclose(u[:, 2, 1, 1], [0.0, 0.01, 0.01])
     assert np.all(np.linalg.eigvalsh(u[:, 0]) >= -1e-15)
-
-
-def test_a_reflection_inside_an_accelerating_step_is_placed_where_the_vehicle_was() -> None:
-    """Accelerating at 0.3 m/s² from 0.2 m/s while the turn rate ramps at 0.2 rad/s²: a reflection stamped mid-step
-    hangs on its keyframe with the offset the quadratic motion gives (the split in proportion to time was
-    a dt²/8 = 0.09 mm and 0.06 mrad off: a bias shared by every bearing of the step)."""
-    dt, n = 0.05, 40
-    t = np.arange(n + 1) * dt
-    s = 0.2 * t + 0.15 * t ** 2
-    psi = 0.1 * t ** 2
-    inc = np.column_stack([np.diff(s), np.diff(psi), np.zeros(n)])
-    stamp = t[10:30] + 0.5 * dt
-    log = RecordedLog(t, inc, stamp, stamp.copy(), 0.01 * np.arange(stamp.size), {"odometry_noise": [1e-6, 1e-6, 1e-6]})
-    drive = prepare_drive(log, 0.0)
-    k = drive.refl_keyframe
-    true_d = 0.2 * stamp + 0.15 * stamp ** 2 - (0.2 * t[k] + 0.15 * t[k] ** 2)
-    true_th = 0.1 * stamp ** 2 - 0.1 * t[k] ** 2
-    assert drive.refl_offset_dist is not None
-    np.testing.assert_allclose(drive.refl_offset_dist, true_d, atol=1e-12)
-    np.testing.assert_allclose(drive.refl_offset[:, 2], true_th, atol=1e-12)
-    # at a constant rate the split stays in proportion to time
-    inc_c = np.column_stack([np.full(n, 0.05), np.full(n, 0.01), np.zeros(n)])
-    fr = np.full(5, 0.3)
-    np.testing.assert_allclose(step_fractions(inc_c, t, np.arange(5, 10), fr), 0.3 * inc_c[5:10, :2], atol=1e-15)
 
 
 def test_a_run_of_identical_readings_is_one_measurement() -> None:

@@ -7,8 +7,7 @@ the odometry noise model ([seed002 eq17] via :func:`agvnav.odometry.propagate`).
 A reflection measured at instant ``τ`` inside the odometry step ``(t_k, t_{k+1}]``
 hangs on the last keyframe ``a`` at or before ``t_k``: its base_link pose is the
 keyframe pose composed with the odometry offset ``u`` from ``t_a`` to ``τ`` (the
-step's increment split by a cubic Hermite in time through the rates at the step's ends,
-:func:`step_fractions`; at a constant rate in proportion to time, as :mod:`agvnav.logs.localize`
+step's increment split in proportion to time, as :mod:`agvnav.logs.localize`
 does); the offset's own small covariance is carried to the bearing's variance. The batch
 interpolates instead (:func:`interpolate_drive`): the reflection's pose lies between its keyframe
 and the next, both in the state, and with a keyframe at every odometry instant (the default) the
@@ -41,7 +40,7 @@ from numpy.typing import NDArray
 from agvnav.geometry import between
 from agvnav.odometry import OdometryNoise, increment_jacobian, integrate_pose, pose_jacobian
 
-__all__ = ["Drive", "interpolate_drive", "odometry_poses", "prepare_drive", "repeated_readings", "step_fractions",
+__all__ = ["Drive", "interpolate_drive", "odometry_poses", "prepare_drive", "repeated_readings",
            "unit_increment_cov"]
 
 F64 = NDArray[np.float64]
@@ -197,28 +196,6 @@ def odometry_poses(increments: F64) -> F64:
     return np.column_stack([np.concatenate([[0.0], np.cumsum(dx)]), np.concatenate([[0.0], np.cumsum(dy)]), theta])
 
 
-def step_fractions(increments: F64, t: F64, step: I64, frac: F64) -> F64:
-    """``(B, 2)``: the distance (m) and turn (rad) of odometry step ``step (B,)`` done at its time fraction ``frac``.
-
-    The odometry instants sample a smooth motion: inside a step the distance and the heading follow the cubic
-    Hermite between the step's ends, with the rates there the mean of the steps on either side (the first and
-    last instants: their one step's). At a constant rate it is ``frac`` times the step; accelerating at
-    0.3 m/s² (the warehouse's stations), the linear split was ``a dt² / 8`` = 0.09 mm off mid-step, and with the
-    steering turning inside a step (clothoids) the heading was off as much: errors shared by every bearing of
-    those steps, which made the reflector covariances optimistic.
-    """
-    inc = np.asarray(increments, dtype=np.float64)[:, :2]
-    dt = np.diff(np.asarray(t, dtype=np.float64))
-    rate = inc / dt[:, None]
-    at = np.empty((rate.shape[0] + 1, 2))
-    at[1:-1] = 0.5 * (rate[:-1] + rate[1:])
-    at[0], at[-1] = rate[0], rate[-1]
-    f = np.asarray(frac, dtype=np.float64)[:, None]
-    h = dt[step][:, None]
-    h10, h01, h11 = f ** 3 - 2.0 * f ** 2 + f, 3.0 * f ** 2 - 2.0 * f ** 3, f ** 3 - f ** 2
-    return np.asarray(h10 * at[step] * h + h01 * inc[step] + h11 * at[step + 1] * h)
-
-
 def repeated_readings(stamp: F64, bearing: F64, rate_hz: float) -> NDArray[np.bool_]:
     """``(B,)`` True for the reflections to drop: all but the middle one of each run of identical readings.
 
@@ -316,7 +293,6 @@ def prepare_drive(log: Any, keyframe_s: float = 0.0, noise: OdometryNoise | None
     step = np.clip(np.searchsorted(t, stamp, side="left") - 1, 0, n - 2)  # t[step] < stamp <= t[step + 1]
     frac = (stamp - t[step]) / (t[step + 1] - t[step])
     partial = inc[step] * frac[:, None]
-    partial[:, :2] = step_fractions(inc, t, step, frac)
     part = _step_poses(partial)
     c, s = np.cos(poses[step, 2]), np.sin(poses[step, 2])
     at = np.column_stack([poses[step, 0] + c * part[:, 0] - s * part[:, 1],
