@@ -242,8 +242,8 @@ def prepare_drive(log: Any, keyframe_s: float = 0.0, noise: OdometryNoise | None
     ``noise`` defaults to the log's ``odometry_noise`` setting, else :class:`OdometryNoise`'s
     defaults; ``mount`` (m, m, rad) to the log's ``mount`` setting, else the origin.
     Reflections stamped at or before the first odometry instant or after the last are dropped, and with
-    ``drop_repeats`` all but one of each run of identical readings (:func:`repeated_readings`; the log's
-    ``rate_hz``, default 8 Hz).
+    ``drop_repeats`` all but one of each run of identical readings while the vehicle stands (the odometry step
+    reads zero; :func:`repeated_readings`, the log's ``rate_hz``, default 8 Hz).
     """
     if not (math.isfinite(keyframe_s) and keyframe_s >= 0.0):
         raise ValueError(f"keyframe_s must be a non-negative number of seconds, got {keyframe_s!r}")
@@ -288,7 +288,13 @@ def prepare_drive(log: Any, keyframe_s: float = 0.0, noise: OdometryNoise | None
     bearing = np.asarray(log.bearing, dtype=np.float64)
     keep = (stamp > t[0]) & (stamp <= t[-1])
     if drop_repeats and stamp.size:
-        keep &= ~repeated_readings(stamp, bearing, float(settings.get("rate_hz") or 8.0))
+        # standing (the odometry step holding the stamp reads zero): the same pose, so a repeated count is the
+        # same measurement; moving, a run of one count is the bearing passing through the pulse, and on a
+        # coarse head (the differential AGV's) thinning the runs broke the tracks and lost reflectors
+        k = np.clip(np.searchsorted(t, stamp, side="left") - 1, 0, n - 2)
+        still = np.flatnonzero(keep & np.all(inc[k] == 0.0, axis=1))
+        if still.size:
+            keep[still[repeated_readings(stamp[still], bearing[still], float(settings.get("rate_hz") or 8.0))]] = False
     stamp, bearing = stamp[keep], bearing[keep]
     step = np.clip(np.searchsorted(t, stamp, side="left") - 1, 0, n - 2)  # t[step] < stamp <= t[step + 1]
     frac = (stamp - t[step]) / (t[step + 1] - t[step])
