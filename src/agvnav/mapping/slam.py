@@ -118,8 +118,8 @@ class MappingOptions:
     in_step_slip : the bearings of one odometry step share the slip inside it (a Brownian bridge between the
     two keyframes, :class:`StepNoise`), its own variance component ``λ_s`` (a vehicle whose wheels do not
     slip within a step drives it to zero).
-    drop_repeats : one reading of each run of identical readings (:func:`agvnav.mapping.drive.repeated_readings`: a
-    head standing or creeping repeats one quantisation error).
+    drop_repeats : one reading of each run of identical readings taken standing
+    (:func:`agvnav.mapping.drive.repeated_readings`: a head standing repeats one quantisation error).
     batch_initialise : after the batch's first solve, reflectors are initialised from the reflections no reflector
     claims (tracks against the solved trajectory: a reflector the front end missed beside others).
     head_yaw_std : std (rad) of the head's yaw on the vehicle: a frame given by the start pose is
