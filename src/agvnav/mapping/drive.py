@@ -292,8 +292,8 @@ def prepare_drive(log: Any, keyframe_s: float = 0.0, noise: OdometryNoise | None
         # standing (the odometry step holding the stamp reads zero): the same pose, so a repeated count is the
         # same measurement; moving, a run of one count is the bearing passing through the pulse, and on a
         # coarse head (the differential AGV's) thinning the runs broke the tracks and lost reflectors
-        k = np.clip(np.searchsorted(t, stamp, side="left") - 1, 0, n - 2)
-        still = np.flatnonzero(keep & np.all(inc[k] == 0.0, axis=1))
+        in_step = np.clip(np.searchsorted(t, stamp, side="left") - 1, 0, n - 2)
+        still = np.flatnonzero(keep & np.all(inc[in_step] == 0.0, axis=1))
         if still.size:
             keep[still[repeated_readings(stamp[still], bearing[still], float(settings.get("rate_hz") or 8.0))]] = False
     stamp, bearing = stamp[keep], bearing[keep]
