@@ -14,9 +14,8 @@
    (:mod:`agvnav.mapping.anchors`). No anchor: :class:`~agvnav.mapping.anchors.ScaleUnobservable`.
 3. **Batch**: each bearing factor interpolates the pose between the two keyframes around its reflection
    (a keyframe at every odometry instant: :func:`agvnav.mapping.drive.interpolate_drive`); every
-   reflection is re-associated against the solved trajectory with a tight gate (the first pass keeps the front
-   end's association where that gate finds none; after the first solve the reflections no reflector claims are
-   triangulated into new reflectors, :func:`_initialise_leftovers`),
+   reflection is re-associated against the solved trajectory with a tight gate (optionally, after the first
+   solve the reflections no reflector claims are triangulated into new reflectors, :func:`_initialise_leftovers`),
    reflectors without ``min_sightings`` from ``min_baseline`` are dropped, the graph is solved to
    convergence with the odometry's systematic errors (scale, heading rate, turn scale), bearing
    outliers beyond ``outlier_sigma`` are removed and it is solved again. The noise is estimated
@@ -121,7 +120,8 @@ class MappingOptions:
     drop_repeats : one reading of each run of identical readings taken standing
     (:func:`agvnav.mapping.drive.repeated_readings`: a head standing repeats one quantisation error).
     batch_initialise : after the batch's first solve, reflectors are initialised from the reflections no reflector
-    claims (tracks against the solved trajectory: a reflector the front end missed beside others).
+    claims (tracks against the solved trajectory: a reflector the front end missed beside others). Off by
+    default: on the differential AGV (hall_differential seed 0) it made one spurious reflector.
     head_yaw_std : std (rad) of the head's yaw on the vehicle: a frame given by the start pose is
     only as well oriented as the head is calibrated (added to the start pose's heading variance).
     """
@@ -156,7 +156,7 @@ class MappingOptions:
     existing_std: float = 0.001
     front_iterations: int = 3
     interpolate: bool = True
-    batch_initialise: bool = True
+    batch_initialise: bool = False
     drop_repeats: bool = True
     in_step_slip: bool = True
     odometry_noise: OdometryNoise | None = None
@@ -858,13 +858,6 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
                 landmarks, keep, assoc, ids = _initialise_leftovers(d, heads, landmarks, keep, assoc, ids, opt,
                                                                     fe.max_range)
                 is_anchored = np.isin(np.arange(keep.size), list(anchored))
-            if pas == 0:
-                # the first pass gates against the front end's reflectors, some centimetres off where the front end
-                # placed them from few sightings (warehouse: one 10 cm off lost all its 25 sightings to the 5 mm
-                # tolerance and was dropped, never to return): a reflection the tight gate leaves keeps the front
-                # end's association for the first solve; the next pass re-associates against the solved map
-                fe_assoc = np.where((fe.assoc >= 0) & (keep | is_anchored)[np.maximum(fe.assoc, 0)], fe.assoc, -1)
-                assoc = np.where(assoc >= 0, assoc, fe_assoc)
         # variance components [Förstner]: bearing std and Crowley's coefficients against their redundancy,
         # iterated to their fixed point before any outlier is judged: one step per pass left the bearing std
         # 3-10x too small after five passes (the first step is clipped at 1/100), and a 5-sigma cut with that
