@@ -97,3 +97,37 @@ def test_nees_statistics_of_correlated_reflectors_against_a_monte_carlo() -> Non
     assert naive < 0.85
     jlo, jhi = bm.joint_band(n)
     assert 0.93 < np.mean((np.array(joint) > jlo) & (np.array(joint) < jhi)) < 0.97
+
+
+def test_positioning_replays_tell_the_ekf_only_the_maps_own_survey_std(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The exact map is replayed as exact (map_std 0, not the EKF's 1 mm default): the positioning ratio then
+    compares the maps alone, each with its own stated survey std."""
+    seen: list[dict] = []
+
+    def fake(settings: dict, world: object, method: str) -> object:
+        seen.append(settings)
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(bm, "estimator_from_settings", fake)
+    from agvnav.logs import RecordedLog
+
+    log = RecordedLog(np.arange(3) * 0.05, np.zeros((2, 3)), np.zeros(0), np.zeros(0), np.zeros(0),
+                      {"map_std_m": 0.005}, truth=np.zeros((3, 3)))
+    with pytest.raises(RuntimeError, match="stop"):
+        bm._positioning_rms(log, load_builtin_map("lab"))
+    assert seen[0]["map_std_m"] == 0.0 and log.settings["map_std_m"] == 0.005
+
+
+def test_frame_error_is_the_rms_move_of_the_fitted_similarity() -> None:
+    """A mapped map off by a 1 mrad rotation and a (1, -2) mm shift: the similarity fitted onto the truth moves
+    it back exactly, its RMS move is the frame error, and the moved map is the true one."""
+    from agvnav.mapping.anchors import apply_similarity, fit_similarity
+
+    world = load_builtin_map("lab")
+    true = world.reflector_xy
+    off = apply_similarity(np.array([np.cos(1e-3), np.sin(1e-3), 0.001, -0.002]), true)
+    T = fit_similarity(off, true)
+    expected = float(np.sqrt(np.mean(np.sum((off - true) ** 2, axis=1))))
+    assert bm._frame_error(off, T) == pytest.approx(expected, rel=1e-9)
+    mapped = bm._moved(world, np.array([np.cos(1e-3), np.sin(1e-3), 0.001, -0.002]))
+    np.testing.assert_allclose(bm._moved(mapped, T).reflector_xy, true, atol=1e-12)

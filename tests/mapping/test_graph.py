@@ -175,4 +175,5 @@ def _arc_log(n: int, stamps: list[float]):
     t = np.arange(n + 1) * 0.05
     inc = np.column_stack([np.full(n, 0.02), np.full(n, 0.01), np.zeros(n)])
     z = np.asarray(stamps, dtype=np.float64)
-    return RecordedLog(t, inc, z, z.copy(), np.zeros(3), {"odometry_noise": [1e-4, 1e-5, 1e-4]})
+    # distinct readings (identical ones within 1.5 revolutions would be one measurement: repeated_readings)
+    return RecordedLog(t, inc, z, z.copy(), 0.001 * np.arange(z.size), {"odometry_noise": [1e-4, 1e-5, 1e-4]})

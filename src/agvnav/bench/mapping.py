@@ -24,8 +24,14 @@ frame); ``nees_mean`` the mean of ``eᵀC⁻¹e`` over reflectors, each against 
 its 95 % band counts that the reflectors of one map share the anchor's and the trajectory's errors
 (:func:`marginal_band`: a chi-square with 2n dof would be far too narrow); ``nees_joint`` the NEES of
 all reflectors together against their joint covariance, per reflector (2 expected), whose band
-``chi2(2n)/n`` is exact and pools over runs (:func:`joint_band`); the summary pools runs; positioning
-RMS of the EKF replaying the same drive with the mapped map and with the true map.
+``chi2(2n)/n`` is exact and pools over runs (:func:`joint_band`); the summary pools runs.
+``positioning_ratio``: position RMS of the EKF replaying the same drive (same seed, log and settings) on the
+mapped map over its RMS on the true map; each map tells the EKF its own survey std and nothing else
+(``map_std_m = 0``: the true map is exact, the mapped one states each reflector's frame-free std,
+:mod:`agvnav.mapping.output`). ``frame_error_m``: the RMS move of the similarity that fits the mapped
+reflectors onto the true ones (the anchor's frame error, shared by every reflector: no positioning filter
+removes it); ``positioning_ratio_frame_free``: the ratio with the mapped map moved by that similarity,
+what the mapping's own relative errors cost.
 ``--quick``: 2 seeds and no warehouse (its drive takes minutes); the full run gives the warehouse
 ``SLOW_SEEDS`` seeds. Positioning is replayed with the surveyed2 and baseline maps (the start-pose map's
 frame is the start pose's, centimetres off the site's).
@@ -37,6 +43,7 @@ import math
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -55,7 +62,7 @@ from agvnav.mapping import (
     result_to_map,
     solve_anchored,
 )
-from agvnav.mapping.anchors import Anchor
+from agvnav.mapping.anchors import Anchor, apply_similarity, fit_similarity
 from agvnav.sim.run import SimResult, simulate
 from agvnav.world import WorldMap
 from agvnav.world.scenario import parse_scenario
@@ -157,8 +164,10 @@ def _anchors(world: WorldMap, start: np.ndarray, rng: np.random.Generator,
 
 
 def _positioning_rms(log: RecordedLog, world: WorldMap) -> float | None:
+    """Position RMS (m) of the EKF replaying ``log`` on ``world``, told the map's own ``survey_std_m`` and
+    nothing else (``map_std_m = 0``): the exact map is told it is exact, a mapped one its stated errors."""
     assert log.truth is not None
-    loc = localize(log, estimator_from_settings(log.settings, world, "ekf"))
+    loc = localize(log, estimator_from_settings({**log.settings, "map_std_m": 0.0}, world, "ekf"))
     err = np.hypot(loc.series["est_x"] - log.truth[:, 0], loc.series["est_y"] - log.truth[:, 1])
     ok = np.isfinite(err)
     return float(np.sqrt(np.mean(err[ok] ** 2))) if np.any(ok) else None
@@ -223,13 +232,33 @@ def _record(hall: str, seed: int, with_positioning: bool) -> list[dict[str, Any]
             runtime_s=round(fe.runtime_s + time.perf_counter() - t1, 2),
         )
         if with_positioning and name in POSITIONING_ANCHORS:
-            rms_mapped = _positioning_rms(log, result_to_map(res, opt.radius, world))
+            mapped = result_to_map(res, opt.radius, world)
+            rms_mapped = _positioning_rms(log, mapped)
+            # the same map with its frame's error removed (moved by the similarity that fits it onto the truth):
+            # what the mapping's relative errors alone cost; the rest is the anchor's frame error
+            T = fit_similarity(res.xy[ok], true[nearest[ok]]) if int(ok.sum()) >= 2 else None
+            rms_free = _positioning_rms(log, _moved(mapped, T)) if T is not None else None
             rec.update(positioning_rms_mapped_m=rms_mapped, positioning_rms_true_m=rms_true,
                        positioning_ratio=(round(rms_mapped / rms_true, 3)
-                                          if rms_mapped is not None and rms_true else None))
+                                          if rms_mapped is not None and rms_true else None),
+                       positioning_ratio_frame_free=(round(rms_free / rms_true, 3)
+                                                     if rms_free is not None and rms_true else None),
+                       frame_error_m=_frame_error(res.xy[ok], T) if T is not None else None)
         rec.update(spurious_reflections=spurious_in, sim_s=round(sim_s, 1))
         rows.append(rec)
     return rows
+
+
+def _moved(world: WorldMap, T: np.ndarray) -> WorldMap:
+    """``world`` with every reflector moved by the similarity ``T`` (:func:`~agvnav.mapping.anchors.fit_similarity`)."""
+    xy = apply_similarity(T, world.reflector_xy)
+    moved = (replace(r, x=float(p[0]), y=float(p[1])) for r, p in zip(world.reflectors, xy, strict=True))
+    return WorldMap(tuple(moved), world.walls)
+
+
+def _frame_error(xy: np.ndarray, T: np.ndarray) -> float:
+    """RMS (m) over the reflectors ``xy`` of the move the similarity ``T`` makes: the map frame's realised error."""
+    return float(np.sqrt(np.mean(np.sum((apply_similarity(T, xy) - xy) ** 2, axis=1))))
 
 
 def joint_band(n: int, level: float = 0.95) -> tuple[float, float]:
@@ -308,6 +337,9 @@ def _summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             sum_sq = sum(r["nees_sum_sq"] for r in with_nees)
             rms = [r["map_rms_m"] for r in rs if r["map_rms_m"] is not None]
             ratio = [float(r["positioning_ratio"]) for r in rs if r.get("positioning_ratio") is not None]
+            free = [float(r["positioning_ratio_frame_free"]) for r in rs
+                    if r.get("positioning_ratio_frame_free") is not None]
+            frame = [float(r["frame_error_m"]) for r in rs if r.get("frame_error_m") is not None]
             out.append({
                 "hall": hall, "seed": f"all {len(rs)}", "anchor": anchor, "reflectors_true": n,
                 "reflectors_seen": sum(r["reflectors_seen"] for r in rs),
@@ -318,6 +350,8 @@ def _summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "nees_joint": joint, "nees_joint_band": _band(*joint_band(m)) if m else None, "nees_n": m,
                 "runtime_s": round(float(np.mean([r["runtime_s"] for r in rs])), 2),
                 "positioning_ratio": round(float(np.mean(ratio)), 3) if ratio else None,
+                "positioning_ratio_frame_free": round(float(np.mean(free)), 3) if free else None,
+                "frame_error_m": float(np.sqrt(np.mean(np.square(frame)))) if frame else None,
             })
     return out
 
@@ -343,7 +377,7 @@ def run(quick: bool, seed: int) -> list[dict[str, Any]]:
             rows += _record_task(task)
     for r in rows:
         for key in ("map_rms_m", "map_max_m", "nees_mean", "nees_joint", "nees_sum_sq", "positioning_rms_mapped_m",
-                    "positioning_rms_true_m"):
+                    "positioning_rms_true_m", "frame_error_m"):
             if isinstance(r.get(key), float):
                 r[key] = float(f"{r[key]:.3g}") if math.isfinite(r[key]) else None
     return rows + _summary(rows) + compare_solvers(seed)

@@ -21,7 +21,7 @@ from agvnav.mapping.association import associate, head_poses, predicted_edge_bea
 from agvnav.mapping.drive import Drive, prepare_drive
 from agvnav.mapping.graph import FactorGraph, linearize
 from agvnav.mapping.initialise import InitialiseOptions, initialise_from_tracks, track_reflections, triangulate_rays
-from agvnav.mapping.output import map_summary, result_to_map, write_map
+from agvnav.mapping.output import frame_free_covariance, map_summary, result_to_map, write_map
 from agvnav.mapping.slam import MappingOptions, MappingResult, build_map, front_end, solve_anchored
 from agvnav.mapping.solve import marginal_covariances, reflector_covariance, solve
 
@@ -39,6 +39,7 @@ __all__ = [
     "anchor_kind",
     "associate",
     "build_map",
+    "frame_free_covariance",
     "front_end",
     "head_poses",
     "initialise_from_tracks",

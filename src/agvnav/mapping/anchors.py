@@ -38,6 +38,7 @@ __all__ = [
     "SurveyedAnchor",
     "anchor_kind",
     "apply_similarity",
+    "fit_similarity",
     "match_surveyed",
     "parse_anchor",
 ]
@@ -182,7 +183,7 @@ def match_surveyed(mapped: F64, surveyed: F64, tolerance: float = 0.2,
                     dm = float(np.hypot(*(mapped[m] - mapped[k])))
                     if abs(dm - ds) > scale_tolerance * ds + tolerance or dm <= 0.0:
                         continue
-                    T = _similarity(mapped[[k, m]], surveyed[[i, j]])
+                    T = fit_similarity(mapped[[k, m]], surveyed[[i, j]])
                     moved = apply_similarity(T, mapped)
                     d = np.hypot(*(surveyed[:, None, :] - moved[None, :, :]).transpose(2, 0, 1))
                     idx = np.argmin(d, axis=1)
@@ -201,11 +202,12 @@ def match_surveyed(mapped: F64, surveyed: F64, tolerance: float = 0.2,
     use = idx >= 0
     if len(set(idx[use].tolist())) != int(use.sum()):
         raise ValueError("two surveyed reflectors match the same mapped reflector")
-    return idx, _similarity(mapped[idx[use]], surveyed[use])
+    return idx, fit_similarity(mapped[idx[use]], surveyed[use])
 
 
-def _similarity(src: F64, dst: F64) -> F64:
-    """Least-squares similarity ``[a, b, tx, ty]`` with ``dst ≈ [[a, -b], [b, a]] src + t`` (Umeyama, 2-D)."""
+def fit_similarity(src: F64, dst: F64) -> F64:
+    """Least-squares similarity ``[a, b, tx, ty]`` with ``dst ≈ [[a, -b], [b, a]] src + t`` (Umeyama, 2-D), from
+    matched points ``src``, ``dst`` ``(n, 2)`` (m), ``n >= 2``."""
     ms, md = src.mean(axis=0), dst.mean(axis=0)
     s0, d0 = src - ms, dst - md
     den = float(np.sum(s0 * s0))
