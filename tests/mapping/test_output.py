@@ -20,13 +20,19 @@ XY = np.array([[0.0, 0.0], [10.0, -1.0], [11.0, 8.0], [4.0, 10.0], [-2.0, 6.0], 
 def _shared_frame_covariance(own: float, shift: float, rot: float, scale: float) -> np.ndarray:
     """Joint covariance of reflectors with independent errors ``own`` (m per axis) plus one frame error shared
     by all: a shift (m per axis), a rotation (rad) and a scale (relative) about the centroid."""
+    G = _similarity_basis()
+    return np.eye(G.shape[0]) * own ** 2 + G @ np.diag([shift ** 2, shift ** 2, rot ** 2, scale ** 2]) @ G.T
+
+
+def _similarity_basis() -> np.ndarray:
+    """``(2N, 4)``: the map's displacement per unit shift (x, y), rotation and scale about the centroid."""
     n = XY.shape[0]
     c = XY - XY.mean(axis=0)
     G = np.zeros((2 * n, 4))
     G[0::2, 0], G[1::2, 1] = 1.0, 1.0
     G[0::2, 2], G[1::2, 2] = -c[:, 1], c[:, 0]
     G[0::2, 3], G[1::2, 3] = c[:, 0], c[:, 1]
-    return np.eye(2 * n) * own ** 2 + G @ np.diag([shift ** 2, shift ** 2, rot ** 2, scale ** 2]) @ G.T
+    return G
 
 
 def _result(joint: np.ndarray) -> MappingResult:
@@ -63,10 +69,7 @@ def test_frame_free_covariance_is_invariant_to_the_frame_and_matches_a_monte_car
     L = np.linalg.cholesky(joint)
     n = XY.shape[0]
     c = XY - XY.mean(axis=0)
-    G = np.zeros((2 * n, 4))
-    G[0::2, 0], G[1::2, 1] = 1.0, 1.0
-    G[0::2, 2], G[1::2, 2] = -c[:, 1], c[:, 0]
-    G[0::2, 3], G[1::2, 3] = c[:, 0], c[:, 1]
+    G = _similarity_basis()
     e = (L @ rng.normal(size=(2 * n, 20000))).T
     resid = e - (G @ np.linalg.lstsq(G, e.T, rcond=None)[0]).T
     mc = resid.T @ resid / e.shape[0]
