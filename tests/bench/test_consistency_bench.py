@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import yaml
 
-from agvnav.bench.consistency import band, nees_parts, summarise
+from agvnav.bench.consistency import band, draw_calibration, nees_parts, scenario_text, summarise
 
 
 def test_band_for_200_runs_is_the_issue_band() -> None:
@@ -66,3 +67,27 @@ def test_a_consistent_filter_falls_inside_and_an_overconfident_one_outside() -> 
     bad = summarise("kalman", _kalman_runs(40, 0.25, seed=2))  # R understated 4x: overconfident
     assert not bad["inside"] and bad["nees_mean"] > hi
     assert bad["above_chi2_95"] > 0.1
+
+
+def test_calibration_draw_is_seeded_and_follows_the_stated_tolerance() -> None:
+    assert draw_calibration(7, 0.003, 0.2) == draw_calibration(7, 0.003, 0.2)
+    assert draw_calibration(7, 0.003, 0.2) != draw_calibration(8, 0.003, 0.2)
+    assert draw_calibration(7, 0.0, 0.0) == (0.0, 0.0)
+    draws = np.array([draw_calibration(k, 0.003, 0.2) for k in range(4000)])
+    np.testing.assert_allclose(draws.std(axis=0), [0.003, 0.2], rtol=0.05)
+    assert abs(draws[:, 0].mean()) < 0.0003 and abs(draws[:, 1].mean()) < 0.02
+    assert abs(np.corrcoef(draws.T)[0, 1]) < 0.05
+    with pytest.raises(ValueError, match="wheel_radius_std"):
+        draw_calibration(0, -0.1, 0.2)
+
+
+def test_scenario_text_draws_the_truth_of_a_wheel_odometry_scenario() -> None:
+    drawn = yaml.safe_load(scenario_text("tricycle_rear_loop", 5))
+    eps, beta = draw_calibration(5, 0.003, 0.2)
+    assert drawn["vehicle"]["truth"]["wheel_radius_error"] == eps
+    assert drawn["vehicle"]["truth"]["steering_offset_deg"] == beta
+    shipped = yaml.safe_load(scenario_text("tricycle_rear_loop", 5, shipped_truth=True))
+    assert shipped["vehicle"]["truth"]["wheel_radius_error"] == 0.003
+    assert shipped["vehicle"]["truth"]["steering_offset_deg"] == 0.2
+    plain = yaml.safe_load(scenario_text("differential_loop", 5))  # no wheel_odometry: truth as shipped
+    assert plain == yaml.safe_load(scenario_text("differential_loop", 5, shipped_truth=True))

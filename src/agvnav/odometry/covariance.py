@@ -21,6 +21,7 @@ names the systematic ones (radius scale, steering offset) for the EKF's consider
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -155,7 +156,18 @@ class SteeredOdometryNoise(OdometryNoise):
       ``steering_offset_std`` (:mod:`agvnav.positioning.ekf`); :meth:`systematic_jacobian`
       is ``B = d(dD, dtheta)/d(eps, beta) = [u, w]``.
 
-    ``|s|`` is ``hypot(dD, L dtheta)`` (front) or ``|dD|`` (rear). The inherited
+    ``|s|`` is ``hypot(dD, L dtheta)`` (front) or ``|dD|`` (rear). A rear-drive increment
+    whose implied steering angle ``|atan(L dtheta / dD)|`` exceeds the vehicle's largest
+    ``max_steering_rad`` is one the kinematics cannot produce -- the estimator makes them
+    when it extrapolates to a reflection and the next message's heading change differs from
+    the last rate (a near-zero ``dD`` with a finite ``dtheta``), where ``1 / |dD|`` would blow
+    the slip and steering terms up. Turning by ``dtheta`` takes the rear wheel at least
+    ``s_min = L |dtheta| / tan(max_steering_rad)``, so ``|s| = max(|dD|, s_min)`` (signed as
+    ``dD``, forward at ``dD = 0``) and ``w = (0, s / L + L dtheta^2 / s)``: the model at the
+    steering limit. Increments within the limit are unchanged. With no limit
+    (``max_steering_rad = pi/2``) and ``dD = 0``, ``dtheta != 0``, nothing in the wheel model
+    explains the turn: its ``Q`` is Crowley's bound ``k_theta |dtheta|`` on the heading
+    (:func:`noise_from_truth`) and ``W = 0``. The inherited
     ``k_d, k_dtheta, k_theta`` are not inputs: they hold Crowley's upper bound of the same
     random errors (:func:`noise_from_truth`) for the consumers that take three coefficients
     (the integrity monitor's dead-reckoning growth).
@@ -169,6 +181,7 @@ class SteeredOdometryNoise(OdometryNoise):
     step_m : distance (m) per control step over which one steering error acts.
     radius_scale_std : prior std of the drive-wheel radius scale error (fraction, e.g. 0.003).
     steering_offset_std : prior std of the steering offset (rad).
+    max_steering_rad : the steering angle limit (rad, either side; in (0, pi/2], default pi/2: no limit).
     """
 
     k_d: float = field(default=0.0, init=False)
@@ -181,6 +194,7 @@ class SteeredOdometryNoise(OdometryNoise):
     step_m: float = 0.0
     radius_scale_std: float = 0.0
     steering_offset_std: float = 0.0
+    max_steering_rad: float = math.pi / 2
 
     def __post_init__(self) -> None:
         if self.model not in STEERED_MODELS:
@@ -190,6 +204,8 @@ class SteeredOdometryNoise(OdometryNoise):
             value = getattr(self, name)
             if not (np.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name} must be a non-negative finite number, got {value!r}")
+        if not (np.isfinite(self.max_steering_rad) and 0.0 < self.max_steering_rad <= math.pi / 2):
+            raise ValueError(f"max_steering_rad must lie in (0, pi/2] rad, got {self.max_steering_rad!r}")
         bound = noise_from_truth(self.model, self.slip_k, self.wheelbase_m, self.steering_std, self.step_m)
         for name in ("k_d", "k_dtheta", "k_theta"):
             object.__setattr__(self, name, getattr(bound, name))
@@ -200,13 +216,20 @@ class SteeredOdometryNoise(OdometryNoise):
         """Whether the steered wheel is the driven one (front drive)."""
         return self.model == "tricycle"
 
+    @property
+    def min_roll_per_rad(self) -> float:
+        """``L / tan(max_steering_rad)`` (m/rad): the least a rear drive wheel rolls per rad of turn (0: no limit)."""
+        if self.max_steering_rad >= math.pi / 2:
+            return 0.0
+        return self.wheelbase_m / math.tan(self.max_steering_rad)
+
     def driven_distance(self, delta_d: ArrayLike, delta_theta: ArrayLike) -> FloatArray:
-        """``|s|`` (m), the driven wheel's rolled distance behind the increments."""
+        """``|s|`` (m), the driven wheel's rolled distance behind the increments (rear: at least ``s_min``)."""
         dd = np.asarray(delta_d, dtype=np.float64)
         dth = np.asarray(delta_theta, dtype=np.float64)
         if self.front:
             return np.hypot(dd, self.wheelbase_m * dth)
-        return np.abs(dd) + np.zeros_like(dth)
+        return np.maximum(np.abs(dd), self.min_roll_per_rad * np.abs(dth))
 
     def systematic_jacobian(self, delta_d: ArrayLike, delta_theta: ArrayLike) -> FloatArray:
         """``B = d(dD, dtheta)/d(eps, beta) = [u, w]`` ``(..., 2, 2)`` (m, rad per unit scale and per rad)."""
@@ -219,21 +242,29 @@ class SteeredOdometryNoise(OdometryNoise):
         if self.front:
             B[..., 0, 1], B[..., 1, 1] = -L * dth, dd / L
         else:
+            s = np.where(dd < 0.0, -1.0, 1.0) * self.driven_distance(dd, dth)  # signed as dD, at least s_min
             with np.errstate(divide="ignore", invalid="ignore"):
-                wt = np.where(dd != 0.0, dd / L + L * dth * dth / np.where(dd != 0.0, dd, 1.0), 0.0)
+                wt = np.where(s != 0.0, s / L + L * dth * dth / np.where(s != 0.0, s, 1.0), 0.0)
             B[..., 1, 1] = wt
         return B
 
     def increment_covariance(self, delta_d: ArrayLike, delta_theta: ArrayLike) -> FloatArray:
-        """``slip_k/|s| u u^T + steering_std² step_m/|s| w w^T`` ``(..., 2, 2)`` (class docstring; 0 at ``s = 0``)."""
-        B = self.systematic_jacobian(delta_d, delta_theta)
-        s = self.driven_distance(delta_d, delta_theta)
+        """``slip_k/|s| u u^T + steering_std² step_m/|s| w w^T`` ``(..., 2, 2)`` (class docstring; 0 at ``s = 0``).
+
+        At ``s = 0`` with ``dtheta != 0`` (rear drive, no steering limit) the heading variance is
+        Crowley's ``k_theta |dtheta|``.
+        """
+        dd, dth = np.broadcast_arrays(np.asarray(delta_d, dtype=np.float64), np.asarray(delta_theta, dtype=np.float64))
+        B = self.systematic_jacobian(dd, dth)
+        s = self.driven_distance(dd, dth)
         with np.errstate(divide="ignore", invalid="ignore"):
             inv = np.where(s > 0.0, 1.0 / np.where(s > 0.0, s, 1.0), 0.0)
         u, w = B[..., :, 0], B[..., :, 1]
         q_slip = (self.slip_k * inv)[..., None, None]
         q_steer = (self.steering_std**2 * self.step_m * inv)[..., None, None]
-        return q_slip * u[..., :, None] * u[..., None, :] + q_steer * w[..., :, None] * w[..., None, :]
+        sigma = q_slip * u[..., :, None] * u[..., None, :] + q_steer * w[..., :, None] * w[..., None, :]
+        sigma[..., 1, 1] += np.where(s > 0.0, 0.0, self.k_theta * np.abs(dth))
+        return sigma
 
     def calibration_covariance(self) -> FloatArray:
         """``P_cc = diag(radius_scale_std², steering_offset_std²)`` of the consider parameters ``(eps, beta)``."""
@@ -242,16 +273,18 @@ class SteeredOdometryNoise(OdometryNoise):
 
 #: The constructor fields of :class:`SteeredOdometryNoise` (a run log's ``wheel_odometry`` settings).
 WHEEL_ODOMETRY_KEYS = ("model", "wheelbase_m", "slip_k", "steering_std", "step_m", "radius_scale_std",
-                       "steering_offset_std")
+                       "steering_offset_std", "max_steering_rad")
 
 
 def steered_noise(model: str, slip_k: float, wheelbase_m: float, steering_std: float = 0.0, step_m: float = 0.0,
-                  radius_scale_std: float = 0.0, steering_offset_std: float = 0.0) -> SteeredOdometryNoise:
+                  radius_scale_std: float = 0.0, steering_offset_std: float = 0.0,
+                  max_steering_rad: float = math.pi / 2) -> SteeredOdometryNoise:
     """:class:`SteeredOdometryNoise` of a steered vehicle (same arguments as :func:`noise_from_truth`, plus the
-    calibration tolerance: ``radius_scale_std`` (fraction) and ``steering_offset_std`` (rad))."""
+    calibration tolerance: ``radius_scale_std`` (fraction) and ``steering_offset_std`` (rad), and the steering
+    angle limit ``max_steering_rad`` (rad))."""
     return SteeredOdometryNoise(model=model, wheelbase_m=wheelbase_m, slip_k=slip_k, steering_std=steering_std,
                                 step_m=step_m, radius_scale_std=radius_scale_std,
-                                steering_offset_std=steering_offset_std)
+                                steering_offset_std=steering_offset_std, max_steering_rad=max_steering_rad)
 
 
 def calibration_jacobian(pose: ArrayLike, delta_d: ArrayLike, delta_theta: ArrayLike,

@@ -110,7 +110,8 @@ def process_noise(
 
 
 def steered_noise(
-    psi: float, dd: float, dth: float, front: bool, L: float, slip_k: float, steer_q: float
+    psi: float, dd: float, dth: float, front: bool, L: float, slip_k: float, steer_q: float,
+    min_roll: float = 0.0,
 ) -> tuple[Mat3, tuple[float, float, float, float, float, float]]:
     """Process noise ``Q`` (flat 3x3) and calibration Jacobian ``W = G B`` (3x2, row-major) of one steered increment.
 
@@ -123,8 +124,12 @@ def steered_noise(
 
         Q = slip_k / |s| a a^T + steer_q / |s| b b^T,   W = [a, b]
 
-    with ``|s|`` the driven wheel's distance (front ``hypot(dd, L dth)``, rear ``|dd|``) and
-    ``steer_q = steering_std^2 step_m``. Returns ``(Q, (a0, b0, a1, b1, a2, b2))``.
+    with ``|s|`` the driven wheel's distance (front ``hypot(dd, L dth)``, rear
+    ``max(|dd|, min_roll |dth|)``, ``min_roll = L / tan(max_steering)``: an increment past the
+    steering limit, as the estimator's split around a reflection makes, is taken at the limit,
+    and the rear ``w`` uses that ``s`` signed as ``dd``) and ``steer_q = steering_std^2 step_m``.
+    At ``s = 0`` with ``dth != 0`` (rear drive, no limit) ``Q`` is Crowley's ``slip_k / L |dth|``
+    on the heading and ``W = 0``. Returns ``(Q, (a0, b0, a1, b1, a2, b2))``.
     """
     h = 0.5 * dth
     k, dk = _sinc(h), _dsinc(h)
@@ -136,8 +141,11 @@ def steered_noise(
         dist = math.hypot(dd, L * dth)
         w0, w1 = -L * dth, dd / L
     else:
-        dist = abs(dd)
-        w0, w1 = 0.0, (dd / L + L * dth * dth / dd) if dd != 0.0 else 0.0
+        dist = max(abs(dd), min_roll * abs(dth))
+        if dist == 0.0:  # no wheel roll explains the turn: Crowley's bound of the heading, no calibration term
+            return (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, slip_k / L * abs(dth)), (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        sd = -dist if dd < 0.0 else dist
+        w0, w1 = 0.0, sd / L + L * dth * dth / sd
     a0, a1, a2 = dd * gd0 + dth * tx, dd * gd1 + dth * ty, dth
     b0, b1, b2 = w0 * gd0 + w1 * tx, w0 * gd1 + w1 * ty, w1
     if dist > 0.0:

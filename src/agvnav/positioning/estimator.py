@@ -81,7 +81,10 @@ class StreamingEstimator:
         :class:`~agvnav.odometry.OdometryNoise` for the covariance growth ``Q``; a
         :class:`~agvnav.odometry.SteeredOdometryNoise` gives a steered vehicle's exact
         model instead (:func:`~agvnav.positioning._fast.steered_noise`), and the EKF keeps
-        its calibration errors as consider parameters (:mod:`agvnav.positioning.ekf`).
+        its calibration errors as consider parameters (:mod:`agvnav.positioning.ekf`);
+        the other methods, which keep no consider parameters, take its Crowley bound
+        (the inherited ``k_d, k_dtheta, k_theta``; the exact random part alone would leave
+        the calibration errors out).
     k_lateral:
         Variance of the lateral increment per metre of sideways travel (m²/m), the
         holonomic extension of ``Q`` (see :meth:`predict`); default ``odometry_noise.k_d``,
@@ -189,12 +192,13 @@ class StreamingEstimator:
         self.odometry_noise = OdometryNoise() if odometry_noise is None else odometry_noise
         noise = self.odometry_noise
         #: The exact steered-wheel model's constants for :func:`~agvnav.positioning._fast.steered_noise`
-        #: (``front, L, slip_k, steering_std^2 step_m``), None for Crowley's coefficients; and the
-        #: calibration consider parameters' variances (radius scale, steering offset rad²), EKF only.
-        self._steered: tuple[bool, float, float, float] | None = None
+        #: (``front, L, slip_k, steering_std^2 step_m, min_roll_per_rad``), None for Crowley's coefficients;
+        #: and the calibration consider parameters' variances (radius scale, steering offset rad²), EKF only.
+        self._steered: tuple[bool, float, float, float, float] | None = None
         self._calibration_var = (0.0, 0.0)
-        if isinstance(noise, SteeredOdometryNoise):
-            self._steered = (noise.front, noise.wheelbase_m, noise.slip_k, noise.steering_std**2 * noise.step_m)
+        if isinstance(noise, SteeredOdometryNoise) and self.consider:  # else its Crowley bound (docstring)
+            self._steered = (noise.front, noise.wheelbase_m, noise.slip_k, noise.steering_std**2 * noise.step_m,
+                             noise.min_roll_per_rad)
             self._calibration_var = (noise.radius_scale_std**2, noise.steering_offset_std**2)
         k_lat = self.odometry_noise.k_d if k_lateral is None else k_lateral
         self.k_lateral = require_nonnegative("k_lateral", k_lat)

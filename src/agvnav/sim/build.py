@@ -419,7 +419,8 @@ def odometry_noise(sc: Scenario) -> OdometryNoise:
 
     ``wheel_odometry`` (steered vehicles; the scenario validates it) gives the exact wheel model
     :class:`~agvnav.odometry.SteeredOdometryNoise`, one steering draw per control step of
-    ``traction.speed_m_s x step_s`` metres.
+    ``traction.speed_m_s x step_s`` metres, with the vehicle's steering limit
+    ``vehicle.steering.max_angle_deg``.
     """
     ps = sc.positioning
     wo = ps.wheel_odometry
@@ -428,7 +429,7 @@ def odometry_noise(sc: Scenario) -> OdometryNoise:
     return steered_noise(
         sc.vehicle.model, wo.slip_std**2, float(sc.vehicle.wheelbase_m),  # type: ignore[union-attr]
         math.radians(wo.steering_noise_std_deg), sc.traction.speed_m_s * sc.step_s, wo.wheel_radius_std,
-        math.radians(wo.steering_offset_std_deg),
+        math.radians(wo.steering_offset_std_deg), math.radians(sc.vehicle.steering.max_angle_deg),  # type: ignore[union-attr]
     )
 
 

@@ -284,7 +284,11 @@ class WheelOdometrySpec(StrictModel):
     directions they move the increment (:class:`agvnav.odometry.SteeredOdometryNoise`;
     the steering error acts per control step, ``traction.speed_m_s x step_s`` metres),
     and the calibration tolerances are the prior stds of the wheel-radius scale error
-    and the steering offset, which the EKF keeps as consider parameters.
+    and the steering offset, which the EKF keeps as consider parameters. A rear-drive
+    increment past ``vehicle.steering.max_angle_deg`` is taken at that limit. The other
+    methods (naive, angle_propagation, batch_ml) keep no consider parameters: they take
+    Crowley's bound of the same random errors (:func:`agvnav.odometry.noise_from_truth`),
+    as before this key, not the exact random part alone.
     """
 
     slip_std: NonNegFloat = 0.0
