@@ -6,7 +6,6 @@ import json
 from pathlib import Path
 
 import numpy as np
-import pytest
 from typer.testing import CliRunner
 
 from agvnav.cli import app
@@ -56,10 +55,9 @@ def test_map_writes_a_loadable_map_with_covariances_and_a_plot(tmp_path: Path) -
     d = np.hypot(*(world.reflector_xy[:, None, :] - REFL[None]).transpose(2, 0, 1)).min(axis=1)
     assert d.max() < 1e-3
     assert all(r.covariance_m2 is not None and r.survey_std_m > 0.0 for r in world.reflectors)
-    for r in world.reflectors:  # the isotropic std of the same total variance (the consider filter's per-axis std)
+    for r in world.reflectors:  # the frame-free std (mapping.output): at most the marginal per-axis std
         assert r.covariance_m2 is not None
-        assert r.survey_std_m == pytest.approx(np.sqrt(0.5 * (r.covariance_m2[0][0] + r.covariance_m2[1][1])),
-                                               rel=1e-6)
+        assert 0.0 < r.survey_std_m <= np.sqrt(0.5 * (r.covariance_m2[0][0] + r.covariance_m2[1][1])) * (1 + 1e-9)
     assert png.is_file() and png.stat().st_size > 1000
 
 

@@ -151,9 +151,10 @@ def test_an_unused_worker_closes_at_once() -> None:
     worker = PlotWorker()
     pid = worker._proc.pid if worker.forked else None  # the test looks inside
     worker.close()
-    assert multiprocessing.active_children() == []
+    # this worker's child only: another test in the same pytest process may still own children of its own
+    assert pid not in {p.pid for p in multiprocessing.active_children()}
     if pid is not None:
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)  # reaped: gone, not a zombie
     worker.close()  # twice is harmless
-    assert multiprocessing.active_children() == []
+    assert pid not in {p.pid for p in multiprocessing.active_children()}
