@@ -110,3 +110,26 @@ def test_progress_holds_while_the_estimator_is_lost():
     est.status = "tracking"  # the same pose, trusted: the progress follows again
     pilot.command(2.0, est, _Plant(), 0.05)
     assert pilot.signals()[s_est] > 0.5
+
+
+def test_progress_is_projected_again_when_positioning_recovers():
+    """A wrong relocalisation briefly trusted carries s to the path end; once lost and then re-acquired on the
+    true pose, s comes back to the vehicle, which drives on (integrity bench: differential clutter, seed 19)."""
+    path = path_from_moves([0.0, 0.0, 0.0], [("line", 6.0)])
+    profile = SpeedProfile(cruise_speed=0.2, max_accel=0.3, max_decel=0.3)
+    pilot = PathAutopilot(_Controller(path), path, profile, _Plant(), progress_window=1.0)
+    est = _Estimator((0.0, 0.0, 0.0))
+    s_est = pilot.signal_names.index("s_est")
+    for k in range(60):  # a trusted estimate walking ahead to the path end
+        est.status, est.pose = "tracking", (min(0.1 * k, 6.0), 0.0, 0.0)
+        pilot.command(0.05 * k, est, _Plant(), 0.05)
+    assert pilot.signals()[s_est] == pytest.approx(5.9)
+    est.status = "lost"
+    pilot.command(3.0, est, _Plant(), 0.05)
+    est.status, est.pose = "tracking", (5.2, 0.0, 0.0)  # re-acquired where the vehicle really is
+    pilot.command(3.05, est, _Plant(), 0.05)
+    assert pilot.signals()[s_est] == pytest.approx(5.2)
+    assert not pilot.finished
+    while_tracking = SimpleNamespace(status="tracking", pose=(5.1, 0.0, 0.0))  # no loss: s never moves back
+    pilot.command(3.1, while_tracking, _Plant(), 0.05)
+    assert pilot.signals()[s_est] == pytest.approx(5.2)

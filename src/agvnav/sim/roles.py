@@ -69,8 +69,10 @@ class PathAutopilot:
     estimated tracked point searched within ``progress_window`` metres ahead of
     the previous ``s`` (starting from 0): a start far off the path cannot project
     onto the path end. It holds while the estimator's status is ``lost``, so a
-    wandering lost estimate cannot carry it to the path end. The speed profile brings the vehicle to a stop at every
-    cusp (where the direction of travel changes) before it drives on in the
+    wandering lost estimate cannot carry it to the path end; once the status leaves
+    ``lost`` it is projected again within the window either side (a relocalisation may
+    move it back). The speed profile brings the vehicle to a stop at every cusp
+    (where the direction of travel changes) before it drives on in the
     other direction, and the follower is given one run of same-direction
     segments at a time (a reverse segment often retraces a forward one, where
     a projection could not tell them apart). The path counts as completed only when ``s`` reached the
@@ -124,6 +126,8 @@ class PathAutopilot:
         self._seg_starts = [float(v) for v in path.segment_starts[:-1]]
         self._seg_dirs = [int(seg.direction) for seg in path.segments]
         self._run_end, self._run_dir = self._run_from(0.0)
+        self._run_start = 0.0
+        self._was_lost = False
         self._cusps = 0
         if self._run_end < self._length:  # the follower sees one run of one direction at a time
             follower.set_path(self._run_path(0.0))
@@ -152,6 +156,22 @@ class PathAutopilot:
         x, y = self._tracked_point(pose)
         pr = self.path.project_point(x, y, 0.5 * (self._s + hi), 0.5 * (hi - self._s))
         self._s = max(self._s, min(float(pr.s), hi))
+
+    def _reproject(self, pose: Any) -> None:
+        """Project again within ``progress_window`` either side of ``s`` once positioning is no longer lost.
+
+        A relocalisation can correct the pose by metres: a wrong one that was briefly
+        trusted may have carried ``s`` ahead of the vehicle (integrity bench, differential
+        clutter severe, seed 19: ``s`` at the path end, the vehicle 0.88 m before it, standing
+        until the timeout). The search stays inside the current run (never behind its cusp).
+        """
+        lo = max(self._run_start, self._s - self.progress_window)
+        hi = min(self._s + self.progress_window, self._run_end)
+        if hi - lo <= 1e-12:
+            return
+        x, y = self._tracked_point(pose)
+        pr = self.path.project_point(x, y, 0.5 * (lo + hi), 0.5 * (hi - lo))
+        self._s = min(max(float(pr.s), lo), hi)
 
     def _at_end(self, pose: Any) -> bool:
         """True when the tracked point is within ``end_tolerance`` (m) of the path's end point."""
@@ -184,8 +204,12 @@ class PathAutopilot:
         pose = estimator.pose
         if not (math.isfinite(pose[0]) and math.isfinite(pose[1]) and math.isfinite(pose[2])):
             return self._brake_blind(dt, plant)
-        if getattr(estimator, "status", "tracking") != "lost":  # a lost estimate says nothing of progress
+        lost = getattr(estimator, "status", "tracking") == "lost"
+        if not lost:  # a lost estimate says nothing of progress
+            if self._was_lost:
+                self._reproject(pose)
             self._advance(pose)
+        self._was_lost = lost
         remaining = self._run_end - self._s
         scale = 1.0 if self.watch is None else self.watch.scale(t, estimator)
         v = self.profile.command(remaining, dt, self._run_dir * abs(self.profile.cruise_speed) * scale)
@@ -201,7 +225,7 @@ class PathAutopilot:
             v_lat = rate = 0.0
         if v == 0.0 and remaining <= self.profile.stop_tolerance + 1e-9:
             if self._run_end < self._length:  # stopped at a cusp: the next run reverses
-                self._s = self._run_end
+                self._s = self._run_start = self._run_end
                 self._run_end, self._run_dir = self._run_from(self._s)
                 self.follower.set_path(self._run_path(self._s))
             else:
