@@ -30,7 +30,13 @@ from agvnav.guidance.paths import Path as GPath
 from agvnav.kinematics import TricycleStacker, twist_step
 from agvnav.kinematics.scalar import stacker_rate, stacker_rk4, track_twist, twist_pose
 from agvnav.kinematics.tracked import TrackedVehicle, TrackSlipNoise
-from agvnav.odometry import differential_increments, tricycle_increments
+from agvnav.odometry import (
+    calibration_jacobian,
+    differential_increments,
+    motion_covariance,
+    steered_noise,
+    tricycle_increments,
+)
 from agvnav.odometry.errors import NonSystematicErrors
 from agvnav.odometry.scalar import differential_increments_scalar, track_increments, tricycle_increments_scalar
 from agvnav.positioning import _fast as pos_fast
@@ -223,6 +229,19 @@ def _wrapped_offsets(rng: np.random.Generator) -> Pair:
     return [*f, worst], [*ref, np.abs(ref).max()]
 
 
+def _steered_noise(rng: np.random.Generator) -> Pair:
+    front = bool(rng.integers(2))
+    L = rng.uniform(0.8, 2.0)
+    noise = steered_noise("tricycle" if front else "tricycle_rear", 1e-4, L, 1e-3, 0.02, 0.003, 0.004)
+    pose = np.array([*rng.normal(size=2), rng.uniform(-math.pi, math.pi)])
+    s, g = rng.uniform(-0.3, 0.3), rng.uniform(-1.2, 1.2)
+    dd, dth = (s * math.cos(g), s * math.sin(g) / L) if front else (s, s * math.tan(g) / L)
+    Q, W = pos_fast.steered_noise(float(pose[2]), dd, dth, front, L, noise.slip_k,
+                                  noise.steering_std**2 * noise.step_m)
+    ref = [*motion_covariance(pose, dd, dth, noise).ravel(), *calibration_jacobian(pose, dd, dth, noise).ravel()]
+    return [*Q, *W], ref
+
+
 CASES: dict[str, Callable[[np.random.Generator], Pair]] = {
     "wrap_angle": _wrap, "stacker_rk4": _stacker_rk4, "stacker_rate": _stacker_rate, "twist_pose": _twist_pose,
     "track_twist": _track_twist, "track_factors": _track_factors, "tricycle_increments": _tricycle_increments,
@@ -232,7 +251,7 @@ CASES: dict[str, Callable[[np.random.Generator], Pair]] = {
     "line_point": _segment_point("line"), "line_project": _segment_project("line"),
     "arc_point": _segment_point("arc"), "arc_project": _segment_project("arc"),
     "path_project": _path_project, "encoder_bearing": _encoder_bearing, "gate_one": _gate_one,
-    "wrapped_offsets": _wrapped_offsets,
+    "wrapped_offsets": _wrapped_offsets, "steered_noise": _steered_noise,
 }
 
 

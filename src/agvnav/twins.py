@@ -90,6 +90,8 @@ TWINS: tuple[Twin, ...] = (
          "[seed000 eq2] chi-square gate", 1e-10),
     Twin("wrapped_offsets", "agvnav.sensors.beam:wrapped_offsets", "agvnav.geometry.angles:wrap_angle",
          "[-pi, pi) convention (the goniometer's root finder)", 0.0),
+    Twin("steered_noise", "agvnav.positioning._fast:steered_noise", "agvnav.odometry.covariance:motion_covariance",
+         "[seed002 eq17] steered wheel (Q and the calibration Jacobian W)", 1e-12),
 )
 
 
