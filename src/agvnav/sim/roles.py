@@ -143,29 +143,19 @@ class PathAutopilot:
             return x + self.offset * math.cos(psi), y + self.offset * math.sin(psi)
         return x, y
 
-    def _advance(self, pose: Any) -> None:
-        """Advance ``s`` to the projection of the tracked point searched in ``[s, s + window]``.
+    def _advance(self, pose: Any, back: float = 0.0) -> None:
+        """Move ``s`` to the projection of the tracked point searched in ``[s - back, s + window]``.
 
         The search never reaches past the end of the current run of segments in one
         direction (a cusp), so a reverse segment retracing a forward one is entered
-        only once the vehicle has stopped at the cusp.
-        """
-        hi = min(self._s + self.progress_window, self._run_end)
-        if hi - self._s <= 1e-12:
-            return
-        x, y = self._tracked_point(pose)
-        pr = self.path.project_point(x, y, 0.5 * (self._s + hi), 0.5 * (hi - self._s))
-        self._s = max(self._s, min(float(pr.s), hi))
-
-    def _reproject(self, pose: Any) -> None:
-        """Project again within ``progress_window`` either side of ``s`` once positioning is no longer lost.
-
-        A relocalisation can correct the pose by metres: a wrong one that was briefly
+        only once the vehicle has stopped at the cusp, nor behind the run's start.
+        ``back`` is 0 (progress never goes back) except once the status leaves ``lost``:
+        a relocalisation can correct the pose by metres, and a wrong one that was briefly
         trusted may have carried ``s`` ahead of the vehicle (integrity bench, differential
-        clutter severe, seed 19: ``s`` at the path end, the vehicle 0.88 m before it, standing
-        until the timeout). The search stays inside the current run (never behind its cusp).
+        clutter severe, seed 19: ``s`` at the path end, the vehicle 0.88 m before it,
+        standing until the timeout).
         """
-        lo = max(self._run_start, self._s - self.progress_window)
+        lo = max(self._run_start, self._s - back)
         hi = min(self._s + self.progress_window, self._run_end)
         if hi - lo <= 1e-12:
             return
@@ -206,9 +196,7 @@ class PathAutopilot:
             return self._brake_blind(dt, plant)
         lost = getattr(estimator, "status", "tracking") == "lost"
         if not lost:  # a lost estimate says nothing of progress
-            if self._was_lost:
-                self._reproject(pose)
-            self._advance(pose)
+            self._advance(pose, self.progress_window if self._was_lost else 0.0)
         self._was_lost = lost
         remaining = self._run_end - self._s
         scale = 1.0 if self.watch is None else self.watch.scale(t, estimator)
