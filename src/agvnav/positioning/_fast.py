@@ -18,8 +18,12 @@ import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-from agvnav.geometry.angles import wrap_angle_scalar
-from agvnav.positioning.gating import GateSpec
+import numpy as np
+from numpy.typing import NDArray
+
+from agvnav._jit import jit
+from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
+from agvnav.positioning.gating import GateSpec, grid_rows
 
 Mat3 = tuple[float, ...]
 
@@ -553,3 +557,350 @@ def gate_one(
     if n_in != 1 or best is None:
         return -1, math.nan, math.inf, n_in, (0.0, 0.0, 0.0), math.nan, math.nan
     return best
+
+
+# ---------------------------------------------------------------------- compiled per-reflection path (issue 11)
+# The functions above run as plain Python on tuples: cheap next to NumPy, but a reflection still
+# took ~40 Python calls (prediction to its instant, gate, Schmidt update). The kernels below do
+# the same work in one compiled call each (:mod:`agvnav._jit`), with *the same floating-point
+# operations in the same order* as the functions above, so a seeded run gives the same bits
+# either way (``tests/positioning/test_fused.py`` checks them bit for bit; ``agvnav.twins``
+# lists them). The estimator calls them only when the kernels run compiled; interpreted, the
+# plain functions above are cheaper (these would index NumPy arrays element by element).
+#
+# Two things numba would otherwise do differently from CPython, and how they are kept equal:
+#
+# * ``x ** 2`` and ``x ** 3``: CPython calls the C library's ``pow``; numba (LLVM) turns a
+#   constant small integer exponent into multiplications, and ``pow(x, 2.0)`` differs from
+#   ``x * x`` in the last bit on ~0.1 % of inputs (glibc's ``pow`` is not correctly rounded).
+#   The kernels call ``math.pow`` with the exponent read from the argument ``ex`` (:data:`POW_EXPONENTS`),
+#   a value LLVM cannot fold, so they reach the same ``pow``.
+# * ``math.hypot``: CPython has its own algorithm, numba calls the C library's (they differ on
+#   ~0.6 % of pairs): the caller passes the one hypot a prediction needs (``hyp``), computed in Python.
+
+#: ``(2.0, 3.0)``: the exponents the kernels pass to ``math.pow`` (see the comment above).
+POW_EXPONENTS = np.array([2.0, 3.0])
+
+
+@jit
+def _sinc_k(h: float) -> float:
+    """:func:`_sinc`, compiled."""
+    return 1.0 - h * h / 6.0 if abs(h) < 1e-4 else math.sin(h) / h
+
+
+@jit
+def _dsinc_k(h: float) -> float:
+    """:func:`_dsinc`, compiled."""
+    return -h / 3.0 if abs(h) < 1e-4 else (h * math.cos(h) - math.sin(h)) / (h * h)
+
+
+@jit
+def move_state(
+    odom: tuple[float, float, float], pose: tuple[float, float, float], P: Mat3, M: Mat3, X: tuple[float, ...],
+    dd: float, dth: float, dl: float, noise: tuple[float, float, float, float],
+    steered: bool, front: bool, steer: tuple[float, float, float, float], hyp: float,
+    consider: bool, calibrated: bool, cvar: tuple[float, float],
+) -> tuple[tuple[float, float, float], tuple[float, float, float], Mat3, Mat3, tuple[float, ...]]:
+    """One odometry increment ``(dd, dth, dl)`` (m, rad, m) of the estimator's whole state, compiled.
+
+    The streaming estimator's ``_move`` in one call: the odometric pose and the pose moved by
+    :func:`twist_step` [seed002 eq25], ``P' = F P F^T + Q`` (:func:`predict_covariance`
+    [seed002 eq14]) with ``Q`` from :func:`process_noise` [seed002 eq17]
+    (``noise = (k_d, k_dtheta, k_theta, k_lateral)``) or, when ``steered`` and ``dl == 0``,
+    :func:`steered_noise` (``steer = (L, slip_k, steer_q, min_roll)``, ``front`` the drive);
+    with ``consider`` the Schmidt factor ``M <- F M`` (:func:`shear`) and, when
+    ``calibrated``, :func:`calibration_predict` of ``X = P_xc`` with ``cvar``. ``hyp`` is
+    ``math.hypot(dd, dl)`` for :func:`process_noise`, ``math.hypot(dd, L dth)`` for a front
+    steered wheel (computed by the caller: CPython's hypot). A pose that is not finite
+    (initialising) moves only ``odom``. Returns ``(odom', pose', P', M', X')``; bit for bit
+    the plain functions' results.
+    """
+    ox, oy, opsi = odom
+    # twist_step of the odometric pose
+    k = _sinc_k(0.5 * dth)
+    heading = opsi + 0.5 * dth
+    c, s = math.cos(heading), math.sin(heading)
+    chord = dd * k
+    if dl == 0.0:
+        ex, ey = chord * c, chord * s
+    else:
+        side = dl * k
+        ex, ey = chord * c - side * s, chord * s + side * c
+    odom_n = (ox + ex, oy + ey, wrap_angle_kernel(opsi + dth))
+    x, y, psi = pose
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(psi)):
+        return odom_n, pose, P, M, X
+    heading = psi + 0.5 * dth
+    c, s = math.cos(heading), math.sin(heading)
+    if dl == 0.0:
+        ex, ey = chord * c, chord * s
+    else:
+        side = dl * k
+        ex, ey = chord * c - side * s, chord * s + side * c
+    nx, ny, npsi, f02, f12 = x + ex, y + ey, wrap_angle_kernel(psi + dth), -ey, ex
+    h = 0.5 * dth
+    kk, dk = _sinc_k(h), _dsinc_k(h)
+    heading = psi + h
+    c, s = math.cos(heading), math.sin(heading)
+    use_steered = steered and dl == 0.0
+    a0 = b0 = a1 = b1 = a2 = b2 = 0.0
+    if not use_steered:  # process_noise
+        k_d, k_dtheta, k_theta, k_lateral = noise
+        ax, ay = c * dd - s * dl, s * dd + c * dl
+        tx, ty = 0.5 * (dk * ax - kk * ay), 0.5 * (dk * ay + kk * ax)
+        var_d = k_d * abs(dd)
+        var_th = k_dtheta * hyp + k_theta * abs(dth)
+        var_l = k_lateral * abs(dl)
+        kc, ks = kk * c, kk * s
+        q00 = var_d * kc * kc + var_th * tx * tx + var_l * ks * ks
+        q01 = var_d * kc * ks + var_th * tx * ty - var_l * ks * kc
+        q11 = var_d * ks * ks + var_th * ty * ty + var_l * kc * kc
+        q02, q12, q22 = var_th * tx, var_th * ty, var_th
+    else:  # steered_noise
+        L, slip_k, steer_q, min_roll = steer
+        gd0, gd1 = kk * c, kk * s
+        tx, ty = 0.5 * dd * (dk * c - kk * s), 0.5 * dd * (dk * s + kk * c)
+        rear_still = False
+        if front:
+            dist = hyp
+            w0, w1 = -L * dth, dd / L
+        else:
+            dist = max(abs(dd), min_roll * abs(dth))
+            if dist == 0.0:
+                rear_still = True
+                w0 = w1 = 0.0
+            else:
+                sd = -dist if dd < 0.0 else dist
+                w0, w1 = 0.0, sd / L + L * dth * dth / sd
+        if rear_still:
+            q00 = q01 = q02 = q11 = q12 = 0.0
+            q22 = slip_k / L * abs(dth)
+        else:
+            a0, a1, a2 = dd * gd0 + dth * tx, dd * gd1 + dth * ty, dth
+            b0, b1, b2 = w0 * gd0 + w1 * tx, w0 * gd1 + w1 * ty, w1
+            if dist > 0.0:
+                qa, qb = slip_k / dist, steer_q / dist
+            else:
+                qa = qb = 0.0
+            q00 = qa * a0 * a0 + qb * b0 * b0
+            q01 = qa * a0 * a1 + qb * b0 * b1
+            q02 = qa * a0 * a2 + qb * b0 * b2
+            q11 = qa * a1 * a1 + qb * b1 * b1
+            q12 = qa * a1 * a2 + qb * b1 * b2
+            q22 = qa * a2 * a2 + qb * b2 * b2
+    # predict_covariance
+    p00, p01, p02, p11, p12, p22 = P[0], P[1], P[2], P[4], P[5], P[8]
+    r00, r01, r02 = p00 + f02 * p02, p01 + f02 * p12, p02 + f02 * p22
+    r11, r12 = p11 + f12 * p12, p12 + f12 * p22
+    c00 = r00 + r02 * f02 + q00
+    c01 = r01 + r02 * f12 + q01
+    c11 = r11 + r12 * f12 + q11
+    c02, c12, c22 = r02 + q02, r12 + q12, p22 + q22
+    Pn = (c00, c01, c02, c01, c11, c12, c02, c12, c22)
+    pose_n = (nx, ny, wrap_angle_kernel(npsi))
+    if not consider:
+        return odom_n, pose_n, Pn, M, X
+    m6, m7, m8 = M[6], M[7], M[8]
+    Mn = (M[0] + f02 * m6, M[1] + f02 * m7, M[2] + f02 * m8, M[3] + f12 * m6, M[4] + f12 * m7,
+          M[5] + f12 * m8, m6, m7, m8)
+    if not (use_steered and calibrated):
+        return odom_n, pose_n, Pn, Mn, X
+    # calibration_predict with W = (a0, b0, a1, b1, a2, b2)
+    x0, x1, x2, x3, x4, x5 = X
+    fx0, fx1 = x0 + f02 * x4, x1 + f02 * x5
+    fx2, fx3 = x2 + f12 * x4, x3 + f12 * x5
+    ce, cb = cvar
+    v0, u0, v1, u1, v2, u2 = a0 * ce, b0 * cb, a1 * ce, b1 * cb, a2 * ce, b2 * cb
+    e0, s0 = fx0 + 0.5 * v0, fx1 + 0.5 * u0
+    e1, s1 = fx2 + 0.5 * v1, fx3 + 0.5 * u1
+    e2, s2 = x4 + 0.5 * v2, x5 + 0.5 * u2
+    d00 = 2.0 * (e0 * a0 + s0 * b0)
+    d01 = e0 * a1 + s0 * b1 + a0 * e1 + b0 * s1
+    d02 = e0 * a2 + s0 * b2 + a0 * e2 + b0 * s2
+    d11 = 2.0 * (e1 * a1 + s1 * b1)
+    d12 = e1 * a2 + s1 * b2 + a1 * e2 + b1 * s2
+    d22 = 2.0 * (e2 * a2 + s2 * b2)
+    Pc = (c00 + d00, c01 + d01, c02 + d02, c01 + d01, c11 + d11, c12 + d12, c02 + d02, c12 + d12, c22 + d22)
+    return odom_n, pose_n, Pc, Mn, (fx0 + v0, fx1 + u0, fx2 + v1, fx3 + u1, x4 + v2, x5 + u2)
+
+
+@jit
+def gate_rows(
+    z: float, t: float, pose: tuple[float, float, float], P: Mat3, mount: tuple[float, float, float],
+    gate_spec: tuple[float, float, float, float, float, float, float],
+    rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64], claimed: NDArray[np.float64],
+    sight: NDArray[np.bool_], consider: bool, M: Mat3, C: NDArray[np.float64], svar: NDArray[np.float64],
+    use_grid: bool, g_start: NDArray[np.int64], g_rows: NDArray[np.int64], grid: tuple[float, float, float, int, int],
+    r2: NDArray[np.float64], half_pi_r: NDArray[np.float64], r_max: float, ex: NDArray[np.float64],
+) -> tuple[int, float, float, int, float, float, float, float, float]:
+    """:func:`gate_one` with the :class:`~agvnav.positioning.gating.BearingIndex` pre-selection, compiled.
+
+    ``gate_spec = (bearing_var, max_range, gate, map_std, sweep, mount_norm, mount_norm^2)``
+    (rad², m, -, m, s, m, m²; the norms from ``math.hypot``, ``map_std`` squared by the
+    caller as ``map_std ** 2``: see the comment above), the reflectors as arrays ``rx, ry, r``
+    (m), ``claimed (N,)`` the claim times (s), ``sight (N,)`` the reflectors in sight (all
+    True without walls), ``consider`` with ``(M, C, svar)`` as :func:`gate_one`. With
+    ``use_grid`` the candidates are :func:`~agvnav.positioning.gating.grid_rows` of the
+    index (``grid = (x0, y0, cell, nx, ny)``, ``g_start``, ``g_rows``, ``r2``,
+    ``half_pi_r``, ``r_max``, as :meth:`BearingIndex.candidates` computes them). Returns
+    ``(index, y, nis, n_in_gate, H0, H1, H2, S, R)``: :func:`gate_one`'s result, flat.
+    """
+    bearing_var, max_range, gate, map_std, sweep, mount_norm, mount_norm2 = gate_spec
+    x, y, psi = pose
+    mx, my, mth = mount
+    c, s = math.cos(psi), math.sin(psi)
+    px, py = x + c * mx - s * my, y + s * mx + c * my
+    dpx, dpy = -s * mx - c * my, c * mx - s * my
+    p00, p01, p02, p11, p12, p22 = P[0], P[1], P[2], P[4], P[5], P[8]
+    trace_P = p00 + p11 + p22
+    two_gate = 2.0 * gate
+    e2, e3 = ex[0], ex[1]
+    n = rx.shape[0]
+    if use_grid:  # BearingIndex.candidates
+        var_xy, var_psi = P[0] + P[4], P[8]
+        a4 = 4.0 * gate * (bearing_var + 4.0 * var_psi)
+        b4 = 4.0 * gate * (math.pow(map_std, e2) + 2.0 * var_xy + 4.0 * mount_norm2 * var_psi)
+        if consider:
+            a4, b4 = 2.0 * a4, 2.0 * b4
+        x0, y0, cell, nx, ny = grid
+        cand = grid_rows(g_start, g_rows, x0, y0, cell, nx, ny, rx, ry, r2, half_pi_r,
+                         x + c * mx - s * my, y + s * mx + c * my, z + psi + mth, a4, b4, max_range, r_max)
+        m = cand.shape[0]
+    else:
+        cand = np.empty(0, np.int64)
+        m = n
+    n_in = 0
+    best_j, best_y, best_nis, best_S, best_R = -1, math.nan, math.inf, math.nan, math.nan
+    best_h0 = best_h1 = best_h2 = 0.0
+    for i in range(m):
+        j = cand[i] if use_grid else i
+        if not sight[j]:
+            continue
+        if t - claimed[j] < sweep:
+            continue
+        rj = r[j]
+        dx, dy = rx[j] - px, ry[j] - py
+        d2 = dx * dx + dy * dy
+        d = math.sqrt(d2)
+        if not d <= max_range:
+            continue
+        edge = -math.asin(min(max(rj / d, 0.0), 1.0)) if d > 0.0 else -0.5 * _PI
+        innov = wrap_angle_kernel(z - wrap_angle_kernel(math.atan2(dy, dx) - psi - mth + edge))
+        rr = rj * rj
+        R = 0.0
+        if not consider:
+            R = bearing_var + math.pow(map_std / d if d > 0.0 else 0.0, e2)
+            if d2 > rr:
+                g2 = 1.0 / (d2 - rr)
+                if innov * innov >= two_gate * (R + trace_P * (g2 + math.pow(math.sqrt(g2) * mount_norm + 1.0, e2))):
+                    continue
+        elif d2 > rr:
+            g2 = 1.0 / (d2 - rr)
+            a_max = trace_P * (g2 + math.pow(math.sqrt(g2) * mount_norm + 1.0, e2))
+            if innov * innov >= two_gate * (bearing_var + 2.0 * (a_max + svar[j] * g2)):
+                continue
+        # bearing_jacobian
+        if d > 0.0:
+            ratio = min(max(rj / d, 0.0), 1.0 - 1e-12)
+            edge_gain = rj / (math.pow(d, e3) * math.sqrt(1.0 - math.pow(ratio, e2)))
+            h0, h1 = dy / d2 - edge_gain * dx, -dx / d2 - edge_gain * dy
+        else:
+            h0, h1 = 0.0, 0.0
+        h2 = h0 * dpx + h1 * dpy - 1.0
+        if consider:
+            R = bearing_var + svar[j] * (h0 * h0 + h1 * h1)
+        S = h0 * h0 * p00 + h1 * h1 * p11 + h2 * h2 * p22 + 2.0 * (h0 * h1 * p01 + h0 * h2 * p02 + h1 * h2 * p12) + R
+        if consider:
+            cx0, cx1, cx2, cy0, cy1, cy2 = C[j, 0], C[j, 1], C[j, 2], C[j, 3], C[j, 4], C[j, 5]
+            w0, w1, w2 = -(cx0 * h0 + cy0 * h1), -(cx1 * h0 + cy1 * h1), -(cx2 * h0 + cy2 * h1)
+            S += 2.0 * (h0 * (M[0] * w0 + M[1] * w1 + M[2] * w2) + h1 * (M[3] * w0 + M[4] * w1 + M[5] * w2)
+                        + h2 * (M[6] * w0 + M[7] * w1 + M[8] * w2))
+        nis = innov * innov / S
+        if nis < gate:
+            n_in += 1
+            best_j, best_y, best_nis, best_S, best_R = j, innov, nis, S, R
+            best_h0, best_h1, best_h2 = h0, h1, h2
+    if n_in != 1:
+        return -1, math.nan, math.inf, n_in, 0.0, 0.0, 0.0, math.nan, math.nan
+    return best_j, best_y, best_nis, 1, best_h0, best_h1, best_h2, best_S, best_R
+
+
+@jit
+def schmidt_accept(
+    pose: tuple[float, float, float], P: Mat3, M: Mat3, X: tuple[float, ...], C: NDArray[np.float64], j: int,
+    svar_j: float, innovation: float, H: tuple[float, float, float], bearing_var: float, calibrated: bool,
+    min_det: float, max_entry: float,
+) -> tuple[tuple[float, float, float], Mat3, tuple[float, float, float], Mat3, tuple[float, ...], bool]:
+    """The EKF's Schmidt-Kalman update of one identified bearing (:meth:`EkfEstimator._accept`), compiled.
+
+    :func:`consider_cross`, :func:`schmidt_update`, :func:`calibration_update` (when
+    ``calibrated``), ``M <- (I - K H) M`` (:func:`left_update`) and reflector ``j``'s row of
+    ``C`` (updated in place) with ``M^-1 K`` (:func:`solve3`), the same operations as the
+    method. When the new ``M`` needs folding (``|det M| < min_det`` or an entry above
+    ``max_entry``), ``C`` is left untouched and the last item is True: the caller folds
+    (a NumPy product over the map, rare) and writes row ``j`` itself. Returns
+    ``(pose', P', K, M', X', fold)``.
+    """
+    h0, h1, h2 = H
+    hp0, hp1 = -h0, -h1
+    cx0, cx1, cx2, cy0, cy1, cy2 = C[j, 0], C[j, 1], C[j, 2], C[j, 3], C[j, 4], C[j, 5]
+    # consider_cross
+    q0 = cx0 * hp0 + cy0 * hp1
+    q1 = cx1 * hp0 + cy1 * hp1
+    q2 = cx2 * hp0 + cy2 * hp1
+    v0 = M[0] * q0 + M[1] * q1 + M[2] * q2
+    v1 = M[3] * q0 + M[4] * q1 + M[5] * q2
+    v2 = M[6] * q0 + M[7] * q1 + M[8] * q2
+    b = svar_j * (h0 * h0 + h1 * h1)
+    # schmidt_update
+    p00, p01, p02, p11, p12, p22 = P[0], P[1], P[2], P[4], P[5], P[8]
+    b0 = p00 * h0 + p01 * h1 + p02 * h2
+    b1 = p01 * h0 + p11 * h1 + p12 * h2
+    b2 = p02 * h0 + p12 * h1 + p22 * h2
+    u0, u1, u2 = b0 + v0, b1 + v1, b2 + v2
+    hv = h0 * v0 + h1 * v1 + h2 * v2
+    S = h0 * b0 + h1 * b1 + h2 * b2 + 2.0 * hv + b + bearing_var
+    k0, k1, k2 = u0 / S, u1 / S, u2 / S
+    xn = (pose[0] + k0 * innovation, pose[1] + k1 * innovation, wrap_angle_kernel(pose[2] + k2 * innovation))
+    m00, m01, m02 = p00 - k0 * b0, p01 - k0 * b1, p02 - k0 * b2
+    m10, m11, m12 = p01 - k1 * b0, p11 - k1 * b1, p12 - k1 * b2
+    m20, m21, m22 = p02 - k2 * b0, p12 - k2 * b1, p22 - k2 * b2
+    mh0 = m00 * h0 + m01 * h1 + m02 * h2
+    mh1 = m10 * h0 + m11 * h1 + m12 * h2
+    mh2 = m20 * h0 + m21 * h1 + m22 * h2
+    a0, a1, a2 = v0 - k0 * hv, v1 - k1 * hv, v2 - k2 * hv
+    q = b + bearing_var
+    c00 = m00 - mh0 * k0 - 2.0 * a0 * k0 + q * k0 * k0
+    c01 = m01 - mh0 * k1 - (a0 * k1 + k0 * a1) + q * k0 * k1
+    c02 = m02 - mh0 * k2 - (a0 * k2 + k0 * a2) + q * k0 * k2
+    c11 = m11 - mh1 * k1 - 2.0 * a1 * k1 + q * k1 * k1
+    c12 = m12 - mh1 * k2 - (a1 * k2 + k1 * a2) + q * k1 * k2
+    c22 = m22 - mh2 * k2 - 2.0 * a2 * k2 + q * k2 * k2
+    Pn = (c00, c01, c02, c01, c11, c12, c02, c12, c22)
+    Xn = X
+    if calibrated:  # calibration_update
+        e0 = h0 * X[0] + h1 * X[2] + h2 * X[4]
+        e1 = h0 * X[1] + h1 * X[3] + h2 * X[5]
+        Xn = (X[0] - k0 * e0, X[1] - k0 * e1, X[2] - k1 * e0, X[3] - k1 * e1, X[4] - k2 * e0, X[5] - k2 * e1)
+    # left_update
+    r0 = h0 * M[0] + h1 * M[3] + h2 * M[6]
+    r1 = h0 * M[1] + h1 * M[4] + h2 * M[7]
+    r2 = h0 * M[2] + h1 * M[5] + h2 * M[8]
+    Mn = (M[0] - k0 * r0, M[1] - k0 * r1, M[2] - k0 * r2, M[3] - k1 * r0, M[4] - k1 * r1, M[5] - k1 * r2,
+          M[6] - k2 * r0, M[7] - k2 * r1, M[8] - k2 * r2)
+    a, b_, c, d, e, f, g, h, i = Mn
+    det = a * (e * i - f * h) - b_ * (d * i - f * g) + c * (d * h - e * g)  # det3
+    biggest = abs(Mn[0])  # max(map(abs, M)): the first of the largest, as Python's max
+    for w in Mn[1:]:
+        if abs(w) > biggest:
+            biggest = abs(w)
+    if not (abs(det) >= min_det and biggest <= max_entry):
+        return xn, Pn, (k0, k1, k2), Mn, Xn, True
+    # solve3(Mn, K, det)
+    s0 = ((e * i - f * h) * k0 - (b_ * i - c * h) * k1 + (b_ * f - c * e) * k2) / det
+    s1 = (-(d * i - f * g) * k0 + (a * i - c * g) * k1 - (a * f - c * d) * k2) / det
+    s2 = ((d * h - e * g) * k0 - (a * h - b_ * g) * k1 + (a * e - b_ * d) * k2) / det
+    ax, ay = h0 * svar_j, h1 * svar_j
+    C[j, 0], C[j, 1], C[j, 2] = cx0 + s0 * ax, cx1 + s1 * ax, cx2 + s2 * ax
+    C[j, 3], C[j, 4], C[j, 5] = cy0 + s0 * ay, cy1 + s1 * ay, cy2 + s2 * ay
+    return xn, Pn, (k0, k1, k2), Mn, Xn, False

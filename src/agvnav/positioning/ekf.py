@@ -85,6 +85,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agvnav._jit import compiled
 from agvnav.geometry import wrap_angle
 from agvnav.positioning import _fast
 from agvnav.positioning.estimator import StreamingEstimator
@@ -246,7 +247,8 @@ class EkfEstimator(StreamingEstimator):
         n = self.reflector_xy.shape[0]
         self._M: tuple[float, ...] = _IDENTITY
         self._C = np.zeros((n, 6))
-        self._svar = (self.survey_std**2).tolist()
+        self._svar_a = self.survey_std**2  # (N,) m² per axis; the compiled gate's copy of the list below
+        self._svar = self._svar_a.tolist()
         self._Pxc: tuple[float, ...] = (0.0,) * 6
         self._calibrated = self._calibration_var != (0.0, 0.0)
 
@@ -319,11 +321,34 @@ class EkfEstimator(StreamingEstimator):
         return fused
 
     def _accept(self, t: float, bearing: float, assoc: Any) -> None:
-        """The Schmidt-Kalman update of one identified bearing (module docstring)."""
+        """The Schmidt-Kalman update of one identified bearing (module docstring).
+
+        Compiled, one call (:func:`~agvnav.positioning._fast.schmidt_accept`, the same
+        operations), unless ``M`` must be folded: then the fold and reflector ``j``'s row are
+        done here, as below.
+        """
         j = assoc.index
         h0, h1 = float(assoc.H[0]), float(assoc.H[1])
         H = (h0, h1, float(assoc.H[2]))
         svar = self._svar[j]
+        if compiled():
+            self._x_t, self._P_t, K, M, self._Pxc, fold = _fast.schmidt_accept(
+                self._x_t, self._P_t, self._M, self._Pxc, self._C, j, svar, assoc.innovation, H,
+                self.bearing_std**2, self._calibrated, CONSIDER_MIN_DET, CONSIDER_MAX_ENTRY,
+            )
+            if fold:  # as _left and the folded branch below
+                self._fold(M)
+                u0, u1, u2 = K
+                row = self._C[j].tolist()
+                ax, ay = h0 * svar, h1 * svar
+                self._C[j] = (row[0] + u0 * ax, row[1] + u1 * ax, row[2] + u2 * ax, row[3] + u0 * ay,
+                              row[4] + u1 * ay, row[5] + u2 * ay)
+            else:
+                self._M = M
+            self.last_innovation = assoc.innovation
+            self.last_nis = assoc.nis
+            self.last_reflector = assoc.index
+            return
         row = self._C[j].tolist()
         v = _fast.consider_cross(self._M, row[:3], row[3:], -h0, -h1)
         b = svar * (h0 * h0 + h1 * h1)

@@ -42,6 +42,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agvnav._jit import compiled
 from agvnav._validate import as_float_array, require_finite, require_nonnegative, require_positive
 from agvnav.geometry import wrap_angle
 from agvnav.odometry import OdometryNoise, SteeredOdometryNoise
@@ -62,6 +63,13 @@ STATUSES = ("initialising", "tracking", "degraded", "dead_reckoning", "lost")
 
 #: Lock-out inflation stops once the position variance trace reaches this (m²).
 MAX_INFLATED_POSITION_VAR = 0.25
+
+#: Placeholders of the compiled kernels' consider and steering arguments for estimators without them.
+_NO_M = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+_NO_X = (0.0,) * 6
+_NO_C = np.zeros((0, 6))
+_NO_SVAR = np.zeros(0)
+_NO_STEER = (1.0, 0.0, 0.0, 0.0)
 
 #: The concrete estimator classes by method name, filled as they are defined.
 _ESTIMATORS: dict[str, type[StreamingEstimator]] = {}
@@ -235,7 +243,7 @@ class StreamingEstimator:
         self._odom_t = (0.0, 0.0, 0.0)  # odometric pose of base_link in the odom frame
         self._t_first: float | None = None
         self._t_last_accept: float | None = None
-        self._claimed = [-math.inf] * self.reflector_xy.shape[0]
+        self._claimed = np.full(self.reflector_xy.shape[0], -math.inf)  # claim times (s); an array for gate_rows
         self._init_buffer: list[tuple[float, float]] = []
         self._rows = _fast.reflector_rows(self.reflector_xy, self.reflector_radius)
         self._mount_t = tuple(float(v) for v in self.mount)
@@ -245,6 +253,19 @@ class StreamingEstimator:
         self._index = (
             BearingIndex(self.reflector_xy, self.reflector_radius, self.mount, self._spec)
             if len(self._rows) >= INDEX_MIN_REFLECTORS else None
+        )
+        #: The compiled gate's constants (:func:`~agvnav.positioning._fast.gate_rows`), fixed for the run.
+        mount_norm = math.hypot(self._mount_t[0], self._mount_t[1])
+        self._gate_consts = (self._spec.bearing_var, self._spec.max_range, self._spec.gate, self._spec.map_std,
+                             self._spec.sweep, mount_norm, mount_norm**2)
+        self._gate_map = (
+            np.array([r[0] for r in self._rows]), np.array([r[1] for r in self._rows]),
+            np.array([r[2] for r in self._rows]),
+        )
+        self._in_sight_all = np.ones(len(self._rows), dtype=np.bool_)
+        self._gate_grid = (
+            (False, np.zeros(2, np.int64), np.zeros(0, np.int64), (0.0, 0.0, 1.0, 1, 1), np.zeros(0), np.zeros(0), 0.0)
+            if self._index is None else self._index.kernel_args()
         )
         self._wide_spec: GateSpec | None = None  # the monitor's attribution gate (:meth:`_attribute`), made once needed
         self._wide_index: BearingIndex | None = None
@@ -659,6 +680,19 @@ class StreamingEstimator:
         only the :class:`~agvnav.positioning.gating.BearingIndex` candidates are
         evaluated (a superset of the reflectors inside the gate: same association).
         """
+        if compiled():  # one compiled call: the index's candidates and the gate (same numbers)
+            sight = self._sight(t)
+            rx, ry, r = self._gate_map
+            if self.consider:
+                M, C, svar = self._M, self._C, self._svar_a  # type: ignore[attr-defined]  # the consider state
+            else:
+                M, C, svar = _NO_M, _NO_C, _NO_SVAR
+            j, y, nis, n_in, h0, h1, h2, S, R = _fast.gate_rows(
+                z, t, self._x_t, self._P_t, self._mount_t, self._gate_consts, rx, ry, r, self._claimed,
+                self._in_sight_all if sight is None else sight, self.consider, M, C, svar, *self._gate_grid,
+                _fast.POW_EXPONENTS,
+            )
+            return Association(j, y, nis, n_in, np.array((h0, h1, h2)), S, R)
         cand = None if self._index is None else self._index.candidates(z, self._x_t, self._P_t)
         sight = self._sight(t)
         if sight is not None:
@@ -759,6 +793,9 @@ class StreamingEstimator:
         :func:`~agvnav.positioning._fast.process_noise` (for ``delta_lateral = 0``
         :func:`~agvnav.odometry.motion_covariance` [seed002 eq17]).
         """
+        if compiled():
+            self._move_compiled(delta_d, delta_theta, delta_lateral)
+            return
         ox, oy, opsi = self._odom_t
         self._odom_t = _fast.twist_step(ox, oy, opsi, delta_d, delta_theta, delta_lateral)[:3]
         x, y, psi = self._x_t
@@ -778,6 +815,35 @@ class StreamingEstimator:
             if self.consider:
                 self._consider_move(f02, f12, W)
 
+    def _move_compiled(self, dd: float, dth: float, dl: float) -> None:
+        """:meth:`_move` in one compiled call (:func:`~agvnav.positioning._fast.move_state`; same numbers).
+
+        The consider filter's state (``consider``: the EKF's ``_M``, ``_Pxc``, ``_calibrated``,
+        ``_calibration_var``) moves in the same call. The one ``math.hypot`` of the noise model
+        is taken here, in Python (the kernel's C-library hypot may differ in the last bit).
+        """
+        steered = self._steered
+        if steered is None or dl != 0.0:
+            hyp = math.hypot(dd, dl)
+        elif steered[0]:
+            hyp = math.hypot(dd, steered[1] * dth)
+        else:
+            hyp = 0.0
+        k = self.odometry_noise
+        noise = (k.k_d, k.k_dtheta, k.k_theta, self.k_lateral)
+        front, steer = (False, _NO_STEER) if steered is None else (steered[0], steered[1:])
+        if self.consider:
+            self._odom_t, self._x_t, self._P_t, self._M, self._Pxc = _fast.move_state(  # type: ignore[attr-defined]
+                self._odom_t, self._x_t, self._P_t, self._M, self._Pxc, dd, dth, dl,  # type: ignore[attr-defined]
+                noise, steered is not None, front, steer, hyp, True, self._calibrated,  # type: ignore[attr-defined]
+                self._calibration_var,
+            )
+        else:
+            self._odom_t, self._x_t, self._P_t, _, _ = _fast.move_state(
+                self._odom_t, self._x_t, self._P_t, _NO_M, _NO_X, dd, dth, dl, noise, steered is not None, front,
+                steer, hyp, False, False, self._calibration_var,
+            )
+
     def _start(self, pose: ArrayLike, covariance: ArrayLike | None) -> None:
         x = require_finite("initial_pose", pose)
         if x.shape != (3,):
@@ -791,7 +857,7 @@ class StreamingEstimator:
             self._consider_reset()  # a new start is independent of the survey errors
         self._t_last_accept = self._t  # None before the first input: counted from the first one
         self.monitor.reset()
-        self._claimed = [-math.inf] * self.reflector_xy.shape[0]
+        self._claimed = np.full(self.reflector_xy.shape[0], -math.inf)
         self.apply_exclusions()
         self._recent.clear()
         self._recent_ok = 0

@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -170,6 +171,15 @@ class BearingIndex:
         self._spec = spec
         self._grid = _Grid.of(self._rx, self._ry)
         self._r_max = float(self._r.max()) if self._r.size else 0.0
+
+    def kernel_args(self) -> tuple[Any, ...]:
+        """The index as :func:`~agvnav.positioning._fast.gate_rows` takes it (``use_grid`` and after).
+
+        ``(True, start, rows, (x0, y0, cell, nx, ny), r2, half_pi_r, r_max)``: the grid in CSR,
+        the squared radii (m²), ``(pi / 2) r`` (m) and the largest radius (m).
+        """
+        g = self._grid
+        return True, g.start, g.rows, (g.x0, g.y0, g.cell, g.nx, g.ny), self._r2, self._half_pi_r, self._r_max
 
     def candidates(self, z: float, pose: tuple[float, ...], P: tuple[float, ...]) -> list[int]:
         """Rows (ascending) of the reflectors in range that the gate of bearing ``z`` may admit.
