@@ -19,7 +19,7 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from agvnav._jit import jit
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
@@ -562,24 +562,82 @@ def gate_one(
 # ---------------------------------------------------------------------- compiled per-reflection path (issue 11)
 # The functions above run as plain Python on tuples: cheap next to NumPy, but a reflection still
 # took ~40 Python calls (prediction to its instant, gate, Schmidt update). The kernels below do
-# the same work in one compiled call each (:mod:`agvnav._jit`), with *the same floating-point
+# the same work in two compiled calls (:mod:`agvnav._jit`), with *the same floating-point
 # operations in the same order* as the functions above, so a seeded run gives the same bits
 # either way (``tests/positioning/test_fused.py`` checks them bit for bit; ``agvnav.twins``
 # lists them). The estimator calls them only when the kernels run compiled; interpreted, the
-# plain functions above are cheaper (these would index NumPy arrays element by element).
+# plain functions above are cheaper (these index NumPy arrays element by element).
+#
+# A compiled call costs about 30 ns per argument to type and unbox (more for a tuple of mixed
+# types), so the per-run constants travel packed in one float array (:func:`gate_constants`,
+# :func:`move_constants`) and the map in one ``(6, N)`` table (:func:`gate_table`).
 #
 # Two things numba would otherwise do differently from CPython, and how they are kept equal:
 #
 # * ``x ** 2`` and ``x ** 3``: CPython calls the C library's ``pow``; numba (LLVM) turns a
 #   constant small integer exponent into multiplications, and ``pow(x, 2.0)`` differs from
 #   ``x * x`` in the last bit on ~0.1 % of inputs (glibc's ``pow`` is not correctly rounded).
-#   The kernels call ``math.pow`` with the exponent read from the argument ``ex`` (:data:`POW_EXPONENTS`),
-#   a value LLVM cannot fold, so they reach the same ``pow``.
+#   The kernels call ``math.pow`` with the exponent read from the constants array, a value
+#   LLVM cannot fold, so they reach the same ``pow``.
 # * ``math.hypot``: CPython has its own algorithm, numba calls the C library's (they differ on
 #   ~0.6 % of pairs): the caller passes the one hypot a prediction needs (``hyp``), computed in Python.
 
-#: ``(2.0, 3.0)``: the exponents the kernels pass to ``math.pow`` (see the comment above).
-POW_EXPONENTS = np.array([2.0, 3.0])
+#: Slots of :func:`gate_constants` (one float array per estimator).
+_G_BVAR, _G_RANGE, _G_GATE, _G_MAP_STD, _G_SWEEP, _G_MNORM, _G_MNORM2 = 0, 1, 2, 3, 4, 5, 6
+_G_MX, _G_MY, _G_MTH, _G_X0, _G_Y0, _G_CELL, _G_RMAX, _G_NX, _G_NY, _G_GRID = 7, 8, 9, 10, 11, 12, 13, 14, 15, 16
+_G_TWO, _G_THREE, _G_CONSIDER, _G_UVAR, _G_MIN_DET, _G_MAX_ENTRY, _G_CALIBRATED = 17, 18, 19, 20, 21, 22, 23
+
+
+def gate_constants(
+    spec: GateSpec, mount: Sequence[float], grid: tuple[float, float, float, int, int, float] | None,
+    bearing_var: float, min_det: float = 0.0, max_entry: float = 0.0, calibrated: bool = False,
+) -> NDArray[np.float64]:
+    """The per-run constants of :func:`gate_rows` and :func:`gate_accept`, packed in one float array.
+
+    ``spec`` the gate (:class:`~agvnav.positioning.gating.GateSpec`), ``mount`` the head pose
+    in base_link (m, m, rad), ``grid`` the index's ``(x0, y0, cell, nx, ny, r_max)`` (m; None
+    without an index), ``bearing_var`` the update's ``sigma^2`` (rad²), ``min_det`` and
+    ``max_entry`` the fold limits of the consider factor ``M`` and ``calibrated`` whether
+    ``P_xc`` is carried (:class:`~agvnav.positioning.ekf.EkfEstimator`). The norms and squares
+    are taken here in Python (``math.hypot``, ``**``), as the plain forms take them.
+    """
+    mx, my, mth = (float(v) for v in mount)
+    mount_norm = math.hypot(mx, my)
+    x0, y0, cell, nx, ny, r_max = (0.0, 0.0, 1.0, 1, 1, 0.0) if grid is None else grid
+    return np.array([
+        spec.bearing_var, spec.max_range, spec.gate, spec.map_std, spec.sweep, mount_norm, mount_norm**2,
+        mx, my, mth, x0, y0, cell, r_max, nx, ny, 0.0 if grid is None else 1.0,
+        2.0, 3.0, 1.0 if spec.consider else 0.0, bearing_var, min_det, max_entry, 1.0 if calibrated else 0.0,
+    ], dtype=np.float64)
+
+
+def gate_table(
+    rows: Sequence[tuple[float, float, float]], svar: ArrayLike | None = None
+) -> NDArray[np.float64]:
+    """``(6, N)`` the map for :func:`gate_rows`: ``x, y, r, r^2, (pi / 2) r`` (m, m², m) and ``svar`` (m², 0 without)."""
+    xyr = np.array(rows, dtype=np.float64).reshape(-1, 3)
+    r = xyr[:, 2]
+    sv = np.zeros(r.shape[0]) if svar is None else np.asarray(svar, dtype=np.float64).reshape(-1)
+    return np.ascontiguousarray(np.stack([xyr[:, 0], xyr[:, 1], r, r * r, 0.5 * math.pi * r, sv]))
+
+
+#: Slots of :func:`move_constants`.
+_M_KD, _M_KDTH, _M_KTH, _M_KLAT, _M_STEERED, _M_FRONT, _M_L, _M_SLIP, _M_STEERQ, _M_MINROLL = range(10)
+_M_CONSIDER, _M_CALIBRATED, _M_CE, _M_CB = 10, 11, 12, 13
+
+
+def move_constants(
+    noise: tuple[float, float, float, float], steered: tuple[bool, float, float, float, float] | None,
+    consider: bool, calibrated: bool, cvar: tuple[float, float],
+) -> NDArray[np.float64]:
+    """The per-run constants of :func:`move_state`, packed: ``noise = (k_d, k_dtheta, k_theta, k_lateral)``
+    (:func:`process_noise`), ``steered = (front, L, slip_k, steer_q, min_roll)`` (:func:`steered_noise`)
+    or None, and the consider flags with ``cvar`` (:func:`calibration_predict`)."""
+    front, L, slip_k, steer_q, min_roll = (False, 1.0, 0.0, 0.0, 0.0) if steered is None else steered
+    return np.array([
+        *noise, 0.0 if steered is None else 1.0, 1.0 if front else 0.0, L, slip_k, steer_q, min_roll,
+        1.0 if consider else 0.0, 1.0 if calibrated else 0.0, *cvar,
+    ], dtype=np.float64)
 
 
 @jit
@@ -597,23 +655,19 @@ def _dsinc_k(h: float) -> float:
 @jit
 def move_state(
     odom: tuple[float, float, float], pose: tuple[float, float, float], P: Mat3, M: Mat3, X: tuple[float, ...],
-    dd: float, dth: float, dl: float, noise: tuple[float, float, float, float],
-    steered: bool, front: bool, steer: tuple[float, float, float, float], hyp: float,
-    consider: bool, calibrated: bool, cvar: tuple[float, float],
+    dd: float, dth: float, dl: float, hyp: float, mc: NDArray[np.float64],
 ) -> tuple[tuple[float, float, float], tuple[float, float, float], Mat3, Mat3, tuple[float, ...]]:
     """One odometry increment ``(dd, dth, dl)`` (m, rad, m) of the estimator's whole state, compiled.
 
     The streaming estimator's ``_move`` in one call: the odometric pose and the pose moved by
     :func:`twist_step` [seed002 eq25], ``P' = F P F^T + Q`` (:func:`predict_covariance`
-    [seed002 eq14]) with ``Q`` from :func:`process_noise` [seed002 eq17]
-    (``noise = (k_d, k_dtheta, k_theta, k_lateral)``) or, when ``steered`` and ``dl == 0``,
-    :func:`steered_noise` (``steer = (L, slip_k, steer_q, min_roll)``, ``front`` the drive);
-    with ``consider`` the Schmidt factor ``M <- F M`` (:func:`shear`) and, when
-    ``calibrated``, :func:`calibration_predict` of ``X = P_xc`` with ``cvar``. ``hyp`` is
-    ``math.hypot(dd, dl)`` for :func:`process_noise`, ``math.hypot(dd, L dth)`` for a front
-    steered wheel (computed by the caller: CPython's hypot). A pose that is not finite
-    (initialising) moves only ``odom``. Returns ``(odom', pose', P', M', X')``; bit for bit
-    the plain functions' results.
+    [seed002 eq14]) with ``Q`` from :func:`process_noise` [seed002 eq17] or, for a steered
+    wheel and ``dl == 0``, :func:`steered_noise`; for a consider filter ``M <- F M``
+    (:func:`shear`) and, when calibrated, :func:`calibration_predict` of ``X = P_xc``.
+    ``mc`` is :func:`move_constants`; ``hyp`` is ``math.hypot(dd, dl)`` for
+    :func:`process_noise`, ``math.hypot(dd, L dth)`` for a front steered wheel (taken by the
+    caller: CPython's hypot). A pose that is not finite (initialising) moves only ``odom``.
+    Returns ``(odom', pose', P', M', X')``, bit for bit the plain functions' results.
     """
     ox, oy, opsi = odom
     # twist_step of the odometric pose
@@ -642,10 +696,10 @@ def move_state(
     kk, dk = _sinc_k(h), _dsinc_k(h)
     heading = psi + h
     c, s = math.cos(heading), math.sin(heading)
-    use_steered = steered and dl == 0.0
+    use_steered = mc[_M_STEERED] != 0.0 and dl == 0.0
     a0 = b0 = a1 = b1 = a2 = b2 = 0.0
     if not use_steered:  # process_noise
-        k_d, k_dtheta, k_theta, k_lateral = noise
+        k_d, k_dtheta, k_theta, k_lateral = mc[_M_KD], mc[_M_KDTH], mc[_M_KTH], mc[_M_KLAT]
         ax, ay = c * dd - s * dl, s * dd + c * dl
         tx, ty = 0.5 * (dk * ax - kk * ay), 0.5 * (dk * ay + kk * ax)
         var_d = k_d * abs(dd)
@@ -657,11 +711,11 @@ def move_state(
         q11 = var_d * ks * ks + var_th * ty * ty + var_l * kc * kc
         q02, q12, q22 = var_th * tx, var_th * ty, var_th
     else:  # steered_noise
-        L, slip_k, steer_q, min_roll = steer
+        L, slip_k, steer_q, min_roll = mc[_M_L], mc[_M_SLIP], mc[_M_STEERQ], mc[_M_MINROLL]
         gd0, gd1 = kk * c, kk * s
         tx, ty = 0.5 * dd * (dk * c - kk * s), 0.5 * dd * (dk * s + kk * c)
         rear_still = False
-        if front:
+        if mc[_M_FRONT] != 0.0:
             dist = hyp
             w0, w1 = -L * dth, dd / L
         else:
@@ -672,7 +726,7 @@ def move_state(
             else:
                 sd = -dist if dd < 0.0 else dist
                 w0, w1 = 0.0, sd / L + L * dth * dth / sd
-        if rear_still:
+        if rear_still:  # W = 0, Q on the heading only
             q00 = q01 = q02 = q11 = q12 = 0.0
             q22 = slip_k / L * abs(dth)
         else:
@@ -698,18 +752,18 @@ def move_state(
     c02, c12, c22 = r02 + q02, r12 + q12, p22 + q22
     Pn = (c00, c01, c02, c01, c11, c12, c02, c12, c22)
     pose_n = (nx, ny, wrap_angle_kernel(npsi))
-    if not consider:
+    if mc[_M_CONSIDER] == 0.0:
         return odom_n, pose_n, Pn, M, X
     m6, m7, m8 = M[6], M[7], M[8]
     Mn = (M[0] + f02 * m6, M[1] + f02 * m7, M[2] + f02 * m8, M[3] + f12 * m6, M[4] + f12 * m7,
           M[5] + f12 * m8, m6, m7, m8)
-    if not (use_steered and calibrated):
+    if not (use_steered and mc[_M_CALIBRATED] != 0.0):
         return odom_n, pose_n, Pn, Mn, X
-    # calibration_predict with W = (a0, b0, a1, b1, a2, b2)
+    # calibration_predict with W = (a0, b0, a1, b1, a2, b2) (zero for a rear wheel that does not roll)
     x0, x1, x2, x3, x4, x5 = X
     fx0, fx1 = x0 + f02 * x4, x1 + f02 * x5
     fx2, fx3 = x2 + f12 * x4, x3 + f12 * x5
-    ce, cb = cvar
+    ce, cb = mc[_M_CE], mc[_M_CB]
     v0, u0, v1, u1, v2, u2 = a0 * ce, b0 * cb, a1 * ce, b1 * cb, a2 * ce, b2 * cb
     e0, s0 = fx0 + 0.5 * v0, fx1 + 0.5 * u0
     e1, s1 = fx2 + 0.5 * v1, fx3 + 0.5 * u1
@@ -726,49 +780,49 @@ def move_state(
 
 @jit
 def gate_rows(
-    z: float, t: float, pose: tuple[float, float, float], P: Mat3, mount: tuple[float, float, float],
-    gate_spec: tuple[float, float, float, float, float, float, float],
-    rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64], claimed: NDArray[np.float64],
-    sight: NDArray[np.bool_], consider: bool, M: Mat3, C: NDArray[np.float64], svar: NDArray[np.float64],
-    use_grid: bool, g_start: NDArray[np.int64], g_rows: NDArray[np.int64], grid: tuple[float, float, float, int, int],
-    r2: NDArray[np.float64], half_pi_r: NDArray[np.float64], r_max: float, ex: NDArray[np.float64],
+    z: float, t: float, pose: tuple[float, float, float], P: Mat3, M: Mat3, C: NDArray[np.float64],
+    claimed: NDArray[np.float64], sight: NDArray[np.bool_], tab: NDArray[np.float64], gc: NDArray[np.float64],
+    g_start: NDArray[np.int64], g_rows: NDArray[np.int64],
 ) -> tuple[int, float, float, int, float, float, float, float, float]:
     """:func:`gate_one` with the :class:`~agvnav.positioning.gating.BearingIndex` pre-selection, compiled.
 
-    ``gate_spec = (bearing_var, max_range, gate, map_std, sweep, mount_norm, mount_norm^2)``
-    (rad², m, -, m, s, m, m²; the norms from ``math.hypot``, ``map_std`` squared by the
-    caller as ``map_std ** 2``: see the comment above), the reflectors as arrays ``rx, ry, r``
-    (m), ``claimed (N,)`` the claim times (s), ``sight (N,)`` the reflectors in sight (all
-    True without walls), ``consider`` with ``(M, C, svar)`` as :func:`gate_one`. With
-    ``use_grid`` the candidates are :func:`~agvnav.positioning.gating.grid_rows` of the
-    index (``grid = (x0, y0, cell, nx, ny)``, ``g_start``, ``g_rows``, ``r2``,
-    ``half_pi_r``, ``r_max``, as :meth:`BearingIndex.candidates` computes them). Returns
+    Bearing ``z`` (rad) at ``t`` (s) against the map ``tab`` (:func:`gate_table`) for the pose
+    ``(x, y, psi)`` and its covariance ``P`` (flat), with the constants ``gc``
+    (:func:`gate_constants`: the :class:`~agvnav.positioning.gating.GateSpec`, the head
+    mount, the index's grid). ``claimed (N,)`` the claim times (s), ``sight (N,)`` the
+    reflectors in sight (all True without walls), and for the consider gate ``M`` and ``C``
+    as :func:`gate_one`'s ``consider``. With an index the candidates are
+    :func:`~agvnav.positioning.gating.grid_rows` of its grid (``g_start``, ``g_rows``), as
+    :meth:`BearingIndex.candidates` computes them. Returns
     ``(index, y, nis, n_in_gate, H0, H1, H2, S, R)``: :func:`gate_one`'s result, flat.
     """
-    bearing_var, max_range, gate, map_std, sweep, mount_norm, mount_norm2 = gate_spec
+    bearing_var, max_range, gate, map_std = gc[_G_BVAR], gc[_G_RANGE], gc[_G_GATE], gc[_G_MAP_STD]
+    sweep, mount_norm, mount_norm2 = gc[_G_SWEEP], gc[_G_MNORM], gc[_G_MNORM2]
+    mx, my, mth = gc[_G_MX], gc[_G_MY], gc[_G_MTH]
+    e2, e3 = gc[_G_TWO], gc[_G_THREE]
+    consider = gc[_G_CONSIDER] != 0.0
+    rx, ry, r, svar = tab[0], tab[1], tab[2], tab[5]
     x, y, psi = pose
-    mx, my, mth = mount
     c, s = math.cos(psi), math.sin(psi)
     px, py = x + c * mx - s * my, y + s * mx + c * my
     dpx, dpy = -s * mx - c * my, c * mx - s * my
     p00, p01, p02, p11, p12, p22 = P[0], P[1], P[2], P[4], P[5], P[8]
     trace_P = p00 + p11 + p22
     two_gate = 2.0 * gate
-    e2, e3 = ex[0], ex[1]
-    n = rx.shape[0]
+    use_grid = gc[_G_GRID] != 0.0
     if use_grid:  # BearingIndex.candidates
         var_xy, var_psi = P[0] + P[4], P[8]
         a4 = 4.0 * gate * (bearing_var + 4.0 * var_psi)
         b4 = 4.0 * gate * (math.pow(map_std, e2) + 2.0 * var_xy + 4.0 * mount_norm2 * var_psi)
         if consider:
             a4, b4 = 2.0 * a4, 2.0 * b4
-        x0, y0, cell, nx, ny = grid
-        cand = grid_rows(g_start, g_rows, x0, y0, cell, nx, ny, rx, ry, r2, half_pi_r,
-                         x + c * mx - s * my, y + s * mx + c * my, z + psi + mth, a4, b4, max_range, r_max)
+        cand = grid_rows(g_start, g_rows, gc[_G_X0], gc[_G_Y0], gc[_G_CELL], int(gc[_G_NX]), int(gc[_G_NY]),
+                         rx, ry, tab[3], tab[4], x + c * mx - s * my, y + s * mx + c * my, z + psi + mth,
+                         a4, b4, max_range, gc[_G_RMAX])
         m = cand.shape[0]
     else:
-        cand = np.empty(0, np.int64)
-        m = n
+        cand = g_rows
+        m = rx.shape[0]
     n_in = 0
     best_j, best_y, best_nis, best_S, best_R = -1, math.nan, math.inf, math.nan, math.nan
     best_h0 = best_h1 = best_h2 = 0.0
@@ -779,6 +833,7 @@ def gate_rows(
         if t - claimed[j] < sweep:
             continue
         rj = r[j]
+        # edge_bearing written out, the range test before the trigonometry (as gate_one)
         dx, dy = rx[j] - px, ry[j] - py
         d2 = dx * dx + dy * dy
         d = math.sqrt(d2)
@@ -904,3 +959,28 @@ def schmidt_accept(
     C[j, 0], C[j, 1], C[j, 2] = cx0 + s0 * ax, cx1 + s1 * ax, cx2 + s2 * ax
     C[j, 3], C[j, 4], C[j, 5] = cy0 + s0 * ay, cy1 + s1 * ay, cy2 + s2 * ay
     return xn, Pn, (k0, k1, k2), Mn, Xn, False
+
+
+@jit
+def gate_accept(
+    z: float, t: float, pose: tuple[float, float, float], P: Mat3, M: Mat3, X: tuple[float, ...],
+    C: NDArray[np.float64], claimed: NDArray[np.float64], sight: NDArray[np.bool_], tab: NDArray[np.float64],
+    gc: NDArray[np.float64], g_start: NDArray[np.int64], g_rows: NDArray[np.int64],
+) -> Any:
+    """:func:`gate_rows` (the consider gate) and, when it identifies a reflector, :func:`schmidt_accept`: one call.
+
+    Arguments as :func:`gate_rows`, with ``X = P_xc`` (3x2 row-major); ``gc`` also holds the
+    update's ``sigma^2``, the fold limits and whether ``P_xc`` is carried
+    (:func:`gate_constants`). Returns the gate's ``(index, y, nis, n_in_gate, H0, H1, H2, S, R)``
+    and :func:`schmidt_accept`'s ``(pose', P', K, M', X', fold)`` (the inputs unchanged and
+    ``K = 0`` when the gate identified none). The claim time is left to the caller.
+    """
+    res = gate_rows(z, t, pose, P, M, C, claimed, sight, tab, gc, g_start, g_rows)
+    j = res[0]
+    if j < 0:
+        return res, pose, P, (0.0, 0.0, 0.0), M, X, False
+    xn, Pn, K, Mn, Xn, fold = schmidt_accept(
+        pose, P, M, X, C, j, tab[5, j], res[1], (res[4], res[5], res[6]), gc[_G_UVAR], gc[_G_CALIBRATED] != 0.0,
+        gc[_G_MIN_DET], gc[_G_MAX_ENTRY],
+    )
+    return res, xn, Pn, K, Mn, Xn, fold

@@ -178,6 +178,10 @@ class EkfEstimator(StreamingEstimator):
         **kwargs: Any,
     ) -> None:
         super().__init__(world, mount, **kwargs)
+        self._gate_consts = _fast.gate_constants(  # the compiled update's fold limits and P_xc too
+            self._spec, self._mount_t, self._grid_consts, self.bearing_std**2, CONSIDER_MIN_DET, CONSIDER_MAX_ENTRY,
+            self._calibration_var != (0.0, 0.0),
+        )
         self.last_innovation = float("nan")
         self.last_nis = float("nan")
         self.last_reflector = -1
@@ -247,8 +251,7 @@ class EkfEstimator(StreamingEstimator):
         n = self.reflector_xy.shape[0]
         self._M: tuple[float, ...] = _IDENTITY
         self._C = np.zeros((n, 6))
-        self._svar_a = self.survey_std**2  # (N,) m² per axis; the compiled gate's copy of the list below
-        self._svar = self._svar_a.tolist()
+        self._svar = (self.survey_std**2).tolist()
         self._Pxc: tuple[float, ...] = (0.0,) * 6
         self._calibrated = self._calibration_var != (0.0, 0.0)
 
@@ -319,6 +322,52 @@ class EkfEstimator(StreamingEstimator):
         if fused:
             self._t_last_accept = t
         return fused
+
+    def _update_compiled(self, t: float, z: float) -> bool:
+        """:meth:`StreamingEstimator.update` from the gate on, with one compiled call (same numbers).
+
+        :func:`~agvnav.positioning._fast.gate_accept`: the gate of :meth:`_gate` and the update of
+        :meth:`_accept`; the bookkeeping around them (lock-out window, counters, claims, the
+        integrity monitor) as :meth:`StreamingEstimator.update` does it, in the same order.
+        """
+        sight = self._sight(t)
+        x0, P0 = self._x_t, self._P_t
+        (j, y, nis, n_in, h0, h1, h2, S, R), x1, P1, K, M, X, fold = _fast.gate_accept(
+            z, t, x0, P0, self._M, self._Pxc, self._C, self._claimed, self._in_sight_all if sight is None else sight,
+            self._gate_tab, self._gate_consts, *self._gate_grid,
+        )
+        if j < 0:
+            if n_in == 0:  # an ambiguous gate says nothing of a lock-out
+                self._watch_lockout(t, False)
+            self.n_rejected += 1
+            if n_in == 0:
+                self.monitor.rejected(t)
+                self._attribute(t, z)
+            return False
+        self._recent.append((t, True))  # _watch_lockout(t, True), which does not inflate here (the caller checked)
+        self._recent_ok += 1
+        self.n_accepted += 1
+        self._claimed[j] = t
+        self._t_last_accept = t
+        self._x_t, self._P_t, self._Pxc = x1, P1, X
+        if fold:  # as _left and the folded branch of _accept
+            self._fold(M)
+            svar = self._svar[j]
+            u0, u1, u2 = K
+            row = self._C[j].tolist()
+            ax, ay = h0 * svar, h1 * svar
+            self._C[j] = (row[0] + u0 * ax, row[1] + u1 * ax, row[2] + u2 * ax, row[3] + u0 * ay,
+                          row[4] + u1 * ay, row[5] + u2 * ay)
+        else:
+            self._M = M
+        self.last_innovation = y
+        self.last_nis = nis
+        self.last_reflector = j
+        if self.monitor.verdict == "ok":
+            self._trusted = (x1[0], x1[1], P1[0] + P1[4], t)
+        self.monitor.accepted(t, nis, j, z, self._odom_t, self._correction(x0, P0), (y, S, h0, h1, h2))
+        self._watch_integrity(t)
+        return True
 
     def _accept(self, t: float, bearing: float, assoc: Any) -> None:
         """The Schmidt-Kalman update of one identified bearing (module docstring).

@@ -68,8 +68,6 @@ MAX_INFLATED_POSITION_VAR = 0.25
 _NO_M = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 _NO_X = (0.0,) * 6
 _NO_C = np.zeros((0, 6))
-_NO_SVAR = np.zeros(0)
-_NO_STEER = (1.0, 0.0, 0.0, 0.0)
 
 #: The concrete estimator classes by method name, filled as they are defined.
 _ESTIMATORS: dict[str, type[StreamingEstimator]] = {}
@@ -254,18 +252,18 @@ class StreamingEstimator:
             BearingIndex(self.reflector_xy, self.reflector_radius, self.mount, self._spec)
             if len(self._rows) >= INDEX_MIN_REFLECTORS else None
         )
-        #: The compiled gate's constants (:func:`~agvnav.positioning._fast.gate_rows`), fixed for the run.
-        mount_norm = math.hypot(self._mount_t[0], self._mount_t[1])
-        self._gate_consts = (self._spec.bearing_var, self._spec.max_range, self._spec.gate, self._spec.map_std,
-                             self._spec.sweep, mount_norm, mount_norm**2)
-        self._gate_map = (
-            np.array([r[0] for r in self._rows]), np.array([r[1] for r in self._rows]),
-            np.array([r[2] for r in self._rows]),
+        #: The compiled kernels' constants and map (:mod:`agvnav.positioning._fast`), fixed for the run.
+        self._grid_consts = None if self._index is None else self._index.grid_constants()
+        self._gate_consts = _fast.gate_constants(self._spec, self._mount_t, self._grid_consts, self.bearing_std**2)
+        self._gate_tab = _fast.gate_table(self._rows, self.survey_std**2 if self.consider else None)
+        self._gate_grid = (
+            (np.zeros(2, np.int64), np.zeros(0, np.int64)) if self._index is None else self._index.grid_cells()
         )
         self._in_sight_all = np.ones(len(self._rows), dtype=np.bool_)
-        self._gate_grid = (
-            (False, np.zeros(2, np.int64), np.zeros(0, np.int64), (0.0, 0.0, 1.0, 1, 1), np.zeros(0), np.zeros(0), 0.0)
-            if self._index is None else self._index.kernel_args()
+        k = self.odometry_noise
+        self._move_consts = _fast.move_constants(
+            (k.k_d, k.k_dtheta, k.k_theta, self.k_lateral), self._steered, self.consider,
+            self._calibration_var != (0.0, 0.0), self._calibration_var,
         )
         self._wide_spec: GateSpec | None = None  # the monitor's attribution gate (:meth:`_attribute`), made once needed
         self._wide_index: BearingIndex | None = None
@@ -444,6 +442,8 @@ class StreamingEstimator:
             self._init_buffer.append((t, z))
             self._try_start()
             return False
+        if self.consider and compiled() and not self._lockout_on_accept(t):
+            return self._update_compiled(t, z)
         assoc = self._gate(t, z)
         if assoc.index >= 0 or assoc.n_in_gate == 0:  # an ambiguous gate says nothing of a lock-out
             self._watch_lockout(t, assoc.index >= 0)
@@ -682,15 +682,10 @@ class StreamingEstimator:
         """
         if compiled():  # one compiled call: the index's candidates and the gate (same numbers)
             sight = self._sight(t)
-            rx, ry, r = self._gate_map
-            if self.consider:
-                M, C, svar = self._M, self._C, self._svar_a  # type: ignore[attr-defined]  # the consider state
-            else:
-                M, C, svar = _NO_M, _NO_C, _NO_SVAR
+            M, C = (self._M, self._C) if self.consider else (_NO_M, _NO_C)  # type: ignore[attr-defined]
             j, y, nis, n_in, h0, h1, h2, S, R = _fast.gate_rows(
-                z, t, self._x_t, self._P_t, self._mount_t, self._gate_consts, rx, ry, r, self._claimed,
-                self._in_sight_all if sight is None else sight, self.consider, M, C, svar, *self._gate_grid,
-                _fast.POW_EXPONENTS,
+                z, t, self._x_t, self._P_t, M, C, self._claimed, self._in_sight_all if sight is None else sight,
+                self._gate_tab, self._gate_consts, *self._gate_grid,
             )
             return Association(j, y, nis, n_in, np.array((h0, h1, h2)), S, R)
         cand = None if self._index is None else self._index.candidates(z, self._x_t, self._P_t)
@@ -739,6 +734,27 @@ class StreamingEstimator:
         if self._t_first is None:
             self._t_first = t
         return t
+
+    def _lockout_on_accept(self, t: float) -> bool:
+        """Whether :meth:`_watch_lockout` would inflate ``P`` if the reflection at ``t`` (s) were accepted.
+
+        Drops the entries older than its window first, as it does (the same pruning, done early).
+        """
+        window = 1.5 / self.rate_hz
+        recent = self._recent
+        while recent and not t - recent[0][0] <= window:
+            self._recent_ok -= recent.popleft()[1]
+        n_ok = self._recent_ok + 1
+        n_bad = len(recent) + 1 - n_ok
+        return n_bad >= 4 and 2 * n_ok < n_bad and self._P_t[0] + self._P_t[4] < MAX_INFLATED_POSITION_VAR
+
+    def _update_compiled(self, t: float, z: float) -> bool:  # pragma: no cover - abstract
+        """:meth:`update` after the pose check, gate and update in one compiled call (``consider`` estimators).
+
+        Called only when an acceptance would not trigger :meth:`_watch_lockout`'s inflation
+        (:meth:`_lockout_on_accept`), so the gate and the update can run back to back.
+        """
+        raise NotImplementedError
 
     def _watch_lockout(self, t: float, accepted: bool) -> None:
         """Inflate ``P`` x4 when most reflections of the last 1.5 revolutions miss their gates.
@@ -818,8 +834,8 @@ class StreamingEstimator:
     def _move_compiled(self, dd: float, dth: float, dl: float) -> None:
         """:meth:`_move` in one compiled call (:func:`~agvnav.positioning._fast.move_state`; same numbers).
 
-        The consider filter's state (``consider``: the EKF's ``_M``, ``_Pxc``, ``_calibrated``,
-        ``_calibration_var``) moves in the same call. The one ``math.hypot`` of the noise model
+        The consider filter's state (``consider``: the EKF's ``_M`` and ``_Pxc``) moves in the
+        same call; the noise model's constants were packed at construction (``_move_consts``). The one ``math.hypot`` of the noise model
         is taken here, in Python (the kernel's C-library hypot may differ in the last bit).
         """
         steered = self._steered
@@ -829,19 +845,14 @@ class StreamingEstimator:
             hyp = math.hypot(dd, steered[1] * dth)
         else:
             hyp = 0.0
-        k = self.odometry_noise
-        noise = (k.k_d, k.k_dtheta, k.k_theta, self.k_lateral)
-        front, steer = (False, _NO_STEER) if steered is None else (steered[0], steered[1:])
         if self.consider:
             self._odom_t, self._x_t, self._P_t, self._M, self._Pxc = _fast.move_state(  # type: ignore[attr-defined]
-                self._odom_t, self._x_t, self._P_t, self._M, self._Pxc, dd, dth, dl,  # type: ignore[attr-defined]
-                noise, steered is not None, front, steer, hyp, True, self._calibrated,  # type: ignore[attr-defined]
-                self._calibration_var,
+                self._odom_t, self._x_t, self._P_t, self._M, self._Pxc, dd, dth, dl, hyp,  # type: ignore[attr-defined]
+                self._move_consts,
             )
         else:
             self._odom_t, self._x_t, self._P_t, _, _ = _fast.move_state(
-                self._odom_t, self._x_t, self._P_t, _NO_M, _NO_X, dd, dth, dl, noise, steered is not None, front,
-                steer, hyp, False, False, self._calibration_var,
+                self._odom_t, self._x_t, self._P_t, _NO_M, _NO_X, dd, dth, dl, hyp, self._move_consts
             )
 
     def _start(self, pose: ArrayLike, covariance: ArrayLike | None) -> None:

@@ -53,7 +53,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -172,14 +171,14 @@ class BearingIndex:
         self._grid = _Grid.of(self._rx, self._ry)
         self._r_max = float(self._r.max()) if self._r.size else 0.0
 
-    def kernel_args(self) -> tuple[Any, ...]:
-        """The index as :func:`~agvnav.positioning._fast.gate_rows` takes it (``use_grid`` and after).
-
-        ``(True, start, rows, (x0, y0, cell, nx, ny), r2, half_pi_r, r_max)``: the grid in CSR,
-        the squared radii (m²), ``(pi / 2) r`` (m) and the largest radius (m).
-        """
+    def grid_constants(self) -> tuple[float, float, float, int, int, float]:
+        """``(x0, y0, cell, nx, ny, r_max)`` of the grid (m, m, m, -, -, m), for :func:`~agvnav.positioning._fast.gate_constants`."""
         g = self._grid
-        return True, g.start, g.rows, (g.x0, g.y0, g.cell, g.nx, g.ny), self._r2, self._half_pi_r, self._r_max
+        return g.x0, g.y0, g.cell, g.nx, g.ny, self._r_max
+
+    def grid_cells(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """``(start, rows)``: the grid's cells in compressed rows (:class:`_Grid`), for the compiled gate."""
+        return self._grid.start, self._grid.rows
 
     def candidates(self, z: float, pose: tuple[float, ...], P: tuple[float, ...]) -> list[int]:
         """Rows (ascending) of the reflectors in range that the gate of bearing ``z`` may admit.
