@@ -155,6 +155,43 @@ def _random_outputs() -> dict[str, list[bytes]]:
     std = np.where(rng.uniform(size=200) < 0.05, 0.0, rng.uniform(1e-3, 1e-2, 200))
     info = [_information_sums(float(hx[i]), float(hy[i]), rx[:200], ry[:200], std) for i in range(50)]
     out["_information_sums"] = [np.array([[ok, *a, *b, sv] for ok, a, b, sv in info], dtype=np.float64).tobytes()]
+    out.update(_estimator_kernel_outputs(rng))
+    return out
+
+
+def _estimator_kernel_outputs(rng: np.random.Generator) -> dict[str, list[bytes]]:
+    """The streaming EKF's compiled path (``positioning._fast``): prediction, gate, gate and update."""
+    from agvnav.positioning import _fast
+
+    out: dict[str, list[bytes]] = {"move_state": [], "gate_rows": [], "gate_accept": []}
+    n = 60
+    xy, radius = rng.uniform(0.0, 20.0, (n, 2)), rng.uniform(0.02, 0.05, n)
+    rows = _fast.reflector_rows(xy, radius)
+    tab = _fast.gate_table(rows, rng.uniform(1e-6, 4e-6, n))
+    spec = GateSpec(1e-7, 25.0, 10.8, 0.002, 0.1, True)
+    index = BearingIndex(xy, radius, (0.3, 0.05, 0.01), spec)
+    gc = _fast.gate_constants(spec, (0.3, 0.05, 0.01), index.grid_constants(), 1e-7, 0.05, 20.0, True)
+    gc_plain = _fast.gate_constants(GateSpec(1e-7, 25.0, 10.8, 0.002, 0.1), (0.3, 0.05, 0.01), None, 1e-7)
+    sight, claimed = rng.uniform(size=n) < 0.9, np.where(rng.uniform(size=n) < 0.1, 1.0, -math.inf)
+    for k in range(2_000):
+        pose = (*rng.uniform(2.0, 18.0, 2).tolist(), float(rng.uniform(-4.0, 4.0)))
+        a = rng.normal(0.0, 0.01, (3, 3))
+        P = tuple((a @ a.T + 1e-6 * np.eye(3)).reshape(9).tolist())
+        M = tuple((np.eye(3) + rng.normal(0.0, 0.3, (3, 3))).reshape(9).tolist())
+        X = tuple(rng.normal(0.0, 1e-4, 6).tolist())
+        steered = (bool(k % 2), 1.2, 1e-3, 4e-5, 0.5) if k % 3 else None
+        mc = _fast.move_constants((1e-4, 2e-4, 1e-5, 3e-4), steered, True, True, (9e-6, 1.2e-5))
+        dd, dth, dl = rng.uniform(-0.05, 0.05, 3).tolist()
+        moved = _fast.move_state((0.1, 0.2, 0.3), pose, P, M, X, dd, dth, dl if k % 5 == 0 else 0.0, abs(dd), mc)
+        out["move_state"].append(np.array([v for part in moved for v in part]).tobytes())
+        z = float(rng.uniform(-math.pi, math.pi))
+        C = rng.normal(0.0, 1e-3, (n, 6))
+        for consts in (gc, gc_plain):
+            got = _fast.gate_rows(z, 1.05, pose, P, M, C, claimed, sight, tab, consts, *index.grid_cells())
+            out["gate_rows"].append(np.array(got, dtype=np.float64).tobytes())
+        res = _fast.gate_accept(z, 1.05, pose, P, M, X, C, claimed, sight, tab, gc, *index.grid_cells())
+        flat = [float(v) for part in res[:-1] for v in part] + [float(res[-1])]
+        out["gate_accept"] += [np.array(flat).tobytes(), C.tobytes()]
     return out
 
 
@@ -174,7 +211,7 @@ def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
               "_hits_wall", "_hits_disc", "near_rows", "near_one", "grid_rows", "_visit_box", "chord_brackets",
               "chord_step", "seen_in_order", "scan_hermite", "_finite_poses", "hermite_poses", "_fde_statistics",
               "_solve_augmented", "_normal_equations", "_best_triple_kernel", "_position_crlb_one", "_window_tally",
-              "_information_sums"}
+              "_information_sums", "move_state", "_sinc_k", "_dsinc_k", "gate_rows", "gate_accept", "schmidt_accept"}
     known = {k.py_func.__name__ for k in _jit.kernels()}
     assert known <= tested, f"kernels without a bit-for-bit test here: {sorted(known - tested)}"
 

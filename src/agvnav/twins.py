@@ -92,6 +92,13 @@ TWINS: tuple[Twin, ...] = (
          "[-pi, pi) convention (the goniometer's root finder)", 0.0),
     Twin("steered_noise", "agvnav.positioning._fast:steered_noise", "agvnav.odometry.covariance:motion_covariance",
          "[seed002 eq17] steered wheel (Q and the calibration Jacobian W)", 1e-12),
+    # the compiled per-reflection path (issue 11): the same operations as the plain forms, so bit for bit
+    Twin("move_state", "agvnav.positioning._fast:move_state", "agvnav.positioning.estimator:StreamingEstimator._move",
+         "[seed002 eq14] [seed002 eq17] [seed002 eq25] prediction with the consider factors", 0.0),
+    Twin("gate_rows", "agvnav.positioning._fast:gate_rows", "agvnav.positioning._fast:gate_one",
+         "[seed000 eq2] chi-square gate behind the bearing index", 0.0),
+    Twin("gate_accept", "agvnav.positioning._fast:gate_accept", "agvnav.positioning.ekf:EkfEstimator._accept",
+         "Schmidt-Kalman update of one bearing (agvnav.positioning.ekf)", 0.0),
 )
 
 

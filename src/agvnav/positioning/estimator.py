@@ -64,6 +64,8 @@ STATUSES = ("initialising", "tracking", "degraded", "dead_reckoning", "lost")
 #: Lock-out inflation stops once the position variance trace reaches this (m²).
 MAX_INFLATED_POSITION_VAR = 0.25
 
+_INF = math.inf
+
 #: Placeholders of the compiled kernels' consider and steering arguments for estimators without them.
 _NO_M = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 _NO_X = (0.0,) * 6
@@ -490,7 +492,25 @@ class StreamingEstimator:
         limits, :meth:`_plausible_rate`); a time gap beyond ``max_gap_s`` is not
         integrated. Either way the motion of the span is unknown, and the position and
         heading variances grow by what the vehicle could have done in it (:meth:`_blow_up`).
+
+        The closed loop's every call (finite Python floats, in time order, plausible) takes a
+        fast path with the same tests written out; anything else takes the full one.
         """
+        t_prev, t_odo = self._t, self._t_odometry
+        if (
+            type(t) is float and type(delta_d) is float and type(delta_theta) is float
+            and type(delta_lateral) is float and t_prev is not None and t_odo is not None
+            and self._t_first is not None and _INF > t >= t_prev and -_INF < delta_d < _INF
+            and -_INF < delta_theta < _INF and -_INF < delta_lateral < _INF
+        ):
+            lim = self.plausibility  # implausible_increment written out
+            span = t - t_odo
+            if (
+                not span > lim.max_gap_s
+                and not math.hypot(delta_d, delta_lateral) > lim.max_speed_m_s * span + lim.slack_m
+                and not abs(delta_theta) > lim.max_yaw_rate_rad_s * span + lim.slack_rad
+            ):
+                return t, delta_d, delta_theta, delta_lateral
         try:
             t = _finite_float("t", t)
         except ValueError:

@@ -1,0 +1,93 @@
+"""The compiled per-reflection path (issue 11) gives the plain path's numbers, bit for bit.
+
+The streaming estimators run their prediction, gate and Schmidt update as compiled kernels
+(``move_state``, ``gate_rows``, ``gate_accept`` of :mod:`agvnav.positioning._fast`) when the
+kernels run compiled, and as the plain functions otherwise. ``tests/test_twins.py`` checks each
+kernel against its plain form on random inputs and ``tests/test_jit.py`` each kernel's two modes;
+here whole closed-loop runs (every noise model, the bearing index, walls that hide reflectors,
+lock-out inflations, a fix-based estimator) must give the same series in both.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from agvnav import _jit
+from agvnav.bench.speed import _scenario_with, reflector_map
+from agvnav.positioning import _fast
+from agvnav.sim.build import build
+
+
+@pytest.fixture(autouse=True)
+def _restore_mode(monkeypatch: pytest.MonkeyPatch) -> object:
+    monkeypatch.delenv("AGVNAV_JIT", raising=False)
+    before = _jit.compiled()
+    yield
+    _jit.set_compiled(before)
+
+
+def _run(scenario: object, compiled: bool, seconds: float) -> tuple[dict[str, np.ndarray], object]:
+    _jit.set_compiled(compiled)
+    built = build(scenario)  # type: ignore[arg-type]
+    out = built.loop.run(min(seconds, built.duration), 0.0)
+    return out.series, built.loop.estimator
+
+
+CASES = {
+    "tricycle_index": (lambda: _scenario_with("guidance_test", map=reflector_map(64)), 6.0),
+    "tricycle_rear": (lambda: _scenario_with("tricycle_rear_loop"), 6.0),
+    "differential": (lambda: _scenario_with("differential_loop"), 6.0),
+    "mecanum_lateral": (lambda: _scenario_with("mecanum_loop"), 6.0),
+    "naive_fix_based": (lambda: _scenario_with("guidance_test", positioning={"method": "naive"}), 4.0),
+    "clutter_lockouts": (lambda: _scenario_with("fault_clutter"), 8.0),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_compiled_path_gives_the_plain_path_bits(case: str) -> None:
+    make, seconds = CASES[case]
+    plain, est_p = _run(make(), False, seconds)
+    fast, est_f = _run(make(), True, seconds)
+    assert set(plain) == set(fast)
+    for name in plain:
+        a, b = np.asarray(plain[name]), np.asarray(fast[name])
+        assert a.shape == b.shape and a.tobytes() == b.tobytes(), name
+    assert est_p.n_accepted == est_f.n_accepted > 20  # type: ignore[attr-defined]
+    assert est_p.n_rejected == est_f.n_rejected  # type: ignore[attr-defined]
+    assert est_p.n_inflations == est_f.n_inflations  # type: ignore[attr-defined]
+    for attr in ("_x_t", "_P_t", "_odom_t", "_M", "_Pxc"):
+        assert getattr(est_p, attr, None) == getattr(est_f, attr, None), attr
+    if hasattr(est_p, "_C"):
+        assert est_p._C.tobytes() == est_f._C.tobytes()  # type: ignore[attr-defined]
+
+
+def test_powers_reach_the_c_library_pow() -> None:
+    """``x ** 2`` in CPython is libm's ``pow``, which differs from ``x * x`` on some inputs; the kernels match it."""
+    rng = np.random.default_rng(3)
+    ratios = rng.uniform(0.0, 1.0, 20_000).tolist()
+    differ = [r for r in ratios if r**2 != r * r]
+    assert differ, "no input where pow(x, 2) and x * x differ: the check below would be vacuous"
+    _jit.set_compiled(True)
+    gc = _fast.gate_constants(_gate_spec(), (0.0, 0.0, 0.0), None, 1e-7)
+    assert gc[_fast._G_TWO] == 2.0 and gc[_fast._G_THREE] == 3.0
+    # a reflector at distance d with radius r = ratio d: the Jacobian's edge gain takes ratio ** 2 and d ** 3
+    for ratio in differ[:20]:
+        d = 3.0
+        tab = _fast.gate_table([(d, 0.0, ratio * d)])
+        z = -math.asin(ratio)  # the edge bearing seen from the origin, heading 0
+        got = _fast.gate_rows(z, 1.0, (0.0, 0.0, 0.0), (1e-6, 0.0, 0.0, 0.0, 1e-6, 0.0, 0.0, 0.0, 1e-6),
+                              (1.0,) * 9, np.zeros((1, 6)), np.full(1, -math.inf), np.ones(1, np.bool_), tab, gc,
+                              np.zeros(2, np.int64), np.zeros(0, np.int64))
+        ref = _fast.gate_one(z, (0.0, 0.0, 0.0), (1e-6, 0.0, 0.0, 0.0, 1e-6, 0.0, 0.0, 0.0, 1e-6), (0.0, 0.0, 0.0),
+                             [(d, 0.0, ratio * d)], _gate_spec(), [-math.inf], 1.0)
+        assert got[0] == ref[0] == 0
+        assert (got[4], got[5], got[6], got[7]) == (*ref[4], ref[5])
+
+
+def _gate_spec() -> object:
+    from agvnav.positioning.gating import GateSpec
+
+    return GateSpec(1e-7, 30.0, 10.8, 0.001, 0.1)
