@@ -266,10 +266,7 @@ def _move_state(rng: np.random.Generator) -> Pair:
     dl = 0.0 if rng.uniform() < 0.7 else float(rng.uniform(-0.02, 0.02))
     if rng.uniform() < 0.1:
         dd = 0.0  # a rear wheel that does not roll (steered_noise's s = 0)
-    if steered is None or dl != 0.0:
-        hyp = math.hypot(dd, dl)
-    else:
-        hyp = math.hypot(dd, L * dth) if steered[0] else 0.0
+    hyp = math.hypot(dd, dl) if steered is None or dl != 0.0 else math.hypot(dd, L * dth) if steered[0] else 0.0
     mc = pos_fast.move_constants(noise, steered, True, calibrated, cvar)
     o, x, Pn, Mn, Xn = pos_fast.move_state(odom, pose, P, M, X, dd, dth, dl, hyp, mc)
     ro = pos_fast.twist_step(*odom, dd, dth, dl)[:3]
@@ -307,7 +304,7 @@ def _gate_setup(rng: np.random.Generator, consider: bool) -> tuple[object, ...]:
 def _gate_rows(rng: np.random.Generator) -> Pair:
     """The compiled gate (index, sight, claims, consider or not) against ``gate_one`` on the same candidates."""
     consider = bool(rng.integers(2))
-    z, pose, P, M, X, mount, spec, rows, index, sight, claimed, svar, C = _gate_setup(rng, consider)
+    z, pose, P, M, _, mount, spec, rows, index, sight, claimed, svar, C = _gate_setup(rng, consider)
     gc = pos_fast.gate_constants(spec, mount, None if index is None else index.grid_constants(), 1e-7)
     cells = (np.zeros(2, np.int64), np.zeros(0, np.int64)) if index is None else index.grid_cells()
     got = pos_fast.gate_rows(z, 1.05, pose, P, M, C, claimed, sight, pos_fast.gate_table(rows, svar), gc, *cells)
@@ -329,7 +326,7 @@ def _gate_accept(rng: np.random.Generator) -> Pair:
                                  CONSIDER_MIN_DET, CONSIDER_MAX_ENTRY, calibrated)
     cells = (np.zeros(2, np.int64), np.zeros(0, np.int64)) if index is None else index.grid_cells()
     C_got = C.copy()
-    (j, y, nis, n_in, h0, h1, h2, S, R), x1, P1, K, M1, X1, fold = pos_fast.gate_accept(
+    (j, _, _, n_in, *_), x1, P1, _, M1, X1, fold = pos_fast.gate_accept(
         z, 1.05, pose, P, M, X, C_got, claimed, sight, pos_fast.gate_table(rows, svar), gc, *cells)
     cand = range(len(rows)) if index is None else index.candidates(z, pose, P)
     ref = pos_fast.gate_one(z, pose, P, mount, rows, spec, claimed.tolist(), 1.05, [c for c in cand if sight[c]],

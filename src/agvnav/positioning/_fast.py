@@ -477,7 +477,7 @@ def gate_one(
     mount: Sequence[float],
     rows: Sequence[tuple[float, float, float]],
     spec: GateSpec,
-    claimed: Sequence[float],
+    claimed: Sequence[float] | NDArray[np.float64],
     t: float,
     candidates: Iterable[int] | None = None,
     consider: tuple[Sequence[float], Any, Sequence[float]] | None = None,
@@ -614,7 +614,7 @@ def gate_constants(
 def gate_table(
     rows: Sequence[tuple[float, float, float]], svar: ArrayLike | None = None
 ) -> NDArray[np.float64]:
-    """``(6, N)`` the map for :func:`gate_rows`: ``x, y, r, r^2, (pi / 2) r`` (m, m², m) and ``svar`` (m², 0 without)."""
+    """``(6, N)`` the map for :func:`gate_rows`: ``x, y, r, r^2, (pi / 2) r`` (m, m², m), ``svar`` (m², 0 without)."""
     xyr = np.array(rows, dtype=np.float64).reshape(-1, 3)
     r = xyr[:, 2]
     sv = np.zeros(r.shape[0]) if svar is None else np.asarray(svar, dtype=np.float64).reshape(-1)
@@ -654,9 +654,9 @@ def _dsinc_k(h: float) -> float:
 
 @jit
 def move_state(
-    odom: tuple[float, float, float], pose: tuple[float, float, float], P: Mat3, M: Mat3, X: tuple[float, ...],
+    odom: tuple[float, ...], pose: tuple[float, ...], P: Mat3, M: Mat3, X: tuple[float, ...],
     dd: float, dth: float, dl: float, hyp: float, mc: NDArray[np.float64],
-) -> tuple[tuple[float, float, float], tuple[float, float, float], Mat3, Mat3, tuple[float, ...]]:
+) -> tuple[tuple[float, float, float], tuple[float, ...], Mat3, Mat3, tuple[float, ...]]:
     """One odometry increment ``(dd, dth, dl)`` (m, rad, m) of the estimator's whole state, compiled.
 
     The streaming estimator's ``_move`` in one call: the odometric pose and the pose moved by
@@ -780,7 +780,7 @@ def move_state(
 
 @jit
 def gate_rows(
-    z: float, t: float, pose: tuple[float, float, float], P: Mat3, M: Mat3, C: NDArray[np.float64],
+    z: float, t: float, pose: tuple[float, ...], P: Mat3, M: Mat3, C: NDArray[np.float64],
     claimed: NDArray[np.float64], sight: NDArray[np.bool_], tab: NDArray[np.float64], gc: NDArray[np.float64],
     g_start: NDArray[np.int64], g_rows: NDArray[np.int64],
 ) -> tuple[int, float, float, int, float, float, float, float, float]:
@@ -882,7 +882,7 @@ def gate_rows(
 
 @jit
 def schmidt_accept(
-    pose: tuple[float, float, float], P: Mat3, M: Mat3, X: tuple[float, ...], C: NDArray[np.float64], j: int,
+    pose: tuple[float, ...], P: Mat3, M: Mat3, X: tuple[float, ...], C: NDArray[np.float64], j: int,
     svar_j: float, innovation: float, H: tuple[float, float, float], bearing_var: float, calibrated: bool,
     min_det: float, max_entry: float,
 ) -> tuple[tuple[float, float, float], Mat3, tuple[float, float, float], Mat3, tuple[float, ...], bool]:
@@ -963,7 +963,7 @@ def schmidt_accept(
 
 @jit
 def gate_accept(
-    z: float, t: float, pose: tuple[float, float, float], P: Mat3, M: Mat3, X: tuple[float, ...],
+    z: float, t: float, pose: tuple[float, ...], P: Mat3, M: Mat3, X: tuple[float, ...],
     C: NDArray[np.float64], claimed: NDArray[np.float64], sight: NDArray[np.bool_], tab: NDArray[np.float64],
     gc: NDArray[np.float64], g_start: NDArray[np.int64], g_rows: NDArray[np.int64],
 ) -> Any:

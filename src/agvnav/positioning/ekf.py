@@ -259,6 +259,16 @@ class EkfEstimator(StreamingEstimator):
         M = self._M if f02 == 0.0 and f12 == 0.0 else _fast.shear(self._M, f02, f12)
         return M, self._C, self._svar
 
+    def _consider_factors(self) -> tuple[tuple[float, ...], NDArray[np.float64]]:
+        return self._M, self._C
+
+    def _move_compiled(self, dd: float, dth: float, dl: float) -> None:
+        """The base class's compiled prediction, moving ``M`` and ``P_xc`` in the same call."""
+        self._odom_t, self._x_t, self._P_t, self._M, self._Pxc = _fast.move_state(
+            self._odom_t, self._x_t, self._P_t, self._M, self._Pxc, dd, dth, dl, self._noise_hypot(dd, dth, dl),
+            self._move_consts,
+        )
+
     def _consider_move(self, f02: float, f12: float, W: Any = None) -> None:
         # F M (_fast.shear written out). det F = 1 and F^-1 is F with -f: no fold needed here; rows 0
         # and 1 grow with the distance driven, and the next update's check (_left) folds them
@@ -332,7 +342,7 @@ class EkfEstimator(StreamingEstimator):
         """
         sight = self._sight(t)
         x0, P0 = self._x_t, self._P_t
-        (j, y, nis, n_in, h0, h1, h2, S, R), x1, P1, K, M, X, fold = _fast.gate_accept(
+        (j, y, nis, n_in, h0, h1, h2, S, _), x1, P1, K, M, X, fold = _fast.gate_accept(
             z, t, x0, P0, self._M, self._Pxc, self._C, self._claimed, self._in_sight_all if sight is None else sight,
             self._gate_tab, self._gate_consts, *self._gate_grid,
         )

@@ -702,7 +702,7 @@ class StreamingEstimator:
         """
         if compiled():  # one compiled call: the index's candidates and the gate (same numbers)
             sight = self._sight(t)
-            M, C = (self._M, self._C) if self.consider else (_NO_M, _NO_C)  # type: ignore[attr-defined]
+            M, C = self._consider_factors()
             j, y, nis, n_in, h0, h1, h2, S, R = _fast.gate_rows(
                 z, t, self._x_t, self._P_t, M, C, self._claimed, self._in_sight_all if sight is None else sight,
                 self._gate_tab, self._gate_consts, *self._gate_grid,
@@ -854,26 +854,25 @@ class StreamingEstimator:
     def _move_compiled(self, dd: float, dth: float, dl: float) -> None:
         """:meth:`_move` in one compiled call (:func:`~agvnav.positioning._fast.move_state`; same numbers).
 
-        The consider filter's state (``consider``: the EKF's ``_M`` and ``_Pxc``) moves in the
-        same call; the noise model's constants were packed at construction (``_move_consts``). The one ``math.hypot`` of the noise model
-        is taken here, in Python (the kernel's C-library hypot may differ in the last bit).
+        The noise model's constants were packed at construction (``_move_consts``); a consider
+        filter overrides this to move its own factors in the same call.
+        """
+        self._odom_t, self._x_t, self._P_t, _, _ = _fast.move_state(
+            self._odom_t, self._x_t, self._P_t, _NO_M, _NO_X, dd, dth, dl, self._noise_hypot(dd, dth, dl),
+            self._move_consts,
+        )
+
+    def _noise_hypot(self, dd: float, dth: float, dl: float) -> float:
+        """The one ``math.hypot`` of the noise model (m), taken in Python for :func:`._fast.move_state`.
+
+        ``hypot(dd, dl)`` for :func:`~agvnav.positioning._fast.process_noise`, ``hypot(dd, L dth)``
+        for a front steered wheel, 0 for a rear one (CPython's hypot: the C library's, which the
+        compiled kernel would call, differs in the last bit on ~0.6 % of pairs).
         """
         steered = self._steered
         if steered is None or dl != 0.0:
-            hyp = math.hypot(dd, dl)
-        elif steered[0]:
-            hyp = math.hypot(dd, steered[1] * dth)
-        else:
-            hyp = 0.0
-        if self.consider:
-            self._odom_t, self._x_t, self._P_t, self._M, self._Pxc = _fast.move_state(  # type: ignore[attr-defined]
-                self._odom_t, self._x_t, self._P_t, self._M, self._Pxc, dd, dth, dl, hyp,  # type: ignore[attr-defined]
-                self._move_consts,
-            )
-        else:
-            self._odom_t, self._x_t, self._P_t, _, _ = _fast.move_state(
-                self._odom_t, self._x_t, self._P_t, _NO_M, _NO_X, dd, dth, dl, hyp, self._move_consts
-            )
+            return math.hypot(dd, dl)
+        return math.hypot(dd, steered[1] * dth) if steered[0] else 0.0
 
     def _start(self, pose: ArrayLike, covariance: ArrayLike | None) -> None:
         x = require_finite("initial_pose", pose)
@@ -935,6 +934,10 @@ class StreamingEstimator:
     def _consider_args(self, f02: float, f12: float) -> Any:  # pragma: no cover - abstract
         """``(M, C, svar)`` for :func:`~agvnav.positioning._fast.gate_one`, ``M`` moved by ``F(f02, f12)``."""
         raise NotImplementedError
+
+    def _consider_factors(self) -> tuple[tuple[float, ...], NDArray[np.float64]]:
+        """``(M, C)`` of the factored ``P_xp = M C^T`` for the compiled gate (placeholders without consider)."""
+        return _NO_M, _NO_C
 
     def _consider_move(self, f02: float, f12: float, W: Any = None) -> None:  # pragma: no cover - abstract
         """``P_xp <- F P_xp`` for the prediction Jacobian ``F`` (``F[0,2] = f02``, ``F[1,2] = f12``).

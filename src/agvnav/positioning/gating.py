@@ -172,7 +172,10 @@ class BearingIndex:
         self._r_max = float(self._r.max()) if self._r.size else 0.0
 
     def grid_constants(self) -> tuple[float, float, float, int, int, float]:
-        """``(x0, y0, cell, nx, ny, r_max)`` of the grid (m, m, m, -, -, m), for :func:`~agvnav.positioning._fast.gate_constants`."""
+        """``(x0, y0, cell, nx, ny, r_max)`` of the grid (m, m, m, -, -, m).
+
+        For :func:`~agvnav.positioning._fast.gate_constants`.
+        """
         g = self._grid
         return g.x0, g.y0, g.cell, g.nx, g.ny, self._r_max
 
