@@ -24,7 +24,11 @@ itself in its ``method`` attribute and registers when it is defined
 Speed: one call handles one increment or one reflection, so the inner loop runs the
 scalar fast paths of :mod:`agvnav.positioning._fast` (the same equations as the
 vectorised kernels, tested against them to 1e-12) on state kept as Python floats;
-``_x``, ``_P`` and ``_odom`` give it to subclasses as arrays.
+``_x``, ``_P`` and ``_odom`` give it to subclasses as arrays. When the kernels run compiled
+(:mod:`agvnav._jit`) a prediction is one compiled call (:func:`~agvnav.positioning._fast.move_state`)
+and the gate one more (:func:`~agvnav.positioning._fast.gate_rows`; the EKF's gate and update
+together, :func:`~agvnav.positioning._fast.gate_accept`), with the plain functions' operations
+in the same order: the same numbers in either mode (issue 11).
 
 Reflections usually fall between two odometry samples. The estimator then extrapolates
 the odometry to the reflection instant at the rate of the last increment, and deducts
