@@ -28,7 +28,12 @@ range, or the farthest corner of the map), and beside it ``|d sin w| <= d window
 L sqrt(a4) + k sqrt(b4) + (pi / 2) r_max = W``. Every reflector that passes therefore lies in
 the disc ``d <= D`` or in the strip ``[0, L] x [-W, W]`` along the beam; the grid covers the
 disc with one square and the strip with squares of half-side ``W + c / 2`` centred every
-``c`` along the beam (``c`` the cell side), both widened by a relative 1e-9. Wider gates
+``c`` along the beam (``c`` the cell side), both widened by a relative 1e-9. The strip is
+narrower near the head: with ``d <= a + |lat|``, ``|lat| < d sqrt(a4) + K`` (``K = k sqrt(b4) +
+(pi / 2) r_max``) gives ``|lat| < (a sqrt(a4) + K) / (1 - sqrt(a4))``, so the square at ``a_k``,
+which covers the points with ``|a - a_k| <= c / 2``, takes the smaller of ``W`` and that bound
+at ``a_k + c / 2`` (a wedge; issue 11: about half the cells of the strip on bench speed's
+256-reflector lab). Wider gates
 (``sqrt(a4) >= 1``, e.g. the first fixes) or strips that would cover the map take the
 plain pass.
 
@@ -212,12 +217,18 @@ class BearingIndex:
 def near_one(
     j: int, rx: NDArray[np.float64], ry: NDArray[np.float64], r2: NDArray[np.float64],
     half_pi_r: NDArray[np.float64], hx: float, hy: float, beam: float, a4: float, b4: float, max_range: float,
+    ux: float, uy: float,
 ) -> bool:
     """Whether reflector ``j`` is within ``max_range`` (m) of the head ``(hx, hy)`` (m) and its centre
     within the gate bound of the absolute bearing ``beam`` (rad; see the module docstring).
 
     ``r2`` the squared radii (m^2), ``half_pi_r`` ``(pi / 2) r`` (m), ``4 gate S_max = a4 + b4 g``
-    with ``g = 1 / (d^2 - r^2)``. A head inside a reflector (``d^2 <= r^2``) keeps it.
+    with ``g = 1 / (d^2 - r^2)``, ``(ux, uy) = (cos beam, sin beam)``. A head inside a reflector
+    (``d^2 <= r^2``) keeps it. The angle test ``|w| < window`` (``w`` the centre's angle off the
+    beam) is first tried without the arctangent: ``|w| >= |sin w| = |u x (dx, dy)| / d``, so a
+    cross product beyond ``d window`` (widened by a relative 1e-9 and 1e-12 rad, far above its
+    rounding) rejects exactly the reflectors the exact test would reject (issue 11: most of those
+    the grid's strip visits lie well beside the beam).
     """
     dx, dy = rx[j] - hx, ry[j] - hy
     d2 = dx * dx + dy * dy
@@ -227,6 +238,8 @@ def near_one(
     e = d2 - r2[j]
     if e > 0.0:
         window = math.sqrt(a4 + b4 / max(e, 1e-300)) + half_pi_r[j] / max(d, 1e-300)
+        if abs(ux * dy - uy * dx) > d * (window * (1.0 + 1e-9) + 1e-12):
+            return False
         w = wrap_angle_kernel(beam - math.atan2(dy, dx))
         if not abs(w) < window:
             return False
@@ -246,8 +259,9 @@ def near_rows(
     n = rx.shape[0]
     out = np.empty(n, np.int64)
     c = 0
+    ux, uy = math.cos(beam), math.sin(beam)
     for j in range(n):
-        if near_one(j, rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range):
+        if near_one(j, rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range, ux, uy):
             out[c] = j
             c += 1
     return out[:c]
@@ -263,7 +277,7 @@ def _visit_box(
     start: NDArray[np.int64], rows: NDArray[np.int64], x0: float, y0: float, cell: float, nx: int, ny: int,
     cx: float, cy: float, half: float, seen: NDArray[np.bool_], out: NDArray[np.int64], c: int,
     rx: NDArray[np.float64], ry: NDArray[np.float64], r2: NDArray[np.float64], half_pi_r: NDArray[np.float64],
-    hx: float, hy: float, beam: float, a4: float, b4: float, max_range: float,
+    hx: float, hy: float, beam: float, a4: float, b4: float, max_range: float, ux: float, uy: float,
 ) -> int:
     """:func:`near_one` on the rows of the cells not yet ``seen`` that overlap the square ``c +- half``;
     appends the rows that pass to ``out`` from index ``c`` and returns the new count."""
@@ -279,7 +293,7 @@ def _visit_box(
             seen[k] = True
             for m in range(start[k], start[k + 1]):
                 j = rows[m]
-                if near_one(j, rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range):
+                if near_one(j, rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range, ux, uy):
                     out[c] = j
                     c += 1
     return c
@@ -317,11 +331,15 @@ def grid_rows(
         return near_rows(rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range)
     seen = np.zeros(n_cells, np.bool_)
     out = np.empty(rx.shape[0], np.int64)
-    c = _visit_box(start, rows, x0, y0, cell, nx, ny, hx, hy, disc, seen, out, 0,
-                   rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range)
     ux, uy = math.cos(beam), math.sin(beam)
+    c = _visit_box(start, rows, x0, y0, cell, nx, ny, hx, hy, disc, seen, out, 0,
+                   rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range, ux, uy)
     for k in range(n_steps):
         a = k * cell
-        c = _visit_box(start, rows, x0, y0, cell, nx, ny, hx + a * ux, hy + a * uy, half, seen, out, c,
-                       rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range)
+        # the strip narrows towards the head: beside a <= a_hi it is (a_hi sa + lateral) / (1 - sa) wide
+        a_hi = min(a + 0.5 * cell, length)
+        wedge = min(length * sa + lateral, (a_hi * sa + lateral) / (1.0 - sa))
+        half_k = wedge * (1.0 + _SLACK) + _SLACK + 0.5 * cell
+        c = _visit_box(start, rows, x0, y0, cell, nx, ny, hx + a * ux, hy + a * uy, half_k, seen, out, c,
+                       rx, ry, r2, half_pi_r, hx, hy, beam, a4, b4, max_range, ux, uy)
     return np.sort(out[:c])
