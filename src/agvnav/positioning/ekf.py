@@ -89,6 +89,7 @@ from agvnav._jit import compiled
 from agvnav.geometry import wrap_angle
 from agvnav.positioning import _fast
 from agvnav.positioning.estimator import StreamingEstimator
+from agvnav.positioning.identification import Association
 from agvnav.positioning.wall_ranges import WallRangeModel
 
 __all__ = ["CONSIDER_MAX_ENTRY", "CONSIDER_MIN_DET", "EkfEstimator", "ekf_predict", "ekf_update"]
@@ -333,32 +334,20 @@ class EkfEstimator(StreamingEstimator):
             self._t_last_accept = t
         return fused
 
-    def _update_compiled(self, t: float, z: float) -> bool:
-        """:meth:`StreamingEstimator.update` from the gate on, with one compiled call (same numbers).
+    def _gate_accept(self, t: float, z: float) -> Association:
+        """:meth:`_gate` and :meth:`_accept` in one compiled call (:func:`~agvnav.positioning._fast.gate_accept`).
 
-        :func:`~agvnav.positioning._fast.gate_accept`: the gate of :meth:`_gate` and the update of
-        :meth:`_accept`; the bookkeeping around them (lock-out window, counters, claims, the
-        integrity monitor) as :meth:`StreamingEstimator.update` does it, in the same order.
+        The same numbers as the two methods; a fold of ``M`` (rare) is finished here, as
+        :meth:`_accept` does it.
         """
         sight = self._sight(t)
-        x0, P0 = self._x_t, self._P_t
-        (j, y, nis, n_in, h0, h1, h2, S, _), x1, P1, K, M, X, fold = _fast.gate_accept(
-            z, t, x0, P0, self._M, self._Pxc, self._C, self._claimed, self._in_sight_all if sight is None else sight,
-            self._gate_tab, self._gate_consts, *self._gate_grid,
+        (j, y, nis, n_in, h0, h1, h2, S, R), x1, P1, K, M, X, fold = _fast.gate_accept(
+            z, t, self._x_t, self._P_t, self._M, self._Pxc, self._C, self._claimed,
+            self._in_sight_all if sight is None else sight, self._gate_tab, self._gate_consts, *self._gate_grid,
         )
+        assoc = Association(j, y, nis, n_in, np.array((h0, h1, h2)), S, R)
         if j < 0:
-            if n_in == 0:  # an ambiguous gate says nothing of a lock-out
-                self._watch_lockout(t, False)
-            self.n_rejected += 1
-            if n_in == 0:
-                self.monitor.rejected(t)
-                self._attribute(t, z)
-            return False
-        self._recent.append((t, True))  # _watch_lockout(t, True), which does not inflate here (the caller checked)
-        self._recent_ok += 1
-        self.n_accepted += 1
-        self._claimed[j] = t
-        self._t_last_accept = t
+            return assoc
         self._x_t, self._P_t, self._Pxc = x1, P1, X
         if fold:  # as _left and the folded branch of _accept
             self._fold(M)
@@ -373,11 +362,7 @@ class EkfEstimator(StreamingEstimator):
         self.last_innovation = y
         self.last_nis = nis
         self.last_reflector = j
-        if self.monitor.verdict == "ok":
-            self._trusted = (x1[0], x1[1], P1[0] + P1[4], t)
-        self.monitor.accepted(t, nis, j, z, self._odom_t, self._correction(x0, P0), (y, S, h0, h1, h2))
-        self._watch_integrity(t)
-        return True
+        return assoc
 
     def _accept(self, t: float, bearing: float, assoc: Any) -> None:
         """The Schmidt-Kalman update of one identified bearing (module docstring).

@@ -448,9 +448,11 @@ class StreamingEstimator:
             self._init_buffer.append((t, z))
             self._try_start()
             return False
-        if self.consider and compiled() and not self._lockout_on_accept(t):
-            return self._update_compiled(t, z)
-        assoc = self._gate(t, z)
+        before = (self._x_t, self._P_t)  # the prior of the fused call's update
+        # compiled, the gate and the update in one call -- unless an acceptance may inflate P in
+        # _watch_lockout between them (its window and counts do not depend on the state)
+        fused = self.consider and compiled() and not self._lockout_on_accept(t)
+        assoc = self._gate_accept(t, z) if fused else self._gate(t, z)
         if assoc.index >= 0 or assoc.n_in_gate == 0:  # an ambiguous gate says nothing of a lock-out
             self._watch_lockout(t, assoc.index >= 0)
         if assoc.index < 0:
@@ -462,8 +464,9 @@ class StreamingEstimator:
         self.n_accepted += 1
         self._claimed[assoc.index] = t
         self._t_last_accept = t
-        before = (self._x_t, self._P_t)
-        self._accept(t, z, assoc)
+        if not fused:
+            before = (self._x_t, self._P_t)  # after a lock-out inflation, the prior the update sees
+            self._accept(t, z, assoc)
         if self.monitor.verdict == "ok":
             self._trusted = (self._x_t[0], self._x_t[1], self._P_t[0] + self._P_t[4], t)
         self.monitor.accepted(t, assoc.nis, assoc.index, z, self._odom_t, self._correction(*before),
@@ -760,9 +763,11 @@ class StreamingEstimator:
         return t
 
     def _lockout_on_accept(self, t: float) -> bool:
-        """Whether :meth:`_watch_lockout` would inflate ``P`` if the reflection at ``t`` (s) were accepted.
+        """Whether :meth:`_watch_lockout` may inflate ``P`` if the reflection at ``t`` (s) is accepted.
 
-        Drops the entries older than its window first, as it does (the same pruning, done early).
+        Its counts alone (the room left below ``MAX_INFLATED_POSITION_VAR`` depends on ``P``,
+        which the update changes). Drops the entries older than the window first, as
+        :meth:`_watch_lockout` does (the same pruning, done early).
         """
         window = 1.5 / self.rate_hz
         recent = self._recent
@@ -770,13 +775,14 @@ class StreamingEstimator:
             self._recent_ok -= recent.popleft()[1]
         n_ok = self._recent_ok + 1
         n_bad = len(recent) + 1 - n_ok
-        return n_bad >= 4 and 2 * n_ok < n_bad and self._P_t[0] + self._P_t[4] < MAX_INFLATED_POSITION_VAR
+        return n_bad >= 4 and 2 * n_ok < n_bad
 
-    def _update_compiled(self, t: float, z: float) -> bool:  # pragma: no cover - abstract
-        """:meth:`update` after the pose check, gate and update in one compiled call (``consider`` estimators).
+    def _gate_accept(self, t: float, z: float) -> Association:  # pragma: no cover - abstract
+        """:meth:`_gate` and, when it identifies a reflector, :meth:`_accept`, in one compiled call.
 
-        Called only when an acceptance would not trigger :meth:`_watch_lockout`'s inflation
-        (:meth:`_lockout_on_accept`), so the gate and the update can run back to back.
+        For ``consider`` estimators when the kernels run compiled; :meth:`update` calls it only
+        when an acceptance would not make :meth:`_watch_lockout` inflate ``P`` between the two
+        (:meth:`_lockout_on_accept`), so the result is the one of the two calls.
         """
         raise NotImplementedError
 
