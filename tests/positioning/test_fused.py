@@ -91,3 +91,36 @@ def _gate_spec() -> object:
     from agvnav.positioning.gating import GateSpec
 
     return GateSpec(1e-7, 30.0, 10.8, 0.001, 0.1)
+
+
+@pytest.mark.parametrize("p_xy", [0.01, 0.13])
+def test_lockout_inflation_between_gate_and_update(p_xy: float) -> None:
+    """Rejections that outnumber acceptances inflate ``P`` between the gate and the update, in either mode.
+
+    With ``P`` already large (``p_xy = 0.13``: no room left below ``MAX_INFLATED_POSITION_VAR``
+    before the update, room after it) the inflation must not happen; with room it must.
+    """
+    from agvnav.positioning import make_estimator
+    from agvnav.positioning.identification import bearing_model
+    from agvnav.world import load_builtin_map
+
+    world = load_builtin_map("lab")
+    pose = np.array([6.0, 5.0, 0.3])
+    mount = (0.3, 0.0, 0.0)
+    results = []
+    for compiled in (False, True):
+        _jit.set_compiled(compiled)
+        est = make_estimator("ekf", world, mount, initial_pose=pose,
+                             initial_covariance=np.diag([0.01, 0.01, 1e-6]), strict=True)
+        est.predict(0.0, 0.0, 0.0)
+        est._P_t = (p_xy, 0.0, 0.0, 0.0, p_xy, 0.0, 0.0, 0.0, 1e-6)  # type: ignore[attr-defined]  # grown since
+        est._recent.extend((0.001 * (k + 1), False) for k in range(5))  # type: ignore[attr-defined]  # 5 in no gate
+        h, _, _ = bearing_model(pose, mount, world.reflector_xy, world.reflector_radius)
+        # a reflector its own bearing identifies (alone in its gate), the farthest such
+        j = next(int(i) for i in np.argsort(-np.hypot(*(world.reflector_xy - pose[:2]).T))
+                 if est._gate(0.01, float(h[i])).index == i)  # type: ignore[attr-defined]
+        accepted = est.update(0.01, float(h[j]) - est.bearing_offset)
+        results.append((accepted, est.n_inflations, est._x_t, est._P_t, est._M, est._C.tobytes()))  # type: ignore[attr-defined]
+    assert results[0][0] and results[0][:2] == results[1][:2]
+    assert results[0][1] == (1 if p_xy == 0.01 else 0)
+    assert results[0] == results[1]
