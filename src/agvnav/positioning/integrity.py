@@ -102,10 +102,21 @@ cross-check alone is not held: one triple of one revolution is a thin basis (bef
 bearings carried the odometry error of their propagation it failed on about 6 % of the
 checks of the sound differential_loop run, fix and estimate 5-14 cm apart, and holding
 each for ``recover_s`` kept that vehicle slow until its time ran out); a verdict
-``degraded`` for longer than
+``degraded`` by failing checks for longer than
 ``lost_after_s``, or a position or heading uncertainty beyond what the bearing gate
 can identify reflectors with (``lost_position_std_m``, ``lost_heading_std_rad``), makes
 it ``lost``: the estimator then stops correcting and relocalises.
+
+A failure that says the estimate moved off its bearings (NIS, corrections, rejections,
+unexplained reflectors; not a RAIM failure that names a reflector) opens a *drift
+episode*: the odometry errs beyond its noise model, and a one-off inflation is not enough
+while it goes on (wheel slip: the filter lags the continuing slip and the checks pass on
+the lagging estimate). While the episode lasts, the monitor measures the drift from the
+window's Kalman corrections and asks the estimator to grow ``P`` at that rate
+(:attr:`IntegrityMonitor.drift_noise`, :meth:`IntegrityMonitor._measure_drift`), and the
+verdict stays ``degraded`` until ``recover_s`` after the last window whose corrections
+exceeded the estimate's own position sigma; the hold, its checks passing, does not count
+towards ``lost_after_s``.
 """
 
 from __future__ import annotations
@@ -240,6 +251,9 @@ _WIDTH = 20
 _NO_FIVE = (0.0, 0.0, 0.0, 0.0, 0.0)
 #: Fraction of a revolution in which a reflector reflects once (the estimator's claim window).
 _SWEEP = 0.75
+#: Failed checks that say the estimate moved off its bearings (not a named measurement fault): they open
+#: a drift episode (:meth:`IntegrityMonitor._measure_drift`).
+_ODOMETRY_REASONS = frozenset({"nis", "corrections", "rejections", "unexplained"})
 
 
 class _Tally(NamedTuple):
@@ -495,6 +509,9 @@ class IntegrityMonitor:
     survey_floor : ``(3, 3)`` covariance (m², m·rad, rad²) of the base_link pose error that
         the survey error of the reflectors used causes (zero without ``map_std`` or support).
     reasons : why the last check failed (empty when it passed).
+    drifting : a drift episode is open (module docstring).
+    drift_noise : ``(00, 01, 11)`` position noise (m²) to add to ``P`` after the latest check
+        (zeros outside a drift episode; :meth:`_measure_drift`).
     excluded : map rows of the reflectors excluded as inconsistent (kept across :meth:`reset`).
     """
 
@@ -558,6 +575,15 @@ class IntegrityMonitor:
         self._raim_tally: dict[int, int] = {}  # map row -> failing RAIM checks that named it (this episode)
         self._raim_ran = False  # the last check could run the RAIM (it then owns the exclusion)
         self._raim_named = False  # the last check's RAIM failure named one reflector (a measurement fault)
+        #: the drift model (:meth:`_measure_drift`): an episode is open, the position noise (00, 01, 11) (m²)
+        #: the estimator adds at this check; the latest window drift D (m) and the odometric distance it was
+        #: measured over (m), the odometric position of the previous check, the last check with evidence (s)
+        self.drifting = False
+        self.drift_noise = (0.0, 0.0, 0.0)
+        self._drift_d = (0.0, 0.0)
+        self._drift_s = 0.0
+        self._drift_odom: tuple[float, float] | None = None
+        self._drift_seen = -math.inf
 
     def accepted(
         self, t: float, nis: float, index: int, bearing: float, odom: tuple[float, ...],
@@ -672,6 +698,7 @@ class IntegrityMonitor:
         reasons = list(self.reasons)
         if self.limits.enabled and not dead_reckoning and not young and not self._raim_ran:
             self._exclude()  # the NIS-ratio exclusion only where the RAIM has no redundancy to judge with
+        self._measure_drift(t, cov, odom, tally, dead_reckoning)
         return self._judge(t, reasons, len(self.excluded) > n_excluded)
 
     # ------------------------------------------------------------------ checks
@@ -1050,17 +1077,70 @@ class IntegrityMonitor:
         if m > lim.exclude_sigmas**2 and m > lim.exclude_ratio**2 * others:
             self._drop(worst)
 
+    # ------------------------------------------------------------------ drift model
+    def _measure_drift(
+        self, t: float, P: np.ndarray, odom: tuple[float, ...], tally: _Tally, dead_reckoning: bool
+    ) -> None:
+        """The window's Kalman corrections as a drift measurement, and the drift noise of this check.
+
+        The corrections of the window sum to ``D = sum K y`` (m), over the odometric distance
+        ``s_w`` (m) the vehicle covered in it. Once the estimate has moved off its bearings
+        (a failed check in :data:`_ODOMETRY_REASONS`: the drift *episode*), the odometry is
+        known to err beyond its noise model, and ``D`` is what the bearings say it erred by
+        over the window. While the episode lasts, every check adds to the position block of
+        ``P`` the drift noise ``D D^T s / s_w``, ``s`` the odometric distance since the
+        previous check: a random walk whose variance over the window's distance matches the
+        drift the window measured (covariance matching of the process noise to the
+        corrections: Mehra 1972, Mohamed & Schwarz 1999). Spread over distance, not time,
+        since slip needs motion: a standing vehicle's ``P`` does not grow. Refreshed at every
+        check with eight corrections or more (one revolution), it follows the drift: the
+        filter, its gain raised, takes the bearings' corrections instead of lagging behind
+        the continuing slip with a covariance that no longer covered the lag. A one-off
+        inflation did not: 30 % slip on the seed-000 tricycle (issue 12 bench, seeds 1, 3,
+        4, 16) left the estimate 16-26 mm (5-8 sigma) behind for 1.1-1.75 s after each x4,
+        status back to ``tracking`` while the slip went on, the reflector that saw the lag
+        gated out.
+
+        Evidence of the drift: a window whose corrections sum beyond the estimate's own
+        position sigma, ``|D|^2 > tr P_pos``; the episode ends (and the verdict may return
+        to ``ok``) once ``recover_s`` has passed since the last such window and the last
+        failed check. ``P (3, 3)`` is the filter's covariance (m², rad²), ``odom`` the
+        odometric pose now, ``tally`` the window's sums at ``t`` (s).
+        """
+        ox, oy = float(odom[0]), float(odom[1])
+        step = 0.0 if self._drift_odom is None else math.hypot(ox - self._drift_odom[0], oy - self._drift_odom[1])
+        self._drift_odom = (ox, oy)
+        dx, dy, _, _, _, n = tally.corrections
+        if n >= 8 and not dead_reckoning:
+            first = self._entries.row(0)
+            self._drift_d = (dx, dy)
+            self._drift_s = math.hypot(ox - first[_OX], oy - first[_OY])
+            if dx * dx + dy * dy > float(P[0, 0] + P[1, 1]):
+                self._drift_seen = t
+        self.drift_noise = (0.0, 0.0, 0.0)
+        if self.drifting and self._drift_s > 0.0:
+            k = step / self._drift_s
+            dx, dy = self._drift_d
+            self.drift_noise = (k * dx * dx, k * dx * dy, k * dy * dy)
+
     # ------------------------------------------------------------------ verdict
     def _judge(self, t: float, reasons: list[str], excluded_now: bool = False) -> bool:
         lim = self.limits
         if set(reasons) - {"crosscheck"}:
             self._failed_at = t  # a lone cross-check failure is not held (see the module docstring)
+        if lim.enabled and not self._raim_named and _ODOMETRY_REASONS.intersection(reasons):
+            self.drifting = True  # the estimate moved off its bearings: the drift model (:meth:`_measure_drift`)
+        elif self.drifting and t - max(self._drift_seen, self._failed_at) >= lim.recover_s:
+            self.drifting = False  # a window of corrections within the estimate's sigma since the evidence
         if "uncertainty" in reasons:
             self.verdict = "lost"
         elif reasons or t - self._failed_at < lim.recover_s:
             if self._degraded_since is None:
                 self._degraded_since = t
             self.verdict = "lost" if t - self._degraded_since > lim.lost_after_s else "degraded"
+        elif self.drifting:  # held by the drift model: consistent checks, so not counted towards lost_after_s
+            self._degraded_since = None
+            self.verdict = "degraded"
         else:
             self._degraded_since = None
             self.verdict = "ok"
