@@ -682,7 +682,13 @@ class StreamingEstimator:
             self.monitor.attributed(t, j, (float(y), float(S), float(H[0]), float(H[1]), float(H[2])))
 
     def _watch_integrity(self, t: float, force: bool = False) -> None:
-        """Once per revolution, or now with ``force``: the monitor's check; inflate ``P`` when it asks."""
+        """Once per revolution, or now with ``force``: the monitor's check; inflate ``P`` when it asks.
+
+        In a drift episode the monitor also hands the position noise of the measured drift
+        (:attr:`~agvnav.positioning.integrity.IntegrityMonitor.drift_noise`, m²), added to
+        ``P``'s position block as process noise (the consider cross-covariances stay: the
+        noise is independent of the survey errors).
+        """
         if not self._has_pose() or self.monitor.verdict == "lost" or not (force or self.monitor.due(t)):
             return
         n_excluded = len(self.monitor.excluded)
@@ -690,6 +696,14 @@ class StreamingEstimator:
             k = self.monitor.limits.inflation
             self._P_t = tuple(k * v for v in self._P_t)
             self.n_inflations += 1
+        q00, q01, q11 = self.monitor.drift_noise
+        if q00 or q11:
+            P = list(self._P_t)
+            P[0] += q00
+            P[1] += q01
+            P[3] += q01
+            P[4] += q11
+            self._P_t = tuple(P)
         if len(self.monitor.excluded) != n_excluded:
             self.apply_exclusions()
 
