@@ -28,9 +28,6 @@ from agvnav.kinematics.differential import wheel_speeds_unchecked
 
 __all__ = ["GoniometerSensor", "PathAutopilot"]
 
-_EMPTY3 = np.zeros((0, 3))
-
-
 class GoniometerSensor:
     """The laser goniometer as a closed-loop sensor: scans along the true motion."""
 
@@ -43,11 +40,7 @@ class GoniometerSensor:
 
     def observe(self, pose_at: Any, t0: float, t1: float, rng: np.random.Generator) -> NDArray[np.float64]:
         """Reflections in ``(t0, t1]`` as rows ``(t, bearing, true reflector index)``."""
-        r = self.goniometer.scan(self.world, pose_at, t0, t1, rng)
-        if len(r) == 0:
-            return _EMPTY3
-        rows = np.empty((len(r), 3))  # np.column_stack, without its dispatch cost on a few rows
-        rows[:, 0], rows[:, 1], rows[:, 2] = r.t, r.bearing, r.reflector_index
+        rows: NDArray[np.float64] = self.goniometer.scan_rows(self.world, pose_at, t0, t1, rng)
         return rows
 
     def deliver(self, estimator: Any, event: NDArray[np.float64]) -> None:
