@@ -482,7 +482,8 @@ class Goniometer:
             )
             if status == 0:
                 return t_seen, r_seen  # else (rare): the generic path below, Illinois or the error
-        interval, refl, f_lo, f_hi = grid_crossings(grid, _call_pose(pose_at, grid), m.rx, m.ry, m.r, *consts)
+        rx, ry, r = m.sight()[:3]  # lists when interpreted: the kernel then reads plain floats
+        interval, refl, f_lo, f_hi = grid_crossings(grid, _call_pose(pose_at, grid), rx, ry, r, *consts)
         if interval.size == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
         t_star, hx, hy, d = self._refine(m, pose_at, grid, interval, f_lo, f_hi, refl)
