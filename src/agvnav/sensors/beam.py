@@ -307,13 +307,14 @@ def line_of_sight(
     out = np.zeros(c, np.bool_)
     for i in range(c):
         j = refl[i]
-        range2 = d[i] * d[i] - r[j] * r[j]
+        di, ri, ox, oy = float(d[i]), float(r[j]), float(hx[i]), float(hy[i])
+        range2 = di * di - ri * ri
         if not (range2 > 0.0 and range2 >= min_range * min_range and range2 <= max_range * max_range):
             continue
-        scale = (d[i] - r[j]) / max(d[i], 1e-300) * (1.0 - 1e-9)
-        ux, uy = (rx[j] - hx[i]) * scale, (ry[j] - hy[i]) * scale
-        out[i] = not (_hits_wall(hx[i], hy[i], ux, uy, wall_x0, wall_y0, wall_vx, wall_vy)
-                      or _hits_disc(hx[i], hy[i], ux, uy, rx, ry, r, j))
+        scale = (di - ri) / max(di, 1e-300) * (1.0 - 1e-9)
+        ux, uy = (float(rx[j]) - ox) * scale, (float(ry[j]) - oy) * scale
+        out[i] = not (_hits_wall(ox, oy, ux, uy, wall_x0, wall_y0, wall_vx, wall_vy)
+                      or _hits_disc(ox, oy, ux, uy, rx, ry, r, j))
     return out
 
 

@@ -475,10 +475,12 @@ class Goniometer:
         n_int = max(1, math.ceil((t1 - t0) * self.rate_hz * _BRACKETS_PER_REV))
         grid = _bracket_grid(t0, t1, n_int)
         consts = self._consts()
-        if isinstance(pose_at, HermitePoses) and compiled():  # the whole scan in one compiled call, same numbers
+        if isinstance(pose_at, HermitePoses):  # the whole scan in one kernel call, same numbers
+            # (interpreted, the map's columns come as lists: the kernels then read plain floats)
+            rx, ry, r, w0x, w0y, wvx, wvy = m.sight()
             status, t_seen, r_seen = scan_hermite(
-                pose_at.table, pose_at.t0, pose_at.dt, grid, m.rx, m.ry, m.r, *consts, m.wall_x0, m.wall_y0,
-                m.wall_vx, m.wall_vy, self.min_range, self.max_range, self.rate_hz, _ANGLE_TOL, _EPS, _CHORD_ITER,
+                pose_at.table, pose_at.t0, pose_at.dt, grid, rx, ry, r, *consts, w0x, w0y, wvx, wvy,
+                self.min_range, self.max_range, self.rate_hz, _ANGLE_TOL, _EPS, _CHORD_ITER,
             )
             if status == 0:
                 return t_seen, r_seen  # else (rare): the generic path below, Illinois or the error
