@@ -30,7 +30,7 @@ from agvnav.guidance.errors import tracking_errors, tracking_errors_scalar
 from agvnav.guidance.paths import ArcSegment, LineSegment
 from agvnav.guidance.paths import Path as GPath
 from agvnav.kinematics import TricycleStacker, twist_step
-from agvnav.kinematics.scalar import stacker_rate, stacker_rk4, track_twist, twist_pose
+from agvnav.kinematics.scalar import stacker_rate, stacker_rk4, stacker_rk4_values, track_twist, twist_pose
 from agvnav.kinematics.tracked import TrackedVehicle, TrackSlipNoise
 from agvnav.odometry import (
     calibration_jacobian,
@@ -74,6 +74,16 @@ def _stacker_rk4(rng: np.random.Generator) -> Pair:
     x = np.array([*rng.normal(size=2), rng.uniform(-3, 3), rng.uniform(-1.4, 1.4)])
     u = rng.normal(size=2)
     return stacker_rk4(x, u[0], u[1], 1.1, 0.05)[0], model.step(x, u, 0.05)
+
+
+def _stacker_rk4_values(rng: np.random.Generator) -> Pair:
+    model = TricycleStacker(1.1)
+    model.substeps = 1
+    x = np.array([*rng.normal(size=2), rng.uniform(-3, 3), rng.uniform(-1.4, 1.4)])
+    u = rng.normal(size=2)
+    new, start, end = stacker_rk4_values(x.tolist(), u[0], u[1], 1.1, 0.05)
+    ref = model.step(x, u, 0.05)
+    return [*new, *start, *end], [*ref, *model.derivative(x, u), *model.derivative(ref, u)]
 
 
 def _stacker_rate(rng: np.random.Generator) -> Pair:
@@ -356,7 +366,8 @@ def _plain_mode() -> Iterator[None]:
 
 
 CASES: dict[str, Callable[[np.random.Generator], Pair]] = {
-    "wrap_angle": _wrap, "stacker_rk4": _stacker_rk4, "stacker_rate": _stacker_rate, "twist_pose": _twist_pose,
+    "wrap_angle": _wrap, "stacker_rk4": _stacker_rk4, "stacker_rk4_values": _stacker_rk4_values,
+    "stacker_rate": _stacker_rate, "twist_pose": _twist_pose,
     "track_twist": _track_twist, "track_factors": _track_factors, "tricycle_increments": _tricycle_increments,
     "track_increments": _track_increments, "differential_increments": _differential_increments,
     "perturb": _perturb, "speed_loop": _speed_loop, "steering_step": _steering_step,

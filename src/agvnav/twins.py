@@ -51,6 +51,8 @@ TWINS: tuple[Twin, ...] = (
          "[-pi, pi) convention", 0.0),
     Twin("stacker_rk4", "agvnav.kinematics.scalar:stacker_rk4", "agvnav.kinematics:TricycleStacker.step",
          "[seed000 eq8]"),
+    Twin("stacker_rk4_values", "agvnav.kinematics.scalar:stacker_rk4_values", "agvnav.kinematics:TricycleStacker.step",
+         "[seed000 eq8] (stacker_rk4's body, as floats)"),
     Twin("stacker_rate", "agvnav.kinematics.scalar:stacker_rate", "agvnav.kinematics:TricycleStacker.derivative",
          "[seed000 eq8]"),
     Twin("twist_pose", "agvnav.kinematics.scalar:twist_pose", "agvnav.kinematics:twist_step", "[seed002 eq25]"),

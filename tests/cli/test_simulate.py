@@ -89,3 +89,26 @@ def test_shipped_scenario_by_name_is_found(tmp_path):
     # only validates and starts the named scenario: --seed on a shipped name
     res = runner.invoke(app, ["simulate", "nonexistent_name", "--out", str(tmp_path)])
     assert res.exit_code == 2 and "guidance_test" in res.output
+
+
+def test_simulate_gives_the_garbage_collector_back(tmp_path, monkeypatch):
+    """Start-up runs without cyclic collection (issue 11); afterwards the caller's collector is as it was."""
+    import gc
+
+    from agvnav.world import scenario as scenario_module
+
+    seen = []
+    build = scenario_module.load_scenario
+
+    def spy(*args, **kwargs):
+        seen.append(gc.isenabled())  # while the scenario loads: collection is off
+        return build(*args, **kwargs)
+
+    monkeypatch.setattr(scenario_module, "load_scenario", spy)
+    assert gc.isenabled()
+    res = runner.invoke(app, ["simulate", str(_short(tmp_path)), "--out", str(tmp_path / "o"), "--no-plots"])
+    assert res.exit_code == 3, res.output
+    assert seen == [False]
+    assert gc.isenabled() and gc.get_freeze_count() == 0
+    res = runner.invoke(app, ["simulate", str(tmp_path / "missing.yaml"), "--out", str(tmp_path / "p")])
+    assert res.exit_code == 2 and gc.isenabled() and gc.get_freeze_count() == 0  # also after a user error

@@ -2,6 +2,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from agvnav.report import plot_errors, plot_map, plot_positioning_histogram, write_plots
 
@@ -55,3 +56,21 @@ def test_math_packages_do_not_import_matplotlib():
     code = "import sys, agvnav.sim, agvnav.report, agvnav.world.scenario; print('matplotlib' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_figures_prepared_ahead_give_the_same_files(tmp_path):
+    from agvnav.report import plots
+
+    s = _series()
+    path_xy = np.column_stack([np.linspace(1, 5, 50), np.zeros(50)])
+    refl = np.array([[0.0, 3.0], [6.0, 3.0], [3.0, -3.0]])
+    walls = np.array([[[0.0, -4.0], [6.0, -4.0]], [[0.0, 4.0], [6.0, 4.0]]])
+    plain = write_plots(s, path_xy, refl, walls, tmp_path / "plain", transient_end_s=3.0, title="t")
+    plots.prepare(plots.RUN_PLOTS)
+    assert set(plots._READY) == set(plots.RUN_PLOTS)
+    ahead = write_plots(s, path_xy, refl, walls, tmp_path / "ahead", transient_end_s=3.0, title="t")
+    assert not plots._READY  # each prepared figure is used once
+    assert [_png(a) for a in ahead] == [_png(p) for p in plain]
+    with pytest.raises(ValueError, match="speed"):
+        plots.prepare(["map", "speed"])
+    assert not plots._READY  # nothing made for a refused request

@@ -99,10 +99,10 @@ def test_pose_interpolation_matches_fine_integration(short_scenario):
     model = TricycleStacker(plant.L_true)
     ref = np.empty((t.size, 3))
     for i, ti in enumerate(t):
-        x = plant._start.copy()
+        x = np.array(plant._start)
         n = 40
         for _ in range(n):
-            x = model.step(x, plant._u, ti / n) if ti > 0 else x
+            x = model.step(x, np.array(plant._u), ti / n) if ti > 0 else x
         ref[i] = x[:3]
     # 1e-8: a thousandth of the goniometer's encoder resolution (9.6e-5 rad)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-8)

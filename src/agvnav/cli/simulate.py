@@ -16,6 +16,7 @@ printing only; the work is :func:`agvnav.sim.simulate`.
 
 from __future__ import annotations
 
+import gc
 import math
 from contextlib import nullcontext
 from pathlib import Path
@@ -56,11 +57,25 @@ def simulate(
     wide: bool = WIDE_OPT,
 ) -> None:
     """Run a closed-loop scenario; write metrics.json, timing.json, time series (CSV) and plots."""
-    from agvnav.report.plot_worker import PlotWorker
+    # Start-up allocates some 90,000 long-lived objects (the schema, the simulator, NumPy; matplotlib in
+    # the plot worker): cyclic collections meanwhile free nothing and cost 50-90 ms of CPU (issue 11).
+    # Collection is off until the run is built (_collect_again), on again whatever happens.
+    gc.disable()
+    try:
+        from agvnav.report.plot_worker import PlotWorker
 
-    # forked before anything else (no thread yet): it readies matplotlib on the other core during the run
-    with PlotWorker() if plots else nullcontext() as plotter:
-        _simulate(scenario, out, seed, plots, force, log, report, json, wide, plotter)
+        # forked before anything else (no thread yet): it readies matplotlib on the other core during the run
+        with PlotWorker() if plots else nullcontext() as plotter:
+            _simulate(scenario, out, seed, plots, force, log, report, json, wide, plotter)
+    finally:
+        gc.unfreeze()  # a caller in the same process (a test's CLI runner) gets its collector back as it was
+        gc.enable()
+
+
+def _collect_again() -> None:
+    """End of start-up: the objects alive now leave the collector's scans (``gc.freeze``); collection resumes."""
+    gc.freeze()
+    gc.enable()
 
 
 def _simulate(
@@ -85,6 +100,7 @@ def _simulate(
     from agvnav.sim.build import build
 
     built = build(sc)  # validate every cross-part rule before the progress bar starts
+    _collect_again()
     expected_s = _expected_sim_time(sc, built)
     # a short run with few reflectors is cheaper without numba's start-up; the same numbers either way
     set_compiled_for_run(expected_s, len(built.world.reflector_xy))
@@ -150,6 +166,7 @@ def _simulate_route(sc: Any, out: Path, plots: bool, force: bool, console: Conso
     from agvnav.sim.laps import nominal_lap_time, prepare_tracked, simulate_tracked
 
     parts = prepare_tracked(sc)  # validate before the progress bar
+    _collect_again()
     _prepare_out(out, force)
     passes = 2 if sc.controller.compare_landmarks else 1
     lap = sc.duration_s or sc.controller.laps * nominal_lap_time(parts.route, parts.params)

@@ -32,14 +32,21 @@ def hermite_poses(hermite: NDArray[np.float64], t0: float, dt: float, t: NDArray
     (:mod:`agvnav._jit`): one formulation for the goniometer's few instants and for batches.
     """
     out = np.empty((t.shape[0], 3))
+    # the table as twelve floats, read once (plain Python floats when interpreted: NumPy scalars were
+    # most of this kernel's interpreted cost; the same arithmetic either way)
+    p0x, p0y, p0h = float(hermite[0, 0]), float(hermite[0, 1]), float(hermite[0, 2])
+    d0x, d0y, d0h = float(hermite[1, 0]), float(hermite[1, 1]), float(hermite[1, 2])
+    p1x, p1y, p1h = float(hermite[2, 0]), float(hermite[2, 1]), float(hermite[2, 2])
+    d1x, d1y, d1h = float(hermite[3, 0]), float(hermite[3, 1]), float(hermite[3, 2])
     for i in range(t.shape[0]):
-        u = min(max((t[i] - t0) / dt, 0.0), 1.0)
+        u = min(max((float(t[i]) - t0) / dt, 0.0), 1.0)
         u2 = u * u
         u3 = u2 * u
         h00, h10 = 2.0 * u3 - 3.0 * u2 + 1.0, u3 - 2.0 * u2 + u
         h01, h11 = 3.0 * u2 - 2.0 * u3, u3 - u2
-        for j in range(3):
-            out[i, j] = h00 * hermite[0, j] + h10 * hermite[1, j] + h01 * hermite[2, j] + h11 * hermite[3, j]
+        out[i, 0] = h00 * p0x + h10 * d0x + h01 * p1x + h11 * d1x
+        out[i, 1] = h00 * p0y + h10 * d0y + h01 * p1y + h11 * d1y
+        out[i, 2] = h00 * p0h + h10 * d0h + h01 * p1h + h11 * d1h
     return out
 
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -129,6 +129,11 @@ class _PathFollower:
         self._last = None
 
     def _inputs(self, pose_o: ArrayLike, gamma: float, v: float) -> tuple[tuple[float, float, float], float, float]:
+        if isinstance(pose_o, tuple) and len(pose_o) == 3 and all(type(p) is float for p in pose_o):
+            pose = cast("tuple[float, float, float]", pose_o)  # plain floats (the followers' call): no array trip
+            if not all(math.isfinite(p) for p in pose):
+                raise ValueError("pose_o contains NaN or inf")
+            return pose, *self._scalars(gamma, v)
         try:
             arr = pose_o if isinstance(pose_o, np.ndarray) else np.asarray(pose_o, dtype=np.float64)
             if arr.shape != (3,):
@@ -140,12 +145,17 @@ class _PathFollower:
             raise ValueError(f"pose_o must be numeric: {exc}") from None
         if not all(math.isfinite(p) for p in pose):
             raise ValueError("pose_o contains NaN or inf")
+        return pose, *self._scalars(gamma, v)
+
+    @staticmethod
+    def _scalars(gamma: float, v: float) -> tuple[float, float]:
+        """``(gamma, v)`` as checked floats (rad, m/s)."""
         g, vv = float(gamma), float(v)
         if not math.isfinite(g) or abs(g) > math.pi / 2 + 1e-9:
             raise ValueError(f"gamma must be finite and within [-pi/2, pi/2] rad (seed 000 §3.1), got {gamma!r}")
         if not math.isfinite(vv):
             raise ValueError(f"v must be finite, got {v!r}")
-        return pose, g, vv
+        return g, vv
 
     def _errors(self, pose: tuple[float, float, float], gamma: float) -> TrackingErrors:
         window = None if self._s is None else self.window

@@ -96,6 +96,7 @@ class LineSegment:
     length: float
     direction: int = 1
     yaw_offset: float = 0.0
+    _fast: tuple[float, float, float, float] = field(init=False, repr=False)  # start x, y, cos, sin (floats)
 
     def __post_init__(self) -> None:
         p, h = _check_start(self.start, self.heading)
@@ -106,6 +107,7 @@ class LineSegment:
         object.__setattr__(self, "length", float(self.length))
         object.__setattr__(self, "direction", _check_direction(self.direction))
         object.__setattr__(self, "yaw_offset", _check_yaw_offset(self.yaw_offset))
+        object.__setattr__(self, "_fast", (float(p[0]), float(p[1]), math.cos(h), math.sin(h)))
 
     @property
     def curvature(self) -> float:
@@ -148,9 +150,9 @@ class LineSegment:
 
     def project_scalar(self, x: float, y: float, u_lo: float, u_hi: float) -> tuple[float, float, float, float]:
         """Scalar fast path of :meth:`local_projection`: ``(u, foot_x, foot_y, heading)`` (plain floats)."""
-        c, sn = math.cos(self.heading), math.sin(self.heading)
-        u = min(max((x - self.start[0]) * c + (y - self.start[1]) * sn, u_lo), u_hi)
-        return u, self.start[0] + u * c, self.start[1] + u * sn, self.heading
+        sx, sy, c, sn = self._fast
+        u = min(max((x - sx) * c + (y - sy) * sn, u_lo), u_hi)
+        return u, sx + u * c, sy + u * sn, self.heading
 
 
 @dataclass(frozen=True, eq=False)
@@ -170,6 +172,7 @@ class ArcSegment:
     yaw_offset: float = 0.0
     _centre: tuple[float, float] = field(init=False, repr=False)  # cached for the scalar fast paths
     _phi0: float = field(init=False, repr=False)
+    _sg: float = field(init=False, repr=False)  # sign, as a float
 
     def __post_init__(self) -> None:
         p, h = _check_start(self.start, self.heading)
@@ -187,6 +190,7 @@ class ArcSegment:
         c = self.centre
         object.__setattr__(self, "_centre", (float(c[0]), float(c[1])))
         object.__setattr__(self, "_phi0", math.atan2(p[1] - c[1], p[0] - c[0]))
+        object.__setattr__(self, "_sg", self.sign)
 
     @property
     def sign(self) -> float:
@@ -261,7 +265,7 @@ class ArcSegment:
     def project_scalar(self, x: float, y: float, u_lo: float, u_hi: float) -> tuple[float, float, float, float]:
         """Scalar fast path of :meth:`local_projection`: ``(u, foot_x, foot_y, heading)`` (plain floats)."""
         cx, cy = self._centre
-        r, sg = self.radius, self.sign
+        r, sg = self.radius, self._sg
         u = ((sg * (math.atan2(y - cy, x - cx) - self._phi0)) % (2.0 * math.pi)) * r
         if not (u_lo <= u <= u_hi):
             circ = 2.0 * math.pi * r
@@ -345,6 +349,8 @@ class Path:
         self._ends = [s0 + seg.length for s0, seg in zip(self._starts, segs, strict=True)]
         self._curv = np.array([s.curvature for s in segs])
         self._dir = np.array([s.direction for s in segs], dtype=np.int64)
+        # length, curvature and direction of each segment as Python values, for project_point
+        self._fast = [(float(seg.length), float(seg.curvature), int(seg.direction)) for seg in segs]
         self._yaw = np.array([s.yaw_offset for s in segs])
 
     # ---------------------------------------------------------------- access
@@ -499,16 +505,17 @@ class Path:
             raise ValueError("point contains NaN or inf")
         best = None
         best_d2 = math.inf
-        starts, ends = self._starts, self._ends
+        starts, ends, fast = self._starts, self._ends, self._fast
         # the segments overlapping [lo, hi], in order: the first whose end reaches lo (ends ascend), up to hi
         for i in range(bisect.bisect_left(ends, lo), len(starts)):
-            s0, seg = starts[i], self._segments[i]
+            s0 = starts[i]
             if s0 > hi:
                 break
             if lo > ends[i]:
                 continue
-            u_lo, u_hi = min(max(lo - s0, 0.0), seg.length), min(max(hi - s0, 0.0), seg.length)
-            u, fx, fy, h = seg.project_scalar(x, y, u_lo, u_hi)
+            length = fast[i][0]
+            u_lo, u_hi = min(max(lo - s0, 0.0), length), min(max(hi - s0, 0.0), length)
+            u, fx, fy, h = self._segments[i].project_scalar(x, y, u_lo, u_hi)
             d2 = (x - fx) ** 2 + (y - fy) ** 2
             if d2 < best_d2:
                 best_d2, best = d2, (s0 + u, fx, fy, h, i)
@@ -516,8 +523,8 @@ class Path:
             raise ValueError("s_hint +/- window does not overlap the path")
         s_b, fx, fy, h, i = best
         lateral = math.cos(h) * (y - fy) - math.sin(h) * (x - fx)
-        seg = self._segments[i]
-        return PointProjection(s_b, lateral, h, seg.curvature, seg.direction, i, fx, fy, math.sqrt(best_d2))
+        _, curvature, direction = fast[i]
+        return PointProjection(s_b, lateral, h, curvature, direction, i, fx, fy, math.sqrt(best_d2))
 
     def _projection_at(
         self,

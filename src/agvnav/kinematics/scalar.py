@@ -35,18 +35,32 @@ def stacker_rk4(
     Returns the new state ``(4,)`` and the state derivatives at the start and at the
     end of the step ``(2, 4)`` (for a Hermite interpolation inside the step).
     """
+    new, k1, end = stacker_rk4_values(state, v, gamma_dot, wheelbase, dt)
+    return np.array(new), np.array([k1, end])
+
+
+def stacker_rk4_values(
+    state: Sequence[float], v: float, gamma_dot: float, wheelbase: float, dt: float
+) -> tuple[Rate4, Rate4, Rate4]:
+    """:func:`stacker_rk4` as plain floats: ``(new state, derivative at the start, derivative at the end)``.
+
+    The same arithmetic (it is :func:`stacker_rk4`'s body); for the truth plant, which steps
+    one vehicle per control step and builds its own arrays (issue 11).
+    """
     x, y, psi, g = (float(c) for c in state)
     h = dt
     k1 = stacker_rate(psi, g, v, gamma_dot, wheelbase)
     k2 = stacker_rate(psi + 0.5 * h * k1[2], g + 0.5 * h * k1[3], v, gamma_dot, wheelbase)
     k3 = stacker_rate(psi + 0.5 * h * k2[2], g + 0.5 * h * k2[3], v, gamma_dot, wheelbase)
     k4 = stacker_rate(psi + h * k3[2], g + h * k3[3], v, gamma_dot, wheelbase)
-    new = [
-        c + h / 6.0 * (a + 2.0 * b + 2.0 * cc + d)
-        for c, a, b, cc, d in zip((x, y, psi, g), k1, k2, k3, k4, strict=True)
-    ]
-    end = stacker_rate(new[2], new[3], v, gamma_dot, wheelbase)
-    return np.array(new), np.array([k1, end])
+    h6 = h / 6.0
+    new = (
+        x + h6 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
+        y + h6 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
+        psi + h6 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]),
+        g + h6 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]),
+    )
+    return new, k1, stacker_rate(new[2], new[3], v, gamma_dot, wheelbase)
 
 
 def twist_pose(x: float, y: float, th: float, vx: float, vy: float, w: float, h: float) -> tuple[float, float, float]:

@@ -4,7 +4,9 @@ Speed (issue 11, ``agvnav simulate`` end to end): importing matplotlib and ready
 fonts costs about 0.5 s of CPU and drawing the three run plots about 0.4 s, as much as
 the default closed loop itself. :class:`PlotWorker` forks a child before the run starts;
 the child imports matplotlib and draws a throw-away figure (fonts, Agg canvas) on the
-second core while the parent runs the simulation, then draws the run's plots
+second core while the parent runs the simulation, forks its helper, and each readies the empty
+figures of its share (:func:`agvnav.report.plots.prepare`: axes, ticks, about a fifth of the
+drawing), then draws the run's plots
 (:func:`agvnav.report.plots.write_plots`, the same function, the same files) while the
 parent writes the JSON and CSV files. Where ``fork`` is unavailable (Windows, macOS
 defaults), the caller already runs threads (forking them is unsafe) or the child has died,
@@ -215,9 +217,13 @@ def _serve(conns: list[Connection], parent_ends: list[Connection]) -> None:
 
 
 def _draw_one(conn: Connection, share: tuple[str, ...]) -> None:
-    """Wait for one job on ``conn``, draw ``share`` of it, send back the paths or the error."""
-    from agvnav.report.plots import write_plots  # noqa: PLC0415
+    """Ready the empty figures of ``share``, wait for one job on ``conn``, draw ``share`` of it, send back
+    the paths or the error."""
+    from agvnav.report.plots import prepare, write_plots  # noqa: PLC0415
 
+    # the empty figures while the run goes on; should that fail, drawing makes its own (and reports)
+    with contextlib.suppress(Exception, KeyboardInterrupt):
+        prepare(share)
     try:
         job: dict[str, Any] = conn.recv()
     except (EOFError, OSError, KeyboardInterrupt):

@@ -113,7 +113,7 @@ GeometrySpec = Annotated[
 class EdgeSpec(StrictModel):
     """A directed edge ``from`` -> ``to`` with a geometry, a speed limit, direction and allowed models."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True, populate_by_name=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
 
     id: str
     """edge name (unique)."""

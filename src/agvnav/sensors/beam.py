@@ -85,12 +85,12 @@ def grid_crossings(
     reflector, the bracket index ``i`` (crossing in ``[grid[i], grid[i+1]]``), the
     reflector row, and the offset at both ends (``f_lo`` in ``[-2 pi, 0)``, ``f_hi >= 0``).
     """
-    k, n = grid.shape[0], rx.shape[0]
+    k, n = len(grid), len(rx)
     w = np.empty((k, n))
     for i in range(k):
+        x, y, h, ti = float(pose[i, 0]), float(pose[i, 1]), float(pose[i, 2]), float(grid[i])
         for j in range(n):
-            o = offset_one(pose[i, 0], pose[i, 1], pose[i, 2], grid[i], rx[j], ry[j], r[j],
-                           mx, my, phase, omega, direction)[0]
+            o = offset_one(x, y, h, ti, float(rx[j]), float(ry[j]), float(r[j]), mx, my, phase, omega, direction)[0]
             w[i, j] = o % _TWO_PI
     m = max(k - 1, 0) * n
     interval, refl = np.empty(m, np.int64), np.empty(m, np.int64)
@@ -98,9 +98,10 @@ def grid_crossings(
     c = 0
     for i in range(k - 1):
         for j in range(n):
-            if w[i, j] - w[i + 1, j] > math.pi:
+            a, b = float(w[i, j]), float(w[i + 1, j])
+            if a - b > math.pi:
                 interval[c], refl[c] = i, j
-                f_lo[c], f_hi[c] = w[i, j] - _TWO_PI, w[i + 1, j]
+                f_lo[c], f_hi[c] = a - _TWO_PI, b
                 c += 1
     return interval[:c], refl[:c], f_lo[:c], f_hi[:c]
 
@@ -118,8 +119,10 @@ def offsets_at(
     c = t.shape[0]
     off, hx, hy, d = np.empty(c), np.empty(c), np.empty(c), np.empty(c)
     for i in range(c):
-        off[i], hx[i], hy[i], d[i] = offset_one(pose[i, 0], pose[i, 1], pose[i, 2], t[i], rx[i], ry[i], r[i],
-                                                mx, my, phase, omega, direction)
+        off[i], hx[i], hy[i], d[i] = offset_one(
+            float(pose[i, 0]), float(pose[i, 1]), float(pose[i, 2]), float(t[i]), float(rx[i]), float(ry[i]),
+            float(r[i]), mx, my, phase, omega, direction,
+        )
     return off, hx, hy, d
 
 
@@ -136,7 +139,7 @@ def wrapped_offsets(raw: NDArray[np.float64]) -> tuple[NDArray[np.float64], floa
     f = np.empty(c)
     worst = 0.0
     for i in range(c):
-        w = wrap_angle_kernel(raw[i])
+        w = wrap_angle_kernel(float(raw[i]))
         f[i] = w
         m = abs(w)
         if m > worst or m != m:  # a NaN stays the largest
@@ -160,13 +163,17 @@ def chord_brackets(
     lo, hi, slope, t = np.empty(c), np.empty(c), np.empty(c), np.empty(c)
     trx, try_, tr = np.empty(c), np.empty(c), np.empty(c)
     h_max = np.zeros(1)
+    top = 0.0
     for i in range(c):
-        lo[i], hi[i] = grid[interval[i]], grid[interval[i] + 1]
-        slope[i] = (f_hi[i] - f_lo[i]) / (hi[i] - lo[i])  # > 0: f_hi >= 0 > f_lo
-        t[i] = lo[i] - f_lo[i] / slope[i]
+        a, b = float(grid[interval[i]]), float(grid[interval[i] + 1])
+        fl = float(f_lo[i])
+        sl = (float(f_hi[i]) - fl) / (b - a)  # > 0: f_hi >= 0 > f_lo
+        lo[i], hi[i], slope[i] = a, b, sl
+        t[i] = a - fl / sl
         j = refl[i]
         trx[i], try_[i], tr[i] = rx[j], ry[j], r[j]
-        h_max[0] = max(h_max[0], abs(hi[i]))
+        top = max(top, abs(b))
+    h_max[0] = top
     return lo, hi, slope, t, trx, try_, tr, h_max
 
 
@@ -191,11 +198,12 @@ def chord_step(
     c = t.shape[0]
     nxt = np.empty(c)
     for i in range(c):
-        v = t[i] - f[i] / slope[i]
-        if v < lo[i]:
-            v = lo[i]
-        if v > hi[i]:
-            v = hi[i]
+        v = float(t[i]) - float(f[i]) / float(slope[i])
+        a, b = float(lo[i]), float(hi[i])
+        if v < a:
+            v = a
+        if v > b:
+            v = b
         nxt[i] = v
     return False, nxt, hx, hy, d
 
@@ -299,13 +307,14 @@ def line_of_sight(
     out = np.zeros(c, np.bool_)
     for i in range(c):
         j = refl[i]
-        range2 = d[i] * d[i] - r[j] * r[j]
+        di, ri, ox, oy = float(d[i]), float(r[j]), float(hx[i]), float(hy[i])
+        range2 = di * di - ri * ri
         if not (range2 > 0.0 and range2 >= min_range * min_range and range2 <= max_range * max_range):
             continue
-        scale = (d[i] - r[j]) / max(d[i], 1e-300) * (1.0 - 1e-9)
-        ux, uy = (rx[j] - hx[i]) * scale, (ry[j] - hy[i]) * scale
-        out[i] = not (_hits_wall(hx[i], hy[i], ux, uy, wall_x0, wall_y0, wall_vx, wall_vy)
-                      or _hits_disc(hx[i], hy[i], ux, uy, rx, ry, r, j))
+        scale = (di - ri) / max(di, 1e-300) * (1.0 - 1e-9)
+        ux, uy = (float(rx[j]) - ox) * scale, (float(ry[j]) - oy) * scale
+        out[i] = not (_hits_wall(ox, oy, ux, uy, wall_x0, wall_y0, wall_vx, wall_vy)
+                      or _hits_disc(ox, oy, ux, uy, rx, ry, r, j))
     return out
 
 

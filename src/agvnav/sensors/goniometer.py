@@ -394,6 +394,40 @@ class Goniometer:
         -------
         Reflections
         """
+        t0, t1 = self._check_scan(world, t0, t1, rng)
+        if t1 == t0:
+            return Reflections.empty()
+        t_true, index = self._true_reflections(world, pose_at, t0, t1)
+        if t_true.size == 0 and self.spurious_rate == 0.0:
+            return _EMPTY  # the common case in short windows: nothing to quantise or draw
+        return Reflections._trusted(*self._add_noise(t_true, index, t0, t1, rng))
+
+    def scan_rows(
+        self,
+        world: WorldMap,
+        pose_at: PoseFunction,
+        t0: float,
+        t1: float,
+        rng: np.random.Generator | None = None,
+    ) -> NDArray[np.float64]:
+        """:meth:`scan` as rows ``(k, 3)`` = ``(t (s), bearing (rad), reflector_index)``, in time order.
+
+        The same reflections, the same random draws and the same checks as :meth:`scan`
+        (bit-identical), without the :class:`Reflections` record: what the closed loop's
+        sensor role hands the engine (issue 11). No reflection: a ``(0, 3)`` array.
+        """
+        t0, t1 = self._check_scan(world, t0, t1, rng)
+        if t1 == t0:
+            return _NO_ROWS
+        t_true, index = self._true_reflections(world, pose_at, t0, t1)
+        if t_true.size == 0 and self.spurious_rate == 0.0:
+            return _NO_ROWS
+        return _rows(*self._add_noise(t_true, index, t0, t1, rng))
+
+    def _check_scan(
+        self, world: WorldMap, t0: float, t1: float, rng: np.random.Generator | None
+    ) -> tuple[float, float]:
+        """The window ``(t0, t1)`` as floats after :meth:`scan`'s checks (ValueError naming the problem)."""
         if not isinstance(world, WorldMap):
             raise ValueError(f"world must be a WorldMap, got {type(world).__name__}")
         t0, t1 = float(t0), float(t1)
@@ -403,12 +437,7 @@ class Goniometer:
             raise ValueError(f"t1 ({t1}) must be >= t0 ({t0})")
         if self.noisy and not isinstance(rng, np.random.Generator):
             raise ValueError("rng must be a numpy.random.Generator when p_miss, spurious_rate or jitter_std > 0")
-        if t1 == t0:
-            return Reflections.empty()
-        t_true, index = self._true_reflections(world, pose_at, t0, t1)
-        if t_true.size == 0 and self.spurious_rate == 0.0:
-            return _EMPTY  # the common case in short windows: nothing to quantise or draw
-        return self._add_noise(t_true, index, t0, t1, rng)
+        return t0, t1
 
     # -- exact crossings -------------------------------------------------
 
@@ -446,14 +475,17 @@ class Goniometer:
         n_int = max(1, math.ceil((t1 - t0) * self.rate_hz * _BRACKETS_PER_REV))
         grid = _bracket_grid(t0, t1, n_int)
         consts = self._consts()
-        if isinstance(pose_at, HermitePoses) and compiled():  # the whole scan in one compiled call, same numbers
+        if isinstance(pose_at, HermitePoses):  # the whole scan in one kernel call, same numbers
+            # (interpreted, the map's columns come as lists: the kernels then read plain floats)
+            rx, ry, r, w0x, w0y, wvx, wvy = m.sight()
             status, t_seen, r_seen = scan_hermite(
-                pose_at.table, pose_at.t0, pose_at.dt, grid, m.rx, m.ry, m.r, *consts, m.wall_x0, m.wall_y0,
-                m.wall_vx, m.wall_vy, self.min_range, self.max_range, self.rate_hz, _ANGLE_TOL, _EPS, _CHORD_ITER,
+                pose_at.table, pose_at.t0, pose_at.dt, grid, rx, ry, r, *consts, w0x, w0y, wvx, wvy,
+                self.min_range, self.max_range, self.rate_hz, _ANGLE_TOL, _EPS, _CHORD_ITER,
             )
             if status == 0:
                 return t_seen, r_seen  # else (rare): the generic path below, Illinois or the error
-        interval, refl, f_lo, f_hi = grid_crossings(grid, _call_pose(pose_at, grid), m.rx, m.ry, m.r, *consts)
+        rx, ry, r = m.sight()[:3]  # lists when interpreted: the kernel then reads plain floats
+        interval, refl, f_lo, f_hi = grid_crossings(grid, _call_pose(pose_at, grid), rx, ry, r, *consts)
         if interval.size == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
         t_star, hx, hy, d = self._refine(m, pose_at, grid, interval, f_lo, f_hi, refl)
@@ -555,11 +587,13 @@ class Goniometer:
         t0: float,
         t1: float,
         rng: np.random.Generator | None,
-    ) -> Reflections:
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
         """Missed detections, spurious reflections and timestamp jitter; quantised bearings.
 
-        Random draws in a fixed order (misses, spurious count, spurious instants,
-        jitter) so one seed reproduces the output bit for bit.
+        Returns the reported instants (s), bearings (rad) and true reflector rows, in time
+        order. Random draws in a fixed order (misses, spurious count, spurious instants,
+        jitter) so one seed reproduces the output bit for bit (a draw of no values, e.g. the
+        instants of zero spurious reflections, leaves the generator as it was, so it is skipped).
         """
         shuffled = False
         if self.p_miss > 0.0 and t_true.size:
@@ -567,8 +601,8 @@ class Goniometer:
             t_true, index = t_true[keep], index[keep]
         if self.spurious_rate > 0.0:
             n_spur = int(rng.poisson(self.spurious_rate * self.rate_hz * (t1 - t0)))  # type: ignore[union-attr]
-            t_spur = t1 - (t1 - t0) * rng.random(n_spur)  # type: ignore[union-attr]  # in (t0, t1]
             if n_spur:
+                t_spur = t1 - (t1 - t0) * rng.random(n_spur)  # type: ignore[union-attr]  # in (t0, t1]
                 t_true = np.concatenate([t_true, t_spur])
                 index = np.concatenate([index, np.full(n_spur, -1, dtype=np.int64)])
                 shuffled = True
@@ -579,9 +613,19 @@ class Goniometer:
             t_report = np.clip(t_true + jitter, t0, t1)
             shuffled = True
         if not shuffled or t_report.size < 2:  # already in time order (the crossings come sorted)
-            return Reflections._trusted(t_report, bearing, index)
+            return t_report, bearing, index
         order = np.argsort(t_report, kind="stable")
-        return Reflections._trusted(t_report[order], bearing[order], index[order])
+        return t_report[order], bearing[order], index[order]
+
+
+_NO_ROWS = np.zeros((0, 3))  # shared, as Reflections.empty() is: nothing in it to change
+
+
+def _rows(t: NDArray[np.float64], bearing: NDArray[np.float64], index: NDArray[np.int64]) -> NDArray[np.float64]:
+    """``(k, 3)`` rows ``(t, bearing, index)`` (np.column_stack, without its dispatch cost on a few rows)."""
+    rows = np.empty((t.shape[0], 3))
+    rows[:, 0], rows[:, 1], rows[:, 2] = t, bearing, index
+    return rows
 
 
 def _bracket_grid(t0: float, t1: float, n_int: int) -> NDArray[np.float64]:

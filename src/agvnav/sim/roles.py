@@ -28,9 +28,6 @@ from agvnav.kinematics.differential import wheel_speeds_unchecked
 
 __all__ = ["GoniometerSensor", "PathAutopilot"]
 
-_EMPTY3 = np.zeros((0, 3))
-
-
 class GoniometerSensor:
     """The laser goniometer as a closed-loop sensor: scans along the true motion."""
 
@@ -43,11 +40,7 @@ class GoniometerSensor:
 
     def observe(self, pose_at: Any, t0: float, t1: float, rng: np.random.Generator) -> NDArray[np.float64]:
         """Reflections in ``(t0, t1]`` as rows ``(t, bearing, true reflector index)``."""
-        r = self.goniometer.scan(self.world, pose_at, t0, t1, rng)
-        if len(r) == 0:
-            return _EMPTY3
-        rows = np.empty((len(r), 3))  # np.column_stack, without its dispatch cost on a few rows
-        rows[:, 0], rows[:, 1], rows[:, 2] = r.t, r.bearing, r.reflector_index
+        rows: NDArray[np.float64] = self.goniometer.scan_rows(self.world, pose_at, t0, t1, rng)
         return rows
 
     def deliver(self, estimator: Any, event: NDArray[np.float64]) -> None:
@@ -138,7 +131,7 @@ class PathAutopilot:
 
     def _tracked_point(self, pose: Any) -> tuple[float, float]:
         """The tracked point (base_link, or ``point_offset`` ahead along the heading) of a pose (m)."""
-        x, y, psi = float(pose[0]), float(pose[1]), float(pose[2])
+        x, y, psi = (float(pose[0]), float(pose[1]), float(pose[2])) if type(pose) is not tuple else pose
         if self.offset:
             return x + self.offset * math.cos(psi), y + self.offset * math.sin(psi)
         return x, y
@@ -192,11 +185,12 @@ class PathAutopilot:
     def command(self, t: float, estimator: Any, plant: Any, dt: float) -> tuple[float, ...]:
         """The plant command for the next ``dt`` s from the estimate (see the class doc)."""
         pose = estimator.pose
-        if not (math.isfinite(pose[0]) and math.isfinite(pose[1]) and math.isfinite(pose[2])):
+        xyp = (float(pose[0]), float(pose[1]), float(pose[2]))  # plain floats, read once
+        if not (math.isfinite(xyp[0]) and math.isfinite(xyp[1]) and math.isfinite(xyp[2])):
             return self._brake_blind(dt, plant)
         lost = getattr(estimator, "status", "tracking") == "lost"
         if not lost:  # a lost estimate says nothing of progress
-            self._advance(pose, self.progress_window if self._was_lost else 0.0)
+            self._advance(xyp, self.progress_window if self._was_lost else 0.0)
         self._was_lost = lost
         remaining = self._run_end - self._s
         scale = 1.0 if self.watch is None else self.watch.scale(t, estimator)
@@ -217,7 +211,7 @@ class PathAutopilot:
                 self._run_end, self._run_dir = self._run_from(self._s)
                 self.follower.set_path(self._run_path(self._s))
             else:
-                self.finished = self.finished or self._at_end(pose)
+                self.finished = self.finished or self._at_end(xyp)
             v_lat = rate = 0.0
         lateral, heading = self._errors()
         self._sig = (v, rate, v_lat, self._s, lateral, heading, self._length - self._s)

@@ -181,7 +181,7 @@ class EstimatorWatch:
     def scale(self, t: float, estimator: Any) -> float:
         """The guard's speed scale at ``t`` (s) from ``estimator``'s status, covariance and heading."""
         P = getattr(estimator, "covariance", None)
-        cov = _NO_COV if P is None else [float(v) for v in P.ravel().tolist()]
+        cov = _NO_COV if P is None else P.ravel().tolist()  # floats (a float64 array's tolist)
         psi = float(estimator.pose[2])
         scale = self.guard.update(t, str(estimator.status), None if P is None else cov, psi)
         quality = _quality(estimator)

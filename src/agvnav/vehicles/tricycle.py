@@ -22,14 +22,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import ClassVar, cast
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav.actuators import SteeringActuator
 from agvnav.geometry.hermite import HermitePoses, hermite_poses
-from agvnav.kinematics.scalar import stacker_rk4
+from agvnav.kinematics.scalar import stacker_rk4_values
 from agvnav.odometry.errors import NonSystematicErrors, TricycleErrors
 from agvnav.odometry.scalar import tricycle_increments_scalar
 from agvnav.sensors.encoders import SteeringEncoder, WheelEncoder, steering_reading, wheel_count
@@ -109,12 +109,12 @@ class TricyclePlant:
         x0 = np.asarray(initial_state, dtype=np.float64)
         self.steering.reset(float(x0[3]))
         self._state = np.array([x0[0], x0[1], x0[2], x0[3] + systematic.steering_offset])
-        self._start = self._state.copy()
-        self._deriv = np.zeros((2, 4))
+        self._xyz: tuple[float, ...] = tuple(self._state[:3].tolist())  # the pose now, as floats
+        self._start: tuple[float, ...] = tuple(self._state.tolist())  # state at the start of the last step
         hermite = np.zeros((4, 3))  # p0, d0 dt, p1, d1 dt of the last step (see hermite_poses)
-        hermite[0], hermite[2] = self._start[:3], self._state[:3]
+        hermite[0], hermite[2] = self._state[:3], self._state[:3]
         self._poses = HermitePoses(hermite, 0.0, 1.0)
-        self._u = np.zeros(2)
+        self._u = (0.0, 0.0)  # (v of C, steering rate) held over the last step (m/s, rad/s)
         self._dt = 1.0
         self._t0 = 0.0
         self._wheel_angle = 0.0  # true rotation of the drive wheel (rad)
@@ -165,18 +165,19 @@ class TricyclePlant:
         wheel_rate = v_cmd / self.R
         ns = self.nonsystematic
         ds_true = ns.perturb_scalar(wheel_rate * dt * self.R_true, rng)
-        start = self._state
-        start[3] = ns.perturb_steering_scalar(g0 + self.systematic.steering_offset, rng)
-        self._start = start.copy()
+        x, y, psi = self._xyz
+        start = (x, y, psi, ns.perturb_steering_scalar(g0 + self.systematic.steering_offset, rng))
+        self._start = start
         v_true = ds_true / dt
-        self._u = np.array([v_true, rate])
+        self._u = (v_true, rate)
         self._dt = dt
-        self._state, self._deriv = stacker_rk4(cast("Sequence[float]", start), v_true, rate, self.L_true, dt)
-        # end poses and scaled end derivatives of the step, for pose_at's Hermite cubic (rows filled in
-        # place: np.stack's dispatch cost more than the arithmetic)
-        herm = np.empty((4, 3))
-        herm[0], herm[1] = start[:3], self._deriv[0, :3] * dt
-        herm[2], herm[3] = self._state[:3], self._deriv[1, :3] * dt
+        new, d0, d1 = stacker_rk4_values(start, v_true, rate, self.L_true, dt)
+        self._state = np.array(new)
+        self._xyz = new[:3]
+        # end poses and scaled end derivatives of the step, for pose_at's Hermite cubic (one array
+        # from floats: NumPy's per-call cost was more than the arithmetic)
+        herm = np.array([(x, y, psi), (d0[0] * dt, d0[1] * dt, d0[2] * dt),
+                         new[:3], (d1[0] * dt, d1[1] * dt, d1[2] * dt)])
         self._poses.set(herm, self._t0, dt)
         self.v = ds_true / dt
         self.distance_C += abs(ds_true)
@@ -214,7 +215,7 @@ class TricyclePlant:
 
     def signals(self) -> tuple[float, ...]:
         """Values in ``signal_names`` order (m, rad, m/s, rad/s)."""
-        s = self._state
+        s = self._state.tolist()
         c, si = math.cos(s[2]), math.sin(s[2])
         return (
             s[0],

@@ -19,6 +19,7 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
 from agvnav.world.scenario import Scenario
+from agvnav.world.strict import attribute_docs
 from agvnav.world.vehicle_specs import (
     AckermannSpec,
     DifferentialSpec,
@@ -112,9 +113,10 @@ def _default(info: FieldInfo) -> str:
     return "null" if value is None else repr(value)
 
 
-def _meaning(info: FieldInfo, models: list[type[BaseModel]]) -> str:
-    if info.description:
-        return " ".join(info.description.split())  # a multi-line attribute docstring: one table cell
+def _meaning(info: FieldInfo, doc: str | None, models: list[type[BaseModel]]) -> str:
+    text = info.description or doc  # the Field's description, else the attribute docstring
+    if text:
+        return " ".join(text.split())  # a multi-line attribute docstring: one table cell
     if models:
         return " ".join((inspect.getdoc(models[0]) or "").split("\n\n")[0].split())
     return ""
@@ -123,10 +125,12 @@ def _meaning(info: FieldInfo, models: list[type[BaseModel]]) -> str:
 def schema_rows(model: type[BaseModel], prefix: str = "") -> list[KeyDoc]:
     """One :class:`KeyDoc` per key of ``model`` and of its sub-sections, depth first."""
     rows: list[KeyDoc] = []
+    docs = attribute_docs(model)
     for name, info in model.model_fields.items():
         key = f"{prefix}{name}"
         models = [m for m in _models_in(info.annotation) if m not in VEHICLE_SPECS]
-        rows.append(KeyDoc(key, _type_name(info.annotation), unit_of(name), _default(info), _meaning(info, models)))
+        meaning = _meaning(info, docs.get(name), models)
+        rows.append(KeyDoc(key, _type_name(info.annotation), unit_of(name), _default(info), meaning))
         is_list = "list[" in _type_name(info.annotation)
         for sub in models:
             rows += schema_rows(sub, f"{key}[]." if is_list else f"{key}.")
