@@ -750,10 +750,12 @@ def _reassociate(fe: FrontEnd, poses: F64, landmarks: F64, scale: float, opt: Ma
                        d.refl_alpha)
     sig0 = np.sqrt(_sigma_eff(d, fe.sigma[0], heads, landmarks, np.full(heads.shape[0], -1, dtype=np.int64),
                               odo_var) ** 2 * max(lam_b, 1.0) + max(lam_s, 1.0) * _instep_heading_var(d, odo_var, opt))
-    assoc = associate(d.bearing, heads, landmarks, opt.radius, sig0, opt.gate_sigma,
-                      opt.final_position_tol, fe.max_range, opt.direction)
-    assoc = np.where((assoc >= 0) & keep[np.maximum(assoc, 0)], assoc, -1)
-    return assoc, heads
+    # only the kept reflectors are candidates: a dropped one (a front-end duplicate 0.4-0.8 m off a true
+    # reflector) inside the gate made the true one's reflections ambiguous, and they stayed unassociated
+    kept = np.flatnonzero(keep)
+    a = associate(d.bearing, heads, landmarks[kept], opt.radius, sig0, opt.gate_sigma, opt.final_position_tol,
+                  fe.max_range, opt.direction)
+    return np.where(a >= 0, kept[np.maximum(a, 0)], -1).astype(np.int64), heads
 
 
 def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], existing: Any = None,
