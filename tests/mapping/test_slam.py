@@ -186,7 +186,7 @@ def test_anchor_parsing() -> None:
 def test_a_reflector_the_front_end_placed_centimetres_off_keeps_its_sightings(syn: SimpleNamespace) -> None:
     """The front end placed one reflector 10 cm off (warehouse: from 25 sightings at 12 m): the batch's tight gate
     (5 mm) gives it no sighting and drops it, and its sightings, left over against the solved trajectory, make it
-    anew with ``batch_initialise`` (off by default): it is mapped at the noise level (dropped for good before: 5 of 6
+    anew with ``batch_initialise`` (on by default): it is mapped at the noise level (dropped for good before: 5 of 6
     found). Keeping the front end's
     association in the first pass did it too, but on the differential AGV it fed the first solve the front
     end's wrong associations (hall_differential seed 0: 4 of 12 found, 7 spurious)."""
