@@ -131,3 +131,24 @@ def test_frame_error_is_the_rms_move_of_the_fitted_similarity() -> None:
     assert bm._frame_error(off, T) == pytest.approx(expected, rel=1e-9)
     mapped = bm._moved(world, np.array([np.cos(1e-3), np.sin(1e-3), 0.001, -0.002]))
     np.testing.assert_allclose(bm._moved(mapped, T).reflector_xy, true, atol=1e-12)
+
+
+def test_anchor_chi2_is_the_drawn_error_over_the_stated_std_and_the_summary_sums_it() -> None:
+    """A surveyed pair 1 mm (std 1 mm) off in x each gives chi2 2 with 4 dof; a tape 2 mm (std 1 mm) long gives 4
+    with 1 dof; the start pose none. The summary sums the seeds' with the chi-square band of the summed dof."""
+    world = load_builtin_map("lab")
+    xy, ids = world.reflector_xy, world.reflector_ids
+    s = SurveyedAnchor((ids[0], ids[1]), xy[:2] + [[0.001, 0.0], [-0.001, 0.0]], np.array([0.001, 0.001]))
+    d = float(np.hypot(*(xy[1] - xy[0])))
+    b = BaselineAnchor(tuple((xy[0] + 0.1).tolist()), tuple((xy[1] - 0.1).tolist()), d + 0.002, 0.001)
+    assert bm._anchor_chi2(s, world) == {"anchor_chi2": pytest.approx(2.0), "anchor_dof": 4}
+    assert bm._anchor_chi2(b, world) == {"anchor_chi2": pytest.approx(4.0), "anchor_dof": 1}
+    assert bm._anchor_chi2(StartPoseAnchor(), world)["anchor_chi2"] is None
+    rows = [{"hall": "lab", "seed": k, "anchor": "surveyed2", "reflectors_true": 9, "reflectors_seen": 9,
+             "reflectors_found": 9, "spurious_created": 0, "map_rms_m": 0.001, "map_max_m": 0.002,
+             "map_rms_predicted_m": 0.001 * (k + 1), "nees_mean": 2.0, "nees_joint": 2.0, "nees_sum_sq": 18.0,
+             "nees_n": 9, "runtime_s": 1.0, "anchor_chi2": 3.0 + k, "anchor_dof": 4} for k in range(2)]
+    out = bm._summary(rows)[0]
+    assert out["anchor_chi2"] == pytest.approx(7.0)
+    assert out["anchor_chi2_band"] == f"{chi2.ppf(0.025, 8):.2f}-{chi2.ppf(0.975, 8):.2f}"
+    assert out["map_rms_predicted_m"] == pytest.approx(np.sqrt((0.001 ** 2 + 0.002 ** 2) / 2))

@@ -20,7 +20,11 @@ reflections in the drive (the hall's N2 and N3 sit behind the rack from the loop
 ``reflectors_found`` counts true reflectors with a mapped one within 0.25 m;
 ``spurious_created`` mapped ones with no true reflector within 0.25 m; ``map_rms_m`` and
 ``map_max_m`` over the found ones, in the map frame (no alignment: the anchor defines the
-frame); ``nees_mean`` the mean of ``eᵀC⁻¹e`` over reflectors, each against its own covariance (2 expected);
+frame); ``map_rms_predicted_m`` what the map's own covariances predict for ``map_rms_m`` (``√mean tr C_j``: what
+the drive supports); ``anchor_chi2`` the anchor's drawn errors against their stated std (:func:`_anchor_chi2`;
+the summary sums them with the 95 % band of their chi-square, ``anchor_chi2_band``: the seeds' anchors may be
+a good or a bad sample);
+``nees_mean`` the mean of ``eᵀC⁻¹e`` over reflectors, each against its own covariance (2 expected);
 its 95 % band counts that the reflectors of one map share the anchor's and the trajectory's errors
 (:func:`marginal_band`: a chi-square with 2n dof would be far too narrow); ``nees_joint`` the NEES of
 all reflectors together against their joint covariance, per reflector (2 expected), whose band
@@ -224,6 +228,9 @@ def _record(hall: str, seed: int, with_positioning: bool) -> list[dict[str, Any]
             spurious_created=int((~ok).sum()),
             map_rms_m=float(np.sqrt(np.mean(np.sum(err ** 2, axis=1)))) if ok.any() else None,
             map_max_m=float(dist[ok].max()) if ok.any() else None,
+            map_rms_predicted_m=float(np.sqrt(np.mean(np.trace(res.covariance[ok], axis1=1, axis2=2))))
+            if ok.any() else None,
+            **_anchor_chi2(anchor, world),
             nees_mean=float(nees.mean()) if nees.size else None,
             nees_band=_band(*marginal_band(2.0 * n, consistency["nees_sum_sq"], n)) if ok.any() else None,
             odometry_scale=round(res.scale, 5),
@@ -247,6 +254,22 @@ def _record(hall: str, seed: int, with_positioning: bool) -> list[dict[str, Any]
         rec.update(spurious_reflections=spurious_in, sim_s=round(sim_s, 1))
         rows.append(rec)
     return rows
+
+
+def _anchor_chi2(anchor: Anchor | None, world: WorldMap) -> dict[str, Any]:
+    """``anchor_chi2``: the anchor's drawn errors against their stated std (surveyed: 2 reflectors x 2 axes, 4 dof;
+    baseline: the taped distance, 1 dof), and ``anchor_dof``; None for the others. Pooled over seeds it tells
+    whether the runs' anchors happened to be good or bad draws (a share of the joint NEES is theirs)."""
+    if isinstance(anchor, SurveyedAnchor):
+        xy = world.reflector_xy[[world.reflector_ids.index(i) for i in anchor.ids]]
+        return {"anchor_chi2": float(np.sum(((anchor.xy - xy) / np.asarray(anchor.std)[:, None]) ** 2)),
+                "anchor_dof": 4}
+    if isinstance(anchor, BaselineAnchor):
+        xy = world.reflector_xy
+        i, j = (int(np.argmin(np.hypot(*(xy - np.asarray(p)).T))) for p in (anchor.first, anchor.second))
+        return {"anchor_chi2": float(((anchor.distance - np.hypot(*(xy[i] - xy[j]))) / anchor.std) ** 2),
+                "anchor_dof": 1}
+    return {"anchor_chi2": None, "anchor_dof": None}
 
 
 def _moved(world: WorldMap, T: np.ndarray) -> WorldMap:
@@ -336,6 +359,9 @@ def _summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             joint = sum(r["nees_joint"] * r["nees_n"] for r in with_nees) / m if m else None
             sum_sq = sum(r["nees_sum_sq"] for r in with_nees)
             rms = [r["map_rms_m"] for r in rs if r["map_rms_m"] is not None]
+            pred = [r["map_rms_predicted_m"] for r in rs if r.get("map_rms_predicted_m") is not None]
+            a_chi2 = [r for r in rs if r.get("anchor_chi2") is not None]
+            a_dof = sum(r["anchor_dof"] for r in a_chi2)
             ratio = [float(r["positioning_ratio"]) for r in rs if r.get("positioning_ratio") is not None]
             free = [float(r["positioning_ratio_frame_free"]) for r in rs
                     if r.get("positioning_ratio_frame_free") is not None]
@@ -346,6 +372,9 @@ def _summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "reflectors_found": k, "spurious_created": sum(r["spurious_created"] for r in rs),
                 "map_rms_m": float(np.sqrt(np.mean(np.square(rms)))) if rms else None,
                 "map_max_m": max((r["map_max_m"] for r in rs if r["map_max_m"] is not None), default=None),
+                "map_rms_predicted_m": float(np.sqrt(np.mean(np.square(pred)))) if pred else None,
+                "anchor_chi2": round(sum(r["anchor_chi2"] for r in a_chi2), 2) if a_chi2 else None,
+                "anchor_chi2_band": _band(*(float(chi2.ppf(q, a_dof)) for q in (0.025, 0.975))) if a_dof else None,
                 "nees_mean": marg, "nees_band": _band(*marginal_band(2.0 * m, sum_sq, m)) if m else None,
                 "nees_joint": joint, "nees_joint_band": _band(*joint_band(m)) if m else None, "nees_n": m,
                 "runtime_s": round(float(np.mean([r["runtime_s"] for r in rs])), 2),
@@ -376,8 +405,8 @@ def run(quick: bool, seed: int) -> list[dict[str, Any]]:
         for task in tasks:
             rows += _record_task(task)
     for r in rows:
-        for key in ("map_rms_m", "map_max_m", "nees_mean", "nees_joint", "nees_sum_sq", "positioning_rms_mapped_m",
-                    "positioning_rms_true_m", "frame_error_m"):
+        for key in ("map_rms_m", "map_max_m", "map_rms_predicted_m", "anchor_chi2", "nees_mean", "nees_joint",
+                    "nees_sum_sq", "positioning_rms_mapped_m", "positioning_rms_true_m", "frame_error_m"):
             if isinstance(r.get(key), float):
                 r[key] = float(f"{r[key]:.3g}") if math.isfinite(r[key]) else None
     return rows + _summary(rows) + compare_solvers(seed)

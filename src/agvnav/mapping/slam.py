@@ -14,8 +14,9 @@
    (:mod:`agvnav.mapping.anchors`). No anchor: :class:`~agvnav.mapping.anchors.ScaleUnobservable`.
 3. **Batch**: each bearing factor interpolates the pose between the two keyframes around its reflection
    (a keyframe at every odometry instant: :func:`agvnav.mapping.drive.interpolate_drive`); every
-   reflection is re-associated against the solved trajectory with a tight gate (optionally, after the first
-   solve the reflections no reflector claims are triangulated into new reflectors, :func:`_initialise_leftovers`),
+   reflection is re-associated against the solved trajectory and the kept reflectors with a tight gate (after each
+   solve that re-associates, the reflections no reflector claims are triangulated into new reflectors,
+   :func:`_initialise_leftovers`, ``batch_initialise``),
    reflectors without ``min_sightings`` from ``min_baseline`` are dropped, the graph is solved to
    convergence with the odometry's systematic errors (scale, heading rate, turn scale), bearing
    outliers beyond ``outlier_sigma`` are removed and it is solved again. The noise is estimated
@@ -119,9 +120,11 @@ class MappingOptions:
     slip within a step drives it to zero).
     drop_repeats : one reading of each run of identical readings taken standing
     (:func:`agvnav.mapping.drive.repeated_readings`: a head standing repeats one quantisation error).
-    batch_initialise : after the batch's first solve, reflectors are initialised from the reflections no reflector
-    claims (tracks against the solved trajectory: a reflector the front end missed beside others). Off by
-    default: on the differential AGV (hall_differential seed 0) it made one spurious reflector.
+    batch_initialise : after each batch solve that re-associates, reflectors are initialised from the reflections no
+    reflector claims (tracks against the solved trajectory: a reflector the front end missed beside others, or one
+    it placed 10-20 cm off whose sightings the batch then drops: warehouse seed 0, rack_3_n5 and rack_3_n6). It was
+    off while the re-association counted dropped reflectors as candidates (their ambiguity left true reflections
+    over, and on the differential AGV they made a spurious reflector).
     head_yaw_std : std (rad) of the head's yaw on the vehicle: a frame given by the start pose is
     only as well oriented as the head is calibrated (added to the start pose's heading variance).
     """
@@ -156,7 +159,7 @@ class MappingOptions:
     existing_std: float = 0.001
     front_iterations: int = 3
     interpolate: bool = True
-    batch_initialise: bool = False
+    batch_initialise: bool = True
     drop_repeats: bool = True
     in_step_slip: bool = True
     odometry_noise: OdometryNoise | None = None
@@ -750,10 +753,12 @@ def _reassociate(fe: FrontEnd, poses: F64, landmarks: F64, scale: float, opt: Ma
                        d.refl_alpha)
     sig0 = np.sqrt(_sigma_eff(d, fe.sigma[0], heads, landmarks, np.full(heads.shape[0], -1, dtype=np.int64),
                               odo_var) ** 2 * max(lam_b, 1.0) + max(lam_s, 1.0) * _instep_heading_var(d, odo_var, opt))
-    assoc = associate(d.bearing, heads, landmarks, opt.radius, sig0, opt.gate_sigma,
-                      opt.final_position_tol, fe.max_range, opt.direction)
-    assoc = np.where((assoc >= 0) & keep[np.maximum(assoc, 0)], assoc, -1)
-    return assoc, heads
+    # only the kept reflectors are candidates: a dropped one (a front-end duplicate 0.4-0.8 m off a true
+    # reflector) inside the gate made the true one's reflections ambiguous, and they stayed unassociated
+    kept = np.flatnonzero(keep)
+    a = associate(d.bearing, heads, landmarks[kept], opt.radius, sig0, opt.gate_sigma, opt.final_position_tol,
+                  fe.max_range, opt.direction)
+    return np.where(a >= 0, kept[np.maximum(a, 0)], -1).astype(np.int64), heads
 
 
 def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], existing: Any = None,
@@ -854,7 +859,7 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
         if pas < 2 or reassociate:
             assoc, heads = _reassociate(fe, poses, landmarks, scale, opt, keep | is_anchored, odo_var, lam_b, calib,
                                         lam_s)
-            if pas == 1 and opt.batch_initialise:
+            if pas >= 1 and opt.batch_initialise:
                 landmarks, keep, assoc, ids = _initialise_leftovers(d, heads, landmarks, keep, assoc, ids, opt,
                                                                     fe.max_range)
                 is_anchored = np.isin(np.arange(keep.size), list(anchored))
@@ -958,7 +963,7 @@ def solve_anchored(fe: FrontEnd, anchors: list[Anchor] | tuple[Anchor, ...], exi
 def _initialise_leftovers(d: Drive, heads: F64, landmarks: F64, keep: NDArray[np.bool_], assoc: I64,
                           ids: list[str | None], opt: MappingOptions,
                           max_range: float) -> tuple[F64, NDArray[np.bool_], I64, list[str | None]]:
-    """New reflectors from the reflections no reflector claims once the map is solved (batch pass 1).
+    """New reflectors from the reflections no reflector claims once the map is solved (batch passes from the second).
 
     The front end initialises from dead-reckoned poses and a pool of recent reflections; a reflector seen
     briefly beside others can lose its sightings to them there and is never initialised (warehouse,
