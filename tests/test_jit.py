@@ -16,13 +16,7 @@ from agvnav.positioning.integrity import _best_triple_kernel, _fde_statistics, _
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
 
-
-@pytest.fixture(autouse=True)
-def _restore_mode(monkeypatch: pytest.MonkeyPatch) -> object:
-    monkeypatch.delenv("AGVNAV_JIT", raising=False)
-    before = _jit.compiled()
-    yield
-    _jit.set_compiled(before)
+pytestmark = pytest.mark.usefixtures("restore_jit_mode")
 
 
 def _kernel_outputs() -> list[bytes | str]:

@@ -20,13 +20,7 @@ from agvnav.bench.speed import _scenario_with, reflector_map
 from agvnav.positioning import _fast
 from agvnav.sim.build import build
 
-
-@pytest.fixture(autouse=True)
-def _restore_mode(monkeypatch: pytest.MonkeyPatch) -> object:
-    monkeypatch.delenv("AGVNAV_JIT", raising=False)
-    before = _jit.compiled()
-    yield
-    _jit.set_compiled(before)
+pytestmark = pytest.mark.usefixtures("restore_jit_mode")
 
 
 def _run(scenario: object, compiled: bool, seconds: float) -> tuple[dict[str, np.ndarray], object]:

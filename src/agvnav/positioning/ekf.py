@@ -286,6 +286,19 @@ class EkfEstimator(StreamingEstimator):
         C3[...] = C3 @ np.asarray(M).reshape(3, 3).T
         self._M = _IDENTITY
 
+    def _fold_into_row(self, M: tuple[float, ...], K: Sequence[float], j: int, h0: float, h1: float) -> None:
+        """Fold ``M`` (:meth:`_fold`), then add reflector ``j``'s new ``P_xp`` columns ``K (h0, h1) svar_j``.
+
+        The compiled update's folded case: the same operations as the folded branch of :meth:`_accept`.
+        """
+        self._fold(M)
+        svar = self._svar[j]
+        u0, u1, u2 = K
+        row = self._C[j].tolist()
+        ax, ay = h0 * svar, h1 * svar
+        self._C[j] = (row[0] + u0 * ax, row[1] + u1 * ax, row[2] + u2 * ax, row[3] + u0 * ay, row[4] + u1 * ay,
+                      row[5] + u2 * ay)
+
     def _left(self, K: Sequence[float], H: Sequence[float]) -> tuple[float, ...]:
         """``M <- (I - K H) M``; returns the new ``M`` folded to ``I`` when ill-conditioned."""
         M = _fast.left_update(self._M, K, H)
@@ -350,13 +363,7 @@ class EkfEstimator(StreamingEstimator):
             return assoc
         self._x_t, self._P_t, self._Pxc = x1, P1, X
         if fold:  # as _left and the folded branch of _accept
-            self._fold(M)
-            svar = self._svar[j]
-            u0, u1, u2 = K
-            row = self._C[j].tolist()
-            ax, ay = h0 * svar, h1 * svar
-            self._C[j] = (row[0] + u0 * ax, row[1] + u1 * ax, row[2] + u2 * ax, row[3] + u0 * ay,
-                          row[4] + u1 * ay, row[5] + u2 * ay)
+            self._fold_into_row(M, K, j, h0, h1)
         else:
             self._M = M
         self.last_innovation = y
@@ -381,12 +388,7 @@ class EkfEstimator(StreamingEstimator):
                 self.bearing_std**2, self._calibrated, CONSIDER_MIN_DET, CONSIDER_MAX_ENTRY,
             )
             if fold:  # as _left and the folded branch below
-                self._fold(M)
-                u0, u1, u2 = K
-                row = self._C[j].tolist()
-                ax, ay = h0 * svar, h1 * svar
-                self._C[j] = (row[0] + u0 * ax, row[1] + u1 * ax, row[2] + u2 * ax, row[3] + u0 * ay,
-                              row[4] + u1 * ay, row[5] + u2 * ay)
+                self._fold_into_row(M, K, j, h0, h1)
             else:
                 self._M = M
             self.last_innovation = assoc.innovation
