@@ -501,7 +501,7 @@ class StreamingEstimator:
         heading variances grow by what the vehicle could have done in it (:meth:`_blow_up`).
 
         The closed loop's every call (finite Python floats, in time order, plausible) takes a
-        fast path with the same tests written out; anything else takes the full one.
+        fast path that skips the conversions; anything else takes the full one.
         """
         t_prev, t_odo = self._t, self._t_odometry
         if (
@@ -509,15 +509,9 @@ class StreamingEstimator:
             and type(delta_lateral) is float and t_prev is not None and t_odo is not None
             and self._t_first is not None and _INF > t >= t_prev and -_INF < delta_d < _INF
             and -_INF < delta_theta < _INF and -_INF < delta_lateral < _INF
+            and implausible_increment(self.plausibility, t - t_odo, delta_d, delta_theta, delta_lateral) is None
         ):
-            lim = self.plausibility  # implausible_increment written out
-            span = t - t_odo
-            if (
-                not span > lim.max_gap_s
-                and not math.hypot(delta_d, delta_lateral) > lim.max_speed_m_s * span + lim.slack_m
-                and not abs(delta_theta) > lim.max_yaw_rate_rad_s * span + lim.slack_rad
-            ):
-                return t, delta_d, delta_theta, delta_lateral
+            return t, delta_d, delta_theta, delta_lateral
         try:
             t = _finite_float("t", t)
         except ValueError:
