@@ -14,6 +14,7 @@ from __future__ import annotations
 import ast
 import functools
 import inspect
+import itertools
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -108,14 +109,9 @@ def attribute_docs(model: type[BaseModel]) -> dict[str, str]:
     return out
 
 
-_DOCS: dict[type, dict[str, str]] = {}
-
-
 def _class_attribute_docs(cls: type) -> dict[str, str]:
-    """The attribute docstrings written in the body of ``cls`` itself (cached)."""
-    if cls not in _DOCS:
-        _DOCS[cls] = _module_class_docs(cls.__module__).get(cls.__qualname__, {})
-    return _DOCS[cls]
+    """The attribute docstrings written in the body of ``cls`` itself (its module's parse is cached)."""
+    return _module_class_docs(cls.__module__).get(cls.__qualname__, {})
 
 
 @functools.cache
@@ -132,17 +128,11 @@ def _module_class_docs(module: str) -> dict[str, dict[str, str]]:
             if isinstance(node, ast.ClassDef):
                 qual = prefix + node.name
                 docs: dict[str, str] = {}
-                target: str | None = None
-                prev: ast.stmt | None = None
-                for stmt in node.body:
-                    if isinstance(stmt, ast.AnnAssign):
-                        target = stmt.target.id if isinstance(stmt.target, ast.Name) else None
-                    elif (isinstance(stmt, ast.Expr) and isinstance(stmt.value, ast.Constant)
-                          and isinstance(stmt.value.value, str) and isinstance(prev, ast.AnnAssign)):
-                        if target:
-                            docs[target] = inspect.cleandoc(stmt.value.value)
-                        target = None
-                    prev = stmt
+                for prev, stmt in itertools.pairwise(node.body):
+                    if (isinstance(prev, ast.AnnAssign) and isinstance(prev.target, ast.Name)
+                            and isinstance(stmt, ast.Expr) and isinstance(stmt.value, ast.Constant)
+                            and isinstance(stmt.value.value, str)):
+                        docs[prev.target.id] = inspect.cleandoc(stmt.value.value)
                 out[qual] = docs
                 visit(node.body, qual + ".")
 
