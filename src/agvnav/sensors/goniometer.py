@@ -394,13 +394,8 @@ class Goniometer:
         -------
         Reflections
         """
-        t0, t1 = self._check_scan(world, t0, t1, rng)
-        if t1 == t0:
-            return Reflections.empty()
-        t_true, index = self._true_reflections(world, pose_at, t0, t1)
-        if t_true.size == 0 and self.spurious_rate == 0.0:
-            return _EMPTY  # the common case in short windows: nothing to quantise or draw
-        return Reflections._trusted(*self._add_noise(t_true, index, t0, t1, rng))
+        found = self._scan_arrays(world, pose_at, t0, t1, rng)
+        return _EMPTY if found is None else Reflections._trusted(*found)
 
     def scan_rows(
         self,
@@ -416,13 +411,24 @@ class Goniometer:
         (bit-identical), without the :class:`Reflections` record: what the closed loop's
         sensor role hands the engine (issue 11). No reflection: a ``(0, 3)`` array.
         """
+        found = self._scan_arrays(world, pose_at, t0, t1, rng)
+        return _NO_ROWS if found is None else _rows(*found)
+
+    def _scan_arrays(
+        self, world: WorldMap, pose_at: PoseFunction, t0: float, t1: float, rng: np.random.Generator | None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]] | None:
+        """:meth:`scan`'s ``(t, bearing, index)`` arrays, or None when the window holds no reflection.
+
+        None without drawing anything in the common case of a short window with no true
+        reflection and no clutter: nothing to quantise or draw.
+        """
         t0, t1 = self._check_scan(world, t0, t1, rng)
         if t1 == t0:
-            return _NO_ROWS
+            return None
         t_true, index = self._true_reflections(world, pose_at, t0, t1)
         if t_true.size == 0 and self.spurious_rate == 0.0:
-            return _NO_ROWS
-        return _rows(*self._add_noise(t_true, index, t0, t1, rng))
+            return None
+        return self._add_noise(t_true, index, t0, t1, rng)
 
     def _check_scan(
         self, world: WorldMap, t0: float, t1: float, rng: np.random.Generator | None
