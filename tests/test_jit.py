@@ -11,8 +11,9 @@ import pytest
 from agvnav import _jit
 from agvnav.geometry import wrap_angle
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
+from agvnav.positioning._integrity_fast import best_triple
 from agvnav.positioning.gating import BearingIndex, GateSpec, near_rows
-from agvnav.positioning.integrity import _best_triple_kernel, _fde_statistics, _information_sums, _window_tally
+from agvnav.positioning.integrity import _fde_statistics, _information_sums, _window_tally
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
 
@@ -133,12 +134,12 @@ def _random_outputs() -> dict[str, list[bytes]]:
         H, res, w = rng.normal(size=(n, 3)), rng.normal(size=n), rng.uniform(0.1, 10.0, n)
         fits.append(_fde_statistics(res, H.reshape(-1), w, 3))
     out["_fde_statistics"] = [np.concatenate(fits).tobytes()]
-    triples = []  # the cross-check's choice of triple (its CRLB per triple through _position_crlb_one)
+    triples = []  # the cross-check's choice of triple (its CRLB per triple through position_crlb_one)
     for _ in range(2_000):
         n = int(rng.integers(3, 9))
         rx3, ry3, var3 = rng.uniform(-10, 10, n), rng.uniform(-10, 10, n), rng.uniform(1e-7, 1e-4, n)
-        triples.append(_best_triple_kernel(0.3, -0.2, rx3, ry3, var3, 1e-6, float(rng.uniform(1e-5, 1e-2))))
-    out["_best_triple_kernel"] = [np.array(triples).tobytes()]
+        triples.append(best_triple(0.3, -0.2, rx3, ry3, var3, 1e-6, float(rng.uniform(1e-5, 1e-2))))
+    out["best_triple"] = [np.array(triples).tobytes()]
     rows = rng.normal(size=(3_000, 20))  # an integrity window: stamps, map rows of 40, flags 0/1, sums
     rows[:, 0] = np.sort(rng.uniform(0.0, 2.0, 3_000))
     rows[:, 2] = rng.integers(0, 40, 3_000)
@@ -204,8 +205,11 @@ def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
     tested = {"wrap_angle_scalar", "offset_one", "offsets_at", "grid_crossings", "wrapped_offsets", "line_of_sight",
               "_hits_wall", "_hits_disc", "near_rows", "near_one", "grid_rows", "_visit_box", "chord_brackets",
               "chord_step", "seen_in_order", "scan_hermite", "_finite_poses", "hermite_poses", "_fde_statistics",
-              "_solve_augmented", "_normal_equations", "_best_triple_kernel", "_position_crlb_one", "_window_tally",
+              "_solve_augmented", "_normal_equations", "best_triple", "position_crlb_one", "_window_tally",
               "_information_sums", "move_state", "_sinc_k", "_dsinc_k", "gate_rows", "gate_accept", "schmidt_accept"}
+    # the integrity check's kernels: bit for bit in both modes in tests/positioning/test_integrity_fast.py
+    tested |= {"py_hypot", "_square_split", "_neg_square_split", "_head", "_edge_bearing", "total_fix",
+               "fix_covariance", "nonlinear_fix", "_round_half_even", "crosscheck_fix"}
     known = {k.py_func.__name__ for k in _jit.kernels()}
     assert known <= tested, f"kernels without a bit-for-bit test here: {sorted(known - tested)}"
 

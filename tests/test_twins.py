@@ -42,9 +42,13 @@ from agvnav.odometry import (
 from agvnav.odometry.errors import NonSystematicErrors
 from agvnav.odometry.scalar import differential_increments_scalar, track_increments, tricycle_increments_scalar
 from agvnav.positioning import _fast as pos_fast
+from agvnav.positioning import _integrity_fast as integrity_fast
+from agvnav.positioning import triangulate
+from agvnav.positioning.bounds import crlb
 from agvnav.positioning.ekf import CONSIDER_MAX_ENTRY, CONSIDER_MIN_DET, EkfEstimator
 from agvnav.positioning.gating import BearingIndex, GateSpec
 from agvnav.positioning.identification import Association, bearing_model, gate_reflection
+from agvnav.positioning.triangulation import _nonlinear
 from agvnav.sensors.beam import wrapped_offsets
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.twins import TWINS, Twin, twin_names
@@ -354,6 +358,48 @@ def _gate_accept(rng: np.random.Generator) -> Pair:
     return [j, *x1, *P1, *M1, *X1, *C_got.ravel()], [ref[0], *est._x_t, *est._P_t, *est._M, *est._Pxc, *est._C.ravel()]
 
 
+def _three_bearings(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, tuple[float, ...]]:
+    """Three reflectors (m), the bearings (rad) of a random head among them, and three bearing stds (rad)."""
+    r = rng.uniform(-10.0, 10.0, (3, 2))
+    p, psi = rng.uniform(-10.0, 10.0, 2), rng.uniform(-math.pi, math.pi)
+    z = np.array([wrap_angle_scalar(v) for v in (np.arctan2(r[:, 1] - p[1], r[:, 0] - p[0]) - psi).tolist()])
+    return r, z + rng.normal(0.0, 1e-3, 3), tuple(rng.uniform(1e-4, 5e-3, 3).tolist())
+
+
+def _total_fix(rng: np.random.Generator) -> Pair:
+    while True:
+        r, z, _ = _three_bearings(rng)
+        code, px, py = integrity_fast.total_fix(*r.reshape(-1).tolist(), *z.tolist())
+        if code != integrity_fast.TOTAL_FALLBACK:  # the rare path is triangulate itself
+            break
+    fix = triangulate(r, z, method="total")
+    valid = code == integrity_fast.TOTAL_VALID
+    return (float(valid), px if valid else math.nan, py if valid else math.nan), (
+        float(bool(fix.valid)), float(fix.x), float(fix.y))
+
+
+def _fix_covariance(rng: np.random.Generator) -> Pair:
+    r, _, std = _three_bearings(rng)
+    p = rng.uniform(-10.0, 10.0, 2)
+    _ok, *c = integrity_fast.fix_covariance(tuple(r[:, 0].tolist()), tuple(r[:, 1].tolist()), *p.tolist(), std)
+    ref = crlb(r, np.array([*p.tolist(), 0.3]), np.array(std))
+    return c, ref[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
+
+
+def _nonlinear_fix(rng: np.random.Generator) -> Pair:
+    r = rng.uniform(-5.0, 5.0, (3, 2))
+    px, py = rng.uniform(-5.0, 5.0, 2).tolist()
+    c00, c11, c01 = rng.uniform(1e-4, 1e-1), rng.uniform(1e-4, 1e-1), rng.uniform(-1e-5, 1e-5)
+    cov = np.array([[[c00, c01, 0.0], [c01, c11, 0.0], [0.0, 0.0, 1.0]]])
+    got = integrity_fast.nonlinear_fix(tuple(r[:, 0].tolist()), tuple(r[:, 1].tolist()), px, py, c00, c01, c11)
+    return float(got), float(_nonlinear(r, np.array([px]), np.array([py]), cov, np.array([False]))[0])
+
+
+def _py_hypot(rng: np.random.Generator) -> Pair:
+    x, y = (rng.standard_normal(2) * 10.0 ** rng.uniform(-6, 6, 2)).tolist()
+    return integrity_fast.py_hypot(x, y), math.hypot(x, y)
+
+
 @contextlib.contextmanager
 def _plain_mode() -> Iterator[None]:
     """The kernels interpreted while inside: the estimators take their plain Python path."""
@@ -377,6 +423,8 @@ CASES: dict[str, Callable[[np.random.Generator], Pair]] = {
     "path_project": _path_project, "encoder_bearing": _encoder_bearing, "gate_one": _gate_one,
     "wrapped_offsets": _wrapped_offsets, "steered_noise": _steered_noise,
     "move_state": _move_state, "gate_rows": _gate_rows, "gate_accept": _gate_accept,
+    "total_fix": _total_fix, "fix_covariance": _fix_covariance, "nonlinear_fix": _nonlinear_fix,
+    "py_hypot": _py_hypot,
 }
 
 

@@ -101,6 +101,15 @@ TWINS: tuple[Twin, ...] = (
          "[seed000 eq2] chi-square gate behind the bearing index", 0.0),
     Twin("gate_accept", "agvnav.positioning._fast:gate_accept", "agvnav.positioning.ekf:EkfEstimator._accept",
          "Schmidt-Kalman update of one bearing (agvnav.positioning.ekf)", 0.0),
+    # the integrity monitor's compiled cross-check (issue 11): the same operations as the forms it replaced
+    Twin("total_fix", "agvnav.positioning._integrity_fast:total_fix", "agvnav.positioning.triangulation:triangulate",
+         "ToTal (Pierlot & Van Droogenbroeck 2014), one fix [seed000 §2.2]", 0.0),
+    Twin("fix_covariance", "agvnav.positioning._integrity_fast:fix_covariance", "agvnav.positioning.bounds:crlb",
+         "CRLB (J^T R^-1 J)^-1 of three bearings [seed000 §2.3]", 0.0),
+    Twin("nonlinear_fix", "agvnav.positioning._integrity_fast:nonlinear_fix",
+         "agvnav.positioning.triangulation:_nonlinear", "issue 12: a fix too near its critical circle", 0.0),
+    Twin("py_hypot", "agvnav.positioning._integrity_fast:py_hypot", "math:hypot",
+         "CPython's hypot (libm's differs in the last bit)", 0.0),
 )
 
 

@@ -144,6 +144,7 @@ from numpy.typing import ArrayLike
 from agvnav._jit import compiled, jit
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.positioning._chi2_table import FALSE_ALARM, QUANTILES_1E5
+from agvnav.positioning._integrity_fast import best_triple, crosscheck_fix
 from agvnav.positioning.triangulation import triangulate
 from agvnav.sensors.beam import line_of_sight
 
@@ -556,6 +557,12 @@ class IntegrityMonitor:
         #: gated-out reflections attributed to one reflector: (t, map row, y, S, H0, H1, H2) (:meth:`attributed`)
         self._attributed: deque[tuple[float, int, float, float, float, float, float]] = deque()
         self._rows = [(float(a), float(b)) for a, b in self.xy]
+        #: the map for the kernels (:mod:`agvnav.positioning._integrity_fast`): x, y, radius, map_std (m), as
+        #: contiguous arrays (compiled) and as lists of floats (interpreted: Python indexes lists faster)
+        self._tables = tuple(np.ascontiguousarray(a, dtype=np.float64)
+                             for a in (self.xy[:, 0], self.xy[:, 1], self.radius, self.map_std))
+        self._lists = tuple(a.tolist() for a in self._tables)
+        self._mount_t = (float(self.mount[0]), float(self.mount[1]), float(self.mount[2]))
         self._clock = _HeadClock(self.revolution_s, self.limits.max_latency_s * 2.0 * math.pi / self.revolution_s)
         self._mean_nu = [0.0] * self.xy.shape[0]  # EWMA of the NIS y^2 / S per reflector
         self._n_nu = [0] * self.xy.shape[0]
@@ -887,8 +894,10 @@ class IntegrityMonitor:
         """Mahalanobis distance² between the head position of the estimate and a ToTal fix (NaN if none).
 
         The bearings of the best triple seen in the last revolution are brought to now
-        through the odometry (``z_now = centre + h(now) - h(then)``, seed 000 §2.2) in
-        Python floats, then triangulated with :func:`~agvnav.positioning.triangulate`.
+        through the odometry (``z_now = centre + h(now) - h(then)``, seed 000 §2.2) and
+        triangulated with ToTal (:func:`~agvnav.positioning.triangulate`), in one compiled pass
+        over the window (:func:`~agvnav.positioning._integrity_fast.crosscheck_fix`, the same
+        operations; triangulate itself where that kernel leaves a decision to it).
         Each propagated bearing's variance is the bearing's, the survey's
         ``(map_std / d)^2`` and the error of the odometry between then and now
         (``var_th + var_pos / d^2``, ``var_th = k_dtheta s + k_theta |turn|``,
@@ -901,67 +910,32 @@ class IntegrityMonitor:
         (of more than eight reflectors seen, the eight :meth:`_best_triple` spreads over the
         revolution: only theirs are propagated).
         """
-        seen = np.flatnonzero(tally.newest >= 0)
-        pos = np.sort(tally.newest[seen])[::-1].tolist()  # each reflector's newest sighting, newest first
-        if len(pos) < 3:
+        buf, start = self._entries.buffer()
+        rx, ry, radius, map_std = self._tables if compiled() else self._lists
+        out = crosscheck_fix(
+            buf, start, tally.newest, (float(x[0]), float(x[1]), float(x[2])),
+            (float(odom[0]), float(odom[1]), float(odom[2])), self._mount_t, rx, ry, radius, map_std,
+            self.odometry_noise, self.bearing_std**2, 2.0, self.limits.max_fix_std_m**2)
+        code = out[0]
+        if code == 0:
             return math.nan
-        if len(pos) > 8:
-            pos = [pos[k] for k in _spread8(len(pos))]
-        latest = [self._entries.row(k) for k in pos]
-        px, py, ppsi = float(x[0]), float(x[1]), float(x[2])
-        ox, oy, opsi = float(odom[0]), float(odom[1]), float(odom[2])
-        co, so = math.cos(opsi), math.sin(opsi)
-        cp, sp = math.cos(ppsi), math.sin(ppsi)
+        if code == 1:
+            fx, fy, c00, c01, c11 = out[1:6]
+        else:  # the rare path: triangulate itself decides (see _integrity_fast.total_fix)
+            idx = list(out[6:9])
+            try:
+                fix = triangulate(self.xy[idx], np.array(out[9:12]), method="total", bearing_std=np.array(out[12:15]))
+            except ValueError:  # e.g. collinear reflectors: no fix to compare with
+                return math.nan
+            if not bool(fix.valid) or fix.covariance is None or not np.all(np.isfinite(fix.covariance)):
+                return math.nan
+            c = fix.covariance
+            fx, fy, c00, c01, c11 = float(fix.x), float(fix.y), float(c[0, 0]), float(c[0, 1]), float(c[1, 1])
         head_now = _head(x, self.mount)
-        k_d, k_dtheta, k_theta = self.odometry_noise
-        prop: dict[int, tuple[float, float]] = {}  # row -> (bearing brought to now, its variance)
-        for e in latest:
-            i = int(e[_IDX])
-            ex, ey = e[_OX] - ox, e[_OY] - oy  # odometric pose then, seen from now (between)
-            rx_, ry_ = co * ex + so * ey, -so * ex + co * ey
-            turn = e[_OPSI] - opsi
-            then = (px + cp * rx_ - sp * ry_, py + sp * rx_ + cp * ry_, ppsi + turn)
-            h_then, d_then = self._edge_bearing(then, i)
-            h_now, _ = self._edge_bearing(head_now, i, is_head=True)
-            r = float(self.radius[i])
-            d = max(d_then, 1e-12)
-            centre = e[_BEAR] + math.asin(min(max(r / d, 0.0), 1.0))  # edge -> centre
-            # the odometry between then and now errs too [seed002 eq17]: heading by
-            # var_th, position by var_d along and by the heading error integrated across
-            s_odo = math.hypot(ex, ey)
-            var_th = k_dtheta * s_odo + k_theta * abs(wrap_angle_scalar(turn))
-            var_pos = k_d * s_odo + var_th * s_odo * s_odo / 3.0
-            var = self.bearing_std**2 + (float(self.map_std[i]) / d) ** 2 + var_th + var_pos / (d * d)
-            prop[i] = (centre + (h_now - h_then), var)
-        idx = self._best_triple(x, list(prop), [prop[i][1] for i in prop])
-        if idx is None:
-            return math.nan
-        try:
-            fix = triangulate(self.xy[idx], np.array([prop[i][0] for i in idx]), method="total",
-                              bearing_std=np.sqrt([prop[i][1] for i in idx]))
-        except ValueError:  # e.g. collinear reflectors: no fix to compare with
-            return math.nan
-        if not bool(fix.valid) or fix.covariance is None or not np.all(np.isfinite(fix.covariance)):
-            return math.nan
-        dx, dy = float(fix.x) - head_now[0], float(fix.y) - head_now[1]
+        dx, dy = fx - head_now[0], fy - head_now[1]
         if math.hypot(dx, dy) <= self.limits.crosscheck_min_m:
             return 0.0  # agreement within the gross-error floor
-        c = fix.covariance
-        return _mahalanobis2(dx, dy, float(c[0, 0] + P[0, 0]), float(c[0, 1] + P[0, 1]), float(c[1, 1] + P[1, 1]))
-
-    def _edge_bearing(self, pose: tuple[float, float, float], i: int, is_head: bool = False) -> tuple[float, float]:
-        """Leading-edge bearing (rad, head frame, wrapped) of reflector ``i`` and its distance (m).
-
-        ``pose`` is base_link's, or the head's with ``is_head`` (the scalar form of
-        :func:`~agvnav.positioning.identification.bearing_model`).
-        """
-        hx, hy, hpsi = pose if is_head else _head(pose, self.mount)
-        rx, ry = self._rows[i]
-        dx, dy = rx - hx, ry - hy
-        d = math.hypot(dx, dy)
-        r = float(self.radius[i])
-        edge = -math.asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * math.pi
-        return wrap_angle_scalar(math.atan2(dy, dx) - hpsi + edge), d
+        return _mahalanobis2(dx, dy, float(c00 + P[0, 0]), float(c01 + P[0, 1]), float(c11 + P[1, 1]))
 
     def _best_triple(self, x: np.ndarray, rows: list[int], variances: list[float] | None = None) -> list[int] | None:
         """The three of ``rows`` with the smallest position CRLB at ``x`` (seed 000 §2.3), None if none is good.
@@ -970,7 +944,7 @@ class IntegrityMonitor:
         (issue 12), so a triple whose bound with the bearing noise alone exceeds
         ``max_fix_std_m`` is not used; of the others, the one with the smallest bound
         with ``variances`` (rad², one per row, default ``bearing_std^2``) is chosen. The
-        bound of every triple in one pass (:func:`_best_triple_kernel`): the information of
+        bound of every triple in one pass (:func:`~agvnav.positioning._integrity_fast.best_triple`): the information of
         each reflector (Jacobian rows ``[dy/d², -dx/d², -1]`` over its variance) summed per
         triple, the trace of the position block of its inverse in closed form. Of more than eight rows (``rows``
         in time order), eight spread evenly over them are candidates: with 256 reflectors
@@ -991,7 +965,7 @@ class IntegrityMonitor:
         var = [float(v) for v in variances]
         if compiled():
             rx, ry, var = np.array(rx), np.array(ry), np.array(var)  # type: ignore[assignment]
-        best = _best_triple_kernel(hx, hy, rx, ry, var, self.bearing_std**2, self.limits.max_fix_std_m**2)
+        best = best_triple(hx, hy, rx, ry, var, self.bearing_std**2, self.limits.max_fix_std_m**2)
         if best < 0:
             return None
         i, j, k = _TRIPLE_CODES[len(rows)][best]
@@ -1559,66 +1533,8 @@ def _spread8(n: int) -> list[int]:
     return [round(k * step) for k in range(7)] + [n - 1]
 
 
-@jit
-def _position_crlb_one(a00: float, a01: float, a02: float, a11: float, a12: float, a22: float) -> float:
-    """Trace of the position block of the inverse of the symmetric 3x3 ``a`` (upper triangle; inf if singular)."""
-    c00 = a11 * a22 - a12 * a12
-    c11 = a00 * a22 - a02 * a02
-    det = a00 * c00 + a01 * (a02 * a12 - a01 * a22) + a02 * (a01 * a12 - a02 * a11)
-    if det == 0.0:
-        return math.inf
-    score = (c00 + c11) / det
-    return score if score >= 0.0 and score < math.inf else math.inf
-
-
-@jit
-def _best_triple_kernel(
-    hx: float, hy: float, rx: Any, ry: Any, var: Any, bearing_var: float, max_var: float,
-) -> int:
-    """Rank (in ``itertools.combinations`` order) of the triple of reflectors with the smallest position CRLB.
-
-    Head at ``(hx, hy)`` (m); candidates ``rx, ry (n,)`` (m) with bearing variances ``var (n,)``
-    (rad²; arrays compiled, Python lists interpreted). Each reflector's information is its
-    bearing Jacobian row ``[dy/d², -dx/d², -1]`` (seed 000 §2.3) squared, summed over a
-    triple; triples whose bound with ``bearing_var`` (rad²) exceeds ``max_var`` (m²) are
-    skipped, the rest ranked by their bound with ``var``.
-    -1 when none qualifies or a reflector sits on the head.
-    """
-    n = len(rx)
-    info = [0.0] * (6 * n)  # row k: the upper triangle 00 01 02 11 12 22 of its information
-    for k in range(n):
-        dx, dy = rx[k] - hx, ry[k] - hy
-        d2 = dx * dx + dy * dy
-        if d2 <= 0.0:
-            return -1
-        j0, j1 = dy / d2, -dx / d2
-        info[6 * k], info[6 * k + 1], info[6 * k + 2] = j0 * j0, j0 * j1, -j0
-        info[6 * k + 3], info[6 * k + 4], info[6 * k + 5] = j1 * j1, -j1, 1.0
-    best, best_score, rank = -1, math.inf, 0
-    for a in range(n):
-        for b in range(a + 1, n):
-            for c in range(b + 1, n):
-                pa, pb, pc = 6 * a, 6 * b, 6 * c
-                bound = _position_crlb_one(
-                    info[pa] + info[pb] + info[pc], info[pa + 1] + info[pb + 1] + info[pc + 1],
-                    info[pa + 2] + info[pb + 2] + info[pc + 2], info[pa + 3] + info[pb + 3] + info[pc + 3],
-                    info[pa + 4] + info[pb + 4] + info[pc + 4], info[pa + 5] + info[pb + 5] + info[pc + 5])
-                if bound * bearing_var <= max_var:
-                    wa, wb, wc = var[a], var[b], var[c]
-                    score = _position_crlb_one(
-                        info[pa] / wa + info[pb] / wb + info[pc] / wc,
-                        info[pa + 1] / wa + info[pb + 1] / wb + info[pc + 1] / wc,
-                        info[pa + 2] / wa + info[pb + 2] / wb + info[pc + 2] / wc,
-                        info[pa + 3] / wa + info[pb + 3] / wb + info[pc + 3] / wc,
-                        info[pa + 4] / wa + info[pb + 4] / wb + info[pc + 4] / wc,
-                        info[pa + 5] / wa + info[pb + 5] / wb + info[pc + 5] / wc)
-                    if score < best_score:
-                        best, best_score = rank, score
-                rank += 1
-    return best
-
-
-#: ``n -> (C(n, 3), 3)`` index triples of ``range(n)`` in :func:`_best_triple_kernel`'s rank order.
+#: ``n -> (C(n, 3), 3)`` index triples of ``range(n)`` in the rank order of
+#: :func:`~agvnav.positioning._integrity_fast.best_triple`.
 _TRIPLE_CODES = {n: tuple(itertools.combinations(range(n), 3)) for n in range(3, 9)}
 
 

@@ -1,0 +1,442 @@
+"""Compiled scalar kernels of the integrity monitor's once-per-revolution check (issue 11).
+
+:meth:`agvnav.positioning.integrity.IntegrityMonitor.check` ran about forty NumPy calls and
+a Python loop per sighting for one triangulation cross-check per revolution: 40 % of a
+closed-loop step. These kernels (:func:`agvnav._jit.jit`: compiled by numba, or run as the
+same plain Python with ``AGVNAV_JIT=0``) redo the same equations on the monitor's float
+window (:meth:`~agvnav.positioning.integrity._Window.buffer`) with *the same float
+operations in the same order* as the Python and NumPy forms they replace, so a seeded
+run gives the same bits. Three things need care for that:
+
+* ``math.hypot``: CPython (3.10+) computes it with its own algorithm (lossless scaling,
+  Dekker squaring, Neumaier summation, one differential correction of the root), numba
+  calls libm's, and the two differ in the last bit on ~0.6 % of pairs. :func:`py_hypot`
+  is CPython's algorithm written out (``Modules/mathmodule.c``, ``vector_norm`` for two
+  values), bit for bit the interpreter's ``math.hypot`` in both modes
+  (``tests/positioning/test_integrity_fast.py``). NumPy's ``np.hypot`` *is* libm's:
+  where the replaced code called it (:func:`~agvnav.positioning.triangulation._nonlinear`)
+  the kernel calls ``np.hypot`` (libm's, compiled or not).
+* ``x ** 2`` on a Python float is libm's ``pow(x, 2.0)``, which differs from ``x * x`` in
+  the last bit on ~0.1 % of values; numba turns a constant exponent into ``x * x``. Where
+  the replaced code squared a Python float, the kernel takes the exponent ``two`` (2.0) as
+  an argument: numba cannot fold it and calls libm's ``pow``, as CPython does. NumPy's
+  ``a ** 2`` on arrays is ``a * a`` (written so here).
+* decisions the replaced code took on slightly different sums (the coincident and parallel
+  tests of :func:`~agvnav.positioning.triangulation.triangulate`, its critical-circle test
+  on squares computed with ``pow``) are taken here only where a relative margin of 1e-9
+  (far beyond rounding) settles them; otherwise the kernel asks its caller to run the
+  public function (a code 2: the rare path).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from agvnav._jit import jit
+from agvnav.geometry.angles import wrap_angle_kernel
+from agvnav.positioning._three import CRITICAL_TOL, REORDER_TOL
+from agvnav.positioning.triangulation import LAYOUT_TOL, NONLINEAR_RATIO, PARALLEL_TOL
+
+__all__ = [
+    "TOTAL_FALLBACK", "TOTAL_INVALID", "TOTAL_VALID", "best_triple", "crosscheck_fix", "fix_covariance",
+    "nonlinear_fix", "position_crlb_one", "py_hypot", "total_fix",
+]
+
+#: :func:`total_fix` codes: no valid fix, a valid fix, and "decide with the public triangulate" (rare path).
+TOTAL_INVALID, TOTAL_VALID, TOTAL_FALLBACK = 0, 1, 2
+
+_DBL_MIN = 2.2250738585072014e-308
+_SPLIT = 134217729.0  # 2**27 + 1: Veltkamp-Dekker splitting of a double into two 26-bit halves
+_CRIT2 = (2.0 * CRITICAL_TOL) ** 2  # total's critical-circle bound, computed as total_kernel does
+_MARGIN = 1e-9  # relative margin of the decisions taken here (module docstring)
+_WIDTH, _IDX, _BEAR, _OX, _OY, _OPSI = 20, 2, 3, 4, 5, 6  # window row columns (integrity._WIDTH and co)
+
+
+@jit
+def _square_split(x: float) -> tuple[float, float]:
+    """``x * x`` exactly, as ``hi + lo`` (Veltkamp-Dekker; CPython's ``dl_mul(x, x)``)."""
+    c = _SPLIT * x
+    xh = c - (c - x)
+    xl = x - xh
+    z = x * x
+    return z, (((xh * xh - z) + xh * xl) + xl * xh) + xl * xl
+
+
+@jit
+def _neg_square_split(h: float) -> tuple[float, float]:
+    """``-h * h`` exactly, as ``hi + lo`` (CPython's ``dl_mul(-h, h)``)."""
+    x = -h
+    c = _SPLIT * x
+    xh = c - (c - x)
+    xl = x - xh
+    c = _SPLIT * h
+    yh = c - (c - h)
+    yl = h - yh
+    z = x * h
+    return z, (((xh * yh - z) + xh * yl) + xl * yh) + xl * yl
+
+
+@jit
+def py_hypot(x: float, y: float) -> float:
+    """``math.hypot(x, y)`` of CPython 3.10+, bit for bit, in either mode (libm's differs: module docstring).
+
+    CPython's ``vector_norm`` for two values: scale by the power of two of the larger
+    magnitude (lossless), square exactly (Veltkamp-Dekker), add with Neumaier's
+    compensation around 1.0, take the root and correct it once by the first-order term.
+    """
+    x, y = abs(x), abs(y)
+    big = 0.0
+    if x > big:
+        big = x
+    if y > big:
+        big = y
+    if big == math.inf:
+        return big
+    if x != x or y != y:
+        return math.nan
+    if big == 0.0:
+        return big
+    back = 1.0
+    e = math.frexp(big)[1]
+    if e < -1023:  # subnormal: CPython divides by DBL_MIN first and multiplies the result back
+        x, y, big, back = x / _DBL_MIN, y / _DBL_MIN, big / _DBL_MIN, _DBL_MIN
+        e = math.frexp(big)[1]
+    scale = math.ldexp(1.0, -e)
+    csum, frac1, frac2 = 1.0, 0.0, 0.0
+    for v in (x * scale, y * scale):
+        hi, lo = _square_split(v)
+        s = csum + hi
+        frac2 += (csum - s) + hi
+        csum = s
+        frac1 += lo
+    h = math.sqrt(csum - 1.0 + (frac1 + frac2))
+    hi, lo = _neg_square_split(h)
+    s = csum + hi
+    frac2 += (csum - s) + hi
+    csum = s
+    frac1 += lo
+    h += (csum - 1.0 + (frac1 + frac2)) / (2.0 * h)
+    return back * (h / scale) if back != 1.0 else h / scale
+
+
+@jit
+def _head(x: float, y: float, psi: float, mx: float, my: float, mpsi: float) -> tuple[float, float, float]:
+    """Head pose in ``map`` from the base_link pose and the mount (``integrity._head``)."""
+    c, s = math.cos(psi), math.sin(psi)
+    return x + c * mx - s * my, y + s * mx + c * my, psi + mpsi
+
+
+@jit
+def _edge_bearing(hx: float, hy: float, hpsi: float, rx: float, ry: float, r: float) -> tuple[float, float]:
+    """Leading-edge bearing (rad, head frame, wrapped) of the reflector at ``(rx, ry)`` (m), radius ``r`` (m).
+
+    And its distance (m), from the head pose ``(hx, hy, hpsi)`` (the scalar form of
+    :func:`~agvnav.positioning.identification.bearing_model`).
+    """
+    dx, dy = rx - hx, ry - hy
+    d = py_hypot(dx, dy)
+    edge = -math.asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * math.pi
+    return wrap_angle_kernel(math.atan2(dy, dx) - hpsi + edge), d
+
+
+@jit
+def position_crlb_one(a00: float, a01: float, a02: float, a11: float, a12: float, a22: float) -> float:
+    """Trace of the position block of the inverse of the symmetric 3x3 ``a`` (upper triangle; inf if singular)."""
+    c00 = a11 * a22 - a12 * a12
+    c11 = a00 * a22 - a02 * a02
+    det = a00 * c00 + a01 * (a02 * a12 - a01 * a22) + a02 * (a01 * a12 - a02 * a11)
+    if det == 0.0:
+        return math.inf
+    score = (c00 + c11) / det
+    return score if score >= 0.0 and score < math.inf else math.inf
+
+
+@jit
+def best_triple(
+    hx: float, hy: float, rx: Any, ry: Any, var: Any, bearing_var: float, max_var: float,
+) -> int:
+    """Rank (in ``itertools.combinations`` order) of the triple of reflectors with the smallest position CRLB.
+
+    Head at ``(hx, hy)`` (m); candidates ``rx, ry (n,)`` (m) with bearing variances ``var (n,)``
+    (rad²; arrays compiled, Python lists interpreted). Each reflector's information is its
+    bearing Jacobian row ``[dy/d², -dx/d², -1]`` (seed 000 §2.3) squared, summed over a
+    triple; triples whose bound with ``bearing_var`` (rad²) exceeds ``max_var`` (m²) are
+    skipped, the rest ranked by their bound with ``var``.
+    -1 when none qualifies or a reflector sits on the head.
+    """
+    n = len(rx)
+    info = [0.0] * (6 * n)  # row k: the upper triangle 00 01 02 11 12 22 of its information
+    for k in range(n):
+        dx, dy = rx[k] - hx, ry[k] - hy
+        d2 = dx * dx + dy * dy
+        if d2 <= 0.0:
+            return -1
+        j0, j1 = dy / d2, -dx / d2
+        info[6 * k], info[6 * k + 1], info[6 * k + 2] = j0 * j0, j0 * j1, -j0
+        info[6 * k + 3], info[6 * k + 4], info[6 * k + 5] = j1 * j1, -j1, 1.0
+    best, best_score, rank = -1, math.inf, 0
+    for a in range(n):
+        for b in range(a + 1, n):
+            for c in range(b + 1, n):
+                pa, pb, pc = 6 * a, 6 * b, 6 * c
+                bound = position_crlb_one(
+                    info[pa] + info[pb] + info[pc], info[pa + 1] + info[pb + 1] + info[pc + 1],
+                    info[pa + 2] + info[pb + 2] + info[pc + 2], info[pa + 3] + info[pb + 3] + info[pc + 3],
+                    info[pa + 4] + info[pb + 4] + info[pc + 4], info[pa + 5] + info[pb + 5] + info[pc + 5])
+                if bound * bearing_var <= max_var:
+                    wa, wb, wc = var[a], var[b], var[c]
+                    score = position_crlb_one(
+                        info[pa] / wa + info[pb] / wb + info[pc] / wc,
+                        info[pa + 1] / wa + info[pb + 1] / wb + info[pc + 1] / wc,
+                        info[pa + 2] / wa + info[pb + 2] / wb + info[pc + 2] / wc,
+                        info[pa + 3] / wa + info[pb + 3] / wb + info[pc + 3] / wc,
+                        info[pa + 4] / wa + info[pb + 4] / wb + info[pc + 4] / wc,
+                        info[pa + 5] / wa + info[pb + 5] / wb + info[pc + 5] / wc)
+                    if score < best_score:
+                        best, best_score = rank, score
+                rank += 1
+    return best
+
+
+@jit
+def total_fix(
+    x1: float, y1: float, x2: float, y2: float, x3: float, y3: float, t1: float, t2: float, t3: float,
+) -> tuple[int, float, float]:
+    """One ToTal fix (m) from three reflectors (m) and their bearings (rad): ``(code, x, y)``.
+
+    :func:`~agvnav.positioning.total.total_kernel` on floats (``xp=ScalarMath``, the single-fix
+    path of :func:`~agvnav.positioning.triangulation.triangulate`), operation for operation,
+    including the cyclic reorder of :func:`~agvnav.positioning._three.order_pairs`. ``code``:
+    :data:`TOTAL_VALID`, :data:`TOTAL_INVALID` (not finite, or within ``CRITICAL_TOL`` of the
+    critical circle), or :data:`TOTAL_FALLBACK` where triangulate's single-fix path would leave
+    for its batch path (a division by an exact zero) or its coincident/parallel layout tests
+    and its critical-circle test are not settled by a 1e-9 margin (module docstring): the
+    caller then runs :func:`~agvnav.positioning.triangulation.triangulate`.
+    """
+    if not (math.isfinite(t1) and math.isfinite(t2) and math.isfinite(t3)):
+        return TOTAL_FALLBACK, math.nan, math.nan
+    # triangulate's layout tests: coincident reflectors, or rays parallel (P on their line)
+    d12 = (x2 - x1) * (x2 - x1) + (y2 - y1) * (y2 - y1)
+    d23 = (x3 - x2) * (x3 - x2) + (y3 - y2) * (y3 - y2)
+    d31 = (x1 - x3) * (x1 - x3) + (y1 - y3) * (y1 - y3)
+    near = 2.0 * LAYOUT_TOL * LAYOUT_TOL * max(d12, d23, d31)
+    if min(d12, d23, d31) <= near:
+        return TOTAL_FALLBACK, math.nan, math.nan
+    sp = max(abs(math.sin(t2 - t1)), abs(math.sin(t3 - t2)), abs(math.sin(t1 - t3)))
+    if sp <= 2.0 * PARALLEL_TOL:
+        return TOTAL_FALLBACK, math.nan, math.nan
+    scale2 = (d12 + d23 + d31) / 3.0  # layout_scale2, up to pow's rounding: decided with a margin below
+    # order_pairs
+    tn12, tn23, tn31 = math.tan(t2 - t1), math.tan(t3 - t2), math.tan(t1 - t3)
+    a12, a23, a31 = abs(tn12), abs(tn23), abs(tn31)
+    ta, tb = tn12, tn23
+    if a12 < REORDER_TOL and a12 < a23 and a12 < a31:  # order (2, 3, 1)
+        x1, x2, x3, y1, y2, y3 = x2, x3, x1, y2, y3, y1
+        ta, tb = tn23, tn31
+    elif a23 < REORDER_TOL and a23 <= a12 and a23 < a31:  # order (3, 1, 2)
+        x1, x2, x3, y1, y2, y3 = x3, x1, x2, y3, y1, y2
+        ta, tb = tn31, tn12
+    if ta == 0.0 or tb == 0.0:
+        return TOTAL_FALLBACK, math.nan, math.nan
+    t12 = 1.0 / ta
+    t23 = 1.0 / tb
+    u1, v1 = x1 - x2, y1 - y2
+    u3, v3 = x3 - x2, y3 - y2
+    n = 1.0 - t12 * t23
+    d = t12 + t23
+    x12, y12 = u1 + t12 * v1, v1 - t12 * u1
+    x23, y23 = u3 - t23 * v3, v3 + t23 * u3
+    dx31 = d * (u3 + u1) + n * (v3 - v1)
+    dy31 = d * (v3 + v1) - n * (u3 - u1)
+    dk31 = d * (u1 * u3 + v1 * v3) + n * (u1 * v3 - u3 * v1)
+    a = y12 - y23
+    b = x23 - x12
+    dd = (x12 - x23) * (d * y23 - dy31) - a * (d * x23 - dx31)
+    if dd == 0.0:
+        return TOTAL_FALLBACK, math.nan, math.nan
+    f = dk31 / dd
+    px = x2 + f * a
+    py = y2 + f * b
+    if not (math.isfinite(px) and math.isfinite(py)):
+        return TOTAL_INVALID, px, py
+    lhs, rhs = a * a + b * b, _CRIT2 * scale2
+    if lhs > rhs * (1.0 + _MARGIN):
+        return TOTAL_VALID, px, py
+    if lhs < rhs * (1.0 - _MARGIN):
+        return TOTAL_INVALID, px, py
+    return TOTAL_FALLBACK, math.nan, math.nan
+
+
+@jit
+def fix_covariance(
+    rx: Any, ry: Any, px: float, py: float, std: Any,
+) -> tuple[bool, float, float, float, float, float, float]:
+    """Linearised covariance of a fix at ``(px, py)`` (m) from reflectors ``rx, ry (3,)`` (m), bearing stds ``std``.
+
+    ``(J^T R^-1 J)^-1`` as triangulate computes it: :func:`~agvnav.positioning.bounds.fisher_information`
+    (its ``einsum``: per entry ``((J_ki w_k) J_kj)`` summed over ``k`` in order from 0.0, ``w = 1 / std²``)
+    and :func:`~agvnav.positioning.bounds.inv_sym3` (adjugate times ``1 / det``, singular when
+    ``|det| <= 1e-13`` of its terms' magnitudes). Returns ``(ok, c00, c01, c02, c11, c12, c22)``
+    (m², m·rad, rad²); not ``ok``: singular (the entries NaN).
+    """
+    a00 = a01 = a02 = a11 = a12 = a22 = 0.0
+    for k in range(3):
+        dx, dy = rx[k] - px, ry[k] - py
+        d2 = dx * dx + dy * dy
+        j0, j1 = dy / d2, -dx / d2
+        w = 1.0 / (std[k] * std[k])
+        a00 = a00 + j0 * w * j0
+        a01 = a01 + j0 * w * j1
+        a02 = a02 + j0 * w * -1.0
+        a11 = a11 + j1 * w * j1
+        a12 = a12 + j1 * w * -1.0
+        a22 = a22 + -1.0 * w * -1.0
+    c00 = a11 * a22 - a12 * a12
+    c01 = a02 * a12 - a01 * a22
+    c02 = a01 * a12 - a02 * a11
+    c11 = a00 * a22 - a02 * a02
+    c12 = a01 * a02 - a00 * a12
+    c22 = a00 * a11 - a01 * a01
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    scale = abs(a00 * c00) + abs(a01 * c01) + abs(a02 * c02)
+    if not (math.isfinite(det) and abs(det) > 1e-13 * scale):
+        return False, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan
+    inv = 1.0 / det
+    return True, c00 * inv, c01 * inv, c02 * inv, c11 * inv, c12 * inv, c22 * inv
+
+
+@jit
+def nonlinear_fix(rx: Any, ry: Any, px: float, py: float, c00: float, c01: float, c11: float) -> bool:
+    """True where a three-reflector fix at ``(px, py)`` (m) is too near its critical circle for its covariance.
+
+    :func:`~agvnav.positioning.triangulation._nonlinear` for one fix that did not keep a heading
+    estimate, in the same operations (``np.hypot`` is libm's, as NumPy's): the largest
+    eigenvalue of the position block ``[[c00, c01], [c01, c11]]`` (m²) against
+    ``(NONLINEAR_RATIO * distance)²`` from the circle through ``rx, ry (3,)`` (m), or from
+    their line when collinear.
+    """
+    ax, bx, cx = rx[0], rx[1], rx[2]
+    ay, by, cy = ry[0], ry[1], ry[2]
+    den = 2.0 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
+    a2, b2, c2 = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
+    circle = math.nan
+    if den != 0.0:  # NumPy's 0/0 or x/0 gives NaN or inf and a circle distance that is not finite
+        ux = (a2 * (by - cy) + b2 * (cy - ay) + c2 * (ay - by)) / den
+        uy = (a2 * (cx - bx) + b2 * (ax - cx) + c2 * (bx - ax)) / den
+        circle = abs(np.hypot(px - ux, py - uy) - np.hypot(ax - ux, ay - uy))
+    if math.isfinite(circle):
+        dist = circle
+    else:
+        lx, ly = cx - ax, cy - ay
+        norm = np.hypot(lx, ly)
+        num = abs(lx * (py - ay) - ly * (px - ax))
+        dist = num / norm if norm != 0.0 else (math.nan if num == 0.0 or num != num else math.inf)
+    half = c00 - c11
+    big = 0.5 * (c00 + c11) + math.sqrt(0.25 * (half * half) + c01 * c01)
+    reach = NONLINEAR_RATIO * dist
+    return bool(math.isfinite(big) and big > reach * reach)
+
+
+@jit
+def _round_half_even(v: float) -> int:
+    """Python's ``round(v)`` of a non-negative float (half to even)."""
+    f = math.floor(v)
+    r = v - f
+    k = int(f)
+    if r > 0.5 or (r == 0.5 and k % 2 == 1):
+        k += 1
+    return k
+
+
+@jit
+def crosscheck_fix(
+    buf: Any, start: int, newest: Any, pose: Any, odom: Any, mount: Any, rx: Any, ry: Any, radius: Any,
+    map_std: Any, noise: Any, bearing_var: float, two: float, max_var: float,
+) -> tuple[int, float, float, float, float, float, int, int, int, float, float, float, float, float, float]:
+    """The cross-check's propagated bearings, best triple and ToTal fix (``IntegrityMonitor._crosscheck``).
+
+    ``buf``, ``start``: the window (:meth:`~agvnav.positioning.integrity._Window.buffer`); ``newest (N,)``
+    each map row's newest sighting within a revolution (window position, -1: none; the tally's);
+    ``pose``, ``odom`` (3,) the estimate and the odometric pose now (m, m, rad); ``mount`` (3,);
+    the map ``rx, ry, radius, map_std (N,)`` (m); ``noise`` (3,) the odometry coefficients
+    ``k_d, k_dtheta, k_theta``; ``bearing_var`` the bearing variance (rad², squared by the
+    caller), ``two`` the exponent 2.0 (module docstring), ``max_var`` ``max_fix_std_m²`` (m²).
+
+    Returns ``(code, x, y, c00, c01, c11, i, j, k, z_i, z_j, z_k, s_i, s_j, s_k)``: ``code``
+    0 no fix (fewer than three reflectors, no good triple, an invalid fix or a covariance that
+    is not finite), 1 a fix ``(x, y)`` (m) with its position covariance (m²), 2 the triple's map
+    rows, propagated bearings (rad) and stds (rad) for the caller's
+    :func:`~agvnav.positioning.triangulation.triangulate` (:func:`total_fix`'s rare path).
+    """
+    nan = math.nan
+    pos = [0] * 0
+    for j in range(len(newest)):
+        if newest[j] >= 0:
+            pos.append(newest[j])
+    pos.sort()
+    pos.reverse()  # each reflector's newest sighting, newest first
+    m = len(pos)
+    if m < 3:
+        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+    if m > 8:  # _spread8: numpy.linspace(0, m - 1, 8).round()
+        step = (m - 1) / 7
+        pos = [pos[_round_half_even(k * step)] for k in range(7)] + [pos[m - 1]]
+        m = 8
+    px, py, ppsi = pose[0], pose[1], pose[2]
+    ox, oy, opsi = odom[0], odom[1], odom[2]
+    co, so = math.cos(opsi), math.sin(opsi)
+    cp, sp = math.cos(ppsi), math.sin(ppsi)
+    hx, hy, hpsi = _head(px, py, ppsi, mount[0], mount[1], mount[2])
+    k_d, k_dtheta, k_theta = noise[0], noise[1], noise[2]
+    rows = [0] * m
+    cx, cy, z, var = [0.0] * m, [0.0] * m, [0.0] * m, [0.0] * m
+    for q in range(m):
+        o = start + pos[q] * _WIDTH
+        i = int(buf[o + _IDX])
+        ex, ey = buf[o + _OX] - ox, buf[o + _OY] - oy  # odometric pose then, seen from now (between)
+        rx_, ry_ = co * ex + so * ey, -so * ex + co * ey
+        turn = buf[o + _OPSI] - opsi
+        tx, ty, tpsi = _head(px + cp * rx_ - sp * ry_, py + sp * rx_ + cp * ry_, ppsi + turn,
+                             mount[0], mount[1], mount[2])
+        r = radius[i]
+        h_then, d_then = _edge_bearing(tx, ty, tpsi, rx[i], ry[i], r)
+        h_now = _edge_bearing(hx, hy, hpsi, rx[i], ry[i], r)[0]
+        d = max(d_then, 1e-12)
+        centre = buf[o + _BEAR] + math.asin(min(max(r / d, 0.0), 1.0))  # edge -> centre
+        # the odometry between then and now errs too [seed002 eq17]
+        s_odo = py_hypot(ex, ey)
+        var_th = k_dtheta * s_odo + k_theta * abs(wrap_angle_kernel(turn))
+        var_pos = k_d * s_odo + var_th * s_odo * s_odo / 3.0
+        var[q] = bearing_var + (map_std[i] / d) ** two + var_th + var_pos / (d * d)
+        z[q] = centre + (h_now - h_then)
+        rows[q], cx[q], cy[q] = i, rx[i], ry[i]
+    best = best_triple(hx, hy, cx, cy, var, bearing_var, max_var)
+    if best < 0:
+        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+    rank = 0
+    a = b = c = -1
+    for u in range(m):  # the combination of that rank
+        for v in range(u + 1, m):
+            for w in range(v + 1, m):
+                if rank == best:
+                    a, b, c = u, v, w
+                rank += 1
+    sa, sb, sc = math.sqrt(var[a]), math.sqrt(var[b]), math.sqrt(var[c])
+    if not (sa > 0.0 and sb > 0.0 and sc > 0.0 and math.isfinite(sa) and math.isfinite(sb) and math.isfinite(sc)):
+        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan  # triangulate: ValueError
+    tri_x, tri_y = (cx[a], cx[b], cx[c]), (cy[a], cy[b], cy[c])
+    code, fx, fy = total_fix(cx[a], cy[a], cx[b], cy[b], cx[c], cy[c], z[a], z[b], z[c])
+    if code == TOTAL_FALLBACK:
+        return 2, nan, nan, nan, nan, nan, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc
+    if code == TOTAL_INVALID:
+        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+    ok, c00, c01, c02, c11, c12, c22 = fix_covariance(tri_x, tri_y, fx, fy, (sa, sb, sc))
+    if not ok or nonlinear_fix(tri_x, tri_y, fx, fy, c00, c01, c11):
+        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+    if not (math.isfinite(c00) and math.isfinite(c01) and math.isfinite(c02) and math.isfinite(c11)
+            and math.isfinite(c12) and math.isfinite(c22)):
+        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+    return 1, fx, fy, c00, c01, c11, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc

@@ -1,0 +1,238 @@
+"""agvnav.positioning._integrity_fast: the monitor's compiled check gives the bits of the forms it replaced.
+
+Each kernel is run in both modes (compiled and interpreted) and compared bit for bit with
+the Python / NumPy form it stands for: CPython's ``math.hypot``, ``triangulate(method="total")``
+(its single-fix path, covariance and critical-circle flag), and the cross-check's former
+plain-Python propagation (kept here, :func:`_reference_crosscheck`, as the reference).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from agvnav import _jit
+from agvnav.geometry import wrap_angle_scalar
+from agvnav.positioning import _integrity_fast as fast
+from agvnav.positioning.integrity import _WIDTH, IntegrityMonitor, _head, _spread8
+from agvnav.positioning.triangulation import _nonlinear, triangulate
+
+pytestmark = pytest.mark.usefixtures("restore_jit_mode")
+
+MODES = (False, True)
+
+
+def _bits(v: float) -> str:
+    return float(v).hex()
+
+
+@pytest.mark.parametrize("on", MODES)
+def test_py_hypot_is_cpythons_hypot_bit_for_bit(on: bool) -> None:
+    """libm's hypot differs from CPython's on ~0.6 % of pairs; the kernel is CPython's in both modes."""
+    _jit.set_compiled(on)
+    rng = np.random.default_rng(3)
+    n = 100_000 if on else 20_000
+    a = rng.standard_normal(n) * 10.0 ** rng.uniform(-6, 6, n)
+    b = rng.standard_normal(n) * 10.0 ** rng.uniform(-6, 6, n)
+    special = [(0.0, 0.0), (-0.0, 2.0), (5e-324, 1e-320), (1e-310, 3e-309), (1e308, 1e308), (3.0, 4.0),
+               (math.inf, math.nan), (math.nan, 1.0), (-math.inf, 2.0), (0.28183784439970383, 0.7558042041572239)]
+    pairs = list(zip(a.tolist(), b.tolist(), strict=True)) + special
+    got = [_bits(fast.py_hypot(x, y)) for x, y in pairs]
+    assert got == [_bits(math.hypot(x, y)) for x, y in pairs]
+
+
+def _random_triple(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Three reflectors (m), a head position (m) and its three bearings (rad, noisy) in a 20 m hall."""
+    r = rng.uniform(-10.0, 10.0, (3, 2))
+    if rng.uniform() < 0.2:  # collinear reflectors on one wall, as many maps have
+        r[:, 1] = r[0, 1]
+    p = rng.uniform(-10.0, 10.0, 2)
+    psi = rng.uniform(-math.pi, math.pi)
+    z = np.arctan2(r[:, 1] - p[1], r[:, 0] - p[0]) - psi + rng.normal(0.0, 1e-3, 3)
+    return r, np.array([wrap_angle_scalar(v) for v in z.tolist()]), rng.uniform(1e-4, 5e-3, 3)
+
+
+@pytest.mark.parametrize("on", MODES)
+def test_total_fix_covariance_and_flag_are_triangulates(on: bool) -> None:
+    """ToTal's single fix, its covariance and its critical-circle flag: triangulate's bits (code 2 aside)."""
+    _jit.set_compiled(on)
+    rng = np.random.default_rng(5)
+    codes = {0: 0, 1: 0, 2: 0}
+    for _ in range(3_000):
+        r, z, std = _random_triple(rng)
+        (x1, y1), (x2, y2), (x3, y3) = r.tolist()
+        code, px, py = fast.total_fix(x1, y1, x2, y2, x3, y3, *z.tolist())
+        codes[code] += 1
+        if code == fast.TOTAL_FALLBACK:
+            continue
+        try:
+            fix = triangulate(r, z, method="total", bearing_std=std)
+        except ValueError:
+            pytest.fail("total_fix gave a fix where triangulate raises")
+        rx, ry = tuple(r[:, 0].tolist()), tuple(r[:, 1].tolist())
+        if code == fast.TOTAL_INVALID:
+            assert not bool(fix.valid) or not math.isfinite(px)
+            continue
+        ok, c00, c01, c02, c11, c12, c22 = fast.fix_covariance(rx, ry, px, py, tuple(std.tolist()))
+        flagged = ok and fast.nonlinear_fix(rx, ry, px, py, c00, c01, c11)
+        assert bool(fix.valid) == (not flagged)
+        assert fix.covariance is not None
+        if not flagged:
+            assert (_bits(fix.x), _bits(fix.y)) == (_bits(px), _bits(py))
+        want = fix.covariance[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]].tolist()
+        if ok:
+            assert [_bits(v) for v in (c00, c01, c02, c11, c12, c22)] == [_bits(v) for v in want]
+        else:
+            assert all(math.isnan(v) for v in want)
+    assert codes[1] > 2_000 and codes[2] < 30  # the rare path stays rare
+
+
+def test_nonlinear_fix_is_triangulations_flag_on_near_critical_fixes() -> None:
+    """Fixes near their critical circle (where the flag turns): the kernel's flag is ``_nonlinear``'s."""
+    rng = np.random.default_rng(9)
+    flips = 0
+    for _ in range(2_000):
+        r = rng.uniform(-5.0, 5.0, (3, 2))
+        px, py = rng.uniform(-5.0, 5.0, 2).tolist()
+        c = rng.uniform(1e-6, 1e-1) * np.array([rng.uniform(0.1, 1.0), rng.uniform(-0.05, 0.05), rng.uniform(0.1, 1)])
+        cov = np.array([[[c[0], c[1], 0.0], [c[1], c[2], 0.0], [0.0, 0.0, 1.0]]])
+        want = bool(_nonlinear(r, np.array([px]), np.array([py]), cov, np.array([False]))[0])
+        got = fast.nonlinear_fix(tuple(r[:, 0].tolist()), tuple(r[:, 1].tolist()), px, py, *c.tolist())
+        assert got == want
+        flips += want
+    assert 100 < flips < 1_900  # both outcomes exercised
+
+
+def _monitor(rng: np.random.Generator, n: int) -> IntegrityMonitor:
+    xy = rng.uniform(0.0, 20.0, (n, 2))
+    radius = rng.uniform(0.02, 0.05, n)
+    map_std = np.where(rng.uniform(size=n) < 0.2, 0.0, rng.uniform(1e-3, 1e-2, n))
+    return IntegrityMonitor(xy, radius, (0.3, 0.05, 0.01), 1e-3, 0.125, map_std=map_std,
+                            odometry_noise=(1e-4, 2e-4, 1e-3))
+
+
+def _window(rng: np.random.Generator, mon: IntegrityMonitor, t: float) -> None:
+    """Accepted reflections over the last second: stamps, map rows, bearings and odometric poses."""
+    n_rows = int(rng.integers(0, 80))
+    ts = np.sort(rng.uniform(t - 0.9, t, n_rows))
+    for tk in ts.tolist():
+        j = int(rng.integers(0, mon.xy.shape[0]))
+        odom = (float(rng.uniform(8, 12)), float(rng.uniform(8, 12)), float(rng.uniform(-3, 3)))
+        mon.accepted(tk, float(rng.uniform(0, 3)), j, float(rng.uniform(-math.pi, math.pi)), odom)
+
+
+def _reference_crosscheck(mon: IntegrityMonitor, x: np.ndarray, odom: tuple[float, ...], newest: np.ndarray) -> tuple:
+    """The cross-check's former plain-Python form (propagation, best triple, triangulate): ``(x, y, c00, c01, c11)``."""
+    seen = np.flatnonzero(newest >= 0)
+    pos = np.sort(newest[seen])[::-1].tolist()
+    if len(pos) < 3:
+        return None
+    if len(pos) > 8:
+        pos = [pos[k] for k in _spread8(len(pos))]
+    px, py, ppsi = float(x[0]), float(x[1]), float(x[2])
+    ox, oy, opsi = float(odom[0]), float(odom[1]), float(odom[2])
+    co, so, cp, sp = math.cos(opsi), math.sin(opsi), math.cos(ppsi), math.sin(ppsi)
+    head_now = _head(x, mon.mount)
+    k_d, k_dtheta, k_theta = mon.odometry_noise
+
+    def edge(pose: tuple[float, float, float], i: int) -> tuple[float, float]:
+        hx, hy, hpsi = pose
+        rx, ry = float(mon.xy[i, 0]), float(mon.xy[i, 1])
+        d = math.hypot(rx - hx, ry - hy)
+        r = float(mon.radius[i])
+        e = -math.asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * math.pi
+        return wrap_angle_scalar(math.atan2(ry - hy, rx - hx) - hpsi + e), d
+
+    prop: dict[int, tuple[float, float]] = {}
+    for k in pos:
+        e = mon._entries.row(k)
+        i = int(e[2])
+        ex, ey = e[4] - ox, e[5] - oy
+        rx_, ry_ = co * ex + so * ey, -so * ex + co * ey
+        turn = e[6] - opsi
+        h_then, d_then = edge(_head((px + cp * rx_ - sp * ry_, py + sp * rx_ + cp * ry_, ppsi + turn), mon.mount), i)
+        h_now, _ = edge(head_now, i)
+        r = float(mon.radius[i])
+        d = max(d_then, 1e-12)
+        centre = e[3] + math.asin(min(max(r / d, 0.0), 1.0))
+        s_odo = math.hypot(ex, ey)
+        var_th = k_dtheta * s_odo + k_theta * abs(wrap_angle_scalar(turn))
+        var_pos = k_d * s_odo + var_th * s_odo * s_odo / 3.0
+        var = mon.bearing_std**2 + (float(mon.map_std[i]) / d) ** 2 + var_th + var_pos / (d * d)
+        prop[i] = (centre + (h_now - h_then), var)
+    idx = mon._best_triple(x, list(prop), [prop[i][1] for i in prop])
+    if idx is None:
+        return None
+    try:
+        fix = triangulate(mon.xy[idx], np.array([prop[i][0] for i in idx]), method="total",
+                          bearing_std=np.sqrt([prop[i][1] for i in idx]))
+    except ValueError:
+        return None
+    if not bool(fix.valid) or fix.covariance is None or not np.all(np.isfinite(fix.covariance)):
+        return None
+    c = fix.covariance
+    return float(fix.x), float(fix.y), float(c[0, 0]), float(c[0, 1]), float(c[1, 1])
+
+
+@pytest.mark.parametrize("on", MODES)
+def test_crosscheck_fix_is_the_former_propagation_and_fix(on: bool) -> None:
+    """Random windows (0-80 sightings of 5-40 reflectors): the kernel's fix is the plain form's, bit for bit."""
+    _jit.set_compiled(on)
+    rng = np.random.default_rng(17)
+    fixes = 0
+    for _ in range(300):
+        mon = _monitor(rng, int(rng.integers(5, 40)))
+        t = 10.0
+        _window(rng, mon, t)
+        tally = mon._tally(t)
+        x = np.array([rng.uniform(8, 12), rng.uniform(8, 12), rng.uniform(-3, 3)])
+        odom = (float(rng.uniform(8, 12)), float(rng.uniform(8, 12)), float(rng.uniform(-3, 3)))
+        buf, start = mon._entries.buffer()
+        rx, ry, radius, map_std = mon._tables if on else mon._lists
+        out = fast.crosscheck_fix(buf, start, tally.newest, tuple(x.tolist()), odom, mon._mount_t, rx, ry, radius,
+                                  map_std, mon.odometry_noise, mon.bearing_std**2, 2.0, mon.limits.max_fix_std_m**2)
+        want = _reference_crosscheck(mon, x, odom, tally.newest)
+        if out[0] == 2:
+            continue
+        if want is None:
+            assert out[0] == 0
+            continue
+        assert out[0] == 1
+        assert [_bits(v) for v in out[1:6]] == [_bits(v) for v in want]
+        fixes += 1
+    assert fixes > 100
+
+
+def test_crosscheck_fix_modes_agree_bit_for_bit() -> None:
+    """The whole kernel compiled and interpreted: the same tuple on the same windows."""
+    rng = np.random.default_rng(23)
+    cases = []
+    for _ in range(60):
+        mon = _monitor(rng, int(rng.integers(5, 30)))
+        _window(rng, mon, 10.0)
+        x = tuple(rng.uniform(8, 12, 2).tolist()) + (float(rng.uniform(-3, 3)),)
+        odom = (float(rng.uniform(8, 12)), float(rng.uniform(8, 12)), float(rng.uniform(-3, 3)))
+        cases.append((mon, x, odom))
+    results = {}
+    for on in MODES:
+        _jit.set_compiled(on)
+        got = []
+        for mon, x, odom in cases:
+            buf, start = mon._entries.buffer()
+            tables = mon._tables if on else mon._lists
+            out = fast.crosscheck_fix(buf, start, mon._tally(10.0).newest, x, odom, mon._mount_t, *tables,
+                                      mon.odometry_noise, 1e-6, 2.0, 0.05**2)
+            got.append(tuple(_bits(v) if isinstance(v, float) else int(v) for v in out))
+        results[on] = got
+    assert results[True] == results[False]
+    assert sum(r[0] == 1 for r in results[True]) > 20
+
+
+def test_window_row_layout_is_the_monitors() -> None:
+    """The kernel reads the window's columns by the monitor's layout (``integrity._WIDTH`` and co)."""
+    from agvnav.positioning import integrity
+
+    assert (fast._WIDTH, fast._IDX, fast._BEAR, fast._OX, fast._OY, fast._OPSI) == (
+        _WIDTH, integrity._IDX, integrity._BEAR, integrity._OX, integrity._OY, integrity._OPSI)
