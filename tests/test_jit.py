@@ -11,9 +11,9 @@ import pytest
 from agvnav import _jit
 from agvnav.geometry import wrap_angle
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
-from agvnav.positioning._integrity_fast import best_triple
+from agvnav.positioning._integrity_fast import _information_sums, best_triple
 from agvnav.positioning.gating import BearingIndex, GateSpec, near_rows
-from agvnav.positioning.integrity import _fde_statistics, _information_sums, _window_tally
+from agvnav.positioning.integrity import _fde_statistics, _window_tally
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
 
@@ -209,7 +209,8 @@ def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
               "_information_sums", "move_state", "_sinc_k", "_dsinc_k", "gate_rows", "gate_accept", "schmidt_accept"}
     # the integrity check's kernels: bit for bit in both modes in tests/positioning/test_integrity_fast.py
     tested |= {"py_hypot", "_square_split", "_neg_square_split", "_head", "_edge_bearing", "total_fix",
-               "fix_covariance", "nonlinear_fix", "_round_half_even", "crosscheck_fix"}
+               "fix_covariance", "nonlinear_fix", "_round_half_even", "crosscheck_fix", "mean_innovations",
+               "revolution_innovations", "_inverse3", "information", "in_range"}
     known = {k.py_func.__name__ for k in _jit.kernels()}
     assert known <= tested, f"kernels without a bit-for-bit test here: {sorted(known - tested)}"
 

@@ -236,3 +236,119 @@ def test_window_row_layout_is_the_monitors() -> None:
 
     assert (fast._WIDTH, fast._IDX, fast._BEAR, fast._OX, fast._OY, fast._OPSI) == (
         _WIDTH, integrity._IDX, integrity._BEAR, integrity._OX, integrity._OY, integrity._OPSI)
+
+
+def _reference_inverse3(a: list[float]) -> tuple[float, ...] | None:
+    """The monitor's former plain-Python inverse of a symmetric 3x3 (upper triangle), None if singular."""
+    a00, a01, a02, a11, a12, a22 = a
+    c00, c01, c02 = a11 * a22 - a12 * a12, a02 * a12 - a01 * a22, a01 * a12 - a02 * a11
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    scale = max(abs(a00), abs(a11), abs(a22)) ** 3
+    if not (math.isfinite(det) and abs(det) > 1e-12 * scale and det != 0.0):
+        return None
+    c11, c12, c22 = a00 * a22 - a02 * a02, a01 * a02 - a00 * a12, a00 * a11 - a01 * a01
+    return c00 / det, c01 / det, c02 / det, c11 / det, c12 / det, c22 / det
+
+
+@pytest.mark.parametrize("on", MODES)
+def test_information_is_the_former_pdop_and_survey_floor(on: bool) -> None:
+    """PDOP² and the survey floor of the sighted reflectors: the former form's bits (pow for ``** 3``)."""
+    _jit.set_compiled(on)
+    rng = np.random.default_rng(29)
+    floors = 0
+    for _ in range(1_500):
+        mon = _monitor(rng, int(rng.integers(3, 30)))
+        sightings = (rng.uniform(size=mon.xy.shape[0]) < 0.5).astype(np.float64)
+        x = np.array([rng.uniform(0, 20), rng.uniform(0, 20), rng.uniform(-3, 3)])
+        head = _head(x, mon.mount)
+        unit, floor = mon._information(head, sightings)
+        used = np.flatnonzero(sightings)
+        ok, a, b, survey = fast._information_sums.py_func(head[0], head[1], mon.xy[used, 0].tolist(),
+                                                          mon.xy[used, 1].tolist(), mon.map_std[used].tolist())
+        if not ok:
+            assert unit == math.inf and not floor.any()
+            continue
+        inv = _reference_inverse3(list(a))
+        want = math.inf if inv is None else inv[0] + inv[3]
+        assert _bits(unit) == _bits(want if math.isfinite(want) and want >= 0.0 else math.inf)
+        cov = _reference_inverse3(list(b)) if survey and len(used) >= 3 else None
+        if cov is None or not all(math.isfinite(v) for v in cov):
+            assert not floor.any()
+            continue
+        c00, c01, c02, c11, c12, c22 = cov
+        psi = head[2] - float(mon.mount[2])
+        c, s = math.cos(psi), math.sin(psi)
+        ta, tb = s * mon.mount[0] + c * mon.mount[1], -c * mon.mount[0] + s * mon.mount[1]
+        want_floor = [c00 + 2.0 * ta * c02 + ta * ta * c22, c01 + ta * c12 + tb * c02 + ta * tb * c22,
+                      c02 + ta * c22, c11 + 2.0 * tb * c12 + tb * tb * c22, c12 + tb * c22, c22]
+        got = floor[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]].tolist()
+        assert [_bits(v) for v in got] == [_bits(v) for v in want_floor]
+        floors += 1
+    assert floors > 150
+
+
+@pytest.mark.parametrize("on", MODES)
+def test_in_range_is_hypot_against_the_range_at_the_boundary_too(on: bool) -> None:
+    """Reflectors spread about the range boundary (within 1e-9 relative and exactly on it): ``math.hypot``'s count."""
+    _jit.set_compiled(on)
+    rng = np.random.default_rng(31)
+    for _ in range(300):
+        n = int(rng.integers(1, 60))
+        hx, hy = rng.uniform(-5, 5, 2).tolist()
+        max_range = float(rng.uniform(1.0, 10.0))
+        ang = rng.uniform(-math.pi, math.pi, n)
+        d = max_range * (1.0 + rng.choice([-1e-3, -1e-10, 0.0, 1e-16, 1e-10, 1e-3], n))
+        xy = np.column_stack([hx + d * np.cos(ang), hy + d * np.sin(ang)])
+        excluded = (rng.uniform(size=n) < 0.1).astype(np.int64)
+        rx, ry = xy[:, 0].copy(), xy[:, 1].copy()
+        args = (rx, ry) if on else (rx.tolist(), ry.tolist())
+        got = fast.in_range(hx, hy, *args, max_range, excluded)
+        want = sum(1 for j in range(n) if not excluded[j] and math.hypot(rx[j] - hx, ry[j] - hy) <= max_range)
+        assert got == want
+
+
+@pytest.mark.parametrize("on", MODES)
+def test_revolution_and_mean_innovations_are_the_former_numpy_sums(on: bool) -> None:
+    """The common offset's and the RAIM's per-reflector means: the former dict sums and NumPy expressions."""
+    _jit.set_compiled(on)
+    rng = np.random.default_rng(37)
+    for _ in range(200):
+        n_map, n_rows = int(rng.integers(4, 40)), int(rng.integers(0, 120))
+        rows = rng.normal(size=(n_rows, _WIDTH)) * 1e-2
+        rows[:, 0] = np.sort(rng.uniform(9.0, 10.0, n_rows))
+        rows[:, 2] = rng.integers(0, n_map, n_rows)
+        rows[:, 14] = rng.integers(0, 2, n_rows)
+        rows[:, 16] = rng.uniform(1e-6, 1e-4, n_rows)
+        att = [(float(rng.uniform(9.5, 10.0)), int(rng.integers(0, n_map)), *rng.normal(size=5).tolist())
+               for _ in range(int(rng.integers(0, 4)))]
+        excluded = (rng.uniform(size=n_map) < 0.1).astype(np.int64)
+        map_std = np.where(rng.uniform(size=n_map) < 0.3, 0.0, rng.uniform(1e-3, 1e-2, n_map))
+        buf = rows.reshape(-1) if on else list(rows.reshape(-1).tolist())
+        att_arg = np.array(att, dtype=np.float64).reshape(-1, 7) if on else att
+        sums = fast.revolution_innovations(buf, 0, n_rows, 10.0, 0.125, excluded, att_arg, len(att))
+        ref: dict[int, list[float]] = {}
+        for r in rows[(rows[:, 14] != 0.0) & ~(10.0 - rows[:, 0] > 0.125)].tolist():
+            if not excluded[int(r[2])]:
+                acc = ref.setdefault(int(r[2]), [0.0] * 6)
+                for c in range(5):
+                    acc[c] += r[15 + c]
+                acc[5] += 1.0
+        for ta, j, *v in att:
+            if not 10.0 - ta > 0.125 and not excluded[j]:
+                acc = ref.setdefault(j, [0.0] * 6)
+                for c in range(5):
+                    acc[c] += v[c]
+                acc[5] += 1.0
+        found = np.flatnonzero(sums[:, 5])
+        assert found.tolist() == sorted(ref)
+        if not len(found):
+            continue
+        m = np.array([ref[j] for j in found.tolist()])
+        assert sums[found].tobytes() == m.tobytes()
+        ybar, hbar, var, w = fast.mean_innovations(sums, found, map_std, 1e-6)
+        n = m[:, 5]
+        h = m[:, 2:5] / n[:, None]
+        survey = map_std[found] ** 2 * (h[:, 0] * h[:, 0] + h[:, 1] * h[:, 1])
+        want_var = survey + np.maximum(m[:, 1] / n - survey, 1e-6) / n
+        assert ybar.tobytes() == (m[:, 0] / n).tobytes() and hbar.tobytes() == h.tobytes()
+        assert var.tobytes() == want_var.tobytes() and w.tobytes() == (1.0 / want_var).tobytes()

@@ -440,3 +440,186 @@ def crosscheck_fix(
             and math.isfinite(c12) and math.isfinite(c22)):
         return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     return 1, fx, fy, c00, c01, c11, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc
+
+
+_T, _HAS_I, _Y = 0, 14, 15  # window row columns: stamp, has an innovation, the innovation y, S, H0, H1, H2
+
+
+@jit
+def mean_innovations(sums: Any, rows: Any, map_std: Any, bearing_var: float) -> tuple[Any, Any, Any, Any]:
+    """Per reflector the mean innovation, its Jacobian row and its variance, from summed innovations.
+
+    ``sums (N, 6)``: per map row the summed ``y, S, H0, H1, H2`` (rad, rad², Jacobian row) and
+    their count; ``rows (k,)`` the map rows to take (ascending); ``map_std (N,)`` the survey
+    std (m), ``bearing_var`` the bearing variance (rad²). Returns ``ybar (k,)``, ``Hbar (k, 3)``
+    and, as :meth:`~agvnav.positioning.integrity.IntegrityMonitor.raim` and
+    :meth:`~agvnav.positioning.integrity.IntegrityMonitor.offset` model them,
+    ``var = survey + max(Sbar - survey, bearing_var) / n`` with ``survey = map_std² |Hbar_xy|²``
+    ``(k,)`` (rad²) and ``1 / var`` ``(k,)``: the NumPy expressions they had, element by
+    element (``np.maximum`` keeps a NaN).
+    """
+    k = len(rows)
+    ybar, hbar, var, w = np.empty(k), np.empty((k, 3)), np.empty(k), np.empty(k)
+    for q in range(k):
+        j = rows[q]
+        n = sums[j, 5]
+        ybar[q] = sums[j, 0] / n
+        s_bar = sums[j, 1] / n
+        h0, h1, h2 = sums[j, 2] / n, sums[j, 3] / n, sums[j, 4] / n
+        hbar[q, 0], hbar[q, 1], hbar[q, 2] = h0, h1, h2
+        std = map_std[j]
+        survey = std * std * (h0 * h0 + h1 * h1)  # (map_std / d)^2
+        white = s_bar - survey
+        if not (white >= bearing_var or white != white):
+            white = bearing_var
+        var[q] = survey + white / n
+        w[q] = 1.0 / var[q]
+    return ybar, hbar, var, w
+
+
+@jit
+def revolution_innovations(
+    buf: Any, start: int, n: int, t: float, revolution_s: float, excluded: Any, att: Any, n_att: int,
+) -> Any:
+    """Per map row the EKF innovations of the last revolution summed: ``(N, 6)`` ``y, S, H0, H1, H2`` and count.
+
+    The window's sightings with an innovation within ``revolution_s`` (s) before ``t`` (s), in
+    window order, then the first ``n_att`` attributed ones ``att (k, 7)`` (``t, map row, y, S,
+    H0, H1, H2``) within it, each sum from 0.0 in that order; ``excluded (N,)`` flags the
+    map rows left out (non-zero). :meth:`~agvnav.positioning.integrity.IntegrityMonitor.offset`.
+    """
+    m = excluded.shape[0]
+    acc = np.zeros((m, 6))
+    for k in range(n):
+        o = start + k * _WIDTH
+        if buf[o + _HAS_I] != 0.0 and not t - buf[o + _T] > revolution_s:
+            j = int(buf[o + _IDX])
+            if excluded[j] == 0:
+                for c in range(5):
+                    acc[j, c] += buf[o + _Y + c]
+                acc[j, 5] += 1.0
+    for q in range(n_att):
+        if not t - att[q][0] > revolution_s:
+            j = int(att[q][1])
+            if excluded[j] == 0:
+                for c in range(5):
+                    acc[j, c] += att[q][2 + c]
+                acc[j, 5] += 1.0
+    return acc
+
+
+@jit
+def _information_sums(hx: float, hy: float, rx: Any, ry: Any, std: Any) -> tuple[
+    bool, tuple[float, float, float, float, float, float], tuple[float, float, float, float, float, float], bool
+]:
+    """Bearing information of reflectors ``rx, ry (n,)`` (m) from the head ``(hx, hy)`` (m), summed in order.
+
+    Each reflector's Jacobian row ``[dy/d², -dx/d², -1]`` (seed 000 §2.3) gives the upper
+    triangle ``00 01 02 11 12 22`` of its unit-noise information; weighted by
+    ``(d / std)^2`` (``std (n,)`` its survey std, m) the survey-error information. Returns
+    ``(ok, unit, survey, every std > 0)``; ``ok`` False when a reflector sits on the head.
+    Arrays compiled, Python lists interpreted.
+    """
+    a0 = a1 = a2 = a3 = a4 = a5 = 0.0
+    b0 = b1 = b2 = b3 = b4 = b5 = 0.0
+    survey = True
+    for k in range(len(rx)):
+        dx, dy = rx[k] - hx, ry[k] - hy
+        d2 = dx * dx + dy * dy
+        if d2 <= 0.0:
+            return False, (a0, a1, a2, a3, a4, a5), (b0, b1, b2, b3, b4, b5), False
+        j0, j1 = dy / d2, -dx / d2
+        r0, r1, r2, r3, r4 = j0 * j0, j0 * j1, -j0, j1 * j1, -j1
+        a0, a1, a2, a3, a4, a5 = a0 + r0, a1 + r1, a2 + r2, a3 + r3, a4 + r4, a5 + 1.0
+        s = std[k]
+        if s > 0.0:
+            w = d2 / (s * s)
+            b0, b1, b2, b3, b4, b5 = b0 + w * r0, b1 + w * r1, b2 + w * r2, b3 + w * r3, b4 + w * r4, b5 + w * 1.0
+        else:
+            survey = False
+    return True, (a0, a1, a2, a3, a4, a5), (b0, b1, b2, b3, b4, b5), survey
+
+
+@jit
+def _inverse3(
+    a00: float, a01: float, a02: float, a11: float, a12: float, a22: float, three: float,
+) -> tuple[bool, float, float, float, float, float, float]:
+    """Inverse of the symmetric 3x3 ``[a00 a01 a02 a11 a12 a22]`` (same layout); ``ok`` False if singular.
+
+    Singular: ``|det|`` at most 1e-12 of the cube of the largest diagonal entry, taken as the
+    monitor did, ``max(...) ** 3`` with libm's ``pow`` (``three`` = 3.0: module docstring).
+    """
+    c00 = a11 * a22 - a12 * a12
+    c01 = a02 * a12 - a01 * a22
+    c02 = a01 * a12 - a02 * a11
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    scale = max(abs(a00), abs(a11), abs(a22)) ** three
+    if not (math.isfinite(det) and abs(det) > 1e-12 * scale and det != 0.0):
+        return False, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan
+    c11 = a00 * a22 - a02 * a02
+    c12 = a01 * a02 - a00 * a12
+    c22 = a00 * a11 - a01 * a01
+    return True, c00 / det, c01 / det, c02 / det, c11 / det, c12 / det, c22 / det
+
+
+@jit
+def information(
+    hx: float, hy: float, hpsi: float, sightings: Any, rx: Any, ry: Any, map_std: Any, mount: Any, three: float,
+) -> tuple[float, bool, float, float, float, float, float, float]:
+    """PDOP² (m²/rad², inf if unobservable) of the sighted reflectors from the head, and the survey floor.
+
+    ``IntegrityMonitor._information`` for the map rows with ``sightings (N,)`` non-zero, in
+    ascending order: their bearing information (:func:`_information_sums`), inverted
+    (:func:`_inverse3`); the survey-error information's inverse, carried from the head
+    ``(hx, hy, hpsi)`` (m, m, rad) to base_link through ``base = head - R(psi) mount``.
+    Returns ``(pdop2, has_floor, b00, b01, b02, b11, b12, b22)``, the floor's upper triangle
+    (m², m·rad, rad²) valid when ``has_floor`` (three reflectors or more, every survey std > 0).
+    """
+    sx = [rx[j] for j in range(len(sightings)) if sightings[j] != 0.0]
+    sy = [ry[j] for j in range(len(sightings)) if sightings[j] != 0.0]
+    ss = [map_std[j] for j in range(len(sightings)) if sightings[j] != 0.0]
+    nan = math.nan
+    ok, a, b, survey = _information_sums(hx, hy, sx, sy, ss)
+    if not ok:
+        return math.inf, False, nan, nan, nan, nan, nan, nan
+    survey = survey and len(sx) >= 3
+    ok_u, u00, _, _, u11, _, _ = _inverse3(a[0], a[1], a[2], a[3], a[4], a[5], three)
+    pdop2 = u00 + u11 if ok_u else math.inf
+    if not (math.isfinite(pdop2) and pdop2 >= 0.0):
+        pdop2 = math.inf
+    if not survey:
+        return pdop2, False, nan, nan, nan, nan, nan, nan
+    ok_c, c00, c01, c02, c11, c12, c22 = _inverse3(b[0], b[1], b[2], b[3], b[4], b[5], three)
+    if not (ok_c and math.isfinite(c00) and math.isfinite(c01) and math.isfinite(c02) and math.isfinite(c11)
+            and math.isfinite(c12) and math.isfinite(c22)):
+        return pdop2, False, nan, nan, nan, nan, nan, nan
+    # head pose -> base_link pose: base = head - R(psi) mount, d base / d psi = (ta, tb)
+    psi = hpsi - mount[2]
+    c, s = math.cos(psi), math.sin(psi)
+    ta, tb = s * mount[0] + c * mount[1], -c * mount[0] + s * mount[1]
+    b00 = c00 + 2.0 * ta * c02 + ta * ta * c22
+    b01 = c01 + ta * c12 + tb * c02 + ta * tb * c22
+    b11 = c11 + 2.0 * tb * c12 + tb * tb * c22
+    b02, b12 = c02 + ta * c22, c12 + tb * c22
+    return pdop2, True, b00, b01, b02, b11, b12, c22
+
+
+@jit
+def in_range(hx: float, hy: float, rx: Any, ry: Any, max_range: float, excluded: Any) -> int:
+    """How many reflectors (not flagged in ``excluded (N,)``) lie within ``max_range`` (m) of ``(hx, hy)`` (m).
+
+    ``IntegrityMonitor._in_range``: ``math.hypot(dx, dy) <= max_range``, decided on the squared
+    distance where it clears the boundary by a relative 1e-9, with CPython's hypot
+    (:func:`py_hypot`) near it.
+    """
+    r2 = max_range * max_range
+    lo, hi = r2 * (1.0 - 1e-9), r2 * (1.0 + 1e-9)
+    count = 0
+    for j in range(len(rx)):
+        if excluded[j] != 0:
+            continue
+        dx, dy = rx[j] - hx, ry[j] - hy
+        d2 = dx * dx + dy * dy
+        if d2 <= lo or (not d2 > hi and py_hypot(dx, dy) <= max_range):
+            count += 1
+    return count

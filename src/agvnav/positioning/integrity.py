@@ -144,7 +144,14 @@ from numpy.typing import ArrayLike
 from agvnav._jit import compiled, jit
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.positioning._chi2_table import FALSE_ALARM, QUANTILES_1E5
-from agvnav.positioning._integrity_fast import best_triple, crosscheck_fix
+from agvnav.positioning._integrity_fast import (
+    best_triple,
+    crosscheck_fix,
+    in_range,
+    information,
+    mean_innovations,
+    revolution_innovations,
+)
 from agvnav.positioning.triangulation import triangulate
 from agvnav.sensors.beam import line_of_sight
 
@@ -260,6 +267,7 @@ _T, _NIS, _IDX, _BEAR, _OX, _OY, _OPSI, _ON_TIME, _HAS_C, _C0 = range(10)
 _HAS_I, _Y, _S, _H0 = 14, 15, 16, 17
 _WIDTH = 20
 _NO_FIVE = (0.0, 0.0, 0.0, 0.0, 0.0)
+_NO_ATTRIBUTED = np.zeros((0, 7))
 #: Fraction of a revolution in which a reflector reflects once (the estimator's claim window).
 _SWEEP = 0.75
 #: Failed checks that say the estimate moved off its bearings (not a named measurement fault): they open
@@ -563,6 +571,8 @@ class IntegrityMonitor:
                              for a in (self.xy[:, 0], self.xy[:, 1], self.radius, self.map_std))
         self._lists = tuple(a.tolist() for a in self._tables)
         self._mount_t = (float(self.mount[0]), float(self.mount[1]), float(self.mount[2]))
+        self._flags_of: tuple[int, ...] | None = None  # the exclusions self._flags holds (:meth:`_excluded_flags`)
+        self._flags = np.zeros(0, dtype=np.int64)
         self._clock = _HeadClock(self.revolution_s, self.limits.max_latency_s * 2.0 * math.pi / self.revolution_s)
         self._mean_nu = [0.0] * self.xy.shape[0]  # EWMA of the NIS y^2 / S per reflector
         self._n_nu = [0] * self.xy.shape[0]
@@ -724,24 +734,30 @@ class IntegrityMonitor:
     def _tally(self, t: float) -> _Tally:
         """The window's sums per reflector at ``t`` (s), in one pass (:func:`_window_tally`)."""
         buf, start = self._entries.buffer()
-        flags = np.zeros(self.xy.shape[0], dtype=np.int64)
-        flags[list(self.excluded)] = 1
         return _Tally(*_window_tally(buf, start, len(self._entries), t, self.limits.window_s, self.revolution_s,
-                                     flags))
+                                     self._excluded_flags()))
+
+    def _excluded_flags(self) -> np.ndarray:
+        """``(N,)`` int64: 1 at the excluded map rows (:attr:`excluded`), kept until they change."""
+        if self._flags_of is not self.excluded:
+            flags = np.zeros(self.xy.shape[0], dtype=np.int64)
+            flags[list(self.excluded)] = 1
+            self._flags, self._flags_of = flags, self.excluded
+        return self._flags
 
     def _support_failures(
         self, t: float, x: np.ndarray, P: np.ndarray, odom: tuple[float, ...], young: bool, tally: _Tally
     ) -> list[str]:
         lim = self.limits
         n_entries = len(self._entries)
-        used = np.flatnonzero(tally.sightings).tolist()
-        self.reflectors_used = len(used)
+        n_used = int(np.count_nonzero(tally.sightings))
+        self.reflectors_used = n_used
         head = _head(x, self.mount)
-        unit, floor = self._information(head, used)
+        unit, floor = self._information(head, tally.sightings)
         self.survey_floor = floor
         out: list[str] = []
         if n_entries:
-            self.nis_ratio = _nis_per_reflector(tally) / chi2_upper(len(used), lim.nis_confidence)
+            self.nis_ratio = _nis_per_reflector(tally) / chi2_upper(n_used, lim.nis_confidence)
             if self.nis_ratio > 1.0:
                 out.append("nis")
             if not young and self._corrections_drift(tally.corrections):
@@ -753,9 +769,9 @@ class IntegrityMonitor:
         n_rej = len(self._rejects)
         if n_rej >= lim.min_rejections and n_rej > lim.max_reject_fraction * (n_rej + n_entries):
             out.append("rejections")
-        if not young and self._explained(head, len(used)) < lim.min_explained_fraction:
+        if not young and self._explained(head, n_used) < lim.min_explained_fraction:
             out.append("unexplained")
-        if len(used) < lim.min_reflectors:
+        if n_used < lim.min_reflectors:
             if not young and self.xy.shape[0] >= lim.min_reflectors:  # a map without reflectors: other sensors
                 out.append("few_reflectors")
         else:
@@ -791,44 +807,23 @@ class IntegrityMonitor:
         self.correction_d2 = (c11 * dx * dx - 2.0 * c01 * dx * dy + c00 * dy * dy) / det
         return self.correction_d2 > CHI2_2DOF_999
 
-    def _information(self, head: tuple[float, float, float], used: list[int]) -> tuple[float, np.ndarray]:
-        """PDOP² of ``used`` from the head (m²/rad², inf if unobservable) and the survey floor ``(3, 3)``.
+    def _information(self, head: tuple[float, float, float], sightings: np.ndarray) -> tuple[float, np.ndarray]:
+        """PDOP² of the sighted reflectors from the head (m²/rad², inf if unobservable) and the survey floor ``(3, 3)``.
 
-        One pass over the bearing Jacobian rows ``[dy/d², -dx/d², -1]`` (seed 000 §2.3,
-        :func:`~agvnav.positioning.bounds.crlb`; :func:`_information_sums`): the unit-noise
+        One pass over the bearing Jacobian rows ``[dy/d², -dx/d², -1]`` of the map rows with
+        ``sightings (N,)`` non-zero (seed 000 §2.3, :func:`~agvnav.positioning.bounds.crlb`;
+        :func:`~agvnav.positioning._integrity_fast.information`): the unit-noise
         information gives the PDOP, the information weighted by ``(d / map_std)^2`` the
         covariance of a static fix of the head whose bearings err only by the survey
         error, carried to base_link through ``base = head - R(psi) mount`` (zero without
         ``map_std`` or with fewer than three reflectors).
         """
-        rx, ry, std = self.xy[used, 0], self.xy[used, 1], self.map_std[used]
-        if not compiled():
-            rx, ry, std = rx.tolist(), ry.tolist(), std.tolist()
-        ok, a, b, survey = _information_sums(head[0], head[1], rx, ry, std)
-        if not ok:
-            return math.inf, np.zeros((3, 3))
-        survey = survey and len(used) >= 3
-        unit = _inverse3(list(a))
-        pdop2 = math.inf if unit is None else unit[0] + unit[3]
-        if not (math.isfinite(pdop2) and pdop2 >= 0.0):
-            pdop2 = math.inf
-        cov = _inverse3(list(b)) if survey else None
-        if cov is None or not all(math.isfinite(v) for v in cov):
+        rx, ry, _, map_std = self._tables if compiled() else self._lists
+        pdop2, has_floor, b00, b01, b02, b11, b12, b22 = information(
+            head[0], head[1], head[2], sightings, rx, ry, map_std, self._mount_t, 3.0)
+        if not has_floor:
             return pdop2, np.zeros((3, 3))
-        c00, c01, c02, c11, c12, c22 = cov
-        # head pose -> base_link pose: base = head - R(psi) mount, d base / d psi = (ta, tb)
-        ta, tb = self._mount_jacobian(head[2] - float(self.mount[2]))
-        b00 = c00 + 2.0 * ta * c02 + ta * ta * c22
-        b01 = c01 + ta * c12 + tb * c02 + ta * tb * c22
-        b11 = c11 + 2.0 * tb * c12 + tb * tb * c22
-        b02, b12 = c02 + ta * c22, c12 + tb * c22
-        return pdop2, np.array([[b00, b01, b02], [b01, b11, b12], [b02, b12, c22]])
-
-    def _mount_jacobian(self, psi: float) -> tuple[float, float]:
-        """``d (x, y)_base / d psi`` at base heading ``psi`` for a fixed head position (m/rad)."""
-        c, s = math.cos(psi), math.sin(psi)
-        mx, my = float(self.mount[0]), float(self.mount[1])
-        return s * mx + c * my, -c * mx + s * my
+        return pdop2, np.array([[b00, b01, b02], [b01, b11, b12], [b02, b12, b22]])
 
     def _in_sight(self, head: tuple[float, float, float]) -> int:
         """How many reflectors (not excluded) the head can see (:func:`reflectors_in_sight`)."""
@@ -862,20 +857,13 @@ class IntegrityMonitor:
     def _in_range(self, hx: float, hy: float) -> int:
         """How many reflectors (not excluded) are within ``max_range`` (m) of ``(hx, hy)`` (m).
 
-        ``math.hypot(dx, dy) <= max_range``, decided in NumPy over the whole map where the
-        squared distance clears the boundary by a relative 1e-9 (far beyond rounding) and
-        with ``math.hypot`` itself for the few near it: the same count, without a Python
-        loop over every reflector at every check (issue 11: 256 reflectors).
+        ``math.hypot(dx, dy) <= max_range``, decided on the squared distance where it clears the
+        boundary by a relative 1e-9 (far beyond rounding) and with CPython's hypot itself for the
+        few near it, in one compiled pass over the map (:func:`~agvnav.positioning._integrity_fast.in_range`;
+        issue 11: 256 reflectors).
         """
-        dx, dy = self.xy[:, 0] - hx, self.xy[:, 1] - hy
-        d2, r2 = dx * dx + dy * dy, self.max_range * self.max_range
-        ok = d2 <= r2 * (1.0 - 1e-9)
-        for j in np.flatnonzero(~ok & ~(d2 > r2 * (1.0 + 1e-9))).tolist():  # near the boundary, or NaN
-            rx, ry = self._rows[j]
-            ok[j] = math.hypot(rx - hx, ry - hy) <= self.max_range
-        if self.excluded:
-            ok[list(self.excluded)] = False
-        return int(np.count_nonzero(ok))
+        rx, ry, _, _ = self._tables if compiled() else self._lists
+        return int(in_range(hx, hy, rx, ry, self.max_range, self._excluded_flags()))
 
     def _uncertainty_failures(self, P: np.ndarray) -> list[str]:
         """``["uncertainty"]`` when the position (largest eigenvalue of ``P``'s position block, m²) or
@@ -997,14 +985,8 @@ class IntegrityMonitor:
         found = np.flatnonzero(innovations[:, 5])
         if len(found) < 4:
             return None
-        rows = tuple(found.tolist())
-        sums = innovations[found]
-        n = sums[:, 5]  # sightings per reflector
-        r, s_bar, H = sums[:, 0] / n, sums[:, 1] / n, sums[:, 2:5] / n[:, None]
-        survey = self.map_std[found] ** 2 * (H[:, 0] * H[:, 0] + H[:, 1] * H[:, 1])  # (map_std / d)^2
-        white = np.maximum(s_bar - survey, self.bearing_std**2)
-        var = survey + white / n
-        return rows, leave_one_out_fde(r, H, var, self.limits.raim_false_alarm)
+        r, H, var, _ = mean_innovations(innovations, found, self._tables[3], self.bearing_std**2)
+        return tuple(found.tolist()), leave_one_out_fde(r, H, var, self.limits.raim_false_alarm)
 
     def _raim_failures(self, t: float, sums: _Tally | None = None) -> list[str]:
         """``["raim"]`` when the window fails :meth:`raim`; may exclude the reflector it keeps naming.
@@ -1078,30 +1060,16 @@ class IntegrityMonitor:
         (odometry that carried it off: wheel slip). Returns ``(dx (3,), statistic)`` (m, m,
         rad), or None with fewer than 4 reflectors or a singular fit.
         """
-        rows = self._entries.rows()
-        rows = rows[(rows[:, _HAS_I] != 0.0) & ~(t - rows[:, _T] > self.revolution_s)]
-        sums: dict[int, list[float]] = {}
-        for r in rows.tolist():
-            j = int(r[_IDX])
-            if j not in self.excluded:
-                acc = sums.setdefault(j, [0.0] * 6)
-                for c in range(5):
-                    acc[c] += r[_Y + c]
-                acc[5] += 1.0
-        for ta, j, y, s_, h0, h1, h2 in self._attributed:
-            if not t - ta > self.revolution_s and j not in self.excluded:
-                acc = sums.setdefault(j, [0.0] * 6)
-                for c, v in enumerate((y, s_, h0, h1, h2)):
-                    acc[c] += v
-                acc[5] += 1.0
-        if len(sums) < 4:
+        buf, start = self._entries.buffer()
+        att: Any = self._attributed
+        if compiled():  # numba takes the attributed sightings as an array, Python their tuples
+            att = np.array(att, dtype=np.float64) if att else _NO_ATTRIBUTED
+        sums = revolution_innovations(buf, start, len(self._entries), t, self.revolution_s, self._excluded_flags(),
+                                      att, len(att))
+        found = np.flatnonzero(sums[:, 5])  # ascending map rows
+        if len(found) < 4:
             return None
-        found = np.array(sorted(sums))
-        m = np.array([sums[j] for j in found.tolist()])
-        n = m[:, 5]
-        r_bar, s_bar, H = m[:, 0] / n, m[:, 1] / n, m[:, 2:5] / n[:, None]
-        survey = self.map_std[found] ** 2 * (H[:, 0] * H[:, 0] + H[:, 1] * H[:, 1])  # (map_std / d)^2
-        w = 1.0 / (survey + np.maximum(s_bar - survey, self.bearing_std**2) / n)
+        r_bar, H, _, w = mean_innovations(sums, found, self._tables[3], self.bearing_std**2)
         A = H.T @ (w[:, None] * H)
         try:
             dx = np.linalg.solve(A, H.T @ (w * r_bar))
@@ -1492,38 +1460,6 @@ def _nis_per_reflector(tally: _Tally) -> float:
     return sum(means[np.argsort(tally.first[seen])].tolist())  # in order of first sighting
 
 
-@jit
-def _information_sums(hx: float, hy: float, rx: Any, ry: Any, std: Any) -> tuple[
-    bool, tuple[float, float, float, float, float, float], tuple[float, float, float, float, float, float], bool
-]:
-    """Bearing information of reflectors ``rx, ry (n,)`` (m) from the head ``(hx, hy)`` (m), summed in order.
-
-    Each reflector's Jacobian row ``[dy/d², -dx/d², -1]`` (seed 000 §2.3) gives the upper
-    triangle ``00 01 02 11 12 22`` of its unit-noise information; weighted by
-    ``(d / std)^2`` (``std (n,)`` its survey std, m) the survey-error information. Returns
-    ``(ok, unit, survey, every std > 0)``; ``ok`` False when a reflector sits on the head.
-    Arrays compiled, Python lists interpreted.
-    """
-    a0 = a1 = a2 = a3 = a4 = a5 = 0.0
-    b0 = b1 = b2 = b3 = b4 = b5 = 0.0
-    survey = True
-    for k in range(len(rx)):
-        dx, dy = rx[k] - hx, ry[k] - hy
-        d2 = dx * dx + dy * dy
-        if d2 <= 0.0:
-            return False, (a0, a1, a2, a3, a4, a5), (b0, b1, b2, b3, b4, b5), False
-        j0, j1 = dy / d2, -dx / d2
-        r0, r1, r2, r3, r4 = j0 * j0, j0 * j1, -j0, j1 * j1, -j1
-        a0, a1, a2, a3, a4, a5 = a0 + r0, a1 + r1, a2 + r2, a3 + r3, a4 + r4, a5 + 1.0
-        s = std[k]
-        if s > 0.0:
-            w = d2 / (s * s)
-            b0, b1, b2, b3, b4, b5 = b0 + w * r0, b1 + w * r1, b2 + w * r2, b3 + w * r3, b4 + w * r4, b5 + w * 1.0
-        else:
-            survey = False
-    return True, (a0, a1, a2, a3, a4, a5), (b0, b1, b2, b3, b4, b5), survey
-
-
 def _spread8(n: int) -> list[int]:
     """Eight positions spread evenly over ``range(n)`` (n > 8), first and last included.
 
@@ -1543,19 +1479,3 @@ def _head(x: Any, mount: np.ndarray) -> tuple[float, float, float]:
     c, s = math.cos(float(x[2])), math.sin(float(x[2]))
     mx, my = float(mount[0]), float(mount[1])
     return float(x[0]) + c * mx - s * my, float(x[1]) + s * mx + c * my, float(x[2]) + float(mount[2])
-
-
-def _inverse3(a: list[float]) -> tuple[float, float, float, float, float, float] | None:
-    """Inverse of the symmetric 3x3 ``[a00 a01 a02 a11 a12 a22]`` (same layout), None if singular."""
-    a00, a01, a02, a11, a12, a22 = a
-    c00 = a11 * a22 - a12 * a12
-    c01 = a02 * a12 - a01 * a22
-    c02 = a01 * a12 - a02 * a11
-    det = a00 * c00 + a01 * c01 + a02 * c02
-    scale = max(abs(a00), abs(a11), abs(a22)) ** 3
-    if not (math.isfinite(det) and abs(det) > 1e-12 * scale and det != 0.0):
-        return None
-    c11 = a00 * a22 - a02 * a02
-    c12 = a01 * a02 - a00 * a12
-    c22 = a00 * a11 - a01 * a01
-    return c00 / det, c01 / det, c02 / det, c11 / det, c12 / det, c22 / det
