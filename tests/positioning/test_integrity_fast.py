@@ -352,3 +352,90 @@ def test_revolution_and_mean_innovations_are_the_former_numpy_sums(on: bool) -> 
         want_var = survey + np.maximum(m[:, 1] / n - survey, 1e-6) / n
         assert ybar.tobytes() == (m[:, 0] / n).tobytes() and hbar.tobytes() == h.tobytes()
         assert var.tobytes() == want_var.tobytes() and w.tobytes() == (1.0 / want_var).tobytes()
+
+
+def _random_window_rows(rng: np.random.Generator, n_map: int, n_rows: int) -> np.ndarray:
+    """Window rows with innovations: stamps in the last second, map rows, y, S and a bearing Jacobian row."""
+    rows = np.zeros((n_rows, _WIDTH))
+    rows[:, 0] = np.sort(rng.uniform(9.0, 10.0, n_rows))
+    rows[:, 2] = rng.integers(0, n_map, n_rows)
+    rows[:, 14] = rng.uniform(size=n_rows) < 0.9
+    d = rng.uniform(2.0, 15.0, n_rows)
+    ang = rng.uniform(-math.pi, math.pi, n_rows)
+    rows[:, 17], rows[:, 18], rows[:, 19] = np.sin(ang) / d, -np.cos(ang) / d, -1.0
+    rows[:, 16] = rng.uniform(1e-6, 1e-4, n_rows)
+    rows[:, 15] = rng.normal(0.0, 1.0, n_rows) * np.sqrt(rows[:, 16]) + rows[:, 17:20] @ rng.normal(0, 1e-2, 3)
+    return rows
+
+
+@pytest.mark.parametrize("on", MODES)
+def test_revolution_offset_is_the_weighted_least_squares_fit(on: bool) -> None:
+    """The common offset: NumPy's solve of the same normal equations to 1e-12 (it sums in BLAS's order, with FMA)."""
+    _jit.set_compiled(on)
+    rng = np.random.default_rng(41)
+    fits = 0
+    for _ in range(300):
+        n_map = int(rng.integers(4, 30))
+        rows = _random_window_rows(rng, n_map, int(rng.integers(0, 60)))
+        excluded = (rng.uniform(size=n_map) < 0.1).astype(np.int64)
+        map_std = rng.uniform(0.0, 5e-3, n_map)
+        buf = rows.reshape(-1) if on else list(rows.reshape(-1).tolist())
+        att = np.zeros((0, 7)) if on else []
+        ok, *dx, stat = fast.revolution_offset(buf, 0, rows.shape[0], 10.0, 0.5, excluded, att, 0, map_std, 1e-6)
+        sums = fast.revolution_innovations(buf, 0, rows.shape[0], 10.0, 0.5, excluded, att, 0)
+        found = np.flatnonzero(sums[:, 5])
+        if len(found) < 4:
+            assert not ok
+            continue
+        ybar, h, _, w = fast.mean_innovations(sums, found, map_std, 1e-6)
+        A = h.T @ (w[:, None] * h)
+        want = np.linalg.solve(A, h.T @ (w * ybar))
+        np.testing.assert_allclose(dx, want, rtol=1e-9, atol=1e-12)
+        assert stat == pytest.approx(float(want @ A @ want), rel=1e-12)
+        fits += 1
+    assert fits > 150
+
+
+def test_revolution_offset_and_window_fde_modes_agree_bit_for_bit() -> None:
+    rng = np.random.default_rng(43)
+    cases = []
+    for _ in range(100):
+        n_map = int(rng.integers(4, 30))
+        rows = _random_window_rows(rng, n_map, int(rng.integers(0, 60)))
+        cases.append((rows, (rng.uniform(size=n_map) < 0.1).astype(np.int64), rng.uniform(0.0, 5e-3, n_map)))
+    got = {}
+    for on in MODES:
+        _jit.set_compiled(on)
+        out = []
+        for rows, excluded, map_std in cases:
+            buf = rows.reshape(-1) if on else list(rows.reshape(-1).tolist())
+            res = fast.revolution_offset(buf, 0, rows.shape[0], 10.0, 0.5, excluded, np.zeros((0, 7)), 0, map_std, 1e-6)
+            out.append(tuple(_bits(v) for v in res[1:]) + (bool(res[0]),))
+            sums = fast.revolution_innovations(buf, 0, rows.shape[0], 10.0, 1.0, excluded, np.zeros((0, 7)), 0)
+            found, stats, positive = fast.window_fde(sums, map_std, 1e-6)
+            out.append((found.tobytes(), stats.tobytes(), bool(positive)))
+        got[on] = out
+    assert got[True] == got[False]
+
+
+@pytest.mark.parametrize("on", MODES)
+def test_window_fde_is_leave_one_out_fde(on: bool) -> None:
+    """The RAIM's statistics from the window's sums: leave_one_out_fde's on the same means, bit for bit."""
+    from agvnav.positioning.integrity import leave_one_out_fde
+
+    _jit.set_compiled(on)
+    rng = np.random.default_rng(47)
+    for _ in range(200):
+        n_map = int(rng.integers(4, 30))
+        rows = _random_window_rows(rng, n_map, int(rng.integers(0, 80)))
+        map_std = rng.uniform(0.0, 5e-3, n_map)
+        sums = fast.revolution_innovations(rows.reshape(-1), 0, rows.shape[0], 10.0, 1.0,
+                                           np.zeros(n_map, dtype=np.int64), np.zeros((0, 7)), 0)
+        found, stats, positive = fast.window_fde(sums, map_std, 1e-6)
+        assert positive and found.tolist() == np.flatnonzero(sums[:, 5]).tolist()
+        if len(found) < 4:
+            continue
+        ybar, h, var, _ = fast.mean_innovations(sums, found, map_std, 1e-6)
+        ref = leave_one_out_fde(ybar, h, var, 1e-5)
+        assert _bits(stats[0]) == _bits(ref.statistic)
+        assert [_bits(v) for v in stats[1:].tolist()] == [_bits(v) for v in ref.without] or ref.dof < 2
