@@ -208,10 +208,9 @@ def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
               "_solve_augmented", "_normal_equations", "best_triple", "position_crlb_one", "_window_tally",
               "_information_sums", "move_state", "_sinc_k", "_dsinc_k", "gate_rows", "gate_accept", "schmidt_accept"}
     # the integrity check's kernels: bit for bit in both modes in tests/positioning/test_integrity_fast.py
-    tested |= {"py_hypot", "_square_split", "_neg_square_split", "_head", "_edge_bearing", "total_fix",
-               "fix_covariance", "nonlinear_fix", "_round_half_even", "crosscheck_fix", "mean_innovations",
-               "revolution_innovations", "_inverse3", "information", "in_range", "revolution_offset",
-               "window_fde"}
+    tested |= {"py_hypot", "_floats", "_head", "_edge_bearing", "total_fix", "fix_covariance", "nonlinear_fix",
+               "_round_half_even", "crosscheck_fix", "mean_innovations", "revolution_innovations", "_inverse3",
+               "information", "in_range", "revolution_offset", "nis_per_reflector", "window_fde"}
     known = {k.py_func.__name__ for k in _jit.kernels()}
     assert known <= tested, f"kernels without a bit-for-bit test here: {sorted(known - tested)}"
 

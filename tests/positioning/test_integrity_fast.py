@@ -439,3 +439,18 @@ def test_window_fde_is_leave_one_out_fde(on: bool) -> None:
         ref = leave_one_out_fde(ybar, h, var, 1e-5)
         assert _bits(stats[0]) == _bits(ref.statistic)
         assert [_bits(v) for v in stats[1:].tolist()] == [_bits(v) for v in ref.without] or ref.dof < 2
+
+
+@pytest.mark.parametrize("on", MODES)
+def test_nis_per_reflector_is_the_former_sum_in_order_of_first_sighting(on: bool) -> None:
+    _jit.set_compiled(on)
+    rng = np.random.default_rng(53)
+    for _ in range(200):
+        mon = _monitor(rng, int(rng.integers(3, 30)))
+        _window(rng, mon, 10.0)
+        tally = mon._tally(10.0)
+        buf, start = mon._entries.buffer()
+        got = fast.nis_per_reflector(buf, start, len(mon._entries), tally.sightings, tally.first, tally.nis)
+        seen = np.flatnonzero(tally.sightings)
+        means = tally.nis[seen] / tally.sightings[seen]
+        assert _bits(got) == _bits(sum(means[np.argsort(tally.first[seen])].tolist()))

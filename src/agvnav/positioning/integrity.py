@@ -151,6 +151,7 @@ from agvnav.positioning._integrity_fast import (
     in_range,
     information,
     mean_innovations,
+    nis_per_reflector,
     revolution_offset,
     window_fde,
 )
@@ -759,7 +760,9 @@ class IntegrityMonitor:
         self.survey_floor = floor
         out: list[str] = []
         if n_entries:
-            self.nis_ratio = _nis_per_reflector(tally) / chi2_upper(n_used, lim.nis_confidence)
+            buf, start = self._entries.buffer()
+            nis = nis_per_reflector(buf, start, n_entries, tally.sightings, tally.first, tally.nis)
+            self.nis_ratio = nis / chi2_upper(n_used, lim.nis_confidence)
             if self.nis_ratio > 1.0:
                 out.append("nis")
             if not young and self._corrections_drift(tally.corrections):
@@ -1339,23 +1342,6 @@ def _mahalanobis2(dx: float, dy: float, s00: float, s01: float, s11: float) -> f
     if not det > 0.0:
         return math.nan
     return (s11 * dx * dx - 2.0 * s01 * dx * dy + s00 * dy * dy) / det
-
-
-def _nis_per_reflector(tally: _Tally) -> float:
-    """Sum over the distinct reflectors of the mean NIS of their sightings in the window.
-
-    The bearings of one reflector repeat its survey error every revolution (constant in
-    time, and nearly so over a window at the same geometry: a standing vehicle sees the
-    same error eight times a second), so its sightings are not independent chi-square
-    draws: summing them all against ``chi2(len(entries))`` counted one reflector's fixed
-    error once per revolution and failed a sound estimate standing at a warehouse station
-    (NIS ratio 1.01-1.09 for 5 s, verdict ``lost`` 2 mm from the truth). Each reflector
-    contributes one degree of freedom: the mean of its NIS values (its fixed error squared
-    over ``S``, plus the averaged white part). From the window's sums (:func:`_window_tally`).
-    """
-    seen = np.flatnonzero(tally.sightings)
-    means = tally.nis[seen] / tally.sightings[seen]  # each summed in window order (:func:`_window_tally`)
-    return sum(means[np.argsort(tally.first[seen])].tolist())  # in order of first sighting
 
 
 def _spread8(n: int) -> list[int]:
