@@ -576,6 +576,7 @@ class IntegrityMonitor:
         self._mount_t = (float(self.mount[0]), float(self.mount[1]), float(self.mount[2]))
         self._flags_of: tuple[int, ...] | None = None  # the exclusions self._flags holds (:meth:`_excluded_flags`)
         self._flags = np.zeros(0, dtype=np.int64)
+        self._window_buffer: tuple[Any, int] | None = None  # the window's buffer during a check (:meth:`_buffer`)
         self._clock = _HeadClock(self.revolution_s, self.limits.max_latency_s * 2.0 * math.pi / self.revolution_s)
         self._mean_nu = [0.0] * self.xy.shape[0]  # EWMA of the NIS y^2 / S per reflector
         self._n_nu = [0] * self.xy.shape[0]
@@ -719,6 +720,17 @@ class IntegrityMonitor:
         if self._since is None:
             self._since = t
         young = t - self._since < self.limits.window_s  # no full window of support yet
+        self._window_buffer = self._entries.buffer()  # one copy for the check's kernels (:meth:`_buffer`)
+        try:
+            return self._judged(t, x, cov, odom, dead_reckoning, young, n_excluded)
+        finally:
+            self._window_buffer = None
+
+    def _judged(
+        self, t: float, x: np.ndarray, cov: np.ndarray, odom: tuple[float, ...], dead_reckoning: bool, young: bool,
+        n_excluded: int,
+    ) -> bool:
+        """The checks and the verdict of :meth:`check` (its arguments, ``young``: no full window yet)."""
         tally = self._tally(t)
         reasons = [] if dead_reckoning else self._support_failures(t, x, cov, odom, young, tally)
         self._raim_ran = self._raim_named = False
@@ -734,9 +746,14 @@ class IntegrityMonitor:
         return self._judge(t, reasons, len(self.excluded) > n_excluded)
 
     # ------------------------------------------------------------------ checks
+    def _buffer(self) -> tuple[Any, int]:
+        """The window's buffer and offset (:meth:`_Window.buffer`): taken once per :meth:`check`, fresh otherwise."""
+        held = self._window_buffer
+        return self._entries.buffer() if held is None else held
+
     def _tally(self, t: float) -> _Tally:
         """The window's sums per reflector at ``t`` (s), in one pass (:func:`_window_tally`)."""
-        buf, start = self._entries.buffer()
+        buf, start = self._buffer()
         return _Tally(*_window_tally(buf, start, len(self._entries), t, self.limits.window_s, self.revolution_s,
                                      self._excluded_flags()))
 
@@ -760,7 +777,7 @@ class IntegrityMonitor:
         self.survey_floor = floor
         out: list[str] = []
         if n_entries:
-            buf, start = self._entries.buffer()
+            buf, start = self._buffer()
             nis = nis_per_reflector(buf, start, n_entries, tally.sightings, tally.first, tally.nis)
             self.nis_ratio = nis / chi2_upper(n_used, lim.nis_confidence)
             if self.nis_ratio > 1.0:
@@ -903,7 +920,7 @@ class IntegrityMonitor:
         (of more than eight reflectors seen, the eight :meth:`_best_triple` spreads over the
         revolution: only theirs are propagated).
         """
-        buf, start = self._entries.buffer()
+        buf, start = self._buffer()
         rx, ry, radius, map_std = self._tables if compiled() else self._lists
         out = crosscheck_fix(
             buf, start, tally.newest, (float(x[0]), float(x[1]), float(x[2])),
@@ -1034,6 +1051,7 @@ class IntegrityMonitor:
             return
         self.excluded = (*self.excluded, j)
         self._entries.keep(self._entries.rows()[:, _IDX] != j)
+        self._window_buffer = None  # the window changed: the check's kernels read it afresh
         self._n_nu = [0] * len(self._n_nu)
         self._mean_nu = [0.0] * len(self._mean_nu)
 
@@ -1074,7 +1092,7 @@ class IntegrityMonitor:
         at most 5e-15 relative, ``dx`` by 7e-13, over the 1,900 checks of 30 s of guidance_test,
         differential_loop and tricycle_rear_loop; no decision changed and the seeded runs kept their bits.
         """
-        buf, start = self._entries.buffer()
+        buf, start = self._buffer()
         att: Any = self._attributed
         if compiled():  # numba takes the attributed sightings as an array, Python their tuples
             att = np.array(att, dtype=np.float64) if att else _NO_ATTRIBUTED
