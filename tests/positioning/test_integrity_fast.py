@@ -454,3 +454,28 @@ def test_nis_per_reflector_is_the_former_sum_in_order_of_first_sighting(on: bool
         seen = np.flatnonzero(tally.sightings)
         means = tally.nis[seen] / tally.sightings[seen]
         assert _bits(got) == _bits(sum(means[np.argsort(tally.first[seen])].tolist()))
+
+
+def test_crosscheck_rare_path_through_triangulate_gives_the_kernels_value(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A code 2 (the kernel leaves the decision to triangulate) ends in the value the kernel's own fix gives."""
+    from agvnav.positioning import integrity
+
+    rng = np.random.default_rng(59)
+    kernel = integrity.crosscheck_fix
+    compared = 0
+    for _ in range(200):
+        mon = _monitor(rng, int(rng.integers(5, 30)))
+        _window(rng, mon, 10.0)
+        tally = mon._tally(10.0)
+        x = np.array([rng.uniform(8, 12), rng.uniform(8, 12), rng.uniform(-3, 3)])
+        odom = (float(rng.uniform(8, 12)), float(rng.uniform(8, 12)), float(rng.uniform(-3, 3)))
+        P = np.diag([1e-4, 1e-4, 1e-5])
+        mon.limits = integrity.IntegrityLimits(crosscheck_min_m=1e-6)  # the Mahalanobis distance, not the floor
+        direct = mon._crosscheck(10.0, x, P, odom, tally)
+        if not math.isfinite(direct):
+            continue
+        monkeypatch.setattr(integrity, "crosscheck_fix", lambda *a: (2, *([math.nan] * 5), *kernel(*a)[6:]))
+        assert _bits(mon._crosscheck(10.0, x, P, odom, tally)) == _bits(direct)
+        monkeypatch.setattr(integrity, "crosscheck_fix", kernel)
+        compared += 1
+    assert compared > 50
