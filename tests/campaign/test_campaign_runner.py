@@ -82,8 +82,29 @@ def test_more_runs_extend_a_gridless_campaign(write_campaign, scheduler, tmp_pat
 
 def test_batches():
     plans = list(range(10))
-    assert [len(b) for b in batch_plans(plans, 2)] == [2, 2, 2, 2, 2]
-    assert [len(b) for b in batch_plans(list(range(10_000)), 2)] == [20] * 500
+    assert [len(b) for b in batch_plans(plans, 2)] == [2, 1, 1, 1, 1, 1, 1, 1, 1]
+    assert [len(b) for b in batch_plans(list(range(20)), 1)] == [5, 4, 3, 2, 2, 1, 1, 1, 1]
+    sizes = [len(b) for b in batch_plans(list(range(10_000)), 2)]
+    assert sizes[:480] == [20] * 480 and len(sizes) == 520  # full batches, then shrinking ones
+    assert sizes == sorted(sizes, reverse=True) and sizes[-8:] == [1] * 8
+    for n, workers in ((1, 2), (7, 1), (37, 3), (500, 4)):
+        batches = batch_plans(list(range(n)), workers)
+        assert [p for b in batches for p in b] == list(range(n))  # every run once, in order
+        assert all(1 <= len(b) <= 20 for b in batches)
     assert [len(b) for b in batch_plans(plans, 2, batch_size=4)] == [4, 4, 2]
     with pytest.raises(ValueError, match="batch_size"):
         batch_plans(plans, 2, batch_size=0)
+
+
+def test_local_cluster_workers_run_without_the_dashboard_diagnostics(scheduler):
+    """The cluster's workers have the profiler off and slow diagnostics ticks; the caller's config is untouched."""
+    import dask
+    from distributed import Client
+
+    from agvnav.campaign.runner import CLUSTER_CONFIG
+
+    keys = list(CLUSTER_CONFIG)
+    with Client(scheduler) as client:
+        seen = client.run(lambda: [dask.config.get(k) for k in keys])
+    assert seen and all(v == list(CLUSTER_CONFIG.values()) for v in seen.values())
+    assert dask.config.get("distributed.worker.profile.enabled") is True  # this process: the default
