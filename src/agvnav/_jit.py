@@ -98,11 +98,14 @@ def set_compiled(on: bool) -> None:
 
 
 #: Extra CPU the kernels cost run as plain Python, per reflector in the map and simulated second (s),
-#: measured on the shipped scenarios (issue 11): 1.1-1.2 ms in guidance_test and warehouse_mission,
-#: 3.8 ms in positioning_validation; this is a round figure between them.
-INTERPRETED_S_PER_REFLECTOR_S = 2.5e-3
+#: measured on the shipped scenarios (issue 11; interpreted against compiled loop, best of 4 each, first
+#: 30 s): 1.2-1.4 ms in guidance_test (9 reflectors), 0.9 ms in differential_loop (14), 0.6 ms in
+#: warehouse_mission (102), none in positioning_validation (its cost lies outside the kernels). Earlier
+#: code gave 1.1-1.2 ms and 3.8 ms (positioning_validation); this is the upper end of today's figures.
+INTERPRETED_S_PER_REFLECTOR_S = 1.2e-3
 
-#: CPU (s) that importing numba and loading the cached machine code costs once per process (measured 0.7-0.8 s).
+#: CPU (s) that importing numba and loading the cached machine code costs once per process: measured
+#: 0.7-0.8 s, and again 0.65-0.76 s (import 0.15-0.24 s, then 0.47-0.52 s for the 8 kernels of guidance_test).
 COMPILED_STARTUP_S = 0.75
 
 

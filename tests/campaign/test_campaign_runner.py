@@ -82,8 +82,16 @@ def test_more_runs_extend_a_gridless_campaign(write_campaign, scheduler, tmp_pat
 
 def test_batches():
     plans = list(range(10))
-    assert [len(b) for b in batch_plans(plans, 2)] == [2, 2, 2, 2, 2]
-    assert [len(b) for b in batch_plans(list(range(10_000)), 2)] == [20] * 500
+    assert [len(b) for b in batch_plans(plans, 2)] == [2, 1, 1, 1, 1, 1, 1, 1, 1]
+    assert [len(b) for b in batch_plans(list(range(20)), 1)] == [5, 4, 3, 2, 2, 1, 1, 1, 1]
+    sizes = [len(b) for b in batch_plans(list(range(10_000)), 2)]
+    assert sizes[:480] == [20] * 480 and len(sizes) == 520  # full batches, then shrinking ones
+    assert sizes == sorted(sizes, reverse=True) and sizes[-8:] == [1] * 8
+    for n, workers in ((1, 2), (7, 1), (37, 3), (500, 4)):
+        batches = batch_plans(list(range(n)), workers)
+        assert [p for b in batches for p in b] == list(range(n))  # every run once, in order
+        assert all(1 <= len(b) <= 20 for b in batches)
     assert [len(b) for b in batch_plans(plans, 2, batch_size=4)] == [4, 4, 2]
     with pytest.raises(ValueError, match="batch_size"):
         batch_plans(plans, 2, batch_size=0)
+

@@ -53,3 +53,21 @@ def test_lazy_command_runs_and_parses_its_own_options() -> None:
     assert res.exit_code == 0 and "--pulses-per-rev" in res.output
     res = runner.invoke(app, ["demo", "--pulses-per-rev", "4096"])
     assert res.exit_code == 0 and "least_squares" in res.output
+
+
+_EXIT_PROBE = """
+import atexit, gc, sys
+atexit.register(lambda: print("frozen at exit:", gc.get_freeze_count() > 0))  # registered first: runs last
+from agvnav.cli import main
+try:
+    main(sys.argv[1:])
+except SystemExit:
+    print("frozen before exit:", gc.get_freeze_count() > 0)
+"""
+
+
+def test_process_exit_skips_the_final_collection() -> None:
+    """At the exit of the process the live objects are frozen: shutdown's full collections skip them (issue 11)."""
+    res = subprocess.run([sys.executable, "-c", _EXIT_PROBE, "--version"], capture_output=True, text=True, check=True)
+    assert "frozen before exit: False" in res.stdout
+    assert "frozen at exit: True" in res.stdout

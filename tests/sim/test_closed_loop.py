@@ -194,3 +194,15 @@ def test_feedforward_start_steering():
     b = build(parse_scenario(text))
     # C on an arc of radius R: sin(gamma_ss) = L / R (seed 000 eq. 8 at steady state)
     assert b.plant.steering.gamma == pytest.approx(math.asin(1.0 / 1.24), abs=1e-12)
+
+
+def test_simulate_runs_a_loop_built_beforehand_as_its_own(short_scenario):
+    """``simulate(sc, built=build(sc))`` (the CLI builds first to check the scenario) is the same run."""
+    own = simulate(short_scenario)
+    given = simulate(short_scenario, built=build(short_scenario))
+    assert own.series.keys() == given.series.keys()
+    for name in own.series:
+        np.testing.assert_array_equal(own.series[name], given.series[name], err_msg=name)
+    timing = ("wall_time_s", "real_time_factor")
+    figures = [{k: v for k, v in r.metrics.to_dict().items() if k not in timing} for r in (own, given)]
+    assert figures[0] == figures[1] and own.outcome == given.outcome

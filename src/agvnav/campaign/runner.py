@@ -1,7 +1,8 @@
 """Run a campaign on a Dask ``distributed`` cluster; results stream to Parquet as batches finish.
 
 The runs are cut into batches (many runs per task, so 10,000 short runs do not
-wait on the scheduler), submitted with ``Client.submit`` of the pure task
+wait on the scheduler; fewer towards the end, so no worker waits long for the
+last one: :func:`batch_plans`), submitted with ``Client.submit`` of the pure task
 function :func:`agvnav.campaign.task.run_batch`, and collected with
 ``as_completed``: each finished batch is written at once as one part file of
 the dataset. A campaign started again on the same folder skips the runs
@@ -75,12 +76,26 @@ def numeric_params(spec: CampaignSpec) -> dict[str, bool]:
 
 
 def batch_plans(plans: Sequence[RunPlan], workers: int, batch_size: int | None = None) -> list[list[RunPlan]]:
-    """Cut ``plans`` into batches: at least 4 per worker, at most :data:`MAX_BATCH` runs each."""
-    if batch_size is None:
-        batch_size = max(1, min(MAX_BATCH, math.ceil(len(plans) / (4 * max(1, workers)))))
-    if batch_size < 1:
-        raise ValueError(f"batch_size must be >= 1, got {batch_size}")
-    return [list(plans[i : i + batch_size]) for i in range(0, len(plans), batch_size)]
+    """Cut ``plans`` into batches, in order: ``batch_size`` runs each, or by default shrinking ones.
+
+    By default (guided self-scheduling) each batch takes a quarter of a worker's share of the
+    runs still to cut, ``ceil(remaining / (4 * workers))``, at most :data:`MAX_BATCH` and at least
+    one: full batches while many runs remain, then ever smaller ones down to single runs, so the
+    workers run out of work within about one run of each other instead of one waiting for a
+    whole batch of the other (runs of one campaign differ in cost: 0.2-0.5 s for the default
+    scenario's seeds). A batch is a task and a part file; a 10,000-run campaign on 2 workers
+    has 520 of them against 500 of 20 runs.
+    """
+    if batch_size is not None:
+        if batch_size < 1:
+            raise ValueError(f"batch_size must be >= 1, got {batch_size}")
+        return [list(plans[i : i + batch_size]) for i in range(0, len(plans), batch_size)]
+    out, start, share = [], 0, 4 * max(1, workers)
+    while start < len(plans):
+        size = max(1, min(MAX_BATCH, math.ceil((len(plans) - start) / share)))
+        out.append(list(plans[start : start + size]))
+        start += size
+    return out
 
 
 def local_cluster(workers: int = 2) -> LocalCluster:

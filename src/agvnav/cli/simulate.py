@@ -106,7 +106,7 @@ def _simulate(
     set_compiled_for_run(expected_s, len(built.world.reflector_xy))
     _prepare_out(out, force)
     with RunProgress(sc.name, expected_s, "s simulated") as bar:
-        result = run_scenario(sc, progress=bar.update)
+        result = run_scenario(sc, progress=bar.update, built=built)
     parts = ["plots"] * plots + ["report"] * report
     with RunProgress(f"writing {out}", key=" ".join(["simulate save", *parts])):  # plots and report take seconds
         written = save_result(result, out, plots=plots, force=force, report=report, plotter=plotter)

@@ -83,14 +83,18 @@ def simulate(
     scenario: Scenario,
     progress: Callable[[float], None] | None = None,
     spec: TransientSpec = DEFAULT_TRANSIENT,
+    built: Built | None = None,
 ) -> SimResult:
     """Build and run ``scenario`` (a vehicle following a path); deterministic for its seed.
 
     A route scenario (the seed-004 square) runs laps instead: :func:`agvnav.sim.laps.simulate_tracked`.
 
-    ``progress(t)`` receives the simulated time about a hundred times.
+    ``progress(t)`` receives the simulated time about a hundred times. ``built`` is
+    ``build(scenario)`` when the caller has built it already and not run it (``agvnav simulate``
+    builds first to check the scenario): the same run, without building it twice.
     """
-    built = build(scenario)
+    if built is None:
+        built = build(scenario)
     out = built.loop.run(built.duration, scenario.end_hold_s, progress)
     series = out.series
     _add_true_errors(series, built)

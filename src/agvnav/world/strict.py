@@ -23,7 +23,7 @@ from typing import Annotated, Any, Self, TypeVar
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from agvnav.world.yaml_strict import safe_load_unique, yaml_error_line
+from agvnav.world.yaml_strict import compose, safe_load_unique, yaml_error_line
 
 __all__ = [
     "DocumentNotFoundError",
@@ -282,7 +282,7 @@ def read_document_text(path: str | Path, kind: str, source: str | None = None) -
 def load_yaml_document(text: str, source: str) -> tuple[Any, Any]:
     """``(data, composed nodes)`` of YAML ``text``; a ScenarioError with the line on bad YAML."""
     try:
-        nodes = yaml.compose(text, Loader=yaml.SafeLoader)
+        nodes = compose(text)
         data = safe_load_unique(text)
     except yaml.YAMLError as exc:
         problem = getattr(exc, "problem", None) or str(exc)
