@@ -276,7 +276,7 @@ class EkfEstimator(StreamingEstimator):
 
     def _move_compiled(self, dd: float, dth: float, dl: float) -> None:
         """The base class's compiled prediction, moving ``M`` and ``P_xc`` in the same call."""
-        self._odom_t, self._x_t, self._P_t, self._M, self._Pxc = _fast.move_state.bound()(
+        self._odom_t, self._x_t, self._P_t, self._M, self._Pxc = _fast.MOVE_STATE.bound()(
             self._odom_t, self._x_t, self._P_t, self._M, self._Pxc, dd, dth, dl, self._noise_hypot(dd, dth, dl),
             self._move_consts,
         )
@@ -385,7 +385,7 @@ class EkfEstimator(StreamingEstimator):
             z = _fast.wrap(z)
         P0 = self._P_t
         sight = self._sight(t)
-        (j, y, nis, n_in, h0, h1, h2, S, R), x1, P1, K, M, X, fold = _fast.gate_accept.bound()(
+        (j, y, nis, n_in, h0, h1, h2, S, R), x1, P1, K, M, X, fold = _fast.GATE_ACCEPT.bound()(
             z, t, x0, P0, self._M, self._Pxc, self._C, self._claimed,
             self._in_sight_all if sight is None else sight, self._gate_tab, self._gate_consts, *self._gate_grid,
         )

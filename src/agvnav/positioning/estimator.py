@@ -886,7 +886,7 @@ class StreamingEstimator:
         The noise model's constants were packed at construction (``_move_consts``); a consider
         filter overrides this to move its own factors in the same call.
         """
-        self._odom_t, self._x_t, self._P_t, _, _ = _fast.move_state.bound()(
+        self._odom_t, self._x_t, self._P_t, _, _ = _fast.MOVE_STATE.bound()(
             self._odom_t, self._x_t, self._P_t, _NO_M, _NO_X, dd, dth, dl, self._noise_hypot(dd, dth, dl),
             self._move_consts,
         )
