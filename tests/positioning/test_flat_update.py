@@ -72,11 +72,24 @@ def test_flat_update_gives_the_base_path_bits(case: str, monkeypatch: pytest.Mon
     assert n_fallback < 0.25 * n_reflections
 
 
-def test_flat_update_falls_back_when_interpreted() -> None:
-    """Interpreted there is no fused kernel: the base class's path runs (and counts) every reflection."""
+def test_flat_update_falls_back_when_interpreted(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Interpreted there is no fused kernel: the base class's path handles every reflection."""
     _jit.set_compiled(False)
+    seen: dict[str, int] = {"ekf": 0, "base": 0}
+    ekf_update, base_update = EkfEstimator.update, StreamingEstimator.update
+
+    def ekf_counted(self: EkfEstimator, t: float, bearing: float) -> bool:
+        seen["ekf"] += 1
+        return ekf_update(self, t, bearing)
+
+    def base_counted(self: StreamingEstimator, t: float, bearing: float) -> bool:
+        seen["base"] += 1
+        return base_update(self, t, bearing)
+
+    monkeypatch.setattr(EkfEstimator, "update", ekf_counted)
+    monkeypatch.setattr(StreamingEstimator, "update", base_counted)
     _, est = _run(_scenario_with("guidance_test"), 3.0)
-    assert est.n_accepted > 20 and np.isfinite(est.pose).all()
+    assert seen["ekf"] == seen["base"] > est.n_accepted > 20
 
 
 def test_kernel_bound_follows_the_mode() -> None:
