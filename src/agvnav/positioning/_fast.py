@@ -16,12 +16,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav._jit import jit
+from agvnav._jit import Kernel, jit
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
 from agvnav.positioning.gating import GateSpec, grid_rows
 
@@ -984,3 +984,10 @@ def gate_accept(
         gc[_G_MIN_DET], gc[_G_MAX_ENTRY],
     )
     return res, xn, Pn, K, Mn, Xn, fold
+
+
+#: The per-reflection kernels as :class:`~agvnav._jit.Kernel` objects, for their
+#: :meth:`~agvnav._jit.Kernel.bound` callable in the estimators' hot path (typed: ``jit`` keeps the
+#: function's signature for callers, so ``.bound`` is reached through these names).
+MOVE_STATE: Kernel = cast(Kernel, move_state)
+GATE_ACCEPT: Kernel = cast(Kernel, gate_accept)

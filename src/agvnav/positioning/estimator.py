@@ -423,7 +423,8 @@ class StreamingEstimator:
         self._move(dd - ahead[0], dth - ahead[1], dl - ahead[2])
         if abs(dd) > 1e-9 or abs(dth) > 1e-9 or abs(dl) > 1e-9:
             self._init_buffer.clear()  # the start-up search and relocalisation need a standing vehicle
-        self._watch_integrity(t)
+        if self.monitor.due(t):  # _watch_integrity(t) returns at once otherwise (issue 11: one call fewer)
+            self._watch_integrity(t)
 
     def update(self, t: float, bearing: float) -> bool:
         """One raw anonymous reflection: time ``t`` (s), head-frame bearing (rad) of its start.
@@ -453,6 +454,16 @@ class StreamingEstimator:
         # _watch_lockout between them (its window and counts do not depend on the state)
         fused = self.consider and compiled() and not self._lockout_on_accept(t)
         assoc = self._gate_accept(t, z) if fused else self._gate(t, z)
+        return self._after_gate(t, z, assoc, fused, before)
+
+    def _after_gate(
+        self, t: float, z: float, assoc: Association, fused: bool, before: tuple[tuple[float, ...], tuple[float, ...]]
+    ) -> bool:
+        """:meth:`update` once the reflection ``(t s, z rad)`` is gated: lock-out watch, counters, the update, monitor.
+
+        ``fused``: :meth:`_gate_accept` already made the update (then ``before`` is its prior
+        ``(x, P)``); else :meth:`_accept` makes it here when the gate identified a reflector.
+        """
         if assoc.index >= 0 or assoc.n_in_gate == 0:  # an ambiguous gate says nothing of a lock-out
             self._watch_lockout(t, assoc.index >= 0)
         if assoc.index < 0:
@@ -875,7 +886,7 @@ class StreamingEstimator:
         The noise model's constants were packed at construction (``_move_consts``); a consider
         filter overrides this to move its own factors in the same call.
         """
-        self._odom_t, self._x_t, self._P_t, _, _ = _fast.move_state(
+        self._odom_t, self._x_t, self._P_t, _, _ = _fast.MOVE_STATE.bound()(
             self._odom_t, self._x_t, self._P_t, _NO_M, _NO_X, dd, dth, dl, self._noise_hypot(dd, dth, dl),
             self._move_consts,
         )

@@ -451,6 +451,10 @@ def reflectors_in_sight(
     ), dtype=bool)
 
 
+_INF = math.inf
+_PI = math.pi
+
+
 class _HeadClock:
     """The goniometer head's phase, learnt from the stamps and bearings of the reflections.
 
@@ -485,9 +489,12 @@ class _HeadClock:
                         self.sense, self.phase = sense, ref
                         break
             return True
-        dev = wrap_angle_scalar(z - self.sense * w - self.phase)
+        dev = z - self.sense * w - self.phase
+        if not -_PI <= dev < _PI:  # wrap_angle_scalar's own shortcut, its call only when it wraps (issue 11)
+            dev = wrap_angle_scalar(dev)
         if abs(dev) <= self.tolerance:
-            self.phase = wrap_angle_scalar(self.phase + self.GAIN * dev)
+            phase = self.phase + self.GAIN * dev
+            self.phase = phase if -_PI <= phase < _PI else wrap_angle_scalar(phase)
             return True
         return False
 
@@ -630,19 +637,22 @@ class IntegrityMonitor:
         Kalman filter. ``innovation``: the update's ``(y, S, H0, H1, H2)`` (rad, rad², the
         bearing Jacobian row) for the leave-one-out test (:meth:`raim`); None without one.
         """
-        on_time = self._clock.on_time(t, bearing)
-        self._entries.append((
-            t, nis, int(index), bearing, odom[0], odom[1], odom[2], 1.0 if on_time else 0.0,
+        j = int(index)
+        entries = self._entries
+        entries._flat.extend((
+            t, nis, j, bearing, odom[0], odom[1], odom[2], 1.0 if self._clock.on_time(t, bearing) else 0.0,
             0.0 if correction is None else 1.0, *(correction or _NO_FIVE),
             0.0 if innovation is None else 1.0, *(innovation or _NO_FIVE),
-        ))  # stored as doubles
-        self._entries.drop_older(t, self.limits.window_s)
+        ))  # _Window.append: stored as doubles
+        window_s = self.limits.window_s
+        if t - entries._flat[entries._head * _WIDTH] > window_s:  # else _Window.drop_older drops nothing
+            entries.drop_older(t, window_s)
         if self._attributed:
-            self._void_attributions(t, int(index))
-        if math.isfinite(nis):
-            j = int(index)
-            self._n_nu[j] += 1
-            self._mean_nu[j] += (nis - self._mean_nu[j]) / min(self._n_nu[j], 8)
+            self._void_attributions(t, j)
+        if -_INF < nis < _INF:
+            n = self._n_nu[j] + 1
+            self._n_nu[j] = n
+            self._mean_nu[j] += (nis - self._mean_nu[j]) / min(n, 8)
 
     def attribution_gate(self) -> float:
         """Chi-square bound (1 dof) on ``y^2 / S`` of the attribution gate (:meth:`attributed`).
