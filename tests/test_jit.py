@@ -11,6 +11,7 @@ import pytest
 from agvnav import _jit
 from agvnav.geometry import wrap_angle
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
+from agvnav.positioning import _fast
 from agvnav.positioning._integrity_fast import _information_sums, best_triple
 from agvnav.positioning.gating import BearingIndex, GateSpec, near_rows
 from agvnav.positioning.integrity import _fde_statistics, _window_tally
@@ -278,3 +279,16 @@ def test_the_public_module_is_the_cli_s_way_in() -> None:
     cli = Path(public.__file__).parent / "cli"
     users = [p.name for p in cli.rglob("*.py") if "agvnav._jit" in p.read_text(encoding="utf-8")]
     assert users == []
+
+
+def test_kernel_bound_follows_the_mode() -> None:
+    """``Kernel.bound`` is what a call runs: the plain function interpreted, the dispatcher compiled."""
+    k = _fast.MOVE_STATE
+    _jit.set_compiled(False)
+    assert k.bound() is k.py_func
+    _jit.set_compiled(True)
+    assert k.bound() is k.dispatcher()
+    args = ((0.0, 0.0, 0.0), (1.0, 2.0, 0.3), (1e-4, 0.0, 0.0, 0.0, 1e-4, 0.0, 0.0, 0.0, 1e-5),
+            (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), (0.0,) * 6, 0.01, 0.002, 0.0, 0.01,
+            _fast.move_constants((1e-3, 3e-3, 1e-3, 1e-3), None, True, False, (0.0, 0.0)))
+    assert k.bound()(*args) == k.py_func(*args) == k(*args)

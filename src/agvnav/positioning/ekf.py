@@ -100,11 +100,6 @@ CONSIDER_MIN_DET = 0.05
 CONSIDER_MAX_ENTRY = 20.0
 
 _IDENTITY = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
-_INF = math.inf
-_PI = math.pi
-#: The steps :meth:`EkfEstimator.update`'s flat path writes out (a subclass overriding one takes the base path).
-_FLAT_STEPS = ("_checked_reflection", "_gate_accept", "_after_gate", "_watch_lockout", "_lockout_on_accept",
-               "_correction", "_innovation", "_watch_integrity", "_sight", "_fold_into_row")
 
 
 def ekf_predict(
@@ -201,12 +196,6 @@ class EkfEstimator(StreamingEstimator):
         self.last_range: Any = None
         if not hasattr(self, "_C"):  # no initial pose: the consider state starts with the search
             self._consider_reset()
-        cls = type(self)
-        #: Whether :meth:`update` may take its flat path: a consider filter named ``ekf`` whose
-        #: subclass (if any) overrides none of the steps that path writes out.
-        self._flat_update = self.consider and self.method == "ekf" and all(
-            getattr(cls, name) is getattr(EkfEstimator, name) for name in _FLAT_STEPS
-        )
 
     @property
     def covariance(self) -> NDArray[np.float64]:
@@ -357,62 +346,6 @@ class EkfEstimator(StreamingEstimator):
         if fused:
             self._t_last_accept = t
         return fused
-
-    def update(self, t: float, bearing: float) -> bool:
-        """One raw anonymous reflection (:meth:`StreamingEstimator.update`), the closed loop's case in one pass.
-
-        The closed loop hands each reflection right after the odometry up to its instant: a
-        Python float ``t`` equal to the latest input's time, a finite ``bearing``, the pose
-        known and not lost, the kernels compiled, and an acceptance that cannot make
-        :meth:`_watch_lockout` inflate ``P``. Then the base class's steps run here written
-        out, in its order and with its operations (issue 11: a reflection cost ~20 Python calls):
-        the bearing offset and wrap of :meth:`_checked_reflection`, :meth:`_gate_accept`'s
-        one compiled call, and for an acceptance the lock-out window's entry, the counters,
-        the trusted pose, :meth:`_correction` and :meth:`_innovation` for the monitor and its
-        check when due. A rejection goes on through :meth:`_after_gate`; any other case is
-        the base class's :meth:`~StreamingEstimator.update` from the start.
-        """
-        x0 = self._x_t
-        monitor = self.monitor
-        if not (
-            self._flat_update and type(t) is float and type(bearing) is float and t == self._t
-            and -_INF < bearing < _INF and -_INF < x0[0] < _INF and -_INF < x0[1] < _INF and -_INF < x0[2] < _INF
-            and monitor.verdict != "lost" and compiled() and not self._lockout_on_accept(t)
-        ):  # _lockout_on_accept pruned its window at t: the base class's call prunes nothing more
-            return super().update(t, bearing)
-        z = bearing + self.bearing_offset
-        if not -_PI <= z < _PI:
-            z = _fast.wrap(z)
-        P0 = self._P_t
-        sight = self._sight(t)
-        (j, y, nis, n_in, h0, h1, h2, S, R), x1, P1, K, M, X, fold = _fast.GATE_ACCEPT.bound()(
-            z, t, x0, P0, self._M, self._Pxc, self._C, self._claimed,
-            self._in_sight_all if sight is None else sight, self._gate_tab, self._gate_consts, *self._gate_grid,
-        )
-        if j < 0:
-            return self._after_gate(t, z, Association(j, y, nis, n_in, np.array((h0, h1, h2)), S, R), True, (x0, P0))
-        # _gate_accept's state
-        self._x_t, self._P_t, self._Pxc = x1, P1, X
-        if fold:
-            self._fold_into_row(M, K, j, h0, h1)
-        else:
-            self._M = M
-        self.last_innovation = y
-        self.last_nis = nis
-        self.last_reflector = j
-        # _after_gate: _watch_lockout(t, True) only enters the reflection (no inflation, checked above)
-        self._recent.append((t, True))
-        self._recent_ok += 1
-        self.n_accepted += 1
-        self._claimed[j] = t
-        self._t_last_accept = t
-        if monitor.verdict == "ok":
-            self._trusted = (x1[0], x1[1], P1[0] + P1[4], t)
-        monitor.accepted(t, nis, j, z, self._odom_t, (x1[0] - x0[0], x1[1] - x0[1], P0[0] - P1[0], P0[1] - P1[1],
-                                                      P0[4] - P1[4]), (y, S, h0, h1, h2))
-        if monitor.due(t):  # _watch_integrity(t) returns at once otherwise
-            self._watch_integrity(t)
-        return True
 
     def _gate_accept(self, t: float, z: float) -> Association:
         """:meth:`_gate` and :meth:`_accept` in one compiled call (:func:`~agvnav.positioning._fast.gate_accept`).
