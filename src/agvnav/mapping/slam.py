@@ -4,7 +4,9 @@
    keyframes are dead-reckoned from the last solved one; each reflection is gated against the
    known reflectors (:func:`agvnav.mapping.association.associate`); the unassociated ones wait in
    a pool (the last ``pool_s`` seconds) from which new reflectors are triangulated
-   (:func:`agvnav.mapping.initialise.initialise_reflectors`). After each chunk that added
+   (:func:`agvnav.mapping.initialise.initialise_reflectors`); a new track within ``merge_distance`` of a known
+   reflector is merged into it only if its rays fit no other reflector better (:func:`_track_target`: rays along
+   one line of sight through two reflectors triangulate anywhere on it). After each chunk that added
    sightings, the graph so far is re-solved from the previous solution (a warm-started
    Levenberg-Marquardt of a few iterations: the incremental update; GTSAM's iSAM2 is not used).
    The front end's frame is the start pose with the odometry scale held at 1: provisional.
@@ -14,7 +16,8 @@
    (:mod:`agvnav.mapping.anchors`). No anchor: :class:`~agvnav.mapping.anchors.ScaleUnobservable`.
 3. **Batch**: each bearing factor interpolates the pose between the two keyframes around its reflection
    (a keyframe at every odometry instant: :func:`agvnav.mapping.drive.interpolate_drive`); every
-   reflection is re-associated against the solved trajectory and the kept reflectors with a tight gate (after each
+   reflection is re-associated against the solved trajectory and the kept reflectors with a tight gate, a lone
+   reflection (no other of its reflector within ``max_gap_s``: clutter, :func:`_isolated`) left out (after each
    solve that re-associates, the reflections no reflector claims are triangulated into new reflectors,
    :func:`_initialise_leftovers`, ``batch_initialise``),
    reflectors without ``min_sightings`` from ``min_baseline`` are dropped, the graph is solved to
