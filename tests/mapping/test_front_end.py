@@ -39,3 +39,31 @@ def test_front_end_gates_on_the_heading_dead_reckoned_since_the_last_solution(se
     right = (fe.assoc >= 0) & (landmark_truth[np.maximum(fe.assoc, 0)] == index)
     assert float(np.mean(right[ok])) > 0.8
     assert int(np.sum(landmark_truth < 0)) <= 20  # the batch removes the rest (min sightings, tracks)
+
+
+def _lane_track(target: np.ndarray, y: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
+    """Head poses along a lane at ``y`` heading west (x 15.8 -> 15.2 m) and their exact bearings of ``target``."""
+    from agvnav.sensors.goniometer import leading_edge_bearing
+
+    x = np.linspace(15.8, 15.2, 16)
+    heads = np.column_stack([x, np.full_like(x, y), np.full_like(x, np.pi)])
+    b = np.array([float(np.ravel(leading_edge_bearing(h, target[None], np.array([0.04]))[0])[0]) for h in heads])
+    return heads, b
+
+
+def test_a_track_along_one_line_of_sight_through_two_reflectors_is_not_merged_into_the_farther() -> None:
+    # hall_differential seed 8: P2's reflections from the north lane, P1 0.5 m behind it on nearly the same line of
+    # sight, triangulated 0.13 m from P1. The old rule (the nearest reflector within merge_distance) gave P1.
+    from agvnav.mapping.slam import NEW_REFLECTOR, MappingOptions, _track_target
+
+    p1, p2 = np.array([15.0, 6.75]), np.array([15.0, 7.25])
+    landmarks = np.vstack([p1, p2])
+    opt = MappingOptions()
+    heads, b = _lane_track(p2)
+    slid = np.array([14.92, 6.85])  # the track's centre slid along the rays towards P1
+    assert float(np.hypot(*(slid - p1))) < opt.merge_distance
+    assert _track_target(heads, b, slid, landmarks, opt) == -1  # ambiguous: left out, not given to P1
+    assert _track_target(heads, b, p2 + 0.05, landmarks, opt) == 1  # near P2 and fitting it: P2
+    heads1, b1 = _lane_track(p1, y=4.0)  # P1 from the south lane, where it is the nearer one: merged into P1
+    assert _track_target(heads1, b1, p1 + np.array([0.05, 0.1]), landmarks, opt) == 0
+    assert _track_target(heads, b, np.array([20.0, 0.0]), landmarks, opt) == NEW_REFLECTOR

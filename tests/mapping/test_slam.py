@@ -253,3 +253,29 @@ def test_a_dropped_front_end_reflector_takes_no_sightings_from_a_kept_one(syn: S
     idx, dist = _nearest(res.xy)
     assert sorted(idx.tolist()) == list(range(REFLECTORS.shape[0])) and dist.max() < 0.005
     assert res.sightings[idx.tolist().index(3)] == ref.sightings[_nearest(ref.xy)[0].tolist().index(3)] > 20
+
+
+def test_a_lone_reflection_in_a_reflectors_gate_is_not_associated(syn: SimpleNamespace) -> None:
+    # hall_differential seed 9: a clutter reflection inside N1's gate, the only one from its direction, put N1 30 mm
+    # off. Reflector 5 unseen for 4 s but for one reflection 3 sigma off its bearing: no other reflection of it
+    # within max_gap_s, so it is not a sighting (the old re-association took it: one more sighting).
+    from dataclasses import replace
+
+    sigma = 1e-4
+    log = synthetic_drive(syn, 5, sigma)
+    refl = np.arange(log.bearing.size) % REFLECTORS.shape[0]  # six reflections per instant, in reflector order
+    hole = (refl == 5) & (log.reflection_stamp > 10.0) & (log.reflection_stamp < 14.0)
+    lone = np.flatnonzero(hole)[hole.sum() // 2]
+    drop = hole.copy()
+    drop[lone] = False
+    bearing = log.bearing.copy()
+    bearing[lone] += 3.0 * sigma
+    cut = replace(log, reflection_t=log.reflection_t[~drop], reflection_stamp=log.reflection_stamp[~drop],
+                  bearing=bearing[~drop])
+    anchors = [SurveyedAnchor(("A", "B"), REFLECTORS[:2], np.array([1e-4, 1e-4]))]
+    opt = MappingOptions(bearing_std=sigma)
+    res = build_map(cut, anchors, opt)
+    idx, dist = _nearest(res.xy)
+    assert sorted(idx.tolist()) == list(range(REFLECTORS.shape[0])) and dist.max() < 0.01
+    seen = int(np.sum((refl[~drop] == 5) & (cut.reflection_stamp > log.t[0])))
+    assert res.sightings[idx.tolist().index(5)] == seen - 1

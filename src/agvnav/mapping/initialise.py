@@ -32,6 +32,7 @@ __all__ = [
     "initialise_from_tracks",
     "initialise_reflectors",
     "ray_distances",
+    "ray_misfit",
     "track_reflections",
     "triangulate_rays",
 ]
@@ -87,6 +88,22 @@ def ray_distances(point: F64, origins: F64, dirs: F64) -> tuple[F64, F64]:
     along = v[:, 0] * dirs[:, 0] + v[:, 1] * dirs[:, 1]
     perp = np.abs(v[:, 0] * dirs[:, 1] - v[:, 1] * dirs[:, 0])
     return perp, along
+
+
+def ray_misfit(heads: F64, bearings: F64, radius: float, points: F64, direction: int = 1) -> F64:
+    """``(M,)`` the median perpendicular distance (m) of the reflections' centre rays from each of ``points (M, 2)``.
+
+    ``heads (P, 3)`` head poses, ``bearings (P,)`` leading-edge bearings (rad), ``radius`` (m); a point behind a
+    ray's origin counts as infinitely far from it. The track of a reflector lies along the rays; a second
+    reflector on nearly the same line of sight fits them too (a short track's triangulated centre slides along
+    the line towards it, :func:`agvnav.mapping.slam.front_end`).
+    """
+    origins, dirs = _centre_rays(heads, bearings, radius, direction)
+    out = np.full(points.shape[0], np.inf)
+    for m, p in enumerate(np.asarray(points, dtype=np.float64)):
+        perp, along = ray_distances(p, origins, dirs)
+        out[m] = float(np.median(np.where(along > 0.0, perp, np.inf)))
+    return out
 
 
 def triangulate_rays(origins: F64, dirs: F64) -> F64:
