@@ -33,6 +33,11 @@ NumPy's ``H.T @ (W H)``, ``np.linalg.solve`` and ``dx @ A @ dx`` went through Op
 sums in its own order with fused multiply-adds and picks its kernel by CPU (no plain IEEE form
 reproduces it): the statistic moved by at most 5e-15 relative on the shipped loops, against
 a threshold, and no decision changed.
+
+And one moved on Python 3.12+ only: the windowed NIS (:func:`nis_per_reflector`) adds its
+per-reflector means in turn from 0.0, as the former ``sum()`` did on 3.11; ``sum()`` of floats
+compensates its rounding from 3.12 on (Neumaier), so there the kernel's total (the same on
+every version) differs from the former form's in the last bits, against a threshold.
 """
 
 from __future__ import annotations
@@ -48,13 +53,16 @@ from agvnav.positioning._three import CRITICAL_TOL, REORDER_TOL
 from agvnav.positioning.triangulation import LAYOUT_TOL, NONLINEAR_RATIO, PARALLEL_TOL
 
 __all__ = [
-    "TOTAL_FALLBACK", "TOTAL_INVALID", "TOTAL_VALID", "best_triple", "crosscheck_fix", "fix_covariance", "in_range",
+    "CROSSCHECK_FIX", "CROSSCHECK_NONE", "CROSSCHECK_TRIANGULATE", "TOTAL_FALLBACK", "TOTAL_INVALID", "TOTAL_VALID",
+    "best_triple", "crosscheck_fix", "fix_covariance", "in_range",
     "information", "mean_innovations", "nis_per_reflector", "nonlinear_fix", "position_crlb_one", "py_hypot",
     "revolution_innovations", "revolution_offset", "total_fix", "window_fde",
 ]
 
 #: :func:`total_fix` codes: no valid fix, a valid fix, and "decide with the public triangulate" (rare path).
 TOTAL_INVALID, TOTAL_VALID, TOTAL_FALLBACK = 0, 1, 2
+#: :func:`crosscheck_fix` codes: no fix, a fix with its covariance, and "the caller triangulates" (rare path).
+CROSSCHECK_NONE, CROSSCHECK_FIX, CROSSCHECK_TRIANGULATE = 0, 1, 2
 
 _DBL_MIN = 2.2250738585072014e-308
 _SPLIT = 134217729.0  # 2**27 + 1: Veltkamp-Dekker splitting of a double into two 26-bit halves
@@ -362,9 +370,10 @@ def crosscheck_fix(
     caller), ``two`` the exponent 2.0 (module docstring), ``max_var`` ``max_fix_std_m²`` (m²).
 
     Returns ``(code, x, y, c00, c01, c11, i, j, k, z_i, z_j, z_k, s_i, s_j, s_k)``: ``code``
-    0 no fix (fewer than three reflectors, no good triple, an invalid fix or a covariance that
-    is not finite), 1 a fix ``(x, y)`` (m) with its position covariance (m²), 2 the triple's map
-    rows, propagated bearings (rad) and stds (rad) for the caller's
+    :data:`CROSSCHECK_NONE` no fix (fewer than three reflectors, no good triple, an invalid fix or
+    a covariance that is not finite), :data:`CROSSCHECK_FIX` a fix ``(x, y)`` (m) with its position
+    covariance (m²) and the triple, :data:`CROSSCHECK_TRIANGULATE` the triple's map rows,
+    propagated bearings (rad) and stds (rad) for the caller's
     :func:`~agvnav.positioning.triangulation.triangulate` (:func:`total_fix`'s rare path).
     """
     nan = math.nan
@@ -376,7 +385,7 @@ def crosscheck_fix(
     pos.reverse()  # each reflector's newest sighting, newest first
     m = len(pos)
     if m < 3:
-        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+        return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     if m > 8:  # _spread8: numpy.linspace(0, m - 1, 8).round()
         step = (m - 1) / 7
         pos = [pos[_round_half_even(k * step)] for k in range(7)] + [pos[m - 1]]
@@ -411,7 +420,7 @@ def crosscheck_fix(
         rows[q], cx[q], cy[q] = i, rx[i], ry[i]
     best = best_triple(hx, hy, cx, cy, var, bearing_var, max_var)
     if best < 0:
-        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+        return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     rank = 0
     a = b = c = -1
     for u in range(m):  # the combination of that rank
@@ -422,20 +431,21 @@ def crosscheck_fix(
                 rank += 1
     sa, sb, sc = math.sqrt(var[a]), math.sqrt(var[b]), math.sqrt(var[c])
     if not (sa > 0.0 and sb > 0.0 and sc > 0.0 and math.isfinite(sa) and math.isfinite(sb) and math.isfinite(sc)):
-        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan  # triangulate: ValueError
+        # triangulate raised a ValueError here
+        return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     tri_x, tri_y = (cx[a], cx[b], cx[c]), (cy[a], cy[b], cy[c])
     code, fx, fy = total_fix(cx[a], cy[a], cx[b], cy[b], cx[c], cy[c], z[a], z[b], z[c])
     if code == TOTAL_FALLBACK:
-        return 2, nan, nan, nan, nan, nan, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc
+        return CROSSCHECK_TRIANGULATE, nan, nan, nan, nan, nan, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc
     if code == TOTAL_INVALID:
-        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+        return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     ok, c00, c01, c02, c11, c12, c22 = fix_covariance(tri_x, tri_y, fx, fy, (sa, sb, sc))
     if not ok or nonlinear_fix(tri_x, tri_y, fx, fy, c00, c01, c11):
-        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+        return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     if not (math.isfinite(c00) and math.isfinite(c01) and math.isfinite(c02) and math.isfinite(c11)
             and math.isfinite(c12) and math.isfinite(c22)):
-        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
-    return 1, fx, fy, c00, c01, c11, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc
+        return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+    return CROSSCHECK_FIX, fx, fy, c00, c01, c11, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc
 
 
 _T, _HAS_I, _Y = 0, 14, 15  # window row columns: stamp, has an innovation, the innovation y, S, H0, H1, H2
@@ -804,9 +814,9 @@ def nis_per_reflector(buf: Any, start: int, n: int, sightings: Any, first: Any, 
 
     ``buf``, ``start``, ``n``: the window (:meth:`~agvnav.positioning.integrity._Window.buffer`);
     ``sightings``, ``first``, ``nis (N,)`` the tally's counts, first positions and summed NIS
-    per map row. Each mean ``nis / sightings`` added to 0.0 in turn, as CPython 3.11's ``sum``
-    of the former ``_nis_per_reflector`` did (3.12's ``sum`` compensates: that form would
-    itself differ there).
+    per map row. Each mean ``nis / sightings`` added to 0.0 in turn (``total += mean``): the
+    former ``_nis_per_reflector``'s ``sum()`` on Python 3.11, not on 3.12+, whose ``sum()``
+    compensates (module docstring: moved on 3.12+, in the last bits).
     """
     total = 0.0
     for k in range(n):
