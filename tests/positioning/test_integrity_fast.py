@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -17,7 +18,7 @@ import pytest
 from agvnav import _jit
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.positioning import _integrity_fast as fast
-from agvnav.positioning.integrity import _WIDTH, IntegrityMonitor, _head
+from agvnav.positioning.integrity import _WIDTH, IntegrityMonitor
 from agvnav.positioning.triangulation import _nonlinear, triangulate
 
 pytestmark = pytest.mark.usefixtures("restore_jit_mode")
@@ -127,6 +128,13 @@ def _window(rng: np.random.Generator, mon: IntegrityMonitor, t: float) -> None:
 # The former plain-Python forms the kernels replaced, copied verbatim from the monitor before the
 # compiled check (c5c8164:src/agvnav/positioning/integrity.py; plain, uncompiled): the references
 # below do not call the kernels under test.
+
+
+def _head(x: Any, mount: np.ndarray) -> tuple[float, float, float]:
+    """Head pose in ``map`` from the base_link pose ``x`` (array or floats) and the ``mount`` (floats)."""
+    c, s = math.cos(float(x[2])), math.sin(float(x[2]))
+    mx, my = float(mount[0]), float(mount[1])
+    return float(x[0]) + c * mx - s * my, float(x[1]) + s * mx + c * my, float(x[2]) + float(mount[2])
 
 
 def _spread8(n: int) -> list[int]:
@@ -339,12 +347,17 @@ def test_crosscheck_fix_modes_agree_bit_for_bit() -> None:
     assert sum(r[0] == 1 for r in results[True]) > 20
 
 
-def test_window_row_layout_is_the_monitors() -> None:
-    """The kernel reads the window's columns by the monitor's layout (``integrity._WIDTH`` and co)."""
-    from agvnav.positioning import integrity
-
-    assert (fast._WIDTH, fast._IDX, fast._BEAR, fast._OX, fast._OY, fast._OPSI) == (
-        _WIDTH, integrity._IDX, integrity._BEAR, integrity._OX, integrity._OY, integrity._OPSI)
+def test_the_monitor_writes_its_window_rows_in_the_kernels_layout() -> None:
+    """``accepted`` stores each value in the column the kernels read it from (the layout of ``_integrity_fast``)."""
+    mon = IntegrityMonitor(np.array([[1.0, 2.0], [3.0, 4.0]]), np.full(2, 0.04), (0.3, 0.05, 0.01), 1e-3, 0.125)
+    mon.accepted(7.0, 2.5, 1, 0.4, (5.0, 6.0, 0.7), (0.01, 0.02, 1e-4, 2e-5, 3e-4), (0.003, 4e-6, 0.1, -0.2, -1.0))
+    row = mon._entries.row(0)
+    assert len(row) == fast._WIDTH == _WIDTH
+    assert (row[fast._T], row[fast._NIS], row[fast._IDX], row[fast._BEAR]) == (7.0, 2.5, 1.0, 0.4)
+    assert (row[fast._OX], row[fast._OY], row[fast._OPSI], row[fast._ON_TIME]) == (5.0, 6.0, 0.7, 1.0)
+    assert row[fast._HAS_C] == 1.0 and row[fast._C0:fast._C0 + 5] == [0.01, 0.02, 1e-4, 2e-5, 3e-4]
+    assert row[fast._HAS_I] == 1.0 and row[fast._Y] == 0.003 and row[fast._S] == 4e-6
+    assert row[fast._H0:fast._H0 + 3] == [0.1, -0.2, -1.0]
 
 
 def _reference_inverse3(a: list[float]) -> tuple[float, ...] | None:

@@ -225,3 +225,24 @@ def test_the_offset_inside_a_check_that_excludes_a_reflector_reads_the_window_af
         assert (got is None) == (want is None)
         if got is not None and want is not None:
             assert got[0].tobytes() == want[0].tobytes() and float(got[1]).hex() == float(want[1]).hex()
+
+
+@pytest.mark.usefixtures("restore_jit_mode")
+@pytest.mark.parametrize("on", [False, True])
+def test_the_tally_s_innovations_are_revolution_innovations_over_the_window(on: bool) -> None:
+    """The one-pass tally sums the innovations as ``revolution_innovations`` does (its time bound ``window_s``,
+    no attributed sightings): the two loops kept apart (one pass over the window each) give the same bits."""
+    from agvnav.positioning._integrity_fast import revolution_innovations
+
+    _jit.set_compiled(on)
+    rng = np.random.default_rng(12)
+    for _ in range(50):
+        rows = _rows(int(rng.integers(0, 400)), int(rng.integers(0, 1000)))
+        rows[:, 0] = np.sort(rng.uniform(3.0, 5.0, rows.shape[0]))
+        excluded = (rng.uniform(size=12) < 0.2).astype(np.int64)
+        buf = rows.reshape(-1) if on else rows.reshape(-1).tolist()
+        window_s = float(rng.uniform(0.2, 1.5))
+        tally = _window_tally(buf, 0, rows.shape[0], 5.0, window_s, 0.125, excluded)
+        att = np.zeros((0, 7)) if on else []
+        want = revolution_innovations(buf, 0, rows.shape[0], 5.0, window_s, excluded, att, 0)
+        assert tally[3].tobytes() == want.tobytes()

@@ -68,7 +68,16 @@ _DBL_MIN = 2.2250738585072014e-308
 _SPLIT = 134217729.0  # 2**27 + 1: Veltkamp-Dekker splitting of a double into two 26-bit halves
 _CRIT2 = (2.0 * CRITICAL_TOL) ** 2  # total's critical-circle bound, computed as total_kernel does
 _MARGIN = 1e-9  # relative margin of the decisions taken here (module docstring)
-_WIDTH, _IDX, _BEAR, _OX, _OY, _OPSI = 20, 2, 3, 4, 5, 6  # window row columns (integrity._WIDTH and co)
+
+#: Columns of a window row (:class:`~agvnav.positioning.integrity._Window`, written by
+#: :meth:`~agvnav.positioning.integrity.IntegrityMonitor.accepted`, defined here only): stamp (s), NIS,
+#: map row, edge bearing (rad, head frame), odometric base_link pose then (m, m, rad), on time (1/0,
+#: ``integrity._HeadClock``), has a correction (1/0), the update's position correction (dx, dy) (m)
+#: and covariance decrease P- - P+ (00, 01, 11) (m²), has an innovation (1/0), the EKF's innovation y
+#: (rad), its variance S (rad²) and Jacobian row H (3,).
+_T, _NIS, _IDX, _BEAR, _OX, _OY, _OPSI, _ON_TIME, _HAS_C, _C0 = range(10)
+_HAS_I, _Y, _S, _H0 = 14, 15, 16, 17
+_WIDTH = 20
 
 
 @jit
@@ -447,8 +456,6 @@ def crosscheck_fix(
         return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     return CROSSCHECK_FIX, fx, fy, c00, c01, c11, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc
 
-
-_T, _HAS_I, _Y = 0, 14, 15  # window row columns: stamp, has an innovation, the innovation y, S, H0, H1, H2
 
 
 @jit

@@ -143,10 +143,22 @@ from numpy.typing import ArrayLike
 from agvnav._jit import compiled, jit
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.positioning._chi2_table import FALSE_ALARM, QUANTILES_1E5
-from agvnav.positioning._integrity_fast import (
+from agvnav.positioning._integrity_fast import (  # the window row's columns (_T, ...) are defined there
+    _C0,
+    _HAS_C,
+    _HAS_I,
+    _IDX,
+    _NIS,
+    _ON_TIME,
+    _OX,
+    _OY,
+    _T,
+    _WIDTH,
+    _Y,
     CROSSCHECK_FIX,
     CROSSCHECK_NONE,
     _fde_statistics,
+    _head,
     crosscheck_fix,
     in_range,
     information,
@@ -262,13 +274,6 @@ class IntegrityLimits:
         chi2_upper(1, self.nis_confidence)
 
 
-#: Columns of a window row (:class:`_Window`): stamp (s), NIS, map row, edge bearing (rad, head frame),
-#: odometric base_link pose then (m, m, rad), on time (1/0, :class:`_HeadClock`), has a correction (1/0),
-#: the update's position correction (dx, dy) (m) and covariance decrease P- - P+ (00, 01, 11) (m²),
-#: has an innovation (1/0), the EKF's innovation y (rad), its variance S (rad²) and Jacobian row H (3,).
-_T, _NIS, _IDX, _BEAR, _OX, _OY, _OPSI, _ON_TIME, _HAS_C, _C0 = range(10)
-_HAS_I, _Y, _S, _H0 = 14, 15, 16, 17
-_WIDTH = 20
 _NO_FIVE = (0.0, 0.0, 0.0, 0.0, 0.0)
 _NO_ATTRIBUTED = np.zeros((0, 7))
 #: Fraction of a revolution in which a reflector reflects once (the estimator's claim window).
@@ -790,7 +795,7 @@ class IntegrityMonitor:
         n_entries = len(self._entries)
         n_used = int(np.count_nonzero(tally.sightings))
         self.reflectors_used = n_used
-        head = _head(x, self.mount)
+        head = _head(float(x[0]), float(x[1]), float(x[2]), *self._mount_t)
         unit, floor = self._information(head, tally.sightings)
         self.survey_floor = floor
         out: list[str] = []
@@ -966,7 +971,7 @@ class IntegrityMonitor:
                 return math.nan
             c = fix.covariance
             fx, fy, c00, c01, c11 = float(fix.x), float(fix.y), float(c[0, 0]), float(c[0, 1]), float(c[1, 1])
-        head_now = _head(x, self.mount)
+        head_now = _head(float(x[0]), float(x[1]), float(x[2]), *self._mount_t)
         dx, dy = fx - head_now[0], fy - head_now[1]
         if math.hypot(dx, dy) <= self.limits.crosscheck_min_m:
             return 0.0  # agreement within the gross-error floor
@@ -1350,10 +1355,3 @@ def _mahalanobis2(dx: float, dy: float, s00: float, s01: float, s11: float) -> f
     if not det > 0.0:
         return math.nan
     return (s11 * dx * dx - 2.0 * s01 * dx * dy + s00 * dy * dy) / det
-
-
-def _head(x: Any, mount: np.ndarray) -> tuple[float, float, float]:
-    """Head pose in ``map`` from the base_link pose ``x`` (array or floats) and the ``mount`` (floats)."""
-    c, s = math.cos(float(x[2])), math.sin(float(x[2]))
-    mx, my = float(mount[0]), float(mount[1])
-    return float(x[0]) + c * mx - s * my, float(x[1]) + s * mx + c * my, float(x[2]) + float(mount[2])
