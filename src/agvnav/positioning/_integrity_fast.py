@@ -38,6 +38,16 @@ And one moved on Python 3.12+ only: the windowed NIS (:func:`nis_per_reflector`)
 per-reflector means in turn from 0.0, as the former ``sum()`` did on 3.11; ``sum()`` of floats
 compensates its rounding from 3.12 on (Neumaier), so there the kernel's total (the same on
 every version) differs from the former form's in the last bits, against a threshold.
+
+numba's on-disk cache keys a kernel on its own source file only (:mod:`agvnav._jit`): besides
+``wrap_angle_kernel`` (``geometry.angles``), these kernels read constants of other modules,
+which numba freezes into their machine code: ``LAYOUT_TOL``, ``NONLINEAR_RATIO``,
+``PARALLEL_TOL`` (``positioning.triangulation``), ``CRITICAL_TOL`` and ``REORDER_TOL``
+(``positioning._three``); and ``integrity._window_tally`` reads the window layout (``_T``, ...)
+from here. An edit of one of those alone leaves the cached kernels with the old values until
+their own file changes or ``__pycache__`` is cleared (the two modes then differ, which
+``tests/test_jit.py`` and the bit-for-bit tests of this module's kernels show where the
+change matters on their inputs).
 """
 
 from __future__ import annotations
@@ -220,6 +230,11 @@ def total_fix(
 ) -> tuple[int, float, float]:
     """One ToTal fix (m) from three reflectors (m) and their bearings (rad): ``(code, x, y)``.
 
+    ToTal (Pierlot & Van Droogenbroeck, IEEE T-RO 30(3), 2014; no seed document has it): the
+    circle-intersection triangulation that seed 000 §2.2 names (arcs through two reflectors,
+    refs [9-11] there), indeterminate on the critical circle through the three reflectors (the
+    same section; no equation number in either seed).
+
     :func:`~agvnav.positioning.total.total_kernel` on floats (``xp=ScalarMath``, the single-fix
     path of :func:`~agvnav.positioning.triangulation.triangulate`), operation for operation,
     including the cyclic reorder of :func:`~agvnav.positioning._three.order_pairs`. ``code``:
@@ -289,9 +304,12 @@ def fix_covariance(
 ) -> tuple[bool, float, float, float, float, float, float]:
     """Linearised covariance of a fix at ``(px, py)`` (m) from reflectors ``rx, ry (3,)`` (m), bearing stds ``std``.
 
-    ``(J^T R^-1 J)^-1`` as triangulate computes it: :func:`~agvnav.positioning.bounds.fisher_information`
-    (its ``einsum``: per entry ``((J_ki w_k) J_kj)`` summed over ``k`` in order from 0.0, ``w = 1 / std²``)
-    and :func:`~agvnav.positioning.bounds.inv_sym3` (adjugate times ``1 / det``, singular when
+    The Cramér-Rao bound of three bearings ``z_k = atan2(y_k - py, x_k - px) - psi`` (the
+    bearing of seed 000 §2.1 about the head's centre; Jacobian rows ``[dy/d², -dx/d², -1]``),
+    ``(J^T R^-1 J)^-1`` (no seed gives it an equation number) as triangulate computes it:
+    :func:`~agvnav.positioning.bounds.fisher_information` (its ``einsum``: per entry
+    ``((J_ki w_k) J_kj)`` summed over ``k`` in order from 0.0, ``w = 1 / std²``) and
+    :func:`~agvnav.positioning.bounds.inv_sym3` (adjugate times ``1 / det``, singular when
     ``|det| <= 1e-13`` of its terms' magnitudes). Returns ``(ok, c00, c01, c02, c11, c12, c22)``
     (m², m·rad, rad²); not ``ok``: singular (the entries NaN).
     """
@@ -370,6 +388,18 @@ def crosscheck_fix(
     map_std: Any, noise: Any, bearing_var: float, two: float, max_var: float,
 ) -> tuple[int, float, float, float, float, float, int, int, int, float, float, float, float, float, float]:
     """The cross-check's propagated bearings, best triple and ToTal fix (``IntegrityMonitor._crosscheck``).
+
+    Seed 000 §2.2: a triangulation needs the three angles at one configuration of the robot,
+    so each bearing, measured at its own pose, is brought to now through the odometry between
+    (``z_now = centre + h(now) - h(then)``, ``h`` the leading-edge bearing of seed 000 §2.1 and
+    :func:`_edge_bearing`; that section states the condition and gives no equation). Each
+    propagated bearing's variance adds the error of that odometry, by the coefficients
+    ``K_D, K_Dθ, K_θ`` of [seed002 eq17] (heading ``var_th = k_dtheta s + k_theta |turn|``,
+    position ``var_pos = k_d s + var_th s² / 3`` over the ``s`` m travelled, seen at ``d``:
+    ``var_th + var_pos / d²``), and the survey's ``(map_std / d)²``. The triple is
+    :func:`best_triple`'s (the bearing information of the rows of :func:`_information_sums`),
+    the fix :func:`total_fix`'s (ToTal, Pierlot & Van Droogenbroeck 2014: not a seed document)
+    with :func:`fix_covariance` and :func:`nonlinear_fix`.
 
     ``buf``, ``start``: the window (:meth:`~agvnav.positioning.integrity._Window.buffer`); ``newest (N,)``
     each map row's newest sighting within a revolution (window position, -1: none; the tally's);

@@ -311,7 +311,9 @@ def _window_tally(
 
     Returns the fields of :class:`_Tally`; ``excluded (N,)`` flags the excluded map rows
     (non-zero), ``window_s`` and ``revolution_s`` (s) bound the innovations and the newest
-    sightings. Every sum adds in window order from 0.0 (as the checks' loops did).
+    sightings. Every sum adds in window order from 0.0 (as the checks' loops did). The columns
+    (``_T``, ...) are :mod:`~agvnav.positioning._integrity_fast`'s, frozen into the cached machine
+    code (that module's docstring: after an edit of the layout there, clear ``__pycache__``).
     """
     m = excluded.shape[0]
     count, nis = np.zeros(m), np.zeros(m)
@@ -566,6 +568,7 @@ class IntegrityMonitor:
     drift_noise : ``(00, 01, 11)`` position noise (m²) to add to ``P`` after the latest check
         (zeros outside a drift episode; :meth:`_measure_drift`).
     excluded : map rows of the reflectors excluded as inconsistent (kept across :meth:`reset`).
+    xy, radius, mount, map_std : the map and mount as given (:attr:`xy` and co), fixed after construction.
     """
 
     def __init__(
@@ -581,15 +584,15 @@ class IntegrityMonitor:
         walls: ArrayLike | None = None,
         odometry_noise: tuple[float, float, float] = (0.0, 0.0, 0.0),
     ) -> None:
-        self.xy = np.asarray(reflector_xy, dtype=np.float64).reshape(-1, 2)
+        self._xy = _frozen(np.array(reflector_xy, dtype=np.float64).reshape(-1, 2))
         k_d, k_dtheta, k_theta = (float(v) for v in odometry_noise)
         if not all(math.isfinite(v) and v >= 0.0 for v in (k_d, k_dtheta, k_theta)):
             raise ValueError(f"odometry_noise must be three non-negative finite numbers, got {odometry_noise!r}")
         self.odometry_noise = (k_d, k_dtheta, k_theta)
-        self.radius = np.asarray(reflector_radius, dtype=np.float64).reshape(-1)
-        self.mount = np.asarray(mount, dtype=np.float64).reshape(3)
+        self._radius = _frozen(np.array(reflector_radius, dtype=np.float64).reshape(-1))
+        self._mount = _frozen(np.array(mount, dtype=np.float64).reshape(3))
         self.bearing_std = float(bearing_std)
-        self.map_std = np.broadcast_to(np.asarray(map_std, dtype=np.float64), self.radius.shape)
+        self._map_std = _frozen(np.array(np.broadcast_to(np.asarray(map_std, dtype=np.float64), self.radius.shape)))
         self.max_range = float(max_range)
         self.revolution_s = float(revolution_s)
         self.limits = IntegrityLimits() if limits is None else limits
@@ -599,8 +602,9 @@ class IntegrityMonitor:
         #: gated-out reflections attributed to one reflector: (t, map row, y, S, H0, H1, H2) (:meth:`attributed`)
         self._attributed: deque[tuple[float, int, float, float, float, float, float]] = deque()
         #: the map for the kernels (:mod:`agvnav.positioning._integrity_fast`): x, y, radius, map_std (m), as
-        #: contiguous arrays (compiled) and as lists of floats (interpreted: Python indexes lists faster)
-        self._tables = tuple(np.ascontiguousarray(a, dtype=np.float64)
+        #: contiguous arrays (compiled) and as lists of floats (interpreted: Python indexes lists faster);
+        #: copies, so the map and mount are read-only properties (:attr:`xy` and co)
+        self._tables = tuple(np.array(a, dtype=np.float64)  # contiguous, writeable copies (numba's array type)
                              for a in (self.xy[:, 0], self.xy[:, 1], self.radius, self.map_std))
         self._lists = tuple(a.tolist() for a in self._tables)
         self._mount_t = (float(self.mount[0]), float(self.mount[1]), float(self.mount[2]))
@@ -611,6 +615,26 @@ class IntegrityMonitor:
         self._n_nu = [0] * self.xy.shape[0]
         self.excluded: tuple[int, ...] = ()
         self.reset()
+
+    @property
+    def xy(self) -> np.ndarray:
+        """``(N, 2)`` map centres (m), read-only: fixed at construction (the kernels' tables are copies)."""
+        return self._xy
+
+    @property
+    def radius(self) -> np.ndarray:
+        """``(N,)`` reflector radii (m), read-only (:attr:`xy`)."""
+        return self._radius
+
+    @property
+    def mount(self) -> np.ndarray:
+        """``(3,)`` head pose in base_link (m, m, rad), read-only (:attr:`xy`)."""
+        return self._mount
+
+    @property
+    def map_std(self) -> np.ndarray:
+        """``(N,)`` survey std (m) per reflector, read-only (:attr:`xy`)."""
+        return self._map_std
 
     def reset(self) -> None:
         """Forget the support (after a relocalisation or a fresh start); exclusions and the head clock stay."""
@@ -1347,6 +1371,12 @@ def _fde_result(stats: list[float], n: int, m: int, false_alarm: float) -> FdeRe
             if ok:
                 faulty = min(ok)[1]
     return FdeResult(float(stat), dof, thr, detected, tuple(without), thr_x, faulty)
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    """``a`` made read-only (its own copy: the caller's array is not touched)."""
+    a.flags.writeable = False
+    return a
 
 
 def _mahalanobis2(dx: float, dy: float, s00: float, s01: float, s11: float) -> float:
