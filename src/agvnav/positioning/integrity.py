@@ -776,13 +776,6 @@ class IntegrityMonitor:
         if self._since is None:
             self._since = t
         young = t - self._since < self.limits.window_s  # no full window of support yet
-        return self._judged(t, x, cov, odom, dead_reckoning, young, n_excluded)
-
-    def _judged(
-        self, t: float, x: np.ndarray, cov: np.ndarray, odom: tuple[float, ...], dead_reckoning: bool, young: bool,
-        n_excluded: int,
-    ) -> bool:
-        """The checks and the verdict of :meth:`check` (its arguments, ``young``: no full window yet)."""
         tally = self._tally(t)
         reasons = [] if dead_reckoning else self._support_failures(t, x, cov, odom, young, tally)
         self._raim_ran = self._raim_named = False
