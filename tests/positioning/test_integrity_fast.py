@@ -618,3 +618,12 @@ def test_crosscheck_rare_path_through_triangulate_gives_the_kernels_value(monkey
         monkeypatch.setattr(integrity, "crosscheck_fix", kernel)
         compared += 1
     assert compared > 50
+
+
+def test_the_monitor_s_python_sums_add_in_turn_on_every_python() -> None:
+    """The head clock's and the NIS exclusion's sums add in turn as 3.11's ``sum()`` did (3.12's compensates)."""
+    from agvnav.positioning.integrity import _plain_sum
+
+    assert _plain_sum([1e16, 1.0, -1e16]) == 0.0  # compensated: 1.0
+    assert _plain_sum(iter([0.1, 0.2, 0.3])) == (0.1 + 0.2) + 0.3
+    assert _plain_sum([]) == 0.0

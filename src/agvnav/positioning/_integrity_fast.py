@@ -37,7 +37,9 @@ a threshold, and no decision changed.
 And one moved on Python 3.12+ only: the windowed NIS (:func:`nis_per_reflector`) adds its
 per-reflector means in turn from 0.0, as the former ``sum()`` did on 3.11; ``sum()`` of floats
 compensates its rounding from 3.12 on (Neumaier), so there the kernel's total (the same on
-every version) differs from the former form's in the last bits, against a threshold.
+every version) differs from the former form's in the last bits, against a threshold (the
+monitor's two Python sums, of its head clock and its NIS exclusion, add in turn too:
+``integrity._plain_sum``).
 
 numba's on-disk cache keys a kernel on its own source file only (:mod:`agvnav._jit`): besides
 ``wrap_angle_kernel`` (``geometry.angles``), these kernels read constants of other modules,

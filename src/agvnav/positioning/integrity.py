@@ -134,6 +134,7 @@ import functools
 import math
 from array import array
 from collections import deque
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -510,7 +511,8 @@ class _HeadClock:
             self._learn.append((wrap_angle_scalar(z - w), wrap_angle_scalar(z + w)))
             if len(self._learn) == self.LEARN:
                 for k, sense in ((0, 1), (1, -1)):
-                    ref = math.atan2(sum(math.sin(v[k]) for v in self._learn), sum(math.cos(v[k]) for v in self._learn))
+                    ref = math.atan2(_plain_sum(math.sin(v[k]) for v in self._learn),
+                                     _plain_sum(math.cos(v[k]) for v in self._learn))
                     if all(abs(wrap_angle_scalar(v[k] - ref)) <= 0.5 * self.tolerance for v in self._learn):
                         self.sense, self.phase = sense, ref
                         break
@@ -1077,7 +1079,7 @@ class IntegrityMonitor:
         if len(seen) < lim.min_reflectors + 2:
             return
         worst = max(seen, key=lambda j: self._mean_nu[j])
-        others = sum(self._mean_nu[j] for j in seen if j != worst) / (len(seen) - 1)
+        others = _plain_sum(self._mean_nu[j] for j in seen if j != worst) / (len(seen) - 1)
         m = self._mean_nu[worst]
         if m > lim.exclude_sigmas**2 and m > lim.exclude_ratio**2 * others:
             self._drop(worst)
@@ -1364,6 +1366,14 @@ def _fde_result(stats: list[float], n: int, m: int, false_alarm: float) -> FdeRe
             if ok:
                 faulty = min(ok)[1]
     return FdeResult(float(stat), dof, thr, detected, tuple(without), thr_x, faulty)
+
+
+def _plain_sum(values: Iterable[float]) -> float:
+    """The values added in turn from 0.0: ``sum()`` of Python 3.11, on every version (3.12's compensates)."""
+    total = 0.0
+    for v in values:
+        total += v
+    return total
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
