@@ -191,6 +191,30 @@ def _estimator_kernel_outputs(rng: np.random.Generator) -> dict[str, list[bytes]
     return out
 
 
+_FAST = "positioning/test_integrity_fast.py::"
+#: The integrity check's kernels (positioning._integrity_fast) and the test that runs each, compiled and
+#: interpreted, against the bits of a reference or of the other mode.
+_INTEGRITY_KERNEL_TESTS = {
+    "py_hypot": _FAST + "test_py_hypot_is_cpythons_hypot_bit_for_bit",
+    "total_fix": _FAST + "test_total_fix_covariance_and_flag_are_triangulates",
+    "fix_covariance": _FAST + "test_total_fix_covariance_and_flag_are_triangulates",
+    "nonlinear_fix": _FAST + "test_total_fix_covariance_and_flag_are_triangulates",
+    "crosscheck_fix": _FAST + "test_crosscheck_fix_modes_agree_bit_for_bit",
+    "_head": _FAST + "test_crosscheck_fix_modes_agree_bit_for_bit",
+    "_edge_bearing": _FAST + "test_crosscheck_fix_modes_agree_bit_for_bit",
+    "_round_half_even": _FAST + "test_crosscheck_fix_modes_agree_bit_for_bit",  # windows of > 8 reflectors
+    "mean_innovations": _FAST + "test_revolution_and_mean_innovations_are_the_former_numpy_sums",
+    "revolution_innovations": _FAST + "test_revolution_and_mean_innovations_are_the_former_numpy_sums",
+    "information": _FAST + "test_information_is_the_former_pdop_and_survey_floor",
+    "_inverse3": _FAST + "test_information_is_the_former_pdop_and_survey_floor",
+    "in_range": _FAST + "test_in_range_is_hypot_against_the_range_at_the_boundary_too",
+    "revolution_offset": _FAST + "test_revolution_offset_and_window_fde_modes_agree_bit_for_bit",
+    "window_fde": _FAST + "test_revolution_offset_and_window_fde_modes_agree_bit_for_bit",
+    "_floats": _FAST + "test_revolution_offset_and_window_fde_modes_agree_bit_for_bit",
+    "nis_per_reflector": _FAST + "test_nis_per_reflector_is_the_former_sum_in_order_of_first_sighting",
+}
+
+
 def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
     """1e5 random beam offsets and more per kernel: the two modes give the same bits.
 
@@ -208,10 +232,14 @@ def test_every_kernel_agrees_bit_for_bit_on_random_inputs() -> None:
               "chord_step", "seen_in_order", "scan_hermite", "_finite_poses", "hermite_poses", "_fde_statistics",
               "_solve_augmented", "_normal_equations", "best_triple", "position_crlb_one", "_window_tally",
               "_information_sums", "move_state", "_sinc_k", "_dsinc_k", "gate_rows", "gate_accept", "schmidt_accept"}
-    # the integrity check's kernels: bit for bit in both modes in tests/positioning/test_integrity_fast.py
-    tested |= {"py_hypot", "_floats", "_head", "_edge_bearing", "total_fix", "fix_covariance", "nonlinear_fix",
-               "_round_half_even", "crosscheck_fix", "mean_innovations", "revolution_innovations", "_inverse3",
-               "information", "in_range", "revolution_offset", "nis_per_reflector", "window_fde"}
+    # the integrity check's kernels: bit for bit in both modes elsewhere, each by the test named here
+    # (nested kernels by the test of the kernel that calls them)
+    elsewhere = _INTEGRITY_KERNEL_TESTS
+    root = Path(__file__).parent
+    for name, where in elsewhere.items():
+        path, test = where.split("::")
+        assert f"def {test}(" in (root / path).read_text(encoding="utf-8"), f"{name}: no {where}"
+    tested |= set(elsewhere)
     known = {k.py_func.__name__ for k in _jit.kernels()}
     assert known <= tested, f"kernels without a bit-for-bit test here: {sorted(known - tested)}"
 

@@ -44,7 +44,7 @@ from agvnav.odometry.scalar import differential_increments_scalar, track_increme
 from agvnav.positioning import _fast as pos_fast
 from agvnav.positioning import _integrity_fast as integrity_fast
 from agvnav.positioning import triangulate
-from agvnav.positioning.bounds import crlb
+from agvnav.positioning.bounds import crlb, inv_sym3
 from agvnav.positioning.ekf import CONSIDER_MAX_ENTRY, CONSIDER_MIN_DET, EkfEstimator
 from agvnav.positioning.gating import BearingIndex, GateSpec
 from agvnav.positioning.identification import Association, bearing_model, gate_reflection
@@ -400,6 +400,23 @@ def _py_hypot(rng: np.random.Generator) -> Pair:
     return integrity_fast.py_hypot(x, y), math.hypot(x, y)
 
 
+def _edge_bearing(rng: np.random.Generator) -> Pair:
+    pose, mount = rng.uniform(-10.0, 10.0, 3), (*rng.uniform(-0.5, 0.5, 2).tolist(), float(rng.uniform(-0.3, 0.3)))
+    rx, ry, r = *rng.uniform(-10.0, 10.0, 2).tolist(), float(rng.uniform(0.0, 0.1))
+    head = integrity_fast._head(*pose.tolist(), *mount)
+    got = integrity_fast._edge_bearing(*head, rx, ry, r)
+    h, _, d = bearing_model(pose, np.array(mount), np.array([rx, ry]), r)
+    return got, (float(h), float(d))
+
+
+def _inverse3(rng: np.random.Generator) -> Pair:
+    a = rng.normal(size=(3, 3))
+    a = a @ a.T + 0.1 * np.eye(3)  # symmetric positive definite, as the information matrices
+    ok, *inv = integrity_fast._inverse3(*a[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]].tolist(), 3.0)
+    ref, valid = inv_sym3(a)
+    return (float(ok), *inv), (float(valid), *ref[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]].tolist())
+
+
 @contextlib.contextmanager
 def _plain_mode() -> Iterator[None]:
     """The kernels interpreted while inside: the estimators take their plain Python path."""
@@ -424,7 +441,7 @@ CASES: dict[str, Callable[[np.random.Generator], Pair]] = {
     "wrapped_offsets": _wrapped_offsets, "steered_noise": _steered_noise,
     "move_state": _move_state, "gate_rows": _gate_rows, "gate_accept": _gate_accept,
     "total_fix": _total_fix, "fix_covariance": _fix_covariance, "nonlinear_fix": _nonlinear_fix,
-    "py_hypot": _py_hypot,
+    "py_hypot": _py_hypot, "edge_bearing": _edge_bearing, "inverse3": _inverse3,
 }
 
 

@@ -110,6 +110,12 @@ TWINS: tuple[Twin, ...] = (
          "agvnav.positioning.triangulation:_nonlinear", "issue 12: a fix too near its critical circle", 0.0),
     Twin("py_hypot", "agvnav.positioning._integrity_fast:py_hypot", "math:hypot",
          "CPython's hypot (libm's differs in the last bit)", 0.0),
+    # two more forms the compiled check keeps: CPython's hypot and the monitor's singular test (its former
+    # decisions, so its seeded bits) against NumPy's sqrt and inv_sym3's test
+    Twin("edge_bearing", "agvnav.positioning._integrity_fast:_edge_bearing",
+         "agvnav.positioning.identification:bearing_model", "seed 000 §2.1 leading-edge bearing and distance"),
+    Twin("inverse3", "agvnav.positioning._integrity_fast:_inverse3", "agvnav.positioning.bounds:inv_sym3",
+         "adjugate inverse of a symmetric 3x3 (the information matrix of seed 000 §2.3)", 1e-12),
 )
 
 

@@ -15,7 +15,9 @@ import math
 import numpy as np
 import pytest
 
+from agvnav import _jit
 from agvnav.positioning import bearing_model
+from agvnav.positioning._integrity_fast import CROSSCHECK_NONE, crosscheck_fix
 from agvnav.positioning.integrity import IntegrityLimits, IntegrityMonitor
 from agvnav.world import WorldMap, load_builtin_map
 
@@ -86,19 +88,43 @@ def test_odometry_noise_is_checked(lab: WorldMap) -> None:
         _monitor(lab, (0.001, -1.0, 0.0))
 
 
-def test_a_dense_map_triple_comes_from_the_whole_revolution() -> None:
-    # 64 reflectors on a 5 m circle around the head, seen in angle (= time) order: the
-    # eight newest span 45 degrees; the triple must come from the whole revolution
+def _triple_of(mon: IntegrityMonitor, t: float, pose: np.ndarray) -> tuple[int, tuple[int, ...]]:
+    """The cross-check kernel's code and triple (map rows, ``out[6:9]``) on the monitor's window at ``t``."""
+    buf, start = mon._entries.buffer()
+    rx, ry, radius, map_std = mon._tables if _jit.compiled() else mon._lists
+    pose_t = tuple(float(v) for v in pose)
+    out = crosscheck_fix(buf, start, mon._tally(t).newest, pose_t, pose_t, mon._mount_t, rx, ry, radius, map_std,
+                         mon.odometry_noise, mon.bearing_std**2, 2.0, mon.limits.max_fix_std_m**2)
+    return int(out[0]), tuple(int(v) for v in out[6:9])
+
+
+def _sight_all(mon: IntegrityMonitor, pose: np.ndarray, order: list[int], t_end: float) -> None:
+    """Exact edge bearings of the reflectors ``order`` from ``pose``, one sighting each within the revolution."""
+    h, _, _ = bearing_model(pose, mon.mount, mon.xy, mon.radius)
+    odom = tuple(float(v) for v in pose)
+    for k, j in enumerate(order):
+        mon.accepted(t_end - REV * (len(order) - k) / (len(order) + 1), 1.0, j, float(h[j]), odom)
+
+
+@pytest.mark.usefixtures("restore_jit_mode")
+@pytest.mark.parametrize("on", [False, True])
+def test_a_dense_map_triple_comes_from_the_whole_revolution(on: bool) -> None:
+    # 64 reflectors on a 5 m circle around the head, seen in angle (= time) order within one
+    # revolution: the eight newest span 45 degrees; the triple must come from the whole revolution
+    _jit.set_compiled(on)
     n = 64
     ang = np.arange(n) * 2.0 * math.pi / n
     xy = np.column_stack([5.0 * np.cos(ang), 5.0 * np.sin(ang)])
     mon = IntegrityMonitor(xy, np.full(n, 0.04), np.zeros(3), 1e-4, REV, map_std=0.005)
-    rows = list(range(n - 1, -1, -1))  # newest first, as the cross-check lists them
-    idx = mon._best_triple(np.zeros(3), rows, [1e-6] * n)
-    assert idx is not None
-    spread = np.sort(ang[idx])
+    _sight_all(mon, np.zeros(3), list(range(n)), 1.0)
+    code, idx = _triple_of(mon, 1.0, np.zeros(3))
+    assert code in (1, 2) and min(idx) >= 0
+    spread = np.sort(ang[list(idx)])
     gaps = np.diff(np.concatenate([spread, [spread[0] + 2.0 * math.pi]]))
     assert gaps.max() < math.radians(180.0)  # around the head, not one sector (the newest eight: 39 deg)
+    # the candidates are eight spread over the revolution (linspace(0, 63, 8) rounded, newest first)
+    spread8 = {n - 1 - int(k) for k in np.linspace(0, n - 1, 8).round()}
+    assert set(idx) <= spread8
 
 
 def _reference_best_triple(head: tuple[float, float], xy: np.ndarray, var: np.ndarray, bearing_var: float,
@@ -120,18 +146,31 @@ def _reference_best_triple(head: tuple[float, float], xy: np.ndarray, var: np.nd
     return best
 
 
-def test_the_chosen_triple_has_the_smallest_bound() -> None:
+@pytest.mark.usefixtures("restore_jit_mode")
+@pytest.mark.parametrize("on", [False, True])
+def test_the_chosen_triple_has_the_smallest_bound(on: bool) -> None:
+    """The cross-check kernel's triple (``crosscheck_fix``, its rows ``out[6:9]``) against brute force in NumPy.
+
+    Three to eight reflectors, each seen once from a standing head (no odometry between then and
+    now): each bearing's variance is the bearing's and its reflector's survey ``(map_std / d)^2``.
+    """
+    _jit.set_compiled(on)
     rng = np.random.default_rng(21)
-    agree = 0
+    agree = none = 0
     for _ in range(200):
         n = int(rng.integers(3, 9))
         xy = rng.uniform(-8.0, 8.0, (n, 2))
-        var = rng.uniform(1e-7, 1e-5, n)
-        mon = IntegrityMonitor(xy, np.full(n, 0.04), np.zeros(3), 1e-3, REV, IntegrityLimits(max_fix_std_m=0.05))
-        got = mon._best_triple(np.zeros(3), list(range(n)), var.tolist())
+        map_std = rng.uniform(0.0, 0.02, n)
+        mon = IntegrityMonitor(xy, np.full(n, 0.04), np.zeros(3), 1e-3, REV, IntegrityLimits(max_fix_std_m=0.05),
+                               map_std=map_std)
+        _sight_all(mon, np.zeros(3), rng.permutation(n).tolist(), 1.0)
+        code, got = _triple_of(mon, 1.0, np.zeros(3))
+        var = 1e-6 + (map_std / np.hypot(xy[:, 0], xy[:, 1])) ** 2
         want = _reference_best_triple((0.0, 0.0), xy, var, 1e-6, 0.05**2)
-        assert (got is None) == (want is None)
-        if got is not None:
+        if want is None:
+            assert code == CROSSCHECK_NONE
+            none += 1
+        elif code != CROSSCHECK_NONE:  # (no fix also when the chosen triple's fix is invalid)
             assert tuple(sorted(got)) == want
             agree += 1
-    assert agree >= 100  # the others: no triple within max_fix_std_m, on both sides
+    assert agree >= 150 and none >= 5  # both sides: a triple within max_fix_std_m, and none

@@ -8,7 +8,9 @@ plain-Python propagation (kept here, :func:`_reference_crosscheck`, as the refer
 
 from __future__ import annotations
 
+import itertools
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -16,7 +18,7 @@ import pytest
 from agvnav import _jit
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.positioning import _integrity_fast as fast
-from agvnav.positioning.integrity import _WIDTH, IntegrityMonitor, _head, _spread8
+from agvnav.positioning.integrity import _WIDTH, IntegrityMonitor
 from agvnav.positioning.triangulation import _nonlinear, triangulate
 
 pytestmark = pytest.mark.usefixtures("restore_jit_mode")
@@ -123,6 +125,121 @@ def _window(rng: np.random.Generator, mon: IntegrityMonitor, t: float) -> None:
         mon.accepted(tk, float(rng.uniform(0, 3)), j, float(rng.uniform(-math.pi, math.pi)), odom)
 
 
+# The former plain-Python forms the kernels replaced, copied verbatim from the monitor before the
+# compiled check (c5c8164:src/agvnav/positioning/integrity.py; plain, uncompiled): the references
+# below do not call the kernels under test.
+
+
+def _head(x: Any, mount: np.ndarray) -> tuple[float, float, float]:
+    """Head pose in ``map`` from the base_link pose ``x`` (array or floats) and the ``mount`` (floats)."""
+    c, s = math.cos(float(x[2])), math.sin(float(x[2]))
+    mx, my = float(mount[0]), float(mount[1])
+    return float(x[0]) + c * mx - s * my, float(x[1]) + s * mx + c * my, float(x[2]) + float(mount[2])
+
+
+def _spread8(n: int) -> list[int]:
+    """Eight positions spread evenly over ``range(n)`` (n > 8), first and last included.
+
+    ``numpy.linspace(0, n - 1, 8).round()`` in floats: ``k (n - 1) / 7`` rounded half to even.
+    """
+    step = (n - 1) / 7
+    return [round(k * step) for k in range(7)] + [n - 1]
+
+
+def _position_crlb_one(a00: float, a01: float, a02: float, a11: float, a12: float, a22: float) -> float:
+    """Trace of the position block of the inverse of the symmetric 3x3 ``a`` (upper triangle; inf if singular)."""
+    c00 = a11 * a22 - a12 * a12
+    c11 = a00 * a22 - a02 * a02
+    det = a00 * c00 + a01 * (a02 * a12 - a01 * a22) + a02 * (a01 * a12 - a02 * a11)
+    if det == 0.0:
+        return math.inf
+    score = (c00 + c11) / det
+    return score if score >= 0.0 and score < math.inf else math.inf
+
+
+def _best_triple_kernel(
+    hx: float, hy: float, rx: list[float], ry: list[float], var: list[float], bearing_var: float, max_var: float,
+) -> int:
+    """Rank (in ``itertools.combinations`` order) of the triple of reflectors with the smallest position CRLB."""
+    n = len(rx)
+    info = [0.0] * (6 * n)  # row k: the upper triangle 00 01 02 11 12 22 of its information
+    for k in range(n):
+        dx, dy = rx[k] - hx, ry[k] - hy
+        d2 = dx * dx + dy * dy
+        if d2 <= 0.0:
+            return -1
+        j0, j1 = dy / d2, -dx / d2
+        info[6 * k], info[6 * k + 1], info[6 * k + 2] = j0 * j0, j0 * j1, -j0
+        info[6 * k + 3], info[6 * k + 4], info[6 * k + 5] = j1 * j1, -j1, 1.0
+    best, best_score, rank = -1, math.inf, 0
+    for a in range(n):
+        for b in range(a + 1, n):
+            for c in range(b + 1, n):
+                pa, pb, pc = 6 * a, 6 * b, 6 * c
+                bound = _position_crlb_one(
+                    info[pa] + info[pb] + info[pc], info[pa + 1] + info[pb + 1] + info[pc + 1],
+                    info[pa + 2] + info[pb + 2] + info[pc + 2], info[pa + 3] + info[pb + 3] + info[pc + 3],
+                    info[pa + 4] + info[pb + 4] + info[pc + 4], info[pa + 5] + info[pb + 5] + info[pc + 5])
+                if bound * bearing_var <= max_var:
+                    wa, wb, wc = var[a], var[b], var[c]
+                    score = _position_crlb_one(
+                        info[pa] / wa + info[pb] / wb + info[pc] / wc,
+                        info[pa + 1] / wa + info[pb + 1] / wb + info[pc + 1] / wc,
+                        info[pa + 2] / wa + info[pb + 2] / wb + info[pc + 2] / wc,
+                        info[pa + 3] / wa + info[pb + 3] / wb + info[pc + 3] / wc,
+                        info[pa + 4] / wa + info[pb + 4] / wb + info[pc + 4] / wc,
+                        info[pa + 5] / wa + info[pb + 5] / wb + info[pc + 5] / wc)
+                    if score < best_score:
+                        best, best_score = rank, score
+                rank += 1
+    return best
+
+
+#: ``n -> (C(n, 3), 3)`` index triples of ``range(n)`` in :func:`_best_triple_kernel`'s rank order.
+_TRIPLE_CODES = {n: tuple(itertools.combinations(range(n), 3)) for n in range(3, 9)}
+
+
+def _best_triple(mon: IntegrityMonitor, x: np.ndarray, rows: list[int], variances: list[float]) -> list[int] | None:
+    """The former ``IntegrityMonitor._best_triple`` (its ``self`` the monitor)."""
+    if len(rows) < 3:
+        return None
+    if len(rows) > 8:  # a dense map: eight spread over the revolution, not the eight newest in one sector
+        pick = _spread8(len(rows))
+        rows, variances = [rows[k] for k in pick], [variances[k] for k in pick]
+    hx, hy, _ = _head(x, mon.mount)
+    rx, ry = [float(mon.xy[j, 0]) for j in rows], [float(mon.xy[j, 1]) for j in rows]
+    var = [float(v) for v in variances]
+    best = _best_triple_kernel(hx, hy, rx, ry, var, mon.bearing_std**2, mon.limits.max_fix_std_m**2)
+    if best < 0:
+        return None
+    i, j, k = _TRIPLE_CODES[len(rows)][best]
+    return [rows[i], rows[j], rows[k]]
+
+
+def _information_sums(hx: float, hy: float, rx: list[float], ry: list[float], std: list[float]) -> tuple[
+    bool, tuple[float, float, float, float, float, float], tuple[float, float, float, float, float, float], bool
+]:
+    """Bearing information of reflectors ``rx, ry (n,)`` (m) from the head ``(hx, hy)`` (m), summed in order."""
+    a0 = a1 = a2 = a3 = a4 = a5 = 0.0
+    b0 = b1 = b2 = b3 = b4 = b5 = 0.0
+    survey = True
+    for k in range(len(rx)):
+        dx, dy = rx[k] - hx, ry[k] - hy
+        d2 = dx * dx + dy * dy
+        if d2 <= 0.0:
+            return False, (a0, a1, a2, a3, a4, a5), (b0, b1, b2, b3, b4, b5), False
+        j0, j1 = dy / d2, -dx / d2
+        r0, r1, r2, r3, r4 = j0 * j0, j0 * j1, -j0, j1 * j1, -j1
+        a0, a1, a2, a3, a4, a5 = a0 + r0, a1 + r1, a2 + r2, a3 + r3, a4 + r4, a5 + 1.0
+        s = std[k]
+        if s > 0.0:
+            w = d2 / (s * s)
+            b0, b1, b2, b3, b4, b5 = b0 + w * r0, b1 + w * r1, b2 + w * r2, b3 + w * r3, b4 + w * r4, b5 + w * 1.0
+        else:
+            survey = False
+    return True, (a0, a1, a2, a3, a4, a5), (b0, b1, b2, b3, b4, b5), survey
+
+
 def _reference_crosscheck(mon: IntegrityMonitor, x: np.ndarray, odom: tuple[float, ...], newest: np.ndarray) -> tuple:
     """The cross-check's former plain-Python form (propagation, best triple, triangulate): ``(x, y, c00, c01, c11)``."""
     seen = np.flatnonzero(newest >= 0)
@@ -162,7 +279,7 @@ def _reference_crosscheck(mon: IntegrityMonitor, x: np.ndarray, odom: tuple[floa
         var_pos = k_d * s_odo + var_th * s_odo * s_odo / 3.0
         var = mon.bearing_std**2 + (float(mon.map_std[i]) / d) ** 2 + var_th + var_pos / (d * d)
         prop[i] = (centre + (h_now - h_then), var)
-    idx = mon._best_triple(x, list(prop), [prop[i][1] for i in prop])
+    idx = _best_triple(mon, x, list(prop), [prop[i][1] for i in prop])
     if idx is None:
         return None
     try:
@@ -230,12 +347,17 @@ def test_crosscheck_fix_modes_agree_bit_for_bit() -> None:
     assert sum(r[0] == 1 for r in results[True]) > 20
 
 
-def test_window_row_layout_is_the_monitors() -> None:
-    """The kernel reads the window's columns by the monitor's layout (``integrity._WIDTH`` and co)."""
-    from agvnav.positioning import integrity
-
-    assert (fast._WIDTH, fast._IDX, fast._BEAR, fast._OX, fast._OY, fast._OPSI) == (
-        _WIDTH, integrity._IDX, integrity._BEAR, integrity._OX, integrity._OY, integrity._OPSI)
+def test_the_monitor_writes_its_window_rows_in_the_kernels_layout() -> None:
+    """``accepted`` stores each value in the column the kernels read it from (the layout of ``_integrity_fast``)."""
+    mon = IntegrityMonitor(np.array([[1.0, 2.0], [3.0, 4.0]]), np.full(2, 0.04), (0.3, 0.05, 0.01), 1e-3, 0.125)
+    mon.accepted(7.0, 2.5, 1, 0.4, (5.0, 6.0, 0.7), (0.01, 0.02, 1e-4, 2e-5, 3e-4), (0.003, 4e-6, 0.1, -0.2, -1.0))
+    row = mon._entries.row(0)
+    assert len(row) == fast._WIDTH == _WIDTH
+    assert (row[fast._T], row[fast._NIS], row[fast._IDX], row[fast._BEAR]) == (7.0, 2.5, 1.0, 0.4)
+    assert (row[fast._OX], row[fast._OY], row[fast._OPSI], row[fast._ON_TIME]) == (5.0, 6.0, 0.7, 1.0)
+    assert row[fast._HAS_C] == 1.0 and row[fast._C0:fast._C0 + 5] == [0.01, 0.02, 1e-4, 2e-5, 3e-4]
+    assert row[fast._HAS_I] == 1.0 and row[fast._Y] == 0.003 and row[fast._S] == 4e-6
+    assert row[fast._H0:fast._H0 + 3] == [0.1, -0.2, -1.0]
 
 
 def _reference_inverse3(a: list[float]) -> tuple[float, ...] | None:
@@ -263,8 +385,8 @@ def test_information_is_the_former_pdop_and_survey_floor(on: bool) -> None:
         head = _head(x, mon.mount)
         unit, floor = mon._information(head, sightings)
         used = np.flatnonzero(sightings)
-        ok, a, b, survey = fast._information_sums.py_func(head[0], head[1], mon.xy[used, 0].tolist(),
-                                                          mon.xy[used, 1].tolist(), mon.map_std[used].tolist())
+        ok, a, b, survey = _information_sums(head[0], head[1], mon.xy[used, 0].tolist(), mon.xy[used, 1].tolist(),
+                                             mon.map_std[used].tolist())
         if not ok:
             assert unit == math.inf and not floor.any()
             continue
@@ -435,10 +557,24 @@ def test_window_fde_is_leave_one_out_fde(on: bool) -> None:
         assert positive and found.tolist() == np.flatnonzero(sums[:, 5]).tolist()
         if len(found) < 4:
             continue
-        ybar, h, var, _ = fast.mean_innovations(sums, found, map_std, 1e-6)
-        ref = leave_one_out_fde(ybar, h, var, 1e-5)
+        # the former IntegrityMonitor.raim's NumPy means (c5c8164), then leave_one_out_fde as it called it
+        sel = sums[found]
+        n = sel[:, 5]  # sightings per reflector
+        r, s_bar, H = sel[:, 0] / n, sel[:, 1] / n, sel[:, 2:5] / n[:, None]
+        survey = map_std[found] ** 2 * (H[:, 0] * H[:, 0] + H[:, 1] * H[:, 1])  # (map_std / d)^2
+        white = np.maximum(s_bar - survey, 1e-6)
+        var = survey + white / n
+        ref = leave_one_out_fde(r, H, var, 1e-5)
         assert _bits(stats[0]) == _bits(ref.statistic)
         assert [_bits(v) for v in stats[1:].tolist()] == [_bits(v) for v in ref.without] or ref.dof < 2
+        # and independently of the fits' kernel: NumPy's least squares, all rows and each left out
+        for k, keep in enumerate([np.ones(len(found), bool)] + [np.arange(len(found)) != q for q in range(len(found))]):
+            if keep.sum() < 4:
+                continue
+            sw = 1.0 / np.sqrt(var[keep])
+            dx = np.linalg.lstsq(H[keep] * sw[:, None], r[keep] * sw, rcond=None)[0]
+            want = float(np.sum((r[keep] - H[keep] @ dx) ** 2 / var[keep]))
+            assert stats[k] == pytest.approx(want, rel=1e-8, abs=1e-12)
 
 
 @pytest.mark.parametrize("on", MODES)
@@ -453,7 +589,10 @@ def test_nis_per_reflector_is_the_former_sum_in_order_of_first_sighting(on: bool
         got = fast.nis_per_reflector(buf, start, len(mon._entries), tally.sightings, tally.first, tally.nis)
         seen = np.flatnonzero(tally.sightings)
         means = tally.nis[seen] / tally.sightings[seen]
-        assert _bits(got) == _bits(sum(means[np.argsort(tally.first[seen])].tolist()))
+        want = 0.0  # an explicit loop: sum() compensates on Python 3.12+ (the kernel's module docstring)
+        for v in means[np.argsort(tally.first[seen])].tolist():
+            want += v
+        assert _bits(got) == _bits(want)
 
 
 def test_crosscheck_rare_path_through_triangulate_gives_the_kernels_value(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -479,3 +618,12 @@ def test_crosscheck_rare_path_through_triangulate_gives_the_kernels_value(monkey
         monkeypatch.setattr(integrity, "crosscheck_fix", kernel)
         compared += 1
     assert compared > 50
+
+
+def test_the_monitor_s_python_sums_add_in_turn_on_every_python() -> None:
+    """The head clock's and the NIS exclusion's sums add in turn as 3.11's ``sum()`` did (3.12's compensates)."""
+    from agvnav.positioning.integrity import _plain_sum
+
+    assert _plain_sum([1e16, 1.0, -1e16]) == 0.0  # compensated: 1.0
+    assert _plain_sum(iter([0.1, 0.2, 0.3])) == (0.1 + 0.2) + 0.3
+    assert _plain_sum([]) == 0.0

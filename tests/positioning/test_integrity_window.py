@@ -102,3 +102,147 @@ def test_the_in_range_count_is_hypot_s_on_the_boundary() -> None:
     mon.excluded = (int(np.argmin(dist)),)
     assert mon._in_range(1.0, 2.0) == want - 1
     assert mon._in_range(math.nan, 2.0) == 0
+
+
+def _fresh(w: _Window) -> np.ndarray:
+    """The window's rows read afresh from its flat buffer (no cached copy)."""
+    return np.array(w._flat[w._head * WIDTH:], dtype=np.float64)
+
+
+@pytest.mark.usefixtures("restore_jit_mode")
+def test_the_compiled_buffer_copy_follows_every_change_of_the_window() -> None:
+    """Each way the window changes (append, the monitor's inlined extend, drop_older, popleft and its
+    compaction, keep, clear) voids the copy :meth:`_Window.buffer` hands the compiled kernels."""
+    _jit.set_compiled(True)
+    rows = _rows(900)
+    w = _Window()
+    steps = 0
+
+    def same() -> None:
+        nonlocal steps
+        buf, start = w.buffer()
+        assert start == 0 and buf.tobytes() == _fresh(w).tobytes()
+        again, _ = w.buffer()
+        assert again is buf  # unchanged window: the copy is reused
+        steps += 1
+
+    same()
+    for k in range(600):
+        if k % 3:
+            w.append(tuple(rows[k]))
+        else:
+            w._flat.extend(rows[k])  # as IntegrityMonitor.accepted does
+        same()
+        if k % 7 == 0:
+            w.popleft()
+            same()
+    compacted = False
+    while len(w) > 200:  # past the compaction (head >= 256 and half the buffer dropped)
+        head = w._head
+        w.popleft()
+        compacted |= w._head < head
+        same()
+    assert compacted
+    w.drop_older(float(rows[599, 0]), 1.0)  # stamps 0.01 s apart: 100 rows stay
+    assert len(w) == 101
+    same()
+    w.clear()
+    same()
+    for r in rows[600:700]:
+        w.append(tuple(r))  # as many rows as before the clear could leave the same length and head
+    same()
+    w.keep(w.rows()[:, 2] != 5)
+    same()
+    w.keep(np.ones(len(w), dtype=bool))
+    same()
+    w.clear()
+    for r in rows[:10]:
+        w.append(tuple(r))
+    same()
+    w.clear()  # the same length and head as before, other rows
+    for r in rows[10:20]:
+        w.append(tuple(r))
+    same()
+    w.keep(np.arange(10) != 4)
+    w.append(tuple(rows[30]))  # the same length and head again
+    same()
+    assert steps > 900
+
+
+@pytest.mark.usefixtures("restore_jit_mode")
+@pytest.mark.parametrize("on", [False, True])
+def test_the_offset_inside_a_check_that_excludes_a_reflector_reads_the_window_afresh(on: bool) -> None:
+    """The RAIM excludes a biased reflector in mid-check (``_drop`` rewrites the window); the common offset
+    the same check computes afterwards is the one a fresh monitor call gives on the window left."""
+    from agvnav.positioning import bearing_model
+    from agvnav.positioning._integrity_fast import revolution_offset
+    from agvnav.positioning.integrity import IntegrityLimits, IntegrityMonitor
+
+    _jit.set_compiled(on)
+    xy = np.array([[9.0, 3.0], [4.0, 9.0], [-1.0, 4.0], [5.0, -2.0], [8.0, 8.0], [0.0, -1.0], [9.0, -1.0]])
+    pose, std, n = np.array([4.0, 3.0, 0.3]), 1e-3, 7
+    mon = IntegrityMonitor(xy, np.zeros(n), np.zeros(3), std, 0.125, IntegrityLimits(max_latency_s=1.0))
+    h = bearing_model(pose, np.zeros(3), xy, np.zeros(n))[0]
+    d = xy - pose[:2]
+    d2 = np.sum(d * d, axis=1)
+    H = np.column_stack([d[:, 1] / d2, -d[:, 0] / d2, -np.ones(n)])
+    seen: list[tuple[bool, object, object]] = []
+    raim, offset = mon._raim_failures, mon.offset
+
+    def raim_spy(t: float, sums: object = None) -> list[str]:
+        before = mon.excluded
+        out = raim(t, sums)  # type: ignore[arg-type]
+        mon._dropped_now = mon.excluded != before  # type: ignore[attr-defined]
+        return out
+
+    def offset_spy(t: float) -> object:
+        got = offset(t)
+        flat = mon._entries.rows().reshape(-1)  # the window as it is now, copied afresh
+        flags = np.zeros(n, dtype=np.int64)
+        flags[list(mon.excluded)] = 1
+        ok, dx0, dx1, dx2, stat = revolution_offset(flat, 0, len(mon._entries), t, mon.revolution_s, flags,
+                                                    np.zeros((0, 7)), 0, mon._tables[3], std**2)
+        want = (np.array([dx0, dx1, dx2]), stat) if ok else None
+        seen.append((mon._dropped_now, got, want))  # type: ignore[attr-defined]
+        return got
+
+    mon._raim_failures = raim_spy  # type: ignore[method-assign]
+    mon.offset = offset_spy  # type: ignore[method-assign]
+    rng = np.random.default_rng(7)
+    for k in range(40 * n):
+        i = k % n
+        if i in mon.excluded:
+            continue
+        t = (k + 1) * 0.125 / n
+        y = rng.normal(0.0, std) + (8 * std if i == 2 else 0.0)
+        mon.accepted(t, y * y / std**2, i, float(h[i]), (0.0, 0.0, 0.0), None, (y, std**2, *H[i]))
+        if mon.due(t):
+            mon.check(t, pose, np.diag([1e-4, 1e-4, 1e-5]), (0.0, 0.0, 0.0), False)
+    assert mon.excluded == (2,)
+    dropped = [s for s in seen if s[0]]
+    assert len(dropped) == 1 and len(seen) > 20
+    for _, got, want in seen:
+        assert (got is None) == (want is None)
+        if got is not None and want is not None:
+            assert got[0].tobytes() == want[0].tobytes() and float(got[1]).hex() == float(want[1]).hex()
+
+
+@pytest.mark.usefixtures("restore_jit_mode")
+@pytest.mark.parametrize("on", [False, True])
+def test_the_tally_s_innovations_are_revolution_innovations_over_the_window(on: bool) -> None:
+    """The one-pass tally sums the innovations as ``revolution_innovations`` does (its time bound ``window_s``,
+    no attributed sightings): the two loops kept apart (one pass over the window each) give the same bits."""
+    from agvnav.positioning._integrity_fast import revolution_innovations
+
+    _jit.set_compiled(on)
+    rng = np.random.default_rng(12)
+    for _ in range(50):
+        rows = _rows(int(rng.integers(0, 400)), int(rng.integers(0, 1000)))
+        rows[:, 0] = np.sort(rng.uniform(3.0, 5.0, rows.shape[0]))
+        excluded = (rng.uniform(size=12) < 0.2).astype(np.int64)
+        buf = rows.reshape(-1) if on else rows.reshape(-1).tolist()
+        window_s = float(rng.uniform(0.2, 1.5))
+        tally = _window_tally(buf, 0, rows.shape[0], 5.0, window_s, 0.125, excluded)
+        att = np.zeros((0, 7)) if on else []
+        want = revolution_innovations(buf, 0, rows.shape[0], 5.0, window_s, excluded, att, 0)
+        assert tally[3].tobytes() == want.tobytes()

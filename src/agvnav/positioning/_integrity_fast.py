@@ -33,6 +33,23 @@ NumPy's ``H.T @ (W H)``, ``np.linalg.solve`` and ``dx @ A @ dx`` went through Op
 sums in its own order with fused multiply-adds and picks its kernel by CPU (no plain IEEE form
 reproduces it): the statistic moved by at most 5e-15 relative on the shipped loops, against
 a threshold, and no decision changed.
+
+And one moved on Python 3.12+ only: the windowed NIS (:func:`nis_per_reflector`) adds its
+per-reflector means in turn from 0.0, as the former ``sum()`` did on 3.11; ``sum()`` of floats
+compensates its rounding from 3.12 on (Neumaier), so there the kernel's total (the same on
+every version) differs from the former form's in the last bits, against a threshold (the
+monitor's two Python sums, of its head clock and its NIS exclusion, add in turn too:
+``integrity._plain_sum``).
+
+numba's on-disk cache keys a kernel on its own source file only (:mod:`agvnav._jit`): besides
+``wrap_angle_kernel`` (``geometry.angles``), these kernels read constants of other modules,
+which numba freezes into their machine code: ``LAYOUT_TOL``, ``NONLINEAR_RATIO``,
+``PARALLEL_TOL`` (``positioning.triangulation``), ``CRITICAL_TOL`` and ``REORDER_TOL``
+(``positioning._three``); and ``integrity._window_tally`` reads the window layout (``_T``, ...)
+from here. An edit of one of those alone leaves the cached kernels with the old values until
+their own file changes or ``__pycache__`` is cleared (the two modes then differ, which
+``tests/test_jit.py`` and the bit-for-bit tests of this module's kernels show where the
+change matters on their inputs).
 """
 
 from __future__ import annotations
@@ -48,19 +65,31 @@ from agvnav.positioning._three import CRITICAL_TOL, REORDER_TOL
 from agvnav.positioning.triangulation import LAYOUT_TOL, NONLINEAR_RATIO, PARALLEL_TOL
 
 __all__ = [
-    "TOTAL_FALLBACK", "TOTAL_INVALID", "TOTAL_VALID", "best_triple", "crosscheck_fix", "fix_covariance", "in_range",
+    "CROSSCHECK_FIX", "CROSSCHECK_NONE", "CROSSCHECK_TRIANGULATE", "TOTAL_FALLBACK", "TOTAL_INVALID", "TOTAL_VALID",
+    "best_triple", "crosscheck_fix", "fix_covariance", "in_range",
     "information", "mean_innovations", "nis_per_reflector", "nonlinear_fix", "position_crlb_one", "py_hypot",
     "revolution_innovations", "revolution_offset", "total_fix", "window_fde",
 ]
 
 #: :func:`total_fix` codes: no valid fix, a valid fix, and "decide with the public triangulate" (rare path).
 TOTAL_INVALID, TOTAL_VALID, TOTAL_FALLBACK = 0, 1, 2
+#: :func:`crosscheck_fix` codes: no fix, a fix with its covariance, and "the caller triangulates" (rare path).
+CROSSCHECK_NONE, CROSSCHECK_FIX, CROSSCHECK_TRIANGULATE = 0, 1, 2
 
 _DBL_MIN = 2.2250738585072014e-308
 _SPLIT = 134217729.0  # 2**27 + 1: Veltkamp-Dekker splitting of a double into two 26-bit halves
 _CRIT2 = (2.0 * CRITICAL_TOL) ** 2  # total's critical-circle bound, computed as total_kernel does
 _MARGIN = 1e-9  # relative margin of the decisions taken here (module docstring)
-_WIDTH, _IDX, _BEAR, _OX, _OY, _OPSI = 20, 2, 3, 4, 5, 6  # window row columns (integrity._WIDTH and co)
+
+#: Columns of a window row (:class:`~agvnav.positioning.integrity._Window`, written by
+#: :meth:`~agvnav.positioning.integrity.IntegrityMonitor.accepted`, defined here only): stamp (s), NIS,
+#: map row, edge bearing (rad, head frame), odometric base_link pose then (m, m, rad), on time (1/0,
+#: ``integrity._HeadClock``), has a correction (1/0), the update's position correction (dx, dy) (m)
+#: and covariance decrease P- - P+ (00, 01, 11) (m²), has an innovation (1/0), the EKF's innovation y
+#: (rad), its variance S (rad²) and Jacobian row H (3,).
+_T, _NIS, _IDX, _BEAR, _OX, _OY, _OPSI, _ON_TIME, _HAS_C, _C0 = range(10)
+_HAS_I, _Y, _S, _H0 = 14, 15, 16, 17
+_WIDTH = 20
 
 
 @jit
@@ -203,6 +232,11 @@ def total_fix(
 ) -> tuple[int, float, float]:
     """One ToTal fix (m) from three reflectors (m) and their bearings (rad): ``(code, x, y)``.
 
+    ToTal (Pierlot & Van Droogenbroeck, IEEE T-RO 30(3), 2014; no seed document has it): the
+    circle-intersection triangulation that seed 000 §2.2 names (arcs through two reflectors,
+    refs [9-11] there), indeterminate on the critical circle through the three reflectors (the
+    same section; no equation number in either seed).
+
     :func:`~agvnav.positioning.total.total_kernel` on floats (``xp=ScalarMath``, the single-fix
     path of :func:`~agvnav.positioning.triangulation.triangulate`), operation for operation,
     including the cyclic reorder of :func:`~agvnav.positioning._three.order_pairs`. ``code``:
@@ -272,9 +306,12 @@ def fix_covariance(
 ) -> tuple[bool, float, float, float, float, float, float]:
     """Linearised covariance of a fix at ``(px, py)`` (m) from reflectors ``rx, ry (3,)`` (m), bearing stds ``std``.
 
-    ``(J^T R^-1 J)^-1`` as triangulate computes it: :func:`~agvnav.positioning.bounds.fisher_information`
-    (its ``einsum``: per entry ``((J_ki w_k) J_kj)`` summed over ``k`` in order from 0.0, ``w = 1 / std²``)
-    and :func:`~agvnav.positioning.bounds.inv_sym3` (adjugate times ``1 / det``, singular when
+    The Cramér-Rao bound of three bearings ``z_k = atan2(y_k - py, x_k - px) - psi`` (the
+    bearing of seed 000 §2.1 about the head's centre; Jacobian rows ``[dy/d², -dx/d², -1]``),
+    ``(J^T R^-1 J)^-1`` (no seed gives it an equation number) as triangulate computes it:
+    :func:`~agvnav.positioning.bounds.fisher_information` (its ``einsum``: per entry
+    ``((J_ki w_k) J_kj)`` summed over ``k`` in order from 0.0, ``w = 1 / std²``) and
+    :func:`~agvnav.positioning.bounds.inv_sym3` (adjugate times ``1 / det``, singular when
     ``|det| <= 1e-13`` of its terms' magnitudes). Returns ``(ok, c00, c01, c02, c11, c12, c22)``
     (m², m·rad, rad²); not ``ok``: singular (the entries NaN).
     """
@@ -354,6 +391,18 @@ def crosscheck_fix(
 ) -> tuple[int, float, float, float, float, float, int, int, int, float, float, float, float, float, float]:
     """The cross-check's propagated bearings, best triple and ToTal fix (``IntegrityMonitor._crosscheck``).
 
+    Seed 000 §2.2: a triangulation needs the three angles at one configuration of the robot,
+    so each bearing, measured at its own pose, is brought to now through the odometry between
+    (``z_now = centre + h(now) - h(then)``, ``h`` the leading-edge bearing of seed 000 §2.1 and
+    :func:`_edge_bearing`; that section states the condition and gives no equation). Each
+    propagated bearing's variance adds the error of that odometry, by the coefficients
+    ``K_D, K_Dθ, K_θ`` of [seed002 eq17] (heading ``var_th = k_dtheta s + k_theta |turn|``,
+    position ``var_pos = k_d s + var_th s² / 3`` over the ``s`` m travelled, seen at ``d``:
+    ``var_th + var_pos / d²``), and the survey's ``(map_std / d)²``. The triple is
+    :func:`best_triple`'s (the bearing information of the rows of :func:`_information_sums`),
+    the fix :func:`total_fix`'s (ToTal, Pierlot & Van Droogenbroeck 2014: not a seed document)
+    with :func:`fix_covariance` and :func:`nonlinear_fix`.
+
     ``buf``, ``start``: the window (:meth:`~agvnav.positioning.integrity._Window.buffer`); ``newest (N,)``
     each map row's newest sighting within a revolution (window position, -1: none; the tally's);
     ``pose``, ``odom`` (3,) the estimate and the odometric pose now (m, m, rad); ``mount`` (3,);
@@ -362,9 +411,10 @@ def crosscheck_fix(
     caller), ``two`` the exponent 2.0 (module docstring), ``max_var`` ``max_fix_std_m²`` (m²).
 
     Returns ``(code, x, y, c00, c01, c11, i, j, k, z_i, z_j, z_k, s_i, s_j, s_k)``: ``code``
-    0 no fix (fewer than three reflectors, no good triple, an invalid fix or a covariance that
-    is not finite), 1 a fix ``(x, y)`` (m) with its position covariance (m²), 2 the triple's map
-    rows, propagated bearings (rad) and stds (rad) for the caller's
+    :data:`CROSSCHECK_NONE` no fix (fewer than three reflectors, no good triple, an invalid fix or
+    a covariance that is not finite), :data:`CROSSCHECK_FIX` a fix ``(x, y)`` (m) with its position
+    covariance (m²) and the triple, :data:`CROSSCHECK_TRIANGULATE` the triple's map rows,
+    propagated bearings (rad) and stds (rad) for the caller's
     :func:`~agvnav.positioning.triangulation.triangulate` (:func:`total_fix`'s rare path).
     """
     nan = math.nan
@@ -376,7 +426,7 @@ def crosscheck_fix(
     pos.reverse()  # each reflector's newest sighting, newest first
     m = len(pos)
     if m < 3:
-        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+        return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     if m > 8:  # _spread8: numpy.linspace(0, m - 1, 8).round()
         step = (m - 1) / 7
         pos = [pos[_round_half_even(k * step)] for k in range(7)] + [pos[m - 1]]
@@ -411,7 +461,7 @@ def crosscheck_fix(
         rows[q], cx[q], cy[q] = i, rx[i], ry[i]
     best = best_triple(hx, hy, cx, cy, var, bearing_var, max_var)
     if best < 0:
-        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+        return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     rank = 0
     a = b = c = -1
     for u in range(m):  # the combination of that rank
@@ -422,23 +472,22 @@ def crosscheck_fix(
                 rank += 1
     sa, sb, sc = math.sqrt(var[a]), math.sqrt(var[b]), math.sqrt(var[c])
     if not (sa > 0.0 and sb > 0.0 and sc > 0.0 and math.isfinite(sa) and math.isfinite(sb) and math.isfinite(sc)):
-        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan  # triangulate: ValueError
+        # triangulate raised a ValueError here
+        return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     tri_x, tri_y = (cx[a], cx[b], cx[c]), (cy[a], cy[b], cy[c])
     code, fx, fy = total_fix(cx[a], cy[a], cx[b], cy[b], cx[c], cy[c], z[a], z[b], z[c])
     if code == TOTAL_FALLBACK:
-        return 2, nan, nan, nan, nan, nan, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc
+        return CROSSCHECK_TRIANGULATE, nan, nan, nan, nan, nan, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc
     if code == TOTAL_INVALID:
-        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+        return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     ok, c00, c01, c02, c11, c12, c22 = fix_covariance(tri_x, tri_y, fx, fy, (sa, sb, sc))
     if not ok or nonlinear_fix(tri_x, tri_y, fx, fy, c00, c01, c11):
-        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+        return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     if not (math.isfinite(c00) and math.isfinite(c01) and math.isfinite(c02) and math.isfinite(c11)
             and math.isfinite(c12) and math.isfinite(c22)):
-        return 0, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
-    return 1, fx, fy, c00, c01, c11, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc
+        return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
+    return CROSSCHECK_FIX, fx, fy, c00, c01, c11, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc
 
-
-_T, _HAS_I, _Y = 0, 14, 15  # window row columns: stamp, has an innovation, the innovation y, S, H0, H1, H2
 
 
 @jit
@@ -804,9 +853,9 @@ def nis_per_reflector(buf: Any, start: int, n: int, sightings: Any, first: Any, 
 
     ``buf``, ``start``, ``n``: the window (:meth:`~agvnav.positioning.integrity._Window.buffer`);
     ``sightings``, ``first``, ``nis (N,)`` the tally's counts, first positions and summed NIS
-    per map row. Each mean ``nis / sightings`` added to 0.0 in turn, as CPython 3.11's ``sum``
-    of the former ``_nis_per_reflector`` did (3.12's ``sum`` compensates: that form would
-    itself differ there).
+    per map row. Each mean ``nis / sightings`` added to 0.0 in turn (``total += mean``): the
+    former ``_nis_per_reflector``'s ``sum()`` on Python 3.11, not on 3.12+, whose ``sum()``
+    compensates (module docstring: moved on 3.12+, in the last bits).
     """
     total = 0.0
     for k in range(n):

@@ -131,10 +131,10 @@ summed beyond ``max_correction_m``; the hold, its checks passing, does not count
 from __future__ import annotations
 
 import functools
-import itertools
 import math
 from array import array
 from collections import deque
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -144,9 +144,22 @@ from numpy.typing import ArrayLike
 from agvnav._jit import compiled, jit
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.positioning._chi2_table import FALSE_ALARM, QUANTILES_1E5
-from agvnav.positioning._integrity_fast import (
+from agvnav.positioning._integrity_fast import (  # the window row's columns (_T, ...) are defined there
+    _C0,
+    _HAS_C,
+    _HAS_I,
+    _IDX,
+    _NIS,
+    _ON_TIME,
+    _OX,
+    _OY,
+    _T,
+    _WIDTH,
+    _Y,
+    CROSSCHECK_FIX,
+    CROSSCHECK_NONE,
     _fde_statistics,
-    best_triple,
+    _head,
     crosscheck_fix,
     in_range,
     information,
@@ -262,13 +275,6 @@ class IntegrityLimits:
         chi2_upper(1, self.nis_confidence)
 
 
-#: Columns of a window row (:class:`_Window`): stamp (s), NIS, map row, edge bearing (rad, head frame),
-#: odometric base_link pose then (m, m, rad), on time (1/0, :class:`_HeadClock`), has a correction (1/0),
-#: the update's position correction (dx, dy) (m) and covariance decrease P- - P+ (00, 01, 11) (m²),
-#: has an innovation (1/0), the EKF's innovation y (rad), its variance S (rad²) and Jacobian row H (3,).
-_T, _NIS, _IDX, _BEAR, _OX, _OY, _OPSI, _ON_TIME, _HAS_C, _C0 = range(10)
-_HAS_I, _Y, _S, _H0 = 14, 15, 16, 17
-_WIDTH = 20
 _NO_FIVE = (0.0, 0.0, 0.0, 0.0, 0.0)
 _NO_ATTRIBUTED = np.zeros((0, 7))
 #: Fraction of a revolution in which a reflector reflects once (the estimator's claim window).
@@ -306,7 +312,9 @@ def _window_tally(
 
     Returns the fields of :class:`_Tally`; ``excluded (N,)`` flags the excluded map rows
     (non-zero), ``window_s`` and ``revolution_s`` (s) bound the innovations and the newest
-    sightings. Every sum adds in window order from 0.0 (as the checks' loops did).
+    sightings. Every sum adds in window order from 0.0 (as the checks' loops did). The columns
+    (``_T``, ...) are :mod:`~agvnav.positioning._integrity_fast`'s, frozen into the cached machine
+    code (that module's docstring: after an edit of the layout there, clear ``__pycache__``).
     """
     m = excluded.shape[0]
     count, nis = np.zeros(m), np.zeros(m)
@@ -340,14 +348,23 @@ def _window_tally(
 class _Window:
     """The accepted reflections of the window, oldest first: rows of :data:`_WIDTH` floats in one flat buffer.
 
-    Appending a row is one ``array.extend``; :meth:`rows` hands the checks the whole window
-    as one ``(n, 20)`` array, so their sums run in NumPy instead of a Python loop per
-    reflection (issue 11: 1,400 reflections in the window of a 256-reflector map).
+    Appending a row is one ``array.extend``; :meth:`buffer` hands the check's compiled kernels
+    (:mod:`agvnav.positioning._integrity_fast`, :func:`_window_tally`) the whole window in one
+    pass each (issue 11: 1,400 reflections in the window of a 256-reflector map), compiled as
+    one NumPy copy made once per change of the window.
+
+    That copy is valid while ``(len(_flat), head)`` is the one it was taken at: rows are only
+    ever appended at the end (``len`` grows: :meth:`append`, and :meth:`IntegrityMonitor.accepted`,
+    which extends ``_flat`` itself) or dropped at the front (``head`` grows: :meth:`popleft`,
+    :meth:`drop_older`), and every change that shrinks the buffer (:meth:`clear`, :meth:`keep`,
+    :meth:`popleft`'s compaction) goes through :meth:`_reset`, which voids the copy. No row is
+    written in place.
     """
 
     def __init__(self) -> None:
         self._flat = array("d")
         self._head = 0  # rows before it have left the window
+        self._copy: tuple[tuple[int, int], np.ndarray] | None = None  # :meth:`buffer`'s key and copy
 
     def __len__(self) -> int:
         return len(self._flat) // _WIDTH - self._head
@@ -374,13 +391,17 @@ class _Window:
         """Drop the oldest row (the buffer is compacted once half of it is dropped rows)."""
         self._head += 1
         if self._head >= 256 and 2 * self._head >= len(self._flat) // _WIDTH:
-            del self._flat[: self._head * _WIDTH]
-            self._head = 0
+            self._reset(self._head * _WIDTH)
 
     def clear(self) -> None:
         """Drop every row."""
-        del self._flat[:]
+        self._reset(len(self._flat))
+
+    def _reset(self, cut: int) -> None:
+        """Delete the first ``cut`` floats of the buffer, the head back at 0 (the copy of :meth:`buffer` is void)."""
+        del self._flat[:cut]
         self._head = 0
+        self._copy = None
 
     def rows(self) -> np.ndarray:
         """``(n, 20)`` copy of the window's rows, oldest first."""
@@ -391,7 +412,7 @@ class _Window:
     def keep(self, mask: np.ndarray) -> None:
         """Keep only the rows where ``mask (n,)`` is True, in order."""
         kept = self.rows()[mask]
-        self.clear()
+        self.clear()  # voids the copy of :meth:`buffer`
         self._flat.frombytes(np.ascontiguousarray(kept).tobytes())
 
     def indices(self) -> list[int]:
@@ -406,11 +427,17 @@ class _Window:
     def buffer(self) -> tuple[Any, int]:
         """The flat buffer for :func:`_window_tally` and the offset of the oldest row in it.
 
-        Compiled: a NumPy copy of the window (numba takes arrays); interpreted: the buffer
-        itself (Python indexes it faster than an array).
+        Compiled: a NumPy copy of the window (numba takes arrays), made once while the window
+        stays as it is (the class docstring); interpreted: the buffer itself (Python indexes it
+        faster than an array).
         """
         if compiled():
-            return np.frombuffer(self._flat, dtype=np.float64, offset=self._head * _WIDTH * 8).copy(), 0
+            key = (len(self._flat), self._head)
+            held = self._copy
+            if held is None or held[0] != key:
+                window = np.frombuffer(self._flat, dtype=np.float64, offset=self._head * _WIDTH * 8)
+                held = self._copy = key, window.copy()
+            return held[1], 0
         return self._flat, self._head * _WIDTH
 
 
@@ -484,7 +511,8 @@ class _HeadClock:
             self._learn.append((wrap_angle_scalar(z - w), wrap_angle_scalar(z + w)))
             if len(self._learn) == self.LEARN:
                 for k, sense in ((0, 1), (1, -1)):
-                    ref = math.atan2(sum(math.sin(v[k]) for v in self._learn), sum(math.cos(v[k]) for v in self._learn))
+                    ref = math.atan2(_plain_sum(math.sin(v[k]) for v in self._learn),
+                                     _plain_sum(math.cos(v[k]) for v in self._learn))
                     if all(abs(wrap_angle_scalar(v[k] - ref)) <= 0.5 * self.tolerance for v in self._learn):
                         self.sense, self.phase = sense, ref
                         break
@@ -542,6 +570,7 @@ class IntegrityMonitor:
     drift_noise : ``(00, 01, 11)`` position noise (m²) to add to ``P`` after the latest check
         (zeros outside a drift episode; :meth:`_measure_drift`).
     excluded : map rows of the reflectors excluded as inconsistent (kept across :meth:`reset`).
+    xy, radius, mount, map_std : the map and mount as given (:attr:`xy` and co), fixed after construction.
     """
 
     def __init__(
@@ -557,15 +586,15 @@ class IntegrityMonitor:
         walls: ArrayLike | None = None,
         odometry_noise: tuple[float, float, float] = (0.0, 0.0, 0.0),
     ) -> None:
-        self.xy = np.asarray(reflector_xy, dtype=np.float64).reshape(-1, 2)
+        self._xy = _frozen(np.array(reflector_xy, dtype=np.float64).reshape(-1, 2))
         k_d, k_dtheta, k_theta = (float(v) for v in odometry_noise)
         if not all(math.isfinite(v) and v >= 0.0 for v in (k_d, k_dtheta, k_theta)):
             raise ValueError(f"odometry_noise must be three non-negative finite numbers, got {odometry_noise!r}")
         self.odometry_noise = (k_d, k_dtheta, k_theta)
-        self.radius = np.asarray(reflector_radius, dtype=np.float64).reshape(-1)
-        self.mount = np.asarray(mount, dtype=np.float64).reshape(3)
+        self._radius = _frozen(np.array(reflector_radius, dtype=np.float64).reshape(-1))
+        self._mount = _frozen(np.array(mount, dtype=np.float64).reshape(3))
         self.bearing_std = float(bearing_std)
-        self.map_std = np.broadcast_to(np.asarray(map_std, dtype=np.float64), self.radius.shape)
+        self._map_std = _frozen(np.array(np.broadcast_to(np.asarray(map_std, dtype=np.float64), self.radius.shape)))
         self.max_range = float(max_range)
         self.revolution_s = float(revolution_s)
         self.limits = IntegrityLimits() if limits is None else limits
@@ -574,21 +603,40 @@ class IntegrityMonitor:
         self._rejects: deque[float] = deque()
         #: gated-out reflections attributed to one reflector: (t, map row, y, S, H0, H1, H2) (:meth:`attributed`)
         self._attributed: deque[tuple[float, int, float, float, float, float, float]] = deque()
-        self._rows = [(float(a), float(b)) for a, b in self.xy]
         #: the map for the kernels (:mod:`agvnav.positioning._integrity_fast`): x, y, radius, map_std (m), as
-        #: contiguous arrays (compiled) and as lists of floats (interpreted: Python indexes lists faster)
-        self._tables = tuple(np.ascontiguousarray(a, dtype=np.float64)
+        #: contiguous arrays (compiled) and as lists of floats (interpreted: Python indexes lists faster);
+        #: copies, so the map and mount are read-only properties (:attr:`xy` and co)
+        self._tables = tuple(np.array(a, dtype=np.float64)  # contiguous, writeable copies (numba's array type)
                              for a in (self.xy[:, 0], self.xy[:, 1], self.radius, self.map_std))
         self._lists = tuple(a.tolist() for a in self._tables)
         self._mount_t = (float(self.mount[0]), float(self.mount[1]), float(self.mount[2]))
         self._flags_of: tuple[int, ...] | None = None  # the exclusions self._flags holds (:meth:`_excluded_flags`)
         self._flags = np.zeros(0, dtype=np.int64)
-        self._window_buffer: tuple[Any, int] | None = None  # the window's buffer during a check (:meth:`_buffer`)
         self._clock = _HeadClock(self.revolution_s, self.limits.max_latency_s * 2.0 * math.pi / self.revolution_s)
         self._mean_nu = [0.0] * self.xy.shape[0]  # EWMA of the NIS y^2 / S per reflector
         self._n_nu = [0] * self.xy.shape[0]
         self.excluded: tuple[int, ...] = ()
         self.reset()
+
+    @property
+    def xy(self) -> np.ndarray:
+        """``(N, 2)`` map centres (m), read-only: fixed at construction (the kernels' tables are copies)."""
+        return self._xy
+
+    @property
+    def radius(self) -> np.ndarray:
+        """``(N,)`` reflector radii (m), read-only (:attr:`xy`)."""
+        return self._radius
+
+    @property
+    def mount(self) -> np.ndarray:
+        """``(3,)`` head pose in base_link (m, m, rad), read-only (:attr:`xy`)."""
+        return self._mount
+
+    @property
+    def map_std(self) -> np.ndarray:
+        """``(N,)`` survey std (m) per reflector, read-only (:attr:`xy`)."""
+        return self._map_std
 
     def reset(self) -> None:
         """Forget the support (after a relocalisation or a fresh start); exclusions and the head clock stay."""
@@ -643,7 +691,7 @@ class IntegrityMonitor:
             t, nis, j, bearing, odom[0], odom[1], odom[2], 1.0 if self._clock.on_time(t, bearing) else 0.0,
             0.0 if correction is None else 1.0, *(correction or _NO_FIVE),
             0.0 if innovation is None else 1.0, *(innovation or _NO_FIVE),
-        ))  # _Window.append: stored as doubles
+        ))  # _Window.append inlined, stored as doubles (the buffer grows: the window's copy is void, see _Window)
         window_s = self.limits.window_s
         if t - entries._flat[entries._head * _WIDTH] > window_s:  # else _Window.drop_older drops nothing
             entries.drop_older(t, window_s)
@@ -730,17 +778,6 @@ class IntegrityMonitor:
         if self._since is None:
             self._since = t
         young = t - self._since < self.limits.window_s  # no full window of support yet
-        self._window_buffer = self._entries.buffer()  # one copy for the check's kernels (:meth:`_buffer`)
-        try:
-            return self._judged(t, x, cov, odom, dead_reckoning, young, n_excluded)
-        finally:
-            self._window_buffer = None
-
-    def _judged(
-        self, t: float, x: np.ndarray, cov: np.ndarray, odom: tuple[float, ...], dead_reckoning: bool, young: bool,
-        n_excluded: int,
-    ) -> bool:
-        """The checks and the verdict of :meth:`check` (its arguments, ``young``: no full window yet)."""
         tally = self._tally(t)
         reasons = [] if dead_reckoning else self._support_failures(t, x, cov, odom, young, tally)
         self._raim_ran = self._raim_named = False
@@ -756,14 +793,9 @@ class IntegrityMonitor:
         return self._judge(t, reasons, len(self.excluded) > n_excluded)
 
     # ------------------------------------------------------------------ checks
-    def _buffer(self) -> tuple[Any, int]:
-        """The window's buffer and offset (:meth:`_Window.buffer`): taken once per :meth:`check`, fresh otherwise."""
-        held = self._window_buffer
-        return self._entries.buffer() if held is None else held
-
     def _tally(self, t: float) -> _Tally:
         """The window's sums per reflector at ``t`` (s), in one pass (:func:`_window_tally`)."""
-        buf, start = self._buffer()
+        buf, start = self._entries.buffer()
         return _Tally(*_window_tally(buf, start, len(self._entries), t, self.limits.window_s, self.revolution_s,
                                      self._excluded_flags()))
 
@@ -782,12 +814,12 @@ class IntegrityMonitor:
         n_entries = len(self._entries)
         n_used = int(np.count_nonzero(tally.sightings))
         self.reflectors_used = n_used
-        head = _head(x, self.mount)
+        head = _head(float(x[0]), float(x[1]), float(x[2]), *self._mount_t)
         unit, floor = self._information(head, tally.sightings)
         self.survey_floor = floor
         out: list[str] = []
         if n_entries:
-            buf, start = self._buffer()
+            buf, start = self._entries.buffer()
             nis = nis_per_reflector(buf, start, n_entries, tally.sightings, tally.first, tally.nis)
             self.nis_ratio = nis / chi2_upper(n_used, lim.nis_confidence)
             if self.nis_ratio > 1.0:
@@ -925,23 +957,30 @@ class IntegrityMonitor:
         last term a differential AGV, whose odometric heading wanders ~7 mrad in the 6 cm
         of one revolution at 0.5 m/s, failed the check every ~2 s with its estimate a few
         mm from the truth (fix 5-14 cm off, from the 10-13 m distant reflectors of a
-        revolution-old triple). The triple is chosen with these variances, among those
-        whose geometry alone (bearing noise) bounds the fix within ``max_fix_std_m``
-        (of more than eight reflectors seen, the eight :meth:`_best_triple` spreads over the
-        revolution: only theirs are propagated).
+        revolution-old triple).
+
+        The triple (:func:`~agvnav.positioning._integrity_fast.best_triple`) is the one with the
+        smallest position CRLB (seed 000 §2.3) with these variances, among those whose bound with
+        the bearing noise alone is within ``max_fix_std_m``: near the critical circle of a triple
+        its linearised covariance is not honest (issue 12). Of more than eight reflectors seen, the
+        candidates are eight spread evenly over the revolution (``numpy.linspace(0, n - 1, 8)``
+        rounded, in time order; only theirs are propagated): with 256 reflectors in the lab the
+        eight newest reflections came from one 15° sector, and the best of their triples (three
+        reflectors 1.7 m apart on one wall: 19 x 48 cm fix std with the 5 mm survey error, far
+        from Gaussian) put fixes 5-7 cm off a sound estimate on 3 % of the checks.
         """
-        buf, start = self._buffer()
+        buf, start = self._entries.buffer()
         rx, ry, radius, map_std = self._tables if compiled() else self._lists
         out = crosscheck_fix(
             buf, start, tally.newest, (float(x[0]), float(x[1]), float(x[2])),
             (float(odom[0]), float(odom[1]), float(odom[2])), self._mount_t, rx, ry, radius, map_std,
             self.odometry_noise, self.bearing_std**2, 2.0, self.limits.max_fix_std_m**2)
         code = out[0]
-        if code == 0:
+        if code == CROSSCHECK_NONE:
             return math.nan
-        if code == 1:
+        if code == CROSSCHECK_FIX:
             fx, fy, c00, c01, c11 = out[1:6]
-        else:  # the rare path: triangulate itself decides (see _integrity_fast.total_fix)
+        else:  # CROSSCHECK_TRIANGULATE, the rare path: triangulate itself decides (see _integrity_fast.total_fix)
             idx = list(out[6:9])
             try:
                 fix = triangulate(self.xy[idx], np.array(out[9:12]), method="total", bearing_std=np.array(out[12:15]))
@@ -951,45 +990,11 @@ class IntegrityMonitor:
                 return math.nan
             c = fix.covariance
             fx, fy, c00, c01, c11 = float(fix.x), float(fix.y), float(c[0, 0]), float(c[0, 1]), float(c[1, 1])
-        head_now = _head(x, self.mount)
+        head_now = _head(float(x[0]), float(x[1]), float(x[2]), *self._mount_t)
         dx, dy = fx - head_now[0], fy - head_now[1]
         if math.hypot(dx, dy) <= self.limits.crosscheck_min_m:
             return 0.0  # agreement within the gross-error floor
         return _mahalanobis2(dx, dy, float(c00 + P[0, 0]), float(c01 + P[0, 1]), float(c11 + P[1, 1]))
-
-    def _best_triple(self, x: np.ndarray, rows: list[int], variances: list[float] | None = None) -> list[int] | None:
-        """The three of ``rows`` with the smallest position CRLB at ``x`` (seed 000 §2.3), None if none is good.
-
-        Near the critical circle of a triple its linearised covariance is not honest
-        (issue 12), so a triple whose bound with the bearing noise alone exceeds
-        ``max_fix_std_m`` is not used; of the others, the one with the smallest bound
-        with ``variances`` (rad², one per row, default ``bearing_std^2``) is chosen. The
-        bound of every triple in one pass (:func:`~agvnav.positioning._integrity_fast.best_triple`): the information of
-        each reflector (Jacobian rows ``[dy/d², -dx/d², -1]`` over its variance) summed per
-        triple, the trace of the position block of its inverse in closed form. Of more than eight rows (``rows``
-        in time order), eight spread evenly over them are candidates: with 256 reflectors
-        in the lab the eight newest reflections came from one 15° sector, and the best of
-        their triples (three reflectors 1.7 m apart on one wall: 19 x 48 cm fix std with
-        the 5 mm survey error, far from Gaussian) put fixes 5-7 cm off a sound estimate
-        on 3 % of the checks.
-        """
-        if len(rows) < 3:
-            return None
-        if variances is None:
-            variances = [self.bearing_std**2] * len(rows)
-        if len(rows) > 8:  # a dense map: eight spread over the revolution, not the eight newest in one sector
-            pick = _spread8(len(rows))
-            rows, variances = [rows[k] for k in pick], [variances[k] for k in pick]
-        hx, hy, _ = _head(x, self.mount)
-        rx, ry = [self._rows[j][0] for j in rows], [self._rows[j][1] for j in rows]
-        var = [float(v) for v in variances]
-        if compiled():
-            rx, ry, var = np.array(rx), np.array(ry), np.array(var)  # type: ignore[assignment]
-        best = best_triple(hx, hy, rx, ry, var, self.bearing_std**2, self.limits.max_fix_std_m**2)
-        if best < 0:
-            return None
-        i, j, k = _TRIPLE_CODES[len(rows)][best]
-        return [rows[i], rows[j], rows[k]]
 
     # ------------------------------------------------------------------ RAIM
     def raim(self, t: float, tally: _Tally | None = None) -> tuple[tuple[int, ...], FdeResult] | None:
@@ -1061,7 +1066,6 @@ class IntegrityMonitor:
             return
         self.excluded = (*self.excluded, j)
         self._entries.keep(self._entries.rows()[:, _IDX] != j)
-        self._window_buffer = None  # the window changed: the check's kernels read it afresh
         self._n_nu = [0] * len(self._n_nu)
         self._mean_nu = [0.0] * len(self._mean_nu)
 
@@ -1075,7 +1079,7 @@ class IntegrityMonitor:
         if len(seen) < lim.min_reflectors + 2:
             return
         worst = max(seen, key=lambda j: self._mean_nu[j])
-        others = sum(self._mean_nu[j] for j in seen if j != worst) / (len(seen) - 1)
+        others = _plain_sum(self._mean_nu[j] for j in seen if j != worst) / (len(seen) - 1)
         m = self._mean_nu[worst]
         if m > lim.exclude_sigmas**2 and m > lim.exclude_ratio**2 * others:
             self._drop(worst)
@@ -1102,7 +1106,7 @@ class IntegrityMonitor:
         at most 5e-15 relative, ``dx`` by 7e-13, over the 1,900 checks of 30 s of guidance_test,
         differential_loop and tricycle_rear_loop; no decision changed and the seeded runs kept their bits.
         """
-        buf, start = self._buffer()
+        buf, start = self._entries.buffer()
         att: Any = self._attributed
         if compiled():  # numba takes the attributed sightings as an array, Python their tuples
             att = np.array(att, dtype=np.float64) if att else _NO_ATTRIBUTED
@@ -1364,30 +1368,23 @@ def _fde_result(stats: list[float], n: int, m: int, false_alarm: float) -> FdeRe
     return FdeResult(float(stat), dof, thr, detected, tuple(without), thr_x, faulty)
 
 
+def _plain_sum(values: Iterable[float]) -> float:
+    """The values added in turn from 0.0: ``sum()`` of Python 3.11, on every version (3.12's compensates)."""
+    total = 0.0
+    for v in values:
+        total += v
+    return total
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    """``a`` made read-only (its own copy: the caller's array is not touched)."""
+    a.flags.writeable = False
+    return a
+
+
 def _mahalanobis2(dx: float, dy: float, s00: float, s01: float, s11: float) -> float:
     """``[dx dy] S^-1 [dx dy]^T`` for the symmetric 2x2 ``S`` (NaN if not positive definite)."""
     det = s00 * s11 - s01 * s01
     if not det > 0.0:
         return math.nan
     return (s11 * dx * dx - 2.0 * s01 * dx * dy + s00 * dy * dy) / det
-
-
-def _spread8(n: int) -> list[int]:
-    """Eight positions spread evenly over ``range(n)`` (n > 8), first and last included.
-
-    ``numpy.linspace(0, n - 1, 8).round()`` in floats: ``k (n - 1) / 7`` rounded half to even.
-    """
-    step = (n - 1) / 7
-    return [round(k * step) for k in range(7)] + [n - 1]
-
-
-#: ``n -> (C(n, 3), 3)`` index triples of ``range(n)`` in the rank order of
-#: :func:`~agvnav.positioning._integrity_fast.best_triple`.
-_TRIPLE_CODES = {n: tuple(itertools.combinations(range(n), 3)) for n in range(3, 9)}
-
-
-def _head(x: Any, mount: np.ndarray) -> tuple[float, float, float]:
-    """Head pose in ``map`` from the base_link pose ``x`` (array or floats) and the ``mount`` (floats)."""
-    c, s = math.cos(float(x[2])), math.sin(float(x[2]))
-    mx, my = float(mount[0]), float(mount[1])
-    return float(x[0]) + c * mx - s * my, float(x[1]) + s * mx + c * my, float(x[2]) + float(mount[2])
