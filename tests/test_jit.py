@@ -196,6 +196,7 @@ _FAST = "positioning/test_integrity_fast.py::"
 #: interpreted, against the bits of a reference or of the other mode.
 _INTEGRITY_KERNEL_TESTS = {
     "py_hypot": _FAST + "test_py_hypot_is_cpythons_hypot_bit_for_bit",
+    "_dl_mul": _FAST + "test_py_hypot_is_cpythons_hypot_bit_for_bit",
     "total_fix": _FAST + "test_total_fix_covariance_and_flag_are_triangulates",
     "fix_covariance": _FAST + "test_total_fix_covariance_and_flag_are_triangulates",
     "nonlinear_fix": _FAST + "test_total_fix_covariance_and_flag_are_triangulates",

@@ -93,6 +93,19 @@ _WIDTH = 20
 
 
 @jit
+def _dl_mul(a: float, b: float) -> tuple[float, float]:
+    """``a * b`` exactly as ``hi + lo`` (CPython's ``dl_mul``: Veltkamp-Dekker splitting into 26-bit halves)."""
+    c = _SPLIT * a
+    ah = c - (c - a)
+    al = a - ah
+    c = _SPLIT * b
+    bh = c - (c - b)
+    bl = b - bh
+    hi = a * b
+    return hi, (((ah * bh - hi) + ah * bl) + al * bh) + al * bl
+
+
+@jit
 def py_hypot(x: float, y: float) -> float:
     """``math.hypot(x, y)`` of CPython 3.10+, bit for bit, in either mode (libm's differs: module docstring).
 
@@ -120,25 +133,13 @@ def py_hypot(x: float, y: float) -> float:
     scale = math.ldexp(1.0, -e)
     csum, frac1, frac2 = 1.0, 0.0, 0.0
     for v in (x * scale, y * scale):
-        c = _SPLIT * v  # v * v exactly as hi + lo (CPython's dl_mul(v, v), Veltkamp-Dekker), written inline
-        vh = c - (c - v)
-        vl = v - vh
-        hi = v * v
-        lo = (((vh * vh - hi) + vh * vl) + vl * vh) + vl * vl
+        hi, lo = _dl_mul(v, v)
         s = csum + hi
         frac2 += (csum - s) + hi
         csum = s
         frac1 += lo
     h = math.sqrt(csum - 1.0 + (frac1 + frac2))
-    g = -h  # -h * h exactly as hi + lo (CPython's dl_mul(-h, h))
-    c = _SPLIT * g
-    gh = c - (c - g)
-    gl = g - gh
-    c = _SPLIT * h
-    hh = c - (c - h)
-    hl = h - hh
-    hi = g * h
-    lo = (((gh * hh - hi) + gh * hl) + gl * hh) + gl * hl
+    hi, lo = _dl_mul(-h, h)
     s = csum + hi
     frac2 += (csum - s) + hi
     csum = s
