@@ -95,3 +95,16 @@ def test_batches():
     with pytest.raises(ValueError, match="batch_size"):
         batch_plans(plans, 2, batch_size=0)
 
+
+def test_local_cluster_workers_run_without_the_dashboard_diagnostics(scheduler):
+    """The cluster's workers have the profiler off and slow diagnostics ticks; the caller's config is untouched."""
+    import dask
+    from distributed import Client
+
+    from agvnav.campaign.runner import CLUSTER_CONFIG
+
+    keys = list(CLUSTER_CONFIG)
+    with Client(scheduler) as client:
+        seen = client.run(lambda: [dask.config.get(k) for k in keys])
+    assert seen and all(v == list(CLUSTER_CONFIG.values()) for v in seen.values())
+    assert dask.config.get("distributed.worker.profile.enabled") is True  # this process: the default
