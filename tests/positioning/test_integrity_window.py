@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 
@@ -246,3 +248,36 @@ def test_the_tally_s_innovations_are_revolution_innovations_over_the_window(on: 
         att = np.zeros((0, 7)) if on else []
         want = revolution_innovations(buf, 0, rows.shape[0], 5.0, window_s, excluded, att, 0)
         assert tally[3].tobytes() == want.tobytes()
+
+
+@pytest.mark.usefixtures("restore_jit_mode")
+@pytest.mark.parametrize("on", [True, False])
+def test_the_window_grows_while_a_profiler_holds_its_frames(on: bool) -> None:
+    """A sampling profiler keeps the frames it took alive, with their locals: the window must still grow.
+
+    Dask's worker profiler takes the running thread's stack every 10 ms; an ``np.frombuffer`` view
+    of the live buffer left in such a frame made the next append raise BufferError (a campaign
+    run's outcome ``error`` now and then). Here a profile hook keeps every returning frame.
+    """
+    _jit.set_compiled(on)
+    w = _Window()
+    for k in range(5):
+        w.append((float(k),) + (0.5,) * (WIDTH - 1))
+    held: list[object] = []
+
+    def keep(frame: object, event: str, arg: object) -> None:
+        if event == "return":
+            held.append(frame)
+
+    sys.setprofile(keep)
+    try:
+        buf, start = w.buffer()
+        rows = w.rows()
+    finally:
+        sys.setprofile(None)
+    assert held
+    w.append((5.0,) + (0.5,) * (WIDTH - 1))  # BufferError while a held frame had a view of the buffer
+    w.drop_older(5.0, 2.5)
+    assert len(w) == 3 and w.first_t() == 3.0
+    assert [buf[start + k * WIDTH] for k in range(5)] == [0.0, 1.0, 2.0, 3.0, 4.0]
+    assert rows[:, 0].tolist() == [0.0, 1.0, 2.0, 3.0, 4.0]

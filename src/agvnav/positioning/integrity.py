@@ -345,6 +345,17 @@ def _window_tally(
     return count, first, nis, innov, newest, (dx, dy, c00, c01, c11, n_corr), late
 
 
+def _owned(part: array) -> np.ndarray:
+    """``part`` (a slice of a window's buffer, its own copy) as a float64 NumPy array over its memory.
+
+    Never a view of the live buffer: while any view of it exists the buffer cannot grow
+    (``BufferError``), and a frame held by a sampling profiler (Dask's worker profiler takes
+    the running thread's stack every 10 ms) keeps a function's local views alive after it
+    returned, so an ``np.frombuffer`` of the buffer failed a campaign run now and then.
+    """
+    return np.frombuffer(part, dtype=np.float64)
+
+
 class _Window:
     """The accepted reflections of the window, oldest first: rows of :data:`_WIDTH` floats in one flat buffer.
 
@@ -407,7 +418,7 @@ class _Window:
         """``(n, 20)`` copy of the window's rows, oldest first."""
         if not len(self):
             return np.empty((0, _WIDTH))
-        return np.frombuffer(self._flat, dtype=np.float64, offset=self._head * _WIDTH * 8).reshape(-1, _WIDTH).copy()
+        return _owned(self._flat[self._head * _WIDTH:]).reshape(-1, _WIDTH)
 
     def keep(self, mask: np.ndarray) -> None:
         """Keep only the rows where ``mask (n,)`` is True, in order."""
@@ -435,8 +446,7 @@ class _Window:
             key = (len(self._flat), self._head)
             held = self._copy
             if held is None or held[0] != key:
-                window = np.frombuffer(self._flat, dtype=np.float64, offset=self._head * _WIDTH * 8)
-                held = self._copy = key, window.copy()
+                held = self._copy = key, _owned(self._flat[self._head * _WIDTH:])
             return held[1], 0
         return self._flat, self._head * _WIDTH
 
