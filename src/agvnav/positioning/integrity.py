@@ -365,11 +365,10 @@ class _Window:
     one NumPy copy made once per change of the window.
 
     That copy is valid while ``(len(_flat), head)`` is the one it was taken at: rows are only
-    ever appended at the end (``len`` grows: :meth:`append`, and :meth:`IntegrityMonitor.accepted`,
-    which extends ``_flat`` itself) or dropped at the front (``head`` grows: :meth:`popleft`,
-    :meth:`drop_older`), and every change that shrinks the buffer (:meth:`clear`, :meth:`keep`,
-    :meth:`popleft`'s compaction) goes through :meth:`_reset`, which voids the copy. No row is
-    written in place.
+    ever appended at the end (``len`` grows: :meth:`append`, :meth:`push`) or dropped at the front
+    (``head`` grows: :meth:`popleft`, :meth:`drop_older`), and every change that shrinks the buffer
+    (:meth:`clear`, :meth:`keep`, :meth:`popleft`'s compaction) goes through :meth:`_reset`, which
+    voids the copy. No row is written in place.
     """
 
     def __init__(self) -> None:
@@ -383,6 +382,13 @@ class _Window:
     def append(self, row: tuple[float, ...]) -> None:
         """Add one row (:data:`_WIDTH` floats) at the new end."""
         self._flat.extend(row)
+
+    def push(self, row: tuple[float, ...], t: float, window_s: float) -> None:
+        """:meth:`append` ``row``, then :meth:`drop_older` at ``t`` (s), called only when the oldest row expired."""
+        flat = self._flat
+        flat.extend(row)
+        if t - flat[self._head * _WIDTH] > window_s:  # else drop_older drops nothing
+            self.drop_older(t, window_s)
 
     def first_t(self) -> float:
         """Stamp (s) of the oldest row (the window must not be empty)."""
@@ -696,15 +702,11 @@ class IntegrityMonitor:
         bearing Jacobian row) for the leave-one-out test (:meth:`raim`); None without one.
         """
         j = int(index)
-        entries = self._entries
-        entries._flat.extend((
+        self._entries.push((
             t, nis, j, bearing, odom[0], odom[1], odom[2], 1.0 if self._clock.on_time(t, bearing) else 0.0,
             0.0 if correction is None else 1.0, *(correction or _NO_FIVE),
             0.0 if innovation is None else 1.0, *(innovation or _NO_FIVE),
-        ))  # _Window.append inlined, stored as doubles (the buffer grows: the window's copy is void, see _Window)
-        window_s = self.limits.window_s
-        if t - entries._flat[entries._head * _WIDTH] > window_s:  # else _Window.drop_older drops nothing
-            entries.drop_older(t, window_s)
+        ), t, self.limits.window_s)  # stored as doubles
         if self._attributed:
             self._void_attributions(t, j)
         if -_INF < nis < _INF:
