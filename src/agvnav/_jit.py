@@ -165,10 +165,7 @@ class Kernel:
         return impl
 
     def __call__(self, *args: Any) -> Any:
-        impl = self._impl
-        if impl is None:
-            impl = self._impl = self.dispatcher() if compiled() else self.py_func
-        return impl(*args)
+        return (self._impl or self.bound())(*args)
 
     def __repr__(self) -> str:
         return f"Kernel({self.py_func.__module__}.{self.py_func.__qualname__})"
