@@ -4,6 +4,7 @@ included), no other package's private names, and data flowing one way between pa
 from __future__ import annotations
 
 import ast
+from functools import cache
 from pathlib import Path
 
 import agvnav
@@ -22,6 +23,7 @@ def _module_name(path: Path) -> str:
 MODULES = {_module_name(p): p for p in SRC.rglob("*.py")}
 
 
+@cache
 def _imports(path: Path) -> list[tuple[str, list[str], int]]:
     """``(module, imported names, line)`` of every ``import``/``from`` anywhere in the file."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
@@ -61,6 +63,7 @@ def _targets(base: str, names: list[str]) -> list[str]:
     return ([base] if reads_package else []) + subs
 
 
+@cache
 def _graph() -> dict[str, set[str]]:
     graph: dict[str, set[str]] = {m: set() for m in MODULES}
     for mod, path in MODULES.items():
@@ -76,11 +79,7 @@ def _package(mod: str) -> str:
 
 def test_no_import_cycles_between_packages_including_function_local_imports():
     """Package-level graph: an edge p -> q when a module of p imports a module of q (anywhere)."""
-    pkg_graph: dict[str, set[str]] = {}
-    for mod, targets in _graph().items():
-        p = _package(mod)
-        pkg_graph.setdefault(p, set()).update(_package(t) for t in targets if _package(t) not in ("", p))
-    cycle = _find_cycle(pkg_graph)
+    cycle = _find_cycle(_package_graph())
     assert cycle is None, f"import cycle between packages: {' -> '.join(cycle or [])}"
 
 
@@ -156,3 +155,61 @@ def test_sim_only_wires_and_cli_only_calls():
             assert not [c for c in classes if c.endswith("Plant")], f"{mod} defines a plant: {classes}"
         if _package(mod) != "cli":
             assert not any(_package(b) == "cli" for b, _, _ in _imports(path)), f"{mod} imports agvnav.cli"
+
+
+ARCHITECTURE = SRC.parents[1] / "docs" / "ARCHITECTURE.md"
+
+
+def _package_map() -> dict[str, int]:
+    """docs/ARCHITECTURE.md's package map: package -> layer (the table between the map's markers)."""
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    table = text.split("<!-- package-map", 1)[1].split("<!-- /package-map -->", 1)[0]
+    layers: dict[str, int] = {}
+    for line in table.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) < 3 or not cells[0].isdigit():
+            continue
+        for name in cells[1].split(","):
+            package = name.strip().strip("`")
+            assert package not in layers, f"{package} is in the package map twice"
+            layers[package] = int(cells[0])
+    return layers
+
+
+def _package_graph() -> dict[str, set[str]]:
+    graph: dict[str, set[str]] = {}
+    for mod, targets in _graph().items():
+        p = _package(mod)
+        graph.setdefault(p, set()).update(_package(t) for t in targets if _package(t) not in ("", p))
+    graph.pop("", None)
+    return graph
+
+
+def test_the_package_map_lists_every_package_once():
+    layers = _package_map()
+    packages = set(_package_graph())
+    assert packages - set(layers) == set(), "packages missing from docs/ARCHITECTURE.md's map"
+    assert set(layers) - packages == set(), "the map names packages that do not exist"
+
+
+def _upward(layers: dict[str, int], graph: dict[str, set[str]]) -> list[str]:
+    """Every package edge that does not go to a strictly lower layer."""
+    return [
+        f"{p} (layer {layers[p]}) imports {q} (layer {layers[q]})"
+        for p, targets in sorted(graph.items()) for q in sorted(targets) if layers[q] >= layers[p]
+    ]
+
+
+def test_every_package_imports_only_lower_layers_of_the_map():
+    """The layering the architecture page draws is the one the code has (function-local imports included)."""
+    upward = _upward(_package_map(), _package_graph())
+    assert not upward, "imports against docs/ARCHITECTURE.md's package map:\n" + "\n".join(upward)
+
+
+def test_the_layer_check_reports_an_upward_or_sideways_import():
+    """The check can fail: a known upward and a known same-layer edge are both reported."""
+    graph = _package_graph()
+    graph["geometry"] = graph["geometry"] | {"sim", "kinematics"}
+    assert _upward(_package_map(), graph) == [
+        "geometry (layer 1) imports kinematics (layer 1)", "geometry (layer 1) imports sim (layer 5)"
+    ]
