@@ -5,8 +5,14 @@ recording with the same topics) or a folder of CSV files (docs/logs.md). The
 positioning method runs on the recorded odometry and goniometer reflections as
 the simulator feeds it (:func:`agvnav.logs.localize`); DIR receives metrics.json,
 timeseries.csv, layout.json, estimate.mcap and the plots (:mod:`agvnav.logs.outputs`),
-all at once; ``agvnav report DIR`` reports it like a run. Argument parsing and
-printing only; registered lazily (``cli.app.LAZY_COMMANDS``).
+all at once; ``agvnav report DIR`` reports it like a run. The localization is judged
+(:func:`agvnav.logs.judge`): one that failed (too little of the log tracking, too few
+reflections used, or off the recorded truth) still writes its files, then prints one
+line ``run FAILED: <reason>`` and exits 3, as ``agvnav simulate`` does. A bad log (an
+unknown settings key or CSV column, bearings or a mount yaw in degrees, no reflections)
+is one line and exit 2; so is an .mcap file without the ``logs`` extra, which a CSV
+folder does not need. Argument parsing and printing only; registered lazily
+(``cli.app.LAZY_COMMANDS``).
 """
 
 from __future__ import annotations
@@ -19,9 +25,12 @@ from rich.console import Console
 from agvnav.bench.common import Col, display_unit, format_number, json_document, print_table
 from agvnav.cli.errors import user_errors
 from agvnav.cli.progress import RunProgress
+from agvnav.cli.simulate import RUN_FAILED_EXIT
 from agvnav.logs import estimator_from_settings, read_log
 from agvnav.logs import localize as run_localize
+from agvnav.logs.extra import LOGS_EXTRA
 from agvnav.logs.outputs import localization_summary, save_localization
+from agvnav.logs.writer import logs_extra_installed
 from agvnav.report.files import check_out_dir
 from agvnav.world import load_map
 
@@ -64,15 +73,34 @@ def localize(
     else:
         print_table(_summary_table(summary, log.name))
     console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written), soft_wrap=True)
+    if not logs_extra_installed():
+        note = f"estimate.mcap not written: it needs the logs extra ({LOGS_EXTRA})"
+        console.print(note, soft_wrap=True, markup=False)
+    if summary["outcome"] != "completed":
+        console.print(f"run FAILED: {summary['reason']}", soft_wrap=True)
+        raise typer.Exit(RUN_FAILED_EXIT)
+
+
+#: The 0-1 shares of metrics.json, shown in percent.
+_SHARES = {"tracking_share": "tracking (% of the duration)", "reflections_used_share": "reflections used (%)"}
 
 
 def _summary_table(summary: dict[str, object], name: str) -> tuple[str, list[Col], list[list[str]]]:
-    """metrics.json as a (figure, value) table, each figure in its display unit (mm, deg, s)."""
+    """metrics.json as a (figure, value) table, each figure in its display unit (mm, deg, s, %).
+
+    The reason of a failed run is its ``run FAILED`` line; its positioning figures show as ``-``.
+    """
+    failed = summary.get("outcome") == "failed"
     rows = []
     for key, value in summary.items():
-        if key == "scenario":
+        if key in ("scenario", "reason"):  # the reason is the run FAILED line
             continue
-        if isinstance(value, int | float) and not isinstance(value, bool):
+        if key in _SHARES and isinstance(value, float):
+            rows.append([_SHARES[key], f"{100 * value:.1f}"])
+        elif key.startswith("positioning_") and (failed or value is None):
+            # no accuracy figure from a run that failed: it would cover only what little it tracked
+            rows.append([display_unit(key, [1e-3])[0], "-"])
+        elif isinstance(value, int | float) and not isinstance(value, bool):
             header, _, scale = display_unit(key, [value])
             rows.append([header, format_number(value, scale)])
         else:

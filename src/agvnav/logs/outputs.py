@@ -8,14 +8,18 @@ The folder has the shape of a simulation's (metrics.json, timeseries.csv, layout
   ``est_reflectors_used`` (NaN when the estimator reports none), and with truth ``x``, ``y``, ``psi``;
 - ``estimate.mcap``: ``/agvnav/estimate`` (PoseWithCovarianceStamped), ``/agvnav/status``,
   ``/agvnav/reflector_map``, ``/agvnav/settings`` and, with truth, ``/agvnav/truth``;
-- ``metrics.json``: the log's name, method, counts of reflections (delivered, accepted, late,
-  before the start) and, with truth, the positioning RMS and largest errors (m, rad);
+- ``metrics.json``: the log's name, method, the verdict (:func:`agvnav.logs.localize.judge`:
+  ``outcome``, ``reason``, ``tracking_s``, ``tracking_share``, ``reflections_used_share`` and, with
+  truth, ``tracking_off_truth_s``), counts of reflections (delivered, accepted, late, before the
+  start) and, with truth, the positioning RMS and largest errors (m, rad) over the rows the
+  estimator reported valid (status tracking or later, as a simulation's);
 - ``layout.json``: the log's path (when it has one), the map's reflectors and walls;
 - ``map.png`` (reflectors, walls, path when the log has it, truth and estimate),
   ``estimator_status.png`` and, with truth, ``positioning_errors.png`` and
   ``positioning_histogram.png``.
 
-Everything is written at once (:func:`agvnav.report.files.atomic_dir`).
+Everything is written at once (:func:`agvnav.report.files.atomic_dir`); ``estimate.mcap`` only with
+the ``logs`` extra installed (the rest needs none of it).
 """
 
 from __future__ import annotations
@@ -30,10 +34,10 @@ from numpy.typing import NDArray
 
 from agvnav.geometry import lateral_position_error, wrap_angle
 from agvnav.logs import topics as tp
-from agvnav.logs.localize import Localization
+from agvnav.logs.localize import Localization, judge
 from agvnav.logs.reader import RecordedLog
 from agvnav.logs.runlog import covariance3, write_estimate_messages, write_reflector_map
-from agvnav.logs.writer import LogWriter
+from agvnav.logs.writer import LogWriter, logs_extra_installed
 from agvnav.report.files import atomic_dir, write_csv
 from agvnav.report.html import plot_positioning_errors, plot_status
 from agvnav.report.plots import plot_map, plot_positioning_histogram, pyplot
@@ -42,16 +46,23 @@ __all__ = ["localization_summary", "save_localization"]
 
 
 def localization_summary(loc: Localization, log: RecordedLog, name: str = "log") -> dict[str, Any]:
-    """The metrics.json document: method, reflection counts and, with truth, the error figures (m, rad)."""
+    """The metrics.json document: method, verdict, tracking time, reflection counts and, with truth, the
+    error figures (m, rad) over the rows the estimator reported valid (status >= tracking, as simulate)."""
+    verdict = judge(loc, log)
     doc: dict[str, Any] = {
-        "scenario": name, "method": loc.method, "reflections": loc.n_reflections, "accepted": loc.n_accepted,
+        "scenario": name, "method": loc.method, "outcome": verdict.outcome, "reason": verdict.reason,
+        "duration_s": float(log.t[-1] - log.t[0]), "tracking_s": verdict.tracking_s,
+        "tracking_share": verdict.tracking_share,
+        "reflections": loc.n_reflections, "accepted": loc.n_accepted,
+        "reflections_used_share": verdict.reflections_used_share,
         "late_rejected": loc.late_rejected, "before_start": loc.ignored_before_start,
-        "duration_s": float(log.t[-1] - log.t[0]),
     }
+    if verdict.tracking_off_truth_s is not None:
+        doc["tracking_off_truth_s"] = verdict.tracking_off_truth_s
     if log.truth is not None:
         s = loc.series
         est = np.column_stack([s["est_x"], s["est_y"], s["est_psi"]])
-        ok = np.all(np.isfinite(est), axis=1)
+        ok = np.all(np.isfinite(est), axis=1) & (s["est_status"] >= 1.0)
         d = np.hypot(*(est[ok, :2] - log.truth[ok, :2]).T)
         dpsi = wrap_angle(est[ok, 2] - log.truth[ok, 2])
         e_lat = lateral_position_error(log.truth[ok], est[ok])
@@ -103,8 +114,9 @@ def _write(loc: Localization, log: RecordedLog, world: Any, out: Path, plots: bo
         _json(out / "metrics.json", localization_summary(loc, log, name)),
         write_csv(out / "timeseries.csv", columns),
         _json(out / "layout.json", layout),
-        _write_mcap(loc, log, world, out / "estimate.mcap"),
     ]
+    if logs_extra_installed():
+        written.append(_write_mcap(loc, log, world, out / "estimate.mcap"))
     if plots:
         written += _plots(loc, log, world, out)
     return written

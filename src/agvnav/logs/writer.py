@@ -2,7 +2,8 @@
 
 The encoding is done by ``mcap-ros2-support`` from the standard message
 definitions, which come from the ROS 2 Humble type store of ``rosbags`` (both in
-the ``logs`` extra: ``pip install agvnav[logs]``). Nothing is encoded by hand.
+the ``logs`` extra: ``pip install agvnav[logs]``). Nothing is encoded by hand. Without the
+extra this module imports, and :class:`LogWriter` raises :class:`agvnav.logs.extra.MissingExtraError`.
 """
 
 from __future__ import annotations
@@ -11,23 +12,35 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-from mcap_ros2.writer import Writer
-from rosbags.typesys import Stores, get_typestore
-
+from agvnav.logs.extra import require_logs_extra
 from agvnav.logs.messages import stamp_ns
 from agvnav.logs.topics import TOPICS
 
-__all__ = ["LogWriter", "message_definition"]
+try:  # the logs extra: without it agvnav reads CSV logs, and writing MCAP says which extra to install
+    from mcap_ros2.writer import Writer
+    from rosbags.typesys import Stores, get_typestore
+except ImportError as exc:
+    _MISSING: ImportError | None = exc
+    _STORE: Any = None
+else:
+    _MISSING = None
+    _STORE = get_typestore(Stores.ROS2_HUMBLE)
 
-_STORE = get_typestore(Stores.ROS2_HUMBLE)
+__all__ = ["LogWriter", "logs_extra_installed", "message_definition"]
+
+
+def logs_extra_installed() -> bool:
+    """Whether the ``logs`` extra is installed (MCAP files can be written and read)."""
+    return _MISSING is None
 
 
 def message_definition(msgtype: str) -> tuple[str, str]:
     """``(datatype, text)`` of a standard ROS 2 message, e.g. ``nav_msgs/msg/Odometry``.
 
     ``datatype`` is the ``pkg/msg/Name`` form MCAP schemas carry; ``text`` the
-    concatenated ``.msg`` definitions (ros2msg encoding) with its dependencies.
+    concatenated ``.msg`` definitions (ros2msg encoding) with its dependencies. Needs the ``logs`` extra.
     """
+    require_logs_extra(_MISSING, "an MCAP message definition")
     if msgtype not in _STORE.types:
         raise ValueError(f"unknown ROS 2 message type {msgtype!r}")
     text, _ = _STORE.generate_msgdef(msgtype, ros_version=2)
@@ -46,6 +59,7 @@ class LogWriter:
         self.path = Path(path)
         if self.path.suffix != ".mcap":
             raise ValueError(f"a log file must end in .mcap, got {self.path}")
+        require_logs_extra(_MISSING, "writing an MCAP log")
         self._file = self.path.open("wb")
         self._writer = Writer(self._file)
         self._schemas: dict[str, Any] = {}
