@@ -332,7 +332,7 @@ def _nurbs_curve(
 
 def parse_network(text: str, source: str = "<string>", base_dir: FsPath | None = None) -> RouteNetwork:
     """Parse and check route network YAML ``text`` (top-level key ``network`` optional)."""
-    data, nodes = load_yaml_document(text, source)
+    data, nodes = load_yaml_document(text, source, "route network")
     if set(data) == {"network"}:
         data, nodes = data["network"], _child(nodes, "network")
     spec = validate_document(NetworkSpec, data, nodes, source, base_dir)

@@ -618,7 +618,7 @@ def _model_error(data: Mapping[str, Any], nodes: Any, source: str) -> ScenarioEr
 
 def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = None) -> Scenario:
     """Parse and validate scenario YAML ``text``; a ScenarioError names key and line."""
-    data, nodes = load_yaml_document(text, source)
+    data, nodes = load_yaml_document(text, source, "scenario")
     err = _model_error(data, nodes, source)
     if err is not None:
         raise err

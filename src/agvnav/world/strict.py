@@ -23,7 +23,8 @@ from typing import Annotated, Any, Self, TypeVar
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from agvnav.world.yaml_strict import compose, safe_load_unique, yaml_error_line
+from agvnav.world.limits import LIST_LIMITS, MAX_DOCUMENT_BYTES, MAX_LIST_ITEMS, SCAN_MIN_CHARS
+from agvnav.world.yaml_strict import compose, find_long_list, safe_load_unique, yaml_error_line
 
 __all__ = [
     "DocumentNotFoundError",
@@ -36,6 +37,7 @@ __all__ = [
     "StrictModel",
     "attach_source",
     "attribute_docs",
+    "check_document_size",
     "first_error",
     "format_key",
     "load_yaml_document",
@@ -303,10 +305,14 @@ def read_document_text(path: str | Path, kind: str, source: str | None = None) -
     """The UTF-8 text of a YAML document file; every failure a one-line ScenarioError naming the file.
 
     A binary file (NUL bytes, or not UTF-8) and an unreadable one are refused with the
-    file's name (``source``, default ``path``) instead of a decoder traceback.
+    file's name (``source``, default ``path``) instead of a decoder traceback; so is a file
+    larger than :data:`~agvnav.world.limits.MAX_DOCUMENT_BYTES`, before it is read.
     """
     where = str(path) if source is None else source
     try:
+        size = Path(path).stat().st_size
+        if size > MAX_DOCUMENT_BYTES:
+            raise ScenarioError(_too_big(size, kind), (), None, where)
         raw = Path(path).read_bytes()
     except OSError as exc:
         reason = exc.strerror or type(exc).__name__
@@ -319,8 +325,36 @@ def read_document_text(path: str | Path, kind: str, source: str | None = None) -
         raise ScenarioError(f"is not a UTF-8 text file (a {kind} is YAML text)", (), None, where) from None
 
 
-def load_yaml_document(text: str, source: str) -> tuple[Any, Any]:
-    """``(data, composed nodes)`` of YAML ``text``; a ScenarioError with the line on bad YAML."""
+def _too_big(size: int, kind: str) -> str:
+    return (f"is {size / 2**20:.1f} MiB; a {kind} file may be at most {MAX_DOCUMENT_BYTES // 2**20} MiB "
+            "(size limits: docs/scenarios.md)")
+
+
+def check_document_size(text: str, source: str, kind: str) -> None:
+    """Refuse YAML ``text`` beyond the size limits of a ``kind`` document (:mod:`agvnav.world.limits`).
+
+    Before anything is built: a text longer than ``MAX_DOCUMENT_BYTES`` characters, and the
+    first list with more items than its limit (the ScenarioError names its key and line;
+    the event stream is read only up to that item).
+    """
+    if len(text) > MAX_DOCUMENT_BYTES:
+        raise ScenarioError(_too_big(len(text), kind), (), None, source)
+    if len(text) < SCAN_MIN_CHARS:
+        return
+    hit = find_long_list(text, LIST_LIMITS.get(kind, {}), MAX_LIST_ITEMS)
+    if hit is not None:
+        key, line, limit = hit
+        message = f"more than {limit:,} items: refused before loading (size limits: docs/scenarios.md)"
+        raise ScenarioError(message, key, line, source)
+
+
+def load_yaml_document(text: str, source: str, kind: str = "") -> tuple[Any, Any]:
+    """``(data, composed nodes)`` of YAML ``text``; a ScenarioError with the line on bad YAML.
+
+    ``kind`` ("scenario", "route network", ...) selects the list limits checked first
+    (:func:`check_document_size`).
+    """
+    check_document_size(text, source, kind or "YAML")
     try:
         nodes = compose(text)
         data = safe_load_unique(text)
