@@ -15,9 +15,20 @@ runner = CliRunner()
 def test_routes_check_reports_every_joint() -> None:
     res = runner.invoke(app, ["routes", "check", "hall_loop", "--json"])
     assert res.exit_code == 0, res.output
-    first = json.loads(res.output.splitlines()[0])
-    assert first["benchmark"] == "routes check"
-    assert all(r["g1"] for r in first["records"]) and len(first["records"]) == 30
+    doc = json.loads(res.output)  # the whole output is one document
+    assert doc["benchmark"] == "routes check"
+    assert all(r["g1"] for r in doc["records"]) and len(doc["records"]) == 30
+    assert doc["not_g2"] == 0 and all(a["kind"] in ("clothoid", "nurbs") for a in doc["approximation"])
+
+
+def test_routes_check_json_is_one_document_with_curved_edges() -> None:
+    """A network with clothoid/NURBS edges printed two documents (joints, then approximation) with --json."""
+    res = runner.invoke(app, ["routes", "check", "warehouse", "--json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.output)
+    assert doc["network"] == "warehouse" and doc["edges"] >= len(doc["approximation"]) > 0
+    assert all(a["approx_error_m"] >= 0.0 for a in doc["approximation"])
+    assert doc["not_g2"] == sum(r["g2"] is False for r in doc["records"])
 
 
 def test_routes_plan_and_bad_input_exit_2(tmp_path: Path) -> None:

@@ -29,7 +29,7 @@ from pydantic import Field, model_validator
 
 from agvnav.campaign.overrides import apply_overrides, dump_yaml, load_base
 from agvnav.campaign.task import METRIC_SECTIONS, is_metric_name, metric_names
-from agvnav.world.scenario import KeyPath, ScenarioError, format_key, parse_scenario
+from agvnav.world.scenario import KeyPath, ScenarioError, format_key, parse_scenario, scenario_reference
 from agvnav.world.strict import Finite, SourcedModel, StrictModel, load_yaml_document, validate_document
 
 __all__ = ["CampaignSpec", "Distribution", "builtin_campaign_names", "is_number", "load_campaign", "parse_campaign"]
@@ -117,11 +117,12 @@ class CampaignSpec(SourcedModel):
         return [*self.grid, *self.random]
 
     def resolve_base(self) -> str:
-        """The base as given, or as a path relative to the campaign file when that file exists."""
-        p = Path(self.base)
-        if not p.is_absolute() and self.base_dir is not None and (self.base_dir / p).is_file():
-            return str(self.base_dir / p)
-        return self.base
+        """The base scenario's file: a shipped name is the shipped scenario, whatever lies in the current
+        folder; any other name a path relative to the campaign file's folder (:func:`scenario_reference`)."""
+        try:
+            return str(scenario_reference(self.base, self.base_dir))
+        except ScenarioError:  # missing: load_base reports it, naming the base as written
+            return self.base if self.base_dir is None else str(self.base_dir / self.base)
 
 
 def parse_campaign(text: str, source: str = "<string>", base_dir: Path | None = None) -> CampaignSpec:

@@ -16,7 +16,9 @@ output (scripts, CI, ``--json``) stays clean.
 
 from __future__ import annotations
 
+import itertools
 import json
+import math
 import os
 import sys
 import threading
@@ -25,7 +27,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-__all__ = ["RunProgress", "stderr_is_terminal"]
+__all__ = ["RunProgress", "expected_sim_time", "stderr_is_terminal"]
 
 
 def stderr_is_terminal() -> bool:
@@ -34,6 +36,116 @@ def stderr_is_terminal() -> bool:
         return sys.stderr.isatty()
     except (AttributeError, ValueError):  # replaced or closed stream
         return False
+
+
+def expected_sim_time(sc: Any, built: Any) -> float:
+    """Simulated seconds (s) the run of scenario ``sc`` (wired as ``built``) should take: the bar's total.
+
+    A path: each run of segments driven in one direction (the vehicle stops at every cusp)
+    at cruise speed, from and to rest at the acceleration limits, then the end hold. A
+    mission: each leg's speed limit (the edge's, the curvature's and the creep before the
+    station: :func:`agvnav.routes.mission.speed_limits`) driven from and to rest at every
+    cusp, the turns on the spot at ``mission.turn_rate_deg_s``, the stops (``duration_s``),
+    the fine positioning of a spot-turning vehicle at each station (:func:`_fine_s`) and the
+    end hold. What it leaves out (waiting for a fix, slowing when positioning degrades)
+    makes a run longer: the bar's total grows
+    when the run passes it, and the bar is finished when the run ends. At most the run's
+    time limit ``built.duration``.
+    """
+    tc = sc.traction
+    accel, decel = float(tc.max_accel_m_s2), float(tc.max_decel_m_s2)
+    if built.mission is not None:
+        expected = _mission_time(sc, built, accel, decel)
+    else:
+        v = abs(float(tc.speed_m_s))
+        expected = sum(_trapezoid_time(length, v, accel, decel) for length in _run_lengths(built.path.segments))
+    expected += float(sc.end_hold_s)
+    limit = float(built.duration)
+    return min(limit, expected) if math.isfinite(expected) and expected > 0.0 else limit
+
+
+def _run_lengths(segments: Any) -> list[float]:
+    """Lengths (m) of the runs of consecutive segments driven in the same direction."""
+    runs: list[float] = []
+    last = 0
+    for seg in segments:
+        if runs and seg.direction == last:
+            runs[-1] += float(seg.length)
+        else:
+            runs.append(float(seg.length))
+        last = seg.direction
+    return runs
+
+
+def _trapezoid_time(length: float, v: float, accel: float, decel: float) -> float:
+    """Time (s) to drive ``length`` m from rest to rest at cruise ``v`` (m/s) and the ramps (m/s^2)."""
+    if length <= 0.0 or v <= 0.0:
+        return 0.0
+    ramps = v * v / (2.0 * accel) + v * v / (2.0 * decel)
+    if length >= ramps:
+        return length / v + v / (2.0 * accel) + v / (2.0 * decel)
+    peak = math.sqrt(2.0 * length * accel * decel / (accel + decel))  # never reaches cruise
+    return peak / accel + peak / decel
+
+
+def _mission_time(sc: Any, built: Any, accel: float, decel: float) -> float:
+    """Drive, spot turns, stops and fine positioning (s) of a planned mission (:func:`expected_sim_time`)."""
+    import numpy as np
+
+    from agvnav.geometry.angles import wrap_angle
+    from agvnav.guidance.paths import Path as GuidePath
+    from agvnav.routes.mission import speed_limits
+    from agvnav.sim.mission import sub_path
+
+    m, plan = sc.mission, built.mission
+    total = sum(float(leg.dwell_s) for leg in plan.legs)
+    for k, leg in enumerate(plan.legs):
+        if leg.route is None or not leg.route.traversals:
+            continue
+        segs, idx = sub_path(plan, float(plan.leg_bounds[k, 0]), float(plan.leg_bounds[k, 1]))
+        s, cap = speed_limits(GuidePath(segs), plan.seg_speed[idx], abs(float(sc.traction.speed_m_s)),
+                              m.lateral_accel_m_s2, decel, m.creep_distance_m, m.creep_speed_m_s)
+        starts = np.cumsum([0.0, *(float(g.length) for g in segs)])
+        cusps = [0.0, *(float(starts[i]) for i in range(1, len(segs)) if segs[i].direction != segs[i - 1].direction)]
+        cusps.append(float(starts[-1]))
+        for a, b in itertools.pairwise(cusps):
+            inside = (s >= a - 1e-9) & (s <= b + 1e-9)
+            total += _profile_time(s[inside], cap[inside], accel, decel)
+    rate = math.radians(float(m.turn_rate_deg_s))
+    body = [float(g.heading) + (math.pi if g.direction < 0 else 0.0) for g in plan.path.segments]
+    body_end = [float(g.end_heading) + (math.pi if g.direction < 0 else 0.0) for g in plan.path.segments]
+    turns = [abs(float(wrap_angle(b - a))) for a, b in zip(body_end[:-1], body[1:], strict=True)]
+    total += sum(t for t in turns if t > 1e-3) / rate  # turns on the spot (tolerance-snapped joints are 0)
+    if built.plant.family in ("unicycle", "holonomic") and m.align_heading:  # fine positioning at each stop
+        total += sum(1 for leg in plan.legs if leg.route is not None and leg.route.traversals) * _fine_s(sc)
+    return total
+
+
+def _fine_s(sc: Any) -> float:
+    """Expected fine positioning at one station stop (s): one settle at the :class:`FinePositioner`'s
+    ``settle_timeout`` and one more settle window (``settle_revolutions`` goniometer revolutions)."""
+    import inspect
+
+    from agvnav.guidance import FinePositioner
+    from agvnav.world.scenario import GoniometerSpec
+
+    defaults = inspect.signature(FinePositioner).parameters
+    revolution = 1.0 / (sc.goniometer or GoniometerSpec()).rate_hz
+    return float(defaults["settle_timeout"].default) + defaults["settle_revolutions"].default * revolution
+
+
+def _profile_time(s: Any, cap: Any, accel: float, decel: float) -> float:
+    """Time (s) along the grid ``s`` (m) under the speed limit ``cap`` (m/s), from and to rest."""
+    if len(s) < 2:
+        return 0.0
+    v = [float(c) for c in cap]
+    v[0] = v[-1] = 0.0
+    ds = [float(b - a) for a, b in itertools.pairwise(s)]
+    for i in range(len(v) - 2, -1, -1):
+        v[i] = min(v[i], math.sqrt(v[i + 1] ** 2 + 2.0 * decel * ds[i]))
+    for i in range(1, len(v)):
+        v[i] = min(v[i], math.sqrt(v[i - 1] ** 2 + 2.0 * accel * ds[i - 1]))
+    return sum(2.0 * d / (a + b) for d, a, b in zip(ds, v[:-1], v[1:], strict=True) if a + b > 0.0)
 
 
 def _cache_file() -> Path:
@@ -143,11 +255,38 @@ class RunProgress:
         self._last = done
         self.done = self._offset + done
         self._reported = True
+        if total is not None:
+            self.total = float(total)
+        if self.total is not None and self.done > self.total:  # past the estimate: the total follows the run
+            self.total = self.done
         if self._bar is not None:
             fields: dict[str, Any] = {"completed": self.done}
-            if total is not None:
-                fields["total"] = float(total)
+            if self.total is not None:
+                fields["total"] = self.total
             self._bar.update(self._task, **fields)
+
+    def finish(self) -> None:
+        """The step ended: the bar is drawn full whatever the estimate was.
+
+        The total becomes the amount done (a run that ended before its expected time, or
+        after it) when progress was reported; a bar moved by the clock is filled.
+        """
+        if self._reported:
+            self.total = self.done
+        elif self.total is not None:
+            self.done = self.total
+        if self._bar is not None:
+            task_total = self.total if self.total is not None else self._bar.tasks[0].total
+            if task_total is not None:
+                self._bar.update(self._task, total=task_total, completed=task_total)
+                self._bar.refresh()
+
+    @property
+    def fraction(self) -> float | None:
+        """Share of the total done (0 to 1), or None without a total."""
+        if not self.total:
+            return None
+        return min(self.done / self.total, 1.0)
 
     def runs(self, finished: int, total: int) -> None:
         """Campaign-style callback: ``finished`` of ``total`` runs are done."""
@@ -165,6 +304,8 @@ class RunProgress:
         if self._ticker is not None:
             self._stop.set()
             self._ticker.join()
+        if kind is None:
+            self.finish()
         if self._bar is not None:
             self._bar.stop()
         if kind is None and self.key is not None and self.enabled and not self._reported:

@@ -25,8 +25,12 @@ def check(
     json: bool = typer.Option(False, "--json", help="Machine-readable output."),
     wide: bool = typer.Option(False, "--wide", help="Print every table column, however wide the terminal."),
 ) -> None:
-    """Load a route network and report the continuity (G1, and G2 next to clothoids) of every joint."""
-    from agvnav.bench.common import emit
+    """Load a route network and report the continuity (G1, and G2 next to clothoids) of every joint.
+
+    With ``--json`` the output is one JSON document: ``records`` (the joints), ``approximation``
+    (the arc-chain error of each curved edge) and ``not_g2`` (joints next to a clothoid that are not G2).
+    """
+    from agvnav.bench.common import emit, json_document
     from agvnav.routes.network import load_network
 
     net = load_network(network)
@@ -38,11 +42,17 @@ def check(
     ]
     approx = [{"edge": e.id, "kind": e.curve.kind, "approx_error_m": e.curve.approx_error_m}
               for e in net.edges.values() if e.curve.kind in ("clothoid", "nurbs")]
-    emit("routes check", records, as_json=json, wide=wide,
+    bad = [r for r in records if r["g2"] is False]
+    if json:  # one document (the tables below are two)
+        body = {"network": net.name, "nodes": len(net.nodes), "edges": len(net.edges), "records": records,
+                "approximation": approx, "not_g2": len(bad)}
+        print(json_document("benchmark", "routes check", body, None, None))
+        return
+    emit("routes check", records, as_json=False, wide=wide,
          title=f"{net.name}: {len(net.nodes)} nodes, {len(net.edges)} edges, {len(records)} joints")
     if approx:
-        emit("routes approximation", approx, as_json=json, wide=wide, title="arc-chain approximation of curved edges")
-    bad = [r for r in records if r["g2"] is False]
+        emit("routes approximation", approx, as_json=False, wide=wide,
+             title="arc-chain approximation of curved edges")
     if bad:
         print(f"{len(bad)} joint(s) next to a clothoid are not G2 (curvature jump beyond tolerance)")
 

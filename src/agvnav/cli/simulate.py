@@ -27,7 +27,7 @@ from rich.console import Console
 
 from agvnav.bench.common import Col, print_table
 from agvnav.cli.errors import fail, user_errors
-from agvnav.cli.progress import RunProgress
+from agvnav.cli.progress import RunProgress, expected_sim_time
 
 SCENARIO_ARG = typer.Argument(
     None, help="Scenario YAML file or shipped scenario name (default: guidance_test, seed 000 §4.3)."
@@ -101,7 +101,7 @@ def _simulate(
 
     built = build(sc)  # validate every cross-part rule before the progress bar starts
     _collect_again()
-    expected_s = _expected_sim_time(sc, built)
+    expected_s = expected_sim_time(sc, built)
     # a short run with few reflectors is cheaper without numba's start-up; the same numbers either way
     set_compiled_for_run(expected_s, len(built.world.reflector_xy))
     _prepare_out(out, force)
@@ -126,24 +126,6 @@ def _simulate(
         console.print(f"run FAILED: {result.reason}")
         raise typer.Exit(RUN_FAILED_EXIT)
     return None
-
-
-def _expected_sim_time(sc: Any, built: Any) -> float:
-    """Simulated seconds the run should take (s): the path at cruise speed with its ramps and the end hold.
-
-    Bounded by the run's time limit; a mission (stops at stations) uses the limit itself.
-    """
-    limit = float(built.duration)
-    if built.mission is not None:
-        return limit
-    try:
-        tc = sc.traction
-        v = abs(float(tc.speed_m_s))
-        ramps = v / tc.max_accel_m_s2 + v / tc.max_decel_m_s2
-        expected = float(built.path.length) / v + ramps + float(sc.end_hold_s)
-    except (AttributeError, TypeError, ZeroDivisionError):
-        return limit
-    return min(limit, expected) if math.isfinite(expected) and expected > 0 else limit
 
 
 def _print_json(result: Any) -> None:

@@ -39,6 +39,7 @@ from agvnav.world.strict import (
     load_yaml_document,
     read_document_text,
     resolve_document,
+    resolve_reference,
     validate_document,
 )
 
@@ -52,6 +53,7 @@ __all__ = [
     "RouteNetwork",
     "load_network",
     "network_from_dict",
+    "network_reference",
     "parse_network",
 ]
 
@@ -330,7 +332,7 @@ def _nurbs_curve(
 
 def parse_network(text: str, source: str = "<string>", base_dir: FsPath | None = None) -> RouteNetwork:
     """Parse and check route network YAML ``text`` (top-level key ``network`` optional)."""
-    data, nodes = load_yaml_document(text, source)
+    data, nodes = load_yaml_document(text, source, "route network")
     if set(data) == {"network"}:
         data, nodes = data["network"], _child(nodes, "network")
     spec = validate_document(NetworkSpec, data, nodes, source, base_dir)
@@ -349,7 +351,28 @@ def _child(nodes: Any, name: str) -> Any:
     return nodes
 
 
+def _networks_dir() -> FsPath:
+    """The folder of the shipped route networks (``agvnav/data/routes``)."""
+    return FsPath(str(resources.files("agvnav") / "data" / "routes"))
+
+
 def load_network(path: str | FsPath) -> RouteNetwork:
-    """Load a route network file, or a shipped one by name (``agvnav/data/routes/<name>.yaml``)."""
-    p = resolve_document(path, FsPath(str(resources.files("agvnav") / "data" / "routes")), "route network")
+    """Load a route network file, or a shipped one by name (``agvnav/data/routes/<name>.yaml``).
+
+    For a name typed by the user: a local file of that name wins, a folder never does
+    (:func:`~agvnav.world.strict.resolve_document`). A name written in a scenario resolves
+    with :func:`network_reference`.
+    """
+    p = resolve_document(path, _networks_dir(), "route network")
     return parse_network(read_document_text(p, "route network", str(path)), str(path), p.parent)
+
+
+def network_reference(name: str, base_dir: FsPath | None) -> FsPath:
+    """The file of the route network a document names (``mission.network: hall_loop``).
+
+    A shipped name is always the shipped network (never a file or folder of that name in
+    the current folder); any other name is a path relative to ``base_dir``, the folder of
+    the naming document (:func:`~agvnav.world.strict.resolve_reference`). A ScenarioError
+    for a folder or a missing file.
+    """
+    return resolve_reference(name, base_dir, _networks_dir(), "route network")

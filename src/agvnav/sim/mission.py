@@ -36,7 +36,6 @@ import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path as FsPath
 from typing import Any
 
 import numpy as np
@@ -48,7 +47,7 @@ from agvnav.guidance import FinePositioner, GuidanceError, HeadingHoldApproach, 
 from agvnav.guidance.paths import LineSegment, Path, Segment
 from agvnav.kinematics.differential import wheel_speeds_unchecked
 from agvnav.routes.mission import Job, MissionError, MissionPlan, chain_mission, plan_legs, speed_limits
-from agvnav.routes.network import EDGE_KINDS, RouteNetwork, load_network
+from agvnav.routes.network import EDGE_KINDS, RouteNetwork, load_network, network_reference
 from agvnav.routes.planning import Planner, VehicleLimits
 from agvnav.sim.roles import PathAutopilot
 from agvnav.vehicles import HolonomicGeometry, UnicycleGeometry
@@ -81,18 +80,15 @@ NODE_REACHED_M = 0.05
 
 
 def load_mission_network(sc: Scenario) -> RouteNetwork:
-    """The route network of mission scenario ``sc`` (file relative to the scenario, or a shipped name)."""
+    """The route network of mission scenario ``sc``: a shipped name, else a file relative to the scenario
+    (never the current folder: :func:`agvnav.routes.network.network_reference`)."""
     m = sc.mission
     assert m is not None
-    p = FsPath(m.network)
-    if not p.is_absolute() and sc.base_dir is not None and (sc.base_dir / p).is_file():
-        p = sc.base_dir / p
     try:
-        return load_network(p if p.is_file() else m.network)
+        path = network_reference(m.network, sc.base_dir)
     except ScenarioError as exc:
-        if exc.source in (m.network, str(p)) and "no such" in exc.detail:
-            raise sc.error(("mission", "network"), f"no route network {m.network!r} (file or shipped name)") from None
-        raise
+        raise sc.error(("mission", "network"), f"{m.network!r}: {exc.detail}") from None
+    return load_network(path)
 
 
 def plan_mission(sc: Scenario) -> MissionPlan:

@@ -30,7 +30,7 @@ import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav.world.strict import read_document_text, resolve_document
+from agvnav.world.strict import check_document_size, read_document_text, resolve_document
 from agvnav.world.yaml_strict import safe_load_unique, yaml_error_line
 
 __all__ = ["Reflector", "Wall", "WorldMap", "load_map", "save_map"]
@@ -337,6 +337,7 @@ def load_map(path: str | Path) -> WorldMap:
     """
     path = resolve_document(path, _maps_dir(), "map")
     text = read_document_text(path, "map")
+    check_document_size(text, str(path), "map")
     try:
         data = safe_load_unique(text)
     except yaml.YAMLError as exc:

@@ -18,6 +18,7 @@ from typing import Any, Literal, get_args, get_origin
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
+from agvnav.world.limits import limits_reference
 from agvnav.world.scenario import Scenario
 from agvnav.world.strict import attribute_docs
 from agvnav.world.vehicle_specs import (
@@ -169,6 +170,7 @@ def scenario_reference(outputs: list[str] | None = None) -> str:
         name = get_args(model)[0]
         doc = " ".join((inspect.getdoc(spec) or "").split("\n\n")[0].split())
         lines += ["", f"### `model: {name}`", "", doc, "", *_table(schema_rows(spec, "vehicle."))]
+    lines += ["", *limits_reference()]
     if outputs:
         lines += ["", *outputs]
     return "\n".join(lines) + "\n"

@@ -34,6 +34,9 @@ from agvnav.world.strict import (
     format_key,
     load_yaml_document,
     node_line,
+    read_document_text,
+    resolve_document,
+    resolve_reference,
     validate_document,
 )
 from agvnav.world.vehicle_specs import VEHICLE_MODELS, VehicleSpec
@@ -67,6 +70,7 @@ __all__ = [
     "load_scenario",
     "node_line",
     "parse_scenario",
+    "scenario_reference",
 ]
 
 #: Name of the shipped scenario run when ``agvnav simulate`` is given none.
@@ -614,7 +618,7 @@ def _model_error(data: Mapping[str, Any], nodes: Any, source: str) -> ScenarioEr
 
 def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = None) -> Scenario:
     """Parse and validate scenario YAML ``text``; a ScenarioError names key and line."""
-    data, nodes = load_yaml_document(text, source)
+    data, nodes = load_yaml_document(text, source, "scenario")
     err = _model_error(data, nodes, source)
     if err is not None:
         raise err
@@ -622,21 +626,23 @@ def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = 
 
 
 def load_scenario(path: str | Path) -> Scenario:
-    """Load a scenario file, or a shipped scenario by name (``guidance_test``)."""
-    p = Path(path)
-    if not p.is_file() and p.suffix == "" and str(path) in builtin_scenario_names():
-        p = builtin_scenario(str(path))
-    if p.is_dir():
-        raise ScenarioError("is a directory, not a scenario file", (), None, str(path))
-    if not p.is_file():
-        raise ScenarioError(
-            f"no such scenario file (shipped scenarios: {', '.join(builtin_scenario_names())})", (), None, str(path)
-        )
-    try:
-        text = p.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise ScenarioError("is not a UTF-8 text file (a scenario is YAML text)", (), None, str(path)) from None
+    """Load a scenario file, or a shipped scenario by name (``guidance_test``).
+
+    A name typed by the user: a local file of that name wins, a folder never does
+    (:func:`~agvnav.world.strict.resolve_document`).
+    """
+    p = resolve_document(path, _scenarios_dir(), "scenario")
+    text = read_document_text(p, "scenario", str(path))
     return parse_scenario(text, source=str(path), base_dir=p.parent)
+
+
+def scenario_reference(name: str, base_dir: Path | None) -> Path:
+    """The file of the scenario a document names (a campaign's ``base: guidance_test``).
+
+    A shipped name is always the shipped scenario; any other name a path relative to
+    ``base_dir``, the naming document's folder (:func:`~agvnav.world.strict.resolve_reference`).
+    """
+    return resolve_reference(name, base_dir, _scenarios_dir(), "scenario")
 
 
 def _scenarios_dir() -> Path:

@@ -23,7 +23,8 @@ from typing import Annotated, Any, Self, TypeVar
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from agvnav.world.yaml_strict import compose, safe_load_unique, yaml_error_line
+from agvnav.world.limits import LIST_LIMITS, MAX_DOCUMENT_BYTES, MAX_LIST_ITEMS, SCAN_MIN_CHARS
+from agvnav.world.yaml_strict import compose, find_long_list, safe_load_unique, yaml_error_line
 
 __all__ = [
     "DocumentNotFoundError",
@@ -36,12 +37,15 @@ __all__ = [
     "StrictModel",
     "attach_source",
     "attribute_docs",
+    "check_document_size",
     "first_error",
     "format_key",
     "load_yaml_document",
     "node_line",
     "read_document_text",
     "resolve_document",
+    "resolve_reference",
+    "shipped_name",
     "validate_document",
 ]
 
@@ -238,24 +242,62 @@ def first_error(exc: ValidationError, data: Any) -> tuple[KeyPath, str]:
     return key, msg
 
 
-def resolve_document(path: str | Path, shipped_dir: Path, kind: str) -> Path:
-    """The file ``path`` names: a path, or a bare name of a file shipped in ``shipped_dir`` (``lab``).
+def shipped_name(name: str, shipped_dir: Path) -> Path | None:
+    """The shipped file ``shipped_dir/<name>.yaml`` when ``name`` is a bare shipped name (``hall_loop``), else None.
 
-    A name is looked up as ``shipped_dir/<name>.yaml`` only when ``path`` is not an
-    existing file and has no folder and no suffix, so a local file always wins.
+    A bare name has no folder, no suffix and no leading ``./``: ``./hall_loop`` and
+    ``hall_loop.yaml`` are paths, never shipped names.
+    """
+    if not name or name != Path(name).name or name in (".", "..") or Path(name).suffix:
+        return None
+    shipped = shipped_dir / f"{name}.yaml"
+    return shipped if shipped.is_file() else None
+
+
+def resolve_document(path: str | Path, shipped_dir: Path, kind: str) -> Path:
+    """The file a name typed on the command line names: a file, or a bare shipped name (``lab``).
+
+    A local *file* of that name wins over the shipped one (the user typed it); a folder
+    never does (a folder ``warehouse`` does not hide the shipped ``warehouse``). Names
+    written inside a document resolve by :func:`resolve_reference` instead.
     Raises a :class:`ScenarioError` naming ``path`` (and the shipped names) when it is a
     folder or does not exist. ``kind`` is the document's name in messages ("map").
     """
     p = Path(path)
-    if not p.exists() and p.suffix == "" and len(p.parts) == 1:
-        shipped = shipped_dir / f"{p.name}.yaml"
-        if shipped.is_file():
+    if not p.is_file():
+        shipped = shipped_name(str(path), shipped_dir)
+        if shipped is not None:
             return shipped
+    return _existing_file(p, str(path), shipped_dir, kind)
+
+
+def resolve_reference(name: str, base_dir: Path | None, shipped_dir: Path, kind: str) -> Path:
+    """The file a name written *inside* a document names (a scenario's ``mission.network``).
+
+    A bare shipped name (:func:`shipped_name`) always means the shipped file, whatever
+    lies in the current folder or beside the document: a shipped scenario gives the
+    same results wherever it is run, and a user's copy of it too. Any other name is a
+    path relative to ``base_dir``, the folder of the document that names it (the
+    current folder only for a document with no file). To name a file of one's own
+    called like a shipped one, write it as a path (``./hall_loop``). Raises a
+    :class:`ScenarioError` (the message in ``detail``) for a folder or a missing file.
+    """
+    shipped = shipped_name(name, shipped_dir)
+    if shipped is not None:
+        return shipped
+    p = Path(name)
+    if not p.is_absolute() and base_dir is not None:
+        p = base_dir / p
+    return _existing_file(p, str(p), shipped_dir, kind)
+
+
+def _existing_file(p: Path, where: str, shipped_dir: Path, kind: str) -> Path:
+    """``p`` when it is a file; else a ScenarioError naming ``where`` (a folder, or missing: the shipped names)."""
     if p.is_dir():
-        raise ScenarioError(f"is a directory, not a {kind} file", (), None, str(path))
+        raise ScenarioError(f"is a directory, not a {kind} file", (), None, where)
     if not p.is_file():
         names = ", ".join(sorted(q.stem for q in shipped_dir.glob("*.yaml"))) or "none"
-        raise DocumentNotFoundError(f"no such {kind} file (shipped {kind}s: {names})", (), None, str(path))
+        raise DocumentNotFoundError(f"no such {kind} file (shipped {kind}s: {names})", (), None, where)
     return p
 
 
@@ -263,10 +305,14 @@ def read_document_text(path: str | Path, kind: str, source: str | None = None) -
     """The UTF-8 text of a YAML document file; every failure a one-line ScenarioError naming the file.
 
     A binary file (NUL bytes, or not UTF-8) and an unreadable one are refused with the
-    file's name (``source``, default ``path``) instead of a decoder traceback.
+    file's name (``source``, default ``path``) instead of a decoder traceback; so is a file
+    larger than :data:`~agvnav.world.limits.MAX_DOCUMENT_BYTES`, before it is read.
     """
     where = str(path) if source is None else source
     try:
+        size = Path(path).stat().st_size
+        if size > MAX_DOCUMENT_BYTES:
+            raise ScenarioError(_too_big(size, kind), (), None, where)
         raw = Path(path).read_bytes()
     except OSError as exc:
         reason = exc.strerror or type(exc).__name__
@@ -279,8 +325,36 @@ def read_document_text(path: str | Path, kind: str, source: str | None = None) -
         raise ScenarioError(f"is not a UTF-8 text file (a {kind} is YAML text)", (), None, where) from None
 
 
-def load_yaml_document(text: str, source: str) -> tuple[Any, Any]:
-    """``(data, composed nodes)`` of YAML ``text``; a ScenarioError with the line on bad YAML."""
+def _too_big(size: int, kind: str) -> str:
+    return (f"is {size / 2**20:.1f} MiB; a {kind} file may be at most {MAX_DOCUMENT_BYTES // 2**20} MiB "
+            "(size limits: docs/scenarios.md)")
+
+
+def check_document_size(text: str, source: str, kind: str) -> None:
+    """Refuse YAML ``text`` beyond the size limits of a ``kind`` document (:mod:`agvnav.world.limits`).
+
+    Before anything is built: a text longer than ``MAX_DOCUMENT_BYTES`` characters, and the
+    first list with more items than its limit (the ScenarioError names its key and line;
+    the event stream is read only up to that item).
+    """
+    if len(text) > MAX_DOCUMENT_BYTES:
+        raise ScenarioError(_too_big(len(text), kind), (), None, source)
+    if len(text) < SCAN_MIN_CHARS:
+        return
+    hit = find_long_list(text, LIST_LIMITS.get(kind, {}), MAX_LIST_ITEMS)
+    if hit is not None:
+        key, line, limit = hit
+        message = f"more than {limit:,} items: refused before loading (size limits: docs/scenarios.md)"
+        raise ScenarioError(message, key, line, source)
+
+
+def load_yaml_document(text: str, source: str, kind: str = "") -> tuple[Any, Any]:
+    """``(data, composed nodes)`` of YAML ``text``; a ScenarioError with the line on bad YAML.
+
+    ``kind`` ("scenario", "route network", ...) selects the list limits checked first
+    (:func:`check_document_size`).
+    """
+    check_document_size(text, source, kind or "YAML")
     try:
         nodes = compose(text)
         data = safe_load_unique(text)
