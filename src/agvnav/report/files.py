@@ -85,6 +85,9 @@ def metrics_document(result: SimResult) -> dict[str, Any]:
     reactive = reactive_document(result)
     if reactive is not None:
         doc["reactive"] = reactive
+    timeline = getattr(result, "timeline", None)  # issue 29: faults, positioning, stops (sim.events)
+    if timeline:
+        doc["events"] = _plain(timeline)
     return doc
 
 
