@@ -3,10 +3,10 @@ import math
 import numpy as np
 import pytest
 
-from agvnav.sim.metrics import reorientation_mask
 from agvnav.sim.metrics import (
     TransientSpec,
     compute_metrics,
+    reorientation_mask,
     transient_end_index,
 )
 from agvnav.sim.recorder import EventLog, Recorder
