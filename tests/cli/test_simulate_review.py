@@ -145,3 +145,54 @@ def test_summary_small_values_keep_two_significant_figures():
     assert _fmt(0.0, 1e3) == "0.0"
     assert _fmt(12.345, 1.0, 1) == "12.3"
     assert "0.036" in _table_text(0.0)
+
+
+def _fake(model, metrics, extra=None, timeline=None):
+    from types import SimpleNamespace
+
+    m = SimpleNamespace(initial_lateral_error_m=0.0, max_abs_lateral_error_m=0.01, rms_lateral_error_m=0.002,
+                        settling_distance_m=0.0, positioning_rms_m=0.004, positioning_lateral_mean_abs_m=0.003,
+                        positioning_lateral_std_m=0.002, positioning_lateral_max_abs_m=0.01, sim_time_s=30.0,
+                        wall_time_s=0.1, real_time_factor=300.0, **metrics)
+    sc = SimpleNamespace(name="x", seed=0, vehicle=SimpleNamespace(model=model))
+    return SimpleNamespace(metrics=m, scenario=sc, outcome="completed", reason=None, extra=extra or {},
+                           timeline=timeline or {})
+
+
+def _rows(result):
+    from agvnav.cli.simulate import _summary
+
+    return {row[0]: row[1] for row in _summary(result)[2]}
+
+
+def test_summary_names_fit_the_vehicle():
+    # issue 29: a mecanum run printed "max |wheel heading error| 89.95 deg"
+    mecanum = _rows(_fake("mecanum", {"max_abs_wheel_heading_error_rad": None,
+                                      "max_abs_heading_error_rad": math.radians(0.57), "heading_reorientations": 2}))
+    assert not [k for k in mecanum if "wheel" in k]
+    assert mecanum["reorientations (reference heading steps)"] == "2"
+    assert mecanum["max |heading error|, from 1 m past each (deg)"] == "0.57"
+    tricycle = _rows(_fake("tricycle", {"max_abs_wheel_heading_error_rad": math.radians(1.26),
+                                        "max_abs_heading_error_rad": 0.01, "heading_reorientations": 0}))
+    assert tricycle["max |wheel heading error ξ_r| (deg)"] == "1.26"
+
+
+def test_summary_shows_mission_figures_and_events():
+    extra = {"stations": 5.0, "max_stop_error_m": 0.0057, "max_stop_heading_error_rad": math.radians(0.03),
+             "mission_time_s": 205.6, "max_lateral_m.line": 0.0105, "max_lateral_m.arc": 0.0056,
+             "max_lateral_m.nurbs": math.nan}
+    rows = _rows(_fake("tricycle", {"max_abs_wheel_heading_error_rad": 0.1}, extra))
+    assert rows["max stop error (mm)"] == "5.7" and rows["mission time (s)"] == "205.6"
+    assert rows["station stops"] == "5" and rows["max |lateral error| on line (mm)"] == "10.5"
+    assert "max |lateral error| of the guided point (mm)" in rows and not [k for k in rows if "nurbs" in k]
+    timeline = {"faults": [{"index": 0, "kind": "blind", "start_s": 4.0, "end_s": 16.0}],
+                "estimator": [{"status": "dead_reckoning", "start_s": 5.0, "end_s": 16.05}],
+                "positioning_guard": {"windows": [], "stops": 0, "time_slow_s": 12.05, "time_stop_s": 0.0,
+                                      "max_lateral_3sigma_m": 0.0115, "lateral_3sigma_slow_m": 0.03,
+                                      "lateral_3sigma_stop_m": 0.05},
+                "reactive": [{"level": "stop", "start_s": 10.9, "end_s": 12.4, "trigger": "person"}]}
+    rows = _rows(_fake("tricycle", {"max_abs_wheel_heading_error_rad": 0.1}, timeline=timeline))
+    assert rows["fault 0: blind"] == "4.00-16.00 s" and rows["time dead reckoning (s)"] == "11.05"
+    assert rows["stops for positioning"] == "0" and rows["slowed for positioning (s)"] == "12.05"
+    assert rows["max 3σ lateral (estimated, during faults) / stop limit (mm)"] == "11.5 / 50.0"
+    assert rows["stopped for person"] == "10.90-12.40 s"

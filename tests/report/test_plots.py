@@ -74,3 +74,32 @@ def test_figures_prepared_ahead_give_the_same_files(tmp_path):
     with pytest.raises(ValueError, match="speed"):
         plots.prepare(["map", "speed"])
     assert not plots._READY  # nothing made for a refused request
+
+
+def test_error_labels_fit_the_vehicle():
+    # issue 29: every vehicle's plots used the tricycle's eps_c / xi_r names
+    from agvnav.report.plots import error_labels
+
+    one = np.zeros(3)
+    assert error_labels({"xi_r": one, "point_offset": np.ones(3)}) == (
+        "lateral error ε_c of C [mm]", "wheel heading error ξ_r [deg]")
+    assert error_labels({"xi_r": one, "point_offset": one})[0] == "lateral error ε_o of O [mm]"
+    assert "guided point" in error_labels({"xi_r": one, "point_offset": np.array([0.0, 1.0, 0.0])})[0]
+    mecanum = error_labels({"v_y": one})
+    differential = error_labels({"v_lateral_cmd": one})
+    assert "ξ" not in mecanum[1] + differential[1] and "wheel" not in mecanum[1] + differential[1]
+    assert "yaw offset" in mecanum[1] and "yaw offset" not in differential[1]
+
+
+def test_event_spans_show_faults_guard_fields_and_stations():
+    from agvnav.report.plots import event_spans
+
+    t = np.arange(8) * 1.0
+    series = {"fault__0_blind": np.array([0, 1, 1, 1, 0, 0, 0, 0.0]),
+              "est_status": np.array([1, 1, 2, 2, 1, 1, 1, 1.0]),
+              "guard_level": np.array([0, 0, 1, 1, 1, 0, 0, 0.0]),
+              "reaction_level": np.array([0, 0, 0, 0, 0, 1, 2, 0.0]),
+              "dwelling": np.zeros(8)}
+    spans = {label: w for label, _c, w in event_spans(t, series)}
+    assert spans == {"fault 0 blind": [(1.0, 4.0)], "dead reckoning": [(2.0, 4.0)], "guard: slow": [(2.0, 5.0)],
+                     "field: slow": [(5.0, 6.0)], "field: stop": [(6.0, 7.0)]}

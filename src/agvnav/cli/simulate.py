@@ -243,37 +243,125 @@ def _reactive_rows(result: Any) -> list[tuple[str, str, str]]:
     return rows
 
 
+def _heading_rows(result: Any, after: str) -> list[tuple[str, str, str]]:
+    """The heading figure that fits the vehicle (issue 29): seed 000's wheel heading error xi_r for a steered
+    vehicle, else the body heading against the path's reference heading (a holonomic vehicle's yaw
+    offset included), read past each reorientation when the reference steps."""
+    from agvnav.sim.metrics import REORIENTATION_M
+
+    m = result.metrics
+    wheel = getattr(m, "max_abs_wheel_heading_error_rad", None)
+    if wheel is not None or result.scenario.vehicle.model in STEERED_MODELS:
+        return [(f"max |wheel heading error ξ_r|{after} (deg)", _fmt(wheel, 180 / math.pi, 2), "")]
+    turns = int(getattr(m, "heading_reorientations", 0) or 0)
+    value = _fmt(getattr(m, "max_abs_heading_error_rad", None), 180 / math.pi, 2)
+    if not turns:
+        return [(f"max |heading error|{after} (deg)", value, "")]
+    return [
+        ("reorientations (reference heading steps)", str(turns), ""),
+        (f"max |heading error|{after}, from {REORIENTATION_M:g} m past each (deg)", value, ""),
+    ]
+
+
+#: Vehicle models with a steered wheel (seed 000's wheel heading error xi_r applies).
+STEERED_MODELS = ("tricycle", "tricycle_rear", "ackermann", "tractor_trailer")
+
+
+def _window(a: float, b: float) -> str:
+    return f"{a:.2f}-{b:.2f} s"
+
+
+def _mission_rows(result: Any) -> list[tuple[str, str, str]]:
+    """Station stops, stop errors, mission time and the lateral error per edge kind (issue 14 figures)."""
+    x = getattr(result, "extra", {}) or {}
+    if "stations" not in x:
+        return []
+    rows = [
+        ("station stops", str(int(x["stations"])), ""),
+        ("max stop error (mm)", _fmt(x.get("max_stop_error_m"), 1e3), ""),
+        ("max stop heading error (deg)", _fmt(x.get("max_stop_heading_error_rad"), 180 / math.pi, 2), ""),
+        ("mission time (s)", _fmt(x.get("mission_time_s"), 1.0, 1), ""),
+    ]
+    for key in sorted(k for k in x if k.startswith("max_lateral_m.")):
+        value = x[key]
+        if value is not None and math.isfinite(value):
+            rows.append((f"max |lateral error| on {key.split('.', 1)[1].replace('_', ' ')} (mm)", _fmt(value, 1e3), ""))
+    return rows
+
+
+def _event_rows(result: Any) -> list[tuple[str, str, str]]:
+    """The scenario's events (issue 29): injected faults, estimator outages, the positioning guard."""
+    ev = getattr(result, "timeline", None) or {}
+    rows: list[tuple[str, str, str]] = []
+    for f in ev.get("faults", []):
+        rows.append((f"fault {f['index']}: {f['kind']}", _window(f["start_s"], f["end_s"]), ""))
+    per_status: dict[str, float] = {}
+    for w in ev.get("estimator", []):
+        per_status[w["status"]] = per_status.get(w["status"], 0.0) + w["end_s"] - w["start_s"]
+    for status, seconds in per_status.items():
+        rows.append((f"time {status.replace('_', ' ')} (s)", _fmt(seconds, 1.0, 2), ""))
+    guard = ev.get("positioning_guard")
+    if guard is not None:
+        rows += [
+            ("slowed for positioning (s)", _fmt(guard["time_slow_s"], 1.0, 2), ""),
+            ("stops for positioning", str(guard["stops"]), ""),
+            ("stopped for positioning (s)", _fmt(guard["time_stop_s"], 1.0, 2), ""),
+            ("max 3σ lateral (estimated, during faults) / stop limit (mm)" if ev.get("faults") else
+             "max 3σ lateral, estimated / stop limit (mm)",
+             f"{_fmt(guard['max_lateral_3sigma_m'], 1e3)} / {_fmt(guard['lateral_3sigma_stop_m'], 1e3)}", ""),
+        ]
+    return rows
+
+
+def _stop_window_rows(result: Any) -> list[tuple[str, str, str]]:
+    """When the safety fields stopped the vehicle, and for what (the first :data:`MAX_WINDOW_ROWS`)."""
+    ev = getattr(result, "timeline", None) or {}
+    stops = [w for w in ev.get("reactive", []) if w["level"] == "stop"]
+    return [(f"stopped for {w['trigger'] or 'a field'}", _window(w["start_s"], w["end_s"]), "")
+            for w in stops[:MAX_WINDOW_ROWS]]
+
+
+#: Most reactive stop windows listed one per row in the summary table.
+MAX_WINDOW_ROWS = 5
+
+
 def _summary(result: Any) -> tuple[str, list[Col], list[list[str]]]:
-    """The summary table ``(title, columns, rows)``: metric, value, and the seed's figure where one applies."""
+    """The summary table ``(title, columns, rows)``: metric, value, and the seed's figure where one applies.
+
+    The figures fit the vehicle (:func:`_heading_rows`); a mission adds its stops and per-edge lateral
+    errors (the headline is their largest), a run with faults, positioning outages or reactive
+    stops adds when they happened (:mod:`agvnav.sim.events`).
+    """
     m = result.metrics
     title = f"{result.scenario.name}: {result.scenario.vehicle.model} (seed {result.scenario.seed})"
     e0 = m.initial_lateral_error_m
     transient = e0 is not None and math.isfinite(e0) and abs(e0) > NO_TRANSIENT_M
     after = " after transient" if transient else ""
     seed = _seed_column(result.scenario.name)
+    mission = "stations" in (getattr(result, "extra", {}) or {})
+    guided = " of the guided point" if mission else ""
     # no seed figure beside the maxima after the band-defined transient or the signed std: the
     # seed's 16.5 mm, 3.8 deg and 6.6 mm are compared on their own definitions by `agvnav bench seeds`
     comparable = {"initial_lateral_error_m", "positioning_lateral_mean_abs_m", "positioning_lateral_max_abs_m"}
     rows: list[tuple[str, str, str]] = [
         ("initial lateral error (mm)", _fmt(e0, 1e3), "initial_lateral_error_m" if transient else ""),
-        (f"max |lateral error|{after} (mm)", _fmt(m.max_abs_lateral_error_m, 1e3), ""),
-        (f"RMS lateral error{after} (mm)", _fmt(m.rms_lateral_error_m, 1e3), ""),
-        (
-            f"max |wheel heading error|{after} (deg)",
-            _fmt(m.max_abs_wheel_heading_error_rad, 180 / math.pi, 2),
-            "",
-        ),
+        (f"max |lateral error|{guided}{after} (mm)", _fmt(m.max_abs_lateral_error_m, 1e3), ""),
+        (f"RMS lateral error{guided}{after} (mm)", _fmt(m.rms_lateral_error_m, 1e3), ""),
+        *_heading_rows(result, after),
     ]
     if transient:
         rows.append(("settling distance (m)", _fmt(m.settling_distance_m, 1.0, 3), ""))
     rows += [
+        *_mission_rows(result),
         ("positioning RMS (mm)", _fmt(m.positioning_rms_m, 1e3), ""),
         ("positioning mean |e_lat| (mm)", _fmt(m.positioning_lateral_mean_abs_m, 1e3),
          "positioning_lateral_mean_abs_m"),
         ("positioning std e_lat (mm)", _fmt(m.positioning_lateral_std_m, 1e3), ""),
         ("positioning max |e_lat| (mm)", _fmt(m.positioning_lateral_max_abs_m, 1e3), "positioning_lateral_max_abs_m"),
+        *_event_rows(result),
         ("outcome", result.outcome + (f" ({result.reason})" if result.reason else ""), ""),
         *_reactive_rows(result),
+        *_stop_window_rows(result),
         ("simulated time (s)", _fmt(m.sim_time_s, 1.0, 2), ""),
         ("wall time (s)", _fmt(m.wall_time_s, 1.0, 3), ""),
         ("real-time factor", _fmt(m.real_time_factor, 1.0, 0), ""),

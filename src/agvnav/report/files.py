@@ -82,6 +82,9 @@ def metrics_document(result: SimResult) -> dict[str, Any]:
         "transient_end_s": result.transient_end_s,
         "integrity": result.integrity,
     }
+    timeline = getattr(result, "timeline", None)  # issue 29: faults, positioning, stops (sim.events)
+    if timeline:
+        doc["events"] = _plain(timeline)
     reactive = reactive_document(result)
     if reactive is not None:
         doc["reactive"] = reactive

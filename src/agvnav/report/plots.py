@@ -22,8 +22,8 @@ from numpy.typing import NDArray
 from agvnav.geometry import lateral_position_error
 
 __all__ = [
-    "RUN_PLOTS", "plot_errors", "plot_map", "plot_positioning_histogram", "prepare", "pyplot", "warm_up",
-    "write_plots",
+    "RUN_PLOTS", "error_labels", "event_spans", "plot_errors", "plot_map", "plot_positioning_histogram", "prepare",
+    "pyplot", "warm_up", "write_plots",
 ]
 
 #: Titles sit at the top of their axes (``y`` given): matplotlib otherwise measures every tick
@@ -56,12 +56,19 @@ def plot_map(
     title: str = "",
     *,
     make_dir: bool = True,
+    obstacles: Mapping[str, NDArray[np.float64]] | None = None,
+    stops_xy: NDArray[np.float64] | None = None,
+    driven_label: str = "driven (truth)",
+    obstacles_at_stops: Mapping[str, NDArray[np.float64]] | None = None,
 ) -> Path:
     """Map with walls, reflectors, the planned path and the driven path (seed 000 Fig. 10).
 
     ``path_xy``/``driven_xy``/``estimated_xy`` are ``(n, 2)`` polylines (m),
     ``reflector_xy`` ``(N, 2)``, ``wall_segments`` ``(M, 2, 2)``. Two panels: the
-    whole map and a close-up of the path.
+    whole map and a close-up of the path. ``obstacles`` maps an obstacle id to its
+    centre's track ``(n, 2)`` (m, NaN while absent), drawn with its last position;
+    ``stops_xy`` ``(k, 2)`` marks where the vehicle stopped (safety field or positioning guard),
+    ``obstacles_at_stops`` each obstacle's centre ``(k, 2)`` at those instants.
     """
     from matplotlib.collections import LineCollection  # noqa: PLC0415  (lazy: see the module docstring)
 
@@ -73,9 +80,19 @@ def plot_map(
         r = np.asarray(reflector_xy).reshape(-1, 2)
         ax.plot(r[:, 0], r[:, 1], "o", ms=6, mfc="gold", mec="k", label="reflectors")
         ax.plot(path_xy[:, 0], path_xy[:, 1], "--", color="tab:blue", lw=1.5, label="planned path")
-        ax.plot(driven_xy[:, 0], driven_xy[:, 1], color="tab:red", lw=1.2, label="driven (truth)")
+        ax.plot(driven_xy[:, 0], driven_xy[:, 1], color="tab:red", lw=1.2, label=driven_label)
         if estimated_xy is not None:
             ax.plot(estimated_xy[:, 0], estimated_xy[:, 1], color="tab:green", lw=0.8, alpha=0.8, label="estimated")
+        for oid, track in (obstacles or {}).items():
+            ok = track[np.all(np.isfinite(track), axis=1)]
+            if ok.size:
+                ax.plot(ok[:, 0], ok[:, 1], ":", color="tab:purple", lw=1.2)
+                ax.plot(ok[-1:, 0], ok[-1:, 1], "s", ms=7, color="tab:purple", label=f"{oid} (end)")
+            at = (obstacles_at_stops or {}).get(oid)
+            if at is not None and np.isfinite(at).any():
+                ax.plot(at[:, 0], at[:, 1], "s", ms=8, mfc="none", mec="crimson", mew=1.5, label=f"{oid} at stop")
+        if stops_xy is not None and len(stops_xy):
+            ax.plot(stops_xy[:, 0], stops_xy[:, 1], "X", ms=9, color="crimson", mec="k", label="stop")
         ax.set_aspect("equal")
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
@@ -100,23 +117,113 @@ def plot_errors(
     title: str = "",
     *,
     make_dir: bool = True,
+    labels: tuple[str, str] = ("lateral error ε_c [mm]", "wheel heading error ξ_r [deg]"),
+    events: Mapping[str, NDArray[np.float64]] | None = None,
 ) -> Path:
-    """Lateral error eps_c (mm) and wheel heading error xi_r (deg) against time (seed 000 Fig. 11)."""
-    fig, (a1, a2) = _take("errors")
+    """Lateral error (mm) and heading error (deg) against time (seed 000 Fig. 11), and the run's events.
+
+    ``labels`` name the two errors as they apply to the vehicle (:func:`error_labels`; the default
+    is the tricycle's ε_c and ξ_r). A third panel shows the commanded speed ``events["v_cmd"]``
+    (m/s) over shaded windows of what happened (:func:`event_spans`: faults, estimator outages,
+    positioning guard, safety-field stops, station stops) and, on a second axis, each obstacle's
+    clearance ``events["clearance__<id>"]`` (m).
+    """
+    fig, (a1, a2, a3) = _take("errors")
     a1.plot(t, 1000.0 * lateral_error, color="tab:blue")
-    a1.set_ylabel("lateral error ε_c [mm]")
+    a1.set_ylabel(labels[0])
     a2.plot(t, np.rad2deg(wheel_heading_error), color="tab:orange")
-    a2.set_ylabel("wheel heading error ξ_r [deg]")
-    a2.set_xlabel("time [s]")
-    for ax in (a1, a2):
+    a2.set_ylabel(labels[1])
+    a3.set_xlabel("time [s]")
+    for ax in (a1, a2, a3):
         ax.axhline(0.0, color="0.5", lw=0.8)
         ax.grid(True, alpha=0.3)
         if transient_end_s is not None:
-            ax.axvline(transient_end_s, color="k", ls=":", lw=1.0, label="end of transient")
+            ax.axvline(transient_end_s, color="k", ls=":", lw=1.0, label="end of transient" if ax is a1 else None)
     if transient_end_s is not None:
         a1.legend(loc="best", fontsize=8)
+    ev = events or {}
+    if "v_cmd" in ev:
+        a3.plot(t, ev["v_cmd"], color="k", lw=1.0, label="commanded speed")
+    a3.set_ylabel("speed [m/s]")
+    for label, color, windows in event_spans(t, ev):
+        for i, (a, b) in enumerate(windows):
+            a3.axvspan(a, b, color=color, alpha=0.3, lw=0, label=label if i == 0 else None)
+    clear = {k.split("__", 1)[1]: v for k, v in ev.items() if k.startswith("clearance__")}
+    if clear:
+        a4 = a3.twinx()
+        for oid, c in clear.items():
+            a4.plot(t, c, lw=1.0, label=f"clearance to {oid}")
+        a4.set_ylabel("clearance [m]")
+        a4.legend(loc="upper right", fontsize=7)
+    if a3.get_legend_handles_labels()[0]:
+        a3.legend(loc="upper left", fontsize=7, ncol=3)
     a1.set_title(title or "guidance errors", y=_TITLE_Y)
     return _save(fig, out, make_dir)
+
+
+def error_labels(series: Mapping[str, NDArray[np.float64]]) -> tuple[str, str]:
+    """The axis labels of the lateral and heading errors that fit the vehicle that recorded ``series``.
+
+    A steered vehicle records seed 000's ``xi_r``: its heading error is the wheel heading error
+    ξ_r and its lateral error that of C (ε_c), O (ε_o) or, after point switching, of the point
+    guided at each instant (``point_offset`` > 0: C). A holonomic vehicle (its plant records the
+    lateral body speed ``v_y``) has no steered wheel: its body heading is measured against the path
+    tangent plus the segment's yaw offset. Any other vehicle: the body heading against the path tangent.
+    """
+    if "xi_r" in series:
+        off = np.asarray(series.get("point_offset", np.zeros(1)))
+        if np.all(off > 0.0):
+            lateral = "lateral error ε_c of C [mm]"
+        elif np.all(off == 0.0):
+            lateral = "lateral error ε_o of O [mm]"
+        else:
+            lateral = "lateral error of the guided point (C or O) [mm]"
+        return lateral, "wheel heading error ξ_r [deg]"
+    if "v_y" in series:
+        return "lateral error [mm]", "heading error vs tangent + yaw offset [deg]"
+    return "lateral error [mm]", "heading error vs path tangent [deg]"
+
+
+def _windows(t: NDArray[np.float64], mask: NDArray[np.bool_]) -> list[tuple[float, float]]:
+    """``[(start, end), ...]`` (s) of the runs of True in ``mask`` (end: the next sample, or the last)."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    return [(float(t[int(a)]), float(t[min(int(b), t.size - 1)])) for a, b in zip(starts, ends, strict=True)]
+
+
+def event_spans(
+    t: NDArray[np.float64], series: Mapping[str, NDArray[np.float64]]
+) -> list[tuple[str, str, list[tuple[float, float]]]]:
+    """``(label, colour, windows)`` of the events recorded in ``series`` that happened (windows in s).
+
+    Injected faults (``fault__<i>_<kind>``), estimator not tracking (``est_status`` != 1), the
+    positioning guard slowing or stopping (``guard_level``), safety fields slowing or stopping
+    (``reaction_level``), and station stops (``dwelling``).
+    """
+    out: list[tuple[str, str, list[tuple[float, float]]]] = []
+
+    def add(label: str, colour: str, mask: NDArray[np.bool_]) -> None:
+        w = _windows(t, mask)
+        if w:
+            out.append((label, colour, w))
+
+    for key in sorted(k for k in series if k.startswith("fault__")):
+        add(f"fault {key.split('__', 1)[1].replace('_', ' ', 1)}", "0.55", np.asarray(series[key]) > 0.5)
+    if "est_status" in series:
+        st = np.asarray(series["est_status"])
+        add("dead reckoning", "tab:cyan", st == 2.0)
+        add("positioning degraded/lost", "tab:pink", (st != 1.0) & (st != 2.0))
+    if "guard_level" in series:
+        level = np.asarray(series["guard_level"])
+        add("guard: slow", "gold", level == 1.0)
+        add("guard: stop", "red", level >= 2.0)
+    if "reaction_level" in series:
+        level = np.asarray(series["reaction_level"])
+        add("field: slow", "orange", level == 1.0)
+        add("field: stop", "crimson", level >= 2.0)
+    if "dwelling" in series:
+        add("station stop", "tab:blue", np.asarray(series["dwelling"]) > 0.5)
+    return out
 
 
 def plot_positioning_histogram(
@@ -151,9 +258,9 @@ def _map_axes() -> tuple[Any, Any]:
 
 def _errors_axes() -> tuple[Any, Any]:
     """The error plot's empty figure and its two panels (shared time axis)."""
-    fig = _figure((9, 6))
-    axes = fig.subplots(2, 1, sharex=True)
-    fig.subplots_adjust(left=0.1, right=0.98, bottom=0.09, top=0.94, hspace=0.08)
+    fig = _figure((9, 8))
+    axes = fig.subplots(3, 1, sharex=True, gridspec_kw={"height_ratios": (3, 3, 2)})
+    fig.subplots_adjust(left=0.1, right=0.92, bottom=0.07, top=0.95, hspace=0.08)
     return fig, axes
 
 
@@ -251,7 +358,10 @@ def write_plots(
     ``series`` needs ``t``, ``x_tracked``, ``y_tracked`` (the true tracked point), ``x``,
     ``y``, ``psi``, ``est_x``, ``est_y``, ``est_psi``, ``est_valid``, ``lateral_error``,
     ``heading_error`` (the columns the simulator records); with ``est_x_C``/``est_y_C``
-    the estimated path of the tracked point is drawn. ``only`` names the plots to draw
+    the estimated path of the tracked point is drawn. The event columns, where recorded
+    (:mod:`agvnav.sim.events`: faults, obstacles' tracks and clearances, positioning guard,
+    safety fields, station stops), are drawn too: obstacles and stops on the map, the
+    events under the errors; the error labels fit the vehicle (:func:`error_labels`). ``only`` names the plots to draw
     (of :data:`RUN_PLOTS`: ``map``, ``errors``, ``histogram``); the paths come in that order.
     ``make_dir`` creates ``out_dir`` (with its parents) first; without it ``out_dir`` must exist
     (the plot worker's children: a folder removed under them is never created again).
@@ -270,12 +380,24 @@ def write_plots(
             est_xy = np.column_stack([series["est_x_C"], series["est_y_C"]])[valid] if np.any(valid) else None
         else:
             est_xy = np.column_stack([series["est_x"], series["est_y"]])[valid] if np.any(valid) else None
+        obstacles = {k.split("__", 1)[1]: np.column_stack([series[k], series["obstacle_y__" + k.split("__", 1)[1]]])
+                     for k in series if k.startswith("obstacle_x__")}
+        stopped = np.zeros(np.shape(series["t"]), dtype=bool)
+        for key in ("guard_level", "reaction_level"):
+            if key in series:
+                stopped |= np.asarray(series[key]) >= 2.0
+        onset = np.flatnonzero(np.diff(stopped.astype(np.int8), prepend=0) == 1)
+        guided = "point_offset" in series and np.ptp(series["point_offset"]) > 0.0
         written.append(plot_map(path_xy, driven, reflector_xy, wall_segments, out_dir / "map.png", est_xy, title,
-                                make_dir=False))
+                                make_dir=False, obstacles=obstacles, stops_xy=driven[onset],
+                                obstacles_at_stops={k: v[onset] for k, v in obstacles.items()},
+                                driven_label="driven, guided point C/O (truth)" if guided else "driven (truth)"))
     if "errors" in only:
+        keys = ("v_cmd", "est_status", "guard_level", "reaction_level", "dwelling")
+        events = {k: v for k, v in series.items() if k in keys or k.startswith(("fault__", "clearance__"))}
         written.append(plot_errors(
             series["t"], series["lateral_error"], series["heading_error"], out_dir / "errors.png",
-            transient_end_s, title, make_dir=False,
+            transient_end_s, title, make_dir=False, labels=error_labels(series), events=events,
         ))
     if "histogram" in only:
         valid = series["est_valid"] > 0.5

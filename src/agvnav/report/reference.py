@@ -23,14 +23,18 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "est_valid": ("-", "1 when the estimator has a fix (status tracking)"),
     "est_x_C": ("m", "estimated tracked point x (C for a steered vehicle guiding C, else base_link)"),
     "est_y_C": ("m", "estimated tracked point y"),
-    "x_tracked": ("m", "true tracked point x"),
-    "y_tracked": ("m", "true tracked point y"),
-    "lateral_error": ("m", "true lateral error of the tracked point from the path, left positive"),
+    "x_tracked": ("m", "true guided point x (a mission: C or O, as guided at that instant)"),
+    "y_tracked": ("m", "true guided point y"),
+    "point_offset": ("m", "distance of the guided point ahead of base_link (C: the wheelbase, O or base_link: 0)"),
+    "lateral_error": ("m", (
+        "true lateral error of the guided point from its own path, left positive (a mission: the point guided at "
+        "that instant, C or O after point switching, against the run it drove)"
+    )),
     "heading_error": ("rad", (
         "true heading error: wheel heading error xi_r (steered) or body heading against the path tangent plus "
         "yaw offset"
     )),
-    "s_true": ("m", "path abscissa of the true tracked point's projection"),
+    "s_true": ("m", "path abscissa of the true guided point's projection"),
     "eps_c": ("m", "seed 000 Fig. 5 lateral error of the tracked point (steered vehicles)"),
     "eps_o": ("m", "seed 000 Fig. 5 lateral error of O (steered vehicles)"),
     "xi": ("rad", "seed 000 Fig. 5 heading error of the body (steered vehicles)"),
@@ -98,6 +102,9 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "avoiding": ("-", "reactive control: 1 while driving a detour around an obstacle"),
     "detour_target": ("-", "reactive control: index of the obstacle the detour passes (-1 none or unknown)"),
     "corridor_excess": ("m", "reactive control: how far the body reaches beyond the corridor (0 inside; NaN none)"),
+    "fault__<id>": ("-", "injected fault: 1 while it is active; `<id>` its index and kind, e.g. `fault__0_blind`"),
+    "obstacle_x__<id>": ("m", "obstacle `<id>`: x of its centre (NaN while it is not there)"),
+    "obstacle_y__<id>": ("m", "obstacle `<id>`: y of its centre (NaN while it is not there)"),
     "clearance__<id>": ("m", (
         "reactive control: one column per obstacle (`<id>` its id): distance from the true footprint to it (exact "
         "within 2 m, beyond a lower bound from the bounding circles)"
@@ -149,12 +156,28 @@ def outputs_reference() -> list[str]:
             "failure, largest true lateral error); with reactive control (issue 18) a `reactive` section: "
             "`stops`, `time_stopped_s`, `detours`, `max_corridor_excess_m` (null without a corridor) and per "
             "obstacle id its `min_clearance_m` and encounter `result` (`collision`, `avoid`, `stop`, `slow` or "
-            "`none`); identical bytes for the same scenario and seed;"
+            "`none`); an `events` section with what happened when (s), only the kinds that did: `faults` "
+            "(`kind`, `start_s`, `end_s`), `estimator` (windows not tracking, with `status`), "
+            "`positioning_guard` (`windows` slowed or stopped, `stops`, `time_slow_s`, `time_stop_s`, "
+            "`max_lateral_3sigma_m` while a fault is active and the limits `lateral_3sigma_slow_m`, "
+            "`lateral_3sigma_stop_m`), `reactive` (windows of `level` slow or stop with their `trigger`), "
+            "`detours`, `station_stops` (`station`, `t_s`, `stop_error_m`, `stop_heading_error_rad`); "
+            "identical bytes for the same scenario and seed. Heading figures fit the vehicle: "
+            "`max_abs_wheel_heading_error_rad` (seed 000's xi_r) for a steered vehicle, null otherwise; "
+            "`max_abs_heading_error_rad` (body heading against the path's reference heading, read from "
+            "1 m past each of `heading_reorientations` steps of it, e.g. a holonomic yaw offset changing). "
+            "A mission's `max_abs_lateral_error_m` is the largest of its `max_lateral_m.<edge kind>` (both "
+            "over the samples where the vehicle moves);"
         ),
         "- `timing.json`: wall time (s) and real-time factor (the only file that differs between equal runs);",
         "- `timeseries.csv`: one row per control step, the columns below (a vehicle writes the ones it has);",
         "- `reflections.csv`: one row per goniometer reflection;",
-        "- `map.png`, `errors.png`, `positioning_histogram.png`: the plots;",
+        (
+            "- `map.png` (with obstacles' tracks and where the vehicle stopped), `errors.png` (errors named for "
+            "the vehicle, then the commanded speed over the windows of faults, dead reckoning, guard and field "
+            "slow/stop and station stops, and the clearance to each obstacle), `positioning_histogram.png`: "
+            "the plots;"
+        ),
         (
             "- `layout.json`: the planned path (`path_xy`, m), its segment joins (`segment_starts_m`), the "
             "reflectors (`[x, y, radius]`, m) and walls (m), and the positioning method: what the report draws;"

@@ -42,8 +42,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav.actuators import SpeedProfile
-from agvnav.geometry import wrap_angle_scalar
+from agvnav.geometry import wrap_angle, wrap_angle_scalar
 from agvnav.guidance import FinePositioner, GuidanceError, HeadingHoldApproach, make_follower
+from agvnav.guidance.errors import errors_from_projection
 from agvnav.guidance.paths import LineSegment, Path, Segment
 from agvnav.kinematics.differential import wheel_speeds_unchecked
 from agvnav.routes.mission import Job, MissionError, MissionPlan, chain_mission, plan_legs, speed_limits
@@ -57,14 +58,17 @@ from agvnav.world.vehicle_specs import MecanumSpec
 __all__ = [
     "ALIGN_WHEELBASES",
     "MIN_APPROACH_M",
+    "MOVING_SPEED_M_S",
     "LimitedSpeedProfile",
     "MissionAutopilot",
     "StationStop",
     "Stint",
+    "guided_errors",
     "load_mission_network",
     "mission_autopilot",
     "mission_duration",
     "mission_figures",
+    "moving_mask",
     "near_line_curve_joints",
     "plan_mission",
     "route_tracking",
@@ -453,12 +457,18 @@ def route_tracking(
     path would jump back onto the forward run and report the heading error times the wheelbase
     as a lateral error. ``lateral`` is the guided point's (left of the tangent positive).
     """
+    proj = _route_projection(series, plan)
+    return proj["s"], proj["lateral"]
+
+
+def _route_projection(series: dict[str, NDArray[np.float64]], plan: MissionPlan) -> dict[str, NDArray[np.float64]]:
+    """The projection of :func:`route_tracking`: ``s``, ``lateral`` (m), ``heading`` (rad), ``curvature`` (1/m),
+    ``direction`` (+1/-1) of the mission path at the true guided point's projection onto its run."""
     pts = tracked_point(series)
     hint = np.nan_to_num(series["s_est"], nan=0.0)
     bounds = run_bounds(plan)
     run = np.clip(np.searchsorted(bounds, hint, side="right") - 1, 0, len(bounds) - 2)
-    s_out = np.zeros(len(hint))
-    lat = np.zeros(len(hint))
+    out = {name: np.zeros(len(hint)) for name in ("s", "lateral", "heading", "curvature", "direction")}
     starts = plan.path.segment_starts
     for r in np.unique(run):
         a, b = float(bounds[r]), float(bounds[r + 1])
@@ -468,13 +478,70 @@ def route_tracking(
         sel = run == r
         local_hint = np.clip(hint[sel] - a, 0.0, sub.length)
         pr = sub.project(pts[sel], s_hint=local_hint, window=1.0)
-        s_out[sel] = a + np.asarray(pr.s)
-        lat[sel] = np.asarray(pr.lateral)
-    return s_out, lat
+        out["s"][sel] = a + np.asarray(pr.s)
+        out["lateral"][sel] = np.asarray(pr.lateral)
+        out["heading"][sel] = np.asarray(pr.heading)
+        out["curvature"][sel] = np.asarray(pr.curvature)
+        out["direction"][sel] = np.asarray(pr.direction)
+    return out
+
+
+#: A sample counts as moving when the autopilot commands more than this speed (m/s).
+MOVING_SPEED_M_S = 1e-6
+
+
+def moving_mask(series: dict[str, NDArray[np.float64]]) -> NDArray[np.bool_]:
+    """True where the vehicle is commanded to move (``|v_cmd|`` above :data:`MOVING_SPEED_M_S`).
+
+    A mission's guidance figures count these samples: at a station the next stint's guided point is
+    recorded before the vehicle moves off, where it need not lie on the run it will drive.
+    """
+    return np.asarray(np.abs(series["v_cmd"]) > MOVING_SPEED_M_S)
+
+
+def guided_errors(
+    series: dict[str, NDArray[np.float64]], plan: MissionPlan, family: str, wheelbase: float = 0.0
+) -> dict[str, NDArray[np.float64]]:
+    """The true errors of the point guided at each instant against the run it drove (m, rad).
+
+    With point switching the guided point is C on the cruising stints and O on the manoeuvres
+    (the recorded ``point_offset``: the wheelbase or 0): the errors of each sample are those of
+    its guided point against the path planned for it (:func:`route_tracking`), never of a point
+    the controller was not guiding. Returns ``s_true``, ``lateral_error``, ``x_tracked``,
+    ``y_tracked`` and ``heading_error``: for a steered vehicle (``family`` "steered", ``wheelbase``
+    L in m) seed 000 Fig. 5's ``eps_c``, ``eps_o``, ``xi``, ``xi_r`` of the guided point relative to
+    its feed-forward, ``heading_error`` being ``xi_r`` as in a path run; otherwise the body heading
+    against the tangent (+ pi reversing, + the yaw offset of a holonomic vehicle).
+    """
+    proj = _route_projection(series, plan)
+    pts = tracked_point(series)
+    out = {"s_true": proj["s"], "lateral_error": proj["lateral"], "x_tracked": pts[:, 0].copy(),
+           "y_tracked": pts[:, 1].copy()}
+    psi = np.asarray(series["psi"], dtype=np.float64)
+    if family == "steered":
+        gamma = series["gamma"] if "gamma" in series else series["phi"]
+        on_c = np.asarray(series.get("point_offset", np.zeros_like(psi))) > 0.0
+        names = ("eps_c", "eps_o", "xi", "xi_r")
+        for name in names:
+            out[name] = np.zeros_like(psi)
+        for point, sel in (("C", on_c), ("O", ~on_c)):
+            if not np.any(sel):
+                continue
+            values = errors_from_projection(psi[sel], gamma[sel], proj["lateral"][sel], proj["heading"][sel],
+                                            proj["curvature"][sel], proj["direction"][sel], wheelbase, point)
+            for name, v in zip(names, values[:4], strict=True):
+                out[name][sel] = v
+        out["heading_error"] = out["xi_r"]
+        return out
+    yaw = np.asarray(plan.path.yaw_offset_at(proj["s"])) if family == "holonomic" else 0.0
+    reverse = np.where(proj["direction"] < 0, math.pi, 0.0)
+    out["heading_error"] = np.asarray(wrap_angle(psi - proj["heading"] - reverse - yaw), dtype=np.float64)
+    return out
 
 
 def mission_figures(
-    series: dict[str, NDArray[np.float64]], plan: MissionPlan, stops: list[StationStop]
+    series: dict[str, NDArray[np.float64]], plan: MissionPlan, stops: list[StationStop],
+    counted: NDArray[np.bool_] | None = None,
 ) -> dict[str, float]:
     """Mission results from the *true* pose: stop errors per station, mission time, lateral error per edge kind.
 
@@ -484,7 +551,9 @@ def mission_figures(
     true guided point against the run it was driving (:func:`route_tracking`), grouped by
     the kind of edge (line, arc, clothoid, nurbs) its projection lies on;
     ``max_lateral_m.line_curve_joints`` is the largest from 0.5 m before to 1.5 m after every
-    forward joint between a line and an arc or clothoid edge.
+    forward joint between a line and an arc or clothoid edge. The lateral figures count the
+    samples ``counted`` (default: where the vehicle is commanded to move, :func:`moving_mask`); the run's
+    headline ``max_abs_lateral_error_m`` counts the same samples, so it is the largest of them.
     """
     out: dict[str, float] = {"stations": float(len(stops))}
     t = series["t"]
@@ -509,7 +578,7 @@ def mission_figures(
     seg = np.clip(np.searchsorted(plan.path.segment_starts, s_route, side="right") - 1, 0,
                   len(plan.seg_kind) - 1)
     kind = plan.seg_kind[seg]
-    moving = np.abs(series["v_cmd"]) > 1e-6
+    moving = moving_mask(series) if counted is None else np.asarray(counted, dtype=bool)
     for code, name in enumerate(EDGE_KINDS):
         m = moving & (kind == code)
         lat = np.abs(lateral[m])

@@ -16,6 +16,16 @@ plant failure, ``infeasible`` (the follower could not command the path),
 ``positioning_lost`` (the time limit came while the vehicle stood stopped by the
 positioning guard, :mod:`agvnav.sim.safety`), ``timeout``, ``off_path_at_end``.
 The integrity figures (:mod:`agvnav.sim.integrity`) go with the metrics.
+
+Headline figures summarise the detailed ones (issue 29): a mission's errors are those of
+the point the controller guides at each instant (C cruising, O manoeuvring after point
+switching) against the run it drove (:func:`agvnav.sim.mission.guided_errors`), over the
+samples its per-edge figures count, so ``max_abs_lateral_error_m`` is the largest
+``max_lateral_m.<kind>``. The heading figures name what each vehicle has: a wheel heading
+error only for a steered vehicle, and for every vehicle the body heading against the path's
+reference heading outside the reorientation after each step of it (:func:`reference_steps`).
+The scenario-specific events (faults, positioning, reactive stops, stations) become series
+columns and ``SimResult.timeline`` (:mod:`agvnav.sim.events`).
 """
 
 from __future__ import annotations
@@ -28,17 +38,18 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.geometry import wrap_angle
+from agvnav.geometry import wrap_angle, wrap_angle_scalar
 from agvnav.guidance import Path
 from agvnav.guidance.errors import tracking_errors
 from agvnav.sim.build import Built, build
+from agvnav.sim.events import add_event_columns, event_timeline
 from agvnav.sim.integrity import integrity_figures
-from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, transient_end_index
+from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, reorientation_mask, transient_end_index
 from agvnav.sim.reactive import reactive_figures
 from agvnav.world import WorldMap
 from agvnav.world.scenario import Scenario
 
-__all__ = ["END_TOLERANCE_M", "FAILURE_REASONS", "SimResult", "simulate"]
+__all__ = ["END_TOLERANCE_M", "FAILURE_REASONS", "REFERENCE_STEP_RAD", "SimResult", "reference_steps", "simulate"]
 
 #: Reasons a run fails (``off_path_at_end`` carries its miss distance in parentheses).
 FAILURE_REASONS = ("collision", "jackknife", "infeasible", "positioning_lost", "timeout", "off_path_at_end")
@@ -67,6 +78,9 @@ class SimResult:
     integrity: dict[str, Any] = field(default_factory=dict)
     reactive: dict[str, Any] = field(default_factory=dict)
     """stops, time stopped, clearance and encounter per obstacle (issue 18: ``sim.reactive.reactive_figures``)."""
+    timeline: dict[str, Any] = field(default_factory=dict)
+    """the scenario-specific events (faults, positioning, reactive stops, station stops; ``sim.events.event_timeline``):
+    the ``events`` section of metrics.json."""
 
     @property
     def completed(self) -> bool:
@@ -98,17 +112,28 @@ def simulate(
     out = built.loop.run(built.duration, scenario.end_hold_s, progress)
     series = out.series
     _add_true_errors(series, built)
+    mission_module: Any = None
+    if built.mission is not None:  # the guided point (C or O after point switching) against its own run
+        from agvnav.sim import mission as mission_module  # noqa: PLC0415 - routes load only for missions (start-up)
+
+        wheelbase = float(getattr(built.plant.geometry, "wheelbase", 0.0))
+        series.update(mission_module.guided_errors(series, built.mission, built.plant.family, wheelbase))
+    add_event_columns(series, scenario, built.point_offset)
     e = series["lateral_error"]
     k0 = transient_end_index(e, spec)
     true_pose = np.column_stack([series["x"], series["y"], series["psi"]])
     est_pose = np.column_stack([series["est_x"], series["est_y"], series["est_psi"]])
     outcome, reason = _outcome(out.finished, out.failure or built.autopilot.failure, series, built)
     refl = out.events.get("reflections", {})
+    steered = built.plant.family == "steered"
+    counted = None if mission_module is None else mission_module.moving_mask(series)
+    steps = reference_steps(built.path, built.plant.family == "holonomic")
+    distance = _distance(series)
     metrics = compute_metrics(
         series["t"],
         e,
-        series["heading_error"],
-        _distance(series),
+        series["xi"] if steered else series["heading_error"],
+        distance,
         true_pose,
         est_pose,
         series["est_status"] >= 1.0,
@@ -116,24 +141,53 @@ def simulate(
         wall_time_s=out.wall_time_s,
         reflections=len(refl.get("t", ())),
         spec=spec,
+        wheel_heading_error=series["xi_r"] if steered else None,
+        counted=counted,
+        reorienting=reorientation_mask(series["s_true"], distance, steps),
+        heading_reorientations=len(steps),
     )
     series["est_valid"] = (series["est_status"] >= 1.0).astype(np.float64)
-    off = built.point_offset  # nominal: where the vehicle believes its tracked point is
+    off = series["point_offset"]  # nominal: where the vehicle believes its guided point is
     series["est_x_C"] = series["est_x"] + off * np.cos(series["est_psi"])
     series["est_y_C"] = series["est_y"] + off * np.sin(series["est_psi"])
     t_end = None if k0 is None else float(series["t"][k0])
     extra = _extra_figures(series)
-    if built.mission is not None:  # stop errors, mission time, lateral error per edge kind (issue 14)
-        from agvnav.sim.mission import mission_figures  # noqa: PLC0415 - routes load only for missions (start-up)
-
-        extra.update(mission_figures(series, built.mission, built.autopilot.stops))  # type: ignore[union-attr]
-    integrity = integrity_figures(series, _distance(series), scenario.traction.max_decel_m_s2)
+    stops = getattr(built.autopilot, "stops", [])
+    if mission_module is not None:  # stop errors, mission time, lateral error per edge kind (issue 14)
+        extra.update(mission_module.mission_figures(series, built.mission, stops, counted))
+    integrity = integrity_figures(series, distance, scenario.traction.max_decel_m_s2)
     reactive = {} if "reaction_level" not in series else reactive_figures(  # issue 18
         series, [o.id for o in scenario.obstacles or []], reason, int(getattr(built.loop.plant, "hit", -1)))
+    timeline = event_timeline(series, scenario, stops, extra)
     return SimResult(
         scenario, series, out.events, metrics, built.path, built.world, t_end, outcome, reason, extra, integrity,
-        reactive,
+        reactive, timeline,
     )
+
+
+#: Smallest step (rad) of the reference heading between two segments that counts as a reorientation.
+REFERENCE_STEP_RAD = math.radians(1.0)
+
+
+def reference_steps(path: Path, yaw_offsets: bool) -> NDArray[np.float64]:
+    """Path abscissas (m) of the joints where the reference heading steps by more than :data:`REFERENCE_STEP_RAD`.
+
+    The reference heading is the tangent, + pi on a reverse segment, + the segment's yaw offset
+    when ``yaw_offsets`` (a holonomic vehicle): a step is a reorientation the body makes over
+    some distance (:func:`agvnav.sim.metrics.reorientation_mask`), not a guidance error.
+    """
+    segs = path.segments
+
+    def ref(seg: Any, heading: float) -> float:
+        yaw = float(getattr(seg, "yaw_offset", 0.0)) if yaw_offsets else 0.0
+        return heading + (math.pi if seg.direction < 0 else 0.0) + yaw
+
+    out = [
+        float(s)
+        for a, b, s in zip(segs[:-1], segs[1:], path.segment_starts[1:-1], strict=True)
+        if abs(wrap_angle_scalar(ref(b, float(b.heading_at(0.0))) - ref(a, float(a.end_heading)))) > REFERENCE_STEP_RAD
+    ]
+    return np.asarray(out, dtype=np.float64)
 
 
 def _distance(series: dict[str, NDArray[np.float64]]) -> NDArray[np.float64]:
