@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path as FsPath
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from typer.testing import CliRunner
 
+from agvnav.cli import app
 from agvnav.guidance import (
     FOLLOWERS,
     ArcSegment,
@@ -22,6 +25,7 @@ from agvnav.guidance import (
     PathFollower,
     check_path_feasible,
     drive_speed,
+    follower_parameters,
     holonomic_body_twist,
     kanayama_path_rate,
     make_follower,
@@ -29,6 +33,8 @@ from agvnav.guidance import (
     path_from_moves,
 )
 from agvnav.guidance.kanayama import kanayama_law, tracking_error
+
+runner = CliRunner()
 
 
 @dataclass(frozen=True)
@@ -267,3 +273,70 @@ def test_follow_errors_on_an_arc_match_the_geometry(phi, d, heading, reverse, ya
         assert math.remainder(e.heading_error - (heading - offset), 2 * math.pi) == pytest.approx(0.0, abs=1e-9)
         assert -math.pi <= e.heading_error < math.pi
         assert e.curvature == pytest.approx(0.5) and e.direction == direction and e.segment == 0
+
+
+# --------------------------------------------------------------------------- parameters (issue 29)
+
+GUIDE = FsPath(__file__).resolve().parents[2] / "docs" / "USER_GUIDE.md"
+SCENARIOS_MD = FsPath(__file__).resolve().parents[2] / "docs" / "scenarios.md"
+
+
+@pytest.mark.parametrize("family, name", [(f, n) for f, names in FOLLOWERS.items() for n in names])
+def test_every_follower_parameter_has_a_unit_and_meaning_and_is_in_scenarios_md(family, name):
+    params = follower_parameters(name, family)
+    assert params and all(p.unit != "?" and p.meaning != "not documented" for p in params), params
+    doc = SCENARIOS_MD.read_text(encoding="utf-8")
+    section = doc.split(f"### `{name}` ({family})", 1)[1].split("###", 1)[0]
+    for p in params:
+        assert f"| `{p.name}` | {p.unit} | {p.default} |" in section, (name, p)
+
+
+def test_the_documented_defaults_are_the_constructors():
+    pp = {p.name: p for p in follower_parameters("pure_pursuit", "steered")}
+    assert pp["servo_tau"].default == "0.1" and pp["lookahead"].default == "none" and pp["lookahead"].unit == "m"
+    assert {p.name for p in follower_parameters("seed_simple", "steered")} >= {"poles_per_m", "convergence_distance"}
+    assert "poles_per_m" not in {p.name for p in follower_parameters("pure_pursuit", "steered")}
+
+
+def test_a_wrong_parameter_names_the_ones_the_follower_takes():
+    path = Path([LineSegment(np.zeros(2), 0.0, 4.0)])
+    with pytest.raises(GuidanceError, match=r"pure_pursuit takes no parameter 'poles_per_m'.*lookahead \(m, default"):
+        make_follower("pure_pursuit", "steered", path, Steered(), poles_per_m=[-3.0, -3.0])
+    with pytest.raises(GuidanceError, match=r"'lookahed'.*lookahead \(m, default none\).*max_rate \(rad/s"):
+        make_follower("pure_pursuit", "unicycle", path, Unicycle(), lookahed=1.0)
+
+
+def _guide_scenario():
+    text = GUIDE.read_text(encoding="utf-8")
+    first = text.split("**Write the scenario.** Save this as `my_first.yaml`:", 1)[1]
+    scenario = first.split("```yaml\n", 1)[1].split("```", 1)[0]
+    step = text.split("To try another controller, replace the whole `controller` section", 1)[1]
+    controller = step.split("```yaml\n", 1)[1].split("```", 1)[0]
+    head, rest = scenario.split("controller:\n", 1)
+    tail = rest[rest.index("positioning:"):]
+    return head + controller + tail
+
+
+def test_the_user_guides_controller_step_runs_as_written(tmp_path):
+    (tmp_path / "my_first.yaml").write_text(_guide_scenario())
+    res = runner.invoke(app, ["simulate", str(tmp_path / "my_first.yaml"), "--out", str(tmp_path / "run_pp"),
+                              "--no-plots"], env={"COLUMNS": "200"})
+    assert res.exit_code == 0, res.output
+    assert "completed" in res.output and "pure_pursuit" in (tmp_path / "my_first.yaml").read_text()
+
+
+def test_a_wrong_controller_parameter_is_a_scenario_error_with_file_line_and_key(tmp_path):
+    text = _guide_scenario().replace("params: {convergence_distance: 2.0}", "params:\n    lookahed: 1.0")
+    (tmp_path / "pp.yaml").write_text(text)
+    line = next(i for i, t in enumerate(text.splitlines(), 1) if t.startswith("    lookahed: 1.0"))
+    res = runner.invoke(app, ["simulate", str(tmp_path / "pp.yaml"), "--out", str(tmp_path / "o"), "--no-plots"])
+    out = " ".join(res.output.split())
+    assert res.exit_code == 2 and "Traceback" not in out, res.output
+    assert f"pp.yaml:{line}: controller.params.lookahed: pure_pursuit takes no parameter 'lookahed'" in out
+    assert "lookahead (m, default none)" in out and "convergence_distance (m, default none)" in out
+    # the guide's old advice: change only the name, keeping seed_simple's poles
+    old = _guide_scenario().replace("params: {convergence_distance: 2.0}", "poles_per_m: [-3.0, -3.0]")
+    (tmp_path / "old.yaml").write_text(old)
+    res = runner.invoke(app, ["simulate", str(tmp_path / "old.yaml"), "--out", str(tmp_path / "o"), "--no-plots"])
+    assert res.exit_code == 2 and "unexpected keyword" not in res.output
+    assert "controller.poles_per_m: pure_pursuit takes no parameter 'poles_per_m'" in " ".join(res.output.split())

@@ -23,6 +23,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from PIL import Image
 
+from agvnav.bench.common import format_number
 from agvnav.report.files import save_result
 from agvnav.report.html import (
     RunFolder,
@@ -70,12 +71,12 @@ def test_the_report_is_one_self_contained_file(run_dir):
 def test_metrics_have_units_and_seed_figures_only_for_a_seed_scenario(run_dir):
     metrics = load_run(run_dir).metrics
     table = metrics_table(metrics)
-    assert "<td>max_abs_lateral_error_m</td>" in table and "<td>mm</td>" in table and "<td>deg</td>" in table
-    assert "16.5 seed 000 §4.3" in table
+    assert "<td>max abs lateral error</td>" in table and "<td>mm</td>" in table and "<td>deg</td>" in table
+    assert "_error_m" not in table and "16.5 mm, seed 000 §4.3" in table and "3.8 deg, seed 000 §4.3" in table
     mine = metrics_table({**metrics, "scenario": "my_own_scenario"})
     assert "seed 000" not in mine and "<th>seed</th>" not in mine
     value = metrics["max_abs_lateral_error_m"]
-    assert f"<td class=num>{1000 * value:.4g}</td><td>mm</td>" in table  # metres shown as millimetres
+    assert f"<td class=num>{format_number(value, 1000.0)}</td><td>mm</td>" in table  # metres shown as millimetres
 
 
 def test_a_log_without_truth_or_layout_still_reports(run_dir, tmp_path):

@@ -30,6 +30,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeRemainingColumn
 from rich.progress import Progress as ProgressBar
 
+from agvnav.bench.common import json_text
 from agvnav.campaign.overrides import BaseScenario, apply_overrides, dump_yaml, load_base, replay_mapping
 from agvnav.campaign.plan import RunPlan, plan_runs
 from agvnav.campaign.spec import CampaignSpec, is_number
@@ -247,7 +248,7 @@ def run_campaign(
             stop()
     wall = time.perf_counter() - t0
     summary = summarize(read_results(out), list(spec.grid), spec.metrics)
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    (out / "summary.json").write_text(json_text(summary, indent=2) + "\n", encoding="utf-8")
     return CampaignResult(out, len(plans), len(todo), len(plans) - len(todo), n_workers, wall, summary)
 
 

@@ -26,6 +26,8 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from agvnav.bench.common import json_text
+
 __all__ = ["check_manifest", "finished_runs", "read_results", "records_table", "write_part"]
 
 RUNS_DIR = "runs"
@@ -121,4 +123,4 @@ def check_manifest(out_dir: str | Path, manifest: Mapping[str, Any]) -> None:
                 "use another --out or remove it"
             )
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(dict(manifest), indent=2) + "\n", encoding="utf-8")
+    path.write_text(json_text(dict(manifest), indent=2) + "\n", encoding="utf-8")

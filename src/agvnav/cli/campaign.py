@@ -19,7 +19,7 @@ from typing import Any
 import typer
 from rich.console import Console
 
-from agvnav.bench.common import Col, display_unit, format_number, json_document, print_table
+from agvnav.bench.common import json_document, print_table
 from agvnav.cli.errors import err_console, fail, user_errors
 from agvnav.cli.progress import RunProgress
 
@@ -78,11 +78,15 @@ def campaign(
         from agvnav.report.campaign import plot_campaign
 
         columns = lib.read_results(out).to_pydict()
-        written = plot_campaign(columns, result.summary["metrics"], camp.swept, Path(out) / "plots", camp.name)
+        written = plot_campaign(
+            columns, result.summary["metrics"], camp.swept, Path(out) / "plots", camp.name, result.summary
+        )
     if json_out:
         print(json_document("campaign", camp.name, _json(result), camp.seed, None))
         return
-    print_table(_table(camp.name, result.summary), wide=wide, sections=_sections(result.summary))
+    from agvnav.report.campaign import summary_sections, summary_table
+
+    print_table(summary_table(camp.name, result.summary), wide=wide, sections=summary_sections(result.summary))
     speed = f", {result.runs_per_s:.2f} runs/s" if result.runs_per_s else ""
     console.print(
         f"{result.ran} runs done, {result.skipped} already there, on {result.workers} workers in "
@@ -103,43 +107,3 @@ def _json(result: Any) -> dict[str, Any]:
         "runs_per_s": result.runs_per_s,
         "summary": result.summary,
     }
-
-
-_STATS = ("mean", "std", "median", "q05", "q95")
-
-
-def _sections(summary: dict[str, Any]) -> list[bool]:
-    """After which table row a group ends (one row per metric of each group)."""
-    ends: list[bool] = []
-    for group in summary["groups"]:
-        n = max(len(group["metrics"]), 1)
-        ends += [False] * (n - 1) + [True]
-    return ends
-
-
-def _table(name: str, summary: dict[str, Any]) -> tuple[str, list[Col], list[list[str]]]:
-    """``(title, columns, rows)``: per group and metric, the statistics in the metric's display unit."""
-    title = f"campaign {name}: {summary['runs']} runs; statistics over the completed runs"
-    cols = [
-        Col("group", "left", 0), Col("metric", "left", 0), Col("n", "right", 3), Col("mean", "right", 0),
-        Col("std", "right", 1), Col("median", "right", 4), Col("5 %", "right", 5), Col("95 %", "right", 5),
-        Col("95 % CI of mean", "right", 2),
-    ]
-    rows: list[list[str]] = []
-    for group in summary["groups"]:
-        label = ", ".join(f"{k}={v}" for k, v in group["params"].items()) or "all"
-        counts = ", ".join(f"{v} {k}" for k, v in group["outcomes"].items() if v)
-        items = list(group["metrics"].items()) or [("-", None)]
-        for j, (metric, s) in enumerate(items):
-            head = f"{label}\n({counts})" if j == 0 else ""
-            if s is None:
-                rows.append([head, metric, *[""] * 7])
-                continue
-            values = [s[k] for k in _STATS] + list(s["ci95"] or [])
-            header, _, scale = display_unit(metric, values)
-            ci = "-" if s["ci95"] is None else (
-                f"[{format_number(s['ci95'][0], scale)}, {format_number(s['ci95'][1], scale)}]"
-            )
-            stats = [format_number(s[k], scale) for k in _STATS]
-            rows.append([head, header, str(s["n"]), *stats, ci])
-    return title, cols, rows

@@ -59,7 +59,9 @@ from agvnav.guidance.follower import (
 from agvnav.guidance.followers import (
     FOLLOWERS,
     GEOMETRY_FIELDS,
+    FollowerParameter,
     check_path_feasible,
+    follower_parameters,
     make_follower,
     min_turning_radius,
 )
@@ -125,6 +127,7 @@ __all__ = [
     "ArcSegment",
     "FinePositioner",
     "FollowErrors",
+    "FollowerParameter",
     "GeneralGains",
     "GuidanceController",
     "GuidanceError",
@@ -158,6 +161,7 @@ __all__ = [
     "envelope_distance",
     "errors_from_projection",
     "feedforward_steering",
+    "follower_parameters",
     "general_characteristic",
     "general_gains",
     "general_gains_from_coefficients",

@@ -7,23 +7,37 @@ steered ``wheelbase``, ``drive_point``, ``max_steer``; unicycle ``track``,
 ``wheel_radius``; holonomic ``wheel_radius``, ``half_length``,
 ``half_width``: the records of :mod:`agvnav.vehicles`, which guidance does
 not import). :func:`check_path_feasible` refuses, before a run, a path the
-vehicle cannot follow, naming the segment.
+vehicle cannot follow, naming the segment. :func:`follower_parameters` lists the
+parameters each follower takes, with unit, default and meaning, from the
+constructors' signatures and :data:`PARAMETER_DOCS` (docs/scenarios.md is
+generated from it); an unknown parameter is refused naming them.
 """
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from agvnav.geometry.angles import wrap_angle_scalar
+from agvnav.guidance.controller import CONTROLLERS, DEFAULT_CONVERGENCE_DISTANCE_M
 from agvnav.guidance.follower import FAMILIES, GuidanceError, InfeasiblePathError, PathFollower
 from agvnav.guidance.holonomic import HolonomicFollower
 from agvnav.guidance.paths import ArcSegment, Path
 from agvnav.guidance.steered import SteeredFollower
 from agvnav.guidance.unicycle import KanayamaPathFollower, UnicyclePurePursuit, UnicycleStanley
 
-__all__ = ["FOLLOWERS", "GEOMETRY_FIELDS", "check_path_feasible", "make_follower"]
+__all__ = [
+    "FOLLOWERS",
+    "GEOMETRY_FIELDS",
+    "PARAMETER_DOCS",
+    "FollowerParameter",
+    "check_path_feasible",
+    "follower_parameters",
+    "make_follower",
+]
 
 FOLLOWERS: dict[str, tuple[str, ...]] = {
     "steered": ("seed_general", "seed_simple", "pure_pursuit", "stanley"),
@@ -44,6 +58,90 @@ _UNICYCLE: dict[str, Callable[..., PathFollower]] = {
     "pure_pursuit": UnicyclePurePursuit,
     "stanley": UnicycleStanley,
 }
+
+
+#: Every follower constructor keyword: name -> (unit, meaning). The same name means the same thing
+#: (and unit) in every follower; a test checks that each constructor's keywords are all here.
+PARAMETER_DOCS: dict[str, tuple[str, str]] = {
+    "convergence_distance": (
+        "m",
+        (f"distance travelled within which a small error decays to 2 %: tunes the gains (none given: "
+        f"{DEFAULT_CONVERGENCE_DISTANCE_M:g} m)"),
+    ),
+    "poles_per_m": ("1/m", "closed-loop poles per metre travelled, instead of convergence_distance (seed 000)"),
+    "gains": ("-", "explicit gains instead of poles or convergence_distance"),
+    "v_max": ("m/s", "top speed the seed-000 general law's fixed gains are checked for"),
+    "point": ("-", ("tracked point: C (steered wheel) or O (rear axle midpoint); in a scenario controller.point, "
+                   "default C")),
+    "form": ("-", "which form of the seed-000 law (eqs 11-13 general, 20-22 simple)"),
+    "feedforward": ("-", "add the path curvature's steering feedforward"),
+    "curvature_compensation": ("-", "correct the gains for the path curvature"),
+    "exact_rotation": ("-", "rotate the errors exactly rather than to first order"),
+    "window": ("m", "search window of the path projection around the last abscissa"),
+    "lookahead": ("m", "look-ahead distance along the path (none: from convergence_distance)"),
+    "v_nominal": ("m/s", "speed the gains are tuned for (in a scenario: traction.speed_m_s)"),
+    "servo_tau": ("s", "time constant of the steering servo towards the law's angle"),
+    "gain_per_m": ("1/m", "Stanley's cross-track gain (none: from convergence_distance)"),
+    "front_offset": ("m", "virtual front axle ahead of base_link (none: from convergence_distance)"),
+    "max_rate": ("rad/s", "yaw-rate limit of the command"),
+    "lateral_gain": ("1/m", "lateral error decay per metre travelled (none: from convergence_distance)"),
+    "heading_gain": ("1/m", "heading error decay per metre travelled (none: from convergence_distance)"),
+}
+
+#: Keywords the scenario sets from its own keys rather than ``controller.params`` (scenario key per name).
+SCENARIO_KEYS = {"point": "controller.point", "poles_per_m": "controller.poles_per_m", "gains": "controller.gains"}
+
+
+@dataclass(frozen=True)
+class FollowerParameter:
+    """One parameter of a follower: ``name`` (a constructor keyword), its ``unit``, ``default`` (as text)
+    and ``meaning``."""
+
+    name: str
+    unit: str
+    default: str
+    meaning: str
+
+
+def _constructor(name: str, family: str) -> Callable[..., Any]:
+    if family == "steered":
+        return CONTROLLERS[name]
+    if family == "unicycle":
+        return _UNICYCLE[name]
+    return HolonomicFollower
+
+
+def follower_parameters(name: str, family: str) -> tuple[FollowerParameter, ...]:
+    """The parameters the follower ``name`` of ``family`` takes, in its constructor's order.
+
+    Read from the constructor's signature (the path and the vehicle geometry, which the
+    caller supplies, left out); units and meanings from :data:`PARAMETER_DOCS`. A default
+    of None reads "none" (the follower designs the value, see the meaning).
+    """
+    names = FOLLOWERS[_check_family(family)]
+    if name not in names:
+        raise GuidanceError(f"{name} does not fit a {family} vehicle; choose from: {', '.join(names)}")
+    out = []
+    for p in inspect.signature(_constructor(name, family)).parameters.values():
+        if p.name in ("self", "path", "wheelbase") or p.kind in (p.VAR_KEYWORD, p.VAR_POSITIONAL):
+            continue
+        unit, meaning = PARAMETER_DOCS.get(p.name, ("?", "not documented"))
+        default = "none" if p.default is None else "required" if p.default is p.empty else repr(p.default)
+        out.append(FollowerParameter(p.name, unit, default.replace("inf", "no limit"), meaning))
+    return tuple(out)
+
+
+def _check_parameters(name: str, family: str, params: dict[str, Any]) -> None:
+    """Refuse a parameter the follower does not take, naming the ones it does (with units and defaults)."""
+    known = follower_parameters(name, family)
+    unknown = [k for k in params if k not in {p.name for p in known}]
+    if unknown:
+        takes = "; ".join(f"{p.name} ({p.unit}, default {p.default})" for p in known)
+        raise GuidanceError(
+            f"{name} takes no parameter {', '.join(map(repr, unknown))}; a {family} vehicle's {name} takes: {takes} "
+            "(in a scenario as controller.params.NAME; point, poles_per_m and gains as controller.point, "
+            "controller.poles_per_m and controller.gains)"
+        )
 
 
 def _check_family(family: str) -> str:
@@ -70,6 +168,7 @@ def make_follower(name: str, family: str, path: Path, geometry: Any, **params: A
     names = FOLLOWERS[_check_family(family)]
     if name not in names:
         raise GuidanceError(f"{name} does not fit a {family} vehicle; choose from: {', '.join(names)}")
+    _check_parameters(name, family, params)
     geo = _geometry(family, geometry)
     try:
         if family == "steered":

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.bench.common import json_text
 from agvnav.geometry import lateral_position_error, wrap_angle
 from agvnav.logs import topics as tp
 from agvnav.logs.localize import Localization, judge
@@ -95,7 +96,7 @@ def save_localization(
 
 
 def _json(path: Path, doc: dict[str, Any]) -> Path:
-    path.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    path.write_text(json_text(doc, indent=2) + "\n", encoding="utf-8")
     return path
 
 

@@ -19,7 +19,6 @@ so two runs with the same seed write byte-identical files except timing.json.
 from __future__ import annotations
 
 import csv
-import json
 import math
 import os
 import shutil
@@ -32,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.bench.common import json_text
 from agvnav.report.html import write_html_report
 from agvnav.report.plots import write_plots
 from agvnav.report.reference import COLUMNS, EVENT_COLUMNS, LAP_COLUMNS, PER_OBSTACLE
@@ -216,7 +216,8 @@ def layout_document(result: SimResult, spacing: float = 0.05) -> dict[str, Any]:
 
 
 def _json(path: Path, document: dict[str, Any]) -> Path:
-    path.write_text(json.dumps(document, indent=2) + "\n", encoding="utf-8")
+    """Write ``document`` as strict JSON (NaN and infinities as null: :func:`agvnav.bench.common.json_text`)."""
+    path.write_text(json_text(document, indent=2) + "\n", encoding="utf-8")
     return path
 
 

@@ -18,6 +18,7 @@ import html
 import io
 import json
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.bench.common import display_unit, format_number
 from agvnav.geometry import lateral_position_error, wrap_angle
 from agvnav.report.plots import pyplot
 
@@ -44,7 +46,7 @@ __all__ = [
 
 F64 = NDArray[np.float64]
 
-#: Scenario name prefix -> the seed's figures it reproduces: metric key -> (value, unit, source).
+#: Scenario name prefix -> the seed's figures it reproduces: metric key -> (value in mm or deg, source).
 SEED_FIGURES: dict[str, dict[str, tuple[str, str]]] = {
     "seed000_guidance": {
         "initial_lateral_error_m": ("110", "seed 000 §4.3"),
@@ -276,16 +278,38 @@ def _histogram(true_pose: F64, est_pose: F64) -> Any:
     return fig
 
 
-def _unit(key: str, value: Any) -> tuple[str, str]:
-    """Display value and unit of a metrics.json figure: m -> mm, rad -> deg, the rest as is."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        return ("-" if value is None else str(value)), ""
-    if not math.isfinite(value):
-        return "-", ""
-    for suffix, scale, unit in (("_rad", 180 / math.pi, "deg"), ("_m", 1000.0, "mm"), ("_s", 1.0, "s")):
-        if key.endswith(suffix):
-            return f"{value * scale:.4g}", unit
-    return f"{value:.4g}", ""
+#: metrics.json keys the report shows in its introduction, not in the metrics tables.
+_INTRO_KEYS = ("scenario", "vehicle", "seed", "outcome", "reason", "transient")
+
+#: Keys ``NAME[i]`` (one figure per station stop) and ``NAME.KIND`` (one per kind of path edge):
+#: the title of the table that gathers them, by the shape of their qualifier.
+_QUALIFIED_TITLES = {"[": "Per station stop", ".": "Per kind of path edge"}
+
+_QUALIFIED = re.compile(r"^(?P<base>[A-Za-z0-9_]+?)(?:\[(?P<index>\d+)\]|\.(?P<name>[A-Za-z0-9_]+))$")
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _cell(key: str, values: list[Any]) -> tuple[str, str, list[str]]:
+    """Label, display unit and shown values of the figure ``key`` (SI in metrics.json) holding ``values``.
+
+    The unit comes from the key's suffix, like every table agvnav prints
+    (:func:`agvnav.bench.common.display_unit`): lengths in mm below 1 m, else m; angles in
+    degrees; times in s (ms below 1 s); the label is the key without its suffix, so a
+    ``_m`` key never stands beside a value in mm. Numbers have about 4 significant
+    figures and no exponent (:func:`agvnav.bench.common.format_number`).
+    """
+    header, unit, scale = display_unit(key, [v for v in values if _is_number(v)])
+    label = header[: -len(unit) - 3] if unit else header
+    shown = []
+    for v in values:
+        if _is_number(v) and not unit and float(v).is_integer() and math.isfinite(v):
+            shown.append(format_number(int(v)))
+        else:
+            shown.append(format_number(v, scale) if v is None or _is_number(v) or isinstance(v, bool) else str(v))
+    return label, unit, shown
 
 
 def _seed_figures(name: str) -> dict[str, tuple[str, str]]:
@@ -295,21 +319,95 @@ def _seed_figures(name: str) -> dict[str, tuple[str, str]]:
     return {}
 
 
+def _seed_unit(key: str) -> str:
+    """The unit the seed papers give a figure in: mm for lengths, deg for angles."""
+    return "mm" if key.endswith("_m") else "deg" if key.endswith("_rad") else ""
+
+
 def metrics_table(metrics: dict[str, Any]) -> str:
-    """An HTML table of a metrics.json document: name, value, unit (mm, deg, s), the seed's figure when known."""
+    """HTML tables of a metrics.json document (SI), shown in display units.
+
+    The first table has one row per figure: what it is, the value and its unit (mm or m,
+    deg, s: :func:`_cell`), and the seed's figure when the scenario reproduces a seed
+    experiment. Figures per station stop (``stop_error_m[i]``) and per kind of path edge
+    (``max_lateral_m.line``) follow in tables of their own, one row per stop or edge
+    kind and one column (with one unit) per figure. Sections (``integrity``,
+    ``reactive``) follow as tables of their figures.
+    """
     seed = _seed_figures(str(metrics.get("scenario", "")))
+    plain: dict[str, Any] = {}
+    pivots: dict[str, dict[str, dict[str, Any]]] = {}
+    sections: dict[str, dict[str, Any]] = {}
+    for key, value in metrics.items():
+        if key in _INTRO_KEYS:
+            continue
+        if isinstance(value, dict):
+            sections[key] = value
+            continue
+        m = _QUALIFIED.match(key)
+        if m is not None:
+            kind = "[" if m["index"] is not None else "."
+            row = m["index"] if m["index"] is not None else m["name"]
+            pivots.setdefault(kind, {}).setdefault(row, {})[m["base"]] = value
+            continue
+        plain[key] = value
+    parts = [_figure_table([(k, "", v) for k, v in plain.items()], seed)]
+    for kind, rows in pivots.items():
+        parts.append(f"<h3>{_QUALIFIED_TITLES[kind]}</h3>" + _pivot_table(rows, "stop" if kind == "[" else "edge"))
+    for name, section in sections.items():
+        parts.append(f"<h3>{html.escape(name.replace('_', ' '))}</h3>" + _figure_table(_flatten(section), {}))
+    return "\n".join(parts)
+
+
+def _flatten(section: dict[str, Any], outer: tuple[str, ...] = ()) -> list[tuple[str, str, Any]]:
+    """A section's figures as ``(key, qualifier, value)``, nested mappings walked.
+
+    The key giving the unit is the innermost one with a unit suffix (``time_in_status_s:
+    {tracking: 3.0}`` -> ``("time_in_status_s", "tracking", 3.0)``; ``obstacles: {p1:
+    {min_clearance_m: 0.4}}`` -> ``("min_clearance_m", "obstacles p1", 0.4)``).
+    """
+    rows: list[tuple[str, str, Any]] = []
+    for key, value in section.items():
+        path = (*outer, str(key))
+        if isinstance(value, dict):
+            rows += _flatten(value, path)
+            continue
+        unit_at = next((i for i in range(len(path) - 1, -1, -1) if display_unit(path[i])[1]), len(path) - 1)
+        qualifier = " ".join(p.replace("_", " ") for i, p in enumerate(path) if i != unit_at)
+        rows.append((path[unit_at], qualifier, value))
+    return rows
+
+
+def _figure_table(figures: list[tuple[str, str, Any]], seed: dict[str, tuple[str, str]]) -> str:
+    """One row per ``(key, qualifier, value)``: label, value, unit (and the seed's figure)."""
     head = "<tr><th>metric</th><th>value</th><th>unit</th>" + ("<th>seed</th>" if seed else "") + "</tr>"
     rows = []
-    for key, value in metrics.items():
-        if isinstance(value, dict) or key in ("scenario", "vehicle", "seed", "outcome", "reason", "transient"):
-            continue
-        shown, unit = _unit(key, value)
+    for key, qualifier, value in figures:
+        label, unit, shown = _cell(key, [value])
+        if qualifier:
+            label = f"{label} ({qualifier})"
         ref = ""
         if seed:
             v, src = seed.get(key, ("", ""))
-            ref = f"<td>{html.escape(v)} {html.escape(src)}</td>"
-        rows.append(f"<tr><td>{html.escape(key)}</td><td class=num>{shown}</td><td>{unit}</td>{ref}</tr>")
+            ref = f"<td>{html.escape(v)} {_seed_unit(key)}, {html.escape(src)}</td>" if v else "<td></td>"
+        rows.append(f"<tr><td>{html.escape(label)}</td><td class=num>{shown[0]}</td><td>{unit}</td>{ref}</tr>")
     return f"<table>{head}{''.join(rows)}</table>"
+
+
+def _pivot_table(rows: dict[str, dict[str, Any]], what: str) -> str:
+    """One row per stop (or edge kind), one column per figure with its unit in the header."""
+    bases: list[str] = []
+    for figures in rows.values():
+        bases += [b for b in figures if b not in bases]
+    columns = {b: _cell(b, [rows[r].get(b) for r in rows]) for b in bases}
+    head = f"<tr><th>{what}</th>" + "".join(
+        f"<th>{html.escape(label)}{f' ({unit})' if unit else ''}</th>" for label, unit, _ in columns.values()
+    ) + "</tr>"
+    body = []
+    for i, r in enumerate(rows):
+        cells = "".join(f"<td class=num>{columns[b][2][i]}</td>" for b in bases)
+        body.append(f"<tr><td>{html.escape(r.replace('_', ' '))}</td>{cells}</tr>")
+    return f"<table>{head}{''.join(body)}</table>"
 
 
 def _slider_data(run: RunFolder, samples: int = 400) -> dict[str, Any]:

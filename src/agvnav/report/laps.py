@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rich.markup import escape
 from rich.table import Table
 
+from agvnav.bench.common import json_text
 from agvnav.report.files import write_csv
 from agvnav.report.plots import pyplot
 
@@ -22,7 +23,8 @@ def _cm(value: float | None) -> str:
 def lap_table(result: Any) -> Any:
     """A rich Table in the form of seed 004 Tables I-II: lap, error per lap with / without landmarks (cm).
 
-    Also the distance of each lap end from the route start (cumulative), and the mean row.
+    Every error column names its unit in the header (cm, as the seed's tables). Also the
+    distance of each lap end from the route start (cumulative), and the mean row.
     """
     sc = result.scenario
     truth = sc.vehicle.terrain.truth
@@ -30,10 +32,11 @@ def lap_table(result: Any) -> Any:
     t = Table(title=f"{sc.name}: error per lap, {sc.route.side_m:g} m square, {terrain} (seed {sc.seed})")
     modes = sorted(result.runs, reverse=True)
     t.add_column("lap", justify="right")
+    # headers are rich markup: a unit in square brackets ("[cm]") would be taken for a style tag and vanish
     for mode in modes:
-        t.add_column(f"{'with' if mode else 'without'} landmarks [cm/lap]", justify="right")
+        t.add_column(escape(f"{'with' if mode else 'without'} landmarks (cm/lap)"), justify="right")
     for mode in modes:
-        t.add_column(f"{'with' if mode else 'without'}: from start [cm]", justify="right")
+        t.add_column(escape(f"{'with' if mode else 'without'}: from start (cm)"), justify="right")
     for row in result.lap_rows():
         cells = [str(row["lap"])]
         cells += [_cm(row[f"{'with' if m else 'without'}_landmarks_per_lap_m"]) for m in modes]
@@ -95,7 +98,7 @@ def save_laps(result: Any, out_dir: str | Path, plots: bool = True) -> list[Path
     written = []
     for name, doc in (("metrics.json", metrics), ("laps.json", summary)):
         p = out / name
-        p.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+        p.write_text(json_text(doc, indent=2) + "\n", encoding="utf-8")
         written.append(p)
     cols = list(rows[0]) if rows else ["lap"]
     table = {c: np.array([np.nan if r[c] is None else r[c] for r in rows], dtype=np.float64) for c in cols}

@@ -5,12 +5,12 @@ matplotlib (Agg) is imported lazily through :func:`agvnav.report.plots.pyplot`.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from agvnav.bench.common import json_text
 from agvnav.layout.field import hall_field
 from agvnav.layout.plan import LayoutPlan, summary_rows
 from agvnav.layout.prediction import LayoutProblem, Prediction
@@ -121,5 +121,5 @@ def write_layout(plan: LayoutPlan, out_dir: str | Path) -> dict[str, Path]:
     paths = {"map": out / "map.yaml", "heatmap": out / "heatmap.png", "plan": out / "plan.json"}
     save_map(plan.world, paths["map"])
     plot_layout_heatmap(plan, paths["heatmap"])
-    paths["plan"].write_text(json.dumps(plan_record(plan), indent=1) + "\n", encoding="utf-8")
+    paths["plan"].write_text(json_text(plan_record(plan), indent=1) + "\n", encoding="utf-8")
     return paths

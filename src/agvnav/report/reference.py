@@ -8,7 +8,18 @@ it writes is in :data:`COLUMNS`, and that docs/scenarios.md equals this output.
 
 from __future__ import annotations
 
-__all__ = ["COLUMNS", "EVENT_COLUMNS", "LAP_COLUMNS", "PER_OBSTACLE", "outputs_reference", "reference_markdown"]
+import math
+
+__all__ = [
+    "COLUMNS",
+    "EVENT_COLUMNS",
+    "HYBRID_PARAMETERS",
+    "LAP_COLUMNS",
+    "PER_OBSTACLE",
+    "controllers_reference",
+    "outputs_reference",
+    "reference_markdown",
+]
 
 #: timeseries.csv columns: name -> (unit, meaning). One row per control step.
 COLUMNS: dict[str, tuple[str, str]] = {
@@ -220,6 +231,76 @@ def outputs_reference() -> list[str]:
     ]
 
 
+#: The seed-004 hybrid automaton's ``controller.params`` (:class:`agvnav.guidance.hybrid.HybridParams`):
+#: field -> (scenario key, unit, meaning). A field in radians is written in degrees (``_deg``, ``_deg_s``).
+HYBRID_PARAMETERS: dict[str, tuple[str, str, str]] = {
+    "cruise_speed": ("cruise_speed", "m/s", "speed along the legs (seed 004)"),
+    "correction_rate": ("correction_rate_deg_s", "deg/s", "turn rate of a heading correction (seed 004)"),
+    "turn_rate": ("turn_rate_deg_s", "deg/s", "turn rate at a corner (seed 004)"),
+    "min_turn_rate": ("min_turn_rate_deg_s", "deg/s", "smallest turn rate near the end of a turn"),
+    "turn_gain": ("turn_gain", "1/s", "turn rate per radian of heading still to turn (between the two rates)"),
+    "turn_tolerance": ("turn_tolerance_deg", "deg", "a turn ends within this of its target heading"),
+    "convergence_distance": ("convergence_distance", "m", "distance within which a lateral error is corrected"),
+    "decel": ("decel", "m/s²", "deceleration towards the end of a leg"),
+    "min_speed": ("min_speed", "m/s", "slowest speed while braking"),
+    "detect_range": ("detect_range", "m", "a range reading counts only up to this range (seed 004: 0.60 m)"),
+    "gate": ("gate", "m", "largest measured - predicted range for a side sensor to be associated with a wall"),
+    "front_gate": ("front_gate", "m", "the same for the front sensor"),
+    "end_margin": ("end_margin", "m", "a side pair must see the wall at least this far inside its ends"),
+    "calibration_gain": ("calibration_gain", "-", "blend of each correction, in (0, 1] (1 replaces, as the seed)"),
+    "pair_max_age": ("pair_max_age", "s", "the two readings of a side pair are at most this old"),
+    "loss_timeout": ("loss_timeout", "s", "time without landmarks before they count as lost"),
+    "dwell": ("dwell", "s", "wait before starting the next lap"),
+    "lateral_calibration": ("lateral_calibration", "-", "also fix the distance to a side wall (an extension)"),
+    "parallel_tolerance": ("parallel_tolerance_deg", "deg", "a wall within this angle of the heading is alongside"),
+}
+
+
+def _hybrid_default(field: str, value: object) -> str:
+    unit = HYBRID_PARAMETERS[field][1]
+    if unit.startswith("deg") and isinstance(value, float):
+        return f"{math.degrees(value):.4g}"
+    return repr(value)
+
+
+def controllers_reference() -> list[str]:
+    """Markdown lines: every controller by vehicle family with its parameters, units and defaults.
+
+    Generated from the follower registry (:func:`agvnav.guidance.follower_parameters`: the
+    constructors' signatures) and :class:`agvnav.guidance.hybrid.HybridParams`, so it cannot go stale.
+    """
+    from agvnav.guidance import FOLLOWERS, follower_parameters  # noqa: PLC0415 (deferred: see reference_markdown)
+    from agvnav.guidance.hybrid import HybridParams  # noqa: PLC0415
+
+    lines = [
+        "## Controllers (`controller`)",
+        "",
+        "`controller.name` picks the path follower; which names fit which vehicle family (the first is",
+        "the family's default): steered (tricycle, tricycle_rear, ackermann, tractor_trailer), unicycle",
+        "(differential), holonomic (mecanum); tracked vehicles drive the seed-004 `hybrid` automaton.",
+        "A follower's parameters go under `controller.params` (e.g. `params: {lookahead: 1.5}`), except",
+        "`point`, `poles_per_m` and `gains`, which are `controller.point`, `controller.poles_per_m` and",
+        "`controller.gains`. A parameter the follower does not take is refused, naming the ones it does.",
+        "Defaults \"none\" are designed by the follower (see the meaning). Units here are the follower's",
+        "own (SI, radians).",
+    ]
+    for family, names in FOLLOWERS.items():
+        for name in names:
+            lines += ["", f"### `{name}` ({family})", "", "| parameter | unit | default | meaning |",
+                      "| --- | --- | --- | --- |"]
+            for p in follower_parameters(name, family):
+                cells = (f"`{p.name}`", p.unit, p.default, p.meaning)
+                lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    lines += ["", "### `hybrid` (tracked, seed 004)", "",
+              "`controller.laps`, `controller.landmarks` and `controller.compare_landmarks` (above), and under",
+              "`controller.params` (angles in degrees, as the key says):", "",
+              "| parameter | unit | default | meaning |", "| --- | --- | --- | --- |"]
+    defaults = HybridParams()
+    for field, (key, unit, meaning) in HYBRID_PARAMETERS.items():
+        lines.append(f"| `{key}` | {unit} | {_hybrid_default(field, getattr(defaults, field))} | {meaning} |")
+    return lines
+
+
 def reference_markdown() -> str:
     """The whole of docs/scenarios.md.
 
@@ -229,7 +310,7 @@ def reference_markdown() -> str:
     from agvnav.routes.reference import network_reference  # noqa: PLC0415 (deferred: see the docstring)
     from agvnav.world.reference import scenario_reference  # noqa: PLC0415
 
-    return scenario_reference([*outputs_reference(), "", *network_reference()])
+    return scenario_reference([*controllers_reference(), "", *outputs_reference(), "", *network_reference()])
 
 
 if __name__ == "__main__":  # pragma: no cover - the documented regeneration command

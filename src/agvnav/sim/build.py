@@ -35,6 +35,7 @@ from agvnav.guidance import (
     LineSegment,
     Path,
     check_path_feasible,
+    follower_parameters,
     make_follower,
 )
 from agvnav.guidance.errors import feedforward_steering
@@ -346,6 +347,10 @@ def _follower(sc: Scenario, path: Path, family: str, geometry: Any) -> Any:
             f"{name} does not fit a {sc.vehicle.model} vehicle ({family}); choose from: {', '.join(FOLLOWERS[family])}",
         )
     key, kwargs = _follower_params(sc, name, family, sc.traction.speed_m_s)
+    known = {p.name for p in follower_parameters(name, family)}
+    unknown = [k for k in sc.controller.params if k not in known]
+    if unknown:  # blame the misspelt or foreign key's own line; make_follower's error names the valid ones
+        key = ("controller", "params", unknown[0])
     return guard(sc, key, make_follower, name, family, path, geometry, **kwargs)
 
 
