@@ -35,8 +35,8 @@ import numpy as np
 import yaml
 
 from agvnav.sim import SimResult, simulate
-from agvnav.sim.build import REVERSING
 from agvnav.world.scenario import builtin_scenario, parse_scenario
+from agvnav.world.vehicle_specs import vehicle_kind
 
 TITLE = "Every vehicle configuration on the same loop (true pose; 5 seeds)"
 #: Columns a narrow terminal keeps, most important first (`--wide` shows all).
@@ -88,7 +88,7 @@ def bench_scenario_text(model: str, quick: bool, seed: int) -> str:
     source, controller, can_reverse = BENCH_MODELS[model]
     data = yaml.safe_load(builtin_scenario(source).read_text(encoding="utf-8"))
     loop = yaml.safe_load(builtin_scenario("differential_loop").read_text(encoding="utf-8"))
-    reverse = can_reverse and model in REVERSING
+    reverse = can_reverse and vehicle_kind(model).reverses
     doc = {
         "name": f"bench_{model}",
         "seed": seed,

@@ -36,10 +36,10 @@ from scipy.sparse.csgraph import dijkstra
 
 from agvnav.geometry.angles import wrap_angle
 from agvnav.routes.network import Edge, RouteNetwork
+from agvnav.world.vehicle_specs import vehicle_kind
 
 __all__ = [
     "HEADING_CLASS_TOL_RAD",
-    "SPOT_TURNING",
     "NoRouteError",
     "Planner",
     "Route",
@@ -51,12 +51,6 @@ __all__ = [
 #: Headings at a node closer than this (rad) are one heading class.
 HEADING_CLASS_TOL_RAD = math.radians(2.0)
 
-#: Vehicle models that turn on the spot (differential drive, skid steering, mecanum wheels).
-SPOT_TURNING = frozenset({"differential", "tracked", "mecanum"})
-
-#: Vehicle models that cannot back up (a tractor with a trailer jackknifes).
-NON_REVERSING = frozenset({"tractor_trailer"})
-
 
 class NoRouteError(ValueError):
     """No route exists; the message names the station that cannot be reached."""
@@ -66,7 +60,8 @@ class NoRouteError(ValueError):
 class VehicleLimits:
     """What the planner needs to know of a vehicle.
 
-    ``model`` (name), ``max_speed`` (m/s), ``lateral_accel`` (m/s^2),
+    ``model`` (a vehicle kind's name, :data:`agvnav.world.vehicle_specs.VEHICLE_KINDS`),
+    ``max_speed`` (m/s), ``lateral_accel`` (m/s^2),
     ``turn_rate`` (rad/s, turning on the spot), ``cusp_s`` (s lost stopping to reverse).
     """
 
@@ -77,6 +72,7 @@ class VehicleLimits:
     cusp_s: float = 4.0
 
     def __post_init__(self) -> None:
+        vehicle_kind(self.model)  # ValueError naming the valid models
         for name in ("max_speed", "lateral_accel", "turn_rate"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
@@ -86,13 +82,13 @@ class VehicleLimits:
 
     @property
     def turns_on_spot(self) -> bool:
-        """True for differential, tracked and mecanum vehicles."""
-        return self.model in SPOT_TURNING
+        """True for the kinds that turn at standstill (differential, tracked, mecanum)."""
+        return vehicle_kind(self.model).turns_on_spot
 
     @property
     def reverses(self) -> bool:
-        """False for the tractor-trailer."""
-        return self.model not in NON_REVERSING
+        """False for the kinds that may not back up (the tractor-trailer)."""
+        return vehicle_kind(self.model).reverses
 
 
 @dataclass(frozen=True)

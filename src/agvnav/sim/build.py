@@ -8,8 +8,9 @@ and with a goniometer at least three reflectors must be in view all along the
 path. Every failure is a :class:`~agvnav.world.scenario.ScenarioError` naming
 the key and its line.
 
-The registries do the dispatch: :data:`agvnav.sim.plants.PLANT_BUILDERS`
-(vehicle model -> truth vehicle), :func:`agvnav.guidance.make_follower`
+The registries do the dispatch: the vehicle kind's spec class (its family, whether it
+reverses; :data:`agvnav.world.vehicle_specs.VEHICLE_KINDS`) and
+:func:`agvnav.vehicles.build_plant` (vehicle spec -> truth vehicle), :func:`agvnav.guidance.make_follower`
 (controller name and vehicle family -> path follower),
 :func:`agvnav.positioning.make_estimator` (method -> estimator).
 """
@@ -48,11 +49,11 @@ from agvnav.sensors.ultrasonic import UltrasonicArray, UltrasonicSensor, seed_00
 from agvnav.sim.collision import CollisionWatch, WallCollider
 from agvnav.sim.engine import ClosedLoop
 from agvnav.sim.faults import PLANT_FAULTS, FaultyPlant, FaultySensor, world_with_faults
-from agvnav.sim.plants import build_plant, family_of
 from agvnav.sim.rangers import UltrasonicSensorRole
 from agvnav.sim.reactive import wire_reactive
 from agvnav.sim.roles import GoniometerSensor, PathAutopilot
 from agvnav.sim.safety import EstimatorWatch, GuardLimits, PositioningGuard
+from agvnav.vehicles import build_plant
 from agvnav.world import WorldMap, builtin_map_names, load_builtin_map, load_map
 from agvnav.world.scenario import KeyPath, Scenario, ScenarioError
 from agvnav.world.vehicle_specs import TractorTrailerSpec
@@ -62,7 +63,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_FOLLOWERS",
-    "REVERSING",
     "Built",
     "build",
     "build_path",
@@ -76,9 +76,6 @@ __all__ = [
 
 #: The follower a vehicle family gets when the scenario names none.
 DEFAULT_FOLLOWERS = {"steered": "seed_simple", "unicycle": "kanayama", "holonomic": "holonomic"}
-
-#: Vehicle models that may drive reverse segments (a tractor with a trailer may not: jackknife).
-REVERSING = frozenset({"tricycle", "tricycle_rear", "ackermann", "differential", "tracked", "mecanum"})
 
 T = TypeVar("T")
 
@@ -237,7 +234,7 @@ def _check_start(sc: Scenario, size: float) -> None:
 def _check_feasible(sc: Scenario, path: Path, family: str, geometry: Any, point: str) -> None:
     """The follower's feasibility check; an infeasible segment is named with its line."""
     try:
-        check_path_feasible(path, family, geometry, sc.vehicle.model in REVERSING, point=point)
+        check_path_feasible(path, family, geometry, sc.vehicle.reverses, point=point)
     except GuidanceError as exc:
         segment = getattr(exc, "segment", None)
         key: KeyPath = ("path", "segments", segment) if segment is not None else ("path",)
@@ -540,7 +537,7 @@ def build(sc: Scenario) -> Built:
     missions = _missions_module() if sc.mission is not None else None
     mission = missions.plan_mission(sc) if missions is not None else None
     path = build_path(sc) if mission is None else mission.path
-    family = family_of(sc.vehicle.model)
+    family = sc.vehicle.family
     point = _point(sc, family)
     wheelbase = float(getattr(sc.vehicle, "wheelbase_m", 0.0))
     offset = wheelbase if point == "C" else 0.0

@@ -5,7 +5,7 @@ automaton (:class:`HybridAutopilot` around
 :class:`agvnav.guidance.hybrid.HybridController`), positioned by the wall
 landmarks (:class:`~agvnav.positioning.wall_landmarks.WallLandmarkLocalizer`
 fed by :class:`agvnav.sim.rangers.UltrasonicSensorRole`), on the tracked plant
-of the registry (:data:`agvnav.sim.plants.PLANT_BUILDERS`): the same
+of the registry (:data:`agvnav.vehicles.PLANT_BUILDERS`): the same
 :class:`~agvnav.sim.engine.ClosedLoop` as every other run.
 :func:`prepare_tracked` does the cross-part checks (walls, sensors outside the
 body, the route passes a landmark); :func:`simulate_tracked` runs both modes
@@ -41,8 +41,8 @@ from agvnav.guidance.hybrid import HybridController, HybridParams, PolygonRoute
 from agvnav.positioning.wall_landmarks import LandmarkParams, WallLandmarkLocalizer, check_route_passes_landmarks
 from agvnav.sim.build import build_world, guard, ultrasonic_array, wall_ids
 from agvnav.sim.engine import ClosedLoop, LoopOutput
-from agvnav.sim.plants import build_plant
 from agvnav.sim.rangers import UltrasonicSensorRole
+from agvnav.vehicles import build_plant
 from agvnav.world import WorldMap
 from agvnav.world.scenario import Scenario
 from agvnav.world.vehicle_specs import TrackedSpec

@@ -7,9 +7,11 @@ engine's Plant role: ``family``, ``signal_names``/``signals()``, ``pose``,
 ``pose_at(t)``, ``advance(command, t0, dt, rng)``, ``odometry() -> (delta_d,
 delta_theta, delta_lateral)`` (the body-twist integrals ``(∫v_x dt, ∫ω dt,
 ∫v_y dt)`` of base_link over the step, nominal parameters), ``failure()``,
-``geometry`` and ``footprint``. This package never imports :mod:`agvnav.sim`.
+``geometry`` and ``footprint``. :func:`build_plant` makes the plant of any vehicle spec
+(:mod:`agvnav.vehicles.builders`). This package never imports :mod:`agvnav.sim`.
 """
 
+from agvnav.vehicles.builders import PLANT_BUILDERS, Plant, build_plant, footprint
 from agvnav.vehicles.differential import DifferentialPlant
 from agvnav.vehicles.geometry import (
     DRIVE_POINTS,
@@ -28,10 +30,12 @@ from agvnav.vehicles.wheel_pair import WheelPairPlant
 
 __all__ = [
     "DRIVE_POINTS",
+    "PLANT_BUILDERS",
     "STEERED_MODELS",
     "DifferentialPlant",
     "HolonomicGeometry",
     "MecanumPlant",
+    "Plant",
     "SteeredGeometry",
     "SteeredPlant",
     "TrackedPlant",
@@ -40,5 +44,7 @@ __all__ = [
     "UnicycleGeometry",
     "WheelPairPlant",
     "box_footprint",
+    "build_plant",
     "check_footprint",
+    "footprint",
 ]

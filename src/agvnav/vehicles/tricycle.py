@@ -66,7 +66,7 @@ class TricyclePlant:
     """
 
     family: ClassVar[str] = "steered"
-    signal_names = (
+    signal_names: tuple[str, ...] = (
         "x",
         "y",
         "psi",

@@ -9,17 +9,19 @@ name is refused with the list of valid ones.
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal, get_args
 
 from pydantic import Field, model_validator
 
 from agvnav.world.strict import Finite, NonNegFloat, PosFloat, StrictModel
 
 __all__ = [
+    "VEHICLE_KINDS",
     "VEHICLE_MODELS",
     "AckermannSpec",
     "DifferentialSpec",
     "DifferentialTruthSpec",
+    "Family",
     "MecanumSpec",
     "MecanumTruthSpec",
     "MotorSpec",
@@ -33,9 +35,32 @@ __all__ = [
     "TractorTrailerSpec",
     "TricycleRearSpec",
     "TricycleSpec",
+    "VehicleKindSpec",
     "VehicleSpec",
     "WheeledVehicleSpec",
+    "vehicle_kind",
 ]
+
+#: The Plant contract's families (docs/ARCHITECTURE.md): what a vehicle's command is.
+Family = Literal["steered", "unicycle", "holonomic"]
+
+
+class VehicleKindSpec(StrictModel):
+    """Base of every ``vehicle:`` spec: the spec class *is* the vehicle kind's registry entry.
+
+    Besides its validated fields (nominal geometry, actuators, encoders, truth), a kind
+    states here, once, the facts that the simulator, the route planner, the footprint and
+    the benches read; nothing else lists vehicle names. The plant builder is registered
+    against the spec class in :mod:`agvnav.vehicles.builders`.
+    """
+
+    family: ClassVar[Family]
+    """the Plant contract's family: steered ``(v, steer_rate)``, unicycle wheel speeds, holonomic twist."""
+    reverses: ClassVar[bool] = True
+    """True when the vehicle may back up (a path or route may drive it in reverse)."""
+    turns_on_spot: ClassVar[bool] = False
+    """True when the vehicle turns at standstill (route planning turns it in place at a node)."""
+
 
 Fraction = Annotated[float, Field(ge=0.0, lt=1.0)]
 RelativeError = Annotated[float, Field(gt=-0.5, lt=0.5)]
@@ -75,7 +100,9 @@ class SteeredTruthSpec(StrictModel):
     """random steering angle error per step."""
 
 
-class SteeredVehicleSpec(StrictModel):
+class SteeredVehicleSpec(VehicleKindSpec):
+    family: ClassVar[Family] = "steered"
+
     wheelbase_m: PosFloat = 1.2
     """L: rear axle midpoint O to the steered wheel centre C."""
     drive_wheel_radius_m: PosFloat = 0.1
@@ -166,7 +193,9 @@ class DifferentialTruthSpec(StrictModel):
     """random slip: variance of each wheel's distance per metre rolled (m^2/m)."""
 
 
-class WheeledVehicleSpec(StrictModel):
+class WheeledVehicleSpec(VehicleKindSpec):
+    family: ClassVar[Family] = "unicycle"
+
     track_m: PosFloat = 0.5
     """distance between the two driven wheels' contact points."""
     wheel_radius_m: PosFloat = 0.08
@@ -191,6 +220,7 @@ class WheeledVehicleSpec(StrictModel):
 class DifferentialSpec(WheeledVehicleSpec):
     """Two driven wheels plus castors (seed 002, seed 003 §3.2.4): the common AGV/AMR."""
 
+    turns_on_spot: ClassVar[bool] = True
     model: Literal["differential"]
     """vehicle model name."""
 
@@ -202,6 +232,7 @@ class TractorTrailerSpec(WheeledVehicleSpec):
     to hitch d (behind); beyond ``max_hitch_angle_deg`` the run ends as a jackknife.
     """
 
+    reverses: ClassVar[bool] = False  # backing up jackknifes the trailer
     model: Literal["tractor_trailer"]
     """vehicle model name."""
     trailer_length_m: PosFloat = 1.5
@@ -223,8 +254,11 @@ class MecanumTruthSpec(StrictModel):
     """random relative slip of the rollers per step."""
 
 
-class MecanumSpec(StrictModel):
+class MecanumSpec(VehicleKindSpec):
     """Four Swedish (mecanum) wheels, holonomic (seed 003 §3.2.5)."""
+
+    family: ClassVar[Family] = "holonomic"
+    turns_on_spot: ClassVar[bool] = True
 
     model: Literal["mecanum"]
     """vehicle model name."""
@@ -281,8 +315,11 @@ class TerrainSpec(StrictModel):
     """random slip: m of error per metre rolled per track."""
 
 
-class TrackedSpec(StrictModel):
+class TrackedSpec(VehicleKindSpec):
     """Seed-004 tracked robot (45 x 40 cm body; gauge and sprocket radius are assumptions)."""
+
+    family: ClassVar[Family] = "unicycle"
+    turns_on_spot: ClassVar[bool] = True
 
     model: Literal["tracked"]
     """vehicle model name."""
@@ -317,13 +354,23 @@ VehicleSpec = Annotated[
     Field(discriminator="model"),
 ]
 
+
+def _kinds() -> dict[str, type[VehicleKindSpec]]:
+    """``model`` name -> spec class, read off the union's members (their ``model`` literal)."""
+    members: tuple[type[VehicleKindSpec], ...] = get_args(get_args(VehicleSpec)[0])
+    return {get_args(cls.model_fields["model"].annotation)[0]: cls for cls in members}
+
+
+#: The registry of vehicle kinds: model name -> spec class (in the order the docs list them).
+VEHICLE_KINDS: dict[str, type[VehicleKindSpec]] = _kinds()
+
 #: Every vehicle model a scenario may name, in the order the docs list them.
-VEHICLE_MODELS: tuple[str, ...] = (
-    "tricycle",
-    "tricycle_rear",
-    "ackermann",
-    "differential",
-    "tractor_trailer",
-    "mecanum",
-    "tracked",
-)
+VEHICLE_MODELS: tuple[str, ...] = tuple(VEHICLE_KINDS)
+
+
+def vehicle_kind(model: str) -> type[VehicleKindSpec]:
+    """The registry entry (spec class) of vehicle ``model``; ValueError naming the valid models if unknown."""
+    try:
+        return VEHICLE_KINDS[model]
+    except KeyError:
+        raise ValueError(f"unknown vehicle model {model!r}; valid models: {', '.join(VEHICLE_MODELS)}") from None

@@ -1,9 +1,9 @@
-"""The registry from a scenario's ``vehicle.model`` to the truth vehicle (the engine's Plant role).
+"""The plant builder of every vehicle kind: a validated ``vehicle:`` spec -> its truth vehicle (Plant role).
 
-One builder per model turns the validated ``vehicle:`` spec into an
-:mod:`agvnav.vehicles` plant with its actuators, encoders and truth errors,
-starting at a given true state. Wiring only: the physics lives in
-``vehicles``, ``kinematics``, ``actuators`` and ``odometry``.
+One builder per spec class (:data:`agvnav.world.vehicle_specs.VEHICLE_KINDS`, the kinds'
+registry) turns the spec into a plant of this package with its actuators, encoders and
+truth errors, starting at a given true state. A new vehicle kind is its spec class, its
+plant (or an existing one) and one entry in :data:`PLANT_BUILDERS`.
 """
 
 from __future__ import annotations
@@ -12,19 +12,22 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from agvnav.actuators import PID, MotorPair, SteeringActuator, WheelSpeedLoop
 from agvnav.kinematics import MecanumBase, TrackedVehicle, TrackTerrain, TractorTrailer, terrain_preset
 from agvnav.odometry import NonSystematicErrors, SystematicErrors, TricycleErrors
-from agvnav.vehicles import (
-    DifferentialPlant,
-    MecanumPlant,
-    SteeredPlant,
-    TrackedPlant,
-    TractorTrailerPlant,
-    TricyclePlant,
-    box_footprint,
-)
+from agvnav.vehicles.differential import DifferentialPlant
+from agvnav.vehicles.geometry import box_footprint
+from agvnav.vehicles.mecanum import MecanumPlant
+from agvnav.vehicles.steered import SteeredPlant
+from agvnav.vehicles.tracked import TrackedPlant
+from agvnav.vehicles.tractor_trailer import TractorTrailerPlant
+from agvnav.vehicles.tricycle import TricyclePlant
 from agvnav.world.vehicle_specs import (
+    AckermannSpec,
+    DifferentialSpec,
     MecanumSpec,
     MotorSpec,
     PidSpec,
@@ -33,40 +36,21 @@ from agvnav.world.vehicle_specs import (
     TerrainFigures,
     TrackedSpec,
     TractorTrailerSpec,
+    TricycleRearSpec,
     TricycleSpec,
+    VehicleKindSpec,
     WheeledVehicleSpec,
 )
 
 __all__ = [
-    "FAMILIES",
     "PLANT_BUILDERS",
+    "Plant",
     "build_plant",
-    "family_of",
     "footprint",
     "speed_loop",
     "steering_actuator",
     "terrain",
 ]
-
-#: Vehicle model -> family of the Plant contract (docs/ARCHITECTURE.md).
-FAMILIES: dict[str, str] = {
-    "tricycle": "steered",
-    "tricycle_rear": "steered",
-    "ackermann": "steered",
-    "differential": "unicycle",
-    "tractor_trailer": "unicycle",
-    "tracked": "unicycle",
-    "mecanum": "holonomic",
-}
-
-
-def family_of(model: str) -> str:
-    """``"steered"``, ``"unicycle"`` or ``"holonomic"`` for a vehicle model; ValueError if unknown."""
-    try:
-        return FAMILIES[model]
-    except KeyError:
-        raise ValueError(f"unknown vehicle model {model!r}; valid models: {', '.join(FAMILIES)}") from None
-
 
 def steering_actuator(spec: SteeringSpec) -> SteeringActuator:
     """The servo of a steered vehicle (rate and angle limits, first-order lag)."""
@@ -87,19 +71,19 @@ def _steered_errors(spec: SteeredVehicleSpec) -> tuple[TricycleErrors, NonSystem
     return systematic, NonSystematicErrors(slip_k=tr.slip_std**2, steering_std=math.radians(tr.steering_noise_std_deg))
 
 
-def footprint(spec: Any) -> Any:
+def footprint(spec: SteeredVehicleSpec | WheeledVehicleSpec | MecanumSpec | TrackedSpec) -> NDArray[np.float64]:
     """The body polygon in base_link (m) from ``body_length_m``/``body_width_m``.
 
     Steered vehicles: 15 % of the length behind O (an assumption), the rest ahead;
     the others: centred on base_link.
     """
     half = 0.5 * spec.body_width_m
-    if FAMILIES[spec.model] == "steered":
+    if spec.family == "steered":
         return box_footprint(0.85 * spec.body_length_m, 0.15 * spec.body_length_m, half)
     return box_footprint(0.5 * spec.body_length_m, 0.5 * spec.body_length_m, half)
 
 
-def _steered_args(spec: Any, state: Sequence[float]) -> tuple[Any, ...]:
+def _steered_args(spec: SteeredVehicleSpec, state: Sequence[float]) -> tuple[Any, ...]:
     """The positional arguments both steered plants share: geometry, encoders, servo, errors, state."""
     systematic, nonsystematic = _steered_errors(spec)
     return (
@@ -114,11 +98,11 @@ def _steered_args(spec: Any, state: Sequence[float]) -> tuple[Any, ...]:
     )
 
 
-def _tricycle(spec: Any, state: Sequence[float]) -> TricyclePlant:
+def _tricycle(spec: TricycleSpec, state: Sequence[float]) -> TricyclePlant:
     return TricyclePlant(*_steered_args(spec, state), footprint=footprint(spec))
 
 
-def _steered_rear(spec: Any, state: Sequence[float]) -> SteeredPlant:
+def _steered_rear(spec: TricycleRearSpec | AckermannSpec, state: Sequence[float]) -> SteeredPlant:
     return SteeredPlant(
         spec.model, *_steered_args(spec, state), track=getattr(spec, "track_m", None), footprint=footprint(spec)
     )
@@ -189,20 +173,28 @@ def _tracked(spec: TrackedSpec, state: Sequence[float]) -> TrackedPlant:
     )
 
 
-PlantBuilder = Callable[[Any, Sequence[float]], Any]
+#: The truth vehicles a builder returns (each implements the engine's Plant role).
+Plant = TricyclePlant | SteeredPlant | DifferentialPlant | TractorTrailerPlant | MecanumPlant | TrackedPlant
 
-#: One builder per vehicle model: ``(vehicle spec, true initial state) -> Plant``.
-PLANT_BUILDERS: dict[str, PlantBuilder] = {
-    "tricycle": _tricycle,
-    "tricycle_rear": _steered_rear,
-    "ackermann": _steered_rear,
-    "differential": _differential,
-    "tractor_trailer": _tractor_trailer,
-    "mecanum": _mecanum,
-    "tracked": _tracked,
+#: A builder takes its own spec class (Any here: a Callable's parameter cannot narrow per dict entry).
+PlantBuilder = Callable[[Any, Sequence[float]], Plant]
+
+#: One builder per vehicle kind (spec class): ``(vehicle spec, true initial state) -> Plant``.
+PLANT_BUILDERS: dict[type[VehicleKindSpec], PlantBuilder] = {
+    TricycleSpec: _tricycle,
+    TricycleRearSpec: _steered_rear,
+    AckermannSpec: _steered_rear,
+    DifferentialSpec: _differential,
+    TractorTrailerSpec: _tractor_trailer,
+    MecanumSpec: _mecanum,
+    TrackedSpec: _tracked,
 }
 
 
-def build_plant(spec: TricycleSpec | Any, state: Sequence[float]) -> Any:
+def build_plant(spec: VehicleKindSpec, state: Sequence[float]) -> Plant:
     """The truth vehicle of ``spec`` (any vehicle spec) starting at ``state`` (pose, plus steering angle)."""
-    return PLANT_BUILDERS[spec.model](spec, state)
+    try:
+        builder = PLANT_BUILDERS[type(spec)]
+    except KeyError:
+        raise ValueError(f"no plant builder for vehicle spec {type(spec).__name__}") from None
+    return builder(spec, state)
