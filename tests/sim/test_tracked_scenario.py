@@ -119,3 +119,13 @@ def test_kanayama_needs_a_path(tmp_path):
     p.write_text(KANAYAMA.split("path:")[0] + "controller: {name: kanayama}\n")
     with pytest.raises(ScenarioError, match="give a path"):
         load_scenario(p)
+
+
+def test_an_unknown_hybrid_parameter_is_a_scenario_error_naming_the_key(tmp_path):
+    path = _short(tmp_path, "  name: hybrid\n", "  name: hybrid\n  params: {cruise_speed: 0.1, foo: 1}\n")
+    with pytest.raises(ScenarioError, match=r"controller\.params: the hybrid controller takes no parameter 'foo'"):
+        prepare_tracked(load_scenario(path))
+    res = runner.invoke(app, ["simulate", str(path), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2 and "takes: cruise_speed, correction_rate" in res.output
+    turn = _short(tmp_path, "  name: hybrid\n", "  name: hybrid\n  params: {turn_rate_deg_s: 12}\n")
+    assert prepare_tracked(load_scenario(turn)).params.turn_rate == pytest.approx(0.20943951)

@@ -27,6 +27,7 @@ def test_every_key_of_every_vehicle_has_a_meaning():
 def test_units_follow_the_key_suffix():
     assert unit_of("speed_m_s") == "m/s"
     assert unit_of("max_accel_m_s2") == "m/s²"
+    assert unit_of("poles_per_m") == "1/m" and unit_of("lookahead_m") == "m"
     assert unit_of("max_rate_deg_s") == "deg/s"
     assert unit_of("sweep_deg") == "deg"
     assert unit_of("rate_hz") == "Hz"

@@ -28,6 +28,7 @@ For the route start both coincide at lap 1.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -230,6 +231,13 @@ def hybrid_params(params: dict[str, Any]) -> HybridParams:
                 break
         else:
             out[key] = value
+    fields = [f.name for f in dataclasses.fields(HybridParams)]
+    unknown = [key for key, name in zip(params, out, strict=True) if name not in fields]
+    if unknown:
+        raise ValueError(
+            f"the hybrid controller takes no parameter {unknown[0]!r}; it takes: {', '.join(fields)} "
+            "(angles in degrees as NAME_deg, turn rates as NAME_deg_s: docs/scenarios.md, Controllers)"
+        )
     return HybridParams(**out)
 
 

@@ -21,28 +21,12 @@ from pydantic.fields import FieldInfo
 from agvnav.world.limits import limits_reference
 from agvnav.world.scenario import Scenario
 from agvnav.world.strict import attribute_docs
-from agvnav.world.vehicle_specs import (
-    AckermannSpec,
-    DifferentialSpec,
-    MecanumSpec,
-    TrackedSpec,
-    TractorTrailerSpec,
-    TricycleRearSpec,
-    TricycleSpec,
-)
+from agvnav.world.vehicle_specs import VEHICLE_KINDS
 
 __all__ = ["VEHICLE_SPECS", "KeyDoc", "scenario_reference", "schema_rows", "unit_of"]
 
-#: The vehicle specs in the order the reference lists them.
-VEHICLE_SPECS: tuple[type[BaseModel], ...] = (
-    TricycleSpec,
-    TricycleRearSpec,
-    AckermannSpec,
-    DifferentialSpec,
-    TractorTrailerSpec,
-    MecanumSpec,
-    TrackedSpec,
-)
+#: The vehicle specs in the order the reference lists them (the kinds' registry).
+VEHICLE_SPECS: tuple[type[BaseModel], ...] = tuple(VEHICLE_KINDS.values())
 
 # key suffix -> unit, longest suffix first
 _UNITS = (
@@ -54,6 +38,7 @@ _UNITS = (
     ("_hz", "Hz"),
     ("_rpm", "rpm"),
     ("_per_rev", "counts/rev"),
+    ("_per_m", "1/m"),
     ("_m", "m"),
     ("_s", "s"),
     ("_v", "V"),
