@@ -165,3 +165,11 @@ def test_the_localizer_drops_bad_readings_when_running_and_raises_in_the_api() -
         api.predict(0.10, 1e300, 0.0)
     with pytest.raises(ValueError, match="before the latest input"):
         api.predict(0.01, 0.0, 0.0)
+
+
+def test_the_fix_gate_is_the_chi_square_quantile() -> None:
+    from scipy.stats import chi2
+
+    from agvnav.positioning.dynamic import FIX_GATE
+
+    assert chi2.isf(1e-9, 3) == pytest.approx(FIX_GATE, rel=1e-12)

@@ -34,7 +34,6 @@ from agvnav.geometry import angle_diff, between, circumcentre, compose, inverse,
 from agvnav.positioning.bounds import crlb, fisher_information
 from agvnav.positioning.estimator import StreamingEstimator
 from agvnav.positioning.identification import bearing_model, edge_offset, measurement_variance
-from agvnav.positioning.integrity import chi2_threshold
 from agvnav.positioning.plausibility import sound_state
 from agvnav.positioning.triangulation import triangulate
 
@@ -51,8 +50,9 @@ __all__ = [
 ]
 
 #: A fix whose Mahalanobis distance from the prediction exceeds this (chi-square, 3 dof, false
-#: alarm 1e-9: 6.7 sigma) is refused (:meth:`_FixEstimator._plausible_fix`).
-FIX_GATE = chi2_threshold(3, 1e-9)
+#: alarm 1e-9: 6.7 sigma; ``scipy.stats.chi2.isf(1e-9, 3)``, a literal so that importing agvnav
+#: does not import scipy.stats, issue 11) is refused (:meth:`_FixEstimator._plausible_fix`).
+FIX_GATE = 44.841275330562404
 
 
 def centre_bearings(
