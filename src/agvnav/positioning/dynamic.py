@@ -34,6 +34,7 @@ from agvnav.geometry import angle_diff, between, circumcentre, compose, inverse,
 from agvnav.positioning.bounds import crlb, fisher_information
 from agvnav.positioning.estimator import StreamingEstimator
 from agvnav.positioning.identification import bearing_model, edge_offset, measurement_variance
+from agvnav.positioning.plausibility import sound_state
 from agvnav.positioning.triangulation import triangulate
 
 __all__ = [
@@ -47,6 +48,11 @@ __all__ = [
     "predicted_position_variances",
     "propagate_bearings",
 ]
+
+#: A fix whose Mahalanobis distance from the prediction exceeds this (chi-square, 3 dof, false
+#: alarm 1e-9: 6.7 sigma; ``scipy.stats.chi2.isf(1e-9, 3)``, a literal so that importing agvnav
+#: does not import scipy.stats, issue 11) is refused (:meth:`_FixEstimator._plausible_fix`).
+FIX_GATE = 44.841275330562404
 
 
 def centre_bearings(
@@ -230,22 +236,53 @@ class _FixEstimator(StreamingEstimator):
     """Shared machinery of the fix-based methods: a buffer of identified reflections.
 
     Each entry is ``(t, edge bearing, reflector row, odometric pose of base_link)``;
-    ``_fix`` forms a fix at the latest entry and returns ``(pose, covariance)`` or None.
+    ``_fix`` forms a fix at the latest entry and returns ``(pose, covariance)`` or None. A
+    fix replaces the estimate only when it is plausible (:meth:`_plausible_fix`); a refused
+    one is counted in ``n_fixes_refused`` and in :attr:`n_dropped` as ``"implausible_fix"``.
     """
 
     def __init__(self, world: Any, mount: ArrayLike = (0.0, 0.0, 0.0), **kwargs: Any) -> None:
         super().__init__(world, mount, **kwargs)
         self._entries: deque[tuple[float, float, int, NDArray[np.float64]]] = deque()
         self.n_fixes = 0
+        self.n_fixes_refused = 0
 
     def _accept(self, t: float, bearing: float, assoc: Any) -> None:
         self._entries.append((t, bearing, assoc.index, self._odom.copy()))
         while self._entries and t - self._entries[0][0] > 2.0 / self.rate_hz + 1.0:
             self._entries.popleft()
         fix = self._fix()
-        if fix is not None:
-            self._x, self._P = fix
-            self.n_fixes += 1
+        if fix is None:
+            return
+        if not self._plausible_fix(*fix):
+            self.n_fixes_refused += 1
+            self.drops.drop(t, "implausible_fix")  # counted, never raised: a fix is no input
+            return
+        self._x, self._P = fix
+        self.n_fixes += 1
+
+    def _plausible_fix(self, pose: NDArray[np.float64], cov: NDArray[np.float64]) -> bool:
+        """Whether the fix ``pose (3,)`` with ``cov (3, 3)`` may replace the prediction.
+
+        It must be finite with a finite, symmetric, positive-definite covariance
+        (:func:`~agvnav.positioning.plausibility.sound_state`), and agree with the predicted
+        pose: ``e^T (P + cov + diag(slack_m², slack_m², slack_rad²))^-1 e <= FIX_GATE`` with
+        ``e`` the difference (heading wrapped). A triangulation of three bearings near the
+        critical circle, or of a misidentified reflection, can land kilometres away; the
+        prediction's own covariance grows with the odometry, so a vehicle that really moved
+        is still followed. The same test as the EKF's gate, on the whole fix at once.
+        """
+        if not sound_state(tuple(pose.tolist()), tuple(cov.reshape(9).tolist())):
+            return False
+        lim = self.plausibility
+        S = self._P + cov + np.diag([lim.slack_m**2, lim.slack_m**2, lim.slack_rad**2])
+        e = pose - self._x
+        e[2] = wrap_angle(e[2])
+        try:
+            d2 = float(e @ np.linalg.solve(S, e))
+        except np.linalg.LinAlgError:
+            return False
+        return d2 <= FIX_GATE
 
     def _on_start(self) -> None:
         self._entries.clear()

@@ -321,9 +321,15 @@ class EkfEstimator(StreamingEstimator):
                 "this estimator was built without walls and rangers (make_estimator(..., walls=, rangers=))"
             )
         self.wall_ranges.check_names(list(ranges))
-        t = self._check_time(t, "ranges")
-        if self._t is not None and t > self._t + 1e-9:
-            raise ValueError(f"ranges at t={t!r} s are ahead of the latest odometry at t={self._t!r} s; predict first")
+        try:
+            t = self._check_time(t, "ranges")
+            if self._t is not None and t > self._t + 1e-9:
+                raise ValueError(
+                    f"ranges at t={t!r} s are ahead of the latest odometry at t={self._t!r} s; predict first"
+                )
+        except ValueError as exc:  # a running vehicle drops them (counted)
+            self._refuse(self.t, "ranges_time", str(exc))
+            return 0
         self._t = t
         if not self._has_pose():
             return 0
@@ -345,6 +351,7 @@ class EkfEstimator(StreamingEstimator):
         self.n_ranges_accepted += fused
         if fused:
             self._t_last_accept = t
+        self._judge_state(t)
         return fused
 
     def _gate_accept(self, t: float, z: float) -> Association:

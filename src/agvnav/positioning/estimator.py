@@ -55,7 +55,14 @@ from agvnav.positioning.bounds import encoder_bearing_std
 from agvnav.positioning.gating import INDEX_MIN_REFLECTORS, BearingIndex, GateSpec
 from agvnav.positioning.identification import CHI2_1DOF_999, Association, InitialPoseResult, initial_pose_search
 from agvnav.positioning.integrity import IntegrityLimits, IntegrityMonitor, reflectors_in_sight
-from agvnav.positioning.plausibility import DropCounter, PlausibilityLimits, check_covariance, implausible_increment
+from agvnav.positioning.plausibility import (
+    MAX_DEPARTURE,
+    DropCounter,
+    PlausibilityLimits,
+    check_covariance,
+    implausible_increment,
+    sound_state,
+)
 
 __all__ = ["METHODS", "STATUSES", "StreamingEstimator", "make_estimator"]
 
@@ -425,6 +432,7 @@ class StreamingEstimator:
             self._init_buffer.clear()  # the start-up search and relocalisation need a standing vehicle
         if self.monitor.due(t):  # _watch_integrity(t) returns at once otherwise (issue 11: one call fewer)
             self._watch_integrity(t)
+        self._judge_state(t)
 
     def update(self, t: float, bearing: float) -> bool:
         """One raw anonymous reflection: time ``t`` (s), head-frame bearing (rad) of its start.
@@ -437,9 +445,15 @@ class StreamingEstimator:
             return False
         t, z = checked
         if self._t is not None and t < self._t:
-            return self._late(t, z)
-        if self._t_odometry is not None and self._t is not None and t > self._t:
-            span = t - self._t
+            accepted = self._late(t, z)
+            self._judge_state(t)
+            return accepted
+        # extrapolated no farther than max_gap_s past the latest odometry: beyond, the motion is
+        # unknown (the next odometry message is a time gap, :meth:`_blow_up`), and a reflection
+        # 1e300 s ahead once moved the pose 3e300 m with an inf covariance
+        horizon = _INF if self._t_odometry is None else self._t_odometry + self.plausibility.max_gap_s
+        if self._t_odometry is not None and self._t is not None and min(t, horizon) > self._t:
+            span = min(t, horizon) - self._t
             ahead_d, ahead_th, ahead_l = self._rate[0] * span, self._rate[1] * span, self._rate[2] * span
             done = self._advance
             self._advance = (done[0] + ahead_d, done[1] + ahead_th, done[2] + ahead_l)
@@ -448,13 +462,16 @@ class StreamingEstimator:
         if not self._has_pose() or self.monitor.verdict == "lost":
             self._init_buffer.append((t, z))
             self._try_start()
+            self._judge_state(t)
             return False
         before = (self._x_t, self._P_t)  # the prior of the fused call's update
         # compiled, the gate and the update in one call -- unless an acceptance may inflate P in
         # _watch_lockout between them (its window and counts do not depend on the state)
         fused = self.consider and compiled() and not self._lockout_on_accept(t)
         assoc = self._gate_accept(t, z) if fused else self._gate(t, z)
-        return self._after_gate(t, z, assoc, fused, before)
+        accepted = self._after_gate(t, z, assoc, fused, before)
+        self._judge_state(t)
+        return accepted
 
     def _after_gate(
         self, t: float, z: float, assoc: Association, fused: bool, before: tuple[tuple[float, ...], tuple[float, ...]]
@@ -511,6 +528,12 @@ class StreamingEstimator:
         integrated. Either way the motion of the span is unknown, and the position and
         heading variances grow by what the vehicle could have done in it (:meth:`_blow_up`).
 
+        The first message is judged too, as if it spanned ``max_gap_s``
+        (:func:`~agvnav.positioning.plausibility.implausible_increment`): there is no earlier
+        time to judge a speed by, and an increment of -1e6 m once moved the pose 1,000 km.
+        Refused, it is replaced by no motion, the variances growing over the time since the
+        first input (none when it is the first).
+
         The closed loop's every call (finite Python floats, in time order, plausible) takes a
         fast path that skips the conversions; anything else takes the full one.
         """
@@ -533,14 +556,17 @@ class StreamingEstimator:
                          f"t={self._t!r} s; feed odometry and reflections in time order")
             return None
         self._check_time(t, "odometry")
-        span = t - self._t_odometry if self._t_odometry is not None else 0.0
+        first = self._t_odometry is None
+        # the first message's span is unknown (judged over max_gap_s); a refused one is replaced by
+        # no motion, the pose's uncertainty growing over the time known since the first input
+        span = t - (self._t_first if first else self._t_odometry)  # type: ignore[operator]
         try:
             inc = (
                 _finite_float("odometry increment", delta_d),
                 _finite_float("odometry increment", delta_theta),
                 _finite_float("odometry increment", delta_lateral),
             )
-            reason = None if self._t_odometry is None else implausible_increment(self.plausibility, span, *inc)
+            reason = implausible_increment(self.plausibility, None if first else span, *inc)
         except ValueError as exc:
             inc, reason, message = (math.nan,) * 3, "non_finite", f"{exc} (t={t!r} s)"
         if reason is None:  # the message is formatted only for a dropped increment (issue 11: 16 us a call)
@@ -551,9 +577,32 @@ class StreamingEstimator:
                 f"limits {self.plausibility}"
             )
         self._refuse(t, reason, message)
-        rate = (0.0, 0.0, 0.0) if reason == "time_gap" else self._rate
+        rate = (0.0, 0.0, 0.0) if reason == "time_gap" or first else self._rate
         self._blow_up(span, rate)
         return t, rate[0] * span, rate[1] * span, rate[2] * span
+
+    def _judge_state(self, t: float) -> None:
+        """After every call: a pose and covariance that are not sound make the estimator ``"lost"``.
+
+        Sound: a finite pose and a finite, symmetric, positive-definite ``P``
+        (:func:`~agvnav.positioning.plausibility.sound_state`). The inputs are checked before
+        they reach the state (plausibility, time gaps, the first odometry message, fixes
+        against the prediction), so this is the last line: whatever still broke the state
+        (rounding in an update of an extreme ``P``) never leaves a usable status over it. Lost,
+        the estimator stops correcting and relocalises (class docstring); the event is
+        counted in :attr:`n_dropped` as ``"broken_state"`` (never raised: it is no input).
+        """
+        if sound_state(self._x_t, self._P_t) or not self._has_pose() or self.monitor.verdict == "lost":
+            return
+        self._lose(t, "broken_state")
+
+    def _lose(self, t: float, reason: str) -> None:
+        """Make the verdict ``"lost"`` for ``reason``, counted in :attr:`n_dropped` (see :meth:`_judge_state`)."""
+        self.drops.drop(t, reason)
+        self.monitor.verdict = "lost"
+        self.monitor.reasons = (reason,)
+        self.monitor.quality = 0.0
+        self._init_buffer.clear()
 
     def _plausible_rate(self, span: float, dd: float, dth: float, dl: float) -> tuple[float, float, float]:
         """The rate (m/s, rad/s, m/s) of an accepted increment over ``span`` (s), capped at the plausibility limits.
@@ -582,8 +631,10 @@ class StreamingEstimator:
         (a time gap: the rate is 0).
         """
         lim = self.plausibility
-        d2 = ((lim.max_speed_m_s + math.hypot(rate[0], rate[2])) * span) ** 2
-        a2 = ((lim.max_yaw_rate_rad_s + abs(rate[1])) * span) ** 2
+        # capped: a gap of 1e300 s would overflow (``**`` raises OverflowError, ``*`` gives inf)
+        d = min((lim.max_speed_m_s + math.hypot(rate[0], rate[2])) * span, MAX_DEPARTURE)
+        a = min((lim.max_yaw_rate_rad_s + abs(rate[1])) * span, MAX_DEPARTURE)
+        d2, a2 = d * d, a * a
         P = list(self._P_t)
         P[0], P[4], P[8] = P[0] + d2, P[4] + d2, P[8] + a2
         self._P_t = tuple(P)
@@ -615,7 +666,10 @@ class StreamingEstimator:
         if not self.late_updates or not self._has_pose() or self.monitor.verdict == "lost":
             self._refuse(t, "late", f"reflection at t={t!r} s arrived after t={self._t!r} s")
             return False
-        span = self._t - t if self._t is not None else 0.0
+        t_now = self._t if self._t is not None else t  # moved back only over the extrapolated span (update)
+        if self._t_odometry is not None:
+            t_now = min(t_now, self._t_odometry + self.plausibility.max_gap_s)
+        span = max(t_now - t, 0.0)
         back = (-self._rate[0] * span, -self._rate[1] * span, -self._rate[2] * span)
         x, y, psi = self._x_t
         xr, yr, psir, f02, f12 = _fast.twist_step(x, y, psi, *back)

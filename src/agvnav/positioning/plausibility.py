@@ -18,7 +18,19 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["DropCounter", "PlausibilityLimits", "check_covariance", "implausible_increment"]
+__all__ = [
+    "MAX_DEPARTURE",
+    "DropCounter",
+    "PlausibilityLimits",
+    "check_covariance",
+    "implausible_increment",
+    "sound_state",
+]
+
+#: Largest departure (m, rad) a refused span may add to the pose's std: the growth of ``P`` for a
+#: time gap of ``1e300`` s would overflow to inf (a 1,000 km std already says "position unknown",
+#: and the integrity monitor's ``uncertainty`` check makes the verdict ``lost`` long before).
+MAX_DEPARTURE = 1e6
 
 
 @dataclass(frozen=True)
@@ -59,14 +71,20 @@ class PlausibilityLimits:
 
 
 def implausible_increment(
-    limits: PlausibilityLimits, span: float, delta_d: float, delta_theta: float, delta_lateral: float = 0.0
+    limits: PlausibilityLimits, span: float | None, delta_d: float, delta_theta: float, delta_lateral: float = 0.0
 ) -> str | None:
     """Why the odometry increment over ``span`` (s) is impossible, or None when it is plausible.
 
     Reasons: ``"time_gap"`` (``span > max_gap_s``), ``"too_fast"`` (distance beyond
     ``max_speed_m_s * span + slack_m``), ``"turns_too_fast"`` (heading change beyond
     ``max_yaw_rate_rad_s * span + slack_rad``). Increments in m and rad.
+
+    ``span=None``: the first message, whose span is unknown (there is no earlier odometry):
+    it is judged as if it spanned the largest gap allowed, ``max_gap_s`` (with the defaults
+    30 m and 30 rad), so a spike or a counter wrap in the very first message is caught too.
     """
+    if span is None:
+        span = limits.max_gap_s
     if span > limits.max_gap_s:
         return "time_gap"
     if math.hypot(delta_d, delta_lateral) > limits.max_speed_m_s * span + limits.slack_m:
@@ -89,6 +107,28 @@ def check_covariance(name: str, value: ArrayLike) -> NDArray[np.float64]:
     if not eig[0] > 0.0:
         raise ValueError(f"{name} must be positive definite, smallest eigenvalue {eig[0]!r}")
     return 0.5 * (P + P.T)
+
+
+def sound_state(x: tuple[float, ...], P: tuple[float, ...]) -> bool:
+    """Whether pose ``x`` (3 floats, m, rad) is finite and ``P`` (9 floats row-major, m², rad²) a
+    finite, symmetric, positive-definite covariance.
+
+    Positive definite by Sylvester's criterion (the leading minors, which is what a Cholesky
+    factorisation succeeds on up to rounding); symmetric within 1e-9 relative. Plain float
+    arithmetic: it runs after every call of a streaming estimator.
+    """
+    x0, x1, x2 = x
+    p0, p1, p2, p3, p4, p5, p6, p7, p8 = P
+    if not (-math.inf < x0 < math.inf and -math.inf < x1 < math.inf and -math.inf < x2 < math.inf):
+        return False
+    if not (0.0 < p0 < math.inf and 0.0 < p4 < math.inf and 0.0 < p8 < math.inf):
+        return False
+    tol = 1e-9 * (p0 + p4 + p8)
+    if not (abs(p1 - p3) <= tol and abs(p2 - p6) <= tol and abs(p5 - p7) <= tol):  # NaN compares False too
+        return False
+    minor = p0 * p4 - p1 * p3
+    det = p0 * (p4 * p8 - p5 * p7) - p1 * (p3 * p8 - p5 * p6) + p2 * (p3 * p7 - p4 * p6)
+    return minor > 0.0 and math.inf > det > 0.0
 
 
 class DropCounter:

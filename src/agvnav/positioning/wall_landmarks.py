@@ -56,6 +56,13 @@ from agvnav._validate import require_finite, require_nonnegative, require_positi
 from agvnav.geometry import angle_diff, wrap_angle
 from agvnav.odometry import OdometryNoise, integrate_pose
 from agvnav.positioning._fast import predict_covariance, process_noise
+from agvnav.positioning.plausibility import (
+    MAX_DEPARTURE,
+    DropCounter,
+    PlausibilityLimits,
+    implausible_increment,
+    sound_state,
+)
 from agvnav.sensors.ultrasonic import ConeEcho, UltrasonicArray, UltrasonicSensor, check_wall_segments
 
 __all__ = [
@@ -256,6 +263,20 @@ class WallLandmarkLocalizer:
     initial_covariance : ``(3, 3)`` covariance of ``pose`` (default 1 mm, 1 mrad std).
     range_std : std (m) of one range for the covariance of a calibration (default the
         rangers' mean ``noise_std``, else 3 mm).
+    strict : True (the API): a non-finite, out-of-order or implausible input raises
+        ValueError. False (a running vehicle): it is dropped and counted in :attr:`n_dropped`
+        per reason, as the streaming estimators do
+        (:class:`~agvnav.positioning.estimator.StreamingEstimator`).
+    plausibility : :class:`~agvnav.positioning.plausibility.PlausibilityLimits` (max speed
+        and yaw rate, max odometry gap) an odometry increment is judged by; the first one
+        as if it spanned ``max_gap_s`` (its span is unknown).
+
+    A refused odometry increment is replaced by no motion and the covariance grows by what
+    the vehicle could have done in its span (as
+    :meth:`~agvnav.positioning.estimator.StreamingEstimator.predict` does for a time gap);
+    a ping's readings that are not finite ranges are taken as no echo. Whatever would leave
+    the pose non-finite or the covariance not symmetric positive definite is not applied
+    (``"broken_state"`` in :attr:`n_dropped`).
 
     The estimator interface of docs/ARCHITECTURE.md: :meth:`predict` with the odometry
     increment, :meth:`update_ranges` with the readings of one instant, then ``pose``,
@@ -296,7 +317,12 @@ class WallLandmarkLocalizer:
         odometry_noise: OdometryNoise | None = None,
         initial_covariance: ArrayLike | None = None,
         range_std: float | None = None,
+        strict: bool = True,
+        plausibility: PlausibilityLimits | None = None,
     ) -> None:
+        self.strict = bool(strict)
+        self.plausibility = PlausibilityLimits() if plausibility is None else plausibility
+        self.drops = DropCounter()
         self.params = params or LandmarkParams()
         self.walls = check_wall_segments(walls) if np.size(walls) else np.zeros((0, 2, 2))
         self.rangers = rangers
@@ -319,6 +345,17 @@ class WallLandmarkLocalizer:
         self.reset(pose, t)
 
     @property
+    def n_dropped(self) -> dict[str, int]:
+        """Inputs dropped as implausible (``strict=False``), per reason."""
+        return dict(self.drops.by_reason)
+
+    def _refuse(self, t: float, reason: str, message: str) -> None:
+        """ValueError with ``message`` (strict), else count the dropped reading under ``reason``."""
+        if self.strict:
+            raise ValueError(message)
+        self.drops.drop(t, reason)
+
+    @property
     def gain(self) -> float:
         """Blend of each correction (``params.calibration_gain``)."""
         return self.params.calibration_gain
@@ -328,6 +365,7 @@ class WallLandmarkLocalizer:
         self.pose = require_finite("pose", pose).reshape(3).copy()
         self.covariance = require_finite("initial_covariance", self._P0).reshape(3, 3).copy()
         self.t, self.status = float(t), "dead_reckoning"
+        self._t_odometry: float | None = None  # the latest odometry message (s); None: the next is the first
         self.history.clear()
         names = self.rangers.names if self.rangers is not None else ()
         self._last = {name: _Reading() for name in names}
@@ -340,14 +378,49 @@ class WallLandmarkLocalizer:
         [seed004 eq3] [seed004 eq4] [seed004 eq5] with ``rule="euler"``;
         ``delta_lateral`` (body-frame y, holonomic vehicles) is added at the old heading.
         """
-        if not (math.isfinite(delta_d) and math.isfinite(delta_theta) and math.isfinite(delta_lateral)):
-            raise ValueError("delta_d, delta_theta and delta_lateral must be finite")
+        t = float(t)
+        if not (math.isfinite(t) and t >= self.t):
+            self._refuse(self.t, "out_of_order" if math.isfinite(t) else "non_finite",
+                         f"odometry at t={t!r} s comes before the latest input at t={self.t!r} s")
+            return
+        # the first message's span is unknown (the start time may be a placeholder): judged over max_gap_s
+        span = None if self._t_odometry is None else t - self._t_odometry
+        increment = (float(delta_d), float(delta_theta), float(delta_lateral))
+        if not all(math.isfinite(v) for v in increment):
+            reason: str | None = "non_finite"
+            message = "delta_d, delta_theta and delta_lateral must be finite"
+        else:
+            reason = implausible_increment(self.plausibility, span, *increment)
+            message = f"odometry increment {increment} over {span!r} s at t={t!r} s is implausible ({reason})"
+        if reason is not None:
+            self._refuse(t, reason, message)
+            self._t_odometry = t
+            self._blow_up(0.0 if span is None else span)
+            self.t, self.status = t, "dead_reckoning"
+            return
+        self._t_odometry = t
+        pose, P = self.pose, self.covariance
         psi = float(self.pose[2])
         self.pose = integrate_pose(self.pose, delta_d, delta_theta, rule=self.rule)
         if delta_lateral != 0.0:
             self.pose[:2] += delta_lateral * np.array([-math.sin(psi), math.cos(psi)])
         self._grow_covariance(psi, delta_d, delta_theta, delta_lateral)
-        self.t, self.status = float(t), "dead_reckoning"
+        self.t, self.status = t, "dead_reckoning"
+        self._keep_sound(t, pose, P)
+
+    def _blow_up(self, span: float) -> None:
+        """Grow the position and heading variances by what the vehicle could do in ``span`` s (capped)."""
+        lim = self.plausibility
+        d = min(lim.max_speed_m_s * span, MAX_DEPARTURE)
+        a = min(lim.max_yaw_rate_rad_s * span, MAX_DEPARTURE)
+        self.covariance = self.covariance + np.diag([d * d, d * d, a * a])
+
+    def _keep_sound(self, t: float, pose: NDArray[np.float64], P: NDArray[np.float64]) -> None:
+        """Put back ``pose``, ``P`` (the state before the step) when the step broke the state; counted."""
+        if sound_state(tuple(self.pose.tolist()), tuple(self.covariance.reshape(9).tolist())):
+            return
+        self.pose, self.covariance = pose, P
+        self.drops.drop(t, "broken_state")
 
     def _grow_covariance(self, psi: float, dd: float, dth: float, dl: float) -> None:
         """``P' = F P F^T + Q`` of the Euler step (Crowley's ``Q``; lateral variance ``k_d |dl|``)."""
@@ -373,13 +446,16 @@ class WallLandmarkLocalizer:
         if self.rangers is None:
             raise ValueError("this localizer was built without rangers: give rangers= to use update_ranges")
         t = float(t)
-        if not math.isfinite(t) or t < self.t - 1e-12:
-            raise ValueError(f"ranges at t={t!r} s come before the latest input at t={self.t!r} s")
         unknown = set(ranges) - set(self._last)
         if unknown:
             raise ValueError(f"unknown rangers {sorted(unknown)}; the array has {list(self.rangers.names)}")
+        if not math.isfinite(t) or t < self.t - 1e-12:
+            self._refuse(self.t, "out_of_order" if math.isfinite(t) else "non_finite",
+                         f"ranges at t={t!r} s come before the latest input at t={self.t!r} s")
+            return 0
         for name, value in ranges.items():
-            self._last[name] = _Reading(t, float(value))
+            r = float(value)
+            self._last[name] = _Reading(t, r if 0.0 <= r < math.inf else math.nan)  # else no echo
         n_before = len(self.history)
         if ranges and self.walls.shape[0]:
             self._landmark_updates(t, set(ranges))
@@ -511,7 +587,12 @@ class WallLandmarkLocalizer:
         K = self.gain * direction
         A = np.eye(3) - np.outer(K, direction)
         P = A @ self.covariance @ A.T + variance * np.outer(K, K)
-        self.covariance = 0.5 * (P + P.T)
+        P = 0.5 * (P + P.T)
+        if not sound_state(tuple(after.tolist()), tuple(P.reshape(9).tolist())):
+            self.history.pop()  # not applied (an extreme covariance the update's rounding broke)
+            self.drops.drop(t, "broken_state")
+            return
+        self.covariance = P
         self.pose, self.t, self.status = after, float(t), "tracking"
 
 
