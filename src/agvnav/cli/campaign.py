@@ -47,7 +47,11 @@ REPLAY_OPT = typer.Option(
 
 def _library() -> Any:
     try:
+        import importlib
+
         import agvnav.campaign as lib
+
+        importlib.import_module("agvnav.campaign.runner")  # Dask, pyarrow (the package imports without them)
     except ImportError as exc:
         raise fail(f"agvnav campaign needs the campaign extra: pip install 'agvnav[campaign]' ({exc})") from None
     return lib
