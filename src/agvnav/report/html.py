@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.bench.common import display_unit, format_number
+from agvnav._display import display_unit, format_number
 from agvnav.geometry import lateral_position_error, wrap_angle
 from agvnav.report.plots import pyplot
 
