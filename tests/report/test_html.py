@@ -256,3 +256,17 @@ def test_the_browser_check_catches_errors_and_external_requests(tmp_path):
     problems, _, _ = _visit(page, tmp_path / "profile")
     assert problems["console"] and problems["exceptions"]
     assert problems["requests"] == ["https://example.com/a.js"]
+
+
+def test_the_events_section_is_a_table_per_kind_with_units():
+    """A fault window and a guard window show as rows with their times in s, never as a raw list (issue 29)."""
+    from agvnav.report.html import metrics_table
+
+    page = metrics_table({"scenario": "x", "events": {
+        "faults": [{"index": 0, "kind": "blind", "start_s": 4.0, "end_s": 16.0}],
+        "positioning_guard": {"windows": [{"level": "slow", "start_s": 5.0, "end_s": 17.05}], "stops": 0},
+    }})
+    assert "{'" not in page and "start_s" not in page
+    assert "<h4>faults</h4>" in page and "<h4>positioning guard windows</h4>" in page
+    assert "<th>start (s)</th><th>end (s)</th>" in page
+    assert "<td class=num>blind</td><td class=num>4.000</td><td class=num>16.00</td>" in page

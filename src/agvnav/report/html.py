@@ -355,8 +355,43 @@ def metrics_table(metrics: dict[str, Any]) -> str:
     for kind, rows in pivots.items():
         parts.append(f"<h3>{_QUALIFIED_TITLES[kind]}</h3>" + _pivot_table(rows, "stop" if kind == "[" else "edge"))
     for name, section in sections.items():
-        parts.append(f"<h3>{html.escape(name.replace('_', ' '))}</h3>" + _figure_table(_flatten(section), {}))
+        figures = _flatten(section)
+        table = _figure_table(figures, {}) if figures else ""
+        parts.append(f"<h3>{html.escape(name.replace('_', ' '))}</h3>" + table)
+        for title, records in _record_lists(section):
+            parts.append(f"<h4>{html.escape(title)}</h4>" + _records_table(records))
     return "\n".join(parts)
+
+
+def _is_records(value: Any) -> bool:
+    """A list of records (the ``events`` section's windows, stops, faults): one table row each."""
+    return isinstance(value, list) and bool(value) and all(isinstance(v, dict) for v in value)
+
+
+def _record_lists(section: dict[str, Any], outer: tuple[str, ...] = ()) -> list[tuple[str, list[dict[str, Any]]]]:
+    """Every list of records in a section, nested mappings walked, with its path as a title."""
+    found: list[tuple[str, list[dict[str, Any]]]] = []
+    for key, value in section.items():
+        path = (*outer, str(key))
+        if isinstance(value, dict):
+            found += _record_lists(value, path)
+        elif _is_records(value):
+            found.append((" ".join(path).replace("_", " "), value))
+    return found
+
+
+def _records_table(records: list[dict[str, Any]]) -> str:
+    """One row per record, one column per field with its display unit in the header (like :func:`_pivot_table`)."""
+    keys: list[str] = []
+    for record in records:
+        keys += [k for k in record if k not in keys]
+    columns = {k: _cell(k, [r.get(k) for r in records]) for k in keys}
+    head = "<tr>" + "".join(
+        f"<th>{html.escape(label)}{f' ({unit})' if unit else ''}</th>" for label, unit, _ in columns.values()
+    ) + "</tr>"
+    body = ["<tr>" + "".join(f"<td class=num>{columns[k][2][i]}</td>" for k in keys) + "</tr>"
+            for i in range(len(records))]
+    return f"<table>{head}{''.join(body)}</table>"
 
 
 def _flatten(section: dict[str, Any], outer: tuple[str, ...] = ()) -> list[tuple[str, str, Any]]:
@@ -371,6 +406,8 @@ def _flatten(section: dict[str, Any], outer: tuple[str, ...] = ()) -> list[tuple
         path = (*outer, str(key))
         if isinstance(value, dict):
             rows += _flatten(value, path)
+            continue
+        if _is_records(value):  # a table of its own (:func:`_record_lists`)
             continue
         unit_at = next((i for i in range(len(path) - 1, -1, -1) if display_unit(path[i])[1]), len(path) - 1)
         qualifier = " ".join(p.replace("_", " ") for i, p in enumerate(path) if i != unit_at)
