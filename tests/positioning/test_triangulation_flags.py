@@ -315,3 +315,69 @@ def test_batch_total_builds_no_per_pair_temporaries():
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert peak < 60 * len(b)
+
+
+# --- the single-fix checks: the former ones as the oracle ---------------------------------------------------
+def _old_check_single(r, b, h):
+    for name, arr in (("reflectors", r), ("bearings", b), ("heading_estimate", h)):
+        if arr is not None and not all(math.isfinite(v) for v in arr.ravel().tolist()):
+            raise ValueError(f"{name} contains NaN or inf")
+    pts = r.tolist()
+    n = len(pts)
+    d2 = [[(p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 for q in pts] for p in pts]
+    scale = max(max(row) for row in d2)
+    for i in range(n):
+        for j in range(i + 1, n):
+            if d2[i][j] <= LAYOUT_TOL**2 * scale:
+                raise ValueError(f"reflectors {i} and {j} coincide")
+    mx, my = sum(p[0] for p in pts) / n, sum(p[1] for p in pts) / n
+    sxx = sum((p[0] - mx) ** 2 for p in pts)
+    syy = sum((p[1] - my) ** 2 for p in pts)
+    sxy = sum((p[0] - mx) * (p[1] - my) for p in pts)
+    collinear = n >= 3 and sxx * syy - sxy * sxy <= LAYOUT_TOL * (sxx + syy) ** 2
+    if collinear and _old_parallel_rays(b).any():
+        raise tri._OnReflectorLine
+
+
+def _outcome(check, r, b, h):
+    try:
+        check(r, b, h)
+    except (ValueError, tri._OnReflectorLine) as exc:
+        return type(exc).__name__, str(exc)
+    return None
+
+
+@st.composite
+def single_fixes(draw):
+    n = draw(st.integers(1, 9))
+    r = draw(layouts(n))
+    if draw(st.integers(0, 9)) == 0:
+        r[draw(st.integers(0, n - 1)), draw(st.integers(0, 1))] = draw(st.sampled_from([math.nan, math.inf]))
+    with np.errstate(all="ignore"):
+        b = draw(bearings_for(r))
+    h = draw(st.sampled_from([None, 0.3, math.nan, -math.inf]))
+    return r, b, None if h is None else np.asarray(h)
+
+
+@given(single_fixes())
+def test_single_fix_checks_are_the_former_checks(fix):
+    """Same ValueError (same message) or the same on-the-line exit on the same single-fix input."""
+    r, b, h = fix
+    assert _outcome(tri._check_single, r, b, h) == _outcome(_old_check_single, r, b, h)
+
+
+def test_single_fix_fast_path_keeps_every_value_error():
+    r = np.array([[0.0, 10.0], [-8.66, -5.0], [8.66, -5.0]])
+    b = np.array([1.0, 2.0, 3.0])
+    for bad_r, bad_b, h, match in [
+        (r, np.array([1.0, math.nan, 3.0]), None, "bearings contains NaN"),
+        (np.array([[0.0, math.inf], [1.0, 0.0], [2.0, 1.0]]), b, None, "reflectors contains NaN"),
+        (r, b, math.nan, "heading_estimate contains NaN"),
+        (np.array([[0.0, 0.0], [0.0, 0.0], [2.0, 1.0]]), b, None, "reflectors 0 and 1 coincide"),
+        (r, b[:2], None, "bearings must have shape"),
+        (r[:, :1], b, None, "reflectors must have shape"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            triangulate(bad_r, bad_b, "total", heading_estimate=h)
+    with pytest.raises(ValueError, match="do not broadcast"):
+        triangulate(np.stack([r, r]), np.stack([b, b, b]), "total")
