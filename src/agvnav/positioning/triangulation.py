@@ -11,7 +11,8 @@ Methods (see each module):
   estimate (``None`` means 0: the method corrects any heading error away from the
   critical circle, but on it no estimate means no fix, so ``valid=False`` there);
 * ``"relative_angles"`` (``relative_angles``): circle intersection, heading-free;
-* ``"total"`` (``total``): ToTal, the speed baseline;
+* ``"total"`` (``total``): ToTal, the speed baseline; its batches run compiled
+  (``total.total_batch``, the NumPy kernel's numbers) when the kernels do (:mod:`agvnav._jit`);
 * ``"least_squares"`` (``least_squares``): maximum likelihood over N >= 3 bearings, or
   N >= 2 with ``heading_estimate`` and ``heading_std``.
 
@@ -234,7 +235,7 @@ def _check_single(r: NDArray[np.float64], b: NDArray[np.float64], h: NDArray[np.
 
     The same tests and sums as the batch flags' definition (:func:`_layout_flags`); the squared
     distances once per pair (``(p - q)**2 == (q - p)**2`` exactly), ``map`` rather than generators
-    (issue 29: 11 -> 4 µs of a 30 µs fix).
+    (issue 29: 11 -> 8 µs CPU of a ~30 µs fix, measured interleaved on a loaded machine).
     """
     pts = r.tolist()
     xs = [p[0] for p in pts]
@@ -449,15 +450,18 @@ def _solve(
     hf = None if h is None else np.broadcast_to(h, batch).reshape(m)
     bsf = None if bs is None else np.broadcast_to(bs, batch + (n,)).reshape(m, n)
     hsf = None if hs is None else np.broadcast_to(hs, batch).reshape(m)
-    layout_ok = _layout_ok(rf, bf)  # the validity flags, NaN/inf bearings included
+    fused = method == "total" and compiled()
+    # the validity flags, NaN/inf bearings included; ToTal compiled flags NaN/inf bearings itself, so
+    # a shared layout that is neither coincident nor collinear leaves it nothing to add
+    plain = fused and shared and not any(bool(f) for f in _layout_flags(rf))
+    layout_ok = None if plain else _layout_ok(rf, bf)
     out: dict[str, NDArray[Any]] = {k: np.empty(m) for k in ("x", "y", "heading", "quality")}
     out["valid"] = np.empty(m, dtype=bool)
     out["heading_from_estimate"] = np.zeros(m, dtype=bool)
     cov = None if bs is None else np.empty((m, 3, 3))
-    fused = method == "total" and compiled()
     if fused:  # one compiled pass, the NumPy kernel's numbers (total_batch)
         _total_batch(rf, bf, out)
-    for start in range(0, m, CHUNK) if cov is not None or not fused else ():
+    for start in range(0, m, CHUNK) if cov is not None or not fused else ():  # fused: only the covariance
         s = slice(start, min(start + CHUNK, m))
         rc = rf if shared else rf[s]
         hc = None if hf is None else hf[s]
@@ -470,7 +474,7 @@ def _solve(
                     out[key][s] = value
         if cov is not None:
             cov[s] = _covariance(method, rc, res, bsf[s], None if hsf is None else hsf[s])  # type: ignore[index]
-    valid = out["valid"] & layout_ok
+    valid = out["valid"] if layout_ok is None else out["valid"] & layout_ok
     if cov is not None and method != "least_squares":
         valid &= ~_nonlinear(rf, out["x"], out["y"], cov, out["heading_from_estimate"])
     for key in ("x", "y", "heading"):
