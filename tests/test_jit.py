@@ -192,6 +192,7 @@ def _estimator_kernel_outputs(rng: np.random.Generator) -> dict[str, list[bytes]
 
 
 _FAST = "positioning/test_integrity_fast.py::"
+_FLAGS = "positioning/test_triangulation_flags.py::"
 #: The integrity check's kernels (positioning._integrity_fast) and the test that runs each, compiled and
 #: interpreted, against the bits of a reference or of the other mode.
 _INTEGRITY_KERNEL_TESTS = {
@@ -213,6 +214,11 @@ _INTEGRITY_KERNEL_TESTS = {
     "window_fde": _FAST + "test_revolution_offset_and_window_fde_modes_agree_bit_for_bit",
     "_floats": _FAST + "test_revolution_offset_and_window_fde_modes_agree_bit_for_bit",
     "nis_per_reflector": _FAST + "test_nis_per_reflector_is_the_former_sum_in_order_of_first_sighting",
+    # batch triangulation (issue 29)
+    "total_batch": _FLAGS + "test_total_batch_modes_agree_bit_for_bit_and_equal_the_float_kernel",
+    "_div": _FLAGS + "test_div_is_numpys_division",
+    "_wrap": _FLAGS + "test_the_fast_wrap_is_wrap_angle_scalar_bit_for_bit",
+    "_layout_ok_kernel": _FLAGS + "test_layout_flags_are_the_former_flags_in_both_modes",
 }
 
 
