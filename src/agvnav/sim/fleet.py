@@ -187,8 +187,9 @@ def build_fleet(fleet: FleetScenario) -> BuiltFleet:
     ids = fleet.ids
     scenarios: list[Scenario] = []
     built: list[Built] = []
-    for i, sc in enumerate(fleet.vehicle_scenarios()):
-        sc = _apply_at(fleet, i, sc)
+    own = [_apply_at(fleet, i, sc) for i, sc in enumerate(fleet.vehicle_scenarios())]
+    _check_stations(fleet, own)
+    for i, sc in enumerate(own):
         try:
             b = build(sc)
         except ScenarioError as exc:
@@ -197,7 +198,6 @@ def build_fleet(fleet: FleetScenario) -> BuiltFleet:
             raise fleet.relocate(i, exc) from None
         scenarios.append(sc)
         built.append(b)
-    _check_stations(fleet, scenarios)
     _check_overlaps(fleet, built)
     bodies = [_body(vid, b.plant) for vid, b in zip(ids, built, strict=True)]
     n_obs = len(fleet.obstacles or [])

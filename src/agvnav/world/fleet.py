@@ -282,6 +282,7 @@ def parse_fleet(text: str, source: str = "<string>", base_dir: Path | None = Non
     data, nodes = load_yaml_document(text, source, "scenario")
     if not is_fleet_document(data):
         raise ScenarioError("not a fleet scenario: give the fleet key (fleet.vehicles)", (), 1, source)
+    _check_unique_ids(data, nodes, source)
     doc = validate_document(FleetScenario, data, nodes, source, base_dir)
     doc.__pydantic_private__["_data"] = data  # type: ignore[index]  # a vehicle's keys replace the shared ones
     line = node_line(nodes, ("fleet", "vehicles"))
@@ -295,6 +296,24 @@ def parse_fleet(text: str, source: str = "<string>", base_dir: Path | None = Non
                                 ("fleet", "vehicles", i, "at"), node_line(nodes, ("fleet", "vehicles", i, "at")),
                                 source)
     return doc
+
+
+def _check_unique_ids(data: Mapping[str, Any], nodes: Any, source: str) -> None:
+    """The second vehicle with an id already used: refused at its ``id`` key."""
+    fleet = data.get("fleet")
+    vehicles = fleet.get("vehicles") if isinstance(fleet, Mapping) else None
+    if not isinstance(vehicles, list):
+        return
+    seen: dict[str, int] = {}
+    for i, v in enumerate(vehicles):
+        vid = v.get("id") if isinstance(v, Mapping) else None
+        if not isinstance(vid, str):
+            continue
+        if vid in seen:
+            key: KeyPath = ("fleet", "vehicles", i, "id")
+            raise ScenarioError(f"duplicate vehicle id {vid!r} (vehicle {seen[vid]} has it)", key,
+                                node_line(nodes, key), source)
+        seen[vid] = i
 
 
 def load_fleet(path: str | Path) -> FleetScenario:
