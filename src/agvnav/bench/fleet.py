@@ -50,7 +50,7 @@ vehicle: {{model: differential, track_m: 0.5, wheel_radius_m: 0.08, encoder_coun
           truth: {{wheel_diameter_ratio: 1.002, track_ratio: 1.01, slip_k: 0.0001}}}}
 controller: {{name: kanayama, params: {{convergence_distance: 0.5}}}}
 scanner: {{rate_hz: 12.5, step_deg: 1.0}}
-reactive: {{}}
+reactive: {{approach_speed_m_s: 0.0}}   # fields for standing or crossing obstacles: the racks stay outside
 fleet:
   vehicles:
 """

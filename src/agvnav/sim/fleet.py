@@ -152,6 +152,8 @@ class BuiltFleet:
     duration: float
     n_obstacles: int
     """obstacles of the scenario itself in each vehicle's set (the other vehicles' bodies come after them)."""
+    seen: list[_Seen]
+    """per vehicle, its sensors holding obstacle sets and their reach."""
 
 
 def _apply_at(fleet: FleetScenario, i: int, sc: Scenario) -> Scenario:
@@ -201,10 +203,10 @@ def build_fleet(fleet: FleetScenario) -> BuiltFleet:
     _check_overlaps(fleet, built)
     bodies = [_body(vid, b.plant) for vid, b in zip(ids, built, strict=True)]
     n_obs = len(fleet.obstacles or [])
-    for i, b in enumerate(built):
-        _wire_others(b, scenarios[i], [bodies[j] for j in range(len(bodies)) if j != i])
+    seen = [_wire_others(b, scenarios[i], [bodies[j] for j in range(len(bodies)) if j != i])
+            for i, b in enumerate(built)]
     duration = float(fleet.duration_s) if fleet.duration_s is not None else max(b.duration for b in built)
-    return BuiltFleet(fleet, ids, scenarios, built, bodies, duration, n_obs)
+    return BuiltFleet(fleet, ids, scenarios, built, bodies, duration, n_obs, seen)
 
 
 def _check_stations(fleet: FleetScenario, scenarios: list[Scenario]) -> None:
@@ -231,21 +233,52 @@ def _check_overlaps(fleet: FleetScenario, built: list[Built]) -> None:
                                                             f"{fleet.ids[i]!r}: their start footprints touch")
 
 
-def _wire_others(b: Built, sc: Scenario, others: list[VehicleBody]) -> None:
+@dataclass
+class _Seen:
+    """What one vehicle's sensors may see of the others: its own scenario's obstacles, then the bodies
+    within each sensor's reach (updated every step, :func:`_cull`)."""
+
+    own: tuple[Obstacle, ...]
+    roles: list[tuple[Any, float]]
+    """(role holding an ``obstacles`` set, its reach in m)."""
+
+
+def _wire_others(b: Built, sc: Scenario, others: list[VehicleBody]) -> _Seen:
     """Make the other vehicles' bodies obstacles to this vehicle's goniometer, scanner and rangers."""
     own = tuple(obstacle_from_spec(o) for o in (sc.obstacles or []))
     obstacles = ObstacleSet((*own, *others))
     sensors = list(b.loop.sensors)
+    g = sc.goniometer
+    reach = {"reflections": g.max_range_m if g is not None else math.inf,
+             "scanner": sc.scanner.max_range_m if sc.scanner is not None else math.inf,
+             "ultrasonic": sc.ultrasonic.max_range_m if sc.ultrasonic is not None else math.inf}
     for k, s in enumerate(sensors):
         if isinstance(s, (OccludedReflections, ScannerRole, ObstacleRangers)):
             s.obstacles = obstacles
-        elif getattr(s, "name", "") == "reflections" and sc.goniometer is not None:
-            g = sc.goniometer
+        elif getattr(s, "name", "") == "reflections" and g is not None:
             sensors[k] = OccludedReflections(s, obstacles, b.world.reflector_xy,
                                              (g.mount[0], g.mount[1], math.radians(g.mount[2])))
         elif getattr(s, "name", "") == "ultrasonic":
             sensors[k] = ObstacleRangers(s, obstacles, ReactiveInputs(), None)
     b.loop.sensors = sensors
+    roles = [(s, reach.get(getattr(s, "name", ""), math.inf)) for s in sensors if hasattr(s, "obstacles")]
+    return _Seen(own, roles)
+
+
+#: Margin (m) added to a sensor's reach when the bodies it may see are chosen for a step.
+CULL_MARGIN_M = 2.0
+
+
+def _cull(bf: BuiltFleet, active: list[int]) -> None:
+    """Give each active vehicle's sensors only the bodies within their reach (plus margins) this step."""
+    xy = np.array([body.track.p1 for body in bf.bodies], dtype=np.float64)
+    r = np.array([body.radius for body in bf.bodies])
+    d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1]) - r[:, None] - r[None, :]
+    for i in active:
+        seen = bf.seen[i]
+        for role, reach in seen.roles:
+            near = np.flatnonzero(d[i] <= reach + CULL_MARGIN_M)
+            role.obstacles = ObstacleSet((*seen.own, *(bf.bodies[j] for j in near.tolist() if j != i)))
 
 
 @dataclass
@@ -304,6 +337,7 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
             if i in active:
                 p = body.plant.pose
                 tr.p1 = (float(p[0]), float(p[1]))
+        _cull(bf, active)
         for i in active:
             if not loops[i].sense():
                 ended_at[i] = t1
