@@ -166,3 +166,10 @@ def safety(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT,
 def mapping(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Reflector mapping (SLAM): reflectors found, spurious, map RMS and NEES per anchor; positioning on the map."""
     _run("mapping", json, quick, seed, wide)
+
+
+@bench_app.command("fleet")
+@user_errors
+def fleet(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
+    """A fleet in the warehouse (1 to 200 vehicles): CPU per vehicle-step, real-time factor, memory, separation."""
+    _run("fleet", json, quick, seed, wide)

@@ -42,6 +42,7 @@ from agvnav.geometry import wrap_angle, wrap_angle_scalar
 from agvnav.guidance import Path
 from agvnav.guidance.errors import tracking_errors
 from agvnav.sim.build import Built, build
+from agvnav.sim.engine import LoopOutput
 from agvnav.sim.events import add_event_columns, event_timeline
 from agvnav.sim.integrity import integrity_figures
 from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, reorientation_mask, transient_end_index
@@ -49,7 +50,9 @@ from agvnav.sim.reactive import reactive_figures
 from agvnav.world import WorldMap
 from agvnav.world.scenario import Scenario
 
-__all__ = ["END_TOLERANCE_M", "FAILURE_REASONS", "REFERENCE_STEP_RAD", "SimResult", "reference_steps", "simulate"]
+__all__ = [
+    "END_TOLERANCE_M", "FAILURE_REASONS", "REFERENCE_STEP_RAD", "SimResult", "reference_steps", "result_of", "simulate",
+]
 
 #: Reasons a run fails (``off_path_at_end`` carries its miss distance in parentheses).
 FAILURE_REASONS = ("collision", "jackknife", "infeasible", "positioning_lost", "timeout", "off_path_at_end")
@@ -110,6 +113,12 @@ def simulate(
     if built is None:
         built = build(scenario)
     out = built.loop.run(built.duration, scenario.end_hold_s, progress)
+    return result_of(scenario, built, out, spec)
+
+
+def result_of(scenario: Scenario, built: Built, out: LoopOutput, spec: TransientSpec = DEFAULT_TRANSIENT) -> SimResult:
+    """The :class:`SimResult` of ``built``'s loop output ``out`` (a run of :func:`simulate`, or one
+    vehicle of a fleet stepped in lockstep: :mod:`agvnav.sim.fleet`)."""
     series = out.series
     _add_true_errors(series, built)
     mission_module: Any = None
