@@ -70,6 +70,7 @@ __all__ = [
     "FleetScenario",
     "FleetSpec",
     "FleetVehicleSpec",
+    "VehicleSections",
     "is_fleet_document",
     "load_fleet",
     "parse_fleet",
@@ -89,7 +90,38 @@ PER_VEHICLE_KEYS = (
 )
 
 
-class FleetVehicleSpec(StrictModel):
+class VehicleSections(StrictModel):
+    """The scenario sections a fleet's vehicle may give itself; at the top of the file, the fleet's defaults.
+
+    In ``fleet.vehicles[]`` a section replaces the default of the same name as a whole; null (not
+    given) takes the default.
+    """
+
+    vehicle: VehicleSpec | None = None
+    """the vehicle."""
+    traction: TractionSpec | None = None
+    """the speed profile."""
+    goniometer: GoniometerSpec | None = None
+    """the goniometer."""
+    ultrasonic: UltrasonicSpec | None = None
+    """the ultrasonic rangers."""
+    controller: ControllerSpec | None = None
+    """the path follower."""
+    positioning: PositioningSpec | None = None
+    """the estimator."""
+    min_reflectors_in_view: Annotated[int, Field(ge=3)] | None = None
+    """reflectors the goniometer must see all along the route."""
+    safety: SafetySpec | None = None
+    """the positioning guard."""
+    faults: list[FaultSpec] | None = None
+    """faults injected into the vehicle."""
+    scanner: ScannerSpec | None = None
+    """the safety scanner."""
+    reactive: ReactiveSpec | None = None
+    """the safety fields and reaction."""
+
+
+class FleetVehicleSpec(VehicleSections):
     """One vehicle of the fleet: its id, where it starts, and the scenario keys it gives itself."""
 
     id: Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")]
@@ -97,34 +129,12 @@ class FleetVehicleSpec(StrictModel):
     at: str | tuple[Finite, Finite, Finite] | None = None
     """start of a mission vehicle: a node id of its network, or a pose x (m), y (m), heading (deg) on a node
     (null: the mission's start)."""
-    vehicle: VehicleSpec | None = None
-    """the vehicle (null: the shared vehicle)."""
     mission: MissionSpec | None = None
     """its mission on a route network."""
     path: PathSpec | None = None
     """its path, instead of a mission."""
     start: StartSpec | None = None
     """initial placement relative to its path start."""
-    traction: TractionSpec | None = None
-    """its speed profile (null: the shared one)."""
-    goniometer: GoniometerSpec | None = None
-    """its goniometer (null: the shared one)."""
-    ultrasonic: UltrasonicSpec | None = None
-    """its ultrasonic rangers (null: the shared ones)."""
-    controller: ControllerSpec | None = None
-    """its path follower (null: the shared one)."""
-    positioning: PositioningSpec | None = None
-    """its estimator (null: the shared one)."""
-    min_reflectors_in_view: Annotated[int, Field(ge=3)] | None = None
-    """reflectors its goniometer must see all along its route (null: the shared figure)."""
-    safety: SafetySpec | None = None
-    """its positioning guard (null: the shared one)."""
-    faults: list[FaultSpec] | None = None
-    """faults injected into this vehicle (null: the shared list)."""
-    scanner: ScannerSpec | None = None
-    """its safety scanner (null: the shared one)."""
-    reactive: ReactiveSpec | None = None
-    """its safety fields and reaction (null: the shared ones)."""
 
 
 class FleetSpec(StrictModel):
@@ -143,7 +153,7 @@ class FleetSpec(StrictModel):
         return self
 
 
-class FleetScenario(SourcedModel):
+class FleetScenario(VehicleSections, SourcedModel):
     """A fleet run: shared world, time and defaults, and ``fleet.vehicles``. Lengths m, times s, angles deg."""
 
     name: str = "fleet"
@@ -164,28 +174,6 @@ class FleetScenario(SourcedModel):
     """how the real world differs from the map (shared)."""
     obstacles: list[ObstacleSpec] | None = None
     """obstacles the map does not hold (shared by every vehicle)."""
-    vehicle: VehicleSpec | None = None
-    """default vehicle of the fleet's vehicles."""
-    traction: TractionSpec | None = None
-    """default speed profile."""
-    goniometer: GoniometerSpec | None = None
-    """default goniometer."""
-    ultrasonic: UltrasonicSpec | None = None
-    """default ultrasonic rangers."""
-    controller: ControllerSpec | None = None
-    """default path follower."""
-    positioning: PositioningSpec | None = None
-    """default estimator."""
-    min_reflectors_in_view: Annotated[int, Field(ge=3)] | None = None
-    """default reflectors in view."""
-    safety: SafetySpec | None = None
-    """default positioning guard."""
-    faults: list[FaultSpec] | None = None
-    """default faults (every vehicle that gives none)."""
-    scanner: ScannerSpec | None = None
-    """default safety scanner."""
-    reactive: ReactiveSpec | None = None
-    """default safety fields and reaction."""
     fleet: FleetSpec
     """the vehicles."""
 
