@@ -125,6 +125,8 @@ def test_engine_splits_odometry_at_measurement_instants(short_scenario):
     b = build(short_scenario)
     fake = _FakeEstimator()
     b.loop.estimator = fake
+    (gonio,) = b.loop.sensors
+    gonio.estimator = fake  # a sensor feeds the estimator it is wired to
     b.autopilot.profile.reset(0.2)
     out = b.loop.run(2.0)
     times = [c[1] for c in fake.calls]

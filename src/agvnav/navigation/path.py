@@ -110,15 +110,13 @@ class PathAutopilot:
         self.failure: str | None = None
         if watch is not None:
             self.signal_names = (*PathAutopilot.signal_names, *watch.signal_names)
-        self.follower = follower
         self.path = path
         self.profile = profile
         self.plant = plant
         self.family = str(plant.family)
         self.geometry = plant.geometry
         self._steering = _steering_reading(plant) if self.family == "steered" else None
-        self._drive = _drive_speed(follower) if self.family == "steered" else None
-        self._twist = _twist_output(follower) if self.family == "holonomic" else None
+        self.follower = follower
         self._wheels = _wheels(plant.geometry) if self.family == "unicycle" else (math.nan, math.nan)
         self.offset = float(point_offset)
         self.finished = False
@@ -137,6 +135,17 @@ class PathAutopilot:
         self.progress_window = float(progress_window)
         self.end_tolerance = float(end_tolerance)
         self._end = tuple(float(c) for c in path.point_at(self._length))
+
+    @property
+    def follower(self) -> PathFollower:
+        """The path follower (replaceable: its family's extra output is looked up once, here)."""
+        return self._follower
+
+    @follower.setter
+    def follower(self, follower: PathFollower) -> None:
+        self._follower = follower
+        self._drive = follower if isinstance(follower, DriveSpeed) else None
+        self._twist = follower if isinstance(follower, TwistOutput) else None
 
     def _tracked_point(self, pose: Sequence[float] | NDArray[np.float64]) -> tuple[float, float]:
         """The tracked point (base_link, or ``point_offset`` ahead along the heading) of a pose (m)."""
@@ -253,8 +262,8 @@ class PathAutopilot:
         return float(err.eps_c), float(err.xi_r)  # a steered follower's, seed 000 Fig. 5
 
     def _plant_command(self, v: float, v_lat: float, rate: float, steering: float) -> tuple[float, ...]:
-        if self._drive is not None:  # steered: the driven wheel's speed for the tracked point's speed v
-            return self._drive.drive_speed(v, steering), rate
+        if self.family == "steered":  # the driven wheel's speed for the tracked point's speed v
+            return _drive_speed(self._drive).drive_speed(v, steering), rate
         if self.family == "unicycle":
             track, wheel_radius = self._wheels
             v_right, v_left = wheel_speeds_unchecked(v, rate, track)
@@ -287,19 +296,10 @@ def _steering_reading(plant: Plant) -> SteeringReading:
     return plant
 
 
-def _drive_speed(follower: PathFollower) -> DriveSpeed:
-    """The steered follower's driven-wheel speed conversion, or ValueError."""
-    if not isinstance(follower, DriveSpeed):
-        raise ValueError(f"a steered vehicle's follower converts the speed for the driven wheel (drive_speed); "
-                         f"{type(follower).__name__} does not")
-    return follower
-
-
-def _twist_output(follower: PathFollower) -> TwistOutput:
-    """The holonomic follower's twist output, or ValueError."""
-    if not isinstance(follower, TwistOutput):
-        raise ValueError(f"a holonomic vehicle's follower gives a body twist (last_twist); "
-                         f"{type(follower).__name__} does not")
+def _drive_speed(follower: DriveSpeed | None) -> DriveSpeed:
+    """The steered follower's driven-wheel speed conversion, or ValueError when it has none."""
+    if follower is None:
+        raise ValueError("a steered vehicle's follower converts the speed for the driven wheel (drive_speed)")
     return follower
 
 
