@@ -114,7 +114,7 @@ class BearingEstimator(Estimator, Protocol):
 
 
 class RangeEstimator(Estimator, Protocol):
-    """An estimator of ultrasonic wall ranges (seed 004 eqs 6-8)."""
+    """An estimator of ultrasonic wall ranges [seed004 eq6] [seed004 eq7] [seed004 eq8]."""
 
     def update_ranges(self, t: float, ranges: Mapping[str, float]) -> object:
         """The readings (m) of the sensors that pinged at ``t`` (s), by sensor name."""
