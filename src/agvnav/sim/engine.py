@@ -15,9 +15,9 @@ One step of length ``dt`` from ``t_k`` to ``t_{k+1}``:
    measurement, then the rest of the increment up to ``t_{k+1}``;
 5. one row of every signal is recorded.
 
-The three roles are protocols, so a differential or tracked plant with ultrasonic
-sensors and a hybrid-automaton autopilot (issue 6) plugs in without touching
-this loop. The engine holds no physics, estimation or control of its own.
+The roles are the protocols of :mod:`agvnav.roles` (re-exported here), so a
+differential or tracked plant with ultrasonic sensors and a hybrid-automaton
+autopilot (issue 6) plugs in without touching this loop. The engine holds no physics, estimation or control of its own.
 Determinism: every random draw comes from generators spawned from the scenario
 seed, one per role, in a fixed order.
 """
@@ -29,82 +29,17 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from itertools import repeat
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.roles import Autopilot, Estimator, Plant, Sensor
 from agvnav.sim.recorder import EventLog, Recorder
 
 __all__ = [
     "MAX_RECORDED_ROWS", "Autopilot", "ClosedLoop", "Estimator", "LoopOutput", "Plant", "Sensor", "record_stride",
 ]
-
-PoseFunction = Callable[[NDArray[np.float64]], NDArray[np.float64]]
-
-
-class Plant(Protocol):
-    """Truth vehicle with its proprioceptive sensors (encoders)."""
-
-    signal_names: tuple[str, ...]
-
-    def advance(self, command: Sequence[float], t0: float, dt: float, rng: np.random.Generator) -> None:
-        """Apply ``command`` (vehicle-specific, e.g. ``(v, gamma_dot)``) from ``t0`` for ``dt`` s."""
-
-    def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """True base_link pose ``(k, 3)`` at instants ``t (k,)`` inside the last step."""
-
-    def odometry(self) -> tuple[float, float, float]:
-        """Measured body-twist increment ``(delta_d, delta_theta, delta_lateral)`` of base_link over the last step."""
-
-    def failure(self) -> str | None:
-        """A physical failure that ends the run (e.g. ``"jackknife"``), else None."""
-
-    def signals(self) -> tuple[float, ...]:
-        """Current values of ``signal_names`` (truth and raw sensor readings)."""
-
-
-class Sensor(Protocol):
-    """An exteroceptive sensor: scans a time window along the true motion."""
-
-    event_names: tuple[str, ...]
-
-    def observe(
-        self, pose_at: PoseFunction, t0: float, t1: float, rng: np.random.Generator
-    ) -> NDArray[np.float64]:
-        """Events in ``(t0, t1]`` as rows ``(k, len(event_names))``, column 0 the time, in time order."""
-
-    def deliver(self, estimator: Estimator, event: NDArray[np.float64]) -> None:
-        """Feed one event row to the estimator."""
-
-
-class Estimator(Protocol):
-    """Streaming positioning (issue 4 contract)."""
-
-    def predict(self, t: float, delta_d: float, delta_theta: float, delta_lateral: float = 0.0) -> None: ...
-
-    @property
-    def pose(self) -> NDArray[np.float64]: ...
-
-    @property
-    def status(self) -> str: ...
-
-
-class Autopilot(Protocol):
-    """Guidance law plus actuators: estimate and readings -> physical command."""
-
-    signal_names: tuple[str, ...]
-
-    @property
-    def finished(self) -> bool:
-        """True once the autopilot has completed its task (read only for the loop)."""
-
-    def command(self, t: float, estimator: Estimator, plant: Plant, dt: float) -> Sequence[float]:
-        """Command to hold over the next step."""
-
-    def signals(self) -> tuple[float, ...]:
-        """Current values of ``signal_names`` (commands, estimated errors...)."""
-
 
 #: Estimator status -> recorded code (-1: a status not listed here).
 STATUS_CODES = {"initialising": 0.0, "tracking": 1.0, "dead_reckoning": 2.0, "degraded": 3.0, "lost": 4.0}
@@ -170,7 +105,7 @@ class ClosedLoop:
     Parameters
     ----------
     plant, sensors, estimator, autopilot
-        The roles (see the protocols above).
+        The roles (:mod:`agvnav.roles`); each sensor was wired to the estimator it feeds.
     dt
         Step (s).
     seed
@@ -283,7 +218,7 @@ class ClosedLoop:
             for te, sensor, row in batches:
                 frac = (te - t_prev) / dt
                 est.predict(te, dd * frac, dth * frac, dl * frac)
-                sensor.deliver(est, row)
+                sensor.deliver(row)
                 t_prev = te
             frac = (t1 - t_prev) / dt
             est.predict(t1, dd * frac, dth * frac, dl * frac)
@@ -328,8 +263,7 @@ class ClosedLoop:
         wall = time.perf_counter() - st.start
         if st.progress is not None:
             st.progress(st.t)
-        names = [getattr(s, "name", f"sensor{i}") for i, s in enumerate(st.sensors)]
-        events = {name: log.drain() for name, log in zip(names, st.logs, strict=True)}
+        events = {s.name: log.drain() for s, log in zip(st.sensors, st.logs, strict=True)}
         self._state = None
         return LoopOutput(
             series=st.rec.drain(), events=events, wall_time_s=wall, finished=bool(pilot.finished), failure=st.failure

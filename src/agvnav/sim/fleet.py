@@ -40,7 +40,9 @@ from shapely.geometry import Polygon
 
 from agvnav.sim.build import Built, build
 from agvnav.sim.mission import load_mission_network
+from agvnav.sim.rangers import UltrasonicSensorRole
 from agvnav.sim.reactive import ObstacleRangers, OccludedReflections, ReactiveInputs, ScannerRole
+from agvnav.sim.roles import GoniometerSensor
 from agvnav.sim.run import SimResult, result_of
 from agvnav.world.fleet import FleetScenario
 from agvnav.world.obstacles import Obstacle, ObstacleSet, obstacle_from_spec
@@ -255,10 +257,10 @@ def _wire_others(b: Built, sc: Scenario, others: list[VehicleBody]) -> _Seen:
     for k, s in enumerate(sensors):
         if isinstance(s, (OccludedReflections, ScannerRole, ObstacleRangers)):
             s.obstacles = obstacles
-        elif getattr(s, "name", "") == "reflections" and g is not None:
+        elif isinstance(s, GoniometerSensor) and g is not None:
             sensors[k] = OccludedReflections(s, obstacles, b.world.reflector_xy,
                                              (g.mount[0], g.mount[1], math.radians(g.mount[2])))
-        elif getattr(s, "name", "") == "ultrasonic":
+        elif isinstance(s, UltrasonicSensorRole):
             sensors[k] = ObstacleRangers(s, obstacles, ReactiveInputs(), None)
     b.loop.sensors = sensors
     roles = [(s, reach.get(getattr(s, "name", ""), math.inf)) for s in sensors if hasattr(s, "obstacles")]

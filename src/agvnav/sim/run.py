@@ -14,7 +14,7 @@ otherwise ``failed`` with a reason (:data:`FAILURE_REASONS`): ``collision`` (the
 footprint touched a wall, :mod:`agvnav.sim.collision`), ``jackknife`` or another
 plant failure, ``infeasible`` (the follower could not command the path),
 ``positioning_lost`` (the time limit came while the vehicle stood stopped by the
-positioning guard, :mod:`agvnav.sim.safety`), ``timeout``, ``off_path_at_end``.
+positioning guard, :mod:`agvnav.navigation.guard`), ``timeout``, ``off_path_at_end``.
 The integrity figures (:mod:`agvnav.sim.integrity`) go with the metrics.
 
 Headline figures summarise the detailed ones (issue 29): a mission's errors are those of
@@ -47,6 +47,7 @@ from agvnav.sim.events import add_event_columns, event_timeline
 from agvnav.sim.integrity import integrity_figures
 from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, reorientation_mask, transient_end_index
 from agvnav.sim.reactive import reactive_figures
+from agvnav.vehicles import SteeredGeometry
 from agvnav.world import WorldMap
 from agvnav.world.scenario import Scenario
 
@@ -230,7 +231,8 @@ def _add_true_errors(series: dict[str, NDArray[np.float64]], built: Built) -> No
     point = pose[:, :2] + off * np.column_stack([np.cos(pose[:, 2]), np.sin(pose[:, 2])])
     series["x_tracked"], series["y_tracked"] = point[:, 0].copy(), point[:, 1].copy()
     steered = built.plant.family == "steered"
-    L_true = float(getattr(built.plant, "L_true", built.plant.geometry.wheelbase)) if steered else 0.0
+    g = built.plant.geometry
+    L_true = float(getattr(built.plant, "L_true", g.wheelbase)) if isinstance(g, SteeredGeometry) else 0.0
     gamma = (series["gamma"] if "gamma" in series else series["phi"]) if steered else None
 
     def errors(k: slice, s_hint: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
