@@ -316,10 +316,11 @@ def _heading_rows(result: Any, after: str) -> list[tuple[str, str, str]]:
     vehicle, else the body heading against the path's reference heading (a holonomic vehicle's yaw
     offset included), read past each reorientation when the reference steps."""
     from agvnav.sim.metrics import REORIENTATION_M
+    from agvnav.world.vehicle_specs import vehicle_kind
 
     m = result.metrics
     wheel = getattr(m, "max_abs_wheel_heading_error_rad", None)
-    if wheel is not None or result.scenario.vehicle.model in STEERED_MODELS:
+    if wheel is not None or vehicle_kind(result.scenario.vehicle.model).family == "steered":
         return [(f"max |wheel heading error ξ_r|{after} (deg)", _fmt(wheel, 180 / math.pi, 2), "")]
     turns = int(getattr(m, "heading_reorientations", 0) or 0)
     value = _fmt(getattr(m, "max_abs_heading_error_rad", None), 180 / math.pi, 2)
@@ -329,10 +330,6 @@ def _heading_rows(result: Any, after: str) -> list[tuple[str, str, str]]:
         ("reorientations (reference heading steps)", str(turns), ""),
         (f"max |heading error|{after}, from {REORIENTATION_M:g} m past each (deg)", value, ""),
     ]
-
-
-#: Vehicle models with a steered wheel (seed 000's wheel heading error xi_r applies).
-STEERED_MODELS = ("tricycle", "tricycle_rear", "ackermann", "tractor_trailer")
 
 
 def _window(a: float, b: float) -> str:
