@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import Polygon
 
+from agvnav.geometry import wrap_angle_scalar
 from agvnav.sim.build import Built, build
 from agvnav.sim.mission import load_mission_network
 from agvnav.sim.rangers import UltrasonicSensorRole
@@ -176,7 +177,7 @@ def _apply_at(fleet: FleetScenario, i: int, sc: Scenario) -> Scenario:
             if d < dist:
                 best, dist = n, d
         assert best is not None
-        heading_ok = best.heading is None or abs(math.remainder(best.heading - h, 2 * math.pi)) <= tol + 1e-9
+        heading_ok = best.heading is None or abs(wrap_angle_scalar(best.heading - h)) <= tol + 1e-9
         if dist > START_ON_NODE_M or not heading_ok:
             raise fleet.error(key, f"vehicle {fleet.ids[i]!r} starts off every route of its mission: the nearest "
                                    f"node of {net.name!r} is {best.id} ({dist:.2f} m away"
