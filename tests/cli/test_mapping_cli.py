@@ -65,7 +65,7 @@ def test_map_without_an_anchor_refuses_scale_unobservable(tmp_path: Path) -> Non
     _drive(tmp_path / "drive")
     res = runner.invoke(app, ["map", str(tmp_path / "drive"), "--out", str(tmp_path / "m.yaml")])
     assert res.exit_code == 2
-    assert "scale unobservable" in res.output
+    assert "scale unobservable" in res.output and "(--anchor)" in res.output  # names the option that fixes it
     assert not (tmp_path / "m.yaml").exists()
 
 
