@@ -98,7 +98,7 @@ def test_missing_file_and_bad_replay(tmp_path):
     res = runner.invoke(app, ["campaign", str(tmp_path / "none.yaml")])
     assert res.exit_code == 2 and "no such campaign file" in res.output
     res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(tmp_path / "o"), "--replay", "4"])
-    assert res.exit_code == 2 and "run must be in 0..3" in res.output
+    assert res.exit_code == 2 and "--replay 4: the campaign has runs 0..3 (4 runs)" in res.output  # names the option
 
 
 def test_campaign_never_writes_into_a_users_folder(tmp_path):

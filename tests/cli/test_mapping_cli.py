@@ -65,7 +65,7 @@ def test_map_without_an_anchor_refuses_scale_unobservable(tmp_path: Path) -> Non
     _drive(tmp_path / "drive")
     res = runner.invoke(app, ["map", str(tmp_path / "drive"), "--out", str(tmp_path / "m.yaml")])
     assert res.exit_code == 2
-    assert "scale unobservable" in res.output
+    assert "scale unobservable" in res.output and "(--anchor)" in res.output  # names the option that fixes it
     assert not (tmp_path / "m.yaml").exists()
 
 
@@ -144,3 +144,17 @@ def test_map_refuses_an_existing_file_unless_force_and_writes_atomically(tmp_pat
     res = runner.invoke(app, [*args, "--plot", str(png)])
     assert res.exit_code == 2 and f"--plot {png}: the file exists" in res.output and not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["drive", "map.png", "survey.yaml"]  # no temporary left
+
+
+def test_map_names_a_missing_output_folder_before_the_work(tmp_path: Path) -> None:
+    """issue 29: `map --out nodir/x.yaml` mapped the whole drive, then failed with a bare Errno naming the
+    temporary file. Now: one line naming the option and the folder, exit 2, nothing written; --plot alike."""
+    _drive(tmp_path / "drive")
+    survey = _survey(tmp_path / "survey.yaml", "AC", REFL[[0, 2]])
+    args = ["map", str(tmp_path / "drive"), "--anchor", f"surveyed:{survey}"]
+    res = runner.invoke(app, [*args, "--out", str(tmp_path / "nodir" / "x.yaml")])
+    assert res.exit_code == 2 and "the folder" in res.output and "does not exist" in res.output
+    assert "partial" not in res.output and "Errno" not in res.output
+    res = runner.invoke(app, [*args, "--out", str(tmp_path / "x.yaml"), "--plot", str(tmp_path / "nodir" / "m.png")])
+    assert res.exit_code == 2 and "--plot" in res.output and "does not exist" in res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["drive", "survey.yaml"]

@@ -271,7 +271,7 @@ def write_replay(spec: CampaignSpec, run: int, out_dir: str | Path, force: bool 
     """
     plans = plan_runs(spec)
     if not 0 <= run < len(plans):
-        raise ValueError(f"run must be in 0..{len(plans) - 1}, got {run}")
+        raise ValueError(f"--replay {run}: the campaign has runs 0..{len(plans) - 1} ({len(plans)} runs)")
     plan = plans[run]
     base = load_base(spec.resolve_base())
     mapping = replay_mapping(base, {**spec.overrides, **plan.params}, plan.seed)

@@ -102,6 +102,8 @@ def _check_plot(plot: Path, force: bool) -> None:
     """Refuse an existing ``--plot`` file unless ``force`` (a folder always)."""
     if plot.is_dir():
         raise ValueError(f"--plot {plot}: it is a folder, not a file")
+    if not plot.parent.is_dir():
+        raise ValueError(f"--plot {plot}: the folder {plot.parent} does not exist")
     if plot.exists() and not force:
         raise ValueError(f"--plot {plot}: the file exists; choose another file, or use --force to overwrite it")
 

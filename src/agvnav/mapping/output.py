@@ -123,12 +123,15 @@ def is_agvnav_map(path: str | Path) -> bool:
 def check_map_file(path: str | Path, force: bool = False, option: str = "--out") -> None:
     """Refuse to write the map to ``path`` when it exists, unless ``force``; say whose file it is.
 
-    Absent: fine. A folder: always refused. A map agvnav wrote (first line :data:`MAP_HEADER`):
+    Absent: fine. A folder, or a missing parent folder: always refused. A map agvnav wrote (first line
+    :data:`MAP_HEADER`):
     refused unless ``force`` ("holds a map agvnav wrote"). Any other file (a surveyed map, a
     hand-made one): refused unless ``force`` too, with a message saying it is not agvnav's.
     Raises :class:`MapFileError` (a ValueError) naming ``option`` and the file.
     """
     p = Path(path)
+    if not p.parent.is_dir():  # found before the work, not as a bare OSError on the temporary file after it
+        raise MapFileError(f"{option} {p}: the folder {p.parent} does not exist")
     if not p.exists():
         return
     if p.is_dir():
