@@ -301,7 +301,7 @@ def line_of_sight(
     ``start (wall_x0, wall_y0) + [0, 1] (wall_vx, wall_vy)`` (parallel pairs do not block:
     with ``a`` the wall start from the head, ``u`` the ray and ``v`` the wall, ``s = (a x v)/(u x v)``
     and ``w = (a x u)/(u x v)`` both in [0, 1] block) and passes no other reflector closer than
-    its radius. Arrays compiled; interpreted, Python lists serve as well (and faster).
+    its radius.
     """
     c = len(refl)
     out = np.zeros(c, np.bool_)
