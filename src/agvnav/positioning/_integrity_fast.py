@@ -252,8 +252,7 @@ def nonlinear_fix(rx: Any, ry: Any, px: float, py: float, c00: float, c01: float
     """True where a three-reflector fix at ``(px, py)`` (m) is too near its critical circle for its covariance.
 
     :func:`~agvnav.positioning.triangulation._nonlinear` for one fix that did not keep a heading
-    estimate, in the same operations (``np.hypot`` is libm's, as NumPy's): the largest
-    eigenvalue of the position block ``[[c00, c01], [c01, c11]]`` (m²) against
+    estimate: the largest eigenvalue of the position block ``[[c00, c01], [c01, c11]]`` (m²) against
     ``(NONLINEAR_RATIO * distance)²`` from the circle through ``rx, ry (3,)`` (m), or from
     their line when collinear.
     """

@@ -64,7 +64,7 @@ def offset_one(
         x, y = x + c * mx - s * my, y + s * mx + c * my
     beam = heading + phase + omega * t
     dx, dy = rx - x, ry - y
-    d = math.sqrt(dx * dx + dy * dy)  # not math.hypot: CPython's own hypot and libm's differ in the last bit
+    d = math.sqrt(dx * dx + dy * dy)
     half_width = math.asin(min(r / max(d, 1e-300), 1.0))
     if direction == 1:
         return beam - math.atan2(dy, dx) + half_width, x, y, d
