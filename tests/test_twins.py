@@ -10,17 +10,15 @@ that says it mirrors another form) that the table does not list.
 from __future__ import annotations
 
 import ast
-import contextlib
 import importlib
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import agvnav
-from agvnav import _jit
 from agvnav.actuators import PID, MotorPair, WheelSpeedLoop
 from agvnav.actuators.scalar import ScalarSpeedLoop
 from agvnav.actuators.speed_profile import _profile_speed_scalar, profile_speed
@@ -33,23 +31,14 @@ from agvnav.kinematics import TricycleStacker, twist_step
 from agvnav.kinematics.scalar import stacker_rate, stacker_rk4, stacker_rk4_values, track_twist, twist_pose
 from agvnav.kinematics.tracked import TrackedVehicle, TrackSlipNoise
 from agvnav.odometry import (
-    calibration_jacobian,
     differential_increments,
-    motion_covariance,
-    steered_noise,
     tricycle_increments,
 )
 from agvnav.odometry.errors import NonSystematicErrors
 from agvnav.odometry.scalar import differential_increments_scalar, track_increments, tricycle_increments_scalar
 from agvnav.positioning import _fast as pos_fast
-from agvnav.positioning import _integrity_fast as integrity_fast
-from agvnav.positioning import triangulate
-from agvnav.positioning.bounds import crlb, inv_sym3
-from agvnav.positioning.ekf import CONSIDER_MAX_ENTRY, CONSIDER_MIN_DET, EkfEstimator
-from agvnav.positioning.gating import BearingIndex, GateSpec
-from agvnav.positioning.identification import Association, bearing_model, gate_reflection
-from agvnav.positioning.triangulation import _nonlinear
-from agvnav.sensors.beam import wrapped_offsets
+from agvnav.positioning.gating import GateSpec
+from agvnav.positioning.identification import bearing_model, gate_reflection
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.twins import TWINS, Twin, twin_names
 from agvnav.world import load_builtin_map
@@ -239,195 +228,6 @@ def _gate_one(rng: np.random.Generator) -> Pair:
     return [got[0], got[3], got[1], got[2]], [ref.index, ref.n_in_gate, ref.innovation, ref.nis]
 
 
-def _wrapped_offsets(rng: np.random.Generator) -> Pair:
-    raw = np.concatenate([rng.uniform(-40, 40, 8), [math.pi, -math.pi, 3 * math.pi, 0.0]])
-    f, worst = wrapped_offsets(raw)
-    ref = wrap_angle(raw)
-    return [*f, worst], [*ref, np.abs(ref).max()]
-
-
-def _steered_noise(rng: np.random.Generator) -> Pair:
-    front = bool(rng.integers(2))
-    L = rng.uniform(0.8, 2.0)
-    noise = steered_noise("tricycle" if front else "tricycle_rear", 1e-4, L, 1e-3, 0.02, 0.003, 0.004)
-    pose = np.array([*rng.normal(size=2), rng.uniform(-math.pi, math.pi)])
-    s, g = rng.uniform(-0.3, 0.3), rng.uniform(-1.2, 1.2)
-    dd, dth = (s * math.cos(g), s * math.sin(g) / L) if front else (s, s * math.tan(g) / L)
-    Q, W = pos_fast.steered_noise(float(pose[2]), dd, dth, front, L, noise.slip_k,
-                                  noise.steering_std**2 * noise.step_m)
-    ref = [*motion_covariance(pose, dd, dth, noise).ravel(), *calibration_jacobian(pose, dd, dth, noise).ravel()]
-    return [*Q, *W], ref
-
-
-def _random_state(rng: np.random.Generator) -> tuple[tuple[float, ...], ...]:
-    """A pose, a covariance, a consider factor ``M`` and a calibration cross-covariance ``P_xc`` (flat tuples)."""
-    pose = (*rng.uniform([2.0, 2.0], [18.0, 10.0]).tolist(), float(rng.uniform(-math.pi, math.pi)))
-    a = rng.normal(0.0, 0.01, (3, 3))
-    P = tuple((a @ a.T + 1e-6 * np.eye(3)).reshape(9).tolist())
-    M = tuple((np.eye(3) + rng.normal(0.0, 0.3, (3, 3))).reshape(9).tolist())
-    X = tuple(rng.normal(0.0, 1e-4, 6).tolist())
-    return pose, P, M, X
-
-
-def _move_state(rng: np.random.Generator) -> Pair:
-    """The compiled prediction against the plain functions it fuses (every noise model, lateral or not)."""
-    odom, pose, P, M, X = (*rng.normal(size=2).tolist(), 1.0), *_random_state(rng)
-    kind, calibrated = int(rng.integers(3)), bool(rng.integers(2))
-    L = float(rng.uniform(0.8, 2.0))
-    steered = None if kind == 0 else (kind == 1, L, 1e-3, 4e-5, float(rng.choice([0.0, 0.5])))
-    noise, cvar = (1e-4, 2e-4, 1e-5, 3e-4), (9e-6, 1.2e-5)
-    dd, dth = float(rng.uniform(-0.05, 0.05)), float(rng.choice([0.0, 1e-6, rng.uniform(-0.05, 0.05)]))
-    dl = 0.0 if rng.uniform() < 0.7 else float(rng.uniform(-0.02, 0.02))
-    if rng.uniform() < 0.1:
-        dd = 0.0  # a rear wheel that does not roll (steered_noise's s = 0)
-    hyp = math.hypot(dd, dl) if steered is None or dl != 0.0 else math.hypot(dd, L * dth) if steered[0] else 0.0
-    mc = pos_fast.move_constants(noise, steered, True, calibrated, cvar)
-    o, x, Pn, Mn, Xn = pos_fast.move_state(odom, pose, P, M, X, dd, dth, dl, hyp, mc)
-    ro = pos_fast.twist_step(*odom, dd, dth, dl)[:3]
-    nx, ny, npsi, f02, f12 = pos_fast.twist_step(*pose, dd, dth, dl)
-    W = None
-    if steered is None or dl != 0.0:
-        Q = pos_fast.process_noise(pose[2], dd, dth, *noise[:3], dl, noise[3])
-    else:
-        Q, W = pos_fast.steered_noise(pose[2], dd, dth, *steered)
-    rP, rX = pos_fast.predict_covariance(P, f02, f12, Q), X
-    if W is not None and calibrated:
-        rP, rX = pos_fast.calibration_predict(rP, X, f02, f12, W, cvar)
-    return [*o, *x, *Pn, *Mn, *Xn], [*ro, nx, ny, pos_fast.wrap(npsi), *rP, *pos_fast.shear(M, f02, f12), *rX]
-
-
-def _gate_setup(rng: np.random.Generator, consider: bool) -> tuple[object, ...]:
-    world = load_builtin_map("lab")
-    n_extra = int(rng.choice([0, 40]))  # 40 more: the index's grid pre-selects the candidates
-    xy = np.vstack([world.reflector_xy, rng.uniform([0.5, 0.5], [19.5, 11.5], (n_extra, 2))])
-    radius = np.concatenate([world.reflector_radius, rng.uniform(0.02, 0.05, n_extra)])
-    mount = (0.3, 0.05, 0.01)
-    spec = GateSpec(bearing_var=1e-7, max_range=25.0, gate=10.8, map_std=0.002, sweep=0.1, consider=consider)
-    pose, P, M, X = _random_state(rng)
-    h, _, _ = bearing_model(np.array(pose), mount, xy, radius)
-    z = float(wrap_angle(h[int(rng.integers(xy.shape[0]))] + rng.normal(0.0, 3e-3)))
-    sight = rng.uniform(size=xy.shape[0]) < 0.9
-    claimed = np.where(rng.uniform(size=xy.shape[0]) < 0.1, 1.0, -math.inf)
-    svar = rng.uniform(1e-6, 4e-6, xy.shape[0])
-    C = rng.normal(0.0, 1e-3, (xy.shape[0], 6))
-    rows = pos_fast.reflector_rows(xy, radius)
-    index = BearingIndex(xy, radius, mount, spec) if n_extra else None
-    return z, pose, P, M, X, mount, spec, rows, index, sight, claimed, svar, C
-
-
-def _gate_rows(rng: np.random.Generator) -> Pair:
-    """The compiled gate (index, sight, claims, consider or not) against ``gate_one`` on the same candidates."""
-    consider = bool(rng.integers(2))
-    z, pose, P, M, _, mount, spec, rows, index, sight, claimed, svar, C = _gate_setup(rng, consider)
-    gc = pos_fast.gate_constants(spec, mount, None if index is None else index.grid_constants(), 1e-7)
-    cells = (np.zeros(2, np.int64), np.zeros(0, np.int64)) if index is None else index.grid_cells()
-    got = pos_fast.gate_rows(z, 1.05, pose, P, M, C, claimed, sight, pos_fast.gate_table(rows, svar), gc, *cells)
-    cand = range(len(rows)) if index is None else index.candidates(z, pose, P)
-    j, y, nis, n_in, H, S, R = pos_fast.gate_one(z, pose, P, mount, rows, spec, claimed.tolist(), 1.05,
-                                                 [c for c in cand if sight[c]],
-                                                 (M, C, svar.tolist()) if consider else None)
-    return list(got), [j, y, nis, n_in, *H, S, R]
-
-
-def _gate_accept(rng: np.random.Generator) -> Pair:
-    """The compiled gate and Schmidt update against ``gate_one`` and the EKF's plain ``_accept``."""
-    z, pose, P, M, X, mount, spec, rows, index, sight, claimed, svar, C = _gate_setup(rng, True)
-    calibrated = bool(rng.integers(2))
-    if rng.uniform() < 0.2:
-        M = tuple((0.2 * np.asarray(M)).tolist())  # |det M| small: the update asks for a fold
-    bearing_std = 1e-7**0.5
-    gc = pos_fast.gate_constants(spec, mount, None if index is None else index.grid_constants(), bearing_std**2,
-                                 CONSIDER_MIN_DET, CONSIDER_MAX_ENTRY, calibrated)
-    cells = (np.zeros(2, np.int64), np.zeros(0, np.int64)) if index is None else index.grid_cells()
-    C_got = C.copy()
-    (j, _, _, n_in, *_), x1, P1, _, M1, X1, fold = pos_fast.gate_accept(
-        z, 1.05, pose, P, M, X, C_got, claimed, sight, pos_fast.gate_table(rows, svar), gc, *cells)
-    cand = range(len(rows)) if index is None else index.candidates(z, pose, P)
-    ref = pos_fast.gate_one(z, pose, P, mount, rows, spec, claimed.tolist(), 1.05, [c for c in cand if sight[c]],
-                            (M, C, svar.tolist()))
-    if ref[0] < 0:
-        return [j, n_in, *x1, *P1, *C_got.ravel()], [ref[0], ref[3], *pose, *P, *C.ravel()]
-    est = object.__new__(EkfEstimator)  # the plain update on this state (no map, no run: the method's own arithmetic)
-    est._x_t, est._P_t, est._M, est._Pxc, est._C = pose, P, M, X, C.copy()
-    est._svar, est._calibrated, est.bearing_std = svar.tolist(), calibrated, bearing_std
-    assoc = Association(ref[0], ref[1], ref[2], ref[3], np.array(ref[4]), ref[5], ref[6])
-    with _plain_mode():
-        est._accept(1.05, z, assoc)
-    if fold:  # the kernel leaves C and the fold to the caller: compare its pose and covariance only
-        return [j, *x1, *P1, *X1], [ref[0], *est._x_t, *est._P_t, *est._Pxc]
-    return [j, *x1, *P1, *M1, *X1, *C_got.ravel()], [ref[0], *est._x_t, *est._P_t, *est._M, *est._Pxc, *est._C.ravel()]
-
-
-def _three_bearings(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, tuple[float, ...]]:
-    """Three reflectors (m), the bearings (rad) of a random head among them, and three bearing stds (rad)."""
-    r = rng.uniform(-10.0, 10.0, (3, 2))
-    p, psi = rng.uniform(-10.0, 10.0, 2), rng.uniform(-math.pi, math.pi)
-    z = np.array([wrap_angle_scalar(v) for v in (np.arctan2(r[:, 1] - p[1], r[:, 0] - p[0]) - psi).tolist()])
-    return r, z + rng.normal(0.0, 1e-3, 3), tuple(rng.uniform(1e-4, 5e-3, 3).tolist())
-
-
-def _total_fix(rng: np.random.Generator) -> Pair:
-    while True:
-        r, z, _ = _three_bearings(rng)
-        code, px, py = integrity_fast.total_fix(*r.reshape(-1).tolist(), *z.tolist())
-        if code != integrity_fast.TOTAL_FALLBACK:  # the rare path is triangulate itself
-            break
-    fix = triangulate(r, z, method="total")
-    valid = code == integrity_fast.TOTAL_VALID
-    return (float(valid), px if valid else math.nan, py if valid else math.nan), (
-        float(bool(fix.valid)), float(fix.x), float(fix.y))
-
-
-def _fix_covariance(rng: np.random.Generator) -> Pair:
-    r, _, std = _three_bearings(rng)
-    p = rng.uniform(-10.0, 10.0, 2)
-    _ok, *c = integrity_fast.fix_covariance(tuple(r[:, 0].tolist()), tuple(r[:, 1].tolist()), *p.tolist(), std)
-    ref = crlb(r, np.array([*p.tolist(), 0.3]), np.array(std))
-    return c, ref[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]]
-
-
-def _nonlinear_fix(rng: np.random.Generator) -> Pair:
-    r = rng.uniform(-5.0, 5.0, (3, 2))
-    px, py = rng.uniform(-5.0, 5.0, 2).tolist()
-    c00, c11, c01 = rng.uniform(1e-4, 1e-1), rng.uniform(1e-4, 1e-1), rng.uniform(-1e-5, 1e-5)
-    cov = np.array([[[c00, c01, 0.0], [c01, c11, 0.0], [0.0, 0.0, 1.0]]])
-    got = integrity_fast.nonlinear_fix(tuple(r[:, 0].tolist()), tuple(r[:, 1].tolist()), px, py, c00, c01, c11)
-    return float(got), float(_nonlinear(r, np.array([px]), np.array([py]), cov, np.array([False]))[0])
-
-
-def _py_hypot(rng: np.random.Generator) -> Pair:
-    x, y = (rng.standard_normal(2) * 10.0 ** rng.uniform(-6, 6, 2)).tolist()
-    return integrity_fast.py_hypot(x, y), math.hypot(x, y)
-
-
-def _edge_bearing(rng: np.random.Generator) -> Pair:
-    pose, mount = rng.uniform(-10.0, 10.0, 3), (*rng.uniform(-0.5, 0.5, 2).tolist(), float(rng.uniform(-0.3, 0.3)))
-    rx, ry, r = *rng.uniform(-10.0, 10.0, 2).tolist(), float(rng.uniform(0.0, 0.1))
-    head = integrity_fast._head(*pose.tolist(), *mount)
-    got = integrity_fast._edge_bearing(*head, rx, ry, r)
-    h, _, d = bearing_model(pose, np.array(mount), np.array([rx, ry]), r)
-    return got, (float(h), float(d))
-
-
-def _inverse3(rng: np.random.Generator) -> Pair:
-    a = rng.normal(size=(3, 3))
-    a = a @ a.T + 0.1 * np.eye(3)  # symmetric positive definite, as the information matrices
-    ok, *inv = integrity_fast._inverse3(*a[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]].tolist(), 3.0)
-    ref, valid = inv_sym3(a)
-    return (float(ok), *inv), (float(valid), *ref[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]].tolist())
-
-
-@contextlib.contextmanager
-def _plain_mode() -> Iterator[None]:
-    """The kernels interpreted while inside: the estimators take their plain Python path."""
-    before = _jit.compiled()
-    _jit.set_compiled(False)
-    try:
-        yield
-    finally:
-        _jit.set_compiled(before)
-
-
 CASES: dict[str, Callable[[np.random.Generator], Pair]] = {
     "wrap_angle": _wrap, "stacker_rk4": _stacker_rk4, "stacker_rk4_values": _stacker_rk4_values,
     "stacker_rate": _stacker_rate, "twist_pose": _twist_pose,
@@ -438,10 +238,6 @@ CASES: dict[str, Callable[[np.random.Generator], Pair]] = {
     "line_point": _segment_point("line"), "line_project": _segment_project("line"),
     "arc_point": _segment_point("arc"), "arc_project": _segment_project("arc"),
     "path_project": _path_project, "encoder_bearing": _encoder_bearing, "gate_one": _gate_one,
-    "wrapped_offsets": _wrapped_offsets, "steered_noise": _steered_noise,
-    "move_state": _move_state, "gate_rows": _gate_rows, "gate_accept": _gate_accept,
-    "total_fix": _total_fix, "fix_covariance": _fix_covariance, "nonlinear_fix": _nonlinear_fix,
-    "py_hypot": _py_hypot, "edge_bearing": _edge_bearing, "inverse3": _inverse3,
 }
 
 

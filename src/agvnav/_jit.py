@@ -11,26 +11,27 @@ compiled mode. Importing numba and readying its CPU target (which loads the cach
 machine code) costs about 0.7 s of CPU once per process, more than the whole default
 closed loop (26 s simulated) spends in the kernels run as plain Python. So a process
 picks a mode once (:func:`set_compiled`): compiled for campaigns, benchmarks and long
-runs, interpreted for one short ``agvnav simulate``. Both modes run the same source
-operation for operation (IEEE double, no fastmath, no contraction to fused multiply-adds),
-so a seeded run gives the same numbers in either; ``tests/test_jit.py`` checks every
-kernel's two modes bit for bit on 1e5 random inputs. That holds only for functions both
-modes take from the same place or that are correctly rounded: ``+ - * /``, ``math.sqrt``,
-``abs``, ``min``/``max``, ``%`` and ``np.fmod`` (exact), and ``math.sin``, ``cos``,
-``asin`` and ``atan2``, which CPython and numba both take from the C library. A kernel
-must not use ``math.hypot`` (CPython 3.10+ has its own algorithm, numba calls libm's:
-they differ in the last bit on about 0.6 % of pairs; write ``math.sqrt(dx * dx + dy * dy)``),
-``**`` / ``math.pow`` with a non-integer exponent, ``math.fma`` (none in numba), nor NumPy
-reductions (``np.sum`` sums pairwise in NumPy and in order in numba). One difference stays
-by design: where ``math`` raises ``ValueError`` on a non-finite or out-of-domain argument
-(``cos(inf)``, ``sqrt(-1)``), a compiled kernel returns NaN; the kernels' inputs are finite.
+runs, interpreted for one short ``agvnav simulate``.
+
+Determinism is within one mode (issue 27). A seeded run repeats itself bit for bit on the
+same platform in the same mode. The two modes run the same source with plain ``math``
+(``math.hypot``, ``x * x``, ``round``, ``sum`` in order) and agree to rounding, about
+1e-12 relative per kernel (``tests/test_jit.py``: one parametrized property test over every
+kernel), not bit for bit: CPython and numba take some functions from different places
+(``math.hypot``, ``x ** 2``). A closed loop may therefore take another path in the other mode
+at a decision within rounding of its threshold (a gate, a check): compare runs of the two
+modes statistically, not by hash. The mode a run used is in its metadata (``kernels``).
+A kernel must not use ``math.fma`` (none in numba) nor NumPy reductions whose order
+differs (``np.sum`` sums pairwise in NumPy and in order in numba) where the order matters
+beyond rounding. Where ``math`` raises ``ValueError`` on a non-finite or out-of-domain
+argument (``cos(inf)``, ``sqrt(-1)``), a compiled kernel returns NaN; the kernels' inputs are finite.
 
 numba's on-disk cache keys a kernel on its own source file only: a kernel that calls one in
 another file (``wrap_angle_kernel`` of ``geometry.angles`` from ``sensors.beam`` and
-``positioning.gating``, ``hermite_poses`` of ``geometry.hermite`` from ``sensors.beam``) keeps
-stale machine code after an edit of the callee alone until its own file changes or ``__pycache__``
-is cleared; ``tests/test_jit.py`` then fails (the two
-modes differ), which is how such a stale cache shows.
+``positioning.gating``, ``hermite_poses`` of ``geometry.hermite`` from ``sensors.beam``,
+``positioning._fast``'s bearing and noise kernels from ``positioning._integrity_fast``) or reads
+another module's constant keeps stale machine code after an edit of the callee alone until its
+own file changes or ``__pycache__`` is cleared.
 
 The mode is ``AGVNAV_JIT=0`` / ``1`` from the environment when set, else compiled unless
 a caller said otherwise (:func:`set_compiled`). It is resolved once, at the first call of
@@ -47,7 +48,7 @@ import os
 from collections.abc import Callable
 from typing import Any, TypeVar, cast
 
-__all__ = ["Kernel", "compiled", "jit", "kernels", "set_compiled", "set_compiled_for_run"]
+__all__ = ["Kernel", "compiled", "jit", "kernels", "mode", "set_compiled", "set_compiled_for_run"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -69,8 +70,11 @@ def _env_mode() -> bool | None:
 
 
 def _resolve() -> bool:
-    """The mode from ``AGVNAV_JIT`` (when set) or the last :func:`set_compiled` (default compiled), kept."""
-    env = _env_mode()
+    """The mode from ``AGVNAV_JIT`` (when set) or the last :func:`set_compiled` (default compiled), kept.
+
+    A :func:`set_compiled` with ``force`` wins over the environment.
+    """
+    env = None if _state.get("forced") else _env_mode()
     mode = env if env is not None else _state.get("compiled", True)
     _mode[:] = [mode]
     return mode
@@ -84,14 +88,21 @@ def compiled() -> bool:
     return _mode[0] if _mode else _resolve()
 
 
-def set_compiled(on: bool) -> None:
+def mode() -> str:
+    """``"compiled"`` or ``"interpreted"``: the kernels' mode in force, as a run's metadata records it."""
+    return "compiled" if compiled() else "interpreted"
+
+
+def set_compiled(on: bool, force: bool = False) -> None:
     """Run every kernel compiled (``True``, numba) or interpreted (``False``) from now on.
 
     ``AGVNAV_JIT`` in the environment wins over this call (read now: a malformed value raises
-    ValueError here). Switching is allowed at any time (each kernel resolves again on its next
-    call); results are the same either way.
+    ValueError here) unless ``force`` (a user's explicit choice, ``agvnav simulate --jit on|off``);
+    a later call without ``force`` gives the environment back its say. Switching is allowed at
+    any time (each kernel resolves again on its next call); results agree to rounding either way.
     """
     _state["compiled"] = bool(on)
+    _state["forced"] = bool(force)
     _resolve()
     for k in _KERNELS:
         k._impl = None
@@ -115,7 +126,7 @@ def set_compiled_for_run(sim_seconds: float, reflectors: int) -> bool:
     Interpreted when the kernels' estimated extra cost as plain Python stays below numba's
     start-up (:data:`COMPILED_STARTUP_S`), compiled otherwise; sets it (:func:`set_compiled`)
     and returns whether the kernels now run compiled (:func:`compiled`: ``AGVNAV_JIT`` wins).
-    The numbers are the same either way; only time differs.
+    The numbers agree to rounding either way; mainly time differs.
     """
     if sim_seconds < 0.0 or reflectors < 0:
         raise ValueError(f"sim_seconds {sim_seconds} and reflectors {reflectors} must be >= 0")
@@ -125,7 +136,7 @@ def set_compiled_for_run(sim_seconds: float, reflectors: int) -> bool:
 
 
 def kernels() -> tuple[Kernel, ...]:
-    """Every kernel defined so far (imported modules only), for the equivalence test."""
+    """Every kernel defined so far (imported modules only), for the two modes' property test."""
     return tuple(_KERNELS)
 
 

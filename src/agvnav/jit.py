@@ -1,8 +1,10 @@
 """Which mode the compiled kernels run in: the public face of :mod:`agvnav._jit` (issue 11).
 
-A process runs every kernel compiled (numba) or as plain Python, with the same numbers
-either way; :func:`set_compiled_for_run` picks the cheaper mode for one run, ``AGVNAV_JIT=0/1``
-in the environment overrides. Importing this module does not import numba.
+A process runs every kernel compiled (numba) or as plain Python, the numbers agreeing to
+rounding (a seeded run is bit-identical to itself within one mode); :func:`set_compiled_for_run`
+picks the cheaper mode for one run, ``AGVNAV_JIT=0/1`` in the environment overrides it and
+``set_compiled(on, force=True)`` (``agvnav simulate --jit on|off``) overrides both. :func:`mode`
+names the mode in force for a run's metadata. Importing this module does not import numba.
 """
 
 from __future__ import annotations
@@ -14,11 +16,12 @@ from agvnav._jit import (
     compiled,
     jit,
     kernels,
+    mode,
     set_compiled,
     set_compiled_for_run,
 )
 
 __all__ = [
-    "COMPILED_STARTUP_S", "INTERPRETED_S_PER_REFLECTOR_S", "Kernel", "compiled", "jit", "kernels", "set_compiled",
-    "set_compiled_for_run",
+    "COMPILED_STARTUP_S", "INTERPRETED_S_PER_REFLECTOR_S", "Kernel", "compiled", "jit", "kernels", "mode",
+    "set_compiled", "set_compiled_for_run",
 ]

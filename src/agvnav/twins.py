@@ -1,11 +1,13 @@
-"""The one table of equations that still exist in two forms (issue 11).
+"""The one table of equations that still exist in two plain forms (issue 11), kernels aside.
 
 Most equations are written once: a NumPy kernel over ``(..., n)`` arrays serves
 batches and, for a single vehicle, the same kernel runs on scalars or a compiled
-scalar kernel is wrapped for batches. Where a second, scalar form must stay for
-the closed loop's hot path (plain ``math`` on one vehicle is 5-20x cheaper than
-NumPy's per-call overhead on 3-vectors), it is listed here, next to the form it
-mirrors. ``tests/test_twins.py`` walks this table with one parametrized
+scalar kernel is wrapped for batches. Where a second, scalar plain-Python form must
+stay for the closed loop's hot path (plain ``math`` on one vehicle is 5-20x cheaper
+than NumPy's per-call overhead on 3-vectors), it is listed here, next to the form it
+mirrors. The compiled kernels (:mod:`agvnav._jit`) are not listed: each is checked
+against its oracle (``tests/positioning/test_kernel_oracles.py``) and its two modes
+against each other (``tests/test_jit.py``) (issue 27). ``tests/test_twins.py`` walks this table with one parametrized
 equivalence test (random inputs, the two forms agree to ``atol``), and a guard
 test fails when a scalar twin appears in the source without a row here, so a
 twin cannot land untested.
@@ -90,32 +92,6 @@ TWINS: tuple[Twin, ...] = (
          "agvnav.sensors.goniometer:Goniometer.encoder_bearing", "seed 000 §2.1", 0.0),
     Twin("gate_one", "agvnav.positioning._fast:gate_one", "agvnav.positioning.identification:gate_reflection",
          "[seed000 eq2] chi-square gate", 1e-10),
-    Twin("wrapped_offsets", "agvnav.sensors.beam:wrapped_offsets", "agvnav.geometry.angles:wrap_angle",
-         "[-pi, pi) convention (the goniometer's root finder)", 0.0),
-    Twin("steered_noise", "agvnav.positioning._fast:steered_noise", "agvnav.odometry.covariance:motion_covariance",
-         "[seed002 eq17] steered wheel (Q and the calibration Jacobian W)", 1e-12),
-    # the compiled per-reflection path (issue 11): the same operations as the plain forms, so bit for bit
-    Twin("move_state", "agvnav.positioning._fast:move_state", "agvnav.positioning.estimator:StreamingEstimator._move",
-         "[seed002 eq14] [seed002 eq17] [seed002 eq25] prediction with the consider factors", 0.0),
-    Twin("gate_rows", "agvnav.positioning._fast:gate_rows", "agvnav.positioning._fast:gate_one",
-         "[seed000 eq2] chi-square gate behind the bearing index", 0.0),
-    Twin("gate_accept", "agvnav.positioning._fast:gate_accept", "agvnav.positioning.ekf:EkfEstimator._accept",
-         "Schmidt-Kalman update of one bearing (agvnav.positioning.ekf)", 0.0),
-    # the integrity monitor's compiled cross-check (issue 11): the same operations as the forms it replaced
-    Twin("total_fix", "agvnav.positioning._integrity_fast:total_fix", "agvnav.positioning.triangulation:triangulate",
-         "ToTal (Pierlot & Van Droogenbroeck 2014), one fix [seed000 §2.2]", 0.0),
-    Twin("fix_covariance", "agvnav.positioning._integrity_fast:fix_covariance", "agvnav.positioning.bounds:crlb",
-         "CRLB (J^T R^-1 J)^-1 of three bearings [seed000 §2.3]", 0.0),
-    Twin("nonlinear_fix", "agvnav.positioning._integrity_fast:nonlinear_fix",
-         "agvnav.positioning.triangulation:_nonlinear", "issue 12: a fix too near its critical circle", 0.0),
-    Twin("py_hypot", "agvnav.positioning._integrity_fast:py_hypot", "math:hypot",
-         "CPython's hypot (libm's differs in the last bit)", 0.0),
-    # two more forms the compiled check keeps: CPython's hypot and the monitor's singular test (its former
-    # decisions, so its seeded bits) against NumPy's sqrt and inv_sym3's test
-    Twin("edge_bearing", "agvnav.positioning._integrity_fast:_edge_bearing",
-         "agvnav.positioning.identification:bearing_model", "seed 000 §2.1 leading-edge bearing and distance"),
-    Twin("inverse3", "agvnav.positioning._integrity_fast:_inverse3", "agvnav.positioning.bounds:inv_sym3",
-         "adjugate inverse of a symmetric 3x3 (the information matrix of seed 000 §2.3)", 1e-12),
 )
 
 

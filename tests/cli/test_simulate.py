@@ -112,3 +112,18 @@ def test_simulate_gives_the_garbage_collector_back(tmp_path, monkeypatch):
     assert gc.isenabled() and gc.get_freeze_count() == 0
     res = runner.invoke(app, ["simulate", str(tmp_path / "missing.yaml"), "--out", str(tmp_path / "p")])
     assert res.exit_code == 2 and gc.isenabled() and gc.get_freeze_count() == 0  # also after a user error
+
+
+def test_jit_forces_the_kernel_mode_and_the_run_records_it(tmp_path, monkeypatch, restore_jit_mode):
+    """``--jit on|off`` forces the mode over ``AGVNAV_JIT``; metrics.json and the JSON metadata name it."""
+    monkeypatch.setenv("AGVNAV_JIT", "1")
+    scenario = str(_short(tmp_path, "duration_s: 1.0"))
+    for flag, mode in (("off", "interpreted"), ("on", "compiled")):
+        out = tmp_path / flag
+        res = runner.invoke(app, ["simulate", scenario, "--out", str(out), "--no-plots", "--json", "--jit", flag])
+        assert res.exit_code == 3, res.output  # 1 s: the run times out (reported failed)
+        assert json.loads((out / "metrics.json").read_text())["kernels"] == mode
+        doc = json.loads(res.stdout[res.stdout.index("{"):])
+        assert doc["metadata"]["kernels"] == mode
+    res = runner.invoke(app, ["simulate", scenario, "--out", str(tmp_path / "x"), "--jit", "maybe"])
+    assert res.exit_code == 2 and "--jit maybe: expected on, off or auto" in res.output

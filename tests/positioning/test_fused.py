@@ -1,23 +1,21 @@
-"""The compiled per-reflection path (issue 11) gives the plain path's numbers, bit for bit.
+"""The per-reflection kernels in whole closed-loop runs: a seeded run repeats itself, the two modes agree.
 
-The streaming estimators run their prediction, gate and Schmidt update as compiled kernels
-(``move_state``, ``gate_rows``, ``gate_accept`` of :mod:`agvnav.positioning._fast`) when the
-kernels run compiled, and as the plain functions otherwise. ``tests/test_twins.py`` checks each
-kernel against its plain form on random inputs and ``tests/test_jit.py`` each kernel's two modes;
-here whole closed-loop runs (every noise model, the bearing index, walls that hide reflectors,
-lock-out inflations, a fix-based estimator) must give the same series in both.
+The streaming estimators run their prediction, gate and Schmidt update as kernels
+(``move_state``, ``gate_rows``, ``gate_accept`` of :mod:`agvnav.positioning._fast`), compiled by
+numba or interpreted. ``tests/test_jit.py`` checks each kernel's two modes to rounding; here whole
+closed-loop runs (every noise model, the bearing index, walls that hide reflectors, lock-out
+inflations, a fix-based estimator) must repeat themselves bit for bit in one mode, and agree
+between the modes (issue 27: determinism is within one mode; across modes the numbers agree to
+rounding, and a borderline gate decision may go the other way).
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 import pytest
 
 from agvnav import _jit
 from agvnav.bench.speed import _scenario_with, reflector_map
-from agvnav.positioning import _fast
 from agvnav.sim.build import build
 
 pytestmark = pytest.mark.usefixtures("restore_jit_mode")
@@ -40,51 +38,38 @@ CASES = {
 }
 
 
+def _same_run(a: tuple[dict[str, np.ndarray], object], b: tuple[dict[str, np.ndarray], object]) -> None:
+    """Two runs gave the same series and estimator state, bit for bit."""
+    (sa, ea), (sb, eb) = a, b
+    assert set(sa) == set(sb)
+    for name in sa:
+        x, y = np.asarray(sa[name]), np.asarray(sb[name])
+        assert x.shape == y.shape and x.tobytes() == y.tobytes(), name
+    for attr in ("n_accepted", "n_rejected", "n_inflations", "_x_t", "_P_t", "_odom_t", "_M", "_Pxc"):
+        assert getattr(ea, attr, None) == getattr(eb, attr, None), attr
+
+
+@pytest.mark.parametrize("compiled", [False, True], ids=["interpreted", "compiled"])
+def test_a_seeded_run_repeats_itself_bit_for_bit_in_one_mode(compiled: bool) -> None:
+    make, seconds = CASES["clutter_lockouts"]
+    _same_run(_run(make(), compiled, seconds), _run(make(), compiled, seconds))
+
+
 @pytest.mark.parametrize("case", sorted(CASES))
-def test_compiled_path_gives_the_plain_path_bits(case: str) -> None:
+def test_the_two_modes_agree(case: str) -> None:
+    """The same seed in both modes: the same reflections accepted and the estimates within 1e-6 (m, rad)."""
     make, seconds = CASES[case]
     plain, est_p = _run(make(), False, seconds)
     fast, est_f = _run(make(), True, seconds)
-    assert set(plain) == set(fast)
-    for name in plain:
-        a, b = np.asarray(plain[name]), np.asarray(fast[name])
-        assert a.shape == b.shape and a.tobytes() == b.tobytes(), name
-    assert est_p.n_accepted == est_f.n_accepted > 20  # type: ignore[attr-defined]
-    assert est_p.n_rejected == est_f.n_rejected  # type: ignore[attr-defined]
-    assert est_p.n_inflations == est_f.n_inflations  # type: ignore[attr-defined]
-    for attr in ("_x_t", "_P_t", "_odom_t", "_M", "_Pxc"):
-        assert getattr(est_p, attr, None) == getattr(est_f, attr, None), attr
-    if hasattr(est_p, "_C"):
-        assert est_p._C.tobytes() == est_f._C.tobytes()  # type: ignore[attr-defined]
-
-
-def test_powers_reach_the_c_library_pow() -> None:
-    """``x ** 2`` in CPython is libm's ``pow``, which differs from ``x * x`` on some inputs; the kernels match it."""
-    rng = np.random.default_rng(3)
-    ratios = rng.uniform(0.0, 1.0, 20_000).tolist()
-    differ = [r for r in ratios if r**2 != r * r]
-    assert differ, "no input where pow(x, 2) and x * x differ: the check below would be vacuous"
-    _jit.set_compiled(True)
-    gc = _fast.gate_constants(_gate_spec(), (0.0, 0.0, 0.0), None, 1e-7)
-    assert gc[_fast._G_TWO] == 2.0 and gc[_fast._G_THREE] == 3.0
-    # a reflector at distance d with radius r = ratio d: the Jacobian's edge gain takes ratio ** 2 and d ** 3
-    for ratio in differ[:20]:
-        d = 3.0
-        tab = _fast.gate_table([(d, 0.0, ratio * d)])
-        z = -math.asin(ratio)  # the edge bearing seen from the origin, heading 0
-        got = _fast.gate_rows(z, 1.0, (0.0, 0.0, 0.0), (1e-6, 0.0, 0.0, 0.0, 1e-6, 0.0, 0.0, 0.0, 1e-6),
-                              (1.0,) * 9, np.zeros((1, 6)), np.full(1, -math.inf), np.ones(1, np.bool_), tab, gc,
-                              np.zeros(2, np.int64), np.zeros(0, np.int64))
-        ref = _fast.gate_one(z, (0.0, 0.0, 0.0), (1e-6, 0.0, 0.0, 0.0, 1e-6, 0.0, 0.0, 0.0, 1e-6), (0.0, 0.0, 0.0),
-                             [(d, 0.0, ratio * d)], _gate_spec(), [-math.inf], 1.0)
-        assert got[0] == ref[0] == 0
-        assert (got[4], got[5], got[6], got[7]) == (*ref[4], ref[5])
-
-
-def _gate_spec() -> object:
-    from agvnav.positioning.gating import GateSpec
-
-    return GateSpec(1e-7, 30.0, 10.8, 0.001, 0.1)
+    assert est_p.n_accepted > 20  # type: ignore[attr-defined]
+    # a decision within rounding of its threshold may differ: counts within 2 %, the estimates close
+    for attr in ("n_accepted", "n_rejected", "n_inflations"):
+        a, b = getattr(est_p, attr), getattr(est_f, attr)
+        assert abs(a - b) <= max(1, 0.02 * a), attr
+    np.testing.assert_allclose(est_p._x_t, est_f._x_t, rtol=0.0, atol=1e-6)  # type: ignore[attr-defined]
+    for name in ("est_x", "est_y", "x", "y"):
+        err = np.abs(np.asarray(plain[name]) - np.asarray(fast[name]))
+        assert np.nanmax(err, initial=0.0) < 1e-6, name
 
 
 @pytest.mark.parametrize("p_xy", [0.01, 0.13])
@@ -114,7 +99,8 @@ def test_lockout_inflation_between_gate_and_update(p_xy: float) -> None:
         j = next(int(i) for i in np.argsort(-np.hypot(*(world.reflector_xy - pose[:2]).T))
                  if est._gate(0.01, float(h[i])).index == i)  # type: ignore[attr-defined]
         accepted = est.update(0.01, float(h[j]) - est.bearing_offset)
-        results.append((accepted, est.n_inflations, est._x_t, est._P_t, est._M, est._C.tobytes()))  # type: ignore[attr-defined]
+        results.append((accepted, est.n_inflations, est._x_t, est._P_t, est._M, est._C))  # type: ignore[attr-defined]
     assert results[0][0] and results[0][:2] == results[1][:2]
     assert results[0][1] == (1 if p_xy == 0.01 else 0)
-    assert results[0] == results[1]
+    for a, b in zip(results[0][2:], results[1][2:], strict=True):  # the two modes agree to rounding
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-9, atol=1e-15)

@@ -91,10 +91,10 @@ def test_odometry_noise_is_checked(lab: WorldMap) -> None:
 def _triple_of(mon: IntegrityMonitor, t: float, pose: np.ndarray) -> tuple[int, tuple[int, ...]]:
     """The cross-check kernel's code and triple (map rows, ``out[6:9]``) on the monitor's window at ``t``."""
     buf, start = mon._entries.buffer()
-    rx, ry, radius, map_std = mon._tables if _jit.compiled() else mon._lists
+    rx, ry, radius, map_std = mon._tables
     pose_t = tuple(float(v) for v in pose)
     out = crosscheck_fix(buf, start, mon._tally(t).newest, pose_t, pose_t, mon._mount_t, rx, ry, radius, map_std,
-                         mon.odometry_noise, mon.bearing_std**2, 2.0, mon.limits.max_fix_std_m**2)
+                         mon.odometry_noise, mon.bearing_std**2, mon.limits.max_fix_std_m**2)
     return int(out[0]), tuple(int(v) for v in out[6:9])
 
 

@@ -1,9 +1,9 @@
-"""agvnav.positioning._integrity_fast: the monitor's compiled check gives the bits of the forms it replaced.
+"""agvnav.positioning._integrity_fast: the monitor's compiled check against the forms it replaced (its oracles).
 
-Each kernel is run in both modes (compiled and interpreted) and compared bit for bit with
-the Python / NumPy form it stands for: CPython's ``math.hypot``, ``triangulate(method="total")``
-(its single-fix path, covariance and critical-circle flag), and the cross-check's former
-plain-Python propagation (kept here, :func:`_reference_crosscheck`, as the reference).
+Each kernel is compared, to rounding, with the Python / NumPy form it stands for:
+``triangulate(method="total")`` (its single-fix path, covariance and critical-circle flag), and
+the cross-check's former plain-Python propagation (kept here, :func:`_reference_crosscheck`, as the
+reference). The kernels' two modes agree to rounding (``tests/test_jit.py``), so these run in one.
 """
 
 from __future__ import annotations
@@ -15,34 +15,21 @@ from typing import Any
 import numpy as np
 import pytest
 
-from agvnav import _jit
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.positioning import _integrity_fast as fast
 from agvnav.positioning.integrity import _WIDTH, IntegrityMonitor
 from agvnav.positioning.triangulation import _nonlinear, triangulate
 
-pytestmark = pytest.mark.usefixtures("restore_jit_mode")
 
-MODES = (False, True)
+def _close(got: float, want: float, rel: float = 1e-9) -> bool:
+    """``got`` equals ``want`` to ``rel`` (the kernels sum in their own order), NaN where NaN, inf where inf."""
+    if math.isnan(want):
+        return math.isnan(got)
+    return got == want or math.isclose(got, want, rel_tol=rel, abs_tol=1e-300)
 
 
-def _bits(v: float) -> str:
-    return float(v).hex()
-
-
-@pytest.mark.parametrize("on", MODES)
-def test_py_hypot_is_cpythons_hypot_bit_for_bit(on: bool) -> None:
-    """libm's hypot differs from CPython's on ~0.6 % of pairs; the kernel is CPython's in both modes."""
-    _jit.set_compiled(on)
-    rng = np.random.default_rng(3)
-    n = 100_000 if on else 20_000
-    a = rng.standard_normal(n) * 10.0 ** rng.uniform(-6, 6, n)
-    b = rng.standard_normal(n) * 10.0 ** rng.uniform(-6, 6, n)
-    special = [(0.0, 0.0), (-0.0, 2.0), (5e-324, 1e-320), (1e-310, 3e-309), (1e308, 1e308), (3.0, 4.0),
-               (math.inf, math.nan), (math.nan, 1.0), (-math.inf, 2.0), (0.28183784439970383, 0.7558042041572239)]
-    pairs = list(zip(a.tolist(), b.tolist(), strict=True)) + special
-    got = [_bits(fast.py_hypot(x, y)) for x, y in pairs]
-    assert got == [_bits(math.hypot(x, y)) for x, y in pairs]
+def _all_close(got: Any, want: Any, rel: float = 1e-9) -> bool:
+    return all(_close(float(a), float(b), rel) for a, b in zip(got, want, strict=True))
 
 
 def _random_triple(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -56,39 +43,43 @@ def _random_triple(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np
     return r, np.array([wrap_angle_scalar(v) for v in z.tolist()]), rng.uniform(1e-4, 5e-3, 3)
 
 
-@pytest.mark.parametrize("on", MODES)
-def test_total_fix_covariance_and_flag_are_triangulates(on: bool) -> None:
-    """ToTal's single fix, its covariance and its critical-circle flag: triangulate's bits (code 2 aside)."""
-    _jit.set_compiled(on)
+def test_total_fix_covariance_and_flag_are_triangulates() -> None:
+    """ToTal's single fix, its covariance and its critical-circle flag: triangulate's, to rounding.
+
+    The kernel decides every case itself (no rare path to triangulate): where triangulate raises
+    (coincident reflectors) or flags the fix invalid, the kernel gives no valid fix; a decision on a
+    value within rounding of its threshold may go the other way (at most a few in 3,000).
+    """
     rng = np.random.default_rng(5)
-    codes = {0: 0, 1: 0, 2: 0}
+    valid = disagree = 0
     for _ in range(3_000):
         r, z, std = _random_triple(rng)
         (x1, y1), (x2, y2), (x3, y3) = r.tolist()
         code, px, py = fast.total_fix(x1, y1, x2, y2, x3, y3, *z.tolist())
-        codes[code] += 1
-        if code == fast.TOTAL_FALLBACK:
-            continue
         try:
             fix = triangulate(r, z, method="total", bearing_std=std)
         except ValueError:
-            pytest.fail("total_fix gave a fix where triangulate raises")
+            assert code == fast.TOTAL_INVALID
+            continue
         rx, ry = tuple(r[:, 0].tolist()), tuple(r[:, 1].tolist())
         if code == fast.TOTAL_INVALID:
-            assert not bool(fix.valid) or not math.isfinite(px)
+            disagree += bool(fix.valid) and math.isfinite(px)
             continue
+        valid += 1
         ok, c00, c01, c02, c11, c12, c22 = fast.fix_covariance(rx, ry, px, py, tuple(std.tolist()))
         flagged = ok and fast.nonlinear_fix(rx, ry, px, py, c00, c01, c11)
-        assert bool(fix.valid) == (not flagged)
+        if bool(fix.valid) != (not flagged):
+            disagree += 1
+            continue
         assert fix.covariance is not None
         if not flagged:
-            assert (_bits(fix.x), _bits(fix.y)) == (_bits(px), _bits(py))
+            assert _all_close((px, py), (fix.x, fix.y))
         want = fix.covariance[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]].tolist()
         if ok:
-            assert [_bits(v) for v in (c00, c01, c02, c11, c12, c22)] == [_bits(v) for v in want]
+            assert _all_close((c00, c01, c02, c11, c12, c22), want, 1e-6)
         else:
             assert all(math.isnan(v) for v in want)
-    assert codes[1] > 2_000 and codes[2] < 30  # the rare path stays rare
+    assert valid > 2_000 and disagree <= 3
 
 
 def test_nonlinear_fix_is_triangulations_flag_on_near_critical_fixes() -> None:
@@ -293,10 +284,8 @@ def _reference_crosscheck(mon: IntegrityMonitor, x: np.ndarray, odom: tuple[floa
     return float(fix.x), float(fix.y), float(c[0, 0]), float(c[0, 1]), float(c[1, 1])
 
 
-@pytest.mark.parametrize("on", MODES)
-def test_crosscheck_fix_is_the_former_propagation_and_fix(on: bool) -> None:
+def test_crosscheck_fix_is_the_former_propagation_and_fix() -> None:
     """Random windows (0-80 sightings of 5-40 reflectors): the kernel's fix is the plain form's, bit for bit."""
-    _jit.set_compiled(on)
     rng = np.random.default_rng(17)
     fixes = 0
     for _ in range(300):
@@ -307,44 +296,17 @@ def test_crosscheck_fix_is_the_former_propagation_and_fix(on: bool) -> None:
         x = np.array([rng.uniform(8, 12), rng.uniform(8, 12), rng.uniform(-3, 3)])
         odom = (float(rng.uniform(8, 12)), float(rng.uniform(8, 12)), float(rng.uniform(-3, 3)))
         buf, start = mon._entries.buffer()
-        rx, ry, radius, map_std = mon._tables if on else mon._lists
+        rx, ry, radius, map_std = mon._tables
         out = fast.crosscheck_fix(buf, start, tally.newest, tuple(x.tolist()), odom, mon._mount_t, rx, ry, radius,
-                                  map_std, mon.odometry_noise, mon.bearing_std**2, 2.0, mon.limits.max_fix_std_m**2)
+                                  map_std, mon.odometry_noise, mon.bearing_std**2, mon.limits.max_fix_std_m**2)
         want = _reference_crosscheck(mon, x, odom, tally.newest)
-        if out[0] == 2:
-            continue
         if want is None:
             assert out[0] == 0
             continue
         assert out[0] == 1
-        assert [_bits(v) for v in out[1:6]] == [_bits(v) for v in want]
+        assert _all_close(out[1:6], want, 1e-6)
         fixes += 1
     assert fixes > 100
-
-
-def test_crosscheck_fix_modes_agree_bit_for_bit() -> None:
-    """The whole kernel compiled and interpreted: the same tuple on the same windows."""
-    rng = np.random.default_rng(23)
-    cases = []
-    for _ in range(60):
-        mon = _monitor(rng, int(rng.integers(5, 30)))
-        _window(rng, mon, 10.0)
-        x = tuple(rng.uniform(8, 12, 2).tolist()) + (float(rng.uniform(-3, 3)),)
-        odom = (float(rng.uniform(8, 12)), float(rng.uniform(8, 12)), float(rng.uniform(-3, 3)))
-        cases.append((mon, x, odom))
-    results = {}
-    for on in MODES:
-        _jit.set_compiled(on)
-        got = []
-        for mon, x, odom in cases:
-            buf, start = mon._entries.buffer()
-            tables = mon._tables if on else mon._lists
-            out = fast.crosscheck_fix(buf, start, mon._tally(10.0).newest, x, odom, mon._mount_t, *tables,
-                                      mon.odometry_noise, 1e-6, 2.0, 0.05**2)
-            got.append(tuple(_bits(v) if isinstance(v, float) else int(v) for v in out))
-        results[on] = got
-    assert results[True] == results[False]
-    assert sum(r[0] == 1 for r in results[True]) > 20
 
 
 def test_the_monitor_writes_its_window_rows_in_the_kernels_layout() -> None:
@@ -372,10 +334,8 @@ def _reference_inverse3(a: list[float]) -> tuple[float, ...] | None:
     return c00 / det, c01 / det, c02 / det, c11 / det, c12 / det, c22 / det
 
 
-@pytest.mark.parametrize("on", MODES)
-def test_information_is_the_former_pdop_and_survey_floor(on: bool) -> None:
-    """PDOP² and the survey floor of the sighted reflectors: the former form's bits (pow for ``** 3``)."""
-    _jit.set_compiled(on)
+def test_information_is_the_former_pdop_and_survey_floor() -> None:
+    """PDOP² and the survey floor of the sighted reflectors: the former form's, to rounding."""
     rng = np.random.default_rng(29)
     floors = 0
     for _ in range(1_500):
@@ -392,7 +352,7 @@ def test_information_is_the_former_pdop_and_survey_floor(on: bool) -> None:
             continue
         inv = _reference_inverse3(list(a))
         want = math.inf if inv is None else inv[0] + inv[3]
-        assert _bits(unit) == _bits(want if math.isfinite(want) and want >= 0.0 else math.inf)
+        assert _close(unit, want if math.isfinite(want) and want >= 0.0 else math.inf)
         cov = _reference_inverse3(list(b)) if survey and len(used) >= 3 else None
         if cov is None or not all(math.isfinite(v) for v in cov):
             assert not floor.any()
@@ -404,15 +364,13 @@ def test_information_is_the_former_pdop_and_survey_floor(on: bool) -> None:
         want_floor = [c00 + 2.0 * ta * c02 + ta * ta * c22, c01 + ta * c12 + tb * c02 + ta * tb * c22,
                       c02 + ta * c22, c11 + 2.0 * tb * c12 + tb * tb * c22, c12 + tb * c22, c22]
         got = floor[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]].tolist()
-        assert [_bits(v) for v in got] == [_bits(v) for v in want_floor]
+        assert _all_close(got, want_floor, 1e-6)
         floors += 1
     assert floors > 150
 
 
-@pytest.mark.parametrize("on", MODES)
-def test_in_range_is_hypot_against_the_range_at_the_boundary_too(on: bool) -> None:
-    """Reflectors spread about the range boundary (within 1e-9 relative and exactly on it): ``math.hypot``'s count."""
-    _jit.set_compiled(on)
+def test_in_range_is_hypot_against_the_range_at_the_boundary_too() -> None:
+    """Reflectors spread about the range boundary (within 1e-9 relative and on it): ``math.hypot``'s count."""
     rng = np.random.default_rng(31)
     for _ in range(300):
         n = int(rng.integers(1, 60))
@@ -423,16 +381,16 @@ def test_in_range_is_hypot_against_the_range_at_the_boundary_too(on: bool) -> No
         xy = np.column_stack([hx + d * np.cos(ang), hy + d * np.sin(ang)])
         excluded = (rng.uniform(size=n) < 0.1).astype(np.int64)
         rx, ry = xy[:, 0].copy(), xy[:, 1].copy()
-        args = (rx, ry) if on else (rx.tolist(), ry.tolist())
+        args = (rx, ry)
         got = fast.in_range(hx, hy, *args, max_range, excluded)
-        want = sum(1 for j in range(n) if not excluded[j] and math.hypot(rx[j] - hx, ry[j] - hy) <= max_range)
-        assert got == want
+        dist = [math.hypot(rx[j] - hx, ry[j] - hy) for j in range(n) if not excluded[j]]
+        # a reflector within rounding of the range may count either way (libm's hypot or CPython's)
+        inside = sum(v <= max_range * (1.0 - 1e-14) for v in dist)
+        assert inside <= got <= sum(v <= max_range * (1.0 + 1e-14) for v in dist)
 
 
-@pytest.mark.parametrize("on", MODES)
-def test_revolution_and_mean_innovations_are_the_former_numpy_sums(on: bool) -> None:
+def test_revolution_and_mean_innovations_are_the_former_numpy_sums() -> None:
     """The common offset's and the RAIM's per-reflector means: the former dict sums and NumPy expressions."""
-    _jit.set_compiled(on)
     rng = np.random.default_rng(37)
     for _ in range(200):
         n_map, n_rows = int(rng.integers(4, 40)), int(rng.integers(0, 120))
@@ -445,8 +403,8 @@ def test_revolution_and_mean_innovations_are_the_former_numpy_sums(on: bool) -> 
                for _ in range(int(rng.integers(0, 4)))]
         excluded = (rng.uniform(size=n_map) < 0.1).astype(np.int64)
         map_std = np.where(rng.uniform(size=n_map) < 0.3, 0.0, rng.uniform(1e-3, 1e-2, n_map))
-        buf = rows.reshape(-1) if on else list(rows.reshape(-1).tolist())
-        att_arg = np.array(att, dtype=np.float64).reshape(-1, 7) if on else att
+        buf = rows.reshape(-1)
+        att_arg = np.array(att, dtype=np.float64).reshape(-1, 7)
         sums = fast.revolution_innovations(buf, 0, n_rows, 10.0, 0.125, excluded, att_arg, len(att))
         ref: dict[int, list[float]] = {}
         for r in rows[(rows[:, 14] != 0.0) & ~(10.0 - rows[:, 0] > 0.125)].tolist():
@@ -490,10 +448,8 @@ def _random_window_rows(rng: np.random.Generator, n_map: int, n_rows: int) -> np
     return rows
 
 
-@pytest.mark.parametrize("on", MODES)
-def test_revolution_offset_is_the_weighted_least_squares_fit(on: bool) -> None:
+def test_revolution_offset_is_the_weighted_least_squares_fit() -> None:
     """The common offset: NumPy's solve of the same normal equations to 1e-12 (it sums in BLAS's order, with FMA)."""
-    _jit.set_compiled(on)
     rng = np.random.default_rng(41)
     fits = 0
     for _ in range(300):
@@ -501,8 +457,8 @@ def test_revolution_offset_is_the_weighted_least_squares_fit(on: bool) -> None:
         rows = _random_window_rows(rng, n_map, int(rng.integers(0, 60)))
         excluded = (rng.uniform(size=n_map) < 0.1).astype(np.int64)
         map_std = rng.uniform(0.0, 5e-3, n_map)
-        buf = rows.reshape(-1) if on else list(rows.reshape(-1).tolist())
-        att = np.zeros((0, 7)) if on else []
+        buf = rows.reshape(-1)
+        att = np.zeros((0, 7))
         ok, *dx, stat = fast.revolution_offset(buf, 0, rows.shape[0], 10.0, 0.5, excluded, att, 0, map_std, 1e-6)
         sums = fast.revolution_innovations(buf, 0, rows.shape[0], 10.0, 0.5, excluded, att, 0)
         found = np.flatnonzero(sums[:, 5])
@@ -518,34 +474,10 @@ def test_revolution_offset_is_the_weighted_least_squares_fit(on: bool) -> None:
     assert fits > 150
 
 
-def test_revolution_offset_and_window_fde_modes_agree_bit_for_bit() -> None:
-    rng = np.random.default_rng(43)
-    cases = []
-    for _ in range(100):
-        n_map = int(rng.integers(4, 30))
-        rows = _random_window_rows(rng, n_map, int(rng.integers(0, 60)))
-        cases.append((rows, (rng.uniform(size=n_map) < 0.1).astype(np.int64), rng.uniform(0.0, 5e-3, n_map)))
-    got = {}
-    for on in MODES:
-        _jit.set_compiled(on)
-        out = []
-        for rows, excluded, map_std in cases:
-            buf = rows.reshape(-1) if on else list(rows.reshape(-1).tolist())
-            res = fast.revolution_offset(buf, 0, rows.shape[0], 10.0, 0.5, excluded, np.zeros((0, 7)), 0, map_std, 1e-6)
-            out.append(tuple(_bits(v) for v in res[1:]) + (bool(res[0]),))
-            sums = fast.revolution_innovations(buf, 0, rows.shape[0], 10.0, 1.0, excluded, np.zeros((0, 7)), 0)
-            found, stats, positive = fast.window_fde(sums, map_std, 1e-6)
-            out.append((found.tobytes(), stats.tobytes(), bool(positive)))
-        got[on] = out
-    assert got[True] == got[False]
-
-
-@pytest.mark.parametrize("on", MODES)
-def test_window_fde_is_leave_one_out_fde(on: bool) -> None:
+def test_window_fde_is_leave_one_out_fde() -> None:
     """The RAIM's statistics from the window's sums: leave_one_out_fde's on the same means, bit for bit."""
     from agvnav.positioning.integrity import leave_one_out_fde
 
-    _jit.set_compiled(on)
     rng = np.random.default_rng(47)
     for _ in range(200):
         n_map = int(rng.integers(4, 30))
@@ -565,8 +497,8 @@ def test_window_fde_is_leave_one_out_fde(on: bool) -> None:
         white = np.maximum(s_bar - survey, 1e-6)
         var = survey + white / n
         ref = leave_one_out_fde(r, H, var, 1e-5)
-        assert _bits(stats[0]) == _bits(ref.statistic)
-        assert [_bits(v) for v in stats[1:].tolist()] == [_bits(v) for v in ref.without] or ref.dof < 2
+        assert _close(stats[0], ref.statistic)
+        assert _all_close(stats[1:].tolist(), ref.without) or ref.dof < 2
         # and independently of the fits' kernel: NumPy's least squares, all rows and each left out
         for k, keep in enumerate([np.ones(len(found), bool)] + [np.arange(len(found)) != q for q in range(len(found))]):
             if keep.sum() < 4:
@@ -577,9 +509,7 @@ def test_window_fde_is_leave_one_out_fde(on: bool) -> None:
             assert stats[k] == pytest.approx(want, rel=1e-8, abs=1e-12)
 
 
-@pytest.mark.parametrize("on", MODES)
-def test_nis_per_reflector_is_the_former_sum_in_order_of_first_sighting(on: bool) -> None:
-    _jit.set_compiled(on)
+def test_nis_per_reflector_is_the_former_sum_in_order_of_first_sighting() -> None:
     rng = np.random.default_rng(53)
     for _ in range(200):
         mon = _monitor(rng, int(rng.integers(3, 30)))
@@ -592,38 +522,4 @@ def test_nis_per_reflector_is_the_former_sum_in_order_of_first_sighting(on: bool
         want = 0.0  # an explicit loop: sum() compensates on Python 3.12+ (the kernel's module docstring)
         for v in means[np.argsort(tally.first[seen])].tolist():
             want += v
-        assert _bits(got) == _bits(want)
-
-
-def test_crosscheck_rare_path_through_triangulate_gives_the_kernels_value(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A code 2 (the kernel leaves the decision to triangulate) ends in the value the kernel's own fix gives."""
-    from agvnav.positioning import integrity
-
-    rng = np.random.default_rng(59)
-    kernel = integrity.crosscheck_fix
-    compared = 0
-    for _ in range(200):
-        mon = _monitor(rng, int(rng.integers(5, 30)))
-        _window(rng, mon, 10.0)
-        tally = mon._tally(10.0)
-        x = np.array([rng.uniform(8, 12), rng.uniform(8, 12), rng.uniform(-3, 3)])
-        odom = (float(rng.uniform(8, 12)), float(rng.uniform(8, 12)), float(rng.uniform(-3, 3)))
-        P = np.diag([1e-4, 1e-4, 1e-5])
-        mon.limits = integrity.IntegrityLimits(crosscheck_min_m=1e-6)  # the Mahalanobis distance, not the floor
-        direct = mon._crosscheck(10.0, x, P, odom, tally)
-        if not math.isfinite(direct):
-            continue
-        monkeypatch.setattr(integrity, "crosscheck_fix", lambda *a: (2, *([math.nan] * 5), *kernel(*a)[6:]))
-        assert _bits(mon._crosscheck(10.0, x, P, odom, tally)) == _bits(direct)
-        monkeypatch.setattr(integrity, "crosscheck_fix", kernel)
-        compared += 1
-    assert compared > 50
-
-
-def test_the_monitor_s_python_sums_add_in_turn_on_every_python() -> None:
-    """The head clock's and the NIS exclusion's sums add in turn as 3.11's ``sum()`` did (3.12's compensates)."""
-    from agvnav.positioning.integrity import _plain_sum
-
-    assert _plain_sum([1e16, 1.0, -1e16]) == 0.0  # compensated: 1.0
-    assert _plain_sum(iter([0.1, 0.2, 0.3])) == (0.1 + 0.2) + 0.3
-    assert _plain_sum([]) == 0.0
+        assert _close(got, want, 1e-12)

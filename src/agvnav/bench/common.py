@@ -39,6 +39,7 @@ from agvnav._display import (
     terminal_width,
 )
 from agvnav._json import json_text, plain_json
+from agvnav.jit import mode as kernel_mode
 
 __all__ = [
     "DASH_NOTE",
@@ -63,7 +64,10 @@ BenchProgress = Callable[[float, float], None]
 
 
 def run_metadata(seed: int | None = None, quick: bool | None = None) -> dict[str, Any]:
-    """What produced a record: agvnav version, seed, quick flag, Python, NumPy and the CPU.
+    """What produced a record: agvnav version, seed, quick flag, the kernels' mode, Python, NumPy and the CPU.
+
+    ``kernels`` is ``"compiled"`` or ``"interpreted"`` (:func:`agvnav.jit.mode`): seeded runs repeat
+    themselves bit for bit within one mode, and agree to rounding across modes.
 
     ``cpu`` is the processor's model name where the OS tells it (Linux ``/proc/cpuinfo``,
     else :func:`platform.processor`), with the logical CPU count.
@@ -72,6 +76,7 @@ def run_metadata(seed: int | None = None, quick: bool | None = None) -> dict[str
         "agvnav": __version__,
         "seed": seed,
         "quick": quick,
+        "kernels": kernel_mode(),
         "python": platform.python_version(),
         "numpy": _version_of("numpy"),
         "cpu": _cpu_name(),

@@ -1,4 +1,6 @@
-"""``agvnav simulate [SCENARIO] [--out DIR] [--seed N] [--force] [--json] [--wide]``: the product's main job.
+"""``agvnav simulate [SCENARIO] [--out DIR] [--seed N] [--force] [--json] [--wide] [--jit on|off|auto]``.
+
+The product's main job.
 
 Runs a closed-loop scenario (the seed-000 guidance test in the lab when none is
 given) with a progress bar on stderr (:class:`agvnav.cli.progress.RunProgress`),
@@ -10,7 +12,9 @@ plots, all at once at the end (:func:`agvnav.report.files.atomic_dir`); a DIR th
 holds another run is refused (exit 2) unless ``--force``. A run that ran but
 failed exits 3 after one line ``run FAILED: <reason>``. ``--json`` prints the
 metrics (metrics.json, timing and the run's metadata) as one JSON document on
-stdout and everything else on stderr, for scripts. Argument parsing and
+stdout and everything else on stderr, for scripts. ``--jit`` picks the kernels' mode (numba or
+plain Python; auto: the cheaper for the run), recorded as ``kernels`` in metrics.json and the
+JSON metadata. Argument parsing and
 printing only; the work is :func:`agvnav.sim.simulate`.
 """
 
@@ -42,6 +46,10 @@ JSON_OPT = typer.Option(
     False, "--json", help="Print the metrics as JSON on stdout (with version, seed and machine); messages go to stderr."
 )
 WIDE_OPT = typer.Option(False, "--wide", help="Print every table column, however wide the terminal.")
+JIT_OPT = typer.Option(
+    "auto", "--jit", help="Kernels compiled by numba (on), plain Python (off), or the cheaper for this run (auto); "
+    "recorded in metrics.json as kernels. Seeded runs repeat bit for bit within one mode.",
+)
 
 
 @user_errors
@@ -55,6 +63,7 @@ def simulate(
     report: bool = REPORT_OPT,
     json: bool = JSON_OPT,
     wide: bool = WIDE_OPT,
+    jit: str = JIT_OPT,
 ) -> None:
     """Run a closed-loop scenario; write metrics.json, timing.json, time series (CSV) and plots."""
     # Start-up allocates some 90,000 long-lived objects (the schema, the simulator, NumPy; matplotlib in
@@ -66,7 +75,7 @@ def simulate(
 
         # forked before anything else (no thread yet): it readies matplotlib on the other core during the run
         with PlotWorker() if plots else nullcontext() as plotter:
-            _simulate(scenario, out, seed, plots, force, log, report, json, wide, plotter)
+            _simulate(scenario, out, seed, plots, force, log, report, json, wide, plotter, jit)
     finally:
         gc.unfreeze()  # a caller in the same process (a test's CLI runner) gets its collector back as it was
         gc.enable()
@@ -80,10 +89,16 @@ def _collect_again() -> None:
 
 def _simulate(
     scenario: str | None, out: Path, seed: int | None, plots: bool, force: bool, log: Path | None,
-    report: bool, json: bool, wide: bool, plotter: Any,
+    report: bool, json: bool, wide: bool, plotter: Any, jit: str = "auto",
 ) -> None:
     from agvnav.world.scenario import ScenarioError, default_scenario, load_scenario
 
+    if jit not in ("on", "off", "auto"):
+        raise fail(f"--jit {jit}: expected on, off or auto")
+    from agvnav.jit import set_compiled, set_compiled_for_run
+
+    if jit != "auto":  # the user's choice wins over AGVNAV_JIT
+        set_compiled(jit == "on", force=True)
     try:
         sc = default_scenario() if scenario is None else load_scenario(scenario)
     except ScenarioError as exc:
@@ -99,7 +114,6 @@ def _simulate(
         return _simulate_route(sc, out, plots, force, console, json, wide)
     if log is not None and log.suffix != ".mcap":
         raise fail(f"--log {log}: the log file must end in .mcap")
-    from agvnav.jit import set_compiled_for_run
     from agvnav.report.files import save_result
     from agvnav.sim import simulate as run_scenario
     from agvnav.sim.build import build
@@ -107,8 +121,8 @@ def _simulate(
     built = build(sc)  # validate every cross-part rule before the progress bar starts
     _collect_again()
     expected_s = expected_sim_time(sc, built)
-    # a short run with few reflectors is cheaper without numba's start-up; the same numbers either way
-    set_compiled_for_run(expected_s, len(built.world.reflector_xy))
+    if jit == "auto":  # a short run with few reflectors is cheaper without numba's start-up
+        set_compiled_for_run(expected_s, len(built.world.reflector_xy))
     _prepare_out(out, force)
     with RunProgress(sc.name, expected_s, "s simulated") as bar:
         result = run_scenario(sc, progress=bar.update, built=built)

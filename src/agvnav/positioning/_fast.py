@@ -1,13 +1,20 @@
-"""Scalar fast paths of the streaming estimators' inner loop (one vehicle, one step at a time).
+"""Scalar kernels of the streaming estimators' inner loop (one vehicle, one step at a time).
 
 A streaming estimator handles one odometry increment or one reflection per call, on
 3-vectors and 3x3 matrices. NumPy's per-call overhead (~1 us per ufunc) dominated
 those calls, so the closed-loop simulator spent most of its time there. The
-functions below redo *the same equations* with the ``math`` module and explicit
-3x3 arithmetic on flat row-major tuples. Each names the vectorised kernel it
-mirrors; ``tests/positioning/test_fast.py`` checks every one against that kernel
-to 1e-12 (they differ only in the summation order of the matrix products). The
-kernels stay the reference and serve every batch use.
+functions below compute the equations with the ``math`` module and explicit 3x3
+arithmetic on flat row-major tuples, as kernels (:func:`agvnav._jit.jit`: compiled by
+numba or run as plain Python, the two modes agreeing to rounding). Each equation is
+written once: the leading-edge bearing and its Jacobian (:func:`edge_bearing`,
+:func:`bearing_jacobian`, seed 000 §2.1) and the odometry noise ``Q`` [seed002 eq17]
+(:func:`increment_variances`, :func:`process_noise`, :func:`steered_noise`) are the
+kernels the compiled per-reflection path (:func:`move_state`, :func:`gate_rows`,
+:func:`gate_accept`) and the integrity monitor's check
+(:mod:`agvnav.positioning._integrity_fast`) call. The vectorised NumPy forms
+(:func:`agvnav.positioning.identification.bearing_model`,
+:func:`agvnav.odometry.motion_covariance`) are their test oracles and serve every
+batch use; ``tests/positioning/test_fast.py`` checks the kernels against them to 1e-12.
 
 Matrices are flat row-major tuples of 9 floats: ``P[3 * i + j]``.
 """
@@ -34,16 +41,19 @@ _PI = math.pi
 wrap = wrap_angle_scalar
 
 
+@jit
 def _sinc(h: float) -> float:
     """``sin(h) / h`` with the series below 1e-4, as ``agvnav.odometry.integrate._sinc``."""
     return 1.0 - h * h / 6.0 if abs(h) < 1e-4 else math.sin(h) / h
 
 
+@jit
 def _dsinc(h: float) -> float:
     """Derivative of ``sin(h) / h``, as ``agvnav.odometry.integrate._dsinc``."""
     return -h / 3.0 if abs(h) < 1e-4 else (h * math.cos(h) - math.sin(h)) / (h * h)
 
 
+@jit
 def twist_step(
     x: float, y: float, psi: float, dd: float, dth: float, dl: float = 0.0
 ) -> tuple[float, float, float, float, float]:
@@ -74,9 +84,24 @@ def twist_step(
     else:
         side = dl * k
         ex, ey = chord * c - side * s, chord * s + side * c
-    return x + ex, y + ey, wrap(psi + dth), -ey, ex
+    return x + ex, y + ey, wrap_angle_kernel(psi + dth), -ey, ex
 
 
+@jit
+def increment_variances(
+    dist: float, dth: float, k_d: float, k_dtheta: float, k_theta: float
+) -> tuple[float, float]:
+    """Variances of one odometry increment's distance and heading, ``(var_d, var_th)`` (m², rad²).
+
+    The odometry model of seed 002 [seed002 eq17] (corrected to a covariance, see
+    :mod:`agvnav.odometry.covariance`): ``var_d = K_D |s|`` and ``var_th = K_Dtheta |s| +
+    K_theta |dth|`` for ``|s|`` = ``dist`` m travelled and ``dth`` rad turned.
+    """
+    s = abs(dist)
+    return k_d * s, k_dtheta * s + k_theta * abs(dth)
+
+
+@jit
 def process_noise(
     psi: float, dd: float, dth: float, k_d: float, k_dtheta: float, k_theta: float,
     dl: float = 0.0, k_lateral: float = 0.0,
@@ -103,7 +128,7 @@ def process_noise(
     ax, ay = c * dd - s * dl, s * dd + c * dl  # R(heading) [dd, dl]
     tx, ty = 0.5 * (dk * ax - k * ay), 0.5 * (dk * ay + k * ax)  # d displacement / d dth
     var_d = k_d * abs(dd)
-    var_th = k_dtheta * math.hypot(dd, dl) + k_theta * abs(dth)
+    var_th = increment_variances(math.hypot(dd, dl), dth, k_d, k_dtheta, k_theta)[1]
     var_l = k_lateral * abs(dl)
     kc, ks = k * c, k * s
     q00 = var_d * kc * kc + var_th * tx * tx + var_l * ks * ks
@@ -113,6 +138,7 @@ def process_noise(
     return (q00, q01, q02, q01, q11, q12, q02, q12, var_th)
 
 
+@jit
 def steered_noise(
     psi: float, dd: float, dth: float, front: bool, L: float, slip_k: float, steer_q: float,
     min_roll: float = 0.0,
@@ -165,6 +191,7 @@ def steered_noise(
     return (q00, q01, q02, q01, q11, q12, q02, q12, q22), (a0, b0, a1, b1, a2, b2)
 
 
+@jit
 def calibration_predict(
     P: Sequence[float], X: Sequence[float], f02: float, f12: float, W: Sequence[float], cvar: Sequence[float]
 ) -> tuple[Mat3, tuple[float, ...]]:
@@ -199,6 +226,7 @@ def calibration_predict(
     return Pn, (fx0 + v0, fx1 + u0, fx2 + v1, fx3 + u1, x4 + v2, x5 + u2)
 
 
+@jit
 def calibration_update(X: Sequence[float], K: Sequence[float], H: Sequence[float]) -> tuple[float, ...]:
     """``X' = (I - K H) X`` for the pose / calibration cross-covariance ``X`` (3x2 row-major)."""
     h0, h1, h2 = H
@@ -208,6 +236,7 @@ def calibration_update(X: Sequence[float], K: Sequence[float], H: Sequence[float
     return (X[0] - k0 * r0, X[1] - k0 * r1, X[2] - k1 * r0, X[3] - k1 * r1, X[4] - k2 * r0, X[5] - k2 * r1)
 
 
+@jit
 def predict_covariance(P: Sequence[float], f02: float, f12: float, Q: Sequence[float]) -> Mat3:
     """``P' = F P F^T + Q`` for ``F = I`` except ``F[0,2], F[1,2]``; ``P`` symmetric.
 
@@ -282,6 +311,7 @@ def gain(P: Sequence[float], H: Sequence[float], R: float) -> tuple[float, float
 # :class:`agvnav.positioning.ekf.EkfEstimator`).
 
 
+@jit
 def consider_cross(
     M: Sequence[float], cx: Sequence[float], cy: Sequence[float], hp0: float, hp1: float
 ) -> tuple[float, float, float]:
@@ -301,6 +331,7 @@ def consider_cross(
     )
 
 
+@jit
 def schmidt_update(
     x: Sequence[float], P: Sequence[float], innovation: float, H: Sequence[float], R: float,
     v: Sequence[float], b: float,
@@ -331,7 +362,7 @@ def schmidt_update(
     hv = h0 * v0 + h1 * v1 + h2 * v2
     S = h0 * b0 + h1 * b1 + h2 * b2 + 2.0 * hv + b + R
     k0, k1, k2 = u0 / S, u1 / S, u2 / S
-    xn = (x[0] + k0 * innovation, x[1] + k1 * innovation, wrap(x[2] + k2 * innovation))
+    xn = (x[0] + k0 * innovation, x[1] + k1 * innovation, wrap_angle_kernel(x[2] + k2 * innovation))
     # M = A P = P - K (P H^T)^T, rows
     m00, m01, m02 = p00 - k0 * b0, p01 - k0 * b1, p02 - k0 * b2
     m10, m11, m12 = p01 - k1 * b0, p11 - k1 * b1, p12 - k1 * b2
@@ -351,6 +382,7 @@ def schmidt_update(
     return xn, (c00, c01, c02, c01, c11, c12, c02, c12, c22), (k0, k1, k2), S
 
 
+@jit
 def left_update(M: Sequence[float], K: Sequence[float], H: Sequence[float]) -> Mat3:
     """``(I - K H) M`` for flat 3x3 ``M``, column ``K`` and row ``H`` (3,)."""
     h0, h1, h2 = H
@@ -365,6 +397,7 @@ def left_update(M: Sequence[float], K: Sequence[float], H: Sequence[float]) -> M
     )
 
 
+@jit
 def shear(M: Sequence[float], f02: float, f12: float) -> Mat3:
     """``F M`` for the prediction Jacobian ``F = I`` except ``F[0,2] = f02``, ``F[1,2] = f12`` (flat 3x3)."""
     m6, m7, m8 = M[6], M[7], M[8]
@@ -372,12 +405,14 @@ def shear(M: Sequence[float], f02: float, f12: float) -> Mat3:
             m6, m7, m8)
 
 
+@jit
 def det3(M: Sequence[float]) -> float:
     """Determinant of a flat 3x3."""
     return (M[0] * (M[4] * M[8] - M[5] * M[7]) - M[1] * (M[3] * M[8] - M[5] * M[6])
             + M[2] * (M[3] * M[7] - M[4] * M[6]))
 
 
+@jit
 def solve3(M: Sequence[float], r: Sequence[float], det: float) -> tuple[float, float, float]:
     """``M^-1 r`` by the adjugate (``det = det3(M)``, nonzero; the caller keeps ``M`` well conditioned)."""
     a, b_, c, d, e, f, g, h, i = M
@@ -400,6 +435,7 @@ def reflector_rows(
     return tuple((float(p[0]), float(p[1]), float(r)) for p, r in zip(reflector_xy, radius, strict=True))
 
 
+@jit
 def edge_bearing(
     px: float, py: float, psi: float, mount_theta: float, rx: float, ry: float, r: float
 ) -> tuple[float, float, float, float, float]:
@@ -412,9 +448,10 @@ def edge_bearing(
     d2 = dx * dx + dy * dy
     d = math.sqrt(d2)
     edge = -math.asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * _PI
-    return wrap(math.atan2(dy, dx) - psi - mount_theta + edge), dx, dy, d2, d
+    return wrap_angle_kernel(math.atan2(dy, dx) - psi - mount_theta + edge), dx, dy, d2, d
 
 
+@jit
 def bearing_jacobian(
     dx: float, dy: float, d2: float, d: float, r: float, dpx_dpsi: float, dpy_dpsi: float
 ) -> tuple[float, float, float]:
@@ -424,7 +461,7 @@ def bearing_jacobian(
     """
     if d > 0.0:
         ratio = min(max(r / d, 0.0), 1.0 - 1e-12)
-        edge_gain = r / (d**3 * math.sqrt(1.0 - ratio**2))
+        edge_gain = r / (d * d * d * math.sqrt(1.0 - ratio * ratio))
         h0, h1 = dy / d2 - edge_gain * dx, -dx / d2 - edge_gain * dy
     else:  # head on the reflector centre
         h0, h1 = 0.0, 0.0
@@ -444,20 +481,26 @@ def bearing_row(
     return h, h0, h1, h2, d
 
 
+@jit
 def surely_outside(
-    innovation: float, d2: float, r: float, R: float, trace_P: float, mount_norm: float, gate: float
+    innovation: float, d2: float, r: float, R: float, trace_P: float, mount_norm: float, gate: float,
+    svar: float = 0.0, consider: bool = False,
 ) -> bool:
     """True when ``y^2 / S >= gate`` is certain without the Jacobian (a cheap pre-test of the gate).
 
     ``|dh/d(x, y)|^2 = 1 / (d^2 - r^2)`` for the edge bearing (the centre and edge terms
     are orthogonal) and ``|dh/dpsi| <= |dh/d(x, y)| |mount| + 1``, so
-    ``S <= R + trace(P) |H|^2`` for a covariance ``P``. A factor 2 of margin keeps
-    rounding from ever rejecting a reflector the exact test would admit.
+    ``H P H^T <= a = trace(P) |H|^2`` for a covariance ``P`` and ``S <= R + a``. A factor 2 of
+    margin keeps rounding from ever rejecting a reflector the exact test would admit. With
+    ``consider`` (the Schmidt-Kalman gate of :func:`gate_one`, ``R`` the bearing variance)
+    ``S <= R + 2 (a + b)``, ``b = svar / (d^2 - r^2)`` the survey error's share.
     """
     if d2 <= r * r:
         return False
     g2 = 1.0 / (d2 - r * r)
-    s_max = R + trace_P * (g2 + (math.sqrt(g2) * mount_norm + 1.0) ** 2)
+    g = math.sqrt(g2) * mount_norm + 1.0
+    a_max = trace_P * (g2 + g * g)
+    s_max = R + 2.0 * (a_max + svar * g2) if consider else R + a_max
     return innovation * innovation >= 2.0 * gate * s_max
 
 
@@ -510,46 +553,34 @@ def gate_one(
     dpx, dpy = -s * mx - c * my, c * mx - s * my
     p00, p01, p02, _, p11, p12, _, _, p22 = P
     trace_P, mount_norm = p00 + p11 + p22, math.hypot(mx, my)
-    two_gate = 2.0 * gate
-    sqrt, atan2, asin, wrap_ = math.sqrt, math.atan2, math.asin, wrap
     n_in, best = 0, None
     if consider is not None:
         cM, cC, svar = consider
-        m0, m1, m2, m3, m4, m5, m6, m7, m8 = cM
+        cM = tuple(float(v) for v in cM)
     for j in range(len(rows)) if candidates is None else candidates:
         if t - claimed[j] < sweep:
             continue
         rx, ry, r = rows[j]
-        # edge_bearing written out, the range test before the trigonometry (same values)
-        dx, dy = rx - px, ry - py
-        d2 = dx * dx + dy * dy
-        d = sqrt(d2)
+        h, dx, dy, d2, d = edge_bearing(px, py, psi, mth, rx, ry, r)
         if not d <= max_range:
             continue
-        edge = -asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * _PI
-        innov = wrap_(z - wrap_(atan2(dy, dx) - psi - mth + edge))
-        rr = r * r
+        innov = wrap(z - h)
         if consider is None:
-            R = bearing_var + (map_std / d if d > 0.0 else 0.0) ** 2
-            if d2 > rr:  # surely_outside written out: most reflectors are far from this bearing, no Jacobian needed
-                g2 = 1.0 / (d2 - rr)
-                if innov * innov >= two_gate * (R + trace_P * (g2 + (sqrt(g2) * mount_norm + 1.0) ** 2)):
-                    continue
-        elif d2 > rr:  # the same pre-test with the consider bound (docstring)
-            g2 = 1.0 / (d2 - rr)
-            a_max = trace_P * (g2 + (sqrt(g2) * mount_norm + 1.0) ** 2)
-            if innov * innov >= two_gate * (bearing_var + 2.0 * (a_max + svar[j] * g2)):
+            md = map_std / d if d > 0.0 else 0.0
+            R = bearing_var + md * md
+            if surely_outside(innov, d2, r, R, trace_P, mount_norm, gate):  # most reflectors: no Jacobian needed
                 continue
+        elif surely_outside(innov, d2, r, bearing_var, trace_P, mount_norm, gate, svar[j], True):
+            continue
         h0, h1, h2 = bearing_jacobian(dx, dy, d2, d, r, dpx, dpy)
         if consider is not None:
             R = bearing_var + svar[j] * (h0 * h0 + h1 * h1)
         # quadratic_form(H, P) written out: this loop is the estimator's hottest
         S = h0 * h0 * p00 + h1 * h1 * p11 + h2 * h2 * p22 + 2.0 * (h0 * h1 * p01 + h0 * h2 * p02 + h1 * h2 * p12) + R
-        if consider is not None:  # + 2 H P_xp,j H_p^T, consider_cross written out
+        if consider is not None:  # + 2 H P_xp,j H_p^T
             cx0, cx1, cx2, cy0, cy1, cy2 = cC[j].tolist()
-            w0, w1, w2 = -(cx0 * h0 + cy0 * h1), -(cx1 * h0 + cy1 * h1), -(cx2 * h0 + cy2 * h1)
-            S += 2.0 * (h0 * (m0 * w0 + m1 * w1 + m2 * w2) + h1 * (m3 * w0 + m4 * w1 + m5 * w2)
-                        + h2 * (m6 * w0 + m7 * w1 + m8 * w2))
+            v0, v1, v2 = consider_cross(cM, (cx0, cx1, cx2), (cy0, cy1, cy2), -h0, -h1)
+            S += 2.0 * (h0 * v0 + h1 * v1 + h2 * v2)
         nis = innov * innov / S
         if nis < gate:
             n_in += 1
@@ -559,33 +590,18 @@ def gate_one(
     return best
 
 
-# ---------------------------------------------------------------------- compiled per-reflection path (issue 11)
-# The functions above run as plain Python on tuples: cheap next to NumPy, but a reflection still
-# took ~40 Python calls (prediction to its instant, gate, Schmidt update). The kernels below do
-# the same work in two compiled calls (:mod:`agvnav._jit`), with *the same floating-point
-# operations in the same order* as the functions above, so a seeded run gives the same bits
-# either way (``tests/positioning/test_fused.py`` checks them bit for bit; ``agvnav.twins``
-# lists them). The estimator calls them only when the kernels run compiled; interpreted, the
-# plain functions above are cheaper (these index NumPy arrays element by element).
+# ---------------------------------------------------------------------- the per-reflection path (issue 11)
+# A reflection took ~40 Python calls (prediction to its instant, gate, Schmidt update). The kernels
+# below do that work in two calls (:mod:`agvnav._jit`), calling the kernels above for every equation.
 #
 # A compiled call costs about 30 ns per argument to type and unbox (more for a tuple of mixed
 # types), so the per-run constants travel packed in one float array (:func:`gate_constants`,
 # :func:`move_constants`) and the map in one ``(6, N)`` table (:func:`gate_table`).
-#
-# Two things numba would otherwise do differently from CPython, and how they are kept equal:
-#
-# * ``x ** 2`` and ``x ** 3``: CPython calls the C library's ``pow``; numba (LLVM) turns a
-#   constant small integer exponent into multiplications, and ``pow(x, 2.0)`` differs from
-#   ``x * x`` in the last bit on ~0.1 % of inputs (glibc's ``pow`` is not correctly rounded).
-#   The kernels call ``math.pow`` with the exponent read from the constants array, a value
-#   LLVM cannot fold, so they reach the same ``pow``.
-# * ``math.hypot``: CPython has its own algorithm, numba calls the C library's (they differ on
-#   ~0.6 % of pairs): the caller passes the one hypot a prediction needs (``hyp``), computed in Python.
 
 #: Slots of :func:`gate_constants` (one float array per estimator).
-_G_BVAR, _G_RANGE, _G_GATE, _G_MAP_STD, _G_SWEEP, _G_MNORM, _G_MNORM2 = 0, 1, 2, 3, 4, 5, 6
-_G_MX, _G_MY, _G_MTH, _G_X0, _G_Y0, _G_CELL, _G_RMAX, _G_NX, _G_NY, _G_GRID = 7, 8, 9, 10, 11, 12, 13, 14, 15, 16
-_G_TWO, _G_THREE, _G_CONSIDER, _G_UVAR, _G_MIN_DET, _G_MAX_ENTRY, _G_CALIBRATED = 17, 18, 19, 20, 21, 22, 23
+_G_BVAR, _G_RANGE, _G_GATE, _G_MAP_STD, _G_SWEEP, _G_MNORM = 0, 1, 2, 3, 4, 5
+_G_MX, _G_MY, _G_MTH, _G_X0, _G_Y0, _G_CELL, _G_RMAX, _G_NX, _G_NY, _G_GRID = 6, 7, 8, 9, 10, 11, 12, 13, 14, 15
+_G_CONSIDER, _G_UVAR, _G_MIN_DET, _G_MAX_ENTRY, _G_CALIBRATED = 16, 17, 18, 19, 20
 
 
 def gate_constants(
@@ -598,16 +614,15 @@ def gate_constants(
     in base_link (m, m, rad), ``grid`` the index's ``(x0, y0, cell, nx, ny, r_max)`` (m; None
     without an index), ``bearing_var`` the update's ``sigma^2`` (rad²), ``min_det`` and
     ``max_entry`` the fold limits of the consider factor ``M`` and ``calibrated`` whether
-    ``P_xc`` is carried (:class:`~agvnav.positioning.ekf.EkfEstimator`). The norms and squares
-    are taken here in Python (``math.hypot``, ``**``), as the plain forms take them.
+    ``P_xc`` is carried (:class:`~agvnav.positioning.ekf.EkfEstimator`).
     """
     mx, my, mth = (float(v) for v in mount)
     mount_norm = math.hypot(mx, my)
     x0, y0, cell, nx, ny, r_max = (0.0, 0.0, 1.0, 1, 1, 0.0) if grid is None else grid
     return np.array([
-        spec.bearing_var, spec.max_range, spec.gate, spec.map_std, spec.sweep, mount_norm, mount_norm**2,
+        spec.bearing_var, spec.max_range, spec.gate, spec.map_std, spec.sweep, mount_norm,
         mx, my, mth, x0, y0, cell, r_max, nx, ny, 0.0 if grid is None else 1.0,
-        2.0, 3.0, 1.0 if spec.consider else 0.0, bearing_var, min_det, max_entry, 1.0 if calibrated else 0.0,
+        1.0 if spec.consider else 0.0, bearing_var, min_det, max_entry, 1.0 if calibrated else 0.0,
     ], dtype=np.float64)
 
 
@@ -641,141 +656,42 @@ def move_constants(
 
 
 @jit
-def _sinc_k(h: float) -> float:
-    """:func:`_sinc`, compiled."""
-    return 1.0 - h * h / 6.0 if abs(h) < 1e-4 else math.sin(h) / h
-
-
-@jit
-def _dsinc_k(h: float) -> float:
-    """:func:`_dsinc`, compiled."""
-    return -h / 3.0 if abs(h) < 1e-4 else (h * math.cos(h) - math.sin(h)) / (h * h)
-
-
-@jit
 def move_state(
     odom: tuple[float, ...], pose: tuple[float, ...], P: Mat3, M: Mat3, X: tuple[float, ...],
-    dd: float, dth: float, dl: float, hyp: float, mc: NDArray[np.float64],
+    dd: float, dth: float, dl: float, mc: NDArray[np.float64],
 ) -> tuple[tuple[float, float, float], tuple[float, ...], Mat3, Mat3, tuple[float, ...]]:
-    """One odometry increment ``(dd, dth, dl)`` (m, rad, m) of the estimator's whole state, compiled.
+    """One odometry increment ``(dd, dth, dl)`` (m, rad, m) of the estimator's whole state, in one call.
 
-    The streaming estimator's ``_move`` in one call: the odometric pose and the pose moved by
+    The streaming estimator's ``_move``: the odometric pose and the pose moved by
     :func:`twist_step` [seed002 eq25], ``P' = F P F^T + Q`` (:func:`predict_covariance`
     [seed002 eq14]) with ``Q`` from :func:`process_noise` [seed002 eq17] or, for a steered
     wheel and ``dl == 0``, :func:`steered_noise`; for a consider filter ``M <- F M``
     (:func:`shear`) and, when calibrated, :func:`calibration_predict` of ``X = P_xc``.
-    ``mc`` is :func:`move_constants`; ``hyp`` is ``math.hypot(dd, dl)`` for
-    :func:`process_noise`, ``math.hypot(dd, L dth)`` for a front steered wheel (taken by the
-    caller: CPython's hypot). A pose that is not finite (initialising) moves only ``odom``.
-    Returns ``(odom', pose', P', M', X')``, bit for bit the plain functions' results.
+    ``mc`` is :func:`move_constants`. A pose that is not finite (initialising) moves only
+    ``odom``. Returns ``(odom', pose', P', M', X')``.
     """
-    ox, oy, opsi = odom
-    # twist_step of the odometric pose
-    k = _sinc_k(0.5 * dth)
-    heading = opsi + 0.5 * dth
-    c, s = math.cos(heading), math.sin(heading)
-    chord = dd * k
-    if dl == 0.0:
-        ex, ey = chord * c, chord * s
-    else:
-        side = dl * k
-        ex, ey = chord * c - side * s, chord * s + side * c
-    odom_n = (ox + ex, oy + ey, wrap_angle_kernel(opsi + dth))
-    x, y, psi = pose
+    ox, oy, opsi, _, _ = twist_step(odom[0], odom[1], odom[2], dd, dth, dl)
+    odom_n = (ox, oy, opsi)
+    x, y, psi = pose[0], pose[1], pose[2]
     if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(psi)):
         return odom_n, pose, P, M, X
-    heading = psi + 0.5 * dth
-    c, s = math.cos(heading), math.sin(heading)
-    if dl == 0.0:
-        ex, ey = chord * c, chord * s
-    else:
-        side = dl * k
-        ex, ey = chord * c - side * s, chord * s + side * c
-    nx, ny, npsi, f02, f12 = x + ex, y + ey, wrap_angle_kernel(psi + dth), -ey, ex
-    h = 0.5 * dth
-    kk, dk = _sinc_k(h), _dsinc_k(h)
-    heading = psi + h
-    c, s = math.cos(heading), math.sin(heading)
+    nx, ny, npsi, f02, f12 = twist_step(x, y, psi, dd, dth, dl)
     use_steered = mc[_M_STEERED] != 0.0 and dl == 0.0
-    a0 = b0 = a1 = b1 = a2 = b2 = 0.0
-    if not use_steered:  # process_noise
-        k_d, k_dtheta, k_theta, k_lateral = mc[_M_KD], mc[_M_KDTH], mc[_M_KTH], mc[_M_KLAT]
-        ax, ay = c * dd - s * dl, s * dd + c * dl
-        tx, ty = 0.5 * (dk * ax - kk * ay), 0.5 * (dk * ay + kk * ax)
-        var_d = k_d * abs(dd)
-        var_th = k_dtheta * hyp + k_theta * abs(dth)
-        var_l = k_lateral * abs(dl)
-        kc, ks = kk * c, kk * s
-        q00 = var_d * kc * kc + var_th * tx * tx + var_l * ks * ks
-        q01 = var_d * kc * ks + var_th * tx * ty - var_l * ks * kc
-        q11 = var_d * ks * ks + var_th * ty * ty + var_l * kc * kc
-        q02, q12, q22 = var_th * tx, var_th * ty, var_th
-    else:  # steered_noise
-        L, slip_k, steer_q, min_roll = mc[_M_L], mc[_M_SLIP], mc[_M_STEERQ], mc[_M_MINROLL]
-        gd0, gd1 = kk * c, kk * s
-        tx, ty = 0.5 * dd * (dk * c - kk * s), 0.5 * dd * (dk * s + kk * c)
-        rear_still = False
-        if mc[_M_FRONT] != 0.0:
-            dist = hyp
-            w0, w1 = -L * dth, dd / L
-        else:
-            dist = max(abs(dd), min_roll * abs(dth))
-            if dist == 0.0:
-                rear_still = True
-                w0 = w1 = 0.0
-            else:
-                sd = -dist if dd < 0.0 else dist
-                w0, w1 = 0.0, sd / L + L * dth * dth / sd
-        if rear_still:  # W = 0, Q on the heading only
-            q00 = q01 = q02 = q11 = q12 = 0.0
-            q22 = slip_k / L * abs(dth)
-        else:
-            a0, a1, a2 = dd * gd0 + dth * tx, dd * gd1 + dth * ty, dth
-            b0, b1, b2 = w0 * gd0 + w1 * tx, w0 * gd1 + w1 * ty, w1
-            if dist > 0.0:
-                qa, qb = slip_k / dist, steer_q / dist
-            else:
-                qa = qb = 0.0
-            q00 = qa * a0 * a0 + qb * b0 * b0
-            q01 = qa * a0 * a1 + qb * b0 * b1
-            q02 = qa * a0 * a2 + qb * b0 * b2
-            q11 = qa * a1 * a1 + qb * b1 * b1
-            q12 = qa * a1 * a2 + qb * b1 * b2
-            q22 = qa * a2 * a2 + qb * b2 * b2
-    # predict_covariance
-    p00, p01, p02, p11, p12, p22 = P[0], P[1], P[2], P[4], P[5], P[8]
-    r00, r01, r02 = p00 + f02 * p02, p01 + f02 * p12, p02 + f02 * p22
-    r11, r12 = p11 + f12 * p12, p12 + f12 * p22
-    c00 = r00 + r02 * f02 + q00
-    c01 = r01 + r02 * f12 + q01
-    c11 = r11 + r12 * f12 + q11
-    c02, c12, c22 = r02 + q02, r12 + q12, p22 + q22
-    Pn = (c00, c01, c02, c01, c11, c12, c02, c12, c22)
-    pose_n = (nx, ny, wrap_angle_kernel(npsi))
+    if use_steered:
+        Q, W = steered_noise(psi, dd, dth, mc[_M_FRONT] != 0.0, mc[_M_L], mc[_M_SLIP], mc[_M_STEERQ],
+                             mc[_M_MINROLL])
+    else:
+        Q = process_noise(psi, dd, dth, mc[_M_KD], mc[_M_KDTH], mc[_M_KTH], dl, mc[_M_KLAT])
+        W = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    Pn = predict_covariance(P, f02, f12, Q)
+    pose_n = (nx, ny, npsi)
     if mc[_M_CONSIDER] == 0.0:
         return odom_n, pose_n, Pn, M, X
-    m6, m7, m8 = M[6], M[7], M[8]
-    Mn = (M[0] + f02 * m6, M[1] + f02 * m7, M[2] + f02 * m8, M[3] + f12 * m6, M[4] + f12 * m7,
-          M[5] + f12 * m8, m6, m7, m8)
+    Mn = shear(M, f02, f12)
     if not (use_steered and mc[_M_CALIBRATED] != 0.0):
         return odom_n, pose_n, Pn, Mn, X
-    # calibration_predict with W = (a0, b0, a1, b1, a2, b2) (zero for a rear wheel that does not roll)
-    x0, x1, x2, x3, x4, x5 = X
-    fx0, fx1 = x0 + f02 * x4, x1 + f02 * x5
-    fx2, fx3 = x2 + f12 * x4, x3 + f12 * x5
-    ce, cb = mc[_M_CE], mc[_M_CB]
-    v0, u0, v1, u1, v2, u2 = a0 * ce, b0 * cb, a1 * ce, b1 * cb, a2 * ce, b2 * cb
-    e0, s0 = fx0 + 0.5 * v0, fx1 + 0.5 * u0
-    e1, s1 = fx2 + 0.5 * v1, fx3 + 0.5 * u1
-    e2, s2 = x4 + 0.5 * v2, x5 + 0.5 * u2
-    d00 = 2.0 * (e0 * a0 + s0 * b0)
-    d01 = e0 * a1 + s0 * b1 + a0 * e1 + b0 * s1
-    d02 = e0 * a2 + s0 * b2 + a0 * e2 + b0 * s2
-    d11 = 2.0 * (e1 * a1 + s1 * b1)
-    d12 = e1 * a2 + s1 * b2 + a1 * e2 + b1 * s2
-    d22 = 2.0 * (e2 * a2 + s2 * b2)
-    Pc = (c00 + d00, c01 + d01, c02 + d02, c01 + d01, c11 + d11, c12 + d12, c02 + d02, c12 + d12, c22 + d22)
-    return odom_n, pose_n, Pc, Mn, (fx0 + v0, fx1 + u0, fx2 + v1, fx3 + u1, x4 + v2, x5 + u2)
+    Pc, Xn = calibration_predict(Pn, X, f02, f12, W, (mc[_M_CE], mc[_M_CB]))
+    return odom_n, pose_n, Pc, Mn, Xn
 
 
 @jit
@@ -797,9 +713,8 @@ def gate_rows(
     ``(index, y, nis, n_in_gate, H0, H1, H2, S, R)``: :func:`gate_one`'s result, flat.
     """
     bearing_var, max_range, gate, map_std = gc[_G_BVAR], gc[_G_RANGE], gc[_G_GATE], gc[_G_MAP_STD]
-    sweep, mount_norm, mount_norm2 = gc[_G_SWEEP], gc[_G_MNORM], gc[_G_MNORM2]
+    sweep, mount_norm = gc[_G_SWEEP], gc[_G_MNORM]
     mx, my, mth = gc[_G_MX], gc[_G_MY], gc[_G_MTH]
-    e2, e3 = gc[_G_TWO], gc[_G_THREE]
     consider = gc[_G_CONSIDER] != 0.0
     rx, ry, r, svar = tab[0], tab[1], tab[2], tab[5]
     x, y, psi = pose
@@ -808,12 +723,11 @@ def gate_rows(
     dpx, dpy = -s * mx - c * my, c * mx - s * my
     p00, p01, p02, p11, p12, p22 = P[0], P[1], P[2], P[4], P[5], P[8]
     trace_P = p00 + p11 + p22
-    two_gate = 2.0 * gate
     use_grid = gc[_G_GRID] != 0.0
     if use_grid:  # BearingIndex.candidates
         var_xy, var_psi = P[0] + P[4], P[8]
         a4 = 4.0 * gate * (bearing_var + 4.0 * var_psi)
-        b4 = 4.0 * gate * (math.pow(map_std, e2) + 2.0 * var_xy + 4.0 * mount_norm2 * var_psi)
+        b4 = 4.0 * gate * (map_std * map_std + 2.0 * var_xy + 4.0 * mount_norm * mount_norm * var_psi)
         if consider:
             a4, b4 = 2.0 * a4, 2.0 * b4
         cand = grid_rows(g_start, g_rows, gc[_G_X0], gc[_G_Y0], gc[_G_CELL], int(gc[_G_NX]), int(gc[_G_NY]),
@@ -833,43 +747,25 @@ def gate_rows(
         if t - claimed[j] < sweep:
             continue
         rj = r[j]
-        # edge_bearing written out, the range test before the trigonometry (as gate_one)
-        dx, dy = rx[j] - px, ry[j] - py
-        d2 = dx * dx + dy * dy
-        d = math.sqrt(d2)
+        h, dx, dy, d2, d = edge_bearing(px, py, psi, mth, rx[j], ry[j], rj)
         if not d <= max_range:
             continue
-        edge = -math.asin(min(max(rj / d, 0.0), 1.0)) if d > 0.0 else -0.5 * _PI
-        innov = wrap_angle_kernel(z - wrap_angle_kernel(math.atan2(dy, dx) - psi - mth + edge))
-        rr = rj * rj
+        innov = wrap_angle_kernel(z - h)
         R = 0.0
         if not consider:
-            R = bearing_var + math.pow(map_std / d if d > 0.0 else 0.0, e2)
-            if d2 > rr:
-                g2 = 1.0 / (d2 - rr)
-                if innov * innov >= two_gate * (R + trace_P * (g2 + math.pow(math.sqrt(g2) * mount_norm + 1.0, e2))):
-                    continue
-        elif d2 > rr:
-            g2 = 1.0 / (d2 - rr)
-            a_max = trace_P * (g2 + math.pow(math.sqrt(g2) * mount_norm + 1.0, e2))
-            if innov * innov >= two_gate * (bearing_var + 2.0 * (a_max + svar[j] * g2)):
+            md = map_std / d if d > 0.0 else 0.0
+            R = bearing_var + md * md
+            if surely_outside(innov, d2, rj, R, trace_P, mount_norm, gate, 0.0, False):
                 continue
-        # bearing_jacobian
-        if d > 0.0:
-            ratio = min(max(rj / d, 0.0), 1.0 - 1e-12)
-            edge_gain = rj / (math.pow(d, e3) * math.sqrt(1.0 - math.pow(ratio, e2)))
-            h0, h1 = dy / d2 - edge_gain * dx, -dx / d2 - edge_gain * dy
-        else:
-            h0, h1 = 0.0, 0.0
-        h2 = h0 * dpx + h1 * dpy - 1.0
+        elif surely_outside(innov, d2, rj, bearing_var, trace_P, mount_norm, gate, svar[j], True):
+            continue
+        h0, h1, h2 = bearing_jacobian(dx, dy, d2, d, rj, dpx, dpy)
         if consider:
             R = bearing_var + svar[j] * (h0 * h0 + h1 * h1)
         S = h0 * h0 * p00 + h1 * h1 * p11 + h2 * h2 * p22 + 2.0 * (h0 * h1 * p01 + h0 * h2 * p02 + h1 * h2 * p12) + R
-        if consider:
-            cx0, cx1, cx2, cy0, cy1, cy2 = C[j, 0], C[j, 1], C[j, 2], C[j, 3], C[j, 4], C[j, 5]
-            w0, w1, w2 = -(cx0 * h0 + cy0 * h1), -(cx1 * h0 + cy1 * h1), -(cx2 * h0 + cy2 * h1)
-            S += 2.0 * (h0 * (M[0] * w0 + M[1] * w1 + M[2] * w2) + h1 * (M[3] * w0 + M[4] * w1 + M[5] * w2)
-                        + h2 * (M[6] * w0 + M[7] * w1 + M[8] * w2))
+        if consider:  # + 2 H P_xp,j H_p^T
+            v0, v1, v2 = consider_cross(M, (C[j, 0], C[j, 1], C[j, 2]), (C[j, 3], C[j, 4], C[j, 5]), -h0, -h1)
+            S += 2.0 * (h0 * v0 + h1 * v1 + h2 * v2)
         nis = innov * innov / S
         if nis < gate:
             n_in += 1
@@ -896,69 +792,23 @@ def schmidt_accept(
     (a NumPy product over the map, rare) and writes row ``j`` itself. Returns
     ``(pose', P', K, M', X', fold)``.
     """
-    h0, h1, h2 = H
-    hp0, hp1 = -h0, -h1
+    h0, h1 = H[0], H[1]
     cx0, cx1, cx2, cy0, cy1, cy2 = C[j, 0], C[j, 1], C[j, 2], C[j, 3], C[j, 4], C[j, 5]
-    # consider_cross
-    q0 = cx0 * hp0 + cy0 * hp1
-    q1 = cx1 * hp0 + cy1 * hp1
-    q2 = cx2 * hp0 + cy2 * hp1
-    v0 = M[0] * q0 + M[1] * q1 + M[2] * q2
-    v1 = M[3] * q0 + M[4] * q1 + M[5] * q2
-    v2 = M[6] * q0 + M[7] * q1 + M[8] * q2
-    b = svar_j * (h0 * h0 + h1 * h1)
-    # schmidt_update
-    p00, p01, p02, p11, p12, p22 = P[0], P[1], P[2], P[4], P[5], P[8]
-    b0 = p00 * h0 + p01 * h1 + p02 * h2
-    b1 = p01 * h0 + p11 * h1 + p12 * h2
-    b2 = p02 * h0 + p12 * h1 + p22 * h2
-    u0, u1, u2 = b0 + v0, b1 + v1, b2 + v2
-    hv = h0 * v0 + h1 * v1 + h2 * v2
-    S = h0 * b0 + h1 * b1 + h2 * b2 + 2.0 * hv + b + bearing_var
-    k0, k1, k2 = u0 / S, u1 / S, u2 / S
-    xn = (pose[0] + k0 * innovation, pose[1] + k1 * innovation, wrap_angle_kernel(pose[2] + k2 * innovation))
-    m00, m01, m02 = p00 - k0 * b0, p01 - k0 * b1, p02 - k0 * b2
-    m10, m11, m12 = p01 - k1 * b0, p11 - k1 * b1, p12 - k1 * b2
-    m20, m21, m22 = p02 - k2 * b0, p12 - k2 * b1, p22 - k2 * b2
-    mh0 = m00 * h0 + m01 * h1 + m02 * h2
-    mh1 = m10 * h0 + m11 * h1 + m12 * h2
-    mh2 = m20 * h0 + m21 * h1 + m22 * h2
-    a0, a1, a2 = v0 - k0 * hv, v1 - k1 * hv, v2 - k2 * hv
-    q = b + bearing_var
-    c00 = m00 - mh0 * k0 - 2.0 * a0 * k0 + q * k0 * k0
-    c01 = m01 - mh0 * k1 - (a0 * k1 + k0 * a1) + q * k0 * k1
-    c02 = m02 - mh0 * k2 - (a0 * k2 + k0 * a2) + q * k0 * k2
-    c11 = m11 - mh1 * k1 - 2.0 * a1 * k1 + q * k1 * k1
-    c12 = m12 - mh1 * k2 - (a1 * k2 + k1 * a2) + q * k1 * k2
-    c22 = m22 - mh2 * k2 - 2.0 * a2 * k2 + q * k2 * k2
-    Pn = (c00, c01, c02, c01, c11, c12, c02, c12, c22)
-    Xn = X
-    if calibrated:  # calibration_update
-        e0 = h0 * X[0] + h1 * X[2] + h2 * X[4]
-        e1 = h0 * X[1] + h1 * X[3] + h2 * X[5]
-        Xn = (X[0] - k0 * e0, X[1] - k0 * e1, X[2] - k1 * e0, X[3] - k1 * e1, X[4] - k2 * e0, X[5] - k2 * e1)
-    # left_update
-    r0 = h0 * M[0] + h1 * M[3] + h2 * M[6]
-    r1 = h0 * M[1] + h1 * M[4] + h2 * M[7]
-    r2 = h0 * M[2] + h1 * M[5] + h2 * M[8]
-    Mn = (M[0] - k0 * r0, M[1] - k0 * r1, M[2] - k0 * r2, M[3] - k1 * r0, M[4] - k1 * r1, M[5] - k1 * r2,
-          M[6] - k2 * r0, M[7] - k2 * r1, M[8] - k2 * r2)
-    a, b_, c, d, e, f, g, h, i = Mn
-    det = a * (e * i - f * h) - b_ * (d * i - f * g) + c * (d * h - e * g)  # det3
-    biggest = abs(Mn[0])  # max(map(abs, M)): the first of the largest, as Python's max
-    for w in Mn[1:]:
-        if abs(w) > biggest:
-            biggest = abs(w)
-    if not (abs(det) >= min_det and biggest <= max_entry):
-        return xn, Pn, (k0, k1, k2), Mn, Xn, True
-    # solve3(Mn, K, det)
-    s0 = ((e * i - f * h) * k0 - (b_ * i - c * h) * k1 + (b_ * f - c * e) * k2) / det
-    s1 = (-(d * i - f * g) * k0 + (a * i - c * g) * k1 - (a * f - c * d) * k2) / det
-    s2 = ((d * h - e * g) * k0 - (a * h - b_ * g) * k1 + (a * e - b_ * d) * k2) / det
+    v = consider_cross(M, (cx0, cx1, cx2), (cy0, cy1, cy2), -h0, -h1)
+    xn, Pn, K, _ = schmidt_update(pose, P, innovation, H, bearing_var, v, svar_j * (h0 * h0 + h1 * h1))
+    Xn = calibration_update(X, K, H) if calibrated else X
+    Mn = left_update(M, K, H)
+    det = det3(Mn)
+    ok = abs(det) >= min_det
+    for w in Mn:
+        ok = ok and abs(w) <= max_entry
+    if not ok:
+        return xn, Pn, K, Mn, Xn, True
+    s0, s1, s2 = solve3(Mn, K, det)  # M^-1 K
     ax, ay = h0 * svar_j, h1 * svar_j
     C[j, 0], C[j, 1], C[j, 2] = cx0 + s0 * ax, cx1 + s1 * ax, cx2 + s2 * ax
     C[j, 3], C[j, 4], C[j, 5] = cy0 + s0 * ay, cy1 + s1 * ay, cy2 + s2 * ay
-    return xn, Pn, (k0, k1, k2), Mn, Xn, False
+    return xn, Pn, K, Mn, Xn, False
 
 
 @jit

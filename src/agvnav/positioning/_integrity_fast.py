@@ -3,53 +3,22 @@
 :meth:`agvnav.positioning.integrity.IntegrityMonitor.check` ran about forty NumPy calls and
 a Python loop per sighting for one triangulation cross-check per revolution: 40 % of a
 closed-loop step. These kernels (:func:`agvnav._jit.jit`: compiled by numba, or run as the
-same plain Python with ``AGVNAV_JIT=0``) redo the same equations on the monitor's float
-window (:meth:`~agvnav.positioning.integrity._Window.buffer`) with *the same float
-operations in the same order* as the Python and NumPy forms they replace, so a seeded
-run gives the same bits. Three things need care for that:
+same plain Python with ``AGVNAV_JIT=0``) compute the same equations on the monitor's float
+window (:meth:`~agvnav.positioning.integrity._Window.buffer`). They use plain ``math``
+(``math.hypot``, ``x * x``, ``round``): the two modes agree to rounding (about 1e-12
+relative, ``tests/test_jit.py``), not bit for bit, and a decision taken on a value within
+rounding of its threshold may go either way in the two modes (issue 27: determinism is
+within one mode). The leading-edge bearing is :func:`agvnav.positioning._fast.edge_bearing_row`
+and the odometry variances of [seed002 eq17] :func:`agvnav.positioning._fast.increment_variances`,
+the kernels the streaming estimator calls.
 
-* ``math.hypot``: CPython (3.10+) computes it with its own algorithm (lossless scaling,
-  Dekker squaring, Neumaier summation, one differential correction of the root), numba
-  calls libm's, and the two differ in the last bit on ~0.6 % of pairs. :func:`py_hypot`
-  is CPython's algorithm written out (``Modules/mathmodule.c``, ``vector_norm`` for two
-  values), bit for bit the interpreter's ``math.hypot`` in both modes
-  (``tests/positioning/test_integrity_fast.py``). NumPy's ``np.hypot`` *is* libm's:
-  where the replaced code called it (:func:`~agvnav.positioning.triangulation._nonlinear`)
-  the kernel calls ``np.hypot`` (libm's, compiled or not).
-* ``x ** 2`` on a Python float is libm's ``pow(x, 2.0)``, which differs from ``x * x`` in
-  the last bit on ~0.1 % of values; numba turns a constant exponent into ``x * x``. Where
-  the replaced code squared (or cubed) a Python float, the kernel takes the exponent ``two``
-  (2.0, or ``three``) as an argument: numba cannot fold it and calls libm's ``pow``, as CPython does. NumPy's
-  ``a ** 2`` on arrays is ``a * a`` (written so here).
-* decisions the replaced code took on slightly different sums (the coincident and parallel
-  tests of :func:`~agvnav.positioning.triangulation.triangulate`, its critical-circle test
-  on squares computed with ``pow``) are taken here only where a relative margin of 1e-9
-  (far beyond rounding) settles them; otherwise the kernel asks its caller to run the
-  public function (a code 2: the rare path).
-
-One value moved, by rounding only: the common offset (:func:`revolution_offset`) solves its
-normal equations with the RAIM's elimination (:func:`_solve_augmented`, the same fit) where
-NumPy's ``H.T @ (W H)``, ``np.linalg.solve`` and ``dx @ A @ dx`` went through OpenBLAS, which
-sums in its own order with fused multiply-adds and picks its kernel by CPU (no plain IEEE form
-reproduces it): the statistic moved by at most 5e-15 relative on the shipped loops, against
-a threshold, and no decision changed.
-
-And one moved on Python 3.12+ only: the windowed NIS (:func:`nis_per_reflector`) adds its
-per-reflector means in turn from 0.0, as the former ``sum()`` did on 3.11; ``sum()`` of floats
-compensates its rounding from 3.12 on (Neumaier), so there the kernel's total (the same on
-every version) differs from the former form's in the last bits, against a threshold (the
-monitor's two Python sums, of its head clock and its NIS exclusion, add in turn too:
-``integrity._plain_sum``).
-
-numba's on-disk cache keys a kernel on its own source file only (:mod:`agvnav._jit`): besides
-``wrap_angle_kernel`` (``geometry.angles``), these kernels read constants of other modules,
-which numba freezes into their machine code: ``LAYOUT_TOL``, ``NONLINEAR_RATIO``,
-``PARALLEL_TOL`` (``positioning.triangulation``), ``CRITICAL_TOL`` and ``REORDER_TOL``
-(``positioning._three``); and ``integrity._window_tally`` reads the window layout (``_T``, ...)
-from here. An edit of one of those alone leaves the cached kernels with the old values until
-their own file changes or ``__pycache__`` is cleared (the two modes then differ, which
-``tests/test_jit.py`` and the bit-for-bit tests of this module's kernels show where the
-change matters on their inputs).
+numba's on-disk cache keys a kernel on its own source file only (:mod:`agvnav._jit`): these
+kernels read constants of other modules, which numba freezes into their machine code:
+``LAYOUT_TOL``, ``NONLINEAR_RATIO``, ``PARALLEL_TOL`` (``positioning.triangulation``),
+``CRITICAL_TOL`` and ``REORDER_TOL`` (``positioning._three``); and ``integrity._window_tally``
+reads the window layout (``_T``, ...) from here. An edit of one of those alone leaves the cached
+kernels with the old values until their own file changes or ``__pycache__`` is cleared
+(``tests/test_jit.py`` then sees the two modes differ where the change matters on its inputs).
 """
 
 from __future__ import annotations
@@ -61,25 +30,23 @@ import numpy as np
 
 from agvnav._jit import jit
 from agvnav.geometry.angles import wrap_angle_kernel
+from agvnav.positioning._fast import edge_bearing, increment_variances
 from agvnav.positioning._three import CRITICAL_TOL, REORDER_TOL
 from agvnav.positioning.triangulation import LAYOUT_TOL, NONLINEAR_RATIO, PARALLEL_TOL
 
 __all__ = [
-    "CROSSCHECK_FIX", "CROSSCHECK_NONE", "CROSSCHECK_TRIANGULATE", "TOTAL_FALLBACK", "TOTAL_INVALID", "TOTAL_VALID",
+    "CROSSCHECK_FIX", "CROSSCHECK_NONE", "TOTAL_INVALID", "TOTAL_VALID",
     "best_triple", "crosscheck_fix", "fix_covariance", "in_range",
-    "information", "mean_innovations", "nis_per_reflector", "nonlinear_fix", "position_crlb_one", "py_hypot",
+    "information", "mean_innovations", "nis_per_reflector", "nonlinear_fix", "position_crlb_one",
     "revolution_innovations", "revolution_offset", "total_fix", "window_fde",
 ]
 
-#: :func:`total_fix` codes: no valid fix, a valid fix, and "decide with the public triangulate" (rare path).
-TOTAL_INVALID, TOTAL_VALID, TOTAL_FALLBACK = 0, 1, 2
-#: :func:`crosscheck_fix` codes: no fix, a fix with its covariance, and "the caller triangulates" (rare path).
-CROSSCHECK_NONE, CROSSCHECK_FIX, CROSSCHECK_TRIANGULATE = 0, 1, 2
+#: :func:`total_fix` codes: no valid fix, a valid fix.
+TOTAL_INVALID, TOTAL_VALID = 0, 1
+#: :func:`crosscheck_fix` codes: no fix, a fix with its covariance.
+CROSSCHECK_NONE, CROSSCHECK_FIX = 0, 1
 
-_DBL_MIN = 2.2250738585072014e-308
-_SPLIT = 134217729.0  # 2**27 + 1: Veltkamp-Dekker splitting of a double into two 26-bit halves
-_CRIT2 = (2.0 * CRITICAL_TOL) ** 2  # total's critical-circle bound, computed as total_kernel does
-_MARGIN = 1e-9  # relative margin of the decisions taken here (module docstring)
+_CRIT2 = (2.0 * CRITICAL_TOL) * (2.0 * CRITICAL_TOL)  # total's critical-circle bound (total_kernel's)
 
 #: Columns of a window row (:class:`~agvnav.positioning.integrity._Window`, written by
 #: :meth:`~agvnav.positioning.integrity.IntegrityMonitor.accepted`, defined here only): stamp (s), NIS,
@@ -93,62 +60,6 @@ _WIDTH = 20
 
 
 @jit
-def _dl_mul(a: float, b: float) -> tuple[float, float]:
-    """``a * b`` exactly as ``hi + lo`` (CPython's ``dl_mul``: Veltkamp-Dekker splitting into 26-bit halves)."""
-    c = _SPLIT * a
-    ah = c - (c - a)
-    al = a - ah
-    c = _SPLIT * b
-    bh = c - (c - b)
-    bl = b - bh
-    hi = a * b
-    return hi, (((ah * bh - hi) + ah * bl) + al * bh) + al * bl
-
-
-@jit
-def py_hypot(x: float, y: float) -> float:
-    """``math.hypot(x, y)`` of CPython 3.10+, bit for bit, in either mode (libm's differs: module docstring).
-
-    CPython's ``vector_norm`` for two values: scale by the power of two of the larger
-    magnitude (lossless), square exactly (Veltkamp-Dekker), add with Neumaier's
-    compensation around 1.0, take the root and correct it once by the first-order term.
-    """
-    x, y = abs(x), abs(y)
-    big = 0.0
-    if x > big:
-        big = x
-    if y > big:
-        big = y
-    if big == math.inf:
-        return big
-    if x != x or y != y:
-        return math.nan
-    if big == 0.0:
-        return big
-    back = 1.0
-    e = math.frexp(big)[1]
-    if e < -1023:  # subnormal: CPython divides by DBL_MIN first and multiplies the result back
-        x, y, big, back = x / _DBL_MIN, y / _DBL_MIN, big / _DBL_MIN, _DBL_MIN
-        e = math.frexp(big)[1]
-    scale = math.ldexp(1.0, -e)
-    csum, frac1, frac2 = 1.0, 0.0, 0.0
-    for v in (x * scale, y * scale):
-        hi, lo = _dl_mul(v, v)
-        s = csum + hi
-        frac2 += (csum - s) + hi
-        csum = s
-        frac1 += lo
-    h = math.sqrt(csum - 1.0 + (frac1 + frac2))
-    hi, lo = _dl_mul(-h, h)
-    s = csum + hi
-    frac2 += (csum - s) + hi
-    csum = s
-    frac1 += lo
-    h += (csum - 1.0 + (frac1 + frac2)) / (2.0 * h)
-    return back * (h / scale) if back != 1.0 else h / scale
-
-
-@jit
 def _head(x: float, y: float, psi: float, mx: float, my: float, mpsi: float) -> tuple[float, float, float]:
     """Head pose in ``map`` from the base_link pose and the mount (``integrity._head``)."""
     c, s = math.cos(psi), math.sin(psi)
@@ -159,13 +70,10 @@ def _head(x: float, y: float, psi: float, mx: float, my: float, mpsi: float) -> 
 def _edge_bearing(hx: float, hy: float, hpsi: float, rx: float, ry: float, r: float) -> tuple[float, float]:
     """Leading-edge bearing (rad, head frame, wrapped) of the reflector at ``(rx, ry)`` (m), radius ``r`` (m).
 
-    And its distance (m), from the head pose ``(hx, hy, hpsi)`` (the scalar form of
-    :func:`~agvnav.positioning.identification.bearing_model`).
+    And its distance (m), from the head pose ``(hx, hy, hpsi)``: :func:`agvnav.positioning._fast.edge_bearing`.
     """
-    dx, dy = rx - hx, ry - hy
-    d = py_hypot(dx, dy)
-    edge = -math.asin(min(max(r / d, 0.0), 1.0)) if d > 0.0 else -0.5 * math.pi
-    return wrap_angle_kernel(math.atan2(dy, dx) - hpsi + edge), d
+    h, _, _, _, d = edge_bearing(hx, hy, hpsi, 0.0, rx, ry, r)
+    return h, d
 
 
 @jit
@@ -187,7 +95,7 @@ def best_triple(
     """Rank (in ``itertools.combinations`` order) of the triple of reflectors with the smallest position CRLB.
 
     Head at ``(hx, hy)`` (m); candidates ``rx, ry (n,)`` (m) with bearing variances ``var (n,)``
-    (rad²; arrays compiled, Python lists interpreted). Each reflector's information is its
+    (rad²). Each reflector's information is its
     bearing Jacobian row ``[dy/d², -dx/d², -1]`` (seed 000 §2.3) squared, summed over a
     triple; triples whose bound with ``bearing_var`` (rad²) exceeds ``max_var`` (m²) are
     skipped, the rest ranked by their bound with ``var``.
@@ -238,28 +146,28 @@ def total_fix(
     refs [9-11] there), indeterminate on the critical circle through the three reflectors (the
     same section; no equation number in either seed).
 
-    :func:`~agvnav.positioning.total.total_kernel` on floats (``xp=ScalarMath``, the single-fix
-    path of :func:`~agvnav.positioning.triangulation.triangulate`), operation for operation,
-    including the cyclic reorder of :func:`~agvnav.positioning._three.order_pairs`. ``code``:
-    :data:`TOTAL_VALID`, :data:`TOTAL_INVALID` (not finite, or within ``CRITICAL_TOL`` of the
-    critical circle), or :data:`TOTAL_FALLBACK` where triangulate's single-fix path would leave
-    for its batch path (a division by an exact zero) or its coincident/parallel layout tests
-    and its critical-circle test are not settled by a 1e-9 margin (module docstring): the
-    caller then runs :func:`~agvnav.positioning.triangulation.triangulate`.
+    :func:`~agvnav.positioning.total.total_kernel` on floats (the single-fix path of
+    :func:`~agvnav.positioning.triangulation.triangulate`), including the cyclic reorder of
+    :func:`~agvnav.positioning._three.order_pairs` and triangulate's layout tests. ``code``:
+    :data:`TOTAL_VALID`, or :data:`TOTAL_INVALID`: a bearing not finite, coincident reflectors
+    (triangulate raises), rays parallel (every pair of bearings 0 or pi apart: the head on the
+    reflectors' line), a cotangent that is infinite after the reorder or a degenerate
+    intersection (a division by an exact zero), a fix not finite, or one within ``CRITICAL_TOL``
+    of the critical circle. Decisions taken on values within rounding of a threshold may differ
+    from triangulate's (and between the kernel's two modes).
     """
     if not (math.isfinite(t1) and math.isfinite(t2) and math.isfinite(t3)):
-        return TOTAL_FALLBACK, math.nan, math.nan
+        return TOTAL_INVALID, math.nan, math.nan
     # triangulate's layout tests: coincident reflectors, or rays parallel (P on their line)
     d12 = (x2 - x1) * (x2 - x1) + (y2 - y1) * (y2 - y1)
     d23 = (x3 - x2) * (x3 - x2) + (y3 - y2) * (y3 - y2)
     d31 = (x1 - x3) * (x1 - x3) + (y1 - y3) * (y1 - y3)
-    near = 2.0 * LAYOUT_TOL * LAYOUT_TOL * max(d12, d23, d31)
-    if min(d12, d23, d31) <= near:
-        return TOTAL_FALLBACK, math.nan, math.nan
+    if min(d12, d23, d31) <= LAYOUT_TOL * LAYOUT_TOL * max(d12, d23, d31):
+        return TOTAL_INVALID, math.nan, math.nan
     sp = max(abs(math.sin(t2 - t1)), abs(math.sin(t3 - t2)), abs(math.sin(t1 - t3)))
-    if sp <= 2.0 * PARALLEL_TOL:
-        return TOTAL_FALLBACK, math.nan, math.nan
-    scale2 = (d12 + d23 + d31) / 3.0  # layout_scale2, up to pow's rounding: decided with a margin below
+    if sp <= PARALLEL_TOL:
+        return TOTAL_INVALID, math.nan, math.nan
+    scale2 = (d12 + d23 + d31) / 3.0  # layout_scale2
     # order_pairs
     tn12, tn23, tn31 = math.tan(t2 - t1), math.tan(t3 - t2), math.tan(t1 - t3)
     a12, a23, a31 = abs(tn12), abs(tn23), abs(tn31)
@@ -271,7 +179,7 @@ def total_fix(
         x1, x2, x3, y1, y2, y3 = x3, x1, x2, y3, y1, y2
         ta, tb = tn31, tn12
     if ta == 0.0 or tb == 0.0:
-        return TOTAL_FALLBACK, math.nan, math.nan
+        return TOTAL_INVALID, math.nan, math.nan
     t12 = 1.0 / ta
     t23 = 1.0 / tb
     u1, v1 = x1 - x2, y1 - y2
@@ -287,18 +195,15 @@ def total_fix(
     b = x23 - x12
     dd = (x12 - x23) * (d * y23 - dy31) - a * (d * x23 - dx31)
     if dd == 0.0:
-        return TOTAL_FALLBACK, math.nan, math.nan
+        return TOTAL_INVALID, math.nan, math.nan
     f = dk31 / dd
     px = x2 + f * a
     py = y2 + f * b
     if not (math.isfinite(px) and math.isfinite(py)):
         return TOTAL_INVALID, px, py
-    lhs, rhs = a * a + b * b, _CRIT2 * scale2
-    if lhs > rhs * (1.0 + _MARGIN):
+    if a * a + b * b > _CRIT2 * scale2:
         return TOTAL_VALID, px, py
-    if lhs < rhs * (1.0 - _MARGIN):
-        return TOTAL_INVALID, px, py
-    return TOTAL_FALLBACK, math.nan, math.nan
+    return TOTAL_INVALID, px, py
 
 
 @jit
@@ -347,8 +252,7 @@ def nonlinear_fix(rx: Any, ry: Any, px: float, py: float, c00: float, c01: float
     """True where a three-reflector fix at ``(px, py)`` (m) is too near its critical circle for its covariance.
 
     :func:`~agvnav.positioning.triangulation._nonlinear` for one fix that did not keep a heading
-    estimate, in the same operations (``np.hypot`` is libm's, as NumPy's): the largest
-    eigenvalue of the position block ``[[c00, c01], [c01, c11]]`` (m²) against
+    estimate: the largest eigenvalue of the position block ``[[c00, c01], [c01, c11]]`` (m²) against
     ``(NONLINEAR_RATIO * distance)²`` from the circle through ``rx, ry (3,)`` (m), or from
     their line when collinear.
     """
@@ -360,12 +264,12 @@ def nonlinear_fix(rx: Any, ry: Any, px: float, py: float, c00: float, c01: float
     if den != 0.0:  # NumPy's 0/0 or x/0 gives NaN or inf and a circle distance that is not finite
         ux = (a2 * (by - cy) + b2 * (cy - ay) + c2 * (ay - by)) / den
         uy = (a2 * (cx - bx) + b2 * (ax - cx) + c2 * (bx - ax)) / den
-        circle = abs(np.hypot(px - ux, py - uy) - np.hypot(ax - ux, ay - uy))
+        circle = abs(math.hypot(px - ux, py - uy) - math.hypot(ax - ux, ay - uy))
     if math.isfinite(circle):
         dist = circle
     else:
         lx, ly = cx - ax, cy - ay
-        norm = np.hypot(lx, ly)
+        norm = math.hypot(lx, ly)
         num = abs(lx * (py - ay) - ly * (px - ax))
         dist = num / norm if norm != 0.0 else (math.nan if num == 0.0 or num != num else math.inf)
     half = c00 - c11
@@ -375,20 +279,9 @@ def nonlinear_fix(rx: Any, ry: Any, px: float, py: float, c00: float, c01: float
 
 
 @jit
-def _round_half_even(v: float) -> int:
-    """Python's ``round(v)`` of a non-negative float (half to even)."""
-    f = math.floor(v)
-    r = v - f
-    k = int(f)
-    if r > 0.5 or (r == 0.5 and k % 2 == 1):
-        k += 1
-    return k
-
-
-@jit
 def crosscheck_fix(
     buf: Any, start: int, newest: Any, pose: Any, odom: Any, mount: Any, rx: Any, ry: Any, radius: Any,
-    map_std: Any, noise: Any, bearing_var: float, two: float, max_var: float,
+    map_std: Any, noise: Any, bearing_var: float, max_var: float,
 ) -> tuple[int, float, float, float, float, float, int, int, int, float, float, float, float, float, float]:
     """The cross-check's propagated bearings, best triple and ToTal fix (``IntegrityMonitor._crosscheck``).
 
@@ -409,14 +302,12 @@ def crosscheck_fix(
     ``pose``, ``odom`` (3,) the estimate and the odometric pose now (m, m, rad); ``mount`` (3,);
     the map ``rx, ry, radius, map_std (N,)`` (m); ``noise`` (3,) the odometry coefficients
     ``k_d, k_dtheta, k_theta``; ``bearing_var`` the bearing variance (rad², squared by the
-    caller), ``two`` the exponent 2.0 (module docstring), ``max_var`` ``max_fix_std_m²`` (m²).
+    caller), ``max_var`` ``max_fix_std_m²`` (m²).
 
     Returns ``(code, x, y, c00, c01, c11, i, j, k, z_i, z_j, z_k, s_i, s_j, s_k)``: ``code``
     :data:`CROSSCHECK_NONE` no fix (fewer than three reflectors, no good triple, an invalid fix or
     a covariance that is not finite), :data:`CROSSCHECK_FIX` a fix ``(x, y)`` (m) with its position
-    covariance (m²) and the triple, :data:`CROSSCHECK_TRIANGULATE` the triple's map rows,
-    propagated bearings (rad) and stds (rad) for the caller's
-    :func:`~agvnav.positioning.triangulation.triangulate` (:func:`total_fix`'s rare path).
+    covariance (m²), the triple's map rows, propagated bearings (rad) and stds (rad).
     """
     nan = math.nan
     pos = [0] * 0
@@ -430,7 +321,7 @@ def crosscheck_fix(
         return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     if m > 8:  # _spread8: numpy.linspace(0, m - 1, 8).round()
         step = (m - 1) / 7
-        pos = [pos[_round_half_even(k * step)] for k in range(7)] + [pos[m - 1]]
+        pos = [pos[round(k * step)] for k in range(7)] + [pos[m - 1]]
         m = 8
     px, py, ppsi = pose[0], pose[1], pose[2]
     ox, oy, opsi = odom[0], odom[1], odom[2]
@@ -454,10 +345,11 @@ def crosscheck_fix(
         d = max(d_then, 1e-12)
         centre = buf[o + _BEAR] + math.asin(min(max(r / d, 0.0), 1.0))  # edge -> centre
         # the odometry between then and now errs too [seed002 eq17]
-        s_odo = py_hypot(ex, ey)
-        var_th = k_dtheta * s_odo + k_theta * abs(wrap_angle_kernel(turn))
-        var_pos = k_d * s_odo + var_th * s_odo * s_odo / 3.0
-        var[q] = bearing_var + (map_std[i] / d) ** two + var_th + var_pos / (d * d)
+        s_odo = math.hypot(ex, ey)
+        var_d, var_th = increment_variances(s_odo, wrap_angle_kernel(turn), k_d, k_dtheta, k_theta)
+        var_pos = var_d + var_th * s_odo * s_odo / 3.0
+        ms = map_std[i] / d
+        var[q] = bearing_var + ms * ms + var_th + var_pos / (d * d)
         z[q] = centre + (h_now - h_then)
         rows[q], cx[q], cy[q] = i, rx[i], ry[i]
     best = best_triple(hx, hy, cx, cy, var, bearing_var, max_var)
@@ -477,8 +369,6 @@ def crosscheck_fix(
         return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     tri_x, tri_y = (cx[a], cx[b], cx[c]), (cy[a], cy[b], cy[c])
     code, fx, fy = total_fix(cx[a], cy[a], cx[b], cy[b], cx[c], cy[c], z[a], z[b], z[c])
-    if code == TOTAL_FALLBACK:
-        return CROSSCHECK_TRIANGULATE, nan, nan, nan, nan, nan, rows[a], rows[b], rows[c], z[a], z[b], z[c], sa, sb, sc
     if code == TOTAL_INVALID:
         return CROSSCHECK_NONE, nan, nan, nan, nan, nan, -1, -1, -1, nan, nan, nan, nan, nan, nan
     ok, c00, c01, c02, c11, c12, c22 = fix_covariance(tri_x, tri_y, fx, fy, (sa, sb, sc))
@@ -564,7 +454,6 @@ def _information_sums(hx: float, hy: float, rx: Any, ry: Any, std: Any) -> tuple
     triangle ``00 01 02 11 12 22`` of its unit-noise information; weighted by
     ``(d / std)^2`` (``std (n,)`` its survey std, m) the survey-error information. Returns
     ``(ok, unit, survey, every std > 0)``; ``ok`` False when a reflector sits on the head.
-    Arrays compiled, Python lists interpreted.
     """
     a0 = a1 = a2 = a3 = a4 = a5 = 0.0
     b0 = b1 = b2 = b3 = b4 = b5 = 0.0
@@ -588,18 +477,18 @@ def _information_sums(hx: float, hy: float, rx: Any, ry: Any, std: Any) -> tuple
 
 @jit
 def _inverse3(
-    a00: float, a01: float, a02: float, a11: float, a12: float, a22: float, three: float,
+    a00: float, a01: float, a02: float, a11: float, a12: float, a22: float,
 ) -> tuple[bool, float, float, float, float, float, float]:
     """Inverse of the symmetric 3x3 ``[a00 a01 a02 a11 a12 a22]`` (same layout); ``ok`` False if singular.
 
-    Singular: ``|det|`` at most 1e-12 of the cube of the largest diagonal entry, taken as the
-    monitor did, ``max(...) ** 3`` with libm's ``pow`` (``three`` = 3.0: module docstring).
+    Singular: ``|det|`` at most 1e-12 of the cube of the largest diagonal entry.
     """
     c00 = a11 * a22 - a12 * a12
     c01 = a02 * a12 - a01 * a22
     c02 = a01 * a12 - a02 * a11
     det = a00 * c00 + a01 * c01 + a02 * c02
-    scale = max(abs(a00), abs(a11), abs(a22)) ** three
+    big = max(abs(a00), abs(a11), abs(a22))
+    scale = big * big * big
     if not (math.isfinite(det) and abs(det) > 1e-12 * scale and det != 0.0):
         return False, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan
     c11 = a00 * a22 - a02 * a02
@@ -610,7 +499,7 @@ def _inverse3(
 
 @jit
 def information(
-    hx: float, hy: float, hpsi: float, sightings: Any, rx: Any, ry: Any, map_std: Any, mount: Any, three: float,
+    hx: float, hy: float, hpsi: float, sightings: Any, rx: Any, ry: Any, map_std: Any, mount: Any,
 ) -> tuple[float, bool, float, float, float, float, float, float]:
     """PDOP² (m²/rad², inf if unobservable) of the sighted reflectors from the head, and the survey floor.
 
@@ -629,13 +518,13 @@ def information(
     if not ok:
         return math.inf, False, nan, nan, nan, nan, nan, nan
     survey = survey and len(sx) >= 3
-    ok_u, u00, _, _, u11, _, _ = _inverse3(a[0], a[1], a[2], a[3], a[4], a[5], three)
+    ok_u, u00, _, _, u11, _, _ = _inverse3(a[0], a[1], a[2], a[3], a[4], a[5])
     pdop2 = u00 + u11 if ok_u else math.inf
     if not (math.isfinite(pdop2) and pdop2 >= 0.0):
         pdop2 = math.inf
     if not survey:
         return pdop2, False, nan, nan, nan, nan, nan, nan
-    ok_c, c00, c01, c02, c11, c12, c22 = _inverse3(b[0], b[1], b[2], b[3], b[4], b[5], three)
+    ok_c, c00, c01, c02, c11, c12, c22 = _inverse3(b[0], b[1], b[2], b[3], b[4], b[5])
     if not (ok_c and math.isfinite(c00) and math.isfinite(c01) and math.isfinite(c02) and math.isfinite(c11)
             and math.isfinite(c12) and math.isfinite(c22)):
         return pdop2, False, nan, nan, nan, nan, nan, nan
@@ -654,19 +543,13 @@ def information(
 def in_range(hx: float, hy: float, rx: Any, ry: Any, max_range: float, excluded: Any) -> int:
     """How many reflectors (not flagged in ``excluded (N,)``) lie within ``max_range`` (m) of ``(hx, hy)`` (m).
 
-    ``IntegrityMonitor._in_range``: ``math.hypot(dx, dy) <= max_range``, decided on the squared
-    distance where it clears the boundary by a relative 1e-9, with CPython's hypot
-    (:func:`py_hypot`) near it.
+    ``IntegrityMonitor._in_range``: ``math.hypot(dx, dy) <= max_range``.
     """
-    r2 = max_range * max_range
-    lo, hi = r2 * (1.0 - 1e-9), r2 * (1.0 + 1e-9)
     count = 0
     for j in range(len(rx)):
         if excluded[j] != 0:
             continue
-        dx, dy = rx[j] - hx, ry[j] - hy
-        d2 = dx * dx + dy * dy
-        if d2 <= lo or (not d2 > hi and py_hypot(dx, dy) <= max_range):
+        if math.hypot(rx[j] - hx, ry[j] - hy) <= max_range:
             count += 1
     return count
 
@@ -736,7 +619,6 @@ def _fde_statistics(r: Any, h: Any, w: Any, m: int) -> Any:
     O(n^2 m^2) (170 reflectors in the window of a 256-reflector map); working on ``e``
     keeps the subtraction from cancelling a large common pull. NaN where singular (a
     zero pivot). Returns ``(n + 1,)``: index 0 all rows, ``1 + k`` without row ``k``.
-    Plain loops: compiled by numba, or interpreted on Python lists (:func:`leave_one_out_fde`).
     """
     n = len(r)
     c = m + 1
@@ -798,9 +680,8 @@ def revolution_offset(
     if len(rows) < 4:
         return False, math.nan, math.nan, math.nan, math.nan
     ybar, hbar, _, w = mean_innovations(sums, rows, map_std, bearing_var)
-    # the fit on lists of floats (interpreted, Python indexes them faster than arrays; the same values)
     a = [0.0] * 12
-    _normal_equations(_floats(ybar), _floats(hbar.reshape(-1)), _floats(w), 3, -1, a)
+    _normal_equations(ybar, hbar.reshape(-1), w, 3, -1, a)
     full = a.copy()
     dx = [0.0] * 3
     if not _solve_augmented(a, 3, dx):
@@ -830,13 +711,7 @@ def window_fde(innovations: Any, map_std: Any, bearing_var: float) -> tuple[Any,
     for q in range(k):
         if not (var[q] > 0.0 and math.isfinite(var[q])):
             return rows, np.empty(0), False
-    return rows, _fde_statistics(_floats(ybar), _floats(hbar.reshape(-1)), _floats(w), 3), True
-
-
-@jit
-def _floats(a: Any) -> Any:
-    """The 1-D array ``a`` as a list of floats (interpreted, the fits' loops index a list faster)."""
-    return [float(a[q]) for q in range(a.shape[0])]
+    return rows, _fde_statistics(ybar, hbar.reshape(-1), w, 3), True
 
 
 @jit
@@ -854,9 +729,7 @@ def nis_per_reflector(buf: Any, start: int, n: int, sightings: Any, first: Any, 
 
     ``buf``, ``start``, ``n``: the window (:meth:`~agvnav.positioning.integrity._Window.buffer`);
     ``sightings``, ``first``, ``nis (N,)`` the tally's counts, first positions and summed NIS
-    per map row. Each mean ``nis / sightings`` added to 0.0 in turn (``total += mean``): the
-    former ``_nis_per_reflector``'s ``sum()`` on Python 3.11, not on 3.12+, whose ``sum()``
-    compensates (module docstring: moved on 3.12+, in the last bits).
+    per map row.
     """
     total = 0.0
     for k in range(n):

@@ -85,7 +85,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav._jit import compiled
 from agvnav.geometry import wrap_angle
 from agvnav.positioning import _fast
 from agvnav.positioning.estimator import StreamingEstimator
@@ -263,22 +262,11 @@ class EkfEstimator(StreamingEstimator):
     def _consider_factors(self) -> tuple[tuple[float, ...], NDArray[np.float64]]:
         return self._M, self._C
 
-    def _move_compiled(self, dd: float, dth: float, dl: float) -> None:
-        """The base class's compiled prediction, moving ``M`` and ``P_xc`` in the same call."""
-        self._odom_t, self._x_t, self._P_t, self._M, self._Pxc = _fast.MOVE_STATE.bound()(
-            self._odom_t, self._x_t, self._P_t, self._M, self._Pxc, dd, dth, dl, self._noise_hypot(dd, dth, dl),
-            self._move_consts,
-        )
+    def _move_factors(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        return self._M, self._Pxc
 
-    def _consider_move(self, f02: float, f12: float, W: Any = None) -> None:
-        # F M (_fast.shear written out). det F = 1 and F^-1 is F with -f: no fold needed here; rows 0
-        # and 1 grow with the distance driven, and the next update's check (_left) folds them
-        M = self._M
-        m6, m7, m8 = M[6], M[7], M[8]
-        self._M = (M[0] + f02 * m6, M[1] + f02 * m7, M[2] + f02 * m8, M[3] + f12 * m6, M[4] + f12 * m7,
-                   M[5] + f12 * m8, m6, m7, m8)
-        if W is not None and self._calibrated:  # the calibration consider parameters (module docstring)
-            self._P_t, self._Pxc = _fast.calibration_predict(self._P_t, self._Pxc, f02, f12, W, self._calibration_var)
+    def _moved_factors(self, M: tuple[float, ...], X: tuple[float, ...]) -> None:
+        self._M, self._Pxc = M, X
 
     def _fold(self, M: tuple[float, ...]) -> None:
         """``C <- C M^T`` (``P_xp = M C^T`` unchanged) and ``M <- I``: O(N), rare."""
@@ -381,45 +369,20 @@ class EkfEstimator(StreamingEstimator):
     def _accept(self, t: float, bearing: float, assoc: Any) -> None:
         """The Schmidt-Kalman update of one identified bearing (module docstring).
 
-        Compiled, one call (:func:`~agvnav.positioning._fast.schmidt_accept`, the same
-        operations), unless ``M`` must be folded: then the fold and reflector ``j``'s row are
-        done here, as below.
+        One kernel call (:func:`~agvnav.positioning._fast.schmidt_accept`), unless ``M`` must be
+        folded: then the fold and reflector ``j``'s row are done here (:meth:`_fold_into_row`).
         """
         j = assoc.index
         h0, h1 = float(assoc.H[0]), float(assoc.H[1])
         H = (h0, h1, float(assoc.H[2]))
-        svar = self._svar[j]
-        if compiled():
-            self._x_t, self._P_t, K, M, self._Pxc, fold = _fast.schmidt_accept(
-                self._x_t, self._P_t, self._M, self._Pxc, self._C, j, svar, assoc.innovation, H,
-                self.bearing_std**2, self._calibrated, CONSIDER_MIN_DET, CONSIDER_MAX_ENTRY,
-            )
-            if fold:  # as _left and the folded branch below
-                self._fold_into_row(M, K, j, h0, h1)
-            else:
-                self._M = M
-            self.last_innovation = assoc.innovation
-            self.last_nis = assoc.nis
-            self.last_reflector = assoc.index
-            return
-        row = self._C[j].tolist()
-        v = _fast.consider_cross(self._M, row[:3], row[3:], -h0, -h1)
-        b = svar * (h0 * h0 + h1 * h1)
-        self._x_t, self._P_t, K, _ = _fast.schmidt_update(
-            self._x_t, self._P_t, assoc.innovation, H, self.bearing_std**2, v, b
+        self._x_t, self._P_t, K, M, self._Pxc, fold = _fast.schmidt_accept(
+            self._x_t, self._P_t, self._M, self._Pxc, self._C, j, self._svar[j], assoc.innovation, H,
+            self.bearing_std**2, self._calibrated, CONSIDER_MIN_DET, CONSIDER_MAX_ENTRY,
         )
-        if self._calibrated:  # P_xc <- A P_xc: a bearing does not see the calibration errors
-            self._Pxc = _fast.calibration_update(self._Pxc, K, H)
-        # P_xp <- A P_xp - K H_p P_pp,j: M <- A M, then reflector j's columns get K (h0, h1) svar_j
-        M = self._left(K, H)
-        if M is not _IDENTITY:
-            u0, u1, u2 = _fast.solve3(M, K, _fast.det3(M))  # M^-1 K: both new terms are multiples of K
-        else:  # folded: C[j] now holds the old P_xp,j transformed by A
-            u0, u1, u2 = K
-            row = self._C[j].tolist()
-        ax, ay = h0 * svar, h1 * svar
-        self._C[j] = (row[0] + u0 * ax, row[1] + u1 * ax, row[2] + u2 * ax, row[3] + u0 * ay, row[4] + u1 * ay,
-                      row[5] + u2 * ay)
+        if fold:  # as _left
+            self._fold_into_row(M, K, j, h0, h1)
+        else:
+            self._M = M
         self.last_innovation = assoc.innovation
         self.last_nis = assoc.nis
         self.last_reflector = assoc.index

@@ -24,11 +24,10 @@ itself in its ``method`` attribute and registers when it is defined
 Speed: one call handles one increment or one reflection, so the inner loop runs the
 scalar fast paths of :mod:`agvnav.positioning._fast` (the same equations as the
 vectorised kernels, tested against them to 1e-12) on state kept as Python floats;
-``_x``, ``_P`` and ``_odom`` give it to subclasses as arrays. When the kernels run compiled
-(:mod:`agvnav._jit`) a prediction is one compiled call (:func:`~agvnav.positioning._fast.move_state`)
-and the gate one more (:func:`~agvnav.positioning._fast.gate_rows`; the EKF's gate and update
-together, :func:`~agvnav.positioning._fast.gate_accept`), with the plain functions' operations
-in the same order: the same numbers in either mode (issue 11).
+``_x``, ``_P`` and ``_odom`` give it to subclasses as arrays. A prediction is one kernel call
+(:mod:`agvnav._jit`, compiled or interpreted: :func:`~agvnav.positioning._fast.move_state`) and
+the gate one more (:func:`~agvnav.positioning._fast.gate_rows`; the EKF's gate and update
+together, :func:`~agvnav.positioning._fast.gate_accept`), in either mode (issue 11, 27).
 
 Reflections usually fall between two odometry samples. The estimator then extrapolates
 the odometry to the reflection instant at the rate of the last increment, and deducts
@@ -46,7 +45,6 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav._jit import compiled
 from agvnav._validate import as_float_array, require_finite, require_nonnegative, require_positive
 from agvnav.geometry import wrap_angle
 from agvnav.odometry import OdometryNoise, SteeredOdometryNoise
@@ -162,8 +160,8 @@ class StreamingEstimator:
     late_updates: ClassVar[bool] = False
     #: Whether the estimator keeps the reflectors' survey errors as Schmidt-Kalman consider
     #: parameters (the EKF): its gate then takes the consider filter's ``S``
-    #: (:func:`~agvnav.positioning._fast.gate_one`), and :meth:`_consider_args`,
-    #: :meth:`_consider_move` and :meth:`_consider_reset` keep the cross-covariance.
+    #: (:func:`~agvnav.positioning._fast.gate_rows`), and :meth:`_consider_args`,
+    #: :meth:`_move_factors` and :meth:`_consider_reset` keep the cross-covariance.
     consider: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
@@ -465,9 +463,9 @@ class StreamingEstimator:
             self._judge_state(t)
             return False
         before = (self._x_t, self._P_t)  # the prior of the fused call's update
-        # compiled, the gate and the update in one call -- unless an acceptance may inflate P in
+        # the gate and the update in one call -- unless an acceptance may inflate P in
         # _watch_lockout between them (its window and counts do not depend on the state)
-        fused = self.consider and compiled() and not self._lockout_on_accept(t)
+        fused = self.consider and not self._lockout_on_accept(t)
         assoc = self._gate_accept(t, z) if fused else self._gate(t, z)
         accepted = self._after_gate(t, z, assoc, fused, before)
         self._judge_state(t)
@@ -775,28 +773,18 @@ class StreamingEstimator:
     def _gate(self, t: float, z: float) -> Association:
         """:func:`~agvnav.positioning.identification.gate_reflection` on the current estimate.
 
-        Scalar fast path (:func:`agvnav.positioning._fast.gate_one`, same gate); a
-        reflector claimed less than 3/4 of a revolution ago is excluded. On large maps
-        only the :class:`~agvnav.positioning.gating.BearingIndex` candidates are
-        evaluated (a superset of the reflectors inside the gate: same association).
+        One kernel call (:func:`agvnav.positioning._fast.gate_rows`); a reflector claimed less
+        than 3/4 of a revolution ago is excluded. On large maps only the
+        :class:`~agvnav.positioning.gating.BearingIndex` candidates are evaluated (a superset of
+        the reflectors inside the gate: same association).
         """
-        if compiled():  # one compiled call: the index's candidates and the gate (same numbers)
-            sight = self._sight(t)
-            M, C = self._consider_factors()
-            j, y, nis, n_in, h0, h1, h2, S, R = _fast.gate_rows(
-                z, t, self._x_t, self._P_t, M, C, self._claimed, self._in_sight_all if sight is None else sight,
-                self._gate_tab, self._gate_consts, *self._gate_grid,
-            )
-            return Association(j, y, nis, n_in, np.array((h0, h1, h2)), S, R)
-        cand = None if self._index is None else self._index.candidates(z, self._x_t, self._P_t)
         sight = self._sight(t)
-        if sight is not None:
-            cand = [j for j in (range(len(self._rows)) if cand is None else cand) if sight[j]]
-        j, y, nis, n_in, H, S, R = _fast.gate_one(
-            z, self._x_t, self._P_t, self._mount_t, self._rows, self._spec, self._claimed, t, cand,
-            self._consider_args(0.0, 0.0) if self.consider else None,
+        M, C = self._consider_factors()
+        j, y, nis, n_in, h0, h1, h2, S, R = _fast.gate_rows(
+            z, t, self._x_t, self._P_t, M, C, self._claimed, self._in_sight_all if sight is None else sight,
+            self._gate_tab, self._gate_consts, *self._gate_grid,
         )
-        return Association(j, y, nis, n_in, np.array(H), S, R)
+        return Association(j, y, nis, n_in, np.array((h0, h1, h2)), S, R)
 
     def _sight(self, t: float) -> NDArray[np.bool_] | None:
         """``(N,)`` bool: the reflectors in sight of the estimated head, refreshed once per revolution.
@@ -851,9 +839,9 @@ class StreamingEstimator:
         return n_bad >= 4 and 2 * n_ok < n_bad
 
     def _gate_accept(self, t: float, z: float) -> Association:  # pragma: no cover - abstract
-        """:meth:`_gate` and, when it identifies a reflector, :meth:`_accept`, in one compiled call.
+        """:meth:`_gate` and, when it identifies a reflector, :meth:`_accept`, in one kernel call.
 
-        For ``consider`` estimators when the kernels run compiled; :meth:`update` calls it only
+        For ``consider`` estimators; :meth:`update` calls it only
         when an acceptance would not make :meth:`_watch_lockout` inflate ``P`` between the two
         (:meth:`_lockout_on_accept`), so the result is the one of the two calls.
         """
@@ -906,56 +894,25 @@ class StreamingEstimator:
     def _move(self, delta_d: float, delta_theta: float, delta_lateral: float) -> None:
         """Dead-reckon the odom pose, and the map pose with ``P' = F P F^T + Q`` (see :meth:`predict`).
 
-        Scalar fast paths: :func:`~agvnav.positioning._fast.twist_step` (the SE(2)
-        exponential; for ``delta_lateral = 0`` :func:`~agvnav.odometry.integrate_pose`'s
-        arc rule [seed002 eq25] and :func:`~agvnav.odometry.pose_jacobian`) and
-        :func:`~agvnav.positioning._fast.process_noise` (for ``delta_lateral = 0``
-        :func:`~agvnav.odometry.motion_covariance` [seed002 eq17]).
+        One kernel call (:func:`~agvnav.positioning._fast.move_state`): the SE(2) exponential
+        (:func:`~agvnav.positioning._fast.twist_step`; for ``delta_lateral = 0``
+        :func:`~agvnav.odometry.integrate_pose`'s arc rule [seed002 eq25]) and the noise
+        (:func:`~agvnav.positioning._fast.process_noise`, [seed002 eq17]). The noise model's
+        constants were packed at construction (``_move_consts``); a consider filter moves its own
+        factors in the same call (:meth:`_move_factors`).
         """
-        if compiled():
-            self._move_compiled(delta_d, delta_theta, delta_lateral)
-            return
-        ox, oy, opsi = self._odom_t
-        self._odom_t = _fast.twist_step(ox, oy, opsi, delta_d, delta_theta, delta_lateral)[:3]
-        x, y, psi = self._x_t
-        if math.isfinite(x) and math.isfinite(y) and math.isfinite(psi):  # self._has_pose(), inlined
-            nx, ny, npsi, f02, f12 = _fast.twist_step(x, y, psi, delta_d, delta_theta, delta_lateral)
-            steered = self._steered
-            W = None
-            if steered is None or delta_lateral != 0.0:
-                k = self.odometry_noise
-                Q = _fast.process_noise(
-                    psi, delta_d, delta_theta, k.k_d, k.k_dtheta, k.k_theta, delta_lateral, self.k_lateral
-                )
-            else:  # the exact steered-wheel model (issue 12)
-                Q, W = _fast.steered_noise(psi, delta_d, delta_theta, *steered)
-            self._x_t = (nx, ny, _fast.wrap(npsi))
-            self._P_t = _fast.predict_covariance(self._P_t, f02, f12, Q)
-            if self.consider:
-                self._consider_move(f02, f12, W)
-
-    def _move_compiled(self, dd: float, dth: float, dl: float) -> None:
-        """:meth:`_move` in one compiled call (:func:`~agvnav.positioning._fast.move_state`; same numbers).
-
-        The noise model's constants were packed at construction (``_move_consts``); a consider
-        filter overrides this to move its own factors in the same call.
-        """
-        self._odom_t, self._x_t, self._P_t, _, _ = _fast.MOVE_STATE.bound()(
-            self._odom_t, self._x_t, self._P_t, _NO_M, _NO_X, dd, dth, dl, self._noise_hypot(dd, dth, dl),
+        self._odom_t, self._x_t, self._P_t, M, X = _fast.MOVE_STATE.bound()(
+            self._odom_t, self._x_t, self._P_t, *self._move_factors(), delta_d, delta_theta, delta_lateral,
             self._move_consts,
         )
+        self._moved_factors(M, X)
 
-    def _noise_hypot(self, dd: float, dth: float, dl: float) -> float:
-        """The one ``math.hypot`` of the noise model (m), taken in Python for :func:`._fast.move_state`.
+    def _move_factors(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """``(M, P_xc)`` a consider filter moves with the pose (placeholders without consider)."""
+        return _NO_M, _NO_X
 
-        ``hypot(dd, dl)`` for :func:`~agvnav.positioning._fast.process_noise`, ``hypot(dd, L dth)``
-        for a front steered wheel, 0 for a rear one (CPython's hypot: the C library's, which the
-        compiled kernel would call, differs in the last bit on ~0.6 % of pairs).
-        """
-        steered = self._steered
-        if steered is None or dl != 0.0:
-            return math.hypot(dd, dl)
-        return math.hypot(dd, steered[1] * dth) if steered[0] else 0.0
+    def _moved_factors(self, M: tuple[float, ...], X: tuple[float, ...]) -> None:
+        """Keep the ``(M, P_xc)`` :meth:`_move` returned (a consider filter's; nothing without)."""
 
     def _start(self, pose: ArrayLike, covariance: ArrayLike | None) -> None:
         x = require_finite("initial_pose", pose)
@@ -1021,15 +978,6 @@ class StreamingEstimator:
     def _consider_factors(self) -> tuple[tuple[float, ...], NDArray[np.float64]]:
         """``(M, C)`` of the factored ``P_xp = M C^T`` for the compiled gate (placeholders without consider)."""
         return _NO_M, _NO_C
-
-    def _consider_move(self, f02: float, f12: float, W: Any = None) -> None:  # pragma: no cover - abstract
-        """``P_xp <- F P_xp`` for the prediction Jacobian ``F`` (``F[0,2] = f02``, ``F[1,2] = f12``).
-
-        ``W`` (the steered-wheel model's calibration Jacobian of
-        :func:`~agvnav.positioning._fast.steered_noise`, else None): the calibration consider
-        parameters' share of ``P`` and their cross-covariance too.
-        """
-        raise NotImplementedError
 
     def _consider_reset(self) -> None:  # pragma: no cover - abstract
         """``P_xp <- 0`` (a new start)."""

@@ -134,14 +134,13 @@ import functools
 import math
 from array import array
 from collections import deque
-from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from agvnav._jit import compiled, jit
+from agvnav._jit import jit
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.positioning._chi2_table import FALSE_ALARM, QUANTILES_1E5
 from agvnav.positioning._integrity_fast import (  # the window row's columns (_T, ...) are defined there
@@ -157,7 +156,6 @@ from agvnav.positioning._integrity_fast import (  # the window row's columns (_T
     _WIDTH,
     _Y,
     CROSSCHECK_FIX,
-    CROSSCHECK_NONE,
     _fde_statistics,
     _head,
     crosscheck_fix,
@@ -168,7 +166,6 @@ from agvnav.positioning._integrity_fast import (  # the window row's columns (_T
     revolution_offset,
     window_fde,
 )
-from agvnav.positioning.triangulation import triangulate
 from agvnav.sensors.beam import line_of_sight
 
 __all__ = [
@@ -444,17 +441,14 @@ class _Window:
     def buffer(self) -> tuple[Any, int]:
         """The flat buffer for :func:`_window_tally` and the offset of the oldest row in it.
 
-        Compiled: a NumPy copy of the window (numba takes arrays), made once while the window
-        stays as it is (the class docstring); interpreted: the buffer itself (Python indexes it
-        faster than an array).
+        A NumPy copy of the window (numba takes arrays), made once while the window stays as it
+        is (the class docstring).
         """
-        if compiled():
-            key = (len(self._flat), self._head)
-            held = self._copy
-            if held is None or held[0] != key:
-                held = self._copy = key, _owned(self._flat[self._head * _WIDTH:])
-            return held[1], 0
-        return self._flat, self._head * _WIDTH
+        key = (len(self._flat), self._head)
+        held = self._copy
+        if held is None or held[0] != key:
+            held = self._copy = key, _owned(self._flat[self._head * _WIDTH:])
+        return held[1], 0
 
 
 def reflectors_in_sight(
@@ -527,8 +521,7 @@ class _HeadClock:
             self._learn.append((wrap_angle_scalar(z - w), wrap_angle_scalar(z + w)))
             if len(self._learn) == self.LEARN:
                 for k, sense in ((0, 1), (1, -1)):
-                    ref = math.atan2(_plain_sum(math.sin(v[k]) for v in self._learn),
-                                     _plain_sum(math.cos(v[k]) for v in self._learn))
+                    ref = math.atan2(sum(math.sin(v[k]) for v in self._learn), sum(math.cos(v[k]) for v in self._learn))
                     if all(abs(wrap_angle_scalar(v[k] - ref)) <= 0.5 * self.tolerance for v in self._learn):
                         self.sense, self.phase = sense, ref
                         break
@@ -620,11 +613,9 @@ class IntegrityMonitor:
         #: gated-out reflections attributed to one reflector: (t, map row, y, S, H0, H1, H2) (:meth:`attributed`)
         self._attributed: deque[tuple[float, int, float, float, float, float, float]] = deque()
         #: the map for the kernels (:mod:`agvnav.positioning._integrity_fast`): x, y, radius, map_std (m), as
-        #: contiguous arrays (compiled) and as lists of floats (interpreted: Python indexes lists faster);
-        #: copies, so the map and mount are read-only properties (:attr:`xy` and co)
+        #: contiguous arrays; copies, so the map and mount are read-only properties (:attr:`xy` and co)
         self._tables = tuple(np.array(a, dtype=np.float64)  # contiguous, writeable copies (numba's array type)
                              for a in (self.xy[:, 0], self.xy[:, 1], self.radius, self.map_std))
-        self._lists = tuple(a.tolist() for a in self._tables)
         self._mount_t = (float(self.mount[0]), float(self.mount[1]), float(self.mount[2]))
         self._flags_of: tuple[int, ...] | None = None  # the exclusions self._flags holds (:meth:`_excluded_flags`)
         self._flags = np.zeros(0, dtype=np.int64)
@@ -894,9 +885,9 @@ class IntegrityMonitor:
         error, carried to base_link through ``base = head - R(psi) mount`` (zero without
         ``map_std`` or with fewer than three reflectors).
         """
-        rx, ry, _, map_std = self._tables if compiled() else self._lists
+        rx, ry, _, map_std = self._tables
         pdop2, has_floor, b00, b01, b02, b11, b12, b22 = information(
-            head[0], head[1], head[2], sightings, rx, ry, map_std, self._mount_t, 3.0)
+            head[0], head[1], head[2], sightings, rx, ry, map_std, self._mount_t)
         if not has_floor:
             return pdop2, np.zeros((3, 3))
         return pdop2, np.array([[b00, b01, b02], [b01, b11, b12], [b02, b12, b22]])
@@ -933,12 +924,10 @@ class IntegrityMonitor:
     def _in_range(self, hx: float, hy: float) -> int:
         """How many reflectors (not excluded) are within ``max_range`` (m) of ``(hx, hy)`` (m).
 
-        ``math.hypot(dx, dy) <= max_range``, decided on the squared distance where it clears the
-        boundary by a relative 1e-9 (far beyond rounding) and with CPython's hypot itself for the
-        few near it, in one compiled pass over the map (:func:`~agvnav.positioning._integrity_fast.in_range`;
-        issue 11: 256 reflectors).
+        ``math.hypot(dx, dy) <= max_range``, in one compiled pass over the map
+        (:func:`~agvnav.positioning._integrity_fast.in_range`; issue 11: 256 reflectors).
         """
-        rx, ry, _, _ = self._tables if compiled() else self._lists
+        rx, ry, _, _ = self._tables
         return int(in_range(hx, hy, rx, ry, self.max_range, self._excluded_flags()))
 
     def _uncertainty_failures(self, P: np.ndarray) -> list[str]:
@@ -960,8 +949,7 @@ class IntegrityMonitor:
         The bearings of the best triple seen in the last revolution are brought to now
         through the odometry (``z_now = centre + h(now) - h(then)``, seed 000 §2.2) and
         triangulated with ToTal (:func:`~agvnav.positioning.triangulate`), in one compiled pass
-        over the window (:func:`~agvnav.positioning._integrity_fast.crosscheck_fix`, the same
-        operations; triangulate itself where that kernel leaves a decision to it).
+        over the window (:func:`~agvnav.positioning._integrity_fast.crosscheck_fix`).
         Each propagated bearing's variance is the bearing's, the survey's
         ``(map_std / d)^2`` and the error of the odometry between then and now
         (``var_th + var_pos / d^2``, ``var_th = k_dtheta s + k_theta |turn|``,
@@ -982,26 +970,14 @@ class IntegrityMonitor:
         from Gaussian) put fixes 5-7 cm off a sound estimate on 3 % of the checks.
         """
         buf, start = self._entries.buffer()
-        rx, ry, radius, map_std = self._tables if compiled() else self._lists
+        rx, ry, radius, map_std = self._tables
         out = crosscheck_fix(
             buf, start, tally.newest, (float(x[0]), float(x[1]), float(x[2])),
             (float(odom[0]), float(odom[1]), float(odom[2])), self._mount_t, rx, ry, radius, map_std,
-            self.odometry_noise, self.bearing_std**2, 2.0, self.limits.max_fix_std_m**2)
-        code = out[0]
-        if code == CROSSCHECK_NONE:
+            self.odometry_noise, self.bearing_std**2, self.limits.max_fix_std_m**2)
+        if out[0] != CROSSCHECK_FIX:
             return math.nan
-        if code == CROSSCHECK_FIX:
-            fx, fy, c00, c01, c11 = out[1:6]
-        else:  # CROSSCHECK_TRIANGULATE, the rare path: triangulate itself decides (see _integrity_fast.total_fix)
-            idx = list(out[6:9])
-            try:
-                fix = triangulate(self.xy[idx], np.array(out[9:12]), method="total", bearing_std=np.array(out[12:15]))
-            except ValueError:  # e.g. collinear reflectors: no fix to compare with
-                return math.nan
-            if not bool(fix.valid) or fix.covariance is None or not np.all(np.isfinite(fix.covariance)):
-                return math.nan
-            c = fix.covariance
-            fx, fy, c00, c01, c11 = float(fix.x), float(fix.y), float(c[0, 0]), float(c[0, 1]), float(c[1, 1])
+        fx, fy, c00, c01, c11 = out[1:6]
         head_now = _head(float(x[0]), float(x[1]), float(x[2]), *self._mount_t)
         dx, dy = fx - head_now[0], fy - head_now[1]
         if math.hypot(dx, dy) <= self.limits.crosscheck_min_m:
@@ -1091,7 +1067,7 @@ class IntegrityMonitor:
         if len(seen) < lim.min_reflectors + 2:
             return
         worst = max(seen, key=lambda j: self._mean_nu[j])
-        others = _plain_sum(self._mean_nu[j] for j in seen if j != worst) / (len(seen) - 1)
+        others = sum(self._mean_nu[j] for j in seen if j != worst) / (len(seen) - 1)
         m = self._mean_nu[worst]
         if m > lim.exclude_sigmas**2 and m > lim.exclude_ratio**2 * others:
             self._drop(worst)
@@ -1119,9 +1095,7 @@ class IntegrityMonitor:
         differential_loop and tricycle_rear_loop; no decision changed and the seeded runs kept their bits.
         """
         buf, start = self._entries.buffer()
-        att: Any = self._attributed
-        if compiled():  # numba takes the attributed sightings as an array, Python their tuples
-            att = np.array(att, dtype=np.float64) if att else _NO_ATTRIBUTED
+        att = np.array(self._attributed, dtype=np.float64) if self._attributed else _NO_ATTRIBUTED
         ok, dx0, dx1, dx2, stat = revolution_offset(buf, start, len(self._entries), t, self.revolution_s,
                                                     self._excluded_flags(), att, len(att), self._tables[3],
                                                     self.bearing_std**2)
@@ -1357,9 +1331,7 @@ def leave_one_out_fde(
         raise ValueError("variances must be positive and finite")
     w = 1.0 / v
     h = np.ascontiguousarray(H).reshape(-1)
-    # interpreted, the kernel indexes Python lists faster than arrays
-    args: tuple[Any, Any, Any] = (r, h, w) if compiled() else (r.tolist(), h.tolist(), w.tolist())
-    return _fde_result(_fde_statistics(*args, m).tolist(), n, m, false_alarm)
+    return _fde_result(_fde_statistics(r, h, w, m).tolist(), n, m, false_alarm)
 
 
 def _fde_result(stats: list[float], n: int, m: int, false_alarm: float) -> FdeResult:
@@ -1378,14 +1350,6 @@ def _fde_result(stats: list[float], n: int, m: int, false_alarm: float) -> FdeRe
             if ok:
                 faulty = min(ok)[1]
     return FdeResult(float(stat), dof, thr, detected, tuple(without), thr_x, faulty)
-
-
-def _plain_sum(values: Iterable[float]) -> float:
-    """The values added in turn from 0.0: ``sum()`` of Python 3.11, on every version (3.12's compensates)."""
-    total = 0.0
-    for v in values:
-        total += v
-    return total
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

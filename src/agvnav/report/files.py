@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav._json import json_text
+from agvnav.jit import mode as kernel_mode
 from agvnav.report.html import write_html_report
 from agvnav.report.plots import write_plots
 from agvnav.report.reference import COLUMNS, EVENT_COLUMNS, LAP_COLUMNS, PER_OBSTACLE
@@ -70,7 +71,8 @@ class OutputFolderError(ValueError):
 def metrics_document(result: SimResult) -> dict[str, Any]:
     """The content of metrics.json: outcome, the metrics, integrity figures, how the transient was defined.
 
-    Deterministic for the scenario and seed (no timing: see :func:`timing_document`).
+    Deterministic for the scenario, seed and kernel mode (``kernels``, :func:`agvnav.jit.mode`; no timing:
+    see :func:`timing_document`).
     A run with reactive control adds a ``reactive`` section (:func:`reactive_document`);
     any other run's document is as before, without it.
     """
@@ -79,6 +81,7 @@ def metrics_document(result: SimResult) -> dict[str, Any]:
         "scenario": result.scenario.name,
         "vehicle": result.scenario.vehicle.model,
         "seed": result.scenario.seed,
+        "kernels": kernel_mode(),  # seeded runs repeat bit for bit within one mode (agvnav.jit)
         "outcome": result.outcome,
         "reason": result.reason,
         **figures,

@@ -64,7 +64,7 @@ def offset_one(
         x, y = x + c * mx - s * my, y + s * mx + c * my
     beam = heading + phase + omega * t
     dx, dy = rx - x, ry - y
-    d = math.sqrt(dx * dx + dy * dy)  # not math.hypot: CPython's own hypot and libm's differ in the last bit
+    d = math.sqrt(dx * dx + dy * dy)
     half_width = math.asin(min(r / max(d, 1e-300), 1.0))
     if direction == 1:
         return beam - math.atan2(dy, dx) + half_width, x, y, d
@@ -301,7 +301,7 @@ def line_of_sight(
     ``start (wall_x0, wall_y0) + [0, 1] (wall_vx, wall_vy)`` (parallel pairs do not block:
     with ``a`` the wall start from the head, ``u`` the ray and ``v`` the wall, ``s = (a x v)/(u x v)``
     and ``w = (a x u)/(u x v)`` both in [0, 1] block) and passes no other reflector closer than
-    its radius. Arrays compiled; interpreted, Python lists serve as well (and faster).
+    its radius.
     """
     c = len(refl)
     out = np.zeros(c, np.bool_)

@@ -40,7 +40,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav._jit import compiled
 from agvnav._validate import require_finite, require_nonnegative, require_positive
 from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 from agvnav.geometry.hermite import HermitePoses
@@ -102,19 +101,8 @@ class _MapArrays:
         )
 
     def sight(self) -> tuple[Any, ...]:
-        """The reflector and wall columns for :func:`~agvnav.sensors.beam.line_of_sight`.
-
-        Arrays when the kernels run compiled; Python lists (made once) when they run
-        interpreted, which index and multiply faster than NumPy scalars (issue 11:
-        ``agvnav simulate`` runs interpreted).
-        """
-        cols = (self.rx, self.ry, self.r, self.wall_x0, self.wall_y0, self.wall_vx, self.wall_vy)
-        if compiled():
-            return cols
-        if "_lists" not in self.__dict__:
-            object.__setattr__(self, "_lists", tuple(c.tolist() for c in cols))
-        lists: tuple[Any, ...] = self.__dict__["_lists"]
-        return lists
+        """The reflector and wall columns (arrays) for :func:`~agvnav.sensors.beam.line_of_sight`."""
+        return (self.rx, self.ry, self.r, self.wall_x0, self.wall_y0, self.wall_vx, self.wall_vy)
 
 
 @dataclass(frozen=True, eq=False)
@@ -482,7 +470,6 @@ class Goniometer:
         grid = _bracket_grid(t0, t1, n_int)
         consts = self._consts()
         if isinstance(pose_at, HermitePoses):  # the whole scan in one kernel call, same numbers
-            # (interpreted, the map's columns come as lists: the kernels then read plain floats)
             rx, ry, r, w0x, w0y, wvx, wvy = m.sight()
             status, t_seen, r_seen = scan_hermite(
                 pose_at.table, pose_at.t0, pose_at.dt, grid, rx, ry, r, *consts, w0x, w0y, wvx, wvy,
@@ -490,14 +477,13 @@ class Goniometer:
             )
             if status == 0:
                 return t_seen, r_seen  # else (rare): the generic path below, Illinois or the error
-        rx, ry, r = m.sight()[:3]  # lists when interpreted: the kernel then reads plain floats
+        rx, ry, r = m.sight()[:3]
         interval, refl, f_lo, f_hi = grid_crossings(grid, _call_pose(pose_at, grid), rx, ry, r, *consts)
         if interval.size == 0:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
         t_star, hx, hy, d = self._refine(m, pose_at, grid, interval, f_lo, f_hi, refl)
-        b = (refl, hx, hy, d) if compiled() else (refl.tolist(), hx.tolist(), hy.tolist(), d.tolist())
         rx, ry, r, w0x, w0y, wvx, wvy = m.sight()
-        seen = line_of_sight(b[0], b[1], b[2], b[3], rx, ry, r, w0x, w0y, wvx, wvy, self.min_range, self.max_range)
+        seen = line_of_sight(refl, hx, hy, d, rx, ry, r, w0x, w0y, wvx, wvy, self.min_range, self.max_range)
         return seen_in_order(t_star, refl, np.asarray(seen))
 
     def _refine(
