@@ -264,39 +264,35 @@ def _integrity_kernel_outputs(rng: np.random.Generator) -> Outputs:
 
 #: Kernels called only by other kernels, checked through the outputs of the kernel named (nested kernels
 #: run in the caller's mode).
-def _triangulation_kernel_outputs(rng: np.random.Generator) -> Outputs:
-    """The batch triangulation's kernels (issue 29): ToTal over one layout, its helpers, the layout flags."""
-    m = 500
-    r = rng.uniform(-10.0, 10.0, (3, 2))
-    b = rng.uniform(-math.pi, math.pi, (m, 3))
-    b[:5] = np.nan  # invalid bearings flag invalid in both modes
-    rx, ry = np.ascontiguousarray(r[None, :, 0]), np.ascontiguousarray(r[None, :, 1])
-    scale2 = np.array([float(((r - np.roll(r, 1, axis=0)) ** 2).sum()) / 3.0])
-    o = [np.empty(m) for _ in range(4)] + [np.empty(m, dtype=bool)]
-    with np.errstate(all="ignore"):
-        total_batch(rx, ry, scale2, b, *o)
-    values = rng.uniform(-15.0, 15.0, 200).tolist() + [math.pi, -math.pi, 0.0, 1e9]
-    pairs = rng.normal(0.0, 10.0, (200, 2)).tolist() + [[1.0, 0.0], [0.0, 0.0], [-2.0, math.inf]]
-    with np.errstate(all="ignore"):
-        divs = [_div(a, c) for a, c in pairs]
-    per_fix = rng.uniform(-10.0, 10.0, (m, 4, 2))
-    per_fix[:50, 2] = per_fix[:50, 1]  # coincident reflectors
-    per_fix[50:100, :, 1] = 2.0  # collinear reflectors
-    ok_shared, ok_each = np.empty(m, dtype=bool), np.empty(m, dtype=bool)
-    bearings = rng.uniform(-math.pi, math.pi, (m, 4))
-    bearings[100:110, 1] = bearings[100:110, 0]  # parallel rays
-    _layout_ok_kernel(np.ascontiguousarray(per_fix[:1]), bearings, True, False, False, ok_shared)
-    _layout_ok_kernel(np.ascontiguousarray(per_fix), bearings, False, False, False, ok_each)
-    return {"total_batch": [*o], "_wrap": [[_wrap(v) for v in values]], "_div": [divs],
-            "_layout_ok_kernel": [ok_shared, ok_each]}
-
-
 NESTED = {
     "wrap_angle_scalar": "wrap_angle_kernel", "offset_one": "offsets_at", "_hits_wall": "line_of_sight",
     "_hits_disc": "line_of_sight", "near_one": "near_rows", "_visit_box": "grid_rows", "_finite_poses": "scan_hermite",
     "_solve_augmented": "_fde_statistics", "_normal_equations": "_fde_statistics", "position_crlb_one": "best_triple",
     "schmidt_accept": "gate_accept",
 }
+
+
+def _triangulation_kernel_outputs(rng: np.random.Generator) -> Outputs:
+    """The batch triangulation's kernels (``positioning.total``, ``positioning.triangulation``) on random fixes."""
+    m = 400
+    r = rng.uniform(-10.0, 10.0, (m, 3, 2))
+    r[: m // 5, :, 1] = r[: m // 5, :1, 1]  # collinear layouts, as many walls
+    p, psi = rng.uniform(-10.0, 10.0, (m, 2)), rng.uniform(-math.pi, math.pi, m)
+    b = np.arctan2(r[..., 1] - p[:, None, 1], r[..., 0] - p[:, None, 0]) - psi[:, None] + rng.normal(0, 1e-3, (m, 3))
+    rx, ry = np.ascontiguousarray(r[..., 0]), np.ascontiguousarray(r[..., 1])
+    d = (r - np.roll(r, -1, axis=1)) ** 2
+    scale2 = d.sum(axis=(1, 2)) / 3.0
+    o = [np.empty(m) for _ in range(4)] + [np.empty(m, dtype=np.bool_)]
+    with np.errstate(all="ignore"):  # interpreted, the elements are NumPy scalars: inf * 0 warns
+        total_batch(rx, ry, scale2, np.ascontiguousarray(b), *o)
+    ok = np.empty(m, dtype=np.bool_)
+    _layout_ok_kernel(np.ascontiguousarray(r), np.ascontiguousarray(b), False, False, False, ok)
+    vals = [0.0, -0.0, 1.0, -2.5, math.inf, -math.inf, math.nan, 1e-310, 1e308]
+    return {
+        "total_batch": list(o), "_layout_ok_kernel": [ok],
+        "_wrap": [np.array([_wrap(float(v)) for v in rng.uniform(-15.0, 15.0, 2_000)])],
+        "_div": [np.array([_div(x, y) for x in vals for y in vals])],
+    }
 
 
 def _outputs(compiled: bool) -> Outputs:

@@ -104,7 +104,7 @@ def _simulate(
     except ScenarioError as exc:
         if exc.key != ("fleet",) or scenario is None:
             raise
-        return _simulate_fleet(scenario, out, seed, plots, force, log, report, json, wide)
+        return _simulate_fleet(scenario, out, seed, plots, force, log, report, json, wide, jit)
     if seed is not None:
         sc = sc.with_seed(seed)
     console = Console(highlight=False, stderr=json)  # with --json, stdout holds the JSON document only
@@ -149,7 +149,7 @@ def _simulate(
 
 def _simulate_fleet(
     scenario: str, out: Path, seed: int | None, plots: bool, force: bool, log: Path | None, report: bool, json: bool,
-    wide: bool,
+    wide: bool, jit: str = "auto",
 ) -> None:
     """A fleet scenario (issue 28): every vehicle in one world, stepped in lockstep; one row per vehicle."""
     from agvnav.jit import set_compiled_for_run
@@ -165,7 +165,8 @@ def _simulate_fleet(
     console = Console(highlight=False, stderr=json)
     built = build_fleet(fleet)  # every cross-vehicle rule checked before the progress bar starts
     _collect_again()
-    set_compiled_for_run(built.duration * len(built.ids), len(built.built[0].world.reflector_xy))
+    if jit == "auto":  # else --jit forced the mode already
+        set_compiled_for_run(built.duration * len(built.ids), len(built.built[0].world.reflector_xy))
     _prepare_out(out, force)
     with RunProgress(fleet.name, built.duration, "s simulated") as bar:
         result = run_fleet(built, progress=bar.update)
