@@ -1,5 +1,7 @@
 # agvnav: everything a new machine needs, from plain Python.
-#   make run   - create .venv on first use, install agvnav, run the main job
+#   make run   - create .venv on first use, install agvnav, run the main job; run again, it replaces sim_out
+#                (--force: sim_out holding the previous run is replaced whole; a sim_out of other files is
+#                never touched, agvnav refuses it)
 #   make test  - create .venv on first use, install agvnav with test tools, lint (ruff), type-check (mypy),
 #                run the test suite
 PYTHON ?= python3
@@ -16,7 +18,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 run: $(STAMP)
-	$(BIN)/agvnav simulate
+	$(BIN)/agvnav simulate --force
 
 # The HTML report's test drives a real headless Chromium. Where it is missing and Debian's
 # package manager can be used (root), install it; otherwise that one test skips and says why.

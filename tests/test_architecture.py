@@ -211,5 +211,5 @@ def test_the_layer_check_reports_an_upward_or_sideways_import():
     graph = _package_graph()
     graph["geometry"] = graph["geometry"] | {"sim", "kinematics"}
     assert _upward(_package_map(), graph) == [
-        "geometry (layer 1) imports kinematics (layer 1)", "geometry (layer 1) imports sim (layer 5)"
+        "geometry (layer 1) imports kinematics (layer 1)", "geometry (layer 1) imports sim (layer 6)"
     ]

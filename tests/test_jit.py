@@ -24,6 +24,8 @@ from agvnav.positioning import _integrity_fast as fast_integrity
 from agvnav.positioning._integrity_fast import _information_sums, best_triple
 from agvnav.positioning.gating import BearingIndex, GateSpec, near_rows
 from agvnav.positioning.integrity import IntegrityMonitor, _fde_statistics, _window_tally
+from agvnav.positioning.total import _div, _wrap, total_batch
+from agvnav.positioning.triangulation import _layout_ok_kernel
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
 
@@ -270,12 +272,36 @@ NESTED = {
 }
 
 
+def _triangulation_kernel_outputs(rng: np.random.Generator) -> Outputs:
+    """The batch triangulation's kernels (``positioning.total``, ``positioning.triangulation``) on random fixes."""
+    m = 400
+    r = rng.uniform(-10.0, 10.0, (m, 3, 2))
+    r[: m // 5, :, 1] = r[: m // 5, :1, 1]  # collinear layouts, as many walls
+    p, psi = rng.uniform(-10.0, 10.0, (m, 2)), rng.uniform(-math.pi, math.pi, m)
+    b = np.arctan2(r[..., 1] - p[:, None, 1], r[..., 0] - p[:, None, 0]) - psi[:, None] + rng.normal(0, 1e-3, (m, 3))
+    rx, ry = np.ascontiguousarray(r[..., 0]), np.ascontiguousarray(r[..., 1])
+    d = (r - np.roll(r, -1, axis=1)) ** 2
+    scale2 = d.sum(axis=(1, 2)) / 3.0
+    o = [np.empty(m) for _ in range(4)] + [np.empty(m, dtype=np.bool_)]
+    with np.errstate(all="ignore"):  # interpreted, the elements are NumPy scalars: inf * 0 warns
+        total_batch(rx, ry, scale2, np.ascontiguousarray(b), *o)
+    ok = np.empty(m, dtype=np.bool_)
+    _layout_ok_kernel(np.ascontiguousarray(r), np.ascontiguousarray(b), False, False, False, ok)
+    vals = [0.0, -0.0, 1.0, -2.5, math.inf, -math.inf, math.nan, 1e-310, 1e308]
+    return {
+        "total_batch": list(o), "_layout_ok_kernel": [ok],
+        "_wrap": [np.array([_wrap(float(v)) for v in rng.uniform(-15.0, 15.0, 2_000)])],
+        "_div": [np.array([_div(x, y) for x in vals for y in vals])],
+    }
+
+
 def _outputs(compiled: bool) -> Outputs:
     _jit.set_compiled(compiled)
     out = _random_outputs()
     rng = np.random.default_rng(13)
     out.update(_scalar_kernel_outputs(rng))
     out.update(_integrity_kernel_outputs(rng))
+    out.update(_triangulation_kernel_outputs(rng))
     return out
 
 

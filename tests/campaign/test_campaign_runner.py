@@ -7,7 +7,7 @@ import pytest
 
 from agvnav.campaign import finished_runs, load_base, load_campaign, plan_runs, read_results, run_campaign, run_one
 from agvnav.campaign.overrides import apply_overrides, dump_yaml
-from agvnav.campaign.runner import batch_plans
+from agvnav.campaign.runner import batch_plans, fingerprint
 
 BODY = """\
 seed: 21
@@ -69,6 +69,24 @@ def test_other_campaign_in_same_folder_is_refused(write_campaign, scheduler, tmp
     other = load_campaign(write_campaign("runs: 1\nseed: 5\n", name="other.yaml"))
     with pytest.raises(ValueError, match="another campaign"):
         run_campaign(other, out, scheduler=scheduler, progress=False)
+    stale = out / "runs" / "part-stale.parquet.note"
+    stale.write_text("from the first campaign")
+    res = run_campaign(other, out, scheduler=scheduler, progress=False, force=True)  # replaced whole, not mixed
+    assert (res.ran, res.skipped) == (1, 0) and not stale.exists()
+    manifest = json.loads((out / "campaign.json").read_text())
+    assert manifest["fingerprint"] == fingerprint(other, load_base(other.resolve_base()))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.yaml", "other.yaml", "out"]
+
+
+def test_a_folder_of_other_files_is_never_written_into(write_campaign, tmp_path):
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "notes.txt").write_text("mine")
+    spec = load_campaign(write_campaign("runs: 1\n"))
+    for force in (False, True):  # refused before any cluster starts
+        with pytest.raises(ValueError, match="not an agvnav campaign"):
+            run_campaign(spec, docs, scheduler="tcp://127.0.0.1:1", progress=False, force=force)
+    assert [p.name for p in docs.iterdir()] == ["notes.txt"]
 
 
 def test_more_runs_extend_a_gridless_campaign(write_campaign, scheduler, tmp_path):

@@ -28,7 +28,7 @@ def test_record_is_flat_and_replays_alone(write_campaign, tmp_path):
     assert all(isinstance(v, int | float | str) or v is None for v in rec.values())
     assert rec["cpu_time_s"] > 0 and rec["sim_time_s"] > 0
     # the replay file, run alone by the simulator, gives the same metrics bit for bit
-    replayed = simulate(load_scenario(write_replay(spec, 1, tmp_path))).metrics.to_dict()
+    replayed = simulate(load_scenario(write_replay(spec, 1, tmp_path / "out"))).metrics.to_dict()
     for name, value in replayed.items():
         if name not in TIMING:
             want = None if value is None else float(value)

@@ -68,9 +68,10 @@ def test_campaign_runs_and_writes_everything(tmp_path, scheduler):
 
 
 def test_replay_writes_a_scenario_for_simulate(tmp_path):
-    res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(tmp_path), "--replay", "3"])
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(out), "--replay", "3"])
     assert res.exit_code == 0, res.output
-    path = tmp_path / "replay" / "run_000003.yaml"
+    path = out / "replay" / "run_000003.yaml"
     assert f"agvnav simulate {path}" in res.output.replace("\n", "")
     sc = load_scenario(path)
     assert sc.traction.speed_m_s == 0.3 and sc.start.lateral_offset_m == 0.02
@@ -96,5 +97,38 @@ def test_workers_and_scheduler_together_refused(tmp_path):
 def test_missing_file_and_bad_replay(tmp_path):
     res = runner.invoke(app, ["campaign", str(tmp_path / "none.yaml")])
     assert res.exit_code == 2 and "no such campaign file" in res.output
-    res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(tmp_path), "--replay", "4"])
-    assert res.exit_code == 2 and "run must be in 0..3" in res.output
+    res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(tmp_path / "o"), "--replay", "4"])
+    assert res.exit_code == 2 and "--replay 4: the campaign has runs 0..3 (4 runs)" in res.output  # names the option
+
+
+def test_campaign_never_writes_into_a_users_folder(tmp_path):
+    """issue 29: `campaign --out mydocs` wrote runs/, summary.json and plots/ beside the user's notes.txt, exit 0.
+    Now one line, exit 2, before anything runs (with --force too), for a run and for --replay."""
+    docs = tmp_path / "mydocs"
+    docs.mkdir()
+    (docs / "notes.txt").write_text("mine", encoding="utf-8")
+    for extra in ([], ["--force"], ["--replay", "1"]):
+        res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(docs), "--workers", "1", *extra])
+        assert res.exit_code == 2, res.output
+        lines = [ln for ln in res.output.splitlines() if ln.strip()]
+        assert len(lines) == 1 and "not an agvnav campaign" in lines[0] and "choose another folder" in lines[0]
+    assert [p.name for p in docs.iterdir()] == ["notes.txt"]
+    (tmp_path / "f").write_text("x", encoding="utf-8")
+    res = runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(tmp_path / "f"), "--replay", "1"])
+    assert res.exit_code == 2 and "it is a file" in res.output
+
+
+def test_another_campaigns_folder_is_replaced_only_with_force(tmp_path):
+    out = tmp_path / "out"
+    assert runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(out), "--replay", "1"]).exit_code == 0
+    assert (out / "campaign.json").is_file()  # a replay makes the folder this campaign's
+    assert runner.invoke(app, ["campaign", str(_spec(tmp_path)), "--out", str(out), "--replay", "2"]).exit_code == 0
+    other = tmp_path / "other.yaml"
+    other.write_text(SPEC.replace("seed: 3", "seed: 4"))
+    res = runner.invoke(app, ["campaign", str(other), "--out", str(out), "--replay", "1"])
+    assert res.exit_code == 2 and "another campaign ('cli_tiny'" in res.output and "use --force" in res.output
+    assert sorted(p.name for p in (out / "replay").iterdir()) == ["run_000001.yaml", "run_000002.yaml"]
+    res = runner.invoke(app, ["campaign", str(other), "--out", str(out), "--replay", "3", "--force"])
+    assert res.exit_code == 0, res.output
+    assert [p.name for p in (out / "replay").iterdir()] == ["run_000003.yaml"]  # replaced whole, not mixed
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.yaml", "other.yaml", "out"]  # nothing left aside

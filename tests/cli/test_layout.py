@@ -76,3 +76,26 @@ def test_unreachable_target_exit_2(tmp_path: Path) -> None:
     res = runner.invoke(app, ["layout", str(_spec(tmp_path, bad)), "--out", str(tmp_path / "o")])
     assert res.exit_code == 2
     assert "target cannot be met" in res.output and "out of range" in res.output
+
+
+def test_layout_never_writes_into_a_users_folder_and_replaces_its_own_only_with_force(tmp_path: Path) -> None:
+    """issue 29: `layout --out site` replaced the user's site/map.yaml (exit 0); now refused, nothing touched."""
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "map.yaml").write_text("reflectors: []  # the user's own survey\n", encoding="utf-8")
+    res = runner.invoke(app, ["layout", str(_spec(tmp_path)), "--out", str(site), "--force"])
+    assert res.exit_code == 2, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "not an agvnav layout" in lines[0] and "choose another folder" in lines[0]
+    assert (site / "map.yaml").read_text(encoding="utf-8") == "reflectors: []  # the user's own survey\n"
+    assert [p.name for p in site.iterdir()] == ["map.yaml"]
+    out = tmp_path / "out"  # a layout's own folder: refused without --force, replaced whole with it
+    assert runner.invoke(app, ["layout", str(_spec(tmp_path)), "--out", str(out)]).exit_code == 0
+    (out / "stale.txt").write_text("from an older layout", encoding="utf-8")
+    res = runner.invoke(app, ["layout", str(_spec(tmp_path)), "--out", str(out)])
+    assert res.exit_code == 2 and "another layout's results; use --force" in res.output
+    assert (out / "stale.txt").exists()
+    res = runner.invoke(app, ["layout", str(_spec(tmp_path)), "--out", str(out), "--force"])
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in out.iterdir()) == ["heatmap.png", "map.yaml", "plan.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "site", "small.yaml"]  # no temporary folder left

@@ -158,3 +158,14 @@ def test_a_log_it_cannot_trust_is_refused_with_one_line(csv_log, tmp_path, case,
     lines = res.output.strip().splitlines()
     assert len(lines) == 1 and re.search(message, lines[0]), res.output
     assert not (tmp_path / "loc").exists()
+
+
+def test_the_summary_table_shows_every_time_in_one_unit():
+    """issue 29: a failed localization printed 'tracking (ms) 650.0' under 'duration (s) 26.10'."""
+    from agvnav.cli.localize import _summary_table
+
+    _, _, rows = _summary_table({"method": "ekf", "outcome": "failed", "duration_s": 26.1, "tracking_s": 0.65,
+                                 "tracking_off_truth_s": 0.0}, "log")
+    table = {r[0]: r[1] for r in rows}
+    assert table["duration (s)"] == "26.10" and table["tracking (s)"] == "0.6500"
+    assert "tracking off truth (s)" in table and not any("(ms)" in r[0] for r in rows)

@@ -65,5 +65,96 @@ def test_map_without_an_anchor_refuses_scale_unobservable(tmp_path: Path) -> Non
     _drive(tmp_path / "drive")
     res = runner.invoke(app, ["map", str(tmp_path / "drive"), "--out", str(tmp_path / "m.yaml")])
     assert res.exit_code == 2
-    assert "scale unobservable" in res.output
+    assert "scale unobservable" in res.output and "(--anchor)" in res.output  # names the option that fixes it
     assert not (tmp_path / "m.yaml").exists()
+
+
+def _other_site(xy: np.ndarray, scale: float = 1.03, rotation: float = 0.3, shift: tuple[float, float] = (5.0, -3.0)
+                ) -> np.ndarray:
+    """``xy`` (m) moved by a similarity: another site's survey of the same layout (shift, rotation, 3 % scale)."""
+    c, s = np.cos(rotation), np.sin(rotation)
+    return scale * xy @ np.array([[c, -s], [s, c]]).T + np.asarray(shift)
+
+
+def _survey(path: Path, ids: str, xy: np.ndarray) -> Path:
+    save_map(WorldMap(tuple(Reflector(i, float(p[0]), float(p[1]), 0.04, 0.001) for i, p in zip(ids, xy,
+                                                                                             strict=True))), path)
+    return path
+
+
+def test_map_refuses_anchors_from_another_site_and_accepts_this_sites(tmp_path: Path) -> None:
+    """issue 29: another site's survey (shifted, rotated, 3 % larger) gave a scaled map, exit 0; now exit 2,
+    one line naming the anchor, nothing written. This site's survey of the same reflectors is accepted."""
+    _drive(tmp_path / "drive")
+    for n, ids in ((2, "AC"), (3, "ACD")):
+        rows, out = [0, 2, 3][:n], tmp_path / f"m{n}.yaml"
+        other = _survey(tmp_path / f"other{n}.yaml", ids, _other_site(REFL[rows]))
+        res = runner.invoke(app, ["map", str(tmp_path / "drive"), "--anchor", f"surveyed:{other}", "--out", str(out)])
+        assert res.exit_code == 2, res.output
+        lines = [ln for ln in res.output.splitlines() if ln.strip()]
+        assert len(lines) == 1 and f"--anchor surveyed:{other}" in lines[0] and "odometry scale of 1.0" in lines[0]
+        assert "+3.0 %" in lines[0] and "Traceback" not in res.output and not out.exists()
+        good = _survey(tmp_path / f"good{n}.yaml", ids, REFL[rows])
+        res = runner.invoke(app, ["map", str(tmp_path / "drive"), "--anchor", f"surveyed:{good}", "--out", str(out)])
+        assert res.exit_code == 0, res.output
+        assert "odometry scale 1.000" in res.output and len(load_map(out).reflectors) == len(REFL)
+    # a 1.5 % scale is within wheel odometry's 2 %; --max-scale-error tightens the limit
+    near = _survey(tmp_path / "near.yaml", "AC", _other_site(REFL[[0, 2]], scale=1.015))
+    args = ["map", str(tmp_path / "drive"), "--anchor", f"surveyed:{near}", "--out", str(tmp_path / "m.yaml")]
+    assert runner.invoke(app, [*args, "--force"]).exit_code == 0
+    res = runner.invoke(app, [*args, "--force", "--max-scale-error", "1"])
+    assert res.exit_code == 2 and "+1.5 %" in res.output and "beyond the 1 %" in res.output
+
+
+def test_map_refuses_a_surveyed_reflector_the_drive_contradicts(tmp_path: Path) -> None:
+    """Three surveyed reflectors, one 2 cm off its true position: refused, naming the anchor and the reflector."""
+    _drive(tmp_path / "drive")
+    xy = REFL[[0, 2, 3]].copy()
+    xy[1, 0] += 0.02
+    bad = _survey(tmp_path / "bad.yaml", "ACD", xy)
+    res = runner.invoke(app, ["map", str(tmp_path / "drive"), "--anchor", f"surveyed:{bad}", "--out",
+                              str(tmp_path / "m.yaml")])
+    assert res.exit_code == 2, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and f"--anchor surveyed:{bad}: surveyed reflector C is" in lines[0] and "sigma" in lines[0]
+    assert not (tmp_path / "m.yaml").exists()
+
+
+def test_map_refuses_an_existing_file_unless_force_and_writes_atomically(tmp_path: Path) -> None:
+    """issue 29: `map --out FILE` overwrote an existing file (exit 0). Now: someone else's file and a map agvnav
+    wrote are both refused without --force (exit 2, before the work), each message saying which; --force replaces."""
+    _drive(tmp_path / "drive")
+    survey = _survey(tmp_path / "survey.yaml", "AC", REFL[[0, 2]])
+    out, png = tmp_path / "site.yaml", tmp_path / "map.png"
+    out.write_text("reflectors: []  # hand-made\n", encoding="utf-8")
+    args = ["map", str(tmp_path / "drive"), "--anchor", f"surveyed:{survey}", "--out", str(out)]
+    res = runner.invoke(app, args)
+    assert res.exit_code == 2 and "not a map agvnav wrote" in res.output and "--force" in res.output
+    assert out.read_text(encoding="utf-8") == "reflectors: []  # hand-made\n"
+    # the surveyed file itself is the default --out's classic victim: refused too
+    res = runner.invoke(app, ["map", str(tmp_path / "drive"), "--anchor", f"surveyed:{survey}", "--out", str(survey)])
+    assert res.exit_code == 2 and "not a map agvnav wrote" in res.output and len(load_map(survey).reflectors) == 2
+    assert runner.invoke(app, [*args, "--force", "--plot", str(png)]).exit_code == 0
+    assert out.read_text(encoding="utf-8").startswith("# agvnav map:") and png.is_file()
+    res = runner.invoke(app, [*args, "--plot", str(tmp_path / "other.png")])
+    assert res.exit_code == 2 and "holds a map agvnav wrote earlier; use --force" in res.output
+    res = runner.invoke(app, [*args, "--force", "--plot", str(png)])  # both replaced
+    assert res.exit_code == 0, res.output
+    out.unlink()
+    res = runner.invoke(app, [*args, "--plot", str(png)])
+    assert res.exit_code == 2 and f"--plot {png}: the file exists" in res.output and not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["drive", "map.png", "survey.yaml"]  # no temporary left
+
+
+def test_map_names_a_missing_output_folder_before_the_work(tmp_path: Path) -> None:
+    """issue 29: `map --out nodir/x.yaml` mapped the whole drive, then failed with a bare Errno naming the
+    temporary file. Now: one line naming the option and the folder, exit 2, nothing written; --plot alike."""
+    _drive(tmp_path / "drive")
+    survey = _survey(tmp_path / "survey.yaml", "AC", REFL[[0, 2]])
+    args = ["map", str(tmp_path / "drive"), "--anchor", f"surveyed:{survey}"]
+    res = runner.invoke(app, [*args, "--out", str(tmp_path / "nodir" / "x.yaml")])
+    assert res.exit_code == 2 and "the folder" in res.output and "does not exist" in res.output
+    assert "partial" not in res.output and "Errno" not in res.output
+    res = runner.invoke(app, [*args, "--out", str(tmp_path / "x.yaml"), "--plot", str(tmp_path / "nodir" / "m.png")])
+    assert res.exit_code == 2 and "--plot" in res.output and "does not exist" in res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["drive", "survey.yaml"]

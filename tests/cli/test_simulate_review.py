@@ -175,6 +175,11 @@ def test_summary_names_fit_the_vehicle():
     tricycle = _rows(_fake("tricycle", {"max_abs_wheel_heading_error_rad": math.radians(1.26),
                                         "max_abs_heading_error_rad": 0.01, "heading_reorientations": 0}))
     assert tricycle["max |wheel heading error ξ_r| (deg)"] == "1.26"
+    # a tractor-trailer's tractor drives differentially: no steered wheel, no xi_r row (was a "-" row)
+    figures = {"max_abs_wheel_heading_error_rad": None, "max_abs_heading_error_rad": math.radians(2.0),
+               "heading_reorientations": 0}
+    trailer = _rows(_fake("tractor_trailer", figures))
+    assert not [k for k in trailer if "wheel" in k] and trailer["max |heading error| (deg)"] == "2.00"
 
 
 def test_summary_shows_mission_figures_and_events():

@@ -89,3 +89,40 @@ def test_increments_and_counts_together_are_refused(short_run, tmp_path):
                                                     [x + ",0,0" for x in lines[1:]]) + "\n")
     with pytest.raises(ValueError, match=r"odometry\.csv:1: give increments .* or encoder counts"):
         read_csv_log(folder)
+
+
+def _replace_line(path, line, text):
+    lines = path.read_text(encoding="utf-8").splitlines()
+    lines[line - 1] = text
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+@pytest.mark.parametrize("line", [2, 20])  # the first row too: its increments are ignored, not its garbage
+def test_a_value_that_is_not_finite_is_refused_with_file_line_and_column(short_run, tmp_path, value, line):
+    """issue 29: a NaN increment was 'odometry increments and bearings must be finite' (no file, no line)."""
+    folder = write_csv_log(short_run, tmp_path / "log")
+    t = short_run.series["t"][line - 2]
+    _replace_line(folder / "odometry.csv", line, f"{float(t)!r},{value},0.0")
+    with pytest.raises(ValueError, match=rf"odometry\.csv:{line}: delta_d: {value} is not a finite number"):
+        read_csv_log(folder)
+    folder = write_csv_log(short_run, tmp_path / "log2")
+    refl = short_run.events["reflections"]
+    _replace_line(folder / "reflections.csv", line, f"{float(refl['t'][line - 2])!r},{value}")
+    with pytest.raises(ValueError, match=rf"reflections\.csv:{line}: bearing: {value} is not a finite number"):
+        read_csv_log(folder)
+
+
+def test_times_going_back_are_refused_with_file_and_line(short_run, tmp_path):
+    """issue 29: was 'odometry instants must increase strictly' with no file or line."""
+    folder = write_csv_log(short_run, tmp_path / "log")
+    _replace_line(folder / "odometry.csv", 30, "0.1,0.0,0.0")
+    with pytest.raises(ValueError, match=r"odometry\.csv:30: t: 0\.1 after .*: the times must increase strictly"):
+        read_csv_log(folder)
+    folder = write_csv_log(short_run, tmp_path / "log2")
+    refl = short_run.events["reflections"]
+    _replace_line(folder / "reflections.csv", 30, f"{float(refl['t'][27])!r},0.5")  # the same instant as line 29: fine
+    assert read_csv_log(folder).bearing.size == refl["t"].size
+    _replace_line(folder / "reflections.csv", 30, "0.0,0.5")
+    with pytest.raises(ValueError, match=r"reflections\.csv:30: t: 0 after .*: the times must not decrease"):
+        read_csv_log(folder)

@@ -26,6 +26,7 @@ from PIL import Image
 from agvnav.bench.common import format_number
 from agvnav.report.files import save_result
 from agvnav.report.html import (
+    REPORT_HEADER,
     RunFolder,
     covariance_ellipse,
     load_run,
@@ -33,6 +34,7 @@ from agvnav.report.html import (
     point_covariance,
     render_html,
     tracked_points,
+    write_html_report,
 )
 from agvnav.sim import simulate
 from agvnav.world.scenario import load_scenario
@@ -256,3 +258,64 @@ def test_the_browser_check_catches_errors_and_external_requests(tmp_path):
     problems, _, _ = _visit(page, tmp_path / "profile")
     assert problems["console"] and problems["exceptions"]
     assert problems["requests"] == ["https://example.com/a.js"]
+
+
+def test_the_events_section_is_a_table_per_kind_with_units():
+    """A fault window and a guard window show as rows with their times in s, never as a raw list (issue 29)."""
+    from agvnav.report.html import metrics_table
+
+    page = metrics_table({"scenario": "x", "events": {
+        "faults": [{"index": 0, "kind": "blind", "start_s": 4.0, "end_s": 16.0}],
+        "positioning_guard": {"windows": [{"level": "slow", "start_s": 5.0, "end_s": 17.05}], "stops": 0},
+    }})
+    assert "{'" not in page and "start_s" not in page
+    assert "<h4>faults</h4>" in page and "<h4>positioning guard windows</h4>" in page
+    assert "<th>start (s)</th><th>end (s)</th>" in page
+    assert "<td class=num>blind</td><td class=num>4.000</td><td class=num>16.00</td>" in page
+
+
+def test_the_rows_of_one_figure_share_one_unit():
+    """distance_in_status_m per status: 0.7 m and 4.2 m both in m, not 695.1 mm beside 4.194 m (issue 29)."""
+    page = metrics_table({"scenario": "x", "integrity": {
+        "distance_in_status_m": {"dead_reckoning": 0.6951, "tracking": 4.194},
+        "time_in_status_s": {"dead_reckoning": 0.5, "tracking": 23.55},
+    }})
+    assert "<td>distance in status (dead reckoning)</td><td class=num>0.6951</td><td>m</td>" in page
+    assert "<td>distance in status (tracking)</td><td class=num>4.194</td><td>m</td>" in page
+    assert "<td>time in status (dead reckoning)</td><td class=num>0.5000</td><td>s</td>" in page
+    assert "mm" not in page and "ms" not in page
+    alone = metrics_table({"scenario": "x", "integrity": {"distance_in_status_m": {"tracking": 0.5}}})
+    assert "<td class=num>500.0</td><td>mm</td>" in alone  # a figure alone keeps its own unit
+
+
+def test_the_heading_figure_fits_the_vehicle():
+    """A steered vehicle shows xi_r, not its body heading against the tangent (43 deg on fault_blackout's arc);
+    a holonomic one its body heading, without an empty wheel heading row (issue 29)."""
+    steered = metrics_table({"scenario": "x", "max_abs_wheel_heading_error_rad": 0.0219,
+                             "max_abs_heading_error_rad": 0.7613, "heading_reorientations": 0})
+    assert "wheel heading error" in steered and "max abs heading error" not in steered
+    assert "reorientations" not in steered
+    holonomic = metrics_table({"scenario": "x", "max_abs_wheel_heading_error_rad": None,
+                               "max_abs_heading_error_rad": 0.01, "heading_reorientations": 2})
+    assert "wheel heading" not in holonomic and "max abs heading error" in holonomic and "reorientations" in holonomic
+
+
+def test_the_report_refuses_a_file_it_did_not_write(run_dir, tmp_path):
+    """--out FILE: someone else's file is refused unless force, an earlier report is replaced, a missing folder
+    is one clear error; nothing partial is left beside the target (issue 29)."""
+    mine = tmp_path / "notes.html"
+    mine.write_text("my notes", encoding="utf-8")
+    with pytest.raises(ValueError, match="not a report agvnav wrote"):
+        write_html_report(run_dir, mine)
+    assert mine.read_text(encoding="utf-8") == "my notes"
+    with pytest.raises(ValueError, match="does not exist"):
+        write_html_report(run_dir, tmp_path / "nowhere" / "r.html")
+    with pytest.raises(ValueError, match="folder"):
+        write_html_report(run_dir, tmp_path)
+    out = tmp_path / "r.html"
+    write_html_report(run_dir, out)
+    write_html_report(run_dir, out)  # its own report: replaced
+    assert out.read_text(encoding="utf-8").startswith(REPORT_HEADER)
+    write_html_report(run_dir, mine, force=True)
+    assert mine.read_text(encoding="utf-8").startswith(REPORT_HEADER)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.html", "r.html"]

@@ -1,3 +1,4 @@
+import itertools
 import subprocess
 import sys
 
@@ -103,3 +104,20 @@ def test_event_spans_show_faults_guard_fields_and_stations():
     spans = {label: w for label, _c, w in event_spans(t, series)}
     assert spans == {"fault 0 blind": [(1.0, 4.0)], "dead reckoning": [(2.0, 4.0)], "guard: slow": [(2.0, 5.0)],
                      "field: slow": [(5.0, 6.0)], "field: stop": [(6.0, 7.0)]}
+
+
+def test_overlapping_event_kinds_get_strips_of_their_own():
+    """fault_blackout: the 4-16 s blackout, dead reckoning and the guard's slow window overlap in time; drawn
+    full height their colours mixed and the fault vanished under the others (issue 29). Each kind now has its
+    own strip of the speed axes: the strips tile the height without overlapping, the fault's on top."""
+    from agvnav.report.plots import event_spans, event_strips
+
+    t = np.arange(20) * 1.0
+    series = {"fault__0_blind": (t >= 4) & (t < 16), "est_status": np.where((t >= 5) & (t < 16), 2.0, 1.0),
+              "guard_level": ((t >= 5) & (t < 17)).astype(float)}
+    strips = event_strips(event_spans(t, {k: np.asarray(v, dtype=float) for k, v in series.items()}))
+    assert [s[0] for s in strips] == ["fault 0 blind", "dead reckoning", "guard: slow"]
+    bounds = sorted(s[3] for s in strips)
+    assert bounds[0][0] == 0.0 and bounds[-1][1] == 1.0 and strips[0][3][1] == 1.0
+    assert all(a[1] == pytest.approx(b[0]) for a, b in itertools.pairwise(bounds))
+    assert event_strips([("x", "k", [(0.0, 1.0)])])[0][3] == (0.0, 1.0)  # one kind alone: full height

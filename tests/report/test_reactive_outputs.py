@@ -7,10 +7,10 @@ import math
 
 import pytest
 
+from agvnav.navigation.reactive import REACTIVE_SIGNALS
 from agvnav.report.files import metrics_document, reactive_document, save_result
 from agvnav.report.reference import COLUMNS
 from agvnav.sim import simulate
-from agvnav.sim.reactive import REACTIVE_SIGNALS
 from agvnav.world.scenario import builtin_scenario, parse_scenario
 
 

@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 from routes_tiny_mission import SCENARIO, run_tiny
 
+from agvnav.navigation.mission import stints
 from agvnav.sim import simulate
-from agvnav.sim.mission import plan_mission, stints
+from agvnav.sim.mission import plan_mission
 
 NET = """\
 nodes:

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 from routes_tiny_mission import run_tiny
 
-from agvnav.sim.mission import mission_figures, near_line_curve_joints, plan_mission, route_tracking, run_bounds
+from agvnav.navigation.mission import run_bounds
+from agvnav.sim.mission import mission_figures, near_line_curve_joints, plan_mission, route_tracking
 
 
 def synthetic_series(tmp_path: Path, offsets: dict[int, float]) -> tuple[dict[str, np.ndarray], object]:

@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from agvnav.navigation.mission import stints
 from agvnav.routes.layouts import warehouse_network
 from agvnav.routes.network import load_network, network_from_dict
-from agvnav.sim.mission import plan_mission, stints
+from agvnav.sim.mission import plan_mission
 from agvnav.world.map import load_map
 from agvnav.world.scenario import load_scenario
 

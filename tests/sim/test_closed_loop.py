@@ -125,6 +125,8 @@ def test_engine_splits_odometry_at_measurement_instants(short_scenario):
     b = build(short_scenario)
     fake = _FakeEstimator()
     b.loop.estimator = fake
+    (gonio,) = b.loop.sensors
+    gonio.estimator = fake  # a sensor feeds the estimator it is wired to
     b.autopilot.profile.reset(0.2)
     out = b.loop.run(2.0)
     times = [c[1] for c in fake.calls]
@@ -206,3 +208,23 @@ def test_simulate_runs_a_loop_built_beforehand_as_its_own(short_scenario):
     timing = ("wall_time_s", "real_time_factor")
     figures = [{k: v for k, v in r.metrics.to_dict().items() if k not in timing} for r in (own, given)]
     assert figures[0] == figures[1] and own.outcome == given.outcome
+
+
+@pytest.mark.parametrize(
+    ("method", "extra", "fed"),
+    [
+        ("dead_reckoning", "", "reflections"),  # a goniometer mounted, dead reckoning on purpose
+        ("naive", "ultrasonic: {}\n", "ultrasonic"),  # rangers mounted, an estimator of bearings only
+    ],
+)
+def test_a_sensor_whose_kind_the_estimator_does_not_take_is_observed_not_fed(method, extra, fed):
+    """Each sensor feeds the estimator of its measurement kind, or none (was an AttributeError traceback)."""
+    text = scenario_text("differential_loop", **{"method: ekf": f"method: {method}"}) + extra + "duration_s: 2.0\n"
+    sc = parse_scenario(text, "s.yaml")
+    built = build(sc)
+    role = next(s for s in built.loop.sensors if s.name == fed)
+    assert getattr(role, "estimator", "absent") is None
+    res = simulate(sc)
+    assert res.events[fed]["t"].size > 0  # observed and recorded all the same
+    if method == "naive":  # the goniometer still feeds the naive estimator its bearings
+        assert next(s for s in built.loop.sensors if s.name == "reflections").estimator is built.estimator

@@ -7,7 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from agvnav.sim.collision import CollisionWatch, WallCollider, segment_distances
+from agvnav.geometry import segment_distances
+from agvnav.sim.collision import CollisionWatch, WallCollider
 
 # a 1 m x 0.5 m box centred on base_link; a wall along x = 2 (y from -5 to 5) and a 0.4 m pillar at (5, 0)
 BOX = np.array([[0.5, 0.25], [-0.5, 0.25], [-0.5, -0.25], [0.5, -0.25]])

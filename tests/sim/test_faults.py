@@ -18,16 +18,17 @@ class _Sensor:
     name = "reflections"
     event_names = ("t", "bearing", "reflector_index")
 
-    def __init__(self):
+    def __init__(self, estimator=None):
         self.delivered = []
+        self.estimator = estimator
 
     def observe(self, pose_at, t0, t1, rng):
         k = np.arange(math.floor(t0 * 100 + 1e-9) + 1, math.floor(t1 * 100 + 1e-9) + 1)
         idx = (k % 3).astype(float)
         return np.column_stack([k / 100.0, 0.1 * idx, idx])
 
-    def deliver(self, estimator, event):
-        estimator.update(float(event[0]), float(event[1]))
+    def deliver(self, event):
+        self.estimator.update(float(event[0]), float(event[1]))
 
 
 class _Est:
@@ -76,20 +77,20 @@ def test_clutter_adds_spurious_events_at_the_poisson_rate_reproducibly():
 
 
 def test_delay_arrival_stamped_and_measurement_stamped():
-    s = FaultySensor(_Sensor(), [_fault(kind="reflection_delay", delay_s=0.12)], WORLD, 8.0, 0)
+    est = _Est()
+    s = FaultySensor(_Sensor(est), [_fault(kind="reflection_delay", delay_s=0.12)], WORLD, 8.0, 0)
     ev = _collect(s, t_end=1.0)
     assert s.event_names[-1] == "stamp" and ev.shape[1] == 4
     np.testing.assert_allclose(ev[:, 0], np.arange(13, 101) / 100.0)  # arrivals 0.13..1.00 (0.01..0.88 + 0.12)
     np.testing.assert_array_equal(ev[:, 3], ev[:, 0])  # stamped on arrival
-    est = _Est()
-    s.deliver(est, ev[0])
+    s.deliver(ev[0])
     assert est.updates == [(0.13, ev[0, 1])]
-    st = FaultySensor(_Sensor(), [_fault(kind="reflection_delay", delay_s=0.12, stamped=True)], WORLD, 8.0, 0)
-    ev = _collect(st, t_end=1.0)
-    np.testing.assert_allclose(ev[:, 3], ev[:, 0] - 0.12)  # the measurement time travels with the event
     strict = _Est(strict=True)
     strict.t = 0.5
-    st.deliver(strict, ev[0])  # older than the estimator's time: refused, counted, the run goes on
+    st = FaultySensor(_Sensor(strict), [_fault(kind="reflection_delay", delay_s=0.12, stamped=True)], WORLD, 8.0, 0)
+    ev = _collect(st, t_end=1.0)
+    np.testing.assert_allclose(ev[:, 3], ev[:, 0] - 0.12)  # the measurement time travels with the event
+    st.deliver(ev[0])  # older than the estimator's time: refused, counted, the run goes on
     assert st.late_rejected == 1 and strict.updates == []
 
 

@@ -7,15 +7,10 @@ import math
 import numpy as np
 import pytest
 
+from agvnav.navigation.reactive import ReactiveInputs, ReactiveWatch
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.sensors.scanner import SafetyScanner
-from agvnav.sim.reactive import (
-    ObstacleCollisionWatch,
-    OccludedReflections,
-    ReactiveInputs,
-    ReactiveWatch,
-    ScannerRole,
-)
+from agvnav.sim.reactive import ObstacleCollisionWatch, OccludedReflections, ScannerRole
 from agvnav.sim.roles import GoniometerSensor
 from agvnav.world import Reflector, WorldMap
 from agvnav.world.obstacles import Obstacle, ObstacleSet
@@ -28,7 +23,7 @@ def _still(pose):
 def test_an_obstacle_hides_the_reflector_behind_it_only():
     world = WorldMap(reflectors=(Reflector("A", 5.0, 0.0, 0.04), Reflector("B", 0.0, 5.0, 0.04),
                                  Reflector("C", -5.0, 0.0, 0.04)), walls=())
-    role = GoniometerSensor(Goniometer(rate_hz=8.0), world)
+    role = GoniometerSensor(Goniometer(rate_hz=8.0), world, None)
     rng = np.random.default_rng(0)
     seen = role.observe(_still([0.0, 0.0, 0.0]), 0.0, 1.0, rng)
     assert set(seen[:, 2].astype(int)) == {0, 1, 2}

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from agvnav.navigation.reactive import ReactiveAutopilot
 from agvnav.sim.build import build
-from agvnav.sim.reactive import ReactiveAutopilot
 from agvnav.world.scenario import ScenarioError, builtin_scenario, load_scenario, parse_scenario
 
 

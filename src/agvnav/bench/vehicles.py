@@ -36,7 +36,7 @@ import yaml
 
 from agvnav.sim import SimResult, simulate
 from agvnav.world.scenario import builtin_scenario, parse_scenario
-from agvnav.world.vehicle_specs import vehicle_kind
+from agvnav.world.vehicle_specs import VEHICLE_MODELS, vehicle_kind
 
 TITLE = "Every vehicle configuration on the same loop (true pose; 5 seeds)"
 #: Columns a narrow terminal keeps, most important first (`--wide` shows all).
@@ -45,18 +45,25 @@ PRIORITY = (
     "real_time_factor",
 )
 
-#: model -> (shipped scenario with its vehicle section, bench controller section, reverses)
-BENCH_MODELS: dict[str, tuple[str, dict[str, Any], bool]] = {
-    "tricycle": ("guidance_test", {"name": "seed_general", "point": "O", "poles_per_m": [-2.0, -2.0, -2.0]}, True),
-    "tricycle_rear": ("tricycle_rear_loop", {"name": "seed_general", "point": "O",
-                                             "poles_per_m": [-2.0, -2.0, -2.0]}, True),
-    "ackermann": ("ackermann_loop", {"name": "pure_pursuit", "point": "O",
-                                     "params": {"convergence_distance": 1.5}}, True),
-    "differential": ("differential_loop", {"name": "kanayama", "params": {"convergence_distance": 1.0}}, True),
-    "tractor_trailer": ("tractor_trailer_loop", {"name": "kanayama", "params": {"convergence_distance": 1.0}}, False),
-    "mecanum": ("mecanum_loop", {"name": "holonomic", "params": {"convergence_distance": 1.0}}, True),
-    "tracked": ("tracked_loop", {"name": "kanayama", "params": {"convergence_distance": 0.6}}, True),
+#: The bench's controller where it is not the one of the model's shipped loop scenario.
+BENCH_CONTROLLERS: dict[str, dict[str, Any]] = {
+    "tricycle": {"name": "seed_general", "point": "O", "poles_per_m": [-2.0, -2.0, -2.0]},
+    "tricycle_rear": {"name": "seed_general", "point": "O", "poles_per_m": [-2.0, -2.0, -2.0]},
+    "ackermann": {"name": "pure_pursuit", "point": "O", "params": {"convergence_distance": 1.5}},
+    "differential": {"name": "kanayama", "params": {"convergence_distance": 1.0}},
+    "tractor_trailer": {"name": "kanayama", "params": {"convergence_distance": 1.0}},
+    "mecanum": {"name": "holonomic", "params": {"convergence_distance": 1.0}},
+    "tracked": {"name": "kanayama", "params": {"convergence_distance": 0.6}},
 }
+
+
+def loop_scenario(model: str) -> str:
+    """The shipped scenario whose vehicle section the bench drives: ``<model>_loop`` (the stacker: seed 000's test)."""
+    return "guidance_test" if model == "tricycle" else f"{model}_loop"
+
+
+#: model -> the shipped scenario with its vehicle section: every kind of the registry (VEHICLE_KINDS).
+BENCH_MODELS: dict[str, str] = {model: loop_scenario(model) for model in VEHICLE_MODELS}
 
 #: The tracked point must first come this close to the path before lateral errors count (m).
 SETTLED_M = 0.02
@@ -85,10 +92,10 @@ def loop_path(quick: bool, reverse: bool) -> dict[str, Any]:
 
 def bench_scenario_text(model: str, quick: bool, seed: int) -> str:
     """The YAML of ``model``'s bench run (its shipped vehicle section on the common loop)."""
-    source, controller, can_reverse = BENCH_MODELS[model]
-    data = yaml.safe_load(builtin_scenario(source).read_text(encoding="utf-8"))
+    data = yaml.safe_load(builtin_scenario(BENCH_MODELS[model]).read_text(encoding="utf-8"))
     loop = yaml.safe_load(builtin_scenario("differential_loop").read_text(encoding="utf-8"))
-    reverse = can_reverse and vehicle_kind(model).reverses
+    controller = BENCH_CONTROLLERS.get(model, data["controller"])
+    reverse = vehicle_kind(model).reverses
     doc = {
         "name": f"bench_{model}",
         "seed": seed,

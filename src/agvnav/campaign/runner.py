@@ -16,6 +16,7 @@ import hashlib
 import json
 import logging
 import math
+import os
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -30,11 +31,10 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeRemainingColumn
 from rich.progress import Progress as ProgressBar
 
-from agvnav.bench.common import json_text
 from agvnav.campaign.overrides import BaseScenario, apply_overrides, dump_yaml, load_base, replay_mapping
 from agvnav.campaign.plan import RunPlan, plan_runs
 from agvnav.campaign.spec import CampaignSpec, is_number
-from agvnav.campaign.store import check_manifest, finished_runs, read_results, records_table, write_part
+from agvnav.campaign.store import check_manifest, finished_runs, read_results, records_table, write_json, write_part
 from agvnav.campaign.summary import summarize
 from agvnav.campaign.task import run_batch
 
@@ -208,6 +208,7 @@ def run_campaign(
     workers: int | None = None,
     progress: bool | Progress | None = None,
     batch_size: int | None = None,
+    force: bool = False,
 ) -> CampaignResult:
     """Run every run of ``spec`` not yet in ``out_dir``; write the Parquet dataset and ``summary.json``.
 
@@ -225,14 +226,16 @@ def run_campaign(
         callable ``(finished, total)``: called after every written batch.
     batch_size
         Runs per task (default: see :func:`batch_plans`).
+    force
+        Replace a folder holding another campaign's results (never a folder of other files:
+        :func:`agvnav.campaign.store.check_out_dir`).
     """
     if scheduler is not None and workers is not None:
         raise ValueError("give --workers for a local cluster or --scheduler for an existing one, not both")
     out = Path(out_dir)
     base = load_base(spec.resolve_base())
     plans = plan_runs(spec)
-    check_manifest(out, {"name": spec.name, "fingerprint": fingerprint(spec, base), "runs": len(plans),
-                         "swept": spec.swept, "metrics": spec.metrics})
+    check_manifest(out, _manifest(spec, base, len(plans)), force)
     done = finished_runs(out)
     todo = [p for p in plans if p.index not in done]
     t0 = time.perf_counter()
@@ -248,23 +251,35 @@ def run_campaign(
             stop()
     wall = time.perf_counter() - t0
     summary = summarize(read_results(out), list(spec.grid), spec.metrics)
-    (out / "summary.json").write_text(json_text(summary, indent=2) + "\n", encoding="utf-8")
+    write_json(out / "summary.json", summary)
     return CampaignResult(out, len(plans), len(todo), len(plans) - len(todo), n_workers, wall, summary)
 
 
-def write_replay(spec: CampaignSpec, run: int, out_dir: str | Path) -> Path:
+def _manifest(spec: CampaignSpec, base: BaseScenario, runs: int) -> dict[str, Any]:
+    """The content of ``campaign.json``: what campaign the folder holds."""
+    return {"name": spec.name, "fingerprint": fingerprint(spec, base), "runs": runs, "swept": spec.swept,
+            "metrics": spec.metrics}
+
+
+def write_replay(spec: CampaignSpec, run: int, out_dir: str | Path, force: bool = False) -> Path:
     """Write the whole scenario of run ``run`` to ``out_dir/replay/run_<run>.yaml``; return its path.
 
-    ``agvnav simulate`` of that file repeats the run alone (same overrides, same seed).
+    ``agvnav simulate`` of that file repeats the run alone (same overrides, same seed). ``out_dir``
+    follows :func:`run_campaign`'s rules (absent, empty or this campaign's folder; another campaign's
+    only with ``force``) and becomes this campaign's folder (its ``campaign.json``); the file is
+    written to a temporary name and renamed.
     """
     plans = plan_runs(spec)
     if not 0 <= run < len(plans):
-        raise ValueError(f"run must be in 0..{len(plans) - 1}, got {run}")
+        raise ValueError(f"--replay {run}: the campaign has runs 0..{len(plans) - 1} ({len(plans)} runs)")
     plan = plans[run]
     base = load_base(spec.resolve_base())
     mapping = replay_mapping(base, {**spec.overrides, **plan.params}, plan.seed)
+    check_manifest(out_dir, _manifest(spec, base, len(plans)), force)
     path = Path(out_dir) / "replay" / f"run_{run:06d}.yaml"
     path.parent.mkdir(parents=True, exist_ok=True)
     head = f"# campaign {spec.name!r} run {run}: base {spec.base}, seed {plan.seed}, swept {json.dumps(plan.params)}\n"
-    path.write_text(head + dump_yaml(mapping), encoding="utf-8")
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(head + dump_yaml(mapping), encoding="utf-8")
+    os.replace(tmp, path)
     return path

@@ -9,15 +9,20 @@ Layout of the output folder::
 The part files are the index: a run is finished when its ``run`` number is in
 one of them, so an interrupted campaign resumes with the runs that are not.
 A part file is renamed into place only once complete, so a crash never leaves
-half a batch behind. Column types are fixed per campaign (``param.*`` float64
-for numeric parameters, else text; ``metric.*`` float64), so the parts
-concatenate into one table.
+half a batch behind; ``campaign.json`` and ``summary.json`` are written the same way.
+The folder is the campaign's own (:func:`check_out_dir`): absent, empty, or holding the
+``campaign.json`` of the same campaign (it resumes); another campaign's is replaced only
+with ``force``, and a folder of other files is never written into. Column types
+are fixed per campaign (``param.*`` float64 for numeric parameters, else text;
+``metric.*`` float64), so the parts concatenate into one table.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import shutil
+import tempfile
 import uuid
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -26,9 +31,12 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from agvnav.bench.common import json_text
+from agvnav._json import json_text
 
-__all__ = ["check_manifest", "finished_runs", "read_results", "records_table", "write_part"]
+__all__ = [
+    "MANIFEST", "check_manifest", "check_out_dir", "finished_runs", "read_results", "records_table", "write_json",
+    "write_part",
+]
 
 RUNS_DIR = "runs"
 MANIFEST = "campaign.json"
@@ -106,21 +114,66 @@ def read_results(out_dir: str | Path) -> pa.Table:
     return table.sort_by("run")
 
 
-def check_manifest(out_dir: str | Path, manifest: Mapping[str, Any]) -> None:
-    """Check that ``out_dir`` holds no other campaign (another fingerprint), then (re)write ``campaign.json``.
+def check_out_dir(out_dir: str | Path, fingerprint: str, force: bool = False) -> None:
+    """Refuse ``out_dir`` unless it is absent, empty or this campaign's own folder (the same fingerprint).
+
+    A folder is a campaign's when it holds ``campaign.json``; one of the same campaign resumes (its runs
+    are kept). One of another campaign (another fingerprint) is refused unless ``force``; with it, the old
+    folder is renamed aside and removed, so ``out_dir`` starts empty (never a mix of two campaigns). A file,
+    or a non-empty folder without ``campaign.json``, is refused even with ``force``: agvnav never writes
+    into (or deletes) a folder of files it did not write. ValueError names the folder and what to do.
+    """
+    p = Path(out_dir)
+    if not p.exists():
+        return
+    if not p.is_dir():
+        raise ValueError(f"--out {p}: it is a file, not a folder")
+    path = p / MANIFEST
+    if not path.is_file():
+        if any(p.iterdir()):
+            raise ValueError(f"--out {p}: the folder holds files that are not an agvnav campaign (no {MANIFEST}); "
+                             "choose another folder")
+        return
+    try:
+        old = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        old = {}
+    if not isinstance(old, dict):
+        old = {}
+    if old.get("fingerprint") == fingerprint:
+        return
+    if not force:
+        raise ValueError(
+            f"--out {p}: the folder holds results of another campaign ({old.get('name')!r}, a different spec or "
+            "base); use --force to replace them, or another --out"
+        )
+    aside = Path(tempfile.mkdtemp(prefix=f".{p.name}.old-", dir=p.parent))
+    os.replace(p, aside / p.name)
+    shutil.rmtree(aside, ignore_errors=True)
+
+
+def write_json(path: str | Path, document: Any) -> Path:
+    """Write ``document`` as indented JSON to ``path`` atomically (a temporary sibling renamed); return it."""
+    final = Path(path)
+    tmp = final.with_name(f".{final.name}.{uuid.uuid4().hex[:8]}.tmp")
+    try:
+        tmp.write_text(json_text(document, indent=2) + "\n", encoding="utf-8")
+        os.replace(tmp, final)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return final
+
+
+def check_manifest(out_dir: str | Path, manifest: Mapping[str, Any], force: bool = False) -> None:
+    """Check ``out_dir`` may hold this campaign (:func:`check_out_dir`), then (re)write ``campaign.json``.
 
     Raises
     ------
     ValueError
-        If ``out_dir`` already holds results of a different campaign.
+        If ``out_dir`` is a file, holds files that are not a campaign, or (unless ``force``) holds
+        results of a different campaign.
     """
+    check_out_dir(out_dir, manifest["fingerprint"], force)
     path = Path(out_dir) / MANIFEST
-    if path.is_file():
-        old = json.loads(path.read_text(encoding="utf-8"))
-        if old.get("fingerprint") != manifest["fingerprint"]:
-            raise ValueError(
-                f"{out_dir} holds results of another campaign ({old.get('name')!r}, a different spec or base); "
-                "use another --out or remove it"
-            )
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json_text(dict(manifest), indent=2) + "\n", encoding="utf-8")
+    write_json(path, dict(manifest))

@@ -8,6 +8,12 @@ of elapsed time against the wall time they took last time
 (:class:`agvnav.cli.progress.RunProgress`). An optional module attribute
 ``PRIORITY`` (record keys, most important first) says which columns a narrow
 terminal keeps; ``--wide`` prints them all.
+
+A benchmark whose optional extra is missing (``bench speed``'s campaign throughput needs
+Dask, the ``campaign`` extra) stops before it runs with one line naming the extra, exit 2
+(:data:`EXTRAS`): never a traceback, and never a table silently short of the rows the
+benchmark defines (its records are what runs are compared on). ``bench mapping`` needs
+no extra (the campaign package imports without Dask).
 """
 
 from __future__ import annotations
@@ -18,7 +24,7 @@ import inspect
 import typer
 
 from agvnav.bench.common import emit
-from agvnav.cli.errors import user_errors
+from agvnav.cli.errors import fail, user_errors
 from agvnav.cli.progress import RunProgress
 
 bench_app = typer.Typer(help="Benchmarks: speed and accuracy tables (--json for machines).", no_args_is_help=True)
@@ -29,15 +35,35 @@ SEED_OPT = typer.Option(0, "--seed", min=0, help="Random seed; the same seed rep
 WIDE_OPT = typer.Option(False, "--wide", help="Print every column, however wide the terminal.")
 
 
+#: Top-level module -> the optional extra that installs it (pyproject.toml), for the one-line message.
+EXTRAS = {"dask": "campaign", "distributed": "campaign", "pyarrow": "campaign", "mcap": "logs",
+          "mcap_ros2": "logs", "rosbags": "logs", "gtsam": "slam"}
+
+
+def _missing_extra(name: str, exc: ModuleNotFoundError) -> typer.Exit | None:
+    """One line naming the extra a benchmark needs when ``exc`` is one of its modules missing, else None."""
+    root = (exc.name or "").split(".")[0]
+    extra = EXTRAS.get(root)
+    if extra is None:
+        return None
+    return fail(f"agvnav bench {name} needs the {extra} extra ({root} is not installed): pip install 'agvnav[{extra}]'")
+
+
 def _run(name: str, as_json: bool, quick: bool, seed: int, wide: bool = False) -> None:
-    module = importlib.import_module(f"agvnav.bench.{name}")
+    try:
+        module = importlib.import_module(f"agvnav.bench.{name}")
+    except ModuleNotFoundError as exc:  # checked before anything runs: every module-level import of the benchmark
+        raise _missing_extra(name, exc) or exc from None
     reports = "progress" in inspect.signature(module.run).parameters
     key = None if reports else f"bench {name}{' --quick' if quick else ''}"
-    with RunProgress(f"bench {name}", None, "", key=key) as bar:
-        if reports:
-            records = module.run(quick=quick, seed=seed, progress=bar.update)
-        else:
-            records = module.run(quick=quick, seed=seed)
+    try:
+        with RunProgress(f"bench {name}", None, "", key=key) as bar:
+            if reports:
+                records = module.run(quick=quick, seed=seed, progress=bar.update)
+            else:
+                records = module.run(quick=quick, seed=seed)
+    except ModuleNotFoundError as exc:  # an import the benchmark makes while it runs
+        raise _missing_extra(name, exc) or exc from None
     emit(
         name, records, as_json=as_json, title=module.TITLE, seed=seed, quick=quick, wide=wide,
         priority=getattr(module, "PRIORITY", ()),
@@ -140,3 +166,10 @@ def safety(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT,
 def mapping(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Reflector mapping (SLAM): reflectors found, spurious, map RMS and NEES per anchor; positioning on the map."""
     _run("mapping", json, quick, seed, wide)
+
+
+@bench_app.command("fleet")
+@user_errors
+def fleet(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
+    """A fleet in the warehouse (1 to 200 vehicles): CPU per vehicle-step, real-time factor, memory, separation."""
+    _run("fleet", json, quick, seed, wide)

@@ -3,7 +3,10 @@
 Runs every run of the campaign on a Dask cluster (a local one of ``--workers``
 processes, default 2, or the existing ``--scheduler``), streaming results to
 ``DIR/runs/*.parquet``; started again on the same ``--out`` it runs only what
-is missing. Prints the summary table (or ``--json``) and writes
+is missing. DIR must be absent, empty or this campaign's own folder (its
+``campaign.json``); a folder of another campaign is refused unless ``--force``,
+which replaces it whole, and a folder of other files is never written into
+(exit 2, before anything runs). Prints the summary table (or ``--json``) and writes
 ``DIR/summary.json`` and ``DIR/plots/campaign_<metric>.png``. ``--replay N``
 writes run N's whole scenario to ``DIR/replay/`` for ``agvnav simulate``
 instead of running the campaign. Argument parsing and printing only: the work
@@ -13,6 +16,7 @@ is :func:`agvnav.campaign.run_campaign`, imported when the command runs so
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +37,9 @@ WORKERS_OPT = typer.Option(None, "--workers", min=1, help="Worker processes of t
 JSON_OPT = typer.Option(False, "--json", help="Print the run counts, speed and summary as JSON.")
 PLOTS_OPT = typer.Option(True, "--plots/--no-plots", help="Write the PNG plots.")
 WIDE_OPT = typer.Option(False, "--wide", help="Print every table column, however wide the terminal.")
+FORCE_OPT = typer.Option(
+    False, "--force", help="Replace an --out folder that holds another campaign's results (a different spec or base)."
+)
 REPLAY_OPT = typer.Option(
     None, "--replay", min=0, help="Write run N's scenario to DIR/replay/ for `agvnav simulate`, and run nothing."
 )
@@ -40,7 +47,11 @@ REPLAY_OPT = typer.Option(
 
 def _library() -> Any:
     try:
+        import importlib
+
         import agvnav.campaign as lib
+
+        importlib.import_module("agvnav.campaign.runner")  # Dask, pyarrow (the package imports without them)
     except ImportError as exc:
         raise fail(f"agvnav campaign needs the campaign extra: pip install 'agvnav[campaign]' ({exc})") from None
     return lib
@@ -56,31 +67,42 @@ def campaign(
     plots: bool = PLOTS_OPT,
     replay: int | None = REPLAY_OPT,
     wide: bool = WIDE_OPT,
+    force: bool = FORCE_OPT,
 ) -> None:
     """Run a Monte Carlo campaign on Dask; write Parquet results, summary.json and plots."""
     lib = _library()
     camp = lib.load_campaign(spec)
     console = Console(highlight=False)  # long paths stay on one line (soft_wrap) so they can be copied
     if replay is not None:
-        path = lib.write_replay(camp, replay, out)
+        path = lib.write_replay(camp, replay, out, force)
         hint = f"wrote {path}; replay run {replay} alone with: agvnav simulate {path}"
         console.print(hint, markup=False, soft_wrap=True)
         return
     try:
         with RunProgress(f"campaign {camp.name}", None, "runs") as bar:
-            result = lib.run_campaign(camp, out, scheduler=scheduler, workers=workers, progress=bar.runs)
+            result = lib.run_campaign(camp, out, scheduler=scheduler, workers=workers, progress=bar.runs, force=force)
     except KeyboardInterrupt:
         saved = len(lib.finished_runs(out))
         err_console.print(f"interrupted: {saved} runs are saved in {out}/runs; the same command resumes", markup=False)
         raise typer.Exit(code=INTERRUPTED_EXIT) from None
     written = []
     if plots:
+        import tempfile
+
         from agvnav.report.campaign import plot_campaign
+        from agvnav.report.files import replace_dir
 
         columns = lib.read_results(out).to_pydict()
-        written = plot_campaign(
-            columns, result.summary["metrics"], camp.swept, Path(out) / "plots", camp.name, result.summary
-        )
+        plots_dir = Path(out) / "plots"
+        tmp = Path(tempfile.mkdtemp(prefix=".plots.partial-", dir=out))
+        try:  # the plots appear together (a temporary folder beside them, renamed)
+            names = [p.name for p in plot_campaign(
+                columns, result.summary["metrics"], camp.swept, tmp, camp.name, result.summary
+            )]
+            replace_dir(tmp, plots_dir)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+        written = [plots_dir / n for n in names]
     if json_out:
         print(json_document("campaign", camp.name, _json(result), camp.seed, None))
         return

@@ -91,6 +91,7 @@ def _summary_table(summary: dict[str, object], name: str) -> tuple[str, list[Col
     The reason of a failed run is its ``run FAILED`` line; its positioning figures show as ``-``.
     """
     failed = summary.get("outcome") == "failed"
+    times = [v for k, v in summary.items() if k.endswith("_s") and isinstance(v, int | float)]
     rows = []
     for key, value in summary.items():
         if key in ("scenario", "reason"):  # the reason is the run FAILED line
@@ -101,7 +102,8 @@ def _summary_table(summary: dict[str, object], name: str) -> tuple[str, list[Col
             # no accuracy figure from a run that failed: it would cover only what little it tracked
             rows.append([display_unit(key, [1e-3])[0], "-"])
         elif isinstance(value, int | float) and not isinstance(value, bool):
-            header, _, scale = display_unit(key, [value])
+            # the times share one unit: tracking 0.65 s beside a 26.1 s duration, not 650.0 ms
+            header, _, scale = display_unit(key, times if key.endswith("_s") else [value])
             rows.append([header, format_number(value, scale)])
         else:
             rows.append([key.replace("_", " "), "-" if value is None else str(value)])

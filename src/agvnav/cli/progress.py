@@ -94,8 +94,8 @@ def _mission_time(sc: Any, built: Any, accel: float, decel: float) -> float:
 
     from agvnav.geometry.angles import wrap_angle
     from agvnav.guidance.paths import Path as GuidePath
+    from agvnav.navigation.mission import sub_path
     from agvnav.routes.mission import speed_limits
-    from agvnav.sim.mission import sub_path
 
     m, plan = sc.mission, built.mission
     total = sum(float(leg.dwell_s) for leg in plan.legs)

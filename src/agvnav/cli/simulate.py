@@ -91,7 +91,7 @@ def _simulate(
     scenario: str | None, out: Path, seed: int | None, plots: bool, force: bool, log: Path | None,
     report: bool, json: bool, wide: bool, plotter: Any, jit: str = "auto",
 ) -> None:
-    from agvnav.world.scenario import default_scenario, load_scenario
+    from agvnav.world.scenario import ScenarioError, default_scenario, load_scenario
 
     if jit not in ("on", "off", "auto"):
         raise fail(f"--jit {jit}: expected on, off or auto")
@@ -99,7 +99,12 @@ def _simulate(
 
     if jit != "auto":  # the user's choice wins over AGVNAV_JIT
         set_compiled(jit == "on", force=True)
-    sc = default_scenario() if scenario is None else load_scenario(scenario)
+    try:
+        sc = default_scenario() if scenario is None else load_scenario(scenario)
+    except ScenarioError as exc:
+        if exc.key != ("fleet",) or scenario is None:
+            raise
+        return _simulate_fleet(scenario, out, seed, plots, force, log, report, json, wide, jit)
     if seed is not None:
         sc = sc.with_seed(seed)
     console = Console(highlight=False, stderr=json)  # with --json, stdout holds the JSON document only
@@ -140,6 +145,70 @@ def _simulate(
         console.print(f"run FAILED: {result.reason}")
         raise typer.Exit(RUN_FAILED_EXIT)
     return None
+
+
+def _simulate_fleet(
+    scenario: str, out: Path, seed: int | None, plots: bool, force: bool, log: Path | None, report: bool, json: bool,
+    wide: bool, jit: str = "auto",
+) -> None:
+    """A fleet scenario (issue 28): every vehicle in one world, stepped in lockstep; one row per vehicle."""
+    from agvnav.jit import set_compiled_for_run
+    from agvnav.report.fleet import fleet_document, save_fleet, timing_fleet
+    from agvnav.sim.fleet import build_fleet, run_fleet
+    from agvnav.world.fleet import load_fleet
+
+    if log is not None or report:
+        raise fail("--log and --report are for single-vehicle scenarios; a fleet writes its metrics, series and plots")
+    fleet = load_fleet(scenario)
+    if seed is not None:
+        fleet = fleet.copy_attached({"seed": int(seed)})
+    console = Console(highlight=False, stderr=json)
+    built = build_fleet(fleet)  # every cross-vehicle rule checked before the progress bar starts
+    _collect_again()
+    if jit == "auto":  # else --jit forced the mode already
+        set_compiled_for_run(built.duration * len(built.ids), len(built.built[0].world.reflector_xy))
+    _prepare_out(out, force)
+    with RunProgress(fleet.name, built.duration, "s simulated") as bar:
+        result = run_fleet(built, progress=bar.update)
+    with RunProgress(f"writing {out}", key="simulate fleet save" + " plots" * plots):
+        written = save_fleet(result, out, plots=plots, force=force)
+    if json:
+        from agvnav.bench.common import json_document
+
+        body = {"metrics": fleet_document(result), "timing": timing_fleet(result)}
+        print(json_document("scenario", fleet.name, body, fleet.seed, None))
+    else:
+        print_table(_fleet_table(result), wide=wide)
+    console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written), soft_wrap=True)
+    if not result.completed:
+        console.print(f"fleet run FAILED: {result.reason}")
+        raise typer.Exit(RUN_FAILED_EXIT)
+
+
+def _fleet_table(result: Any) -> tuple[str, list[Col], list[list[str]]]:
+    """One row per vehicle and the fleet's totals: outcome, jobs, slowed/stopped time and why, separation."""
+    f = result.figures
+    cols = [Col("vehicle", "left", 0), Col("model", "left", 2), Col("outcome", "left", 0, wrap=True),
+            Col("jobs done", "right", 0), Col("deliveries", "right", 1), Col("distance (m)", "right", 2),
+            Col("slowed / stopped positioning (s)", "right", 1), Col("slowed / stopped fields (s)", "right", 1),
+            Col("min separation (m)", "right", 0)]
+    rows = []
+    for v in result.vehicles:
+        outcome = v["outcome"] + (f" ({v['reason']})" if v["reason"] else "")
+        near = f"{_fmt(v['min_separation_m'], 1.0, 2)} ({v['nearest_vehicle']})" if v["nearest_vehicle"] else "-"
+        guard = f"{_fmt(v['time_slowed_positioning_s'], 1.0, 1)} / {_fmt(v['time_stopped_positioning_s'], 1.0, 1)}"
+        fields = f"{_fmt(v['time_slowed_fields_s'], 1.0, 1)} / {_fmt(v['time_stopped_fields_s'], 1.0, 1)}"
+        rows.append([v["id"], v["model"], outcome, f"{v['jobs_completed']} / {v['jobs']}", str(v["deliveries"]),
+                     _fmt(v["distance_m"], 1.0, 1), guard, fields, near])
+    pair = f" ({' - '.join(f['min_separation_pair'])})" if f["min_separation_pair"] else ""
+    rows.append([
+        "fleet", f"{f['vehicles']} vehicles", result.outcome + (f" ({result.reason})" if result.reason else ""),
+        f"{f['jobs_completed']} / {f['jobs']}", f"{f['deliveries']} ({_fmt(f['deliveries_per_hour'], 1.0, 1)}/h)",
+        f"{f['collisions']} collisions", f"sim {_fmt(f['sim_time_s'], 1.0, 1)} s",
+        f"RTF {_fmt(f['real_time_factor_cpu'], 1.0, 1)} (CPU)", _fmt(f["min_separation_m"], 1.0, 2) + pair,
+    ])
+    title = f"{result.fleet.name}: fleet of {len(result.ids)} (seed {result.fleet.seed})"
+    return title, cols, rows
 
 
 def _print_json(result: Any) -> None:
@@ -262,10 +331,11 @@ def _heading_rows(result: Any, after: str) -> list[tuple[str, str, str]]:
     vehicle, else the body heading against the path's reference heading (a holonomic vehicle's yaw
     offset included), read past each reorientation when the reference steps."""
     from agvnav.sim.metrics import REORIENTATION_M
+    from agvnav.world.vehicle_specs import vehicle_kind
 
     m = result.metrics
     wheel = getattr(m, "max_abs_wheel_heading_error_rad", None)
-    if wheel is not None or result.scenario.vehicle.model in STEERED_MODELS:
+    if wheel is not None or vehicle_kind(result.scenario.vehicle.model).family == "steered":
         return [(f"max |wheel heading error ξ_r|{after} (deg)", _fmt(wheel, 180 / math.pi, 2), "")]
     turns = int(getattr(m, "heading_reorientations", 0) or 0)
     value = _fmt(getattr(m, "max_abs_heading_error_rad", None), 180 / math.pi, 2)
@@ -275,10 +345,6 @@ def _heading_rows(result: Any, after: str) -> list[tuple[str, str, str]]:
         ("reorientations (reference heading steps)", str(turns), ""),
         (f"max |heading error|{after}, from {REORIENTATION_M:g} m past each (deg)", value, ""),
     ]
-
-
-#: Vehicle models with a steered wheel (seed 000's wheel heading error xi_r applies).
-STEERED_MODELS = ("tricycle", "tricycle_rear", "ackermann", "tractor_trailer")
 
 
 def _window(a: float, b: float) -> str:

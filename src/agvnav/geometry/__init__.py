@@ -5,6 +5,7 @@ from agvnav.geometry.intersect import (
     circumcentre,
     cross2,
     intersect_lines,
+    segment_distances,
     triangle_signed_area,
 )
 from agvnav.geometry.se2 import (
@@ -31,6 +32,7 @@ __all__ = [
     "inverse",
     "lateral_position_error",
     "rad2deg",
+    "segment_distances",
     "to_body",
     "transform_points",
     "triangle_signed_area",

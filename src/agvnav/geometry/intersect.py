@@ -59,3 +59,15 @@ def triangle_signed_area(a: ArrayLike, b: ArrayLike, c: ArrayLike) -> NDArray[np
     """Signed area (m²) of triangle ``abc``; positive when counter-clockwise."""
     a = np.asarray(a, dtype=np.float64)
     return 0.5 * cross2(np.asarray(b) - a, np.asarray(c) - a)
+
+
+def segment_distances(point: ArrayLike, segments: ArrayLike) -> NDArray[np.float64]:
+    """Distance (m) from ``point (2,)`` to every segment ``(m, 2, 2)``, ``(m,)``."""
+    p = np.asarray(point, dtype=np.float64)
+    seg = np.asarray(segments, dtype=np.float64)
+    a, b = seg[:, 0, :], seg[:, 1, :]
+    ab = b - a
+    denom = np.einsum("ij,ij->i", ab, ab)
+    u = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.where(denom > 0, denom, 1.0), 0.0, 1.0)
+    closest = a + u[:, None] * ab
+    return np.asarray(np.hypot(*(closest - p).T), dtype=np.float64)

@@ -3,7 +3,7 @@
 * :class:`FinePositioner` - settle, check, turn-drive-turn corrections commanded open loop;
 * :func:`move_profile` - the per-step rates of one such move (trapezoidal, exact integral).
 
-Used by the mission autopilot (:mod:`agvnav.sim.mission`), which wires it to the plant's twist command.
+Used by the mission autopilot (:mod:`agvnav.navigation.mission`), which wires it to the plant's twist command.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ class FinePositioner:
     rad/s); ``revolution_s`` the goniometer's revolution period (s); ``max_accel`` (m/s^2)
     the traction limit; ``turn_accel`` (rad/s^2) the spot-turn acceleration (the traction
     limit at the wheels: ``max_accel`` over the wheels' lever, half the track of a differential
-    base, half length plus half width of an X mecanum one: ``sim.mission.spot_turn_lever``);
+    base, half length plus half width of an X mecanum one: ``navigation.fine_positioning.spot_turn_lever``);
     ``turn_rate`` (rad/s) the
     vehicle's spot-turn rate (``mission.turn_rate_deg_s``, the planner's).
 

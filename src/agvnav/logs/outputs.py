@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.bench.common import json_text
+from agvnav._json import json_text
 from agvnav.geometry import lateral_position_error, wrap_angle
 from agvnav.logs import topics as tp
 from agvnav.logs.localize import Localization, judge

@@ -193,12 +193,15 @@ def _covariances(items: list[Any], n: int) -> F64 | None:
 
 
 def _csv(
-    path: Path, required: tuple[str, ...], allowed: tuple[str, ...] = ()
+    path: Path, required: tuple[str, ...], allowed: tuple[str, ...] = (), strictly_increasing: bool = True
 ) -> tuple[dict[str, F64], NDArray[np.int64]]:
     """The columns of CSV file ``path`` (a header line, then numbers) and the file line (1-based) of each row.
 
     Every column must be one of ``required`` and ``allowed``: an unknown column (``bearing_deg``) is refused
     naming the file, line 1 and the column, as a scenario key is. Blank lines and ``#`` comments are skipped.
+    Every value must be finite (``nan``, ``inf`` refused) and the ``t`` column must increase (strictly, or
+    only not decrease when ``strictly_increasing`` is False: reflections share an instant), each refused
+    naming the file, the line and the column.
     """
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
@@ -225,6 +228,16 @@ def _csv(
             data[i] = [float(v) for v in values]
         except ValueError as exc:
             raise ValueError(f"{path}:{k}: not a number ({exc})") from None
+        bad = np.flatnonzero(~np.isfinite(data[i]))
+        if bad.size:
+            raise ValueError(f"{path}:{k}: {names[bad[0]]}: {values[bad[0]].strip()} is not a finite number")
+    if "t" in names and len(rows) > 1:
+        step = np.diff(data[:, names.index("t")])
+        back = np.flatnonzero(step <= 0.0 if strictly_increasing else step < 0.0)
+        if back.size:
+            order = "increase strictly" if strictly_increasing else "not decrease"
+            raise ValueError(f"{path}:{rows[back[0] + 1][0]}: t: {data[back[0] + 1, names.index('t')]:g} after "
+                             f"{data[back[0], names.index('t')]:g}: the times must {order}")
     return {c: data[:, i] for i, c in enumerate(names)}, np.array([k for k, _ in rows], dtype=np.int64)
 
 
@@ -287,7 +300,7 @@ def read_csv_log(folder: str | Path) -> RecordedLog:
         n = odo["t"].shape[0]
         inc = np.column_stack([odo["delta_d"], odo["delta_theta"], odo.get("delta_lateral", np.zeros(n))])[1:]
     refl_file = d / "reflections.csv"
-    refl, lines = _csv(refl_file, ("t", "bearing"), ("stamp", "reflector_index"))
+    refl, lines = _csv(refl_file, ("t", "bearing"), ("stamp", "reflector_index"), strictly_increasing=False)
     if refl["t"].size == 0:
         raise ValueError(f"{refl_file}: no reflections (a header only): positioning needs the goniometer's readings")
     _check_bearings(refl["bearing"], f"{refl_file}:", lines)

@@ -9,11 +9,13 @@ end with SciPy's sparse least squares; see :mod:`agvnav.mapping.slam` for the st
 
 from agvnav.mapping.anchors import (
     Anchor,
+    AnchorImplausible,
     BaselineAnchor,
     ScaleUnobservable,
     StartPoseAnchor,
     SurveyedAnchor,
     anchor_kind,
+    check_anchor_fit,
     match_surveyed,
     parse_anchor,
 )
@@ -27,6 +29,7 @@ from agvnav.mapping.solve import marginal_covariances, reflector_covariance, sol
 
 __all__ = [
     "Anchor",
+    "AnchorImplausible",
     "BaselineAnchor",
     "Drive",
     "FactorGraph",
@@ -39,6 +42,7 @@ __all__ = [
     "anchor_kind",
     "associate",
     "build_map",
+    "check_anchor_fit",
     "frame_free_covariance",
     "front_end",
     "head_poses",

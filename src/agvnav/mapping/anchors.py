@@ -22,22 +22,33 @@ m, m, m, mm; default 1 mm), ``start_pose[:X,Y,HEADING_DEG]`` (default: the log's
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from agvnav.world import load_map
 
+if TYPE_CHECKING:
+    from agvnav.mapping.slam import MappingResult
+
 __all__ = [
+    "MAX_ANCHOR_SIGMA",
+    "MAX_SCALE_ERROR",
+    "MIN_REDUNDANCY",
+    "SCALE_SIGNIFICANCE",
     "Anchor",
+    "AnchorImplausible",
     "BaselineAnchor",
     "ScaleUnobservable",
     "StartPoseAnchor",
     "SurveyedAnchor",
     "anchor_kind",
     "apply_similarity",
+    "check_anchor_fit",
     "fit_similarity",
     "match_surveyed",
     "parse_anchor",
@@ -47,6 +58,31 @@ F64 = NDArray[np.float64]
 
 #: Survey std (m) of a surveyed reflector whose file does not state one.
 DEFAULT_SURVEY_STD = 0.001
+
+
+#: Largest relative error of the wheel odometry's distance scale that anchors may imply (2 %). A wheel's
+#: effective radius moves with tyre wear, load and pressure by a few tenths of a percent (polyurethane AGV
+#: wheels, rubber tyres: 0.1-1 %; the shipped vehicles' 0.2 % wheel error; seed 004's tracks, the worst
+#: case, about 1 %), and a commissioned vehicle's odometry is calibrated to that. A map whose anchors need
+#: the odometry 2 % off is far likelier anchored by the wrong reflectors (another site's survey, a survey
+#: in other units or frame, a mistyped baseline) than driven by such a vehicle; ``--max-scale-error``
+#: raises the limit for one that really is (an uncalibrated prototype).
+MAX_SCALE_ERROR = 0.02
+
+#: A scale error beyond :data:`MAX_SCALE_ERROR` counts only when it is also this many of its own std
+#: from nominal: a drive too short to fix the scale is reported by its std, not refused by chance.
+SCALE_SIGNIFICANCE = 3.0
+
+#: Largest normalised residual (sigma, 2-D) of a surveyed reflector: how far the drive puts it from its
+#: surveyed position, against the survey std and the map's own covariance there (the residual covariance
+#: ``σ²I - C_j`` of a prior [Baarda's w-test]). Its square is chi-square with 2 dof for a correct survey:
+#: beyond 5 sigma happens 4 in a million times, while a surveyed reflector swapped, misplaced by a few
+#: centimetres or taken from another site lands tens of sigma off.
+MAX_ANCHOR_SIGMA = 5.0
+
+
+class AnchorImplausible(ValueError):
+    """The anchors contradict the drive (an implausible odometry scale, a surveyed reflector far off)."""
 
 
 class ScaleUnobservable(ValueError):
@@ -221,3 +257,85 @@ def apply_similarity(T: F64, p: F64) -> F64:
     """Points ``(n, 2)`` moved by the similarity ``T = [a, b, tx, ty]`` of :func:`match_surveyed`."""
     a, b, tx, ty = T
     return np.column_stack([a * p[:, 0] - b * p[:, 1] + tx, b * p[:, 0] + a * p[:, 1] + ty])
+
+
+#: Least local redundancy (Baarda: the residual's variance over the observation's, 0-1) of a direction of a
+#: surveyed reflector's residual that is tested: below it the drive cannot check the survey there (two
+#: surveyed reflectors fix the frame's four degrees of freedom and nothing else, so their residual is
+#: noise of the solution, not a test).
+MIN_REDUNDANCY = 0.01
+
+
+def _residual_sigma(r: F64, std: float, cov: F64) -> float:
+    """The normalised 2-D residual ``sqrt(rᵀ Q⁻¹ r)`` of a surveyed reflector, ``Q = std² I - cov`` (m²).
+
+    ``r`` (m): mapped minus surveyed position; ``std`` (m per axis): the survey's; ``cov`` (m²): the
+    map's covariance of the reflector. Only the directions of ``Q`` with a local redundancy of at least
+    :data:`MIN_REDUNDANCY` count (0 when none has).
+    """
+    w, v = np.linalg.eigh(std * std * np.eye(2) - 0.5 * (cov + cov.T))
+    z = v.T @ r
+    test = w >= MIN_REDUNDANCY * std * std
+    return float(math.sqrt(float(np.sum(z[test] ** 2 / w[test]))))
+
+
+def check_anchor_fit(
+    result: MappingResult,
+    anchors: Sequence[Anchor],
+    labels: Sequence[str] | None = None,
+    max_scale_error: float = MAX_SCALE_ERROR,
+    max_sigma: float = MAX_ANCHOR_SIGMA,
+    existing_label: str | None = None,
+) -> None:
+    """Raise :class:`AnchorImplausible` when the anchors of a solved map contradict its drive.
+
+    Two tests, each naming the anchor (``labels[i]`` for ``anchors[i]``, default its kind):
+
+    - **scale**: the odometry scale the map implies (``result.scale ± result.scale_std``) differs from
+      nominal (a start-pose anchor's calibrated scale, else 1) by more than ``max_scale_error``
+      (relative; :data:`MAX_SCALE_ERROR`) and by more than :data:`SCALE_SIGNIFICANCE` of its std. The
+      anchors that set the scale are named: surveyed and baseline ones, and the existing map
+      (``existing_label``). Anchors from another site that differ from the right ones by a similarity
+      (shift, rotation, scale) leave no residual; only their scale gives them away.
+    - **residuals**: a surveyed reflector the map puts more than ``max_sigma``
+      (:data:`MAX_ANCHOR_SIGMA`) normalised residuals from its surveyed position (:func:`_residual_sigma`;
+      with three or more surveyed reflectors: two only fix the frame, and leave nothing to test).
+
+    A frame that is only shifted and rotated is not detectable from the drive: bearings and odometry
+    carry no absolute position or heading.
+    """
+    anchors = list(anchors)
+    names = list(labels) if labels is not None else [anchor_kind([a]) for a in anchors]
+    if len(names) != len(anchors):
+        raise ValueError(f"need one label per anchor, got {len(names)} for {len(anchors)}")
+    starts = [a for a in anchors if isinstance(a, StartPoseAnchor)]
+    nominal = starts[0].scale if starts else 1.0
+    error = result.scale / nominal - 1.0
+    setters = [n for a, n in zip(anchors, names, strict=True) if isinstance(a, SurveyedAnchor | BaselineAnchor)]
+    if existing_label is not None and result.existing_ids:
+        setters.append(existing_label)
+    std = result.scale_std / nominal
+    if setters and abs(error) > max_scale_error and not abs(error) <= SCALE_SIGNIFICANCE * std:
+        raise AnchorImplausible(
+            f"{' and '.join(setters)}: the anchors imply an odometry scale of {result.scale:.5f} ± "
+            f"{result.scale_std:.5f}, {error * 100:+.1f} % from {nominal:g}, beyond the {max_scale_error * 100:g} % "
+            "of wheel odometry: check the anchors are this site's, in metres (--max-scale-error to allow more)"
+        )
+    ids = list(result.ids)
+    for a, name in zip(anchors, names, strict=True):
+        if not isinstance(a, SurveyedAnchor):
+            continue
+        worst: tuple[float, str, float] | None = None
+        for rid, xy, s in zip(a.ids, a.xy, a.std, strict=True):
+            if rid not in ids:
+                continue
+            j = ids.index(rid)
+            r = np.asarray(result.xy[j], dtype=np.float64) - xy
+            w = _residual_sigma(r, float(s), np.asarray(result.covariance[j], dtype=np.float64))
+            if worst is None or w > worst[0]:
+                worst = (w, rid, float(np.hypot(*r)))
+        if worst is not None and worst[0] > max_sigma:
+            raise AnchorImplausible(
+                f"{name}: surveyed reflector {worst[1]} is {worst[2] * 1000:.1f} mm ({worst[0]:.1f} sigma) from "
+                f"where the drive puts it, beyond {max_sigma:g} sigma: check its surveyed position and id"
+            )

@@ -19,6 +19,8 @@ marginal one (1.22; its far reflectors 3.5 mm from the head's yaw calibration, a
 from __future__ import annotations
 
 import math
+import os
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +29,10 @@ import numpy as np
 from agvnav.mapping.slam import MappingResult
 from agvnav.world import Reflector, WorldMap, save_map
 
-__all__ = ["frame_free_covariance", "frame_std", "map_summary", "result_to_map", "write_map"]
+__all__ = [
+    "MAP_HEADER", "MapFileError", "check_map_file", "frame_free_covariance", "frame_std", "is_agvnav_map",
+    "map_summary", "result_to_map", "write_map",
+]
 
 
 #: Degrees of freedom of the map's frame removed by :func:`frame_free_covariance`: translation (2),
@@ -98,13 +103,59 @@ def result_to_map(result: MappingResult, radius: float = 0.04, walls_from: World
     return WorldMap(tuple(refl), walls_from.walls if walls_from is not None else ())
 
 
+#: How every map :func:`write_map` writes begins: agvnav recognises its own map files by this first line.
+MAP_HEADER = "# agvnav map:"
+
+
+class MapFileError(ValueError):
+    """The map file to write exists and may not be replaced (or is not a file)."""
+
+
+def is_agvnav_map(path: str | Path) -> bool:
+    """True when ``path`` is a file whose first line starts with :data:`MAP_HEADER` (a map :func:`write_map` wrote)."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            return fh.readline().startswith(MAP_HEADER)
+    except OSError:
+        return False
+
+
+def check_map_file(path: str | Path, force: bool = False, option: str = "--out") -> None:
+    """Refuse to write the map to ``path`` when it exists, unless ``force``; say whose file it is.
+
+    Absent: fine. A folder, or a missing parent folder: always refused. A map agvnav wrote (first line
+    :data:`MAP_HEADER`):
+    refused unless ``force`` ("holds a map agvnav wrote"). Any other file (a surveyed map, a
+    hand-made one): refused unless ``force`` too, with a message saying it is not agvnav's.
+    Raises :class:`MapFileError` (a ValueError) naming ``option`` and the file.
+    """
+    p = Path(path)
+    if not p.parent.is_dir():  # found before the work, not as a bare OSError on the temporary file after it
+        raise MapFileError(f"{option} {p}: the folder {p.parent} does not exist")
+    if not p.exists():
+        return
+    if p.is_dir():
+        raise MapFileError(f"{option} {p}: it is a folder, not a map file")
+    if force:
+        return
+    if is_agvnav_map(p):
+        raise MapFileError(f"{option} {p}: the file holds a map agvnav wrote earlier; use --force to replace it")
+    raise MapFileError(f"{option} {p}: the file exists and is not a map agvnav wrote (its first line is not "
+                       f"'{MAP_HEADER}'); choose another file, or use --force to overwrite it")
+
+
 def write_map(result: MappingResult, path: str | Path, radius: float = 0.04,
-              walls_from: WorldMap | None = None) -> WorldMap:
-    """Write the map YAML (a header comment states the anchor) and return the map."""
+              walls_from: WorldMap | None = None, force: bool = False) -> WorldMap:
+    """Write the map YAML (a header comment states the anchor) and return the map.
+
+    The file begins with :data:`MAP_HEADER` (how agvnav recognises its own maps); an existing file is
+    refused unless ``force`` (:func:`check_map_file`). Atomic: the map is written to a temporary file
+    beside ``path`` and renamed over it, so ``path`` is the old file or the whole new one, never a part.
+    """
     world = result_to_map(result, radius, walls_from)
     p = Path(path)
-    save_map(world, p)
-    head = (f"# agvnav map: {len(result.ids)} reflectors from a mapping drive; frame and scale anchored by "
+    check_map_file(p, force)
+    head = (f"{MAP_HEADER} {len(result.ids)} reflectors from a mapping drive; frame and scale anchored by "
             f"{result.anchor}; odometry scale {result.scale:.5f} +- {result.scale_std:.5f}\n"
             "# covariance_m2: 2x2 covariance of each centre in the site frame (m^2); survey_std_m: std per axis of "
             "its error relative to the other reflectors (frame-free)\n")
@@ -112,7 +163,15 @@ def write_map(result: MappingResult, path: str | Path, radius: float = 0.04,
         f = frame_std(result.xy, result.joint_covariance)
         head += (f"# frame std (shared by all reflectors): shift {f['shift_m'] * 1000:.2f} mm per axis, rotation "
                  f"{math.degrees(f['rotation_rad']):.4f} deg, scale {f['scale'] * 1e6:.1f} ppm\n")
-    p.write_text(head + p.read_text(encoding="utf-8"), encoding="utf-8")
+    fd, name = tempfile.mkstemp(prefix=f".{p.name}.partial-", suffix=".yaml", dir=p.parent)
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        save_map(world, tmp)
+        tmp.write_text(head + tmp.read_text(encoding="utf-8"), encoding="utf-8")
+        os.replace(tmp, p)
+    finally:
+        tmp.unlink(missing_ok=True)
     return world
 
 

@@ -80,8 +80,8 @@ F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]
 
 UNOBSERVABLE = ("scale unobservable: bearings carry no scale and the odometry's is not calibrated; anchor the map "
-                "with two or more surveyed reflectors (surveyed:FILE), a taped baseline between two reflectors "
-                "(baseline:X1,Y1,X2,Y2,D) or a known start pose with the calibrated odometry (start_pose)")
+                "(--anchor) with two or more surveyed reflectors (surveyed:FILE), a taped baseline between two "
+                "reflectors (baseline:X1,Y1,X2,Y2,D) or a known start pose with the calibrated odometry (start_pose)")
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,8 @@ Methods (see each module):
   estimate (``None`` means 0: the method corrects any heading error away from the
   critical circle, but on it no estimate means no fix, so ``valid=False`` there);
 * ``"relative_angles"`` (``relative_angles``): circle intersection, heading-free;
-* ``"total"`` (``total``): ToTal, the speed baseline;
+* ``"total"`` (``total``): ToTal, the speed baseline; its batches run compiled
+  (``total.total_batch``, the NumPy kernel's numbers) when the kernels do (:mod:`agvnav._jit`);
 * ``"least_squares"`` (``least_squares``): maximum likelihood over N >= 3 bearings, or
   N >= 2 with ``heading_estimate`` and ``heading_std``.
 
@@ -49,9 +50,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from agvnav._jit import compiled, jit
 from agvnav._validate import as_float_array
-from agvnav.geometry.angles import wrap_angle
-from agvnav.positioning._three import ScalarMath
+from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
+from agvnav.positioning._three import ScalarMath, layout_scale2
 from agvnav.positioning.absolute_angles import absolute_angles_kernel
 from agvnav.positioning.bounds import fisher_information, inv_sym3
 from agvnav.positioning.least_squares import (
@@ -61,7 +63,7 @@ from agvnav.positioning.least_squares import (
     least_squares_single,
 )
 from agvnav.positioning.relative_angles import relative_angles_kernel
-from agvnav.positioning.total import total_kernel
+from agvnav.positioning.total import total_batch, total_kernel
 
 METHODS = ("absolute_angles", "relative_angles", "total", "least_squares")
 
@@ -82,6 +84,12 @@ NONLINEAR_RATIO = 0.3
 #: Largest |sin| of the pairwise bearing differences for which the rays count as parallel
 #: (P on the line of collinear reflectors: the fix is undetermined).
 PARALLEL_TOL = 1e-9
+#: ``LAYOUT_TOL**2`` as :func:`_layout_flags` computes it (a Python float power, frozen here so the
+#: compiled :func:`_layout_ok_kernel` compares with the same bits).
+_LAYOUT_TOL2 = LAYOUT_TOL**2
+#: Largest N for which :func:`_layout_ok_kernel` computes per-element layout flags itself: NumPy sums
+#: fewer than 8 terms in order (as the kernel does) and pairwise with 8 accumulators from 8 on.
+_KERNEL_MAX_N = 7
 
 
 @dataclass(frozen=True)
@@ -166,17 +174,20 @@ def triangulate(
     bs = _optional_std("bearing_std", bearing_std)
     hs = _optional_std("heading_std", heading_std)
     _check_count(method, n, h is not None and hs is not None)
-    try:
-        batch = np.broadcast_shapes(r.shape[:-2], b.shape[:-1], () if h is None else h.shape)
-        if bs is not None:
-            np.broadcast_shapes(bs.shape, batch + (n,))
-        if hs is not None:
-            np.broadcast_shapes(hs.shape, batch)
-    except ValueError:
-        raise ValueError(
-            f"batch shapes do not broadcast: reflectors {r.shape}, bearings {b.shape}"
-            + ("" if h is None else f", heading_estimate {h.shape}")
-        ) from None
+    if r.ndim == 2 and b.ndim == 1 and (h is None or h.ndim == 0) and bs is None and hs is None:
+        batch: tuple[int, ...] = ()  # one plain fix: nothing to broadcast (np.broadcast_shapes costs ~2 µs)
+    else:
+        try:
+            batch = np.broadcast_shapes(r.shape[:-2], b.shape[:-1], () if h is None else h.shape)
+            if bs is not None:
+                np.broadcast_shapes(bs.shape, batch + (n,))
+            if hs is not None:
+                np.broadcast_shapes(hs.shape, batch)
+        except ValueError:
+            raise ValueError(
+                f"batch shapes do not broadcast: reflectors {r.shape}, bearings {b.shape}"
+                + ("" if h is None else f", heading_estimate {h.shape}")
+            ) from None
     if batch == ():
         try:
             _check_single(r, b, h)
@@ -220,24 +231,36 @@ def _check_count(method: str, n: int, has_prior: bool) -> None:
 
 
 def _check_single(r: NDArray[np.float64], b: NDArray[np.float64], h: NDArray[np.float64] | None) -> None:
-    """Single-fix path: value problems raise (batches flag them instead). Plain Python: N is small."""
-    for name, arr in (("reflectors", r), ("bearings", b), ("heading_estimate", h)):
-        if arr is not None and not all(math.isfinite(v) for v in arr.ravel().tolist()):
-            raise ValueError(f"{name} contains NaN or inf")
+    """Single-fix path: value problems raise (batches flag them instead). Plain Python: N is small.
+
+    The same tests and sums as the batch flags' definition (:func:`_layout_flags`); the squared
+    distances once per pair (``(p - q)**2 == (q - p)**2`` exactly), ``map`` rather than generators
+    (issue 29: 11 -> 8 µs CPU of a ~30 µs fix, measured interleaved on a loaded machine).
+    """
     pts = r.tolist()
+    xs = [p[0] for p in pts]
+    ys = [p[1] for p in pts]
+    if not (all(map(math.isfinite, xs)) and all(map(math.isfinite, ys))):
+        raise ValueError("reflectors contains NaN or inf")
+    if not all(map(math.isfinite, b.tolist())):
+        raise ValueError("bearings contains NaN or inf")
+    if h is not None and not all(map(math.isfinite, h.ravel().tolist())):
+        raise ValueError("heading_estimate contains NaN or inf")
     n = len(pts)
-    d2 = [[(p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 for q in pts] for p in pts]
-    scale = max(max(row) for row in d2)
-    for i in range(n):
-        for j in range(i + 1, n):
-            if d2[i][j] <= LAYOUT_TOL**2 * scale:
-                raise ValueError(f"reflectors {i} and {j} coincide")
-    mx, my = sum(p[0] for p in pts) / n, sum(p[1] for p in pts) / n
-    sxx = sum((p[0] - mx) ** 2 for p in pts)
-    syy = sum((p[1] - my) ** 2 for p in pts)
-    sxy = sum((p[0] - mx) * (p[1] - my) for p in pts)
-    collinear = n >= 3 and sxx * syy - sxy * sxy <= LAYOUT_TOL * (sxx + syy) ** 2
-    if collinear and _parallel_rays(b).any():
+    pairs = [(i, j, (xs[i] - xs[j]) ** 2 + (ys[i] - ys[j]) ** 2) for i in range(n) for j in range(i + 1, n)]
+    near = LAYOUT_TOL**2 * max([d for _, _, d in pairs], default=0.0)
+    for i, j, d in pairs:
+        if d <= near:
+            raise ValueError(f"reflectors {i} and {j} coincide")
+    if n < 3:
+        return
+    mx, my = sum(xs) / n, sum(ys) / n
+    cx = [x - mx for x in xs]
+    cy = [y - my for y in ys]
+    sxx = sum([c**2 for c in cx])
+    syy = sum([c**2 for c in cy])
+    sxy = sum([u * v for u, v in zip(cx, cy, strict=True)])
+    if sxx * syy - sxy * sxy <= LAYOUT_TOL * (sxx + syy) ** 2 and _parallel_rays(b).any():
         raise _OnReflectorLine  # geometry, not bad input: the batch path flags it invalid
 
 
@@ -297,6 +320,119 @@ def _layout_flags(r: NDArray[np.float64]) -> tuple[NDArray[np.bool_], NDArray[np
     return coincident, collinear
 
 
+def _layout_ok(r: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """``(m,)`` True where a fix's layout and bearings pass the batch checks: the validity flags.
+
+    ``r`` is one shared layout ``(N, 2)`` or one per fix ``(m, N, 2)``, ``b (m, N)``. False where a
+    bearing is NaN or inf, the reflectors coincide, or they are collinear and every pair of rays
+    is parallel (P on their line): ``~(coincident | collinear & parallel) & finite`` with the flags
+    of :func:`_layout_flags` and :func:`_parallel_rays`, which stay the definition. Those build
+    ``(m, N, N)`` temporaries (``sin`` of every bearing pair for every fix); here the parallel test
+    runs only where the layout is collinear, which a shared layout settles once, and compiled
+    (:func:`_layout_ok_kernel`) everything is one pass over the fixes.
+    """
+    m, n = b.shape
+    shared = r.ndim == 2
+    in_kernel = compiled() and (shared or n <= _KERNEL_MAX_N)
+    coincident: Any = False
+    collinear: Any = False
+    if shared or not in_kernel:
+        coincident, collinear = _layout_flags(r)
+    if in_kernel:
+        ok = np.empty(m, dtype=bool)
+        rr = r[None] if shared else r
+        _layout_ok_kernel(np.ascontiguousarray(rr), np.ascontiguousarray(b), shared, bool(coincident),
+                          bool(collinear), ok)
+        return ok
+    ok = np.all(np.isfinite(b), axis=-1)
+    if shared:
+        if coincident:
+            return np.zeros(m, dtype=bool)
+        if collinear:
+            ok &= ~_parallel_rays(b)
+        return ok
+    ok &= ~coincident
+    on_line = np.flatnonzero(collinear)
+    if on_line.size:
+        ok[on_line] &= ~_parallel_rays(b[on_line])
+    return ok
+
+
+@jit
+def _layout_ok_kernel(
+    r: NDArray[np.float64],
+    b: NDArray[np.float64],
+    shared: bool,
+    coincident: bool,
+    collinear: bool,
+    ok: NDArray[np.bool_],
+) -> None:
+    """:func:`_layout_ok` in one pass: ``ok[k]`` for layouts ``r (1 or m, N, 2)`` (m) and bearings ``b (m, N)`` (rad).
+
+    ``shared``: ``r`` is one layout whose ``coincident``/``collinear`` flags the caller computed
+    (:func:`_layout_flags`); otherwise each fix's flags are computed here as :func:`_layout_flags`
+    does, in its order of operations (``N <= _KERNEL_MAX_N``: NumPy's sums of fewer than 8 terms
+    run in order), NaN comparing False as in its reductions. The parallel test is
+    :func:`_parallel_rays` over the pairs ``i < j`` (``sin`` is odd; ``sin(0) = 0`` on the diagonal).
+    """
+    m, n = b.shape
+    for k in range(m):
+        finite = True
+        for i in range(n):
+            if not math.isfinite(b[k, i]):
+                finite = False
+        if not finite:
+            ok[k] = False
+            continue
+        coin, coll = coincident, collinear
+        if not shared:
+            rk = r[k]
+            scale = 0.0
+            near = math.inf
+            nan = False
+            for i in range(n):
+                for j in range(n):
+                    dx = rk[i, 0] - rk[j, 0]
+                    dy = rk[i, 1] - rk[j, 1]
+                    d2 = dx * dx + dy * dy
+                    if d2 != d2:
+                        nan = True
+                    elif d2 > scale:
+                        scale = d2
+                    if i != j and d2 < near:
+                        near = d2
+            coin = (not nan) and near <= _LAYOUT_TOL2 * scale
+            mx = 0.0
+            my = 0.0
+            for i in range(n):
+                mx += rk[i, 0]
+                my += rk[i, 1]
+            mx = mx / n
+            my = my / n
+            sxx = 0.0
+            syy = 0.0
+            sxy = 0.0
+            for i in range(n):
+                cx = rk[i, 0] - mx
+                cy = rk[i, 1] - my
+                sxx += cx * cx
+                syy += cy * cy
+                sxy += cx * cy
+            tr = sxx + syy
+            coll = n >= 3 and sxx * syy - sxy * sxy <= LAYOUT_TOL * (tr * tr)
+        if coin:
+            ok[k] = False
+            continue
+        parallel = False
+        if coll:
+            parallel = True
+            for i in range(n):
+                for j in range(i + 1, n):
+                    if not abs(math.sin(b[k, i] - b[k, j])) <= PARALLEL_TOL:
+                        parallel = False
+        ok[k] = not parallel
+
+
 def _solve(
     method: str,
     r: NDArray[np.float64],
@@ -314,23 +450,31 @@ def _solve(
     hf = None if h is None else np.broadcast_to(h, batch).reshape(m)
     bsf = None if bs is None else np.broadcast_to(bs, batch + (n,)).reshape(m, n)
     hsf = None if hs is None else np.broadcast_to(hs, batch).reshape(m)
-    coincident, collinear = _layout_flags(rf)
-    layout_ok = ~(coincident | (collinear & _parallel_rays(bf)))
+    fused = method == "total" and compiled()
+    # the validity flags, NaN/inf bearings included; ToTal compiled flags NaN/inf bearings itself, so
+    # a shared layout that is neither coincident nor collinear leaves it nothing to add
+    plain = fused and shared and not any(bool(f) for f in _layout_flags(rf))
+    layout_ok = None if plain else _layout_ok(rf, bf)
     out: dict[str, NDArray[Any]] = {k: np.empty(m) for k in ("x", "y", "heading", "quality")}
     out["valid"] = np.empty(m, dtype=bool)
     out["heading_from_estimate"] = np.zeros(m, dtype=bool)
     cov = None if bs is None else np.empty((m, 3, 3))
-    for start in range(0, m, CHUNK):
+    if fused:  # one compiled pass, the NumPy kernel's numbers (total_batch)
+        _total_batch(rf, bf, out)
+    for start in range(0, m, CHUNK) if cov is not None or not fused else ():  # fused: only the covariance
         s = slice(start, min(start + CHUNK, m))
         rc = rf if shared else rf[s]
         hc = None if hf is None else hf[s]
-        res = _kernel(method, rc, bf[s], hc, None if bsf is None else bsf[s], None if hsf is None else hsf[s])
-        for key, value in res.items():
-            if key in out:
-                out[key][s] = value
+        if fused:
+            res = {k: out[k][s] for k in ("x", "y", "heading")}
+        else:
+            res = _kernel(method, rc, bf[s], hc, None if bsf is None else bsf[s], None if hsf is None else hsf[s])
+            for key, value in res.items():
+                if key in out:
+                    out[key][s] = value
         if cov is not None:
             cov[s] = _covariance(method, rc, res, bsf[s], None if hsf is None else hsf[s])  # type: ignore[index]
-    valid = out["valid"] & layout_ok & np.all(np.isfinite(bf), axis=-1)
+    valid = out["valid"] if layout_ok is None else out["valid"] & layout_ok
     if cov is not None and method != "least_squares":
         valid &= ~_nonlinear(rf, out["x"], out["y"], cov, out["heading_from_estimate"])
     for key in ("x", "y", "heading"):
@@ -339,11 +483,23 @@ def _solve(
     out["heading_from_estimate"] &= valid
     shaped = {k: v.reshape(batch) for k, v in out.items()}
     shaped["valid"] = valid.reshape(batch)
-    shaped["heading"] = np.asarray(wrap_angle(shaped["heading"]))
+    if method == "least_squares":  # the three-reflector kernels return headings in [-pi, pi) already
+        shaped["heading"] = np.asarray(wrap_angle(shaped["heading"]))
     return TriangulationResult(
         covariance=None if cov is None else cov.reshape(batch + (3, 3)),
         **shaped,
     )
+
+
+def _total_batch(r: NDArray[np.float64], b: NDArray[np.float64], out: dict[str, NDArray[Any]]) -> None:
+    """ToTal over the flat batch ``b (m, 3)``, layout ``r`` ``(3, 2)`` or ``(m, 3, 2)``, compiled, into ``out``."""
+    x = (r[..., 0, 0], r[..., 1, 0], r[..., 2, 0])
+    y = (r[..., 0, 1], r[..., 1, 1], r[..., 2, 1])
+    scale2 = np.atleast_1d(np.asarray(layout_scale2(x, y), dtype=np.float64))  # NumPy's squares, as total_kernel
+    rx = np.ascontiguousarray(np.atleast_2d(r[..., 0]))
+    ry = np.ascontiguousarray(np.atleast_2d(r[..., 1]))
+    total_batch(rx, ry, scale2, np.ascontiguousarray(b), out["x"], out["y"], out["heading"], out["quality"],
+                out["valid"])
 
 
 def _solve_single(
@@ -370,7 +526,7 @@ def _solve_single(
     hfe = bool(res.get("heading_from_estimate", False)) and valid
     nan = float("nan")
     px, py = (res["x"], res["y"]) if valid else (nan, nan)
-    heading = np.asarray(wrap_angle(res["heading"]) if valid else nan)
+    heading = np.asarray(wrap_angle_scalar(res["heading"]) if valid else nan)
     cov = None
     if bs is not None:
         arrays = {"x": np.array([px]), "y": np.array([py]), "heading": np.array([heading]),

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.bench.common import Col, display_unit, format_number
+from agvnav._display import Col, display_unit, format_number
 
 __all__ = ["MAX_LEVELS", "metric_units", "plot_campaign", "summary_sections", "summary_table"]
 

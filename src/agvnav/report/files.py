@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.bench.common import json_text
+from agvnav._json import json_text
 from agvnav.jit import mode as kernel_mode
 from agvnav.report.html import write_html_report
 from agvnav.report.plots import write_plots
@@ -42,6 +42,7 @@ if TYPE_CHECKING:
     from agvnav.sim.run import SimResult
 
 __all__ = [
+    "RUN_MARKER",
     "TIMING_KEYS",
     "OutputFolderError",
     "atomic_dir",
@@ -49,11 +50,15 @@ __all__ = [
     "layout_document",
     "metrics_document",
     "reactive_document",
+    "replace_dir",
     "save_result",
     "timing_document",
     "units_path",
     "write_csv",
 ]
+
+#: The file that makes a folder a simulate run's (:func:`check_out_dir`).
+RUN_MARKER = "metrics.json"
 
 #: Figures that depend on the machine, not the seed: timing.json, never metrics.json.
 TIMING_KEYS = ("wall_time_s", "real_time_factor")
@@ -129,10 +134,15 @@ def timing_document(result: SimResult) -> dict[str, Any]:
     return {k: figures[k] for k in TIMING_KEYS}
 
 
-def check_out_dir(out: str | Path, force: bool = False) -> None:
-    """Refuse ``out`` when it holds another run (unless ``force``) or files that are not a run.
+def check_out_dir(out: str | Path, force: bool = False, marker: str = RUN_MARKER, what: str = "run") -> None:
+    """Refuse ``out`` when it holds another result of this kind (unless ``force``) or files that are not one.
 
-    Raises :class:`OutputFolderError` (a ValueError) saying which and what to do.
+    A folder is agvnav's own when it holds ``marker`` (``metrics.json`` for a run, ``plan.json``
+    for a layout, ``campaign.json`` for a campaign); ``what`` names the kind in the messages.
+    Absent or empty: fine. Its own: refused unless ``force`` (then replaced as a whole by
+    :func:`atomic_dir`). Anything else (a file, a folder of other files): refused even with
+    ``force``, since replacing it would delete files agvnav did not write. Raises
+    :class:`OutputFolderError` (a ValueError) saying which and what to do.
     """
     p = Path(out)
     if not p.exists():
@@ -142,32 +152,39 @@ def check_out_dir(out: str | Path, force: bool = False) -> None:
     entries = [e.name for e in p.iterdir()]
     if not entries:
         return
-    if "metrics.json" not in entries:
-        raise OutputFolderError(f"--out {p}: the folder holds files that are not an agvnav run; choose another folder")
+    if marker not in entries:
+        raise OutputFolderError(
+            f"--out {p}: the folder holds files that are not an agvnav {what} (no {marker}); choose another folder"
+        )
     if not force:
-        raise OutputFolderError(f"--out {p}: the folder holds another run's results; use --force to replace them")
+        raise OutputFolderError(f"--out {p}: the folder holds another {what}'s results; use --force to replace them")
 
 
 @contextmanager
-def atomic_dir(out: str | Path, force: bool = False) -> Iterator[Path]:
+def atomic_dir(out: str | Path, force: bool = False, marker: str = RUN_MARKER, what: str = "run") -> Iterator[Path]:
     """Yield a temporary folder beside ``out``; on success it replaces ``out`` as a whole.
 
-    ``out`` is checked with :func:`check_out_dir` first. On any error (or Ctrl-C)
-    the temporary folder is removed and ``out`` is left as it was.
+    ``out`` is checked with :func:`check_out_dir` first (``marker``, ``what``: the kind of
+    result, as there). On any error (or Ctrl-C) the temporary folder is removed and ``out``
+    is left as it was.
     """
     target = Path(out)
-    check_out_dir(target, force)
+    check_out_dir(target, force, marker, what)
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.partial-", dir=target.parent))
     try:
         yield tmp
-        _replace_dir(tmp, target)
+        replace_dir(tmp, target)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
-def _replace_dir(new: Path, target: Path) -> None:
-    """Rename ``new`` to ``target``; an existing ``target`` is moved aside first and removed after."""
+def replace_dir(new: Path, target: Path) -> None:
+    """Rename the folder ``new`` to ``target``; an existing ``target`` is moved aside first and removed after.
+
+    ``new`` and ``target`` must be on one file system (``new`` a sibling): each rename is atomic,
+    so ``target`` is at every moment the old folder, absent for an instant, or the new one.
+    """
     if not target.exists():
         os.replace(new, target)
         return

@@ -18,7 +18,9 @@ import html
 import io
 import json
 import math
+import os
 import re
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,14 +28,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.bench.common import display_unit, format_number
+from agvnav._display import display_unit, format_number
 from agvnav.geometry import lateral_position_error, wrap_angle
 from agvnav.report.plots import pyplot
 
 __all__ = [
+    "REPORT_HEADER",
     "SEED_FIGURES",
     "RunFolder",
+    "check_report_file",
     "covariance_ellipse",
+    "is_agvnav_report",
     "load_run",
     "metrics_table",
     "plot_positioning_errors",
@@ -351,12 +356,65 @@ def metrics_table(metrics: dict[str, Any]) -> str:
             pivots.setdefault(kind, {}).setdefault(row, {})[m["base"]] = value
             continue
         plain[key] = value
+    _heading_that_fits(plain)
     parts = [_figure_table([(k, "", v) for k, v in plain.items()], seed)]
     for kind, rows in pivots.items():
         parts.append(f"<h3>{_QUALIFIED_TITLES[kind]}</h3>" + _pivot_table(rows, "stop" if kind == "[" else "edge"))
     for name, section in sections.items():
-        parts.append(f"<h3>{html.escape(name.replace('_', ' '))}</h3>" + _figure_table(_flatten(section), {}))
+        figures = _flatten(section)
+        table = _figure_table(figures, {}) if figures else ""
+        parts.append(f"<h3>{html.escape(name.replace('_', ' '))}</h3>" + table)
+        for title, records in _record_lists(section):
+            parts.append(f"<h4>{html.escape(title)}</h4>" + _records_table(records))
     return "\n".join(parts)
+
+
+def _heading_that_fits(plain: dict[str, Any]) -> None:
+    """Keep the heading figure that fits the vehicle, as ``agvnav simulate``'s table does (issue 29).
+
+    A steered vehicle has seed 000's wheel heading error xi_r (``max_abs_wheel_heading_error_rad``):
+    its body heading against the path tangent (``max_abs_heading_error_rad``, tens of degrees on a
+    tight arc by design) is left out. Any other vehicle has no wheel heading error (null): that row
+    is left out, its body heading figure stays.
+    """
+    wheel = plain.get("max_abs_wheel_heading_error_rad")
+    if wheel is not None:
+        plain.pop("max_abs_heading_error_rad", None)
+        if not plain.get("heading_reorientations"):
+            plain.pop("heading_reorientations", None)
+    elif plain.get("max_abs_heading_error_rad") is not None:
+        plain.pop("max_abs_wheel_heading_error_rad", None)
+
+
+def _is_records(value: Any) -> bool:
+    """A list of records (the ``events`` section's windows, stops, faults): one table row each."""
+    return isinstance(value, list) and bool(value) and all(isinstance(v, dict) for v in value)
+
+
+def _record_lists(section: dict[str, Any], outer: tuple[str, ...] = ()) -> list[tuple[str, list[dict[str, Any]]]]:
+    """Every list of records in a section, nested mappings walked, with its path as a title."""
+    found: list[tuple[str, list[dict[str, Any]]]] = []
+    for key, value in section.items():
+        path = (*outer, str(key))
+        if isinstance(value, dict):
+            found += _record_lists(value, path)
+        elif _is_records(value):
+            found.append((" ".join(path).replace("_", " "), value))
+    return found
+
+
+def _records_table(records: list[dict[str, Any]]) -> str:
+    """One row per record, one column per field with its display unit in the header (like :func:`_pivot_table`)."""
+    keys: list[str] = []
+    for record in records:
+        keys += [k for k in record if k not in keys]
+    columns = {k: _cell(k, [r.get(k) for r in records]) for k in keys}
+    head = "<tr>" + "".join(
+        f"<th>{html.escape(label)}{f' ({unit})' if unit else ''}</th>" for label, unit, _ in columns.values()
+    ) + "</tr>"
+    body = ["<tr>" + "".join(f"<td class=num>{columns[k][2][i]}</td>" for k in keys) + "</tr>"
+            for i in range(len(records))]
+    return f"<table>{head}{''.join(body)}</table>"
 
 
 def _flatten(section: dict[str, Any], outer: tuple[str, ...] = ()) -> list[tuple[str, str, Any]]:
@@ -372,6 +430,8 @@ def _flatten(section: dict[str, Any], outer: tuple[str, ...] = ()) -> list[tuple
         if isinstance(value, dict):
             rows += _flatten(value, path)
             continue
+        if _is_records(value):  # a table of its own (:func:`_record_lists`)
+            continue
         unit_at = next((i for i in range(len(path) - 1, -1, -1) if display_unit(path[i])[1]), len(path) - 1)
         qualifier = " ".join(p.replace("_", " ") for i, p in enumerate(path) if i != unit_at)
         rows.append((path[unit_at], qualifier, value))
@@ -382,15 +442,24 @@ def _figure_table(figures: list[tuple[str, str, Any]], seed: dict[str, tuple[str
     """One row per ``(key, qualifier, value)``: label, value, unit (and the seed's figure)."""
     head = "<tr><th>metric</th><th>value</th><th>unit</th>" + ("<th>seed</th>" if seed else "") + "</tr>"
     rows = []
-    for key, qualifier, value in figures:
-        label, unit, shown = _cell(key, [value])
+    # one unit per figure: the rows of one key (``distance_in_status_m`` per status) share it, so a 0.7 m
+    # row never shows in mm beside a 4.2 m row in m
+    group: dict[str, list[Any]] = {}
+    for key, _, value in figures:
+        group.setdefault(key, []).append(value)
+    cells = {key: _cell(key, values) for key, values in group.items()}
+    seen: dict[str, int] = {}
+    for key, qualifier, _ in figures:
+        label, unit, shown_all = cells[key]
+        i = seen[key] = seen.get(key, -1) + 1
+        shown = shown_all[i]
         if qualifier:
             label = f"{label} ({qualifier})"
         ref = ""
         if seed:
             v, src = seed.get(key, ("", ""))
             ref = f"<td>{html.escape(v)} {_seed_unit(key)}, {html.escape(src)}</td>" if v else "<td></td>"
-        rows.append(f"<tr><td>{html.escape(label)}</td><td class=num>{shown[0]}</td><td>{unit}</td>{ref}</tr>")
+        rows.append(f"<tr><td>{html.escape(label)}</td><td class=num>{shown}</td><td>{unit}</td>{ref}</tr>")
     return f"<table>{head}{''.join(rows)}</table>"
 
 
@@ -526,9 +595,53 @@ def render_html(run: RunFolder) -> str:
     )
 
 
-def write_html_report(run_dir: str | Path, out: str | Path | None = None) -> Path:
-    """Write the report of the run folder ``run_dir`` to ``out`` (default ``run_dir/report.html``)."""
-    run = load_run(run_dir)
+#: How a report agvnav wrote begins (:func:`render_html`): an existing file that does not is someone else's.
+REPORT_HEADER = "<!DOCTYPE html><html lang=en><head><meta charset=utf-8><title>agvnav report:"
+
+
+def is_agvnav_report(path: str | Path) -> bool:
+    """True when ``path`` is a file that begins with :data:`REPORT_HEADER` (a report agvnav wrote)."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            return fh.read(len(REPORT_HEADER)) == REPORT_HEADER
+    except OSError:
+        return False
+
+
+def check_report_file(path: str | Path, force: bool = False, option: str = "--out") -> None:
+    """Refuse to write a report to ``path`` when that would replace a file agvnav did not write.
+
+    Absent, or a report agvnav wrote: fine (a report is replaced by the newer one). A folder, or a
+    missing parent folder: always refused. Any other file: refused unless ``force``. Raises a
+    ValueError naming ``option`` and the file.
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise ValueError(f"{option} {p}: it is a folder, not a file")
+    if not p.parent.is_dir():
+        raise ValueError(f"{option} {p}: the folder {p.parent} does not exist")
+    if p.exists() and not force and not is_agvnav_report(p):
+        raise ValueError(f"{option} {p}: the file exists and is not a report agvnav wrote; choose another file, "
+                         "or use --force to overwrite it")
+
+
+def write_html_report(run_dir: str | Path, out: str | Path | None = None, force: bool = False) -> Path:
+    """Write the report of the run folder ``run_dir`` to ``out`` (default ``run_dir/report.html``).
+
+    An existing file that is not a report agvnav wrote is refused unless ``force``
+    (:func:`check_report_file`). Atomic: the report is written to a temporary file beside the
+    target and renamed over it, so the target is the old file or the whole new one, never a part.
+    """
     target = Path(out) if out is not None else Path(run_dir) / "report.html"
-    target.write_text(render_html(run), encoding="utf-8")
+    check_report_file(target, force)
+    run = load_run(run_dir)
+    text = render_html(run)
+    fd, name = tempfile.mkstemp(prefix=f".{target.name}.partial-", suffix=".html", dir=target.parent)
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, target)
+    finally:
+        tmp.unlink(missing_ok=True)
     return target

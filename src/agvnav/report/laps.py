@@ -9,7 +9,7 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
-from agvnav.bench.common import json_text
+from agvnav._json import json_text
 from agvnav.report.files import write_csv
 from agvnav.report.plots import pyplot
 

@@ -10,14 +10,15 @@ from typing import Any
 
 import numpy as np
 
-from agvnav.bench.common import json_text
+from agvnav._json import json_text
 from agvnav.layout.field import hall_field
 from agvnav.layout.plan import LayoutPlan, summary_rows
 from agvnav.layout.prediction import LayoutProblem, Prediction
+from agvnav.report.files import atomic_dir
 from agvnav.report.plots import pyplot
 from agvnav.world import save_map
 
-__all__ = ["plan_record", "plot_layout_heatmap", "write_layout"]
+__all__ = ["LAYOUT_MARKER", "plan_record", "plot_layout_heatmap", "write_layout"]
 
 
 def plot_layout_heatmap(plan: LayoutPlan, out: str | Path, worst: int = 10) -> Path:
@@ -114,12 +115,22 @@ def _finite(v: float) -> float | None:
     return float(v) if np.isfinite(v) else None
 
 
-def write_layout(plan: LayoutPlan, out_dir: str | Path) -> dict[str, Path]:
-    """Write ``map.yaml`` (loads in ``agvnav simulate``), ``heatmap.png`` and ``plan.json`` into ``out_dir``."""
+#: The file that makes a folder an ``agvnav layout`` result (:func:`agvnav.report.files.check_out_dir`).
+LAYOUT_MARKER = "plan.json"
+
+
+def write_layout(plan: LayoutPlan, out_dir: str | Path, force: bool = False) -> dict[str, Path]:
+    """Write ``map.yaml`` (loads in ``agvnav simulate``), ``heatmap.png`` and ``plan.json`` into ``out_dir``.
+
+    Atomically, as a run (:func:`agvnav.report.files.atomic_dir`): the files are written to a
+    temporary folder beside ``out_dir`` and renamed into place together. A folder holding another
+    layout (a ``plan.json``) is refused unless ``force``, then replaced as a whole; a non-empty folder
+    without one is never written into (:class:`agvnav.report.files.OutputFolderError`).
+    """
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = {"map": out / "map.yaml", "heatmap": out / "heatmap.png", "plan": out / "plan.json"}
-    save_map(plan.world, paths["map"])
-    plot_layout_heatmap(plan, paths["heatmap"])
-    paths["plan"].write_text(json_text(plan_record(plan), indent=1) + "\n", encoding="utf-8")
-    return paths
+    names = {"map": "map.yaml", "heatmap": "heatmap.png", "plan": LAYOUT_MARKER}
+    with atomic_dir(out, force, marker=LAYOUT_MARKER, what="layout") as tmp:
+        save_map(plan.world, tmp / names["map"])
+        plot_layout_heatmap(plan, tmp / names["heatmap"])
+        (tmp / names["plan"]).write_text(json_text(plan_record(plan), indent=1) + "\n", encoding="utf-8")
+    return {k: out / v for k, v in names.items()}

@@ -22,8 +22,8 @@ from numpy.typing import NDArray
 from agvnav.geometry import lateral_position_error
 
 __all__ = [
-    "RUN_PLOTS", "error_labels", "event_spans", "plot_errors", "plot_map", "plot_positioning_histogram", "prepare",
-    "pyplot", "warm_up", "write_plots",
+    "RUN_PLOTS", "error_labels", "event_spans", "event_strips", "plot_errors", "plot_map",
+    "plot_positioning_histogram", "prepare", "pyplot", "warm_up", "write_plots",
 ]
 
 #: Titles sit at the top of their axes (``y`` given): matplotlib otherwise measures every tick
@@ -145,9 +145,9 @@ def plot_errors(
     if "v_cmd" in ev:
         a3.plot(t, ev["v_cmd"], color="k", lw=1.0, label="commanded speed")
     a3.set_ylabel("speed [m/s]")
-    for label, color, windows in event_spans(t, ev):
+    for label, color, windows, (low, high) in event_strips(event_spans(t, ev)):
         for i, (a, b) in enumerate(windows):
-            a3.axvspan(a, b, color=color, alpha=0.3, lw=0, label=label if i == 0 else None)
+            a3.axvspan(a, b, ymin=low, ymax=high, color=color, alpha=0.3, lw=0, label=label if i == 0 else None)
     clear = {k.split("__", 1)[1]: v for k, v in ev.items() if k.startswith("clearance__")}
     if clear:
         a4 = a3.twinx()
@@ -224,6 +224,20 @@ def event_spans(
     if "dwelling" in series:
         add("station stop", "tab:blue", np.asarray(series["dwelling"]) > 0.5)
     return out
+
+
+def event_strips(
+    spans: list[tuple[str, str, list[tuple[float, float]]]],
+) -> list[tuple[str, str, list[tuple[float, float]], tuple[float, float]]]:
+    """Each kind of :func:`event_spans` with its own horizontal strip ``(low, high)`` of the axes (0-1, top first).
+
+    Windows of different kinds overlap in time (a goniometer blackout, the dead reckoning it causes,
+    the guard slowing the vehicle): drawn over the full height their colours mix into one no legend
+    names, and the fault disappears under the others. In strips, each keeps its legend colour.
+    """
+    n = len(spans)
+    return [(label, colour, windows, (1.0 - (j + 1) / n, 1.0 - j / n))
+            for j, (label, colour, windows) in enumerate(spans)]
 
 
 def plot_positioning_histogram(

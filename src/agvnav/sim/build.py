@@ -22,7 +22,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path as FsPath
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, ParamSpec, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,15 +35,21 @@ from agvnav.guidance import (
     GuidanceError,
     LineSegment,
     Path,
+    PathFollower,
     check_path_feasible,
     follower_parameters,
     make_follower,
 )
 from agvnav.guidance.errors import feedforward_steering
 from agvnav.kinematics import TractorTrailer
+from agvnav.navigation.guard import EstimatorWatch, GuardLimits, PositioningGuard
+from agvnav.navigation.path import PathAutopilot
 from agvnav.odometry import OdometryNoise, steered_noise
 from agvnav.positioning import make_estimator
+from agvnav.positioning.ekf import EkfEstimator
+from agvnav.positioning.estimator import StreamingEstimator
 from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
+from agvnav.roles import Plant, RangeEstimator, Sensor
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.sensors.ultrasonic import UltrasonicArray, UltrasonicSensor, seed_004_layout
 from agvnav.sim.collision import CollisionWatch, WallCollider
@@ -51,19 +57,21 @@ from agvnav.sim.engine import ClosedLoop
 from agvnav.sim.faults import PLANT_FAULTS, FaultyPlant, FaultySensor, world_with_faults
 from agvnav.sim.rangers import UltrasonicSensorRole
 from agvnav.sim.reactive import wire_reactive
-from agvnav.sim.roles import GoniometerSensor, PathAutopilot
-from agvnav.sim.safety import EstimatorWatch, GuardLimits, PositioningGuard
+from agvnav.sim.roles import GoniometerSensor
 from agvnav.vehicles import build_plant
+from agvnav.vehicles.builders import Plant as VehiclePlant
 from agvnav.world import WorldMap, builtin_map_names, load_builtin_map, load_map
 from agvnav.world.scenario import KeyPath, Scenario, ScenarioError
 from agvnav.world.vehicle_specs import TractorTrailerSpec
 
-if TYPE_CHECKING:
-    from agvnav.sim.mission import MissionAutopilot
+if TYPE_CHECKING:  # mission parts: imported at run time only for a mission scenario (see build)
+    from agvnav.navigation.mission import MissionAutopilot
+    from agvnav.routes.mission import MissionPlan
 
 __all__ = [
     "DEFAULT_FOLLOWERS",
     "Built",
+    "PositioningEstimator",
     "build",
     "build_path",
     "build_world",
@@ -78,6 +86,11 @@ __all__ = [
 DEFAULT_FOLLOWERS = {"steered": "seed_simple", "unicycle": "kanayama", "holonomic": "holonomic"}
 
 T = TypeVar("T")
+P = ParamSpec("P")
+
+#: The estimators a scenario builds: a streaming estimator of the goniometer (and, the EKF, of the
+#: rangers), or the wall-landmark localizer (seed 004; pure dead reckoning without walls).
+PositioningEstimator = StreamingEstimator | WallLandmarkLocalizer
 
 
 @dataclass
@@ -87,17 +100,17 @@ class Built:
     loop: ClosedLoop
     world: WorldMap
     path: Path
-    plant: Any
+    plant: VehiclePlant
     autopilot: PathAutopilot | MissionAutopilot
-    estimator: Any
+    estimator: PositioningEstimator
     duration: float
     point: str
     point_offset: float
-    mission: Any = None
+    mission: MissionPlan | None = None
     """the planned mission (:class:`agvnav.routes.mission.MissionPlan`) of a mission scenario."""
 
 
-def guard(sc: Scenario, key: KeyPath, func: Callable[..., T], *args: Any, **kwargs: Any) -> T:
+def guard(sc: Scenario, key: KeyPath, func: Callable[P, T], *args: P.args, **kwargs: P.kwargs) -> T:
     """Call ``func``; a ValueError becomes a ScenarioError at ``key`` (with its line)."""
     try:
         return func(*args, **kwargs)
@@ -231,7 +244,7 @@ def _check_start(sc: Scenario, size: float) -> None:
         )
 
 
-def _check_feasible(sc: Scenario, path: Path, family: str, geometry: Any, point: str) -> None:
+def _check_feasible(sc: Scenario, path: Path, family: str, geometry: object, point: str) -> None:
     """The follower's feasibility check; an infeasible segment is named with its line."""
     try:
         check_path_feasible(path, family, geometry, sc.vehicle.reverses, point=point)
@@ -261,7 +274,7 @@ def _check_hitch(sc: Scenario, v: TractorTrailerSpec, path: Path) -> None:
             )
 
 
-def _check_mount(sc: Scenario, plant: Any) -> None:
+def _check_mount(sc: Scenario, plant: Plant) -> None:
     """The goniometer head must stand on the vehicle: its mount inside (or on) the body footprint."""
     g = sc.goniometer
     if g is None:
@@ -305,10 +318,10 @@ def _initial_state(sc: Scenario, path: Path, offset: float, family: str) -> NDAr
     return np.array([p[0], p[1], psi, gamma])
 
 
-def _follower_params(sc: Scenario, name: str, family: str, cruise: float) -> tuple[KeyPath, dict[str, Any]]:
+def _follower_params(sc: Scenario, name: str, family: str, cruise: float) -> tuple[KeyPath, dict[str, object]]:
     """Keyword arguments of the follower from the controller spec, and the key to blame on error."""
     spec = sc.controller
-    kwargs: dict[str, Any] = dict(spec.params)
+    kwargs: dict[str, object] = dict(spec.params)
     key: KeyPath = ("controller",)
     if family == "steered":
         if name in ("seed_general", "pure_pursuit"):
@@ -336,7 +349,7 @@ def _follower_params(sc: Scenario, name: str, family: str, cruise: float) -> tup
     return key, kwargs
 
 
-def _follower(sc: Scenario, path: Path, family: str, geometry: Any) -> Any:
+def _follower(sc: Scenario, path: Path, family: str, geometry: object) -> PathFollower:
     name = sc.controller.name or DEFAULT_FOLLOWERS[family]
     if name not in FOLLOWERS[family]:
         raise sc.error(
@@ -437,16 +450,17 @@ def odometry_noise(sc: Scenario) -> OdometryNoise:
 
 def _estimator(
     sc: Scenario, world: WorldMap, x0: NDArray[np.float64], rangers: UltrasonicArray | None
-) -> Any:
+) -> PositioningEstimator:
     """The estimator by method (null: ekf with a goniometer, wall_landmarks with rangers only, else dead reckoning)."""
     ps = sc.positioning
     err = np.array([ps.initial_error[0], ps.initial_error[1], math.radians(ps.initial_error[2])])
     std = np.array([ps.initial_std[0], ps.initial_std[1], math.radians(ps.initial_std[2])])
     g = sc.goniometer
-    kwargs: dict[str, Any] = {
-        "odometry_noise": odometry_noise(sc),
-        "initial_pose": x0[:3] + err,
-        "initial_covariance": np.diag(np.maximum(std, 1e-6) ** 2),
+    noise, pose0, cov0 = odometry_noise(sc), x0[:3] + err, np.diag(np.maximum(std, 1e-6) ** 2)
+    kwargs: dict[str, object] = {
+        "odometry_noise": noise,
+        "initial_pose": pose0,
+        "initial_covariance": cov0,
         "strict": False,  # a running vehicle: implausible readings are dropped and counted (issue 12)
     }
     mount: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -465,8 +479,8 @@ def _estimator(
         walls = world.wall_segments if method == "wall_landmarks" else ()
         return guard(
             sc, ("positioning",), WallLandmarkLocalizer, walls, rangers if method == "wall_landmarks" else None,
-            pose=kwargs["initial_pose"], wall_ids=wall_ids(world) if method == "wall_landmarks" else None,
-            odometry_noise=kwargs["odometry_noise"], initial_covariance=kwargs["initial_covariance"],
+            pose=pose0, wall_ids=wall_ids(world) if method == "wall_landmarks" else None,
+            odometry_noise=noise, initial_covariance=cov0,
         )
     if rangers is not None and method == "ekf":  # fuse the rangers' wall ranges too
         kwargs.update(walls=world.wall_segments, rangers=rangers)
@@ -486,9 +500,22 @@ def _watch(sc: Scenario) -> EstimatorWatch:
     return EstimatorWatch(PositioningGuard(limits, enabled=s.enabled and sc.goniometer is not None))
 
 
-def _sensors(sc: Scenario, world: WorldMap, rangers: UltrasonicArray | None) -> list[Any]:
-    """The goniometer seeing the true world (survey error, moved reflectors), with the sensor faults; the rangers."""
-    out: list[Any] = [] if rangers is None else [UltrasonicSensorRole(rangers, world.wall_segments)]
+def _sensors(
+    sc: Scenario, world: WorldMap, rangers: UltrasonicArray | None, estimator: PositioningEstimator
+) -> list[Sensor]:
+    """The goniometer seeing the true world (survey error, moved reflectors), with the sensor faults; the rangers.
+
+    Each feeds ``estimator`` when it takes that kind of measurement (bearings: a streaming estimator;
+    ranges: the EKF with rangers or the wall-landmark localizer); otherwise the sensor is only observed
+    and recorded (the rangers still serve the reaction to obstacles), as when a run dead-reckons on
+    purpose with a goniometer mounted.
+    """
+    ranges: RangeEstimator | None = None  # a dead-reckoning localizer (no rangers) takes no ranges
+    if isinstance(estimator, EkfEstimator) or (
+        isinstance(estimator, WallLandmarkLocalizer) and estimator.rangers is not None
+    ):
+        ranges = estimator
+    out: list[Sensor] = [] if rangers is None else [UltrasonicSensorRole(rangers, world.wall_segments, ranges)]
     if sc.goniometer is None:
         if any(f.kind not in PLANT_FAULTS for f in sc.faults):
             raise sc.error(("faults",), "goniometer and reflector faults need a goniometer: mount one")
@@ -497,13 +524,15 @@ def _sensors(sc: Scenario, world: WorldMap, rangers: UltrasonicArray | None) -> 
         if f.reflector is not None and f.reflector not in world.reflector_ids:
             raise sc.error(("faults", i, "reflector"), f"no reflector {f.reflector!r} in the map")
     true_world = world_with_faults(surveyed_truth(world, sc.world_truth.reflector_survey_std_m, sc.seed), sc.faults)
-    sensor: Any = GoniometerSensor(_goniometer(sc), true_world)
+    bearings = estimator if isinstance(estimator, StreamingEstimator) else None
+    gonio = GoniometerSensor(_goniometer(sc), true_world, bearings)
+    sensor: Sensor = gonio
     if any(f.kind not in PLANT_FAULTS for f in sc.faults):
-        sensor = FaultySensor(sensor, sc.faults, world, sc.goniometer.rate_hz, sc.seed)
+        sensor = FaultySensor(gonio, sc.faults, world, sc.goniometer.rate_hz, sc.seed)
     return [sensor, *out]
 
 
-def _loop_plant(sc: Scenario, plant: Any, world: WorldMap) -> Any:
+def _loop_plant(sc: Scenario, plant: Plant, world: WorldMap) -> Plant:
     """The plant the loop drives: odometry faults applied, collisions with the walls ending the run."""
     if any(f.kind in PLANT_FAULTS for f in sc.faults):
         plant = FaultyPlant(plant, sc.faults)
@@ -518,14 +547,6 @@ def _default_duration(sc: Scenario, path: Path) -> float:
     return 1.5 * (path.length / v + ramps) + 5.0 + sc.end_hold_s
 
 
-def _missions_module() -> Any:
-    """``agvnav.sim.mission``, imported only for a mission scenario: routes pull in networkx and
-    scipy.interpolate, about half of ``agvnav.sim``'s import time, which path scenarios never use."""
-    from agvnav.sim import mission  # noqa: PLC0415 - start-up time of path scenarios
-
-    return mission
-
-
 def build(sc: Scenario) -> Built:
     """Wire every part of scenario ``sc`` (any vehicle following a path) into a ClosedLoop.
 
@@ -534,8 +555,13 @@ def build(sc: Scenario) -> Built:
     if sc.route is not None:
         raise sc.error(("route",), "a route scenario runs laps (agvnav.sim.simulate), it has no single path loop")
     world = build_world(sc)
-    missions = _missions_module() if sc.mission is not None else None
-    mission = missions.plan_mission(sc) if missions is not None else None
+    mission = None
+    if sc.mission is not None:
+        # imported only for a mission scenario: routes pull in networkx and scipy.interpolate, about
+        # half of agvnav.sim's import time, which path scenarios never use
+        from agvnav.sim import mission as missions  # noqa: PLC0415 - start-up time of path scenarios
+
+        mission = missions.plan_mission(sc)
     path = build_path(sc) if mission is None else mission.path
     family = sc.vehicle.family
     point = _point(sc, family)
@@ -543,7 +569,7 @@ def build(sc: Scenario) -> Built:
     offset = wheelbase if point == "C" else 0.0
     _check_start(sc, max(wheelbase, sc.vehicle.body_length_m))
     x0 = _initial_state(sc, path, offset, family)
-    plant = guard(sc, ("vehicle",), build_plant, sc.vehicle, x0)
+    plant = guard(sc, ("vehicle",), build_plant, sc.vehicle, x0.tolist())
     _check_mount(sc, plant)
     _check_feasible(sc, path, family, plant.geometry, point)
     _check_visibility(sc, world, path, offset)
@@ -556,14 +582,14 @@ def build(sc: Scenario) -> Built:
     rangers = ultrasonic_array(sc) if sc.ultrasonic is not None else None
     estimator = _estimator(sc, world, x0, rangers)
     pilot: PathAutopilot | MissionAutopilot = PathAutopilot(follower, path, profile, plant, offset, watch=_watch(sc))
-    if missions is not None:  # one PathAutopilot per leg (issue 14)
+    if mission is not None:  # one PathAutopilot per leg (issue 14)
         pilot = missions.mission_autopilot(sc, mission, follower, plant, offset, _watch(sc))
-    sensors = _sensors(sc, world, rangers)
+    sensors = _sensors(sc, world, rangers, estimator)
     loop_plant = _loop_plant(sc, plant, world)
     if sc.obstacles or sc.scanner is not None or sc.reactive is not None:  # issue 18: obstacles, scanner, reaction
         loop_plant, sensors, pilot = wire_reactive(sc, world, loop_plant, sensors, pilot)
     loop = ClosedLoop(loop_plant, sensors, estimator, pilot, sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else _default_duration(sc, path)
-    if missions is not None and sc.duration_s is None:
+    if mission is not None and sc.duration_s is None:
         duration = missions.mission_duration(sc, mission)
     return Built(loop, world, path, plant, pilot, estimator, duration, point, offset, mission)

@@ -16,26 +16,17 @@ motion of every footprint point towards the walls.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 import shapely
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from shapely.geometry import MultiLineString, Polygon
 
-__all__ = ["CollisionWatch", "WallCollider", "segment_distances"]
+from agvnav.geometry import segment_distances
+from agvnav.roles import Plant
+from agvnav.sim.wrapped import WrappedPlant
 
-
-def segment_distances(point: ArrayLike, segments: ArrayLike) -> NDArray[np.float64]:
-    """Distance (m) from ``point (2,)`` to every segment ``(m, 2, 2)``, ``(m,)``."""
-    p = np.asarray(point, dtype=np.float64)
-    seg = np.asarray(segments, dtype=np.float64)
-    a, b = seg[:, 0, :], seg[:, 1, :]
-    ab = b - a
-    denom = np.einsum("ij,ij->i", ab, ab)
-    u = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.where(denom > 0, denom, 1.0), 0.0, 1.0)
-    closest = a + u[:, None] * ab
-    return np.asarray(np.hypot(*(closest - p).T), dtype=np.float64)
+__all__ = ["CollisionWatch", "WallCollider"]
 
 
 class WallCollider:
@@ -87,21 +78,18 @@ class WallCollider:
         return self.hits((x, y, psi))
 
 
-class CollisionWatch:
+class CollisionWatch(WrappedPlant):
     """A plant wrapper whose :meth:`failure` also reports ``"collision"`` (the engine then ends the run).
 
     Every other role method is the wrapped plant's own bound method (no per-step
-    indirection); attributes are read through to the plant.
+    indirection, :class:`~agvnav.sim.wrapped.WrappedPlant`).
     """
 
-    def __init__(self, plant: Any, collider: WallCollider) -> None:
-        self.plant = plant
+    def __init__(self, plant: Plant, collider: WallCollider) -> None:
+        super().__init__(plant)
         self.collider = collider
         self.advance = plant.advance
-        self.pose_at = plant.pose_at
         self.odometry = plant.odometry
-        self.signals = plant.signals
-        self.signal_names = plant.signal_names
 
     def failure(self) -> str | None:
         """The plant's own failure, else ``"collision"`` when the footprint touches a wall."""
@@ -110,6 +98,3 @@ class CollisionWatch:
             return str(own)
         x, y, psi = (float(v) for v in self.plant.pose)
         return "collision" if self.collider.check(x, y, psi) else None
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self.plant, name)

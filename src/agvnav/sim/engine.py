@@ -15,9 +15,9 @@ One step of length ``dt`` from ``t_k`` to ``t_{k+1}``:
    measurement, then the rest of the increment up to ``t_{k+1}``;
 5. one row of every signal is recorded.
 
-The three roles are protocols, so a differential or tracked plant with ultrasonic
-sensors and a hybrid-automaton autopilot (issue 6) plugs in without touching
-this loop. The engine holds no physics, estimation or control of its own.
+The roles are the protocols of :mod:`agvnav.roles` (re-exported here), so a
+differential or tracked plant with ultrasonic sensors and a hybrid-automaton
+autopilot (issue 6) plugs in without touching this loop. The engine holds no physics, estimation or control of its own.
 Determinism: every random draw comes from generators spawned from the scenario
 seed, one per role, in a fixed order.
 """
@@ -29,82 +29,17 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from itertools import repeat
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.roles import Autopilot, Estimator, Plant, Sensor
 from agvnav.sim.recorder import EventLog, Recorder
 
 __all__ = [
     "MAX_RECORDED_ROWS", "Autopilot", "ClosedLoop", "Estimator", "LoopOutput", "Plant", "Sensor", "record_stride",
 ]
-
-PoseFunction = Callable[[NDArray[np.float64]], NDArray[np.float64]]
-
-
-class Plant(Protocol):
-    """Truth vehicle with its proprioceptive sensors (encoders)."""
-
-    signal_names: tuple[str, ...]
-
-    def advance(self, command: Sequence[float], t0: float, dt: float, rng: np.random.Generator) -> None:
-        """Apply ``command`` (vehicle-specific, e.g. ``(v, gamma_dot)``) from ``t0`` for ``dt`` s."""
-
-    def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """True base_link pose ``(k, 3)`` at instants ``t (k,)`` inside the last step."""
-
-    def odometry(self) -> tuple[float, float, float]:
-        """Measured body-twist increment ``(delta_d, delta_theta, delta_lateral)`` of base_link over the last step."""
-
-    def failure(self) -> str | None:
-        """A physical failure that ends the run (e.g. ``"jackknife"``), else None."""
-
-    def signals(self) -> tuple[float, ...]:
-        """Current values of ``signal_names`` (truth and raw sensor readings)."""
-
-
-class Sensor(Protocol):
-    """An exteroceptive sensor: scans a time window along the true motion."""
-
-    event_names: tuple[str, ...]
-
-    def observe(
-        self, pose_at: PoseFunction, t0: float, t1: float, rng: np.random.Generator
-    ) -> NDArray[np.float64]:
-        """Events in ``(t0, t1]`` as rows ``(k, len(event_names))``, column 0 the time, in time order."""
-
-    def deliver(self, estimator: Estimator, event: NDArray[np.float64]) -> None:
-        """Feed one event row to the estimator."""
-
-
-class Estimator(Protocol):
-    """Streaming positioning (issue 4 contract)."""
-
-    def predict(self, t: float, delta_d: float, delta_theta: float, delta_lateral: float = 0.0) -> None: ...
-
-    @property
-    def pose(self) -> NDArray[np.float64]: ...
-
-    @property
-    def status(self) -> str: ...
-
-
-class Autopilot(Protocol):
-    """Guidance law plus actuators: estimate and readings -> physical command."""
-
-    signal_names: tuple[str, ...]
-
-    @property
-    def finished(self) -> bool:
-        """True once the autopilot has completed its task (read only for the loop)."""
-
-    def command(self, t: float, estimator: Estimator, plant: Plant, dt: float) -> Sequence[float]:
-        """Command to hold over the next step."""
-
-    def signals(self) -> tuple[float, ...]:
-        """Current values of ``signal_names`` (commands, estimated errors...)."""
-
 
 #: Estimator status -> recorded code (-1: a status not listed here).
 STATUS_CODES = {"initialising": 0.0, "tracking": 1.0, "dead_reckoning": 2.0, "degraded": 3.0, "lost": 4.0}
@@ -139,13 +74,38 @@ class LoopOutput:
 
 
 @dataclass
+class _RunState:
+    """A run in progress (:meth:`ClosedLoop.start` .. :meth:`ClosedLoop.finish`)."""
+
+    dt: float
+    n_steps: int
+    stride: int
+    end_hold: float
+    progress: Callable[[float], None] | None
+    rng_plant: np.random.Generator
+    rng_sensors: list[np.random.Generator]
+    rec: Recorder
+    logs: list[EventLog]
+    every: int
+    hold_left: float
+    sensors: list[Sensor]
+    t: float = 0.0
+    k: int = 0
+    cmd: Sequence[float] = ()
+    recorded: bool = True
+    running: bool = False
+    failure: str | None = None
+    start: float = 0.0
+
+
+@dataclass
 class ClosedLoop:
     """Wires a plant, sensors, an estimator and an autopilot at a fixed step.
 
     Parameters
     ----------
     plant, sensors, estimator, autopilot
-        The roles (see the protocols above).
+        The roles (:mod:`agvnav.roles`); each sensor was wired to the estimator it feeds.
     dt
         Step (s).
     seed
@@ -164,6 +124,7 @@ class ClosedLoop:
     dt: float
     seed: int = 0
     record_every: int | None = None
+    _state: _RunState | None = field(default=None, init=False, repr=False, compare=False)
 
     def run(
         self,
@@ -173,75 +134,139 @@ class ClosedLoop:
     ) -> LoopOutput:
         """Run until ``duration`` s, or ``end_hold`` s after the autopilot finishes.
 
-        ``progress(t)`` is called about a hundred times during the run.
+        ``progress(t)`` is called about a hundred times during the run. The same as
+        :meth:`start`, :meth:`step` until it returns False, :meth:`finish`.
         """
+        self.start(duration, end_hold, progress)
+        while self.step():
+            pass
+        return self.finish()
+
+    # ------------------------------------------------------------------ step-wise API
+    # A fleet (:mod:`agvnav.sim.fleet`) advances many loops in lockstep: every plant first
+    # (:meth:`advance`), then every loop's sensors, estimator and autopilot (:meth:`sense`), so
+    # that each vehicle's sensors see the others where they truly are inside the same window.
+
+    def start(
+        self,
+        duration: float,
+        end_hold: float = 0.0,
+        progress: Callable[[float], None] | None = None,
+    ) -> None:
+        """Begin a run of at most ``duration`` s (see :meth:`run`): seeds the streams, gives the first command."""
         if not (math.isfinite(duration) and duration > 0):
             raise ValueError(f"duration must be a positive finite number of seconds, got {duration!r}")
         dt = float(self.dt)
         n_steps = math.ceil(duration / dt - 1e-9)
         streams = np.random.SeedSequence(self.seed).spawn(2 + len(self.sensors))
-        rng_plant = np.random.default_rng(streams[0])
-        rng_sensors = [np.random.default_rng(s) for s in streams[2:]]
         plant, est, pilot, sensors = self.plant, self.estimator, self.autopilot, list(self.sensors)
         columns = ("t", "est_x", "est_y", "est_psi", "est_status", *plant.signal_names, *pilot.signal_names)
         stride = record_stride(n_steps, self.record_every)
-        rec = Recorder(columns, min(n_steps // stride + 2, RECORD_BLOCK))
-        logs = [EventLog(s.event_names) for s in sensors]
-        every = max(1, n_steps // 100)
-        t = 0.0
-        failure = None
-        recorded = True
-        hold_left = end_hold
-        start = time.perf_counter()
-        cmd = pilot.command(t, est, plant, dt)
-        self._record(rec, t, est, plant, pilot)
-        for k in range(n_steps):
-            t1 = (k + 1) * dt
-            plant.advance(cmd, t, dt, rng_plant)
-            dd, dth, dl = plant.odometry()
-            batches: list[tuple[float, Sensor, NDArray[np.float64]]] = []
-            for sensor, log, rng in zip(sensors, logs, rng_sensors, strict=True):
-                ev = sensor.observe(plant.pose_at, t, t1, rng)
-                if ev.shape[0]:
-                    if stride == 1 or (k + 1) % stride == 0:  # a decimated run keeps its recorded steps' events
-                        log.extend(ev)
-                    # times as Python floats: the splitting arithmetic below stays off NumPy scalars
-                    batches.extend(zip(ev[:, 0].tolist(), repeat(sensor), ev))
-            if batches:
-                batches.sort(key=lambda item: item[0])
-                t_prev = t
-                for te, sensor, row in batches:
-                    frac = (te - t_prev) / dt
-                    est.predict(te, dd * frac, dth * frac, dl * frac)
-                    sensor.deliver(est, row)
-                    t_prev = te
-                frac = (t1 - t_prev) / dt
-                est.predict(t1, dd * frac, dth * frac, dl * frac)
-            else:
-                est.predict(t1, dd, dth, dl)
-            t = t1
-            cmd = pilot.command(t, est, plant, dt)
-            recorded = (k + 1) % stride == 0
-            if recorded:
-                self._record(rec, t, est, plant, pilot)
-            if progress is not None and k % every == 0:
-                progress(t)
-            failure = plant.failure()
-            if failure is not None:
-                break
-            if pilot.finished:
-                hold_left -= dt
-                if hold_left < -1e-12:
-                    break
-        if n_steps and not recorded:  # the last step is always recorded
-            self._record(rec, t, est, plant, pilot)
-        wall = time.perf_counter() - start
-        if progress is not None:
-            progress(t)
-        names = [getattr(s, "name", f"sensor{i}") for i, s in enumerate(sensors)]
-        events = {name: log.drain() for name, log in zip(names, logs, strict=True)}
+        st = _RunState(
+            dt=dt, n_steps=n_steps, stride=stride, end_hold=end_hold, progress=progress,
+            rng_plant=np.random.default_rng(streams[0]),
+            rng_sensors=[np.random.default_rng(s) for s in streams[2:]],
+            rec=Recorder(columns, min(n_steps // stride + 2, RECORD_BLOCK)),
+            logs=[EventLog(s.event_names) for s in sensors],
+            every=max(1, n_steps // 100), hold_left=end_hold, sensors=sensors,
+        )
+        self._state = st
+        st.start = time.perf_counter()
+        st.cmd = pilot.command(st.t, est, plant, dt)
+        self._record(st.rec, st.t, est, plant, pilot)
+        st.running = n_steps > 0
+
+    def _run_state(self) -> _RunState:
+        st = self._state
+        if st is None:
+            raise ValueError("the loop has no run in progress: call start() first")
+        return st
+
+    @property
+    def running(self) -> bool:
+        """True between :meth:`start` and the step that ends the run (time limit, failure, end hold)."""
+        return self._state is not None and self._state.running
+
+    @property
+    def t(self) -> float:
+        """Simulated time reached (s)."""
+        return self._run_state().t
+
+    def advance(self) -> None:
+        """First half of a step: the plant holds the last command over ``(t, t + dt]``."""
+        st = self._run_state()
+        self.plant.advance(st.cmd, st.t, st.dt, st.rng_plant)
+
+    def sense(self) -> bool:
+        """Second half of a step: sensors, estimator, next command, record; False once the run has ended."""
+        st = self._run_state()
+        plant, est, pilot = self.plant, self.estimator, self.autopilot
+        dt, t, k, stride = st.dt, st.t, st.k, st.stride
+        t1 = (k + 1) * dt
+        dd, dth, dl = plant.odometry()
+        batches: list[tuple[float, Sensor, NDArray[np.float64]]] = []
+        for sensor, log, rng in zip(st.sensors, st.logs, st.rng_sensors, strict=True):
+            ev = sensor.observe(plant.pose_at, t, t1, rng)
+            if ev.shape[0]:
+                if stride == 1 or (k + 1) % stride == 0:  # a decimated run keeps its recorded steps' events
+                    log.extend(ev)
+                # times as Python floats: the splitting arithmetic below stays off NumPy scalars
+                batches.extend(zip(ev[:, 0].tolist(), repeat(sensor), ev))
+        if batches:
+            batches.sort(key=lambda item: item[0])
+            t_prev = t
+            for te, sensor, row in batches:
+                frac = (te - t_prev) / dt
+                est.predict(te, dd * frac, dth * frac, dl * frac)
+                sensor.deliver(row)
+                t_prev = te
+            frac = (t1 - t_prev) / dt
+            est.predict(t1, dd * frac, dth * frac, dl * frac)
+        else:
+            est.predict(t1, dd, dth, dl)
+        t = t1
+        st.t, st.k = t, k + 1
+        st.cmd = pilot.command(t, est, plant, dt)
+        st.recorded = (k + 1) % stride == 0
+        if st.recorded:
+            self._record(st.rec, t, est, plant, pilot)
+        if st.progress is not None and k % st.every == 0:
+            st.progress(t)
+        st.failure = plant.failure()
+        if st.failure is not None:
+            st.running = False
+        elif pilot.finished:
+            st.hold_left -= dt
+            if st.hold_left < -1e-12:
+                st.running = False
+        if st.k >= st.n_steps:
+            st.running = False
+        return st.running
+
+    def step(self) -> bool:
+        """One whole step (:meth:`advance` then :meth:`sense`); False once the run has ended."""
+        self.advance()
+        return self.sense()
+
+    def stop(self, failure: str) -> None:
+        """End the run now with ``failure`` (a fleet's collision judged outside the plant)."""
+        st = self._run_state()
+        st.failure = failure
+        st.running = False
+
+    def finish(self) -> LoopOutput:
+        """The run's output (the last step is always recorded); the loop may then :meth:`start` again."""
+        st = self._run_state()
+        plant, est, pilot = self.plant, self.estimator, self.autopilot
+        if st.n_steps and not st.recorded:  # the last step is always recorded
+            self._record(st.rec, st.t, est, plant, pilot)
+        wall = time.perf_counter() - st.start
+        if st.progress is not None:
+            st.progress(st.t)
+        events = {s.name: log.drain() for s, log in zip(st.sensors, st.logs, strict=True)}
+        self._state = None
         return LoopOutput(
-            series=rec.drain(), events=events, wall_time_s=wall, finished=bool(pilot.finished), failure=failure
+            series=st.rec.drain(), events=events, wall_time_s=wall, finished=bool(pilot.finished), failure=st.failure
         )
 
     @staticmethod

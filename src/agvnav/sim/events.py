@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav.sim.safety import GUARD_LEVELS
+from agvnav.navigation.guard import GUARD_LEVELS
 from agvnav.world.obstacles import obstacle_from_spec
 from agvnav.world.scenario import Scenario
 
@@ -106,7 +106,7 @@ def event_timeline(
       cut at the run's end);
     * ``estimator``: windows where the estimator was not tracking, with its ``status``;
     * ``positioning_guard`` (when it acted, or faults were injected): ``windows`` where the
-      positioning guard slowed (``slow``) or stopped (``stop``) the vehicle (:mod:`agvnav.sim.safety`),
+      positioning guard slowed (``slow``) or stopped (``stop``) the vehicle (:mod:`agvnav.navigation.guard`),
       ``stops``, ``time_slow_s``, ``time_stop_s``, the largest estimated 3σ lateral
       ``max_lateral_3sigma_m`` (m; while a fault is active, when faults were injected) and the
       scenario's limits ``lateral_3sigma_slow_m``/``_stop_m``;

@@ -31,11 +31,13 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.roles import Plant, PoseFunction
+from agvnav.sim.roles import GoniometerSensor
+from agvnav.sim.wrapped import WrappedPlant
 from agvnav.world import WorldMap
 from agvnav.world.scenario import FaultSpec
 
@@ -87,7 +89,8 @@ class FaultySensor:
 
     Parameters
     ----------
-    sensor : the wrapped sensor (events ``(t, bearing, reflector_index)``).
+    sensor : the wrapped goniometer role (events ``(t, bearing, reflector_index)``; its estimator
+        takes the delayed reflections).
     faults : the sensor faults (other kinds are ignored).
     world : the map, to resolve reflector ids.
     rate_hz : head revolutions per second (clutter rate).
@@ -95,10 +98,10 @@ class FaultySensor:
     """
 
     def __init__(
-        self, sensor: Any, faults: Sequence[FaultSpec], world: WorldMap, rate_hz: float, seed: int
+        self, sensor: GoniometerSensor, faults: Sequence[FaultSpec], world: WorldMap, rate_hz: float, seed: int
     ) -> None:
         self.sensor = sensor
-        self.name = getattr(sensor, "name", "reflections")
+        self.name = sensor.name
         self.faults = [f for f in faults if f.kind in SENSOR_FAULTS and f.kind != "reflection_delay"]
         self.delays = [f for f in faults if f.kind == "reflection_delay"]
         self.event_names = (*sensor.event_names, "stamp") if self.delays else tuple(sensor.event_names)
@@ -112,7 +115,7 @@ class FaultySensor:
         self.injected = 0
         self.dropped = 0
 
-    def observe(self, pose_at: Any, t0: float, t1: float, rng: np.random.Generator) -> NDArray[np.float64]:
+    def observe(self, pose_at: PoseFunction, t0: float, t1: float, rng: np.random.Generator) -> NDArray[np.float64]:
         """The wrapped sensor's events in ``(t0, t1]`` with the faults applied."""
         ev = np.asarray(self.sensor.observe(pose_at, t0, t1, rng), dtype=np.float64)
         for f, frng in zip(self.faults, self._rngs, strict=True):
@@ -174,31 +177,31 @@ class FaultySensor:
         self._held = self._held[~due]
         return out[np.argsort(out[:, 0], kind="stable")]
 
-    def deliver(self, estimator: Any, event: NDArray[np.float64]) -> None:
-        """One event to the estimator; a delayed one with its delivered stamp (see the module docstring)."""
+    def deliver(self, event: NDArray[np.float64]) -> None:
+        """One event to the sensor's estimator; a delayed one with its delivered stamp (see the module docstring)."""
         if self.delays:
+            estimator = self.sensor.estimator
+            if estimator is None:
+                return
             stamp = float(event[-1])
             try:
                 estimator.update(stamp, float(event[1]))
             except ValueError:
                 self.late_rejected += 1
             return
-        self.sensor.deliver(estimator, event)
+        self.sensor.deliver(event)
 
 
-class FaultyPlant:
+class FaultyPlant(WrappedPlant):
     """A plant whose :meth:`odometry` carries the scenario's odometry faults (see the module docstring).
 
-    The other role methods are the plant's own bound methods; attributes read through.
+    The other role methods are the plant's own bound methods (:class:`~agvnav.sim.wrapped.WrappedPlant`).
     """
 
-    def __init__(self, plant: Any, faults: Sequence[FaultSpec]) -> None:
-        self.plant = plant
+    def __init__(self, plant: Plant, faults: Sequence[FaultSpec]) -> None:
+        super().__init__(plant)
         self.faults = [f for f in faults if f.kind in PLANT_FAULTS]
-        self.pose_at = plant.pose_at
-        self.signals = plant.signals
         self.failure = plant.failure
-        self.signal_names = plant.signal_names
         self._t1 = 0.0
         self._missed = (0.0, 0.0, 0.0)
         self._wrapped = False
@@ -237,6 +240,3 @@ class FaultyPlant:
             return 0.0, 0.0, 0.0
         self._missed = (0.0, 0.0, 0.0)
         return total
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self.plant, name)

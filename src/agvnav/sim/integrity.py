@@ -3,7 +3,7 @@
 All from the recorded series, vectorised after the run:
 
 * time and distance in each estimator status (a sample's status holds until the next);
-* time the positioning guard demanded a stop (:mod:`agvnav.sim.safety`), how many
+* time the positioning guard demanded a stop (:mod:`agvnav.navigation.guard`), how many
   times, and the worst such stop (:func:`stop_episodes`): the speed then and the
   distance travelled until standstill, against the braking distance
   ``v² / (2 a_max)`` plus :data:`STOP_MARGIN_M`;
@@ -223,7 +223,7 @@ def integrity_figures(
     """The integrity section of metrics.json (see the module docstring); JSON-ready.
 
     ``series`` needs ``t``, the true and estimated poses, ``est_status``,
-    ``lateral_error``, ``v_cmd`` and the guard's signals (:data:`agvnav.sim.safety.GUARD_SIGNALS`);
+    ``lateral_error``, ``v_cmd`` and the guard's signals (:data:`agvnav.navigation.guard.GUARD_SIGNALS`);
     ``distance (n,)`` in m, ``max_decel`` the vehicle's deceleration limit (m/s²).
     """
     t = np.asarray(series["t"], dtype=np.float64)

@@ -1,7 +1,7 @@
 """The seed-004 tracked robot on its square route: run the closed loop, measure the error per lap (Tables I-II).
 
 A scenario with a ``route`` (the seed-004 square) is driven by the hybrid
-automaton (:class:`HybridAutopilot` around
+automaton (:class:`agvnav.navigation.hybrid.HybridAutopilot` around
 :class:`agvnav.guidance.hybrid.HybridController`), positioned by the wall
 landmarks (:class:`~agvnav.positioning.wall_landmarks.WallLandmarkLocalizer`
 fed by :class:`agvnav.sim.rangers.UltrasonicSensorRole`), on the tracked plant
@@ -39,7 +39,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav.actuators import DriveGeometry
 from agvnav.guidance.hybrid import HybridController, HybridParams, PolygonRoute
+from agvnav.navigation.hybrid import HybridAutopilot
 from agvnav.positioning.wall_landmarks import LandmarkParams, WallLandmarkLocalizer, check_route_passes_landmarks
+from agvnav.sensors.ultrasonic import UltrasonicArray
 from agvnav.sim.build import build_world, guard, ultrasonic_array, wall_ids
 from agvnav.sim.engine import ClosedLoop, LoopOutput
 from agvnav.sim.rangers import UltrasonicSensorRole
@@ -49,7 +51,6 @@ from agvnav.world.scenario import Scenario
 from agvnav.world.vehicle_specs import TrackedSpec
 
 __all__ = [
-    "HybridAutopilot",
     "LapErrors",
     "TrackedResult",
     "TrackedRun",
@@ -59,52 +60,6 @@ __all__ = [
     "run_tracked",
     "simulate_tracked",
 ]
-
-
-class HybridAutopilot:
-    """Seed 004 Fig. 7: the hybrid automaton's wheel set-points.
-
-    The automaton reads the loop's estimator (it was built bound to it, see
-    :meth:`agvnav.guidance.hybrid.HybridController.bind`).
-    """
-
-    signal_names: tuple[str, ...] = (
-        "v_cmd",
-        "omega_cmd",
-        "omega_right_cmd",
-        "omega_left_cmd",
-        "state",
-        "leg",
-        "laps_done",
-    )
-
-    def __init__(self, controller: Any) -> None:
-        self.controller = controller
-        self._sig: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-
-    @property
-    def finished(self) -> bool:
-        return bool(self.controller.finished)
-
-    def command(self, t: float, estimator: Any, plant: Any, dt: float) -> tuple[float, float]:
-        c = self.controller
-        if c.estimator is not estimator:
-            c.bind(estimator)
-        cmd = c.command(t)
-        w = cmd.wheel_speeds
-        self._sig = (
-            cmd.v,
-            cmd.omega,
-            float(w[0]),
-            float(w[1]),
-            float(c.state.value[1]),
-            float(c.leg),
-            float(c.laps_done),
-        )
-        return float(w[0]), float(w[1])
-
-    def signals(self) -> tuple[float, ...]:
-        return self._sig
 
 
 @dataclass(frozen=True)
@@ -149,8 +104,8 @@ def lap_errors(transition_times: ArrayLike, t: ArrayLike, true_xy: ArrayLike, st
 class TrackedRun(LoopOutput):
     """One closed-loop run of the tracked robot: the loop's output, the automaton, its estimator, lap errors."""
 
-    controller: Any
-    estimator: Any
+    controller: HybridController
+    estimator: WallLandmarkLocalizer
     laps: LapErrors
     use_landmarks: bool
 
@@ -164,7 +119,7 @@ def run_tracked(
     sc: Scenario,
     route: PolygonRoute,
     world: WorldMap,
-    layout: Any,
+    layout: UltrasonicArray,
     params: HybridParams,
     *,
     use_landmarks: bool = True,
@@ -193,7 +148,7 @@ def run_tracked(
     laps = sc.controller.laps
     ctrl = HybridController(route, localizer, geometry, params, laps)
     plant = build_plant(sc.vehicle, route.start_pose.tolist())
-    sensors = [UltrasonicSensorRole(layout, segs)] if use_landmarks else []
+    sensors = [UltrasonicSensorRole(layout, segs, localizer)] if use_landmarks else []
     engine = ClosedLoop(plant, sensors, localizer, HybridAutopilot(ctrl), sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else 1.5 * laps * nominal_lap_time(route, params) + 10.0
     out = engine.run(duration, end_hold=0.0, progress=progress)
@@ -212,7 +167,7 @@ def run_tracked(
     )
 
 
-def nominal_lap_time(route: Any, params: Any) -> float:
+def nominal_lap_time(route: PolygonRoute, params: HybridParams) -> float:
     """Time (s) of one lap at cruise speed with turns at the turn rate and the dwell."""
     perimeter = sum(route.leg(k)[2] for k in range(route.n_legs))
     turning = route.n_legs * (math.pi / 2) / params.turn_rate
@@ -248,7 +203,7 @@ class RouteParts:
 
     route: PolygonRoute
     world: WorldMap
-    layout: Any
+    layout: UltrasonicArray
     params: HybridParams
 
 

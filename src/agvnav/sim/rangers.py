@@ -2,20 +2,20 @@
 
 Wiring only: the rangers are :class:`agvnav.sensors.ultrasonic.UltrasonicArray`
 (HY-SRF05-like cones, seed 004 §II-B), simulated exactly against the map's
-walls along the true motion; each instant's readings go to the estimator's
-``update_ranges`` (the seed-004 wall-landmark rule of
+walls along the true motion; each instant's readings go to the ``update_ranges`` of the
+estimator it was wired to (a :class:`agvnav.roles.RangeEstimator`: the seed-004 wall-landmark rule of
 :class:`~agvnav.positioning.wall_landmarks.WallLandmarkLocalizer`, or the
-EKF's range update).
+EKF's range update); with none (an estimator that positions without ranges) they are only
+observed and recorded, for the reaction to obstacles.
 """
 
 from __future__ import annotations
-
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from agvnav.geometry import compose
+from agvnav.roles import PoseFunction, RangeEstimator
 from agvnav.sensors.ultrasonic import UltrasonicArray, cone_echo
 
 __all__ = ["UltrasonicSensorRole"]
@@ -28,15 +28,18 @@ class UltrasonicSensorRole:
     call and adds the sensor model's noise and dropouts (one normal and one
     uniform draw per ping, in time then sensor order). Rows are ``(t,
     range_0, ..., range_{S-1})`` grouped by instant (see :meth:`observe`).
-    ``deliver`` hands the readings of one instant to the estimator
-    (``estimator.update_ranges``), which the engine has predicted up to that
+    ``deliver`` hands the readings of one instant to the estimator it was wired to
+    (``update_ranges``), which the engine has predicted up to that
     instant first. A run that does not use the landmarks leaves this role out.
     """
 
     name = "ultrasonic"
 
-    def __init__(self, array: UltrasonicArray, segments: NDArray[np.float64]) -> None:
+    def __init__(
+        self, array: UltrasonicArray, segments: NDArray[np.float64], estimator: RangeEstimator | None = None
+    ) -> None:
         self.array = array
+        self.estimator = estimator
         self.segments = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
         sensors = [array[n] for n in array.names]
         self.names = array.names
@@ -47,7 +50,7 @@ class UltrasonicSensorRole:
             "p_miss")}
         self._sensors = sensors
 
-    def observe(self, pose_at: Any, t0: float, t1: float, rng: np.random.Generator) -> NDArray[np.float64]:
+    def observe(self, pose_at: PoseFunction, t0: float, t1: float, rng: np.random.Generator) -> NDArray[np.float64]:
         """Rows ``(t, range_0, ..., range_{S-1})`` per ping instant in ``(t0, t1]``, in ``names`` order.
 
         A sensor that does not ping at that instant has ``inf``; a ping without a
@@ -73,7 +76,7 @@ class UltrasonicSensorRole:
         return out
 
     def _measure(
-        self, pose_at: Any, t: NDArray[np.float64], idx: NDArray[np.int64], rng: np.random.Generator
+        self, pose_at: PoseFunction, t: NDArray[np.float64], idx: NDArray[np.int64], rng: np.random.Generator
     ) -> NDArray[np.float64]:
         noise = rng.standard_normal(t.size)
         drop = rng.random(t.size)
@@ -89,7 +92,9 @@ class UltrasonicSensorRole:
         valid = e.valid & (drop >= p["p_miss"][idx]) & (noisy >= p["min_range"][idx]) & (noisy <= p["max_range"][idx])
         return np.where(valid, noisy, np.nan)
 
-    def deliver(self, estimator: Any, event: NDArray[np.float64]) -> None:
-        """Hand the readings of one instant (sensors that pinged then) to ``estimator.update_ranges``."""
+    def deliver(self, event: NDArray[np.float64]) -> None:
+        """Hand the readings of one instant (sensors that pinged then) to the estimator's ``update_ranges``."""
+        if self.estimator is None:
+            return
         ranges = {n: float(r) for n, r in zip(self.names, event[1:], strict=True) if r != np.inf}
-        estimator.update_ranges(float(event[0]), ranges)
+        self.estimator.update_ranges(float(event[0]), ranges)

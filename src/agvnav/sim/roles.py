@@ -1,260 +1,44 @@
-"""Sensor and autopilot roles of the closed loop, the same for every vehicle.
+"""The goniometer as a sensor role of the closed loop, the same for every vehicle.
 
-Wiring only: :class:`GoniometerSensor` scans with
-:class:`agvnav.sensors.goniometer.Goniometer` and hands each reflection to the
-estimator; :class:`PathAutopilot` runs a speed profile
-(:class:`agvnav.actuators.SpeedProfile`) and any path follower of
-:mod:`agvnav.guidance` and converts their output into the plant's command for
-its family (docs/ARCHITECTURE.md):
-
-* steered: ``(v_drive, steer_rate)``, ``v_drive`` the driven wheel's speed for the
-  profile's speed of the tracked point (``v_O = v_C cos(gamma)`` [seed000 eq8]);
-* unicycle: wheel set-points ``((v + ω b/2)/r, (v − ω b/2)/r)`` with the nominal
-  track ``b`` and wheel radius ``r`` [seed004 eq1] [seed004 eq2];
-* holonomic: the body twist ``(v_x, v_y, ω)`` of the follower (its ``last_twist``).
+Wiring only: :class:`GoniometerSensor` scans with :class:`agvnav.sensors.goniometer.Goniometer`
+against the true world along the true motion and hands each reflection to the estimator it
+was wired to (a :class:`agvnav.roles.BearingEstimator`). The autopilots a vehicle runs are in
+:mod:`agvnav.navigation`.
 """
 
 from __future__ import annotations
 
-import bisect
-import math
-from typing import Any
-
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.guidance import GuidanceError
-from agvnav.kinematics.differential import wheel_speeds_unchecked
+from agvnav.roles import BearingEstimator, PoseFunction
+from agvnav.sensors.goniometer import Goniometer
+from agvnav.world import WorldMap
 
-__all__ = ["GoniometerSensor", "PathAutopilot"]
+__all__ = ["GoniometerSensor"]
+
 
 class GoniometerSensor:
-    """The laser goniometer as a closed-loop sensor: scans along the true motion."""
+    """The laser goniometer as a closed-loop sensor: scans along the true motion.
+
+    ``estimator`` takes the reflections (None: positioning does not use the goniometer, e.g. a
+    run that dead-reckons on purpose; the reflections are still observed and recorded).
+    """
 
     name = "reflections"
     event_names: tuple[str, ...] = ("t", "bearing", "reflector_index")
 
-    def __init__(self, goniometer: Any, world: Any) -> None:
+    def __init__(self, goniometer: Goniometer, world: WorldMap, estimator: BearingEstimator | None) -> None:
         self.goniometer = goniometer
         self.world = world
+        self.estimator = estimator
 
-    def observe(self, pose_at: Any, t0: float, t1: float, rng: np.random.Generator) -> NDArray[np.float64]:
+    def observe(self, pose_at: PoseFunction, t0: float, t1: float, rng: np.random.Generator) -> NDArray[np.float64]:
         """Reflections in ``(t0, t1]`` as rows ``(t, bearing, true reflector index)``."""
         rows: NDArray[np.float64] = self.goniometer.scan_rows(self.world, pose_at, t0, t1, rng)
         return rows
 
-    def deliver(self, estimator: Any, event: NDArray[np.float64]) -> None:
+    def deliver(self, event: NDArray[np.float64]) -> None:
         """One anonymous reflection ``(t, bearing)`` to the estimator (the index is truth, never read)."""
-        estimator.update(float(event[0]), float(event[1]))
-
-
-class PathAutopilot:
-    """Speed profile + path follower + the family's command conversion, for every vehicle.
-
-    Each step: the speed profile gives the speed for the next step from the
-    distance left along the path (the projection of the estimated tracked
-    point), then the follower gives the rate command from the estimated pose,
-    the measured steering angle (steered vehicles) and that speed. Until the
-    estimator has a fix the vehicle waits at standstill; should the estimate
-    become undefined while it moves, it brakes straight ahead at its deceleration limit.
-
-    Progress ``s`` along the path advances only through a projection of the
-    estimated tracked point searched within ``progress_window`` metres ahead of
-    the previous ``s`` (starting from 0): a start far off the path cannot project
-    onto the path end. It holds while the estimator's status is ``lost``, so a
-    wandering lost estimate cannot carry it to the path end; once the status leaves
-    ``lost`` it is projected again within the window either side (a relocalisation may
-    move it back). The speed profile brings the vehicle to a stop at every cusp
-    (where the direction of travel changes) before it drives on in the
-    other direction, and the follower is given one run of same-direction
-    segments at a time (a reverse segment often retraces a forward one, where
-    a projection could not tell them apart). The path counts as completed only when ``s`` reached the
-    end and the tracked point is within ``end_tolerance`` metres of the path's
-    end point.
-
-    Parameters
-    ----------
-    follower : a :mod:`agvnav.guidance` path follower (``command(pose, v, steering) -> (v_lat, rate)``).
-    path : the planned path of the tracked point.
-    profile : :class:`agvnav.actuators.SpeedProfile`.
-    plant : the truth vehicle, read only for its family, nominal ``geometry`` and ``gamma_meas``.
-    point_offset : the tracked point's distance ahead of base_link along the heading (m; L for C).
-    watch : an optional :class:`agvnav.sim.safety.EstimatorWatch`: its guard's speed scale
-        multiplies the profile's target speed (slow down / controlled stop when positioning
-        degrades, issue 12) and its signals are recorded after the autopilot's own.
-
-    A follower failure (:class:`agvnav.guidance.GuidanceError`) stops the vehicle and sets
-    ``failure = "infeasible"``; the run then ends as the autopilot is ``finished``.
-    """
-
-    signal_names: tuple[str, ...] = (
-        "v_cmd", "rate_cmd", "v_lateral_cmd", "s_est", "lateral_error_est", "heading_error_est", "remaining",
-    )
-
-    def __init__(
-        self,
-        follower: Any,
-        path: Any,
-        profile: Any,
-        plant: Any,
-        point_offset: float = 0.0,
-        progress_window: float = 1.0,
-        end_tolerance: float = 0.1,
-        watch: Any = None,
-    ) -> None:
-        self.watch = watch
-        self.failure: str | None = None
-        if watch is not None:
-            self.signal_names = (*PathAutopilot.signal_names, *watch.signal_names)
-        self.follower = follower
-        self.path = path
-        self.profile = profile
-        self.family = str(plant.family)
-        self.geometry = plant.geometry
-        self.offset = float(point_offset)
-        self.finished = False
-        self._s = 0.0
-        self._length = float(path.length)
-        # segment starts and directions as Python values: direction_at without NumPy per step
-        self._seg_starts = [float(v) for v in path.segment_starts[:-1]]
-        self._seg_dirs = [int(seg.direction) for seg in path.segments]
-        self._run_end, self._run_dir = self._run_from(0.0)
-        self._run_start = 0.0
-        self._was_lost = False
-        self._cusps = 0
-        if self._run_end < self._length:  # the follower sees one run of one direction at a time
-            follower.set_path(self._run_path(0.0))
-        self._sig: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, math.nan, math.nan, self._length)
-        self.progress_window = float(progress_window)
-        self.end_tolerance = float(end_tolerance)
-        self._end = tuple(float(c) for c in path.point_at(self._length))
-
-    def _tracked_point(self, pose: Any) -> tuple[float, float]:
-        """The tracked point (base_link, or ``point_offset`` ahead along the heading) of a pose (m)."""
-        x, y, psi = (float(pose[0]), float(pose[1]), float(pose[2])) if type(pose) is not tuple else pose
-        if self.offset:
-            return x + self.offset * math.cos(psi), y + self.offset * math.sin(psi)
-        return x, y
-
-    def _advance(self, pose: Any, back: float = 0.0) -> None:
-        """Move ``s`` to the projection of the tracked point searched in ``[s - back, s + window]``.
-
-        The search never reaches past the end of the current run of segments in one
-        direction (a cusp), so a reverse segment retracing a forward one is entered
-        only once the vehicle has stopped at the cusp, nor behind the run's start.
-        ``back`` is 0 (progress never goes back) except once the status leaves ``lost``:
-        a relocalisation can correct the pose by metres, and a wrong one that was briefly
-        trusted may have carried ``s`` ahead of the vehicle (integrity bench, differential
-        clutter severe, seed 19: ``s`` at the path end, the vehicle 0.88 m before it,
-        standing until the timeout).
-        """
-        lo = max(self._run_start, self._s - back)
-        hi = min(self._s + self.progress_window, self._run_end)
-        if hi - lo <= 1e-12:
-            return
-        x, y = self._tracked_point(pose)
-        pr = self.path.project_point(x, y, 0.5 * (lo + hi), 0.5 * (hi - lo))
-        self._s = min(max(float(pr.s), lo), hi)
-
-    def _at_end(self, pose: Any) -> bool:
-        """True when the tracked point is within ``end_tolerance`` (m) of the path's end point."""
-        x, y = self._tracked_point(pose)
-        return math.hypot(x - self._end[0], y - self._end[1]) <= self.end_tolerance
-
-    def _run_from(self, s: float) -> tuple[float, int]:
-        """End (m) and direction (+1/-1) of the run of same-direction segments starting at ``s``."""
-        i = min(max(bisect.bisect_right(self._seg_starts, s) - 1, 0), len(self._seg_dirs) - 1)
-        direction = self._seg_dirs[i]
-        j = i
-        while j + 1 < len(self._seg_dirs) and self._seg_dirs[j + 1] == direction:
-            j += 1
-        end = self._seg_starts[j + 1] if j + 1 < len(self._seg_starts) else self._length
-        return end, direction
-
-    def _run_path(self, s: float) -> Any:
-        """The sub-path of the run of same-direction segments starting at ``s`` (a cusp or 0)."""
-        i = min(max(bisect.bisect_right(self._seg_starts, s) - 1, 0), len(self._seg_dirs) - 1)
-        end, _ = self._run_from(s)
-        j = bisect.bisect_left(self._seg_starts, end - 1e-12) if end < self._length else len(self._seg_dirs)
-        return type(self.path)(list(self.path.segments[i:j]))
-
-    def _hold(self) -> tuple[float, ...]:
-        """The command that keeps the vehicle at standstill."""
-        return (0.0, 0.0, 0.0) if self.family == "holonomic" else (0.0, 0.0)
-
-    def command(self, t: float, estimator: Any, plant: Any, dt: float) -> tuple[float, ...]:
-        """The plant command for the next ``dt`` s from the estimate (see the class doc)."""
-        pose = estimator.pose
-        xyp = (float(pose[0]), float(pose[1]), float(pose[2]))  # plain floats, read once
-        if not (math.isfinite(xyp[0]) and math.isfinite(xyp[1]) and math.isfinite(xyp[2])):
-            return self._brake_blind(dt, plant)
-        lost = getattr(estimator, "status", "tracking") == "lost"
-        if not lost:  # a lost estimate says nothing of progress
-            self._advance(xyp, self.progress_window if self._was_lost else 0.0)
-        self._was_lost = lost
-        remaining = self._run_end - self._s
-        scale = 1.0 if self.watch is None else self.watch.scale(t, estimator)
-        v = self.profile.command(remaining, dt, self._run_dir * abs(self.profile.cruise_speed) * scale)
-        steering = float(plant.gamma_meas) if self.family == "steered" else 0.0
-        try:
-            v_lat, rate = self.follower.command(pose, v, steering)
-        except GuidanceError:
-            self.failure = self.failure or "infeasible"
-            self.finished = True
-            self.profile.reset(0.0)
-            return self._hold()
-        if v == 0.0 and scale == 0.0:  # stopped for positioning: hold still (no turn or sidestep either)
-            v_lat = rate = 0.0
-        if v == 0.0 and remaining <= self.profile.stop_tolerance + 1e-9:
-            if self._run_end < self._length:  # stopped at a cusp: the next run reverses
-                self._s = self._run_start = self._run_end
-                self._run_end, self._run_dir = self._run_from(self._s)
-                self.follower.set_path(self._run_path(self._s))
-            else:
-                self.finished = self.finished or self._at_end(xyp)
-            v_lat = rate = 0.0
-        lateral, heading = self._errors()
-        self._sig = (v, rate, v_lat, self._s, lateral, heading, self._length - self._s)
-        return self._plant_command(v, v_lat, rate, steering)
-
-    def _brake_blind(self, dt: float, plant: Any) -> tuple[float, ...]:
-        """No pose estimate: brake straight ahead at the deceleration limit (stand still if at rest)."""
-        v_prev = self.profile.v
-        v = self.profile.command(max(self._run_end - self._s, 1.0), dt, 0.0)
-        self._sig = (v, 0.0, 0.0, self._s, math.nan, math.nan, self._length - self._s)
-        if v == 0.0:
-            return self._hold()
-        if self.family == "holonomic":  # the last twist, scaled down with the speed
-            k = v / v_prev if v_prev else 0.0
-            return tuple(k * c for c in self.follower.last_twist)
-        steering = float(plant.gamma_meas) if self.family == "steered" else 0.0
-        return self._plant_command(v, 0.0, 0.0, steering)
-
-    def _errors(self) -> tuple[float, float]:
-        """The follower's view of the lateral and heading errors (m, rad): seed 000's eps_c, xi_r if steered."""
-        err = self.follower.last_errors
-        if err is None:
-            return math.nan, math.nan
-        if self.family == "steered":
-            return float(err.eps_c), float(err.xi_r)
-        return float(err.lateral), float(err.heading_error)
-
-    def _plant_command(self, v: float, v_lat: float, rate: float, steering: float) -> tuple[float, ...]:
-        if self.family == "steered":  # the driven wheel's speed for the tracked point's speed v
-            return self.follower.drive_speed(v, steering), rate
-        if self.family == "unicycle":
-            g = self.geometry
-            v_right, v_left = wheel_speeds_unchecked(v, rate, g.track)
-            return v_right / g.wheel_radius, v_left / g.wheel_radius
-        if v == 0.0 and v_lat == 0.0 and rate == 0.0:  # at rest (e.g. the path's end): no follower twist
-            return 0.0, 0.0, 0.0
-        return tuple(self.follower.last_twist)
-
-    def signals(self) -> tuple[float, ...]:
-        """``v_cmd, rate_cmd, v_lateral_cmd, s_est, lateral_error_est, heading_error_est, remaining``.
-
-        Followed by the watch's signals when one is given.
-        """
-        if self.watch is not None:
-            return (*self._sig, *self.watch.signals())
-        return self._sig
+        if self.estimator is not None:
+            self.estimator.update(float(event[0]), float(event[1]))

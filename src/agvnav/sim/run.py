@@ -14,7 +14,7 @@ otherwise ``failed`` with a reason (:data:`FAILURE_REASONS`): ``collision`` (the
 footprint touched a wall, :mod:`agvnav.sim.collision`), ``jackknife`` or another
 plant failure, ``infeasible`` (the follower could not command the path),
 ``positioning_lost`` (the time limit came while the vehicle stood stopped by the
-positioning guard, :mod:`agvnav.sim.safety`), ``timeout``, ``off_path_at_end``.
+positioning guard, :mod:`agvnav.navigation.guard`), ``timeout``, ``off_path_at_end``.
 The integrity figures (:mod:`agvnav.sim.integrity`) go with the metrics.
 
 Headline figures summarise the detailed ones (issue 29): a mission's errors are those of
@@ -42,14 +42,18 @@ from agvnav.geometry import wrap_angle, wrap_angle_scalar
 from agvnav.guidance import Path
 from agvnav.guidance.errors import tracking_errors
 from agvnav.sim.build import Built, build
+from agvnav.sim.engine import LoopOutput
 from agvnav.sim.events import add_event_columns, event_timeline
 from agvnav.sim.integrity import integrity_figures
 from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, reorientation_mask, transient_end_index
 from agvnav.sim.reactive import reactive_figures
+from agvnav.vehicles import SteeredGeometry
 from agvnav.world import WorldMap
 from agvnav.world.scenario import Scenario
 
-__all__ = ["END_TOLERANCE_M", "FAILURE_REASONS", "REFERENCE_STEP_RAD", "SimResult", "reference_steps", "simulate"]
+__all__ = [
+    "END_TOLERANCE_M", "FAILURE_REASONS", "REFERENCE_STEP_RAD", "SimResult", "reference_steps", "result_of", "simulate",
+]
 
 #: Reasons a run fails (``off_path_at_end`` carries its miss distance in parentheses).
 FAILURE_REASONS = ("collision", "jackknife", "infeasible", "positioning_lost", "timeout", "off_path_at_end")
@@ -110,6 +114,12 @@ def simulate(
     if built is None:
         built = build(scenario)
     out = built.loop.run(built.duration, scenario.end_hold_s, progress)
+    return result_of(scenario, built, out, spec)
+
+
+def result_of(scenario: Scenario, built: Built, out: LoopOutput, spec: TransientSpec = DEFAULT_TRANSIENT) -> SimResult:
+    """The :class:`SimResult` of ``built``'s loop output ``out`` (a run of :func:`simulate`, or one
+    vehicle of a fleet stepped in lockstep: :mod:`agvnav.sim.fleet`)."""
     series = out.series
     _add_true_errors(series, built)
     mission_module: Any = None
@@ -221,7 +231,8 @@ def _add_true_errors(series: dict[str, NDArray[np.float64]], built: Built) -> No
     point = pose[:, :2] + off * np.column_stack([np.cos(pose[:, 2]), np.sin(pose[:, 2])])
     series["x_tracked"], series["y_tracked"] = point[:, 0].copy(), point[:, 1].copy()
     steered = built.plant.family == "steered"
-    L_true = float(getattr(built.plant, "L_true", built.plant.geometry.wheelbase)) if steered else 0.0
+    g = built.plant.geometry
+    L_true = float(getattr(built.plant, "L_true", g.wheelbase)) if isinstance(g, SteeredGeometry) else 0.0
     gamma = (series["gamma"] if "gamma" in series else series["phi"]) if steered else None
 
     def errors(k: slice, s_hint: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:

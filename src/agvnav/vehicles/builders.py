@@ -31,6 +31,7 @@ from agvnav.world.vehicle_specs import (
     MecanumSpec,
     MotorSpec,
     PidSpec,
+    QuadSteerSpec,
     SteeredVehicleSpec,
     SteeringSpec,
     TerrainFigures,
@@ -106,6 +107,15 @@ def _steered_rear(spec: TricycleRearSpec | AckermannSpec, state: Sequence[float]
     return SteeredPlant(
         spec.model, *_steered_args(spec, state), track=getattr(spec, "track_m", None), footprint=footprint(spec)
     )
+
+
+def _quad_steer(spec: QuadSteerSpec, state: Sequence[float]) -> SteeredPlant:
+    """The Ackermann equivalent of a counter-phase quad-steer vehicle: wheelbase L/2, base_link at the centre."""
+    half = 0.5 * spec.body_length_m
+    args = list(_steered_args(spec, state))
+    args[0] = 0.5 * spec.wheelbase_m
+    return SteeredPlant("ackermann", *args, track=spec.track_m,
+                        footprint=box_footprint(half, half, 0.5 * spec.body_width_m))
 
 
 def speed_loop(motor: MotorSpec, pid: PidSpec) -> WheelSpeedLoop:
@@ -184,6 +194,7 @@ PLANT_BUILDERS: dict[type[VehicleKindSpec], PlantBuilder] = {
     TricycleSpec: _tricycle,
     TricycleRearSpec: _steered_rear,
     AckermannSpec: _steered_rear,
+    QuadSteerSpec: _quad_steer,
     DifferentialSpec: _differential,
     TractorTrailerSpec: _tractor_trailer,
     MecanumSpec: _mecanum,

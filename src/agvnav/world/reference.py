@@ -18,12 +18,13 @@ from typing import Any, Literal, get_args, get_origin
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
+from agvnav.world.fleet import PER_VEHICLE_KEYS, SHARED_KEYS, FleetVehicleSpec
 from agvnav.world.limits import limits_reference
 from agvnav.world.scenario import Scenario
 from agvnav.world.strict import attribute_docs
 from agvnav.world.vehicle_specs import VEHICLE_KINDS
 
-__all__ = ["VEHICLE_SPECS", "KeyDoc", "scenario_reference", "schema_rows", "unit_of"]
+__all__ = ["VEHICLE_SPECS", "KeyDoc", "fleet_reference", "scenario_reference", "schema_rows", "unit_of"]
 
 #: The vehicle specs in the order the reference lists them (the kinds' registry).
 VEHICLE_SPECS: tuple[type[BaseModel], ...] = tuple(VEHICLE_KINDS.values())
@@ -131,6 +132,33 @@ def _table(rows: list[KeyDoc]) -> list[str]:
     return lines
 
 
+def fleet_reference() -> list[str]:
+    """The fleet section (issue 28): how a fleet document is laid out, and the keys of ``fleet.vehicles[]``."""
+    own = ", ".join(f"`{k}`" for k in PER_VEHICLE_KEYS)
+    shared = ", ".join(f"`{k}`" for k in SHARED_KEYS)
+    rows = [r for r in schema_rows(FleetVehicleSpec, "fleet.vehicles[].") if r.key.count(".") == 2
+            and r.key.rsplit(".", 1)[1] in ("id", "at")]
+    return [
+        "## Fleet scenarios: `fleet.vehicles`",
+        "",
+        "A fleet scenario (`agvnav simulate warehouse_fleet`) runs several vehicles in one world, stepped in lockstep:",
+        "each vehicle's body hides reflectors from the others' goniometers, shows on their safety scanners and",
+        "ultrasonic rangers, and a footprint contact between two vehicles (true poses) is a collision that ends the",
+        f"run. The top-level keys are those above: the world and the time are shared ({shared}), and {own}",
+        "are defaults a vehicle may give itself (its key replaces the shared one as a whole). A mission or a path is",
+        "each vehicle's own. Vehicle 0 runs with the fleet's `seed`, vehicle i > 0 with a seed derived from it and i.",
+        "Refused with file, line and key: duplicate ids, start footprints that overlap, a start pose off every node",
+        "of the vehicle's network, more mission vehicles on a network than it has stations.",
+        "",
+        *_table(rows),
+        "",
+        "A fleet run writes `metrics.json` (`fleet`: vehicles, completed, jobs_completed, deliveries_per_hour,",
+        "collisions, min_separation_m...; `vehicles`: one row per vehicle with the time it was slowed or stopped and",
+        "why; `runs`: each vehicle's single-run metrics), `timing.json`, `timeseries.csv` (every vehicle's series",
+        "in long form, `vehicle` its index first) and the plots `fleet_tracks.png`, `fleet_timeline.png`.",
+    ]
+
+
 def scenario_reference(outputs: list[str] | None = None) -> str:
     """The Markdown scenario reference: top-level keys, then the ``vehicle`` keys of every model.
 
@@ -155,7 +183,7 @@ def scenario_reference(outputs: list[str] | None = None) -> str:
         name = get_args(model)[0]
         doc = " ".join((inspect.getdoc(spec) or "").split("\n\n")[0].split())
         lines += ["", f"### `model: {name}`", "", doc, "", *_table(schema_rows(spec, "vehicle."))]
-    lines += ["", *limits_reference()]
+    lines += ["", *fleet_reference(), "", *limits_reference()]
     if outputs:
         lines += ["", *outputs]
     return "\n".join(lines) + "\n"

@@ -619,6 +619,10 @@ def _model_error(data: Mapping[str, Any], nodes: Any, source: str) -> ScenarioEr
 def parse_scenario(text: str, source: str = "<string>", base_dir: Path | None = None) -> Scenario:
     """Parse and validate scenario YAML ``text``; a ScenarioError names key and line."""
     data, nodes = load_yaml_document(text, source, "scenario")
+    if "fleet" in data:  # issue 28: agvnav.world.fleet.load_fleet reads it, agvnav simulate runs it
+        raise ScenarioError("a fleet scenario (fleet.vehicles), not a single vehicle's: run it with agvnav simulate "
+                            "(agvnav.world.fleet.load_fleet reads it)", ("fleet",), node_line(nodes, ("fleet",)),
+                            source)
     err = _model_error(data, nodes, source)
     if err is not None:
         raise err

@@ -26,6 +26,7 @@ __all__ = [
     "MecanumTruthSpec",
     "MotorSpec",
     "PidSpec",
+    "QuadSteerSpec",
     "SteeredTruthSpec",
     "SteeredVehicleSpec",
     "SteeringSpec",
@@ -144,6 +145,28 @@ class AckermannSpec(SteeredVehicleSpec):
     """distance between the two steered front wheels."""
     steering: SteeringSpec = SteeringSpec(max_angle_deg=35.0)
     """the steering servo (angle of the bicycle-equivalent wheel)."""
+
+
+class QuadSteerSpec(SteeredVehicleSpec):
+    """Four-wheel counter-phase steering (front and rear wheels at equal and opposite angles).
+
+    Its instantaneous centre of rotation lies on the lateral line through the body centre, so it
+    moves exactly as a bicycle of wheelbase ``wheelbase_m / 2`` whose driven rear axle is the
+    centre (seed 003 §3.2.6): it is simulated and guided as that Ackermann equivalent, base_link
+    at the centre, steering angle that of the front wheels' bicycle equivalent; the traction
+    encoder reads the centre's speed (a measuring wheel there, an assumption).
+    """
+
+    model: Literal["quad_steer"]
+    """vehicle model name."""
+    wheelbase_m: PosFloat = 1.6
+    """front axle to rear axle (the Ackermann equivalent's wheelbase is half of it)."""
+    track_m: PosFloat = 0.7
+    """distance between the two wheels of an axle."""
+    body_length_m: PosFloat = 2.0
+    """body length (footprint centred on base_link, the body centre)."""
+    steering: SteeringSpec = SteeringSpec(max_angle_deg=30.0)
+    """the steering servo (front wheels' bicycle-equivalent angle; the rear ones mirror it)."""
 
 
 class MotorSpec(StrictModel):
@@ -350,7 +373,8 @@ class TrackedSpec(VehicleKindSpec):
 
 
 VehicleSpec = Annotated[
-    TricycleSpec | TricycleRearSpec | AckermannSpec | DifferentialSpec | TractorTrailerSpec | MecanumSpec | TrackedSpec,
+    TricycleSpec | TricycleRearSpec | AckermannSpec | QuadSteerSpec
+    | DifferentialSpec | TractorTrailerSpec | MecanumSpec | TrackedSpec,
     Field(discriminator="model"),
 ]
 

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from agvnav.sim.safety import EstimatorWatch, GuardLimits, PositioningGuard, demanded_level, lateral_sigma
+from agvnav.navigation.guard import EstimatorWatch, GuardLimits, PositioningGuard, demanded_level, lateral_sigma
 
 LIM = GuardLimits(lateral_3sigma_slow_m=0.1, lateral_3sigma_stop_m=0.3, slow_speed_fraction=0.25, resume_after_s=1.0)
 

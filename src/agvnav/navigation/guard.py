@@ -25,7 +25,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvnav.roles import Estimator
 
 __all__ = [
     "GUARD_LEVELS",
@@ -33,6 +38,7 @@ __all__ = [
     "EstimatorWatch",
     "GuardLimits",
     "PositioningGuard",
+    "SpeedWatch",
     "demanded_level",
     "lateral_sigma",
 ]
@@ -143,6 +149,24 @@ class PositioningGuard:
         return GUARD_LEVELS[self.level]
 
 
+class SpeedWatch(Protocol):
+    """What an autopilot asks once per step before its speed profile: a speed scale (0..1) and the signals to record.
+
+    :class:`EstimatorWatch` (the positioning guard) is one; the reactive watch
+    (:class:`agvnav.navigation.reactive.ReactiveWatch`) composes the reaction to obstacles in.
+    """
+
+    @property
+    def signal_names(self) -> tuple[str, ...]:
+        """Names of :meth:`signals`."""
+
+    def scale(self, t: float, estimator: Estimator) -> float:
+        """The speed scale at ``t`` (s) from the estimate."""
+
+    def signals(self) -> tuple[float, ...]:
+        """Current values of ``signal_names``."""
+
+
 #: Signals a guard adds to the autopilot's recorded series (covariance entries in m², m·rad, rad²).
 GUARD_SIGNALS = (
     "guard_level",
@@ -178,9 +202,9 @@ class EstimatorWatch:
         nan = math.nan
         self._sig: tuple[float, ...] = (0.0, 1.0, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan)
 
-    def scale(self, t: float, estimator: Any) -> float:
+    def scale(self, t: float, estimator: Estimator) -> float:
         """The guard's speed scale at ``t`` (s) from ``estimator``'s status, covariance and heading."""
-        P = getattr(estimator, "covariance", None)
+        P: NDArray[np.float64] | None = getattr(estimator, "covariance", None)  # a bare pose source has none
         cov = _NO_COV if P is None else P.ravel().tolist()  # floats (a float64 array's tolist)
         psi = float(estimator.pose[2])
         scale = self.guard.update(t, str(estimator.status), None if P is None else cov, psi)
@@ -200,7 +224,7 @@ class EstimatorWatch:
         return self._sig
 
 
-def _quality(estimator: Any) -> float:
+def _quality(estimator: Estimator) -> float:
     """The estimator's quality as a float (its ``score`` when it is a record), NaN if absent."""
     q = getattr(estimator, "quality", None)
     if q is None:

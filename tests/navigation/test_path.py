@@ -5,8 +5,10 @@ from types import SimpleNamespace
 import numpy as np
 
 from agvnav.actuators import SpeedProfile
+from agvnav.guidance.follower import FollowErrors
 from agvnav.guidance.paths import LineSegment, Path, path_from_moves
-from agvnav.sim.roles import PathAutopilot
+from agvnav.navigation.path import PathAutopilot
+from agvnav.vehicles import UnicycleGeometry
 
 
 class _Follower:
@@ -18,11 +20,11 @@ class _Follower:
         self.paths.append(path)
 
     def command(self, pose, v, steering=0.0):
-        self.last_errors = SimpleNamespace(lateral=0.0, heading_error=0.0)
+        self.last_errors = FollowErrors(0.0, 0.0, 0.0, 0.0, 0.0, 1, 0)
         return 0.0, 0.0
 
 
-_PLANT = SimpleNamespace(family="unicycle", geometry=SimpleNamespace(track=0.5, wheel_radius=0.1))
+_PLANT = SimpleNamespace(family="unicycle", geometry=UnicycleGeometry(track=0.5, wheel_radius=0.1))
 
 
 def _pilot(path):
@@ -52,7 +54,7 @@ def test_stops_at_the_cusp_then_drives_the_next_run_backwards():
     pilot = _pilot(path)
     x, dt, speeds = 0.0, 0.05, []
     for k in range(400):
-        wr, wl = pilot.command(k * dt, SimpleNamespace(pose=np.array([x, 0.0, 0.0])), _PLANT, dt)
+        wr, wl = pilot.command(k * dt, SimpleNamespace(pose=np.array([x, 0.0, 0.0]), status="tracking"), _PLANT, dt)
         v = 0.5 * (wr + wl) * 0.1
         speeds.append(v)
         x += v * dt

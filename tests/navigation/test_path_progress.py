@@ -8,8 +8,8 @@ from tests.sim.conftest import scenario_text
 
 from agvnav.actuators import SpeedProfile
 from agvnav.guidance.paths import path_from_moves
+from agvnav.navigation.path import PathAutopilot
 from agvnav.sim import simulate
-from agvnav.sim.roles import PathAutopilot
 from agvnav.world.scenario import ScenarioError, parse_scenario
 
 # A U turn: 3 m east, half circle of radius 1 m to the left, 3 m west. Its end is 2 m left of its start.
@@ -21,6 +21,8 @@ U_SEGMENTS = (
 
 
 class _Estimator:
+    status = "tracking"
+
     def __init__(self, pose):
         self.pose = pose
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from agvnav.kinematics import MecanumBase
-from agvnav.sim.mission import spot_turn_lever
+from agvnav.navigation.fine_positioning import spot_turn_lever
 from agvnav.vehicles import HolonomicGeometry, SteeredGeometry, UnicycleGeometry
 
 
