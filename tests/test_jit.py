@@ -268,7 +268,7 @@ NESTED = {
     "wrap_angle_scalar": "wrap_angle_kernel", "offset_one": "offsets_at", "_hits_wall": "line_of_sight",
     "_hits_disc": "line_of_sight", "near_one": "near_rows", "_visit_box": "grid_rows", "_finite_poses": "scan_hermite",
     "_solve_augmented": "_fde_statistics", "_normal_equations": "_fde_statistics", "position_crlb_one": "best_triple",
-    "schmidt_accept": "gate_accept",
+    "schmidt_accept": "gate_accept", "total_core": "total_batch",
 }
 
 

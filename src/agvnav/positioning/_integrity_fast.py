@@ -32,6 +32,7 @@ from agvnav._jit import jit
 from agvnav.geometry.angles import wrap_angle_kernel
 from agvnav.positioning._fast import edge_bearing, increment_variances
 from agvnav.positioning._three import CRITICAL_TOL, REORDER_TOL
+from agvnav.positioning.total import total_core
 from agvnav.positioning.triangulation import LAYOUT_TOL, NONLINEAR_RATIO, PARALLEL_TOL
 
 __all__ = [
@@ -182,18 +183,7 @@ def total_fix(
         return TOTAL_INVALID, math.nan, math.nan
     t12 = 1.0 / ta
     t23 = 1.0 / tb
-    u1, v1 = x1 - x2, y1 - y2
-    u3, v3 = x3 - x2, y3 - y2
-    n = 1.0 - t12 * t23
-    d = t12 + t23
-    x12, y12 = u1 + t12 * v1, v1 - t12 * u1
-    x23, y23 = u3 - t23 * v3, v3 + t23 * u3
-    dx31 = d * (u3 + u1) + n * (v3 - v1)
-    dy31 = d * (v3 + v1) - n * (u3 - u1)
-    dk31 = d * (u1 * u3 + v1 * v3) + n * (u1 * v3 - u3 * v1)
-    a = y12 - y23
-    b = x23 - x12
-    dd = (x12 - x23) * (d * y23 - dy31) - a * (d * x23 - dx31)
+    a, b, dk31, dd = total_core(x1 - x2, y1 - y2, x3 - x2, y3 - y2, t12, t23)
     if dd == 0.0:
         return TOTAL_INVALID, math.nan, math.nan
     f = dk31 / dd

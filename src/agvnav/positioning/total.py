@@ -83,6 +83,28 @@ _CRIT2 = (2.0 * CRITICAL_TOL) ** 2
 
 
 @jit
+def total_core(u1: float, v1: float, u3: float, v3: float, t12: float, t23: float) -> tuple[float, float, float, float]:
+    """ToTal's circle intersection with reflector 2 as origin: ``(a, b, k'_31 d, D d)`` (see the module docstring).
+
+    ``u1, v1`` and ``u3, v3`` are ``x'_1, y'_1`` and ``x'_3, y'_3`` (m), ``t12, t23`` the cotangents
+    ``T_12, T_23``. The position is ``x_2 + f a``, ``y_2 + f b`` with ``f = k'_31 d / (D d)``; ``D d = 0``
+    on the critical circle. The one form of these equations: the batch (:func:`total_batch`) and
+    the integrity monitor's cross-check (``_integrity_fast.total_fix``) call it.
+    """
+    n = 1.0 - t12 * t23
+    d = t12 + t23
+    x12, y12 = u1 + t12 * v1, v1 - t12 * u1
+    x23, y23 = u3 - t23 * v3, v3 + t23 * u3
+    dx31 = d * (u3 + u1) + n * (v3 - v1)
+    dy31 = d * (v3 + v1) - n * (u3 - u1)
+    dk31 = d * (u1 * u3 + v1 * v3) + n * (u1 * v3 - u3 * v1)
+    a = y12 - y23
+    b = x23 - x12
+    dd = (x12 - x23) * (d * y23 - dy31) - a * (d * x23 - dx31)
+    return a, b, dk31, dd
+
+
+@jit
 def _div(a: float, b: float) -> float:
     """``a / b`` (IEEE, as NumPy divides): ``±inf`` or NaN for a zero ``b``, where Python and numba raise."""
     if b != 0.0:
@@ -163,18 +185,8 @@ def total_batch(
                 ta, tb = tn31, tn12
         t12 = _div(1.0, ta)
         t23 = _div(1.0, tb)
-        u1, v1 = x0 - x1, y0 - y1
-        u3, v3 = x2 - x1, y2 - y1
-        n = 1.0 - t12 * t23
-        d = t12 + t23
-        x12, y12 = u1 + t12 * v1, v1 - t12 * u1
-        x23, y23 = u3 - t23 * v3, v3 + t23 * u3
-        dx31 = d * (u3 + u1) + n * (v3 - v1)
-        dy31 = d * (v3 + v1) - n * (u3 - u1)
-        dk31 = d * (u1 * u3 + v1 * v3) + n * (u1 * v3 - u3 * v1)
-        a = y12 - y23
-        b = x23 - x12
-        dd = (x12 - x23) * (d * y23 - dy31) - a * (d * x23 - dx31)
+        a, b, dk31, dd = total_core(x0 - x1, y0 - y1, x2 - x1, y2 - y1, t12, t23)
+        d = t12 + t23  # quality 1/|D| = d/|D d|
         f = _div(dk31, dd)
         px = x1 + f * a
         py = y1 + f * b
