@@ -140,10 +140,7 @@ def _simulate(
         _print_json(result)
     else:
         print_table(_summary(result), wide=wide)
-    console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written), soft_wrap=True)
-    if not result.completed:
-        console.print(f"run FAILED: {result.reason}")
-        raise typer.Exit(RUN_FAILED_EXIT)
+    _written_and_judged(console, out, written, result.completed, f"run FAILED: {result.reason}")
     return None
 
 
@@ -179,9 +176,14 @@ def _simulate_fleet(
         print(json_document("scenario", fleet.name, body, fleet.seed, None))
     else:
         print_table(_fleet_table(result), wide=wide)
+    _written_and_judged(console, out, written, result.completed, f"fleet run FAILED: {result.reason}")
+
+
+def _written_and_judged(console: Console, out: Path, written: list[Path], completed: bool, failed: str) -> None:
+    """Name the files written, then judge the run: a failed one says so in one line and exits 3."""
     console.print(f"wrote {len(written)} files to {out}/: " + ", ".join(p.name for p in written), soft_wrap=True)
-    if not result.completed:
-        console.print(f"fleet run FAILED: {result.reason}")
+    if not completed:
+        console.print(failed)
         raise typer.Exit(RUN_FAILED_EXIT)
 
 
