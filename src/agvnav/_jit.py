@@ -27,11 +27,13 @@ beyond rounding. Where ``math`` raises ``ValueError`` on a non-finite or out-of-
 argument (``cos(inf)``, ``sqrt(-1)``), a compiled kernel returns NaN; the kernels' inputs are finite.
 
 numba's on-disk cache keys a kernel on its own source file only: a kernel that calls one in
-another file (``wrap_angle_kernel`` of ``geometry.angles`` from ``sensors.beam`` and
-``positioning.gating``, ``hermite_poses`` of ``geometry.hermite`` from ``sensors.beam``,
+another file (``wrap_angle_kernel`` of ``geometry.angles`` from ``sensors.beam``,
 ``positioning._fast``'s bearing and noise kernels from ``positioning._integrity_fast``) or reads
-another module's constant keeps stale machine code after an edit of the callee alone until its
-own file changes or ``__pycache__`` is cleared.
+another module's constant would keep stale machine code after an edit of the callee alone. So
+agvnav keeps its machine code in a cache folder of its own whose name is a key over every source
+file of the package (path, size, modification time; :func:`cache_dir`): an edit anywhere starts a
+fresh cache, and the previous caches are pruned (the newest :data:`KEEP_CACHES` stay). A user's own
+``NUMBA_CACHE_DIR`` wins.
 
 The mode is ``AGVNAV_JIT=0`` / ``1`` from the environment when set, else compiled unless
 a caller said otherwise (:func:`set_compiled`). It is resolved once, at the first call of
@@ -43,12 +45,15 @@ imported by ``import agvnav``, the CLI's ``--help`` or an interpreted run.
 from __future__ import annotations
 
 import functools
+import hashlib
 import math
 import os
+import shutil
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar, cast
 
-__all__ = ["Kernel", "compiled", "jit", "kernels", "mode", "set_compiled", "set_compiled_for_run"]
+__all__ = ["Kernel", "cache_dir", "compiled", "jit", "kernels", "mode", "set_compiled", "set_compiled_for_run"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -182,10 +187,60 @@ class Kernel:
         return f"Kernel({self.py_func.__module__}.{self.py_func.__qualname__})"
 
 
+#: How many of agvnav's kernel caches (one per state of the source) stay on disk.
+KEEP_CACHES = 3
+
+
+def _source_key(root: Path) -> str:
+    """A key over every ``.py`` file under ``root``: relative path, size and modification time (ns)."""
+    h = hashlib.blake2b(digest_size=8)
+    for folder, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+        for name in sorted(f for f in files if f.endswith(".py")):
+            st = os.stat(os.path.join(folder, name))
+            rel = os.path.relpath(os.path.join(folder, name), root)
+            h.update(f"{rel}:{st.st_size}:{st.st_mtime_ns}\n".encode())
+    return h.hexdigest()
+
+
+def cache_dir() -> Path:
+    """The folder numba keeps agvnav's machine code in: ``$XDG_CACHE_HOME/agvnav/numba/<source key>``.
+
+    The key changes with any edit of the package's source (:func:`_source_key`), so a kernel never
+    runs machine code compiled against another file's old kernels or constants.
+    """
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "agvnav" / "numba"
+    return base / _source_key(Path(__file__).resolve().parent)
+
+
+def _use_own_cache() -> None:
+    """Point numba's cache at :func:`cache_dir` (unless the user set ``NUMBA_CACHE_DIR``); prune old ones."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    from numba.core import config  # noqa: PLC0415
+
+    here = cache_dir()
+    try:
+        here.mkdir(parents=True, exist_ok=True)
+        os.utime(here)
+        _prune(here.parent, keep=here)
+    except OSError:
+        return  # an unwritable home: numba's default place (next to the sources) serves
+    config.CACHE_DIR = str(here)  # type: ignore[attr-defined]  # numba reads it when a cached dispatcher is made
+
+
+def _prune(base: Path, keep: Path) -> None:
+    """Remove all but the :data:`KEEP_CACHES` most recently used caches under ``base`` (never ``keep``)."""
+    caches = sorted((p for p in base.iterdir() if p.is_dir()), key=lambda p: p.stat().st_mtime, reverse=True)
+    for old in [p for p in caches if p != keep][KEEP_CACHES - 1:]:
+        shutil.rmtree(old, ignore_errors=True)
+
+
 def _register_with_numba() -> None:
     """Teach numba's typing that a :class:`Kernel` global is its dispatcher (once per process)."""
     if _state.get("registered"):
         return
+    _use_own_cache()
     import numpy as np  # noqa: PLC0415
     from numba import types  # noqa: PLC0415
     from numba.extending import overload, typeof_impl  # noqa: PLC0415
