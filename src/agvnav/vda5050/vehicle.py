@@ -327,6 +327,7 @@ class VdaVehicle:
         elif topic == "instantActions":
             self._receive_instant(msg)
         self._state_due = True
+        self._decide()  # an accepted order starts the drive in this step's command (order-to-motion latency)
 
     def _error(self, kind: str, refs: tuple[tuple[str, str], ...], text: str, level: str = "WARNING",
                slot: str = "order") -> None:
@@ -748,13 +749,16 @@ class VdaVehicle:
         self._progress()
         self._run_actions()
         self._check_instant()
-        self.pilot.hold = self.paused or self._blocking() or not self._localized
-        if (self.pilot.leg is None and not self.paused and self._localized and not self._blocking()
-                and self.failure is None and len(self.items) > 1):
-            self._start_leg()
+        self._decide()
         if was_driving != (self.pilot.v != 0.0):
             self._state_due = True
         self._emit()
+
+    def _decide(self) -> None:
+        """Hold while paused, blocked or not localized; start the next leg when there is one to drive."""
+        self.pilot.hold = self.paused or self._blocking() or not self._localized
+        if (self.pilot.leg is None and not self.pilot.hold and self.failure is None and len(self.items) > 1):
+            self._start_leg()
 
     def run_until(self, t: float, on_step: Callable[[], None] | None = None) -> None:
         """Step until simulated time ``t`` (s); ``on_step`` after each step."""
