@@ -248,6 +248,8 @@ class VdaVehicle:
             GuardLimits(s.lateral_3sigma_slow_m, s.lateral_3sigma_stop_m, s.slow_speed_fraction, s.resume_after_s),
             enabled=s.enabled and sc.goniometer is not None))
         self.estimator = built.estimator
+        # a leg ends on arriving at its node: no fine positioning at standstill (that is the finePositioning action)
+        self._leg_sc = sc.model_copy(update={"mission": sc.mission.model_copy(update={"align_heading": False})})
         self.pilot = _Pilot(str(built.plant.family))
         self.loop = ClosedLoop(built.loop.plant, built.loop.sensors, built.estimator, self.pilot, sc.step_s, sc.seed,
                                record_every=1_000_000)
@@ -542,7 +544,8 @@ class VdaVehicle:
         leg = Leg(0, "goto", nodes[-1][0], route, 0.0)
         try:
             plan = chain_mission([leg], np.array([start.x, start.y]), math.radians(net.spec.tolerances.heading_deg))
-            self.pilot.leg = mission_autopilot(self.sc, plan, self._follower, self._plant, self._offset, self._watch)
+            self.pilot.leg = mission_autopilot(self._leg_sc, plan, self._follower, self._plant, self._offset,
+                                               self._watch)
         except ValueError as exc:
             self._fail_drive(nodes[0][0], str(exc))
             return
@@ -559,7 +562,8 @@ class VdaVehicle:
         if leg is None:
             return
         sig = leg.signals()
-        passed = int(sig[leg.signal_names.index("nodes_passed")])
+        # the leg's last node is reached when the leg has stopped there (not on creeping within 5 cm of it)
+        passed = min(int(sig[leg.signal_names.index("nodes_passed")]), len(self.leg_nodes) - 1)
         if leg.finished:
             passed = len(self.leg_nodes) if leg.failure is None else passed
         while self.leg_passed < min(passed, len(self.leg_nodes)):
@@ -586,6 +590,8 @@ class VdaVehicle:
             if r.status != "WAITING":
                 continue
             alone = r.action.blocking_type in ("HARD", "SINGLE")
+            if r.action.blocking_type in ("SOFT", "HARD") and abs(self.pilot.v) > 1e-6:
+                break  # no automatic driving with it: it starts once the vehicle stands
             if alone and running:
                 break
             if any(x.action.blocking_type in ("HARD", "SINGLE") for x in running):
