@@ -12,6 +12,7 @@ and ``factsheet`` with QoS 0 (2.1 §6.2). paho-mqtt is the optional extra ``vda5
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import queue
@@ -178,10 +179,8 @@ def serve_mqtt(vehicle: VdaVehicle, host: str, port: int, time_scale: float = 1.
                 stop.wait(min(0.005, (vehicle.t + vehicle.dt - target) / time_scale))
     finally:
         info = client.publish(t("connection"), json.dumps(vehicle.connection("OFFLINE")), qos=1, retain=True)
-        try:
+        with contextlib.suppress(RuntimeError, ValueError):
             info.wait_for_publish(timeout=3.0)
-        except (RuntimeError, ValueError):
-            pass
         client.disconnect()
         client.loop_stop()
     return 0

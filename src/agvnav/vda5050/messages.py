@@ -245,27 +245,27 @@ class _Out(BaseModel):
 class Header(_Out):
     """The protocol header (not an object on the wire: its fields open every message)."""
 
-    headerId: int  # noqa: N815 - the wire's key
+    headerId: int
     timestamp: str
     version: str
     manufacturer: str
-    serialNumber: str  # noqa: N815
+    serialNumber: str
 
 
 class NodeState(_Out):
     """A node still to be traversed."""
 
-    nodeId: str  # noqa: N815
-    sequenceId: int  # noqa: N815
+    nodeId: str
+    sequenceId: int
     released: bool
-    nodePosition: dict[str, float | str] | None = None  # noqa: N815
+    nodePosition: dict[str, float | str] | None = None
 
 
 class EdgeState(_Out):
     """An edge still to be traversed."""
 
-    edgeId: str  # noqa: N815
-    sequenceId: int  # noqa: N815
+    edgeId: str
+    sequenceId: int
     released: bool
 
 
@@ -280,23 +280,23 @@ class Velocity(_Out):
 class ErrorReference(_Out):
     """One reference of an error."""
 
-    referenceKey: str  # noqa: N815
-    referenceValue: str  # noqa: N815
+    referenceKey: str
+    referenceValue: str
 
 
 class Error(_Out):
     """An error of the state."""
 
-    errorType: str  # noqa: N815
-    errorReferences: list[ErrorReference] | None = None  # noqa: N815
-    errorDescription: str | None = None  # noqa: N815
-    errorLevel: str  # noqa: N815
+    errorType: str
+    errorReferences: list[ErrorReference] | None = None
+    errorDescription: str | None = None
+    errorLevel: str
 
 
 class Load(_Out):
     """A load on the vehicle."""
 
-    loadId: str  # noqa: N815
+    loadId: str
 
 
 class AgvPosition(_Out):
@@ -305,10 +305,10 @@ class AgvPosition(_Out):
     x: float
     y: float
     theta: float
-    mapId: str  # noqa: N815
-    positionInitialized: bool  # noqa: N815
-    localizationScore: float | None = None  # noqa: N815
-    deviationRange: float | None = None  # noqa: N815
+    mapId: str
+    positionInitialized: bool
+    localizationScore: float | None = None
+    deviationRange: float | None = None
 
 
 class MobileRobotPosition(_Out):
@@ -317,69 +317,69 @@ class MobileRobotPosition(_Out):
     x: float
     y: float
     theta: float
-    mapId: str  # noqa: N815
+    mapId: str
     localized: bool
-    localizationScore: float | None = None  # noqa: N815
-    deviationRange: float | None = None  # noqa: N815
+    localizationScore: float | None = None
+    deviationRange: float | None = None
 
 
 class ActionStateV2(_Out):
     """2.x action state."""
 
-    actionId: str  # noqa: N815
-    actionType: str | None = None  # noqa: N815
-    actionStatus: Literal["WAITING", "INITIALIZING", "RUNNING", "FINISHED", "FAILED"]  # noqa: N815
-    resultDescription: str | None = None  # noqa: N815
+    actionId: str
+    actionType: str | None = None
+    actionStatus: Literal["WAITING", "INITIALIZING", "RUNNING", "FINISHED", "FAILED"]
+    resultDescription: str | None = None
 
 
 class ActionStateV3(_Out):
     """3.0 action state."""
 
-    actionId: str  # noqa: N815
-    actionType: str | None = None  # noqa: N815
-    actionStatus: Literal["WAITING", "INITIALIZING", "RUNNING", "PAUSED", "RETRIABLE", "FINISHED", "FAILED"]  # noqa: N815
-    actionResult: str | None = None  # noqa: N815
+    actionId: str
+    actionType: str | None = None
+    actionStatus: Literal["WAITING", "INITIALIZING", "RUNNING", "PAUSED", "RETRIABLE", "FINISHED", "FAILED"]
+    actionResult: str | None = None
 
 
 class BatteryState(_Out):
     """2.x ``batteryState`` (charge in %)."""
 
-    batteryCharge: float  # noqa: N815
+    batteryCharge: float
     charging: bool
 
 
 class PowerSupply(_Out):
     """3.0 ``powerSupply`` (state of charge in %)."""
 
-    stateOfCharge: float  # noqa: N815
+    stateOfCharge: float
     charging: bool
 
 
 class SafetyStateV2(_Out):
     """2.x ``safetyState``."""
 
-    eStop: Literal["AUTOACK", "MANUAL", "REMOTE", "NONE"]  # noqa: N815
-    fieldViolation: bool  # noqa: N815
+    eStop: Literal["AUTOACK", "MANUAL", "REMOTE", "NONE"]
+    fieldViolation: bool
 
 
 class SafetyStateV3(_Out):
     """3.0 ``safetyState``."""
 
-    activeEmergencyStop: Literal["MANUAL", "REMOTE", "NONE"]  # noqa: N815
-    fieldViolation: bool  # noqa: N815
+    activeEmergencyStop: Literal["MANUAL", "REMOTE", "NONE"]
+    fieldViolation: bool
 
 
 class _StateCommon(Header):
-    orderId: str  # noqa: N815
-    orderUpdateId: int  # noqa: N815
-    lastNodeId: str  # noqa: N815
-    lastNodeSequenceId: int  # noqa: N815
-    nodeStates: list[NodeState]  # noqa: N815
-    edgeStates: list[EdgeState]  # noqa: N815
+    orderId: str
+    orderUpdateId: int
+    lastNodeId: str
+    lastNodeSequenceId: int
+    nodeStates: list[NodeState]
+    edgeStates: list[EdgeState]
     driving: bool
     paused: bool
-    newBaseRequest: bool  # noqa: N815
-    distanceSinceLastNode: float  # noqa: N815
+    newBaseRequest: bool
+    distanceSinceLastNode: float
     velocity: Velocity
     loads: list[Load]
     errors: list[Error]
@@ -388,43 +388,43 @@ class _StateCommon(Header):
 class StateV2(_StateCommon):
     """The 2.0.0/2.1.0 ``state`` message."""
 
-    operatingMode: Literal["AUTOMATIC", "SEMIAUTOMATIC", "MANUAL", "SERVICE", "TEACHIN"]  # noqa: N815
-    agvPosition: AgvPosition  # noqa: N815
-    actionStates: list[ActionStateV2]  # noqa: N815
-    batteryState: BatteryState  # noqa: N815
-    safetyState: SafetyStateV2  # noqa: N815
+    operatingMode: Literal["AUTOMATIC", "SEMIAUTOMATIC", "MANUAL", "SERVICE", "TEACHIN"]
+    agvPosition: AgvPosition
+    actionStates: list[ActionStateV2]
+    batteryState: BatteryState
+    safetyState: SafetyStateV2
 
 
 class StateV3(_StateCommon):
     """The 3.0.0 ``state`` message (instant actions reported apart from the order's)."""
 
-    operatingMode: Literal["STARTUP", "AUTOMATIC", "SEMIAUTOMATIC", "INTERVENED", "MANUAL", "SERVICE", "TEACH_IN"]  # noqa: N815
-    mobileRobotPosition: MobileRobotPosition  # noqa: N815
-    actionStates: list[ActionStateV3]  # noqa: N815
-    instantActionStates: list[ActionStateV3]  # noqa: N815
-    powerSupply: PowerSupply  # noqa: N815
-    safetyState: SafetyStateV3  # noqa: N815
+    operatingMode: Literal["STARTUP", "AUTOMATIC", "SEMIAUTOMATIC", "INTERVENED", "MANUAL", "SERVICE", "TEACH_IN"]
+    mobileRobotPosition: MobileRobotPosition
+    actionStates: list[ActionStateV3]
+    instantActionStates: list[ActionStateV3]
+    powerSupply: PowerSupply
+    safetyState: SafetyStateV3
 
 
 class VisualizationV2(Header):
     """The 2.x ``visualization`` message."""
 
-    agvPosition: AgvPosition  # noqa: N815
+    agvPosition: AgvPosition
     velocity: Velocity
 
 
 class VisualizationV3(Header):
     """The 3.0 ``visualization`` message (it names the state it follows)."""
 
-    referenceStateHeaderId: int  # noqa: N815
-    mobileRobotPosition: MobileRobotPosition  # noqa: N815
+    referenceStateHeaderId: int
+    mobileRobotPosition: MobileRobotPosition
     velocity: Velocity
 
 
 class Connection(Header):
     """The ``connection`` message."""
 
-    connectionState: Literal["ONLINE", "OFFLINE", "CONNECTIONBROKEN", "CONNECTION_BROKEN"]  # noqa: N815
+    connectionState: Literal["ONLINE", "OFFLINE", "CONNECTIONBROKEN", "CONNECTION_BROKEN"]
 
 
 def _header(header_id: int, t: datetime, version: str, manufacturer: str, serial: str) -> dict[str, object]:

@@ -31,7 +31,7 @@ from typing import cast
 
 from jsonschema import Draft202012Validator
 
-__all__ = ["JsonObject", "TOPICS", "VERSIONS", "major", "problems", "schema", "unknown_keys"]
+__all__ = ["TOPICS", "VERSIONS", "JsonObject", "major", "problems", "schema", "unknown_keys"]
 
 #: A parsed JSON object (the messages are plain JSON; values are checked by the schemas).
 JsonObject = dict[str, object]
@@ -154,5 +154,6 @@ def problems(message: object, version: str, topic: str, strict: bool = True) -> 
         for e in sorted(_validator(version, topic).iter_errors(message), key=lambda e: list(map(str, e.absolute_path)))
     ]
     if strict:
-        out.extend(f"{k}: key not defined by the {version} {topic} schema" for k in unknown_keys(message, version, topic))
+        out.extend(f"{k}: key not defined by the {version} {topic} schema"
+                   for k in unknown_keys(message, version, topic))
     return out

@@ -54,6 +54,7 @@ reflectors): it runs until the estimator has a fix, then FINISHES when the fix l
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from collections.abc import Callable
@@ -81,7 +82,6 @@ from agvnav.vda5050.messages import (
     ActionSnap,
     ErrorSnap,
     FactsheetData,
-    Edge as OrderEdge,
     Node,
     Order,
     Snapshot,
@@ -92,6 +92,9 @@ from agvnav.vda5050.messages import (
     state_message,
     visualization_message,
     wall_time,
+)
+from agvnav.vda5050.messages import (
+    Edge as OrderEdge,
 )
 from agvnav.vda5050.schemas import JsonObject, major, problems
 from agvnav.world.scenario import Scenario
@@ -167,7 +170,7 @@ class VehicleConfig:
                                  f"or empty, got {name!r}")
 
 
-class _Rejected(Exception):  # noqa: N818 - a control-flow signal, not an error of the program
+class _Rejected(Exception):
     """An order refused: error kind, references, description."""
 
     def __init__(self, kind: str, refs: tuple[tuple[str, str], ...], text: str) -> None:
@@ -360,11 +363,11 @@ class VdaVehicle:
         seqs = [o.nodes[0].sequence_id]
         for e, n in zip(o.edges, o.nodes[1:], strict=True):
             seqs += [e.sequence_id, n.sequence_id]
-        if any(b <= a for a, b in zip(seqs, seqs[1:], strict=False)):
+        if any(b <= a for a, b in itertools.pairwise(seqs)):
             raise bad("sequenceIds must increase along the order, node, edge, node, ...")
         released = [o.nodes[0].released] + [x.released for e, n in zip(o.edges, o.nodes[1:], strict=True)
                                             for x in (e, n)]
-        if not released[0] or any(b and not a for a, b in zip(released, released[1:], strict=False)):
+        if not released[0] or any(b and not a for a, b in itertools.pairwise(released)):
             raise bad("the base (released nodes and edges) must come first and start with the first node")
         for i, e in enumerate(o.edges):
             a, b = o.nodes[i].node_id, o.nodes[i + 1].node_id
@@ -567,7 +570,7 @@ class VdaVehicle:
         if leg.finished:
             passed = len(self.leg_nodes) if leg.failure is None else passed
         while self.leg_passed < min(passed, len(self.leg_nodes)):
-            nid, seq = self.leg_nodes[self.leg_passed]
+            _, seq = self.leg_nodes[self.leg_passed]
             self.leg_passed += 1
             item = next(it for it in self.items if it.node is not None and it.seq == seq)
             self._traverse(item)
@@ -821,7 +824,7 @@ class VdaVehicle:
         """The ``factsheet`` message from the vehicle spec (kinematics, REFLECTOR, physical limits)."""
         v, tc, c = self.sc.vehicle, self.sc.traction, self.cfg
         kin = {"holonomic": "OMNI", "unicycle": "DIFF", "steered": "THREEWHEEL"}[str(self._plant.family)]
-        scopes = [(a, ("NODE", "EDGE")) for a in ORDER_ACTIONS]
+        scopes: list[tuple[str, tuple[str, ...]]] = [(a, ("NODE", "EDGE")) for a in ORDER_ACTIONS]
         scopes += [(a, ("INSTANT",)) for a in INSTANT_ACTIONS[major(c.version)]]
         data = FactsheetData(
             series=f"agvnav {v.model}", kinematic=kin, speed_max=tc.speed_m_s, accel_max=tc.max_accel_m_s2,
