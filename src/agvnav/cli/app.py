@@ -43,6 +43,10 @@ LAZY_COMMANDS: dict[str, tuple[str, str, str]] = {
         "agvnav.cli.mapping", "map_command",
         "Map the reflectors from a recorded drive (SLAM); write a map YAML with per-reflector covariance.",
     ),
+    "vehicle": (
+        "agvnav.cli.vehicle", "vehicle",
+        "Run a scenario's vehicle as a VDA 5050 vehicle on an MQTT broker until SIGINT/SIGTERM.",
+    ),
     "report": (
         "agvnav.cli.report", "report",
         "Write one self-contained HTML report (plots, metrics, a time slider) of a run folder.",
