@@ -145,3 +145,25 @@ def test_not_localized_refuses_to_drive(monkeypatch: pytest.MonkeyPatch) -> None
     run(bus, v, 3.0)  # the positioning guard resumes after its delay
     assert v.state()["driving"] and "LOCALIZATION_ERROR" not in errors(v)
     assert bus.checked.failures == []
+
+
+@pytest.mark.parametrize("version", ["2.0.0", "3.0.0"])
+def test_link_lost_stands_still_then_reports_and_resumes(version: str) -> None:
+    v, m, bus, states = make(version)
+    run(bus, v, 0.5)
+    v.receive("order", json.dumps(m.order("o1", 0, ["S1", "P"], 2)))
+    run(bus, v, 4.0)
+    assert v.pilot.v > 0.0
+    v.link_lost()
+    bus.step()
+    assert v.pilot.hold and v.pilot.v == 0.0  # an immediate zero command, as a pause
+    run(bus, v, 3.0)
+    assert v._speed() < 0.01
+    v.link_restored()
+    run(bus, v, 0.1)
+    info = states[-1]["information"]
+    assert [i["infoType"] for i in info] == ["brokerConnectionLost"]  # type: ignore[union-attr, index]
+    text = info[0]["infoDescriptor" if version == "3.0.0" else "infoDescription"]  # type: ignore[index]
+    assert "lost for 3.1 s" in text  # 3 s and the step of the loss
+    run(bus, v, 2.0)
+    assert v.pilot.v > 0.0 and bus.checked.failures == []

@@ -41,6 +41,8 @@ __all__ = [
 #: Topics a vehicle subscribes to, and those it publishes.
 MASTER_TOPICS = ("order", "instantActions")
 VEHICLE_TOPICS = ("state", "visualization", "connection", "factsheet")
+#: The inbox's name for a change of the broker link (not a topic: topics never hold '/').
+LINK = "/link"
 
 
 class MissingExtraError(RuntimeError):
@@ -127,6 +129,13 @@ def serve_mqtt(vehicle: VdaVehicle, host: str, port: int, time_scale: float = 1.
     handed to the vehicle between steps (paho's network thread only queues them). A lost broker: the
     vehicle holds (the order keeps its base), paho reconnects, ONLINE is published again, and an
     information line says so through ``log``.
+
+    A lost broker (:meth:`~agvnav.vda5050.vehicle.VdaVehicle.link_lost`): the vehicle stands still
+    at once, as on a pause, while paho reconnects (every 1 to 5 s); on reconnection ONLINE is
+    published again with the last will set anew, the vehicle reports an information entry
+    ``brokerConnectionLost`` (how long, how far it moved while stopping) in its next state and
+    goes on with its order. Meanwhile the broker has published the will (CONNECTIONBROKEN) if it
+    saw the connection break while it stayed up.
     """
     mqtt = require_mqtt()
     if not (math.isfinite(time_scale) and time_scale > 0):
@@ -148,11 +157,13 @@ def serve_mqtt(vehicle: VdaVehicle, host: str, port: int, time_scale: float = 1.
         client.publish(t("connection"), json.dumps(vehicle.connection("ONLINE")), qos=1, retain=True)
         if connected.is_set():
             say("reconnected to the broker")
+            inbox.put((LINK, b"up"))
         connected.set()
 
     def on_disconnect(cl: object, userdata: object, flags: object, rc: object, props: object = None) -> None:
         if not stop.is_set():
-            say(f"broker connection lost ({rc}); reconnecting")
+            inbox.put((LINK, b"down"))
+            say(f"broker connection lost ({rc}); the vehicle stands still; reconnecting")
 
     def on_message(cl: object, userdata: object, msg: object) -> None:
         inbox.put((str(getattr(msg, "topic", "")).rsplit("/", 1)[-1], bytes(getattr(msg, "payload", b""))))
@@ -169,7 +180,12 @@ def serve_mqtt(vehicle: VdaVehicle, host: str, port: int, time_scale: float = 1.
         while not stop.is_set():
             while not inbox.empty():
                 name, payload = inbox.get_nowait()
-                vehicle.receive(name, payload)
+                if name != LINK:
+                    vehicle.receive(name, payload)
+                elif payload == b"down":
+                    vehicle.link_lost()
+                else:
+                    vehicle.link_restored()
             target = start_sim + (time.monotonic() - start_wall) * time_scale
             if vehicle.t + vehicle.dt <= target:
                 vehicle.step()

@@ -271,7 +271,11 @@ class VdaVehicle:
         self.leg_nodes: list[tuple[str, int]] = []
         self.leg_passed = 0
         self.errors: dict[str, ErrorSnap] = {}
+        self.information: dict[str, ErrorSnap] = {}
         self.failure: str | None = None
+        self.link_lost_at: float | None = None
+        """simulated time the broker connection was lost (None: connected); the vehicle holds meanwhile."""
+        self._link_lost_pose = np.zeros(3)
         # publishing
         self.outbox: list[tuple[str, JsonObject]] = []
         self.header: dict[str, int] = {}
@@ -315,6 +319,29 @@ class VdaVehicle:
         c = self.cfg
         return connection_message(state, self._next_header("connection"), self._now(), c.version, c.manufacturer,
                                   c.serial)
+
+    # ------------------------------------------------------------------------------ link to the master
+    def link_lost(self) -> None:
+        """The broker connection is lost: the vehicle stands still (an immediate zero command, as a pause)."""
+        if self.link_lost_at is None:
+            self.link_lost_at = self.t
+            self._link_lost_pose = np.asarray(self.truth_plant.pose, dtype=np.float64).copy()
+            self._decide()
+
+    def link_restored(self) -> None:
+        """The broker connection is back: an information entry says what happened; the order goes on."""
+        if self.link_lost_at is None:
+            return
+        lost = self.link_lost_at
+        self.link_lost_at = None
+        moved = float(np.hypot(*(np.asarray(self.truth_plant.pose, dtype=np.float64)[:2] - self._link_lost_pose[:2])))
+        self.information["link"] = ErrorSnap(
+            "brokerConnectionLost", "INFO", (("lostAt", wall_time(self.cfg.epoch, lost).isoformat()),),
+            f"broker connection lost for {self.t - lost:.1f} s; "
+            f"the vehicle held still meanwhile ({moved:.2f} m while stopping) and resumed its order on reconnection")
+        if self.pilot.leg is not None:
+            self.pilot.leg.profile.reset(0.0)
+        self._state_due = True
 
     # ------------------------------------------------------------------------------ inputs
     def receive(self, topic: str, payload: bytes | str | JsonObject) -> None:
@@ -413,6 +440,7 @@ class VdaVehicle:
         self.order_id, self.update_id = o.order_id, o.order_update_id
         self.cancelled = False
         self.errors.pop("order", None)
+        self.information.pop("link", None)
         self.last_order_s = self.t
         self._state_due = True
 
@@ -765,7 +793,7 @@ class VdaVehicle:
 
     def _decide(self) -> None:
         """Hold while paused, blocked or not localized; start the next leg when there is one to drive."""
-        self.pilot.hold = self.paused or self._blocking() or not self._localized
+        self.pilot.hold = self.paused or self._blocking() or not self._localized or self.link_lost_at is not None
         if (self.pilot.leg is None and not self.pilot.hold and self.failure is None and len(self.items) > 1):
             self._start_leg()
 
@@ -813,6 +841,7 @@ class VdaVehicle:
             localization_score=float(quality) if isinstance(quality, float) and self._localized else None,
             deviation_range=self.deviation_range(), velocity=self.velocity, actions=acts,
             errors=tuple(self.errors.values()), loads=tuple(self.loads),
+            information=tuple(self.information.values()),
         )
 
     def state(self) -> JsonObject:
