@@ -52,6 +52,7 @@ def test_bad_orders_are_rejected_and_the_vehicle_stays_idle(version: str) -> Non
     st = v.state()
     refs = {r["referenceKey"]: r["referenceValue"] for r in st["errors"][0]["errorReferences"]}  # type: ignore[index]
     assert refs["nodeId"] == "NOPE" and refs["orderId"] == "o"
+    assert refs["orderUpdateId"] == "0" and refs["topic"] == "order"  # a master attributes it by these
     no_edge = m.order("o", 0, ["S1", "Q"], 2)  # no edge S1 -> Q
     v.receive("order", json.dumps(no_edge))
     assert errors(v) == ["NO_ROUTE_TO_TARGET" if v3 else "noRouteError"]
@@ -115,6 +116,10 @@ def test_order_update_pause_pick_and_cancel() -> None:
     assert next(a for a in st["actionStates"] if a["actionId"] == "pk")["actionStatus"] == "FINISHED"  # type: ignore[union-attr]
     assert st["loads"] and st["driving"]
     bus.publish_master("S", "instantActions", m.instant(m.action("cancelOrder", "cx")))
+    bus.step()
+    st = v.state()  # stopping: the cancel runs, the order's states stay until it stands (a master sees why it ends)
+    cx = next(a for a in st["actionStates"] if a["actionId"] == "cx")  # type: ignore[union-attr]
+    assert cx["actionStatus"] == "RUNNING" and st["nodeStates"] != []
     run(bus, v, 3.0)
     st = v.state()
     cx = next(a for a in st["actionStates"] if a["actionId"] == "cx")  # type: ignore[union-attr]

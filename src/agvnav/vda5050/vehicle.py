@@ -33,7 +33,8 @@ arrival in order; NONE and SOFT run in parallel, SINGLE and HARD alone; SOFT and
 driving until they end. ``pick``/``drop`` (a load on/off), ``finePositioning`` take
 :attr:`VehicleConfig.action_s` seconds (a ``duration`` parameter overrides). Instant actions:
 ``startPause``/``stopPause``, ``cancelOrder`` (waiting and running actions FAILED, the vehicle
-stops, the cancel FINISHED once it stands; without an order ``noOrderToCancel`` /
+stops, the cancel FINISHED once it stands, and only then the node and edge states cleared, so a
+master sees the order end by the cancel; without an order ``noOrderToCancel`` /
 ``NO_ORDER_TO_CANCEL``), ``initPosition`` (2.x) / ``initializePosition`` (3.0), ``stateRequest``,
 ``factsheetRequest``.
 
@@ -377,7 +378,10 @@ class VdaVehicle:
             self._check_form(order, refs)
             self._accept(order, refs)
         except _Rejected as rej:
-            self._error(rej.kind, rej.refs, rej.text)
+            # every rejection names the order (topic, headerId, orderId, orderUpdateId) and then what was wrong:
+            # masters attribute a rejection to the order they sent by these references (2.1 §6.6.4)
+            named = (("topic", "order"), *refs)
+            self._error(rej.kind, (*named, *(r for r in rej.refs if r[0] not in dict(named))), rej.text)
         except ValidationError as exc:
             self._error("validation", (("topic", "order"), *refs), str(exc).splitlines()[0])
 
@@ -710,15 +714,15 @@ class VdaVehicle:
         for a in self.actions:
             if a.status not in DONE:
                 a.status, a.result = "FAILED", "cancelled"
-        self.items = self.items[:1]
-        self.pilot.leg = None
+        self.pilot.leg = None  # no new leg while cancelling (_decide)
         self.cancelled = True
-        self.cancel_run = r  # FINISHED once the vehicle stands
+        self.cancel_run = r  # FINISHED once the vehicle stands; the node and edge states are cleared then
 
     def _check_instant(self) -> None:
         if self.cancel_run is not None and abs(self.pilot.v) < 1e-6 and self._speed() < 0.01:
             self.cancel_run.status = "FINISHED"
             self.cancel_run = None
+            self.items = self.items[:1]
             self._state_due = True
         for r in self.instant:
             if r.status == "RUNNING" and r.action.action_type in ("initPosition", "initializePosition"):
@@ -794,7 +798,8 @@ class VdaVehicle:
     def _decide(self) -> None:
         """Hold while paused, blocked or not localized; start the next leg when there is one to drive."""
         self.pilot.hold = self.paused or self._blocking() or not self._localized or self.link_lost_at is not None
-        if (self.pilot.leg is None and not self.pilot.hold and self.failure is None and len(self.items) > 1):
+        if (self.pilot.leg is None and not self.pilot.hold and self.failure is None and self.cancel_run is None
+                and len(self.items) > 1):
             self._start_leg()
 
     def run_until(self, t: float, on_step: Callable[[], None] | None = None) -> None:
