@@ -100,3 +100,28 @@ def test_vda_5050_lib_master_drives_agvnav_vehicle(broker: int, tmp_path: Path) 
     assert all(r["ok"] for r in steps.values()), run.stdout
     assert run.returncode == 0
     assert steps["invalid order rejected"]["error"]["errorType"] == "noRouteError"
+
+
+def test_agvnav_master_drives_vda_5050_lib_vehicle(broker: int, tmp_path: Path) -> None:
+    """``agvnav fleet`` drives the library's AgvController (its VirtualAgvAdapter) through a pick and a drop job."""
+    folder = interop_dir()
+    network_json(tmp_path / "net.json")
+    agv = subprocess.Popen(["node", "agv_for_agvnav_master.js", f"mqtt://127.0.0.1:{broker}", "vlib", "x1",
+                            str(tmp_path / "net.json"), "S1"], cwd=folder, stdout=subprocess.PIPE,
+                           stderr=subprocess.STDOUT, text=True)
+    spec = tmp_path / "fleet.yaml"
+    spec.write_text("scenario: mission_hall_differential\nversion: 2.0.0\nmanufacturer: vlib\n"
+                    "vehicles: [{serial: x1, start: S1}]\njobs: 2\ntimeout_s: 50\naction_s: 0.5\n", encoding="utf-8")
+    try:
+        assert agv.stdout is not None and json.loads(agv.stdout.readline())["event"] == "started"
+        run = subprocess.run([sys.executable, "-c", CLI, "fleet", str(spec), "--broker", f"mqtt://127.0.0.1:{broker}"],
+                             env=os.environ | {"PYTHONPATH": str(SRC)}, capture_output=True, text=True, timeout=90,
+                             check=False)
+    finally:
+        agv.terminate()
+        out = agv.communicate(timeout=20)[0]
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "x1: 2 jobs done, 0 orders rejected" in run.stdout
+    assert "(schema failures 0), received" in run.stdout and run.stdout.rstrip().endswith("(schema failures 0)")
+    orders = [json.loads(line) for line in out.splitlines() if line.startswith('{"event":"order"')]
+    assert [o["orderUpdateId"] for o in orders][:2] == [0, 1]  # the horizon released by an update

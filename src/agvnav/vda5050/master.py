@@ -15,15 +15,25 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from pathlib import Path
+from typing import Literal
 
 import numpy as np
+from pydantic import Field, model_validator
 
 from agvnav.routes.network import RouteNetwork
 from agvnav.routes.planning import Planner, VehicleLimits
 from agvnav.vda5050.messages import iso_timestamp
 from agvnav.vda5050.schemas import JsonObject, major
+from agvnav.world.strict import (
+    SourcedModel,
+    StrictModel,
+    load_yaml_document,
+    read_document_text,
+    validate_document,
+)
 
-__all__ = ["JobMaster", "MasterMessages"]
+__all__ = ["FleetSpec", "FleetVehicle", "JobMaster", "MasterMessages", "job_master", "load_fleet_spec"]
 
 
 @dataclass
@@ -104,7 +114,7 @@ class _Dispatch:
 class JobMaster:
     """A small master control: pick-and-drop jobs between random stations, over any transport.
 
-    For every vehicle (``serials``, all starting at ``start``) it plans the fastest route
+    For every vehicle (``serials``, starting at ``start``: one node for all, or per serial) it plans the fastest route
     (:class:`~agvnav.routes.planning.Planner`) from where the vehicle stands to the next station
     and sends it as an order with a ``pick`` (then a ``drop``) at its last node: the first half
     of the route released, the rest as horizon, released by an order update stitched at the
@@ -116,14 +126,18 @@ class JobMaster:
     """
 
     def __init__(self, network: RouteNetwork, map_id: str, version: str, manufacturer: str, serials: Sequence[str],
-                 start: str, send: Callable[[str, str, JsonObject], None], model: str = "differential",
-                 seed: int = 0, instant_period_s: float = 60.0, pause_s: float = 2.0) -> None:
+                 start: str | dict[str, str], send: Callable[[str, str, JsonObject], None],
+                 model: str = "differential", seed: int = 0, instant_period_s: float = 60.0, pause_s: float = 2.0,
+                 action_s: float = 3.0) -> None:
         self.network, self.send = network, send
         self.planner = Planner(network, VehicleLimits(model))
-        self.stations = [s for s in network.stations if s != start] or [start]
+        starts = start if isinstance(start, dict) else dict.fromkeys(serials, start)
+        self.stations = [s for s in network.stations if s not in starts.values()] or list(network.stations)
         self.rng = np.random.default_rng(seed)
-        self.instant_period_s, self.pause_s = instant_period_s, pause_s
-        self.vehicles = {s: _Dispatch(MasterMessages(network, map_id, version, manufacturer, s), start)
+        self.max_jobs: float = math.inf
+        """jobs per vehicle after which no new order is sent."""
+        self.instant_period_s, self.pause_s, self.action_s = instant_period_s, pause_s, action_s
+        self.vehicles = {s: _Dispatch(MasterMessages(network, map_id, version, manufacturer, s), starts[s])
                          for s in serials}
         for d in self.vehicles.values():
             d.next_instant = self._gap()
@@ -144,7 +158,7 @@ class JobMaster:
             if d.paused_until is not None and t >= d.paused_until:
                 self.send(serial, "instantActions", d.messages.instant(d.messages.action("stopPause", f"sp{t:.2f}")))
                 d.paused_until = None
-            if not d.busy:
+            if not d.busy and d.done < self.max_jobs:
                 self._dispatch(serial, d)
             if t >= d.next_instant and d.paused_until is None:
                 kind = str(self.rng.choice(["stateRequest", "factsheetRequest", "startPause"]))
@@ -162,8 +176,10 @@ class JobMaster:
         d.order += 1
         released = max(2, (len(nodes) + 1) // 2)
         act = "drop" if d.carrying else "pick"
-        d.goal_actions = [MasterMessages.action(act, f"{serial}-{d.order}-{act}", "HARD",
-                                                loadId=f"load-{serial}-{d.order - int(d.carrying)}")]
+        # the predefined parameters of pick/drop (2.1 §6.8.1): the station and load types, the load's id
+        d.goal_actions = [MasterMessages.action(act, f"{serial}-{d.order}-{act}", "HARD", stationType="floor",
+                                                loadType="EPAL", loadId=f"load-{serial}-{d.order - int(d.carrying)}",
+                                                duration=self.action_s)]
         self.send(serial, "order", d.messages.order(f"{serial}-job{d.order}", 0, nodes, released, 0,
                                                     {len(nodes) - 1: d.goal_actions}))
         d.busy, d.update_id = True, 0
@@ -208,3 +224,76 @@ class JobMaster:
                              d.decision_seq, {len(d.horizon) - 1: d.goal_actions})
         self.send(serial, "order", m)
         d.horizon = ()
+
+
+class FleetVehicle(StrictModel):
+    """One vehicle the master dispatches to."""
+
+    serial: str
+    """its serialNumber (a topic level)."""
+    start: str
+    """the network node it stands at when the master starts."""
+
+
+class FleetSpec(SourcedModel):
+    """What ``agvnav fleet SPEC`` dispatches: the route network (a scenario's), the vehicles, the jobs."""
+
+    scenario: str
+    """scenario file or shipped name whose ``mission.network`` and ``map`` the orders use."""
+    version: Literal["2.0.0", "2.1.0", "3.0.0"] = "2.1.0"
+    """VDA 5050 version spoken."""
+    interface: str = "uagv"
+    """interface name, the first topic level."""
+    manufacturer: str
+    """the vehicles' manufacturer (a topic level)."""
+    vehicles: list[FleetVehicle] = Field(min_length=1)
+    """the vehicles, with distinct serials."""
+    jobs: int = Field(default=2, ge=1)
+    """pick-or-drop jobs per vehicle before the master ends."""
+    timeout_s: float = Field(default=600.0, gt=0.0)
+    """wall-clock limit (s): the run fails when the jobs are not done by then."""
+    action_s: float = Field(default=3.0, ge=0.0)
+    """``duration`` parameter of every pick and drop (s)."""
+    instant_period_s: float = Field(default=0.0, ge=0.0)
+    """mean interval (s) of the stateRequest/factsheetRequest/pause instant actions (0: none)."""
+    seed: int = Field(default=0, ge=0)
+    """seed of the choice of stations."""
+
+    @model_validator(mode="after")
+    def _distinct(self) -> FleetSpec:
+        serials = [v.serial for v in self.vehicles]
+        if len(set(serials)) != len(serials):
+            raise ValueError(f"vehicles: serials must be distinct, got {serials}")
+        for name in (self.interface, self.manufacturer, *serials):
+            if not name or any(c in name for c in "/#+$"):
+                raise ValueError(f"interface, manufacturer and serials are topic levels: no '/', '#', '+', '$' or "
+                                 f"empty, got {name!r}")
+        return self
+
+
+def load_fleet_spec(path: str | Path) -> FleetSpec:
+    """Read a fleet spec YAML file; a ScenarioError names file, line and key."""
+    text = read_document_text(path, "fleet spec")
+    data, nodes = load_yaml_document(text, str(path), "fleet spec")
+    return validate_document(FleetSpec, data, nodes, str(path), Path(path).parent)
+
+
+def job_master(fs: FleetSpec) -> JobMaster:
+    """The :class:`JobMaster` of spec ``fs`` (its messages go nowhere until a transport sets ``send``).
+
+    ValueError when the scenario has no route network or a vehicle starts off its nodes.
+    """
+    from agvnav.sim.mission import load_mission_network  # noqa: PLC0415 - a spec's scenario, read when used
+    from agvnav.world.scenario import load_scenario  # noqa: PLC0415
+
+    sc = load_scenario(fs.scenario)
+    if sc.mission is None:
+        raise ValueError(f"scenario {fs.scenario!r} has no route network (mission.network)")
+    net = load_mission_network(sc)
+    for v in fs.vehicles:
+        if v.start not in net.nodes:
+            raise ValueError(f"vehicle {v.serial!r} starts at {v.start!r}, not a node of {sc.mission.network!r}")
+    map_id = sc.map if isinstance(sc.map, str) else str(sc.map.get("name", "map"))
+    return JobMaster(net, map_id, fs.version, fs.manufacturer, [v.serial for v in fs.vehicles],
+                     {v.serial: v.start for v in fs.vehicles}, lambda _s, _n, _m: None, sc.vehicle.model, fs.seed,
+                     fs.instant_period_s, action_s=fs.action_s)
