@@ -82,3 +82,17 @@ def own_broker(tmp_path: Path) -> Iterator[Mosquitto]:
     m.start()
     yield m
     m.stop()
+
+
+@pytest.fixture(scope="session")
+def kernels_compiled() -> None:
+    """The vehicle's kernels compiled into the on-disk cache before a test starts ``agvnav vehicle`` processes.
+
+    On a fresh checkout the first vehicle compiles agvnav's kernels (a minute or more on a busy
+    machine) before it connects; compiled here once, every process started after loads them.
+    """
+    from agvnav.vda5050.vehicle import VdaVehicle, VehicleConfig
+    from agvnav.world.scenario import load_scenario
+
+    v = VdaVehicle(load_scenario("mission_hall_differential"), VehicleConfig("warm", "up"))
+    v.step()

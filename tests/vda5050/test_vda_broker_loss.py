@@ -50,7 +50,7 @@ def xy(msg: dict[str, object]) -> tuple[float, float]:
     return float(pos["x"]), float(pos["y"])
 
 
-def test_broker_killed_and_restarted(own_broker: Mosquitto) -> None:
+def test_broker_killed_and_restarted(own_broker: Mosquitto, kernels_compiled: None) -> None:
     port = own_broker.port
     env = os.environ | {"PYTHONPATH": str(SRC)}
     proc = subprocess.Popen(

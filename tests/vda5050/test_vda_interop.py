@@ -67,7 +67,7 @@ def network_json(path: Path) -> None:
     path.write_text(json.dumps({"mapId": sc.map, "nodes": nodes}), encoding="utf-8")
 
 
-def test_vda_5050_lib_master_drives_agvnav_vehicle(broker: int, tmp_path: Path) -> None:
+def test_vda_5050_lib_master_drives_agvnav_vehicle(broker: int, tmp_path: Path, kernels_compiled: None) -> None:
     folder = interop_dir()
     network_json(tmp_path / "net.json")
     env = os.environ | {"PYTHONPATH": str(SRC)}
@@ -102,7 +102,7 @@ def test_vda_5050_lib_master_drives_agvnav_vehicle(broker: int, tmp_path: Path) 
     assert steps["invalid order rejected"]["error"]["errorType"] == "noRouteError"
 
 
-def test_agvnav_master_drives_vda_5050_lib_vehicle(broker: int, tmp_path: Path) -> None:
+def test_agvnav_master_drives_vda_5050_lib_vehicle(broker: int, tmp_path: Path, kernels_compiled: None) -> None:
     """``agvnav fleet`` drives the library's AgvController (its VirtualAgvAdapter) through a pick and a drop job."""
     folder = interop_dir()
     network_json(tmp_path / "net.json")
