@@ -65,6 +65,7 @@ from agvnav.world.scenario import KeyPath, Scenario, ScenarioError
 from agvnav.world.vehicle_specs import TractorTrailerSpec
 
 if TYPE_CHECKING:  # mission parts: imported at run time only for a mission scenario (see build)
+    from agvnav.navigation.docking import DockingAutopilot
     from agvnav.navigation.mission import MissionAutopilot
     from agvnav.routes.mission import MissionPlan
 
@@ -101,7 +102,7 @@ class Built:
     world: WorldMap
     path: Path
     plant: VehiclePlant
-    autopilot: PathAutopilot | MissionAutopilot
+    autopilot: PathAutopilot | MissionAutopilot | DockingAutopilot
     estimator: PositioningEstimator
     duration: float
     point: str
@@ -554,6 +555,10 @@ def build(sc: Scenario) -> Built:
     """
     if sc.route is not None:
         raise sc.error(("route",), "a route scenario runs laps (agvnav.sim.simulate), it has no single path loop")
+    if sc.docking is not None:  # issue 32: dock relative to the station's target
+        from agvnav.sim.docking import build_docking  # noqa: PLC0415 - sim.docking builds on this module
+
+        return build_docking(sc)
     world = build_world(sc)
     mission = None
     if sc.mission is not None:
