@@ -137,7 +137,9 @@ class DockingAutopilot:
     ``approach`` is a :class:`~agvnav.navigation.path.PathAutopilot` on the straight approach
     drawn relative to the map's station; ``estimate`` the :class:`DockingEstimate` the loop feeds;
     ``fine`` the fine positioning of a vehicle that turns on the spot (None for the stacker: a
-    tricycle cannot turn at standstill, it stops where the approach ends).
+    tricycle cannot turn at standstill, it stops where the approach ends). ``relative`` False: the
+    comparison of today's station stop, guided and fine-positioned on the global pose where the map
+    places the station, reported finished without a judgement.
     """
 
     signal_names: tuple[str, ...] = (
@@ -146,14 +148,16 @@ class DockingAutopilot:
     )
 
     def __init__(self, target: DockingTarget, approach: PathAutopilot, estimate: DockingEstimate,
-                 tolerances: DockingTolerances = DockingTolerances(), fine: FinePositioner | None = None) -> None:
+                 tolerances: DockingTolerances = DockingTolerances(), fine: FinePositioner | None = None,
+                 relative: bool = True) -> None:
         self.target = target
         self.approach = approach
         self.signal_names = (*approach.signal_names, *DockingAutopilot.signal_names[len(PathAutopilot.signal_names):])
         self.estimate = estimate
         self.tol = tolerances
         self.fine = fine
-        self.view = StationView(estimate.station, target.station)
+        self.relative = bool(relative)
+        self.view: Estimator = StationView(estimate.station, target.station) if relative else estimate
         self.phase = "recognise"
         self.finished = False
         self.failure: str | None = None
@@ -177,7 +181,7 @@ class DockingAutopilot:
         if self.phase in ("finished", "failed"):
             return self._hold()
         if self.phase == "recognise":
-            return self._recognise(t, estimator)
+            return self._recognise(t, estimator) if self.relative else self._start_on_map(t, estimator)
         why = station.check(t)
         if why is not None:
             return self._fail(why)
@@ -213,6 +217,11 @@ class DockingAutopilot:
             station.recognition_revolutions = 0  # the next judged revolution gives the reason
         return self._hold()
 
+    def _start_on_map(self, t: float, estimator: Estimator) -> tuple[float, ...]:
+        if estimator.status == "tracking":
+            self.phase, self._t0 = "approach", t
+        return self._hold()
+
     def _next_after_approach(self, t: float) -> None:
         if self.fine is not None:
             x, y, h = self._docking_in_map()
@@ -237,6 +246,9 @@ class DockingAutopilot:
         return pos, head, sig, 3.0 * math.sqrt(max(float(P[2, 2]), 0.0))
 
     def _judge(self, t: float) -> tuple[float, ...]:
+        if not self.relative:
+            self.dock_time_s, self.phase, self.finished = t - self._t0, "finished", True
+            return self._hold()
         why = self.estimate.station.check(t)
         if why is not None:
             return self._fail(why)

@@ -26,14 +26,14 @@ identifies map reflectors): started from a prior (the global pose carried into t
 by the station's *map* pose, its covariance widened by the station's allowed offset,
 :func:`prior_in_station`), the estimator collects one revolution of reflections. Every target
 reflector must fall alone in its individual gate, and the joint innovation of the pattern must
-pass ``y^T (H P H^T + R)^-1 y <= chi2_k(0.999)`` (the shape: bearing differences that do not fit
+pass ``y^T (H P H^T + R)^-1 y <= chi2_k`` (the shape: bearing differences that do not fit
 the target's geometry fail it). Then it tracks; otherwise it tries again, and after
 ``recognition_revolutions`` revolutions it fails with the reason.
 
 While tracking a docking that cannot be trusted ends the estimator in ``failed`` with a reason:
 a target reflector unseen for ``max_gap_s`` (missing, occluded), reflections that fall twice in one
 reflector's gate within a revolution (clutter next to the target), or a windowed innovation test
-``sum NIS > chi2_n(0.999)`` over the latest ``window`` accepted bearings (a reflector moved on
+``sum NIS > chi2_n`` over the latest ``window`` accepted bearings (a reflector moved on
 the station: its bearings stop fitting the others as the viewpoint changes).
 """
 
@@ -45,10 +45,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import chi2
 
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.odometry import OdometryNoise, propagate
+from agvnav.positioning._chi2_table import QUANTILES_1E5
 from agvnav.positioning.ekf import ekf_update
 from agvnav.positioning.identification import bearing_model
 from agvnav.world.docking import DockingTarget
@@ -71,8 +71,7 @@ def prior_in_station(station: ArrayLike, pose: ArrayLike, covariance: ArrayLike,
 
     ``x = S^-1 g``; ``P = J_g P_g J_g^T + J_s diag(o^2, o^2, o_psi^2) J_s^T`` with ``J_g`` the
     rotation by ``-theta_s`` and ``J_s`` the derivative with respect to the station pose (the
-    station's offset is uncertain by ``max_offset = (o, o_psi)`` (m, rad), taken as one sigma... times
-    a third: the offsets allowed are 3-sigma bounds).
+    station's offset is uncertain: the allowed ``max_offset = (o, o_psi)`` (m, rad) taken as 3 sigma).
     """
     s = np.asarray(station, dtype=np.float64)
     x = to_station(s, pose)
@@ -112,7 +111,8 @@ class StationEstimator:
     (reflector position in the station frame, per axis); ``gate`` (sigma) the individual gate;
     ``recognition_revolutions`` the revolutions recognition may take; ``max_gap_s`` (s, default 8
     revolutions) how long a target reflector may go unseen while tracking; ``window`` the accepted
-    bearings in the consistency test; ``p_false`` its false-alarm probability.
+    bearings in the consistency test (1..512). The chi-square bounds are exceeded with probability
+    :data:`~agvnav.positioning._chi2_table.FALSE_ALARM` (1e-5) on a consistent target.
     """
 
     def __init__(
@@ -127,8 +127,9 @@ class StationEstimator:
         recognition_revolutions: int = 16,
         max_gap_s: float | None = None,
         window: int = 48,
-        p_false: float = 1e-3,
     ) -> None:
+        if not 1 <= window <= len(QUANTILES_1E5):
+            raise ValueError(f"window must be 1..{len(QUANTILES_1E5)} bearings, got {window!r}")
         if pulses_per_rev <= 0 or not (revolution_s > 0.0):
             raise ValueError(f"pulses_per_rev and revolution_s must be positive, got {pulses_per_rev!r}, "
                              f"{revolution_s!r}")
@@ -142,7 +143,6 @@ class StationEstimator:
         self.recognition_revolutions = int(recognition_revolutions)
         self.max_gap_s = 8.0 * self.revolution_s if max_gap_s is None else float(max_gap_s)
         self.window = int(window)
-        self.p_false = float(p_false)
         self.status = "idle"
         """idle, searching, tracking or failed."""
         self.reason: str | None = None
@@ -241,7 +241,7 @@ class StationEstimator:
                 return self._fail(f"target reflector {rid!r} unseen for {t - seen.last_t:.1f} s (missing or occluded)")
         if len(self._nis) == self.window:
             total = sum(self._nis)
-            bound = float(chi2.ppf(1.0 - self.p_false, self.window))
+            bound = QUANTILES_1E5[self.window - 1]
             if total > bound:
                 return self._fail(f"target inconsistent: innovations {total:.0f} over the chi2 bound {bound:.0f} "
                                   "(a reflector moved or the pattern does not fit)")
@@ -278,7 +278,7 @@ class StationEstimator:
             y = np.array([p[0][1] for p in per])
             S = H @ self._P @ H.T + np.diag(R)
             nis = float(y @ np.linalg.solve(S, y))
-            bound = float(chi2.ppf(1.0 - self.p_false, k))
+            bound = QUANTILES_1E5[k - 1]
             if nis > bound:
                 why = f"pattern mismatch: the reflections' shape misses the target's (NIS {nis:.1f} > {bound:.1f})"
         if why is None:

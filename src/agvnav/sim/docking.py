@@ -156,7 +156,7 @@ def build_docking(sc: Scenario) -> b.Built:
         fine.heading_tolerance = 0.5 * math.radians(dk.heading_tolerance_deg)
         fine.speed = 0.5 * fine.tolerance * g.rate_hz
     tol = DockingTolerances(dk.tolerance_mm * 1e-3, math.radians(dk.heading_tolerance_deg))
-    pilot = DockingAutopilot(target, approach, estimate, tol, fine)
+    pilot = DockingAutopilot(target, approach, estimate, tol, fine, relative=dk.guide_on == "station")
     sensors = [GoniometerSensor(b._goniometer(sc), true_world(sc, world, target), estimate)]
     loop = ClosedLoop(b._loop_plant(sc, plant, world), sensors, estimate, pilot, sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else 2.0 * target.approach / dk.speed_m_s + 60.0

@@ -529,6 +529,9 @@ class DockingSpec(StrictModel):
     """docking heading tolerance (deg)."""
     truth: DockingTruthSpec = DockingTruthSpec()
     """the station and its target as they really are."""
+    guide_on: Literal["station", "map"] = "station"
+    """station: dock on the station-relative pose (judged); map: stop on the global pose where the map places
+    the station, as a mission's station stop does (the comparison, never judged)."""
 
 
 class Scenario(SourcedModel):
