@@ -51,11 +51,11 @@ TARGET_ERROR_M, TARGET_HEADING_RAD = 0.003, math.radians(0.1)
 
 def fault_cases(reflector: str, hidden: str, xy: tuple[float, float]) -> dict[str, dict[str, Any]]:
     """``docking.truth`` additions of the fault cases: ``reflector`` missing or moved 10 mm sideways,
-    clutter 60 mm beside it (``xy`` its position in the station frame, m), a person in front of ``hidden``."""
+    clutter 30 mm beside it (``xy`` its position in the station frame, m), a person in front of ``hidden``."""
     return {
         "missing": {"missing": [reflector]},
         "moved_10mm": {"moved": {reflector: (0.0, 10.0)}},
-        "clutter": {"clutter": [(xy[0], xy[1] + 0.06)]},
+        "clutter": {"clutter": [(xy[0], xy[1] + 0.03)]},
         "person": {"person": None},  # placed by :func:`_with_truth` in front of ``hidden``
     }
 

@@ -27,7 +27,10 @@ by the station's *map* pose, its covariance widened by the station's allowed off
 :func:`prior_in_station`), the estimator collects one revolution of reflections. Every target
 reflector must fall alone in its individual gate, and the joint innovation of the pattern must
 pass ``y^T (H P H^T + R)^-1 y <= chi2_k`` (the shape: bearing differences that do not fit
-the target's geometry fail it). Then it tracks; otherwise it tries again, and after
+the target's geometry fail it). Then the pattern's bearings update the pose (an iterated update,
+:meth:`StationEstimator._pattern_update`:
+recognition runs at standstill, the docking autopilot waits at the approach start, so the
+revolution's bearings share one pose) and it tracks; otherwise it tries again, and after
 ``recognition_revolutions`` revolutions it fails with the reason.
 
 While tracking a docking that cannot be trusted ends the estimator in ``failed`` with a reason:
@@ -152,7 +155,7 @@ class StationEstimator:
         self._P = np.full((3, 3), math.nan)
         self._seen = [_Seen() for _ in target.reflector_ids]
         self._nis: deque[float] = deque(maxlen=self.window)
-        self._sweep: list[tuple[int, float, float]] = []
+        self._sweep: list[tuple[int, float, float, float]] = []
         self._sweep_start = math.nan
         self._tries = 0
         self._why: list[str] = []
@@ -259,7 +262,31 @@ class StationEstimator:
                 return
             self._sweep, self._sweep_start = [], float(t)
         for j, y, S in self._candidates(bearing):
-            self._sweep.append((j, y, S))
+            self._sweep.append((j, y, S, bearing))
+
+    def _pattern_update(self, z: NDArray[np.float64], iterations: int = 8) -> None:
+        """The pattern's bearings ``z (k,)`` (rad, one pose) in one iterated update (IEKF, Gauss-Newton on the
+        prior and the bearings): ``x_{i+1} = x_0 + K_i (z - h(x_i) - H_i (x_0 - x_i))``,
+        ``K_i = P H_i^T (H_i P H_i^T + R)^-1``, then ``P <- (I - K H) P`` (Joseph form). The prior spans
+        the station's allowed offset (centimetres, degrees), far beyond one linearisation's reach at a
+        bearing noise of 28 microradians; each iteration relinearises at the latest estimate."""
+        x0, P = self._x.copy(), self._P
+        x = x0.copy()
+        K = H = R = None
+        for _ in range(iterations):
+            self._x = x
+            h, H, R = self.predicted()
+            y = np.array([wrap_angle_scalar(float(v)) for v in z - h])
+            dx = x0 - x
+            dx[2] = wrap_angle_scalar(float(dx[2]))
+            S = H @ P @ H.T + np.diag(R)
+            K = P @ H.T @ np.linalg.inv(S)
+            x = x0 + K @ (y - H @ dx)
+            x[2] = wrap_angle_scalar(float(x[2]))
+        assert K is not None and H is not None and R is not None
+        A = np.eye(3) - K @ H
+        P_new = A @ P @ A.T + K @ np.diag(R) @ K.T
+        self._x, self._P = x, 0.5 * (P_new + P_new.T)
 
     def _recognise(self, t: float) -> None:
         """Judge the revolution collected: every reflector alone in its gate, the pattern's joint test."""
@@ -283,8 +310,9 @@ class StationEstimator:
                 why = f"pattern mismatch: the reflections' shape misses the target's (NIS {nis:.1f} > {bound:.1f})"
         if why is None:
             self.status = "tracking"
-            for s in self._seen:
-                s.last_t = float(t)
+            self._pattern_update(np.array([p[0][3] for p in per]))
+            for seen in self._seen:
+                seen.last_t = float(t)
             return
         self._why.append(why)
         self._tries += 1

@@ -111,6 +111,12 @@ class Built:
     """the planned mission (:class:`agvnav.routes.mission.MissionPlan`) of a mission scenario."""
 
 
+#: Builders of the scenario kinds wired in their own module on top of this one, by the scenario key that
+#: selects them: ``docking`` (:func:`agvnav.sim.docking.build_docking`, registered when :mod:`agvnav.sim`
+#: is imported, which importing this module does first).
+KIND_BUILDERS: dict[str, Callable[[Scenario], Built]] = {}
+
+
 def guard(sc: Scenario, key: KeyPath, func: Callable[P, T], *args: P.args, **kwargs: P.kwargs) -> T:
     """Call ``func``; a ValueError becomes a ScenarioError at ``key`` (with its line)."""
     try:
@@ -556,9 +562,7 @@ def build(sc: Scenario) -> Built:
     if sc.route is not None:
         raise sc.error(("route",), "a route scenario runs laps (agvnav.sim.simulate), it has no single path loop")
     if sc.docking is not None:  # issue 32: dock relative to the station's target
-        from agvnav.sim.docking import build_docking  # noqa: PLC0415 - sim.docking builds on this module
-
-        return build_docking(sc)
+        return KIND_BUILDERS["docking"](sc)
     world = build_world(sc)
     mission = None
     if sc.mission is not None:

@@ -182,3 +182,6 @@ def docking_figures(sc: Scenario, series: dict[str, NDArray[np.float64]], pilot:
         "station_offset_true_m": float(math.hypot(o[0], o[1]) * 1e-3),
         "docking_reported_finished": float(pilot.phase == "finished"),
     }
+
+
+b.KIND_BUILDERS["docking"] = build_docking
