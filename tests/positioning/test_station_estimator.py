@@ -10,7 +10,7 @@ import pytest
 from agvnav.odometry import OdometryNoise
 from agvnav.positioning.identification import bearing_model
 from agvnav.positioning.station import StationEstimator, prior_in_station, station_offset, to_station
-from agvnav.world.docking import parse_docking_targets, DockingTarget
+from agvnav.world.docking import DockingTarget, parse_docking_targets
 
 MAP = """
 docking_targets:

@@ -96,7 +96,7 @@ def vehicle_record(vehicle: str, quick: bool, seed: int, tick: Callable[[], None
         tick()
     xy = {rid: (float(p[0]), float(p[1])) for rid, p in zip(target.reflector_ids, target.reflector_xy, strict=True)}
     faults = []
-    for case, truth in fault_cases(reflector, hidden, xy[reflector]).items():
+    for truth in fault_cases(reflector, hidden, xy[reflector]).values():
         for k in range(n_fault):
             faults.append(_run(_with_truth(sc.with_seed(seed + 100 + k), xy[hidden], **truth)))
             tick()

@@ -118,6 +118,10 @@ class StationView:
         """Time of the station estimator's latest input (s)."""
         return float(self.station.t)
 
+    def predict(self, t: float, delta_d: float, delta_theta: float, delta_lateral: float = 0.0) -> None:
+        """Refused (TypeError): a read-only view; the loop feeds :class:`DockingEstimate`."""
+        raise TypeError("StationView is read-only: odometry goes to DockingEstimate")
+
 
 @dataclass(frozen=True)
 class DockingTolerances:
@@ -273,6 +277,7 @@ class DockingAutopilot:
         """The approach's signals, then the phase, the station-frame estimate, its 3 sigma, the station offset."""
         x = self.estimate.station.pose
         P = self.estimate.station.covariance
-        sig = 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(P[:2, :2])[-1]), 0.0)) if np.all(np.isfinite(P)) else math.nan
+        finite = bool(np.all(np.isfinite(P)))
+        sig = 3.0 * math.sqrt(max(float(np.linalg.eigvalsh(P[:2, :2])[-1]), 0.0)) if finite else math.nan
         return (*self.approach.signals(), PHASES[self.phase], float(x[0]), float(x[1]), float(x[2]), sig,
                 *(float(v) for v in self.offset))

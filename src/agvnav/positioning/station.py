@@ -226,7 +226,7 @@ class StationEstimator:
                 return self._fail(f"clutter: reflections twice per revolution at target reflector "
                                   f"{self.target.reflector_ids[j]!r}")
             return False
-        h, H, R = self.predicted()
+        _, H, R = self.predicted()
         self._x, self._P = ekf_update(self._x, self._P, y, H[j], float(R[j]))
         seen.last_t = float(t)
         self._nis.append(y * y / S)
@@ -241,13 +241,15 @@ class StationEstimator:
             return None
         for rid, seen in zip(self.target.reflector_ids, self._seen, strict=True):
             if t - seen.last_t > self.max_gap_s:
-                return self._fail(f"target reflector {rid!r} unseen for {t - seen.last_t:.1f} s (missing or occluded)")
+                self._fail(f"target reflector {rid!r} unseen for {t - seen.last_t:.1f} s (missing or occluded)")
+                return self.reason
         if len(self._nis) == self.window:
             total = sum(self._nis)
             bound = QUANTILES_1E5[self.window - 1]
             if total > bound:
-                return self._fail(f"target inconsistent: innovations {total:.0f} over the chi2 bound {bound:.0f} "
-                                  "(a reflector moved or the pattern does not fit)")
+                self._fail(f"target inconsistent: innovations {total:.0f} over the chi2 bound {bound:.0f} "
+                           "(a reflector moved or the pattern does not fit)")
+                return self.reason
         return None
 
     def _fail(self, reason: str) -> bool:

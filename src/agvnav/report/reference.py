@@ -92,7 +92,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "dock_y": ("m", "docking: estimated base_link y in the station frame"),
     "dock_psi": ("rad", "docking: estimated heading in the station frame"),
     "dock_sigma3_m": ("m", "docking: 3 sigma of the station-relative position (largest axis)"),
-    "station_offset_x": ("m", "docking: measured station offset from its map pose, x (station frame; at the judgement)"),
+    "station_offset_x": ("m", "docking: measured station offset from its map pose, x (station frame)"),
     "station_offset_y": ("m", "docking: measured station offset, y"),
     "station_offset_psi": ("rad", "docking: measured station offset, heading"),
     "guard_level": ("-", "positioning guard: 0 normal, 1 slow (degraded), 2 stop (lost, or 3 sigma over the limit)"),

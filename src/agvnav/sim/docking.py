@@ -24,6 +24,7 @@ from agvnav.navigation.docking import DockingAutopilot, DockingEstimate, Docking
 from agvnav.navigation.fine_positioning import fine_positioner
 from agvnav.navigation.path import PathAutopilot
 from agvnav.odometry import OdometryNoise
+from agvnav.positioning.estimator import StreamingEstimator
 from agvnav.positioning.station import StationEstimator, to_station
 from agvnav.sim import build as b
 from agvnav.sim.engine import ClosedLoop
@@ -140,6 +141,8 @@ def build_docking(sc: Scenario) -> b.Built:
     profile = b.guard(sc, ("docking", "speed_m_s"), SpeedProfile, cruise_speed=dk.speed_m_s,
                       max_accel=sc.traction.max_accel_m_s2, max_decel=sc.traction.max_decel_m_s2)
     estimator = b._estimator(sc, world, x0, None)
+    if not isinstance(estimator, StreamingEstimator):
+        raise sc.error(("positioning", "method"), "docking positions globally with the goniometer: give ekf")
     g = sc.goniometer
     mount = (g.mount[0], g.mount[1], math.radians(g.mount[2]))
     station = StationEstimator(target, mount, g.pulses_per_rev, 1.0 / g.rate_hz,
