@@ -15,7 +15,7 @@
   allowed one; otherwise ``failure`` names the reason (VDA 5050: a failed ``finePositioning``).
 
 The guided point is base_link: point O of the tricycle stacker (between the fork wheels, seed 000
-§3.1, eq 11; it enters backwards) and of the differential AGV.
+§3.1 [seed000 eq11]; it enters backwards) and of the differential AGV.
 """
 
 from __future__ import annotations
