@@ -65,6 +65,7 @@ from agvnav.world.scenario import KeyPath, Scenario, ScenarioError
 from agvnav.world.vehicle_specs import TractorTrailerSpec
 
 if TYPE_CHECKING:  # mission parts: imported at run time only for a mission scenario (see build)
+    from agvnav.navigation.docking import DockingAutopilot
     from agvnav.navigation.mission import MissionAutopilot
     from agvnav.routes.mission import MissionPlan
 
@@ -101,13 +102,19 @@ class Built:
     world: WorldMap
     path: Path
     plant: VehiclePlant
-    autopilot: PathAutopilot | MissionAutopilot
+    autopilot: PathAutopilot | MissionAutopilot | DockingAutopilot
     estimator: PositioningEstimator
     duration: float
     point: str
     point_offset: float
     mission: MissionPlan | None = None
     """the planned mission (:class:`agvnav.routes.mission.MissionPlan`) of a mission scenario."""
+
+
+#: Builders of the scenario kinds wired in their own module on top of this one, by the scenario key that
+#: selects them: ``docking`` (:func:`agvnav.sim.docking.build_docking`, registered when :mod:`agvnav.sim`
+#: is imported, which importing this module does first).
+KIND_BUILDERS: dict[str, Callable[[Scenario], Built]] = {}
 
 
 def guard(sc: Scenario, key: KeyPath, func: Callable[P, T], *args: P.args, **kwargs: P.kwargs) -> T:
@@ -554,6 +561,8 @@ def build(sc: Scenario) -> Built:
     """
     if sc.route is not None:
         raise sc.error(("route",), "a route scenario runs laps (agvnav.sim.simulate), it has no single path loop")
+    if sc.docking is not None:  # issue 32: dock relative to the station's target
+        return KIND_BUILDERS["docking"](sc)
     world = build_world(sc)
     mission = None
     if sc.mission is not None:

@@ -1,0 +1,143 @@
+"""``agvnav bench docking``: docking at a station to the millimetre, relative to the station (issue 32).
+
+For each vehicle, its shipped docking scenario (``docking_pallet_stacker``: the seed-000 tricycle
+stacker backing into a pallet station, point O; ``docking_charger_differential``: a differential
+AGV onto a charger), the station standing 20 mm and 0.5 deg off its map position, the goniometer
+of seed 000 (65535 pulses per revolution, 8 Hz). Everything is judged on the *true* pose relative
+to the *true* station:
+
+* ``p95_error_m``, ``p95_heading_error_rad``: 95th percentile of the final error of the guided
+  point against the docking pose over ``seeds`` runs (20; quick 3) [targets 3 mm, 0.1 deg];
+  ``finished`` how many of them the vehicle reported finished (a failed docking counts its error too);
+* ``silent_failures``: dockings reported finished whose true error exceeds 10 mm or 0.5 deg, over
+  the nominal runs and the fault cases (one target reflector missing, one moved by 10 mm, clutter
+  next to the target, a person standing in front of it; ``fault_runs`` runs, ``fault_failed`` of
+  them ended as a failed docking) [target 0];
+* ``dock_time_s``: median time from the approach start (the approach node) to the judgement;
+* ``global_stop_error_m``: mean true error of today's stop on the global pose where the map places
+  the station (``docking.guide_on: map``, the same scenario), the comparison;
+* ``station_offset_m``: the station's true offset from the map; ``measured_offset_m`` the mean
+  offset the vehicle measured (station-relative against global).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from agvnav.sim import simulate
+from agvnav.world.scenario import Scenario, load_scenario
+
+TITLE = "Docking relative to the station (20 mm / 0.5 deg off the map): true final error, silent failures, time"
+
+PRIORITY = ("vehicle", "p95_error_m", "p95_heading_error_rad", "silent_failures", "dock_time_s",
+            "global_stop_error_m", "station_offset_m")
+
+#: vehicle -> (shipped scenario, the target reflector a fault case removes/moves, the one a person hides).
+VEHICLES = {
+    "tricycle_stacker": ("docking_pallet_stacker", "PAL_b", "PAL_a"),
+    "differential": ("docking_charger_differential", "CH_b", "CH_a"),
+}
+
+#: The silent-failure bounds: a docking reported finished beyond them is a silent failure (m, rad).
+SILENT_ERROR_M, SILENT_HEADING_RAD = 0.010, math.radians(0.5)
+
+#: Targets of issue 32.
+TARGET_ERROR_M, TARGET_HEADING_RAD = 0.003, math.radians(0.1)
+
+
+def fault_cases(reflector: str, hidden: str, xy: tuple[float, float]) -> dict[str, dict[str, Any]]:
+    """``docking.truth`` additions of the fault cases: ``reflector`` missing or moved 10 mm sideways,
+    clutter 30 mm beside it (``xy`` its position in the station frame, m), a person in front of ``hidden``."""
+    return {
+        "missing": {"missing": [reflector]},
+        "moved_10mm": {"moved": {reflector: (0.0, 10.0)}},
+        "clutter": {"clutter": [(xy[0], xy[1] + 0.03)]},
+        "person": {"person": None},  # placed by :func:`_with_truth` in front of ``hidden``
+    }
+
+
+def _with_truth(sc: Scenario, hidden_xy: tuple[float, float] | None, **truth: Any) -> Scenario:
+    dk = sc.docking
+    assert dk is not None
+    if "person" in truth and hidden_xy is not None:
+        truth["person"] = (hidden_xy[0] + 0.3, hidden_xy[1])
+    new = dk.model_copy(update={"truth": dk.truth.model_copy(update=truth)})
+    return sc.copy_attached({"docking": new})
+
+
+def _run(sc: Scenario) -> dict[str, float]:
+    r = simulate(sc)
+    out = dict(r.extra)
+    out["completed"] = float(r.completed)
+    return out
+
+
+def _silent(f: dict[str, float]) -> bool:
+    return bool(f["docking_reported_finished"] and (f["dock_error_m"] > SILENT_ERROR_M
+                                                    or f["dock_heading_error_rad"] > SILENT_HEADING_RAD))
+
+
+def vehicle_record(vehicle: str, quick: bool, seed: int, tick: Callable[[], None]) -> dict[str, Any]:
+    """One vehicle's record (module doc)."""
+    from agvnav.sim.docking import load_target  # noqa: PLC0415 - the target's reflector positions
+
+    name, reflector, hidden = VEHICLES[vehicle]
+    sc = load_scenario(name)
+    assert sc.docking is not None
+    target = load_target(sc)
+    n_seeds, n_fault, n_base = (3, 1, 1) if quick else (20, 2, 3)
+    nominal = []
+    for k in range(n_seeds):
+        nominal.append(_run(sc.with_seed(seed + k)))
+        tick()
+    xy = {rid: (float(p[0]), float(p[1])) for rid, p in zip(target.reflector_ids, target.reflector_xy, strict=True)}
+    faults = []
+    for truth in fault_cases(reflector, hidden, xy[reflector]).values():
+        for k in range(n_fault):
+            faults.append(_run(_with_truth(sc.with_seed(seed + 100 + k), xy[hidden], **truth)))
+            tick()
+    base = []
+    for k in range(n_base):
+        dk = sc.docking.model_copy(update={"guide_on": "map"})
+        base.append(_run(sc.with_seed(seed + k).copy_attached({"docking": dk})))
+        tick()
+    err = np.array([f["dock_error_m"] for f in nominal])
+    head = np.array([f["dock_heading_error_rad"] for f in nominal])
+    times = [f["dock_time_s"] for f in nominal if math.isfinite(f["dock_time_s"])]
+    measured = [math.hypot(f["station_offset_measured_x_m"], f["station_offset_measured_y_m"]) for f in nominal
+                if math.isfinite(f["station_offset_measured_x_m"])]
+    o = sc.docking.truth.station_offset
+    p95, p95_h = float(np.percentile(err, 95)), float(np.percentile(head, 95))
+    silent = sum(_silent(f) for f in [*nominal, *faults])
+    return {
+        "vehicle": vehicle,
+        "station_offset_m": math.hypot(o[0], o[1]) * 1e-3,
+        "p95_error_m": p95,
+        "p95_heading_error_rad": p95_h,
+        "silent_failures": silent,
+        "dock_time_s": float(np.median(times)) if times else math.nan,
+        "global_stop_error_m": float(np.mean([f["dock_error_m"] for f in base])),
+        "seeds": n_seeds,
+        "finished": int(sum(f["docking_reported_finished"] for f in nominal)),
+        "fault_runs": len(faults),
+        "fault_failed": int(sum(not f["docking_reported_finished"] for f in faults)),
+        "measured_offset_m": float(np.mean(measured)) if measured else math.nan,
+        "target_met": bool(p95 <= TARGET_ERROR_M and p95_h <= TARGET_HEADING_RAD and silent == 0),
+    }
+
+
+def run(quick: bool, seed: int, progress: Callable[[int, int], None] | None = None) -> list[dict[str, Any]]:
+    """One record per vehicle (module doc); ``progress(done, total)`` after every run."""
+    per = (3 + 4 + 1) if quick else (20 + 8 + 3)
+    total, done = per * len(VEHICLES), [0]
+
+    def tick() -> None:
+        done[0] += 1
+        if progress is not None:
+            progress(done[0], total)
+
+    return [vehicle_record(v, quick, seed, tick) for v in VEHICLES]

@@ -1,0 +1,190 @@
+"""A docking scenario wired into the closed loop (issue 32), and its judgement on the truth.
+
+:func:`build_docking` reads the map's docking target (:mod:`agvnav.world.docking`, located
+errors), checks it against the vehicle and the goniometer, places the station as it really
+stands (the scenario's ``docking.truth``: offset from its map pose, missing or moved
+reflectors, clutter, a person), draws the straight approach relative to the map's station
+and wires the :class:`~agvnav.navigation.docking.DockingAutopilot` with the global EKF and the
+station estimator side by side. :func:`docking_figures` judges the end on the true pose
+relative to the true station.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path as FsPath
+
+import numpy as np
+from numpy.typing import NDArray
+
+from agvnav.actuators import SpeedProfile
+from agvnav.guidance import LineSegment, Path
+from agvnav.navigation.docking import DockingAutopilot, DockingEstimate, DockingTolerances
+from agvnav.navigation.fine_positioning import fine_positioner
+from agvnav.navigation.path import PathAutopilot
+from agvnav.odometry import OdometryNoise
+from agvnav.positioning.estimator import StreamingEstimator
+from agvnav.positioning.station import StationEstimator, to_station
+from agvnav.sim import build as b
+from agvnav.sim.engine import ClosedLoop
+from agvnav.sim.roles import GoniometerSensor
+from agvnav.vehicles import build_plant
+from agvnav.world import WorldMap, builtin_map, builtin_map_names
+from agvnav.world.docking import DockingTarget, approach_start, check_target, load_docking_targets
+from agvnav.world.map import Reflector, Wall
+from agvnav.world.scenario import Scenario
+
+__all__ = ["PERSON_SIDE_M", "build_docking", "compose", "docking_figures", "true_station", "true_world"]
+
+#: Side of the square a standing person occupies (m).
+PERSON_SIDE_M = 0.4
+
+
+def compose(a: tuple[float, float, float] | NDArray[np.float64],
+            b_: tuple[float, float, float] | NDArray[np.float64]) -> tuple[float, float, float]:
+    """SE(2) ``a b`` of two poses (m, m, rad)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (float(a[0] + c * b_[0] - s * b_[1]), float(a[1] + s * b_[0] + c * b_[1]),
+            math.remainder(float(a[2] + b_[2]), 2.0 * math.pi))
+
+
+def _map_file(sc: Scenario) -> FsPath:
+    spec = sc.map
+    if isinstance(spec, dict):
+        raise sc.error(("map",), "a docking reads its target from a map file: give a map name or file")
+    if spec in builtin_map_names():
+        return builtin_map(spec)
+    p = FsPath(spec)
+    return sc.base_dir / p if not p.is_absolute() and sc.base_dir is not None else p
+
+
+def _turn_radius(sc: Scenario) -> float:
+    """The vehicle's smallest turning radius of point O (m): ``L / tan(gamma_max)``; 0 if it turns on the spot."""
+    if sc.vehicle.family != "steered":
+        return 0.0
+    gmax = math.radians(sc.vehicle.steering.max_angle_deg)  # type: ignore[union-attr]
+    return 0.0 if gmax >= 0.5 * math.pi - 1e-9 else float(sc.vehicle.wheelbase_m) / math.tan(gmax)  # type: ignore[union-attr]
+
+
+def load_target(sc: Scenario) -> DockingTarget:
+    """The scenario's docking target, checked for its vehicle and goniometer (errors name file, line, key)."""
+    assert sc.docking is not None
+    if sc.goniometer is None:
+        raise sc.error(("docking",), "docking recognises its target with the goniometer: mount one")
+    doc = load_docking_targets(_map_file(sc))
+    ids = [t.id for t in doc.docking_targets]
+    if sc.docking.target not in ids:
+        raise sc.error(("docking", "target"), f"no docking target {sc.docking.target!r} in the map (has {ids})")
+    return check_target(doc, ids.index(sc.docking.target), sc.goniometer.pulses_per_rev, _turn_radius(sc))
+
+
+def true_station(sc: Scenario, target: DockingTarget) -> tuple[float, float, float]:
+    """The station's true pose in ``map``: its map pose moved by ``docking.truth.station_offset``."""
+    assert sc.docking is not None
+    o = sc.docking.truth.station_offset
+    return compose(target.station, (o[0] * 1e-3, o[1] * 1e-3, math.radians(o[2])))
+
+
+def true_world(sc: Scenario, world: WorldMap, target: DockingTarget) -> WorldMap:
+    """The world the goniometer sees: the surveyed map's truth plus the target on the true station,
+    its faults, clutter reflectors and a person (a closed wall) as ``docking.truth`` says."""
+    assert sc.docking is not None
+    truth = sc.docking.truth
+    base = b.surveyed_truth(world, sc.world_truth.reflector_survey_std_m, sc.seed)
+    st = true_station(sc, target)
+    for i, rid in enumerate([*truth.missing, *truth.moved]):
+        if rid not in target.reflector_ids:
+            key = ("docking", "truth", "missing" if i < len(truth.missing) else "moved")
+            raise sc.error(key, f"no reflector {rid!r} in target {target.id!r} ({list(target.reflector_ids)})")
+    refl = list(base.reflectors)
+    for rid, (x, y) in zip(target.reflector_ids, target.reflector_xy, strict=True):
+        if rid in truth.missing:
+            continue
+        dx, dy = truth.moved.get(rid, (0.0, 0.0))
+        px, py, _ = compose(st, (float(x) + dx * 1e-3, float(y) + dy * 1e-3, 0.0))
+        refl.append(Reflector(f"target:{rid}", px, py, target.radius))
+    for k, (x, y) in enumerate(truth.clutter):
+        px, py, _ = compose(st, (x, y, 0.0))
+        refl.append(Reflector(f"clutter:{k}", px, py, target.radius))
+    walls = list(base.walls)
+    if truth.person is not None:
+        h = 0.5 * PERSON_SIDE_M
+        corners = [compose(st, (truth.person[0] + u, truth.person[1] + v, 0.0))[:2]
+                   for u, v in ((-h, -h), (h, -h), (h, h), (-h, h))]
+        walls.append(Wall("person", np.array(corners), closed=True))
+    return dataclasses.replace(base, reflectors=tuple(refl), walls=tuple(walls))
+
+
+def approach_path(target: DockingTarget) -> Path:
+    """The straight approach of the guided point, drawn relative to the map's station (``map`` frame)."""
+    start = compose(target.station, approach_start(target))
+    tangent = start[2] if target.direction > 0 else start[2] + math.pi
+    return Path([LineSegment(np.array(start[:2]), tangent, target.approach, target.direction)])
+
+
+def build_docking(sc: Scenario) -> b.Built:
+    """Wire a docking scenario (module doc); every problem a ScenarioError naming file, line and key."""
+    assert sc.docking is not None and sc.goniometer is not None
+    world = b.build_world(sc)
+    target = load_target(sc)
+    path = approach_path(target)
+    family = sc.vehicle.family
+    point = b._point(sc, family)
+    if point != "O":
+        raise sc.error(("controller", "point"), "docking guides point O (base_link): set controller.point: O")
+    x0 = b._initial_state(sc, path, 0.0, family)
+    plant = b.guard(sc, ("vehicle",), build_plant, sc.vehicle, x0.tolist())
+    b._check_mount(sc, plant)
+    follower = b._follower(sc, path, family, plant.geometry)
+    dk = sc.docking
+    profile = b.guard(sc, ("docking", "speed_m_s"), SpeedProfile, cruise_speed=dk.speed_m_s,
+                      max_accel=sc.traction.max_accel_m_s2, max_decel=sc.traction.max_decel_m_s2)
+    estimator = b._estimator(sc, world, x0, None)
+    if not isinstance(estimator, StreamingEstimator):
+        raise sc.error(("positioning", "method"), "docking positions globally with the goniometer: give ekf")
+    g = sc.goniometer
+    mount = (g.mount[0], g.mount[1], math.radians(g.mount[2]))
+    station = StationEstimator(target, mount, g.pulses_per_rev, 1.0 / g.rate_hz,
+                               OdometryNoise(*sc.positioning.odometry_noise))
+    estimate = DockingEstimate(estimator, station)
+    approach = PathAutopilot(follower, path, profile, plant, 0.0, end_tolerance=target.max_offset[0] + 0.05,
+                             watch=b._watch(sc))
+    fine = None
+    if family != "steered":
+        turn = math.radians(sc.mission.turn_rate_deg_s) if sc.mission is not None else math.radians(30.0)
+        fine = b.guard(sc, ("docking",), fine_positioner, plant, "X", 1.0 / g.rate_hz, sc.traction.max_accel_m_s2,
+                       turn)
+        fine.tolerance = 0.5 * dk.tolerance_mm * 1e-3
+        fine.heading_tolerance = 0.5 * math.radians(dk.heading_tolerance_deg)
+        fine.speed = 0.5 * fine.tolerance * g.rate_hz
+    tol = DockingTolerances(dk.tolerance_mm * 1e-3, math.radians(dk.heading_tolerance_deg))
+    pilot = DockingAutopilot(target, approach, estimate, tol, fine, relative=dk.guide_on == "station")
+    sensors = [GoniometerSensor(b._goniometer(sc), true_world(sc, world, target), estimate)]
+    loop = ClosedLoop(b._loop_plant(sc, plant, world), sensors, estimate, pilot, sc.step_s, sc.seed)
+    duration = sc.duration_s if sc.duration_s is not None else 2.0 * target.approach / dk.speed_m_s + 60.0
+    return b.Built(loop, world, path, plant, pilot, estimator, duration, point, 0.0)
+
+
+def docking_figures(sc: Scenario, series: dict[str, NDArray[np.float64]], pilot: DockingAutopilot) -> dict[str, float]:
+    """The docking judged on the truth: true error of the guided point against the docking pose on the
+    true station (m, rad), the measured and true station offsets, the time to dock (s)."""
+    target = pilot.target
+    st = true_station(sc, target)
+    rel = to_station(st, (series["x"][-1], series["y"][-1], series["psi"][-1]))
+    d = target.docking_pose
+    assert sc.docking is not None
+    o = sc.docking.truth.station_offset
+    return {
+        "dock_error_m": float(math.hypot(rel[0] - d[0], rel[1] - d[1])),
+        "dock_heading_error_rad": float(abs(math.remainder(float(rel[2] - d[2]), 2.0 * math.pi))),
+        "dock_time_s": float(pilot.dock_time_s),
+        "station_offset_measured_x_m": float(pilot.offset[0]),
+        "station_offset_measured_y_m": float(pilot.offset[1]),
+        "station_offset_measured_psi_rad": float(pilot.offset[2]),
+        "station_offset_true_m": float(math.hypot(o[0], o[1]) * 1e-3),
+        "docking_reported_finished": float(pilot.phase == "finished"),
+    }
+
+
+b.KIND_BUILDERS["docking"] = build_docking
