@@ -1,6 +1,5 @@
 """The closed loop of seed 000 Fig. 9: fixed step, deterministic, every signal recorded."""
 
-from agvnav.sim import docking as _docking  # noqa: F401 - registers the docking builder (sim.build)
 from agvnav.sim.engine import Autopilot, ClosedLoop, Estimator, LoopOutput, Plant, Sensor
 from agvnav.sim.metrics import RunMetrics, TransientSpec, compute_metrics, lateral_position_error, transient_end_index
 from agvnav.sim.recorder import EventLog, Recorder

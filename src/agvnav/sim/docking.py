@@ -1,6 +1,6 @@
 """A docking scenario wired into the closed loop (issue 32), and its judgement on the truth.
 
-:func:`build_docking` reads the map's docking target (:mod:`agvnav.world.docking`, located
+:func:`agvnav.sim.build.build_docking` reads the map's docking target (:mod:`agvnav.world.docking`, located
 errors), checks it against the vehicle and the goniometer, places the station as it really
 stands (the scenario's ``docking.truth``: offset from its map pose, missing or moved
 reflectors, clutter, a person), draws the straight approach relative to the map's station
@@ -18,24 +18,15 @@ from pathlib import Path as FsPath
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.actuators import SpeedProfile
 from agvnav.guidance import LineSegment, Path
-from agvnav.navigation.docking import DockingAutopilot, DockingEstimate, DockingTolerances
-from agvnav.navigation.fine_positioning import fine_positioner
-from agvnav.navigation.path import PathAutopilot
-from agvnav.odometry import OdometryNoise
-from agvnav.positioning.estimator import StreamingEstimator
-from agvnav.positioning.station import StationEstimator, to_station
-from agvnav.sim import build as b
-from agvnav.sim.engine import ClosedLoop
-from agvnav.sim.roles import GoniometerSensor
-from agvnav.vehicles import build_plant
+from agvnav.navigation.docking import DockingAutopilot
+from agvnav.positioning.station import to_station
 from agvnav.world import WorldMap, builtin_map, builtin_map_names
 from agvnav.world.docking import DockingTarget, approach_start, check_target, load_docking_targets
 from agvnav.world.map import Reflector, Wall
 from agvnav.world.scenario import Scenario
 
-__all__ = ["PERSON_SIDE_M", "build_docking", "compose", "docking_figures", "true_station", "true_world"]
+__all__ = ["PERSON_SIDE_M", "approach_path", "compose", "docking_figures", "true_station", "true_world"]
 
 #: Side of the square a standing person occupies (m).
 PERSON_SIDE_M = 0.4
@@ -86,12 +77,11 @@ def true_station(sc: Scenario, target: DockingTarget) -> tuple[float, float, flo
     return compose(target.station, (o[0] * 1e-3, o[1] * 1e-3, math.radians(o[2])))
 
 
-def true_world(sc: Scenario, world: WorldMap, target: DockingTarget) -> WorldMap:
-    """The world the goniometer sees: the surveyed map's truth plus the target on the true station,
-    its faults, clutter reflectors and a person (a closed wall) as ``docking.truth`` says."""
+def true_world(sc: Scenario, base: WorldMap, target: DockingTarget) -> WorldMap:
+    """The world the goniometer sees: ``base`` (the surveyed map's truth) plus the target on the true
+    station, its faults, clutter reflectors and a person (a closed wall) as ``docking.truth`` says."""
     assert sc.docking is not None
     truth = sc.docking.truth
-    base = b.surveyed_truth(world, sc.world_truth.reflector_survey_std_m, sc.seed)
     st = true_station(sc, target)
     for i, rid in enumerate([*truth.missing, *truth.moved]):
         if rid not in target.reflector_ids:
@@ -123,49 +113,6 @@ def approach_path(target: DockingTarget) -> Path:
     return Path([LineSegment(np.array(start[:2]), tangent, target.approach, target.direction)])
 
 
-def build_docking(sc: Scenario) -> b.Built:
-    """Wire a docking scenario (module doc); every problem a ScenarioError naming file, line and key."""
-    assert sc.docking is not None and sc.goniometer is not None
-    world = b.build_world(sc)
-    target = load_target(sc)
-    path = approach_path(target)
-    family = sc.vehicle.family
-    point = b._point(sc, family)
-    if point != "O":
-        raise sc.error(("controller", "point"), "docking guides point O (base_link): set controller.point: O")
-    x0 = b._initial_state(sc, path, 0.0, family)
-    plant = b.guard(sc, ("vehicle",), build_plant, sc.vehicle, x0.tolist())
-    b._check_mount(sc, plant)
-    follower = b._follower(sc, path, family, plant.geometry)
-    dk = sc.docking
-    profile = b.guard(sc, ("docking", "speed_m_s"), SpeedProfile, cruise_speed=dk.speed_m_s,
-                      max_accel=sc.traction.max_accel_m_s2, max_decel=sc.traction.max_decel_m_s2)
-    estimator = b._estimator(sc, world, x0, None)
-    if not isinstance(estimator, StreamingEstimator):
-        raise sc.error(("positioning", "method"), "docking positions globally with the goniometer: give ekf")
-    g = sc.goniometer
-    mount = (g.mount[0], g.mount[1], math.radians(g.mount[2]))
-    station = StationEstimator(target, mount, g.pulses_per_rev, 1.0 / g.rate_hz,
-                               OdometryNoise(*sc.positioning.odometry_noise))
-    estimate = DockingEstimate(estimator, station)
-    approach = PathAutopilot(follower, path, profile, plant, 0.0, end_tolerance=target.max_offset[0] + 0.05,
-                             watch=b._watch(sc))
-    fine = None
-    if family != "steered":
-        turn = math.radians(sc.mission.turn_rate_deg_s) if sc.mission is not None else math.radians(30.0)
-        fine = b.guard(sc, ("docking",), fine_positioner, plant, "X", 1.0 / g.rate_hz, sc.traction.max_accel_m_s2,
-                       turn)
-        fine.tolerance = 0.5 * dk.tolerance_mm * 1e-3
-        fine.heading_tolerance = 0.5 * math.radians(dk.heading_tolerance_deg)
-        fine.speed = 0.5 * fine.tolerance * g.rate_hz
-    tol = DockingTolerances(dk.tolerance_mm * 1e-3, math.radians(dk.heading_tolerance_deg))
-    pilot = DockingAutopilot(target, approach, estimate, tol, fine, relative=dk.guide_on == "station")
-    sensors = [GoniometerSensor(b._goniometer(sc), true_world(sc, world, target), estimate)]
-    loop = ClosedLoop(b._loop_plant(sc, plant, world), sensors, estimate, pilot, sc.step_s, sc.seed)
-    duration = sc.duration_s if sc.duration_s is not None else 2.0 * target.approach / dk.speed_m_s + 60.0
-    return b.Built(loop, world, path, plant, pilot, estimator, duration, point, 0.0)
-
-
 def docking_figures(sc: Scenario, series: dict[str, NDArray[np.float64]], pilot: DockingAutopilot) -> dict[str, float]:
     """The docking judged on the truth: true error of the guided point against the docking pose on the
     true station (m, rad), the measured and true station offsets, the time to dock (s)."""
@@ -186,5 +133,3 @@ def docking_figures(sc: Scenario, series: dict[str, NDArray[np.float64]], pilot:
         "docking_reported_finished": float(pilot.phase == "finished"),
     }
 
-
-b.KIND_BUILDERS["docking"] = build_docking
