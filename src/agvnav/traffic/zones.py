@@ -389,12 +389,13 @@ class ConflictZones:
         for table in self.tables.values():
             for ra, rbs in table.items():
                 for rb in rbs:
-                    if ra != rb and not (self._ends(ra) & self._ends(rb)):
+                    if ra != rb and not (self.ends(ra) & self.ends(rb)):
                         g.add_edge(ra, rb)
         comps = [frozenset(c) for c in nx.connected_components(g)]
         return sorted(comps, key=lambda c: (-len(c), sorted(c)))
 
-    def _ends(self, res: Resource) -> frozenset[str]:
+    def ends(self, res: Resource) -> frozenset[str]:
+        """The nodes a resource touches: the node itself, or an edge's two ends."""
         kind, rid = res
         return frozenset((rid,)) if kind == "node" else self.edge_ends[rid]
 
