@@ -139,3 +139,55 @@ def conflicts(
         print(f"zone {i + 1}: {' '.join(f'{k} {r}' for k, r in sorted(z))}")
     for p in written:
         print(f"wrote {p}")
+
+
+@routes_app.command("import-lif")
+@user_errors
+def import_lif(
+    file: str = typer.Argument(..., help="LIF 1.0 JSON file."),
+    out: str = typer.Option(..., "--out", help="Route network YAML file to write."),
+    layout: str | None = typer.Option(None, "--layout", help="Layout id to import (default the first)."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing --out file."),
+) -> None:
+    """Import a route network from LIF 1.0 leniently: print what was fixed, name the first problem of a non-LIF file."""
+    from pathlib import Path
+
+    from agvnav.report.lif import check_out_file, write_network_yaml
+    from agvnav.traffic.lif import import_lif as read_lif
+    from agvnav.traffic.lif import parse_lif_text
+
+    check_out_file(out, force)
+    src = Path(file)
+    doc = parse_lif_text(src.read_text(encoding="utf-8"), str(src))
+    try:
+        result = read_lif(doc, layout)
+    except ValueError as exc:
+        raise ValueError(f"{src}: {exc}") from None
+    for fix in result.fixes:
+        print(f"fixed: {fix}")
+    net = result.network
+    path = write_network_yaml(result.data, f"route network imported from LIF {src.name} by agvnav routes import-lif",
+                              out, force)
+    print(f"{net.name}: {len(net.nodes)} nodes, {len(net.edges)} edges, {len(net.stations)} stations; "
+          f"{len(result.fixes)} fix(es); wrote {path}")
+
+
+@routes_app.command("export-lif")
+@user_errors
+def export_lif(
+    network: str = NETWORK_ARG,
+    out: str = typer.Option(..., "--out", help="LIF JSON file to write."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing --out file."),
+) -> None:
+    """Export a route network as LIF 1.0 JSON, validated against the LIF schema before it is written."""
+    from agvnav.report.lif import check_out_file, write_lif
+    from agvnav.routes.network import load_network
+    from agvnav.traffic.lif import export_lif as to_lif
+
+    check_out_file(out, force)
+    net = load_network(network)
+    doc = to_lif(net)
+    path = write_lif(doc, out, force)
+    lay = doc["layouts"][0]
+    print(f"{net.name}: {len(lay['nodes'])} nodes, {len(lay['edges'])} edges, {len(lay['stations'])} stations; "
+          f"valid LIF {doc['metaInformation']['lifVersion']}; wrote {path}")
