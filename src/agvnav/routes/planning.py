@@ -16,11 +16,18 @@ therefore ``(node, heading, direction of travel)``, not the node alone:
   edge's speed limit, the vehicle's speed and ``sqrt(a_lat / |kappa|)`` (lateral
   acceleration limit).
 
-The state graph is a sparse matrix searched by Dijkstra
-(``scipy.sparse.csgraph.dijkstra``), rebuilt only when the blocked edges change;
-the search is first limited to ``3 d / v_max + 60 s`` (``d`` the straight-line
-distance), and repeated without limit only if the goal lies beyond (the result
-is the same shortest route: Dijkstra settles states in cost order).
+The state graph is a sparse matrix (CSR), rebuilt only when the blocked edges change.
+With the kernels compiled (:mod:`agvnav._jit`) it is searched by A* (:func:`astar_kernel`,
+a binary heap over the CSR arrays) with the heuristic ``h = |p - p_goal| / v_max``: every
+edge's drive time is at least its length over ``v_max`` and a path is at least as long as
+the straight line, so ``h`` is admissible and consistent (a spot turn or a cusp costs time
+and no distance) and A* returns a fastest route, settling only the states nearer the goal
+in time; per-query work is proportional to what it settles (visited states are marked by a
+query stamp, so no array of the graph's size is cleared per query). Interpreted, the same
+graph is searched by Dijkstra (``scipy.sparse.csgraph.dijkstra``), first limited to
+``3 d / v_max + 60 s`` (``d`` the straight-line distance) and repeated without limit only
+if the goal lies beyond. Both give the fastest time; where several routes tie, they may
+pick different ones.
 """
 
 from __future__ import annotations
@@ -34,6 +41,7 @@ from numpy.typing import NDArray
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from agvnav._jit import compiled, jit
 from agvnav.geometry.angles import wrap_angle
 from agvnav.routes.network import Edge, RouteNetwork
 from agvnav.world.vehicle_specs import vehicle_kind
@@ -45,6 +53,7 @@ __all__ = [
     "Route",
     "Traversal",
     "VehicleLimits",
+    "astar_kernel",
     "edge_time",
 ]
 
@@ -156,6 +165,11 @@ class Planner:
         self._times = {e.id: edge_time(e, vehicle) for e in network.edges.values() if e.allows(vehicle.model)}
         self.block(blocked)
 
+    @property
+    def states(self) -> int:
+        """How many (node, heading class, direction) states the search graph has."""
+        return int(self._n)
+
     def block(self, blocked: tuple[str, ...] | list[str]) -> None:
         """Block these edges (ValueError for an unknown id) and rebuild the state graph."""
         for b in blocked:
@@ -204,6 +218,15 @@ class Planner:
                 if key not in self._edge_of or self._times[t.edge.id] < self._times[self._edge_of[key].edge.id]:
                     self._edge_of[key] = t
         self._graph = _min_duplicates(rows, cols, cost, base)
+        self._search = _Search(self._graph, self._state_xy(classes, offset, base))
+
+    def _state_xy(self, classes: dict[str, _Classes], offset: dict[str, int], n: int) -> NDArray[np.float64]:
+        """Position (m) of each state's node, (n, 2)."""
+        xy = np.zeros((n, 2))
+        for node, c in classes.items():
+            nd = self.network.nodes[node]
+            xy[offset[node]:offset[node] + 2 * len(c.headings)] = (nd.x, nd.y)
+        return xy
 
     def _spot_turns(
         self, classes: dict[str, _Classes], offset: dict[str, int], rows: list[int], cols: list[int], cost: list[float]
@@ -250,17 +273,27 @@ class Planner:
         if not src or not dst:
             raise NoRouteError(f"no route to station {goal!r} from {start!r} for a {self.vehicle.model}")
         a, b = self.network.nodes[start], self.network.nodes[goal]
-        bound = 3.0 * math.hypot(b.x - a.x, b.y - a.y) / self.vehicle.max_speed + 60.0
+        pred: NDArray[np.int32] | NDArray[np.int64]
+        best = -2
+        if compiled():
+            best, time_s, pred = self._search.run(src, dst, b.x, b.y, 1.0 / self.vehicle.max_speed)
+        if best == -2:  # interpreted, or the heap overflowed (rounding re-opened states): Dijkstra
+            best, time_s, pred = self._dijkstra(src, dst, math.hypot(b.x - a.x, b.y - a.y))
+        if best < 0:
+            raise NoRouteError(f"no route to station {goal!r} from {start!r} for a {self.vehicle.model}")
+        return self._unwind(pred, best, start, time_s)
+
+    def _dijkstra(self, src: list[int], dst: list[int], d: float) -> tuple[int, float, NDArray[np.int32]]:
+        """The interpreted search (module doc): the goal state reached (-1: none), its time (s), predecessors."""
+        bound = 3.0 * d / self.vehicle.max_speed + 60.0
         for limit in (bound, np.inf):  # search a disc first; the whole graph only when the goal lies beyond
             dist, pred, _ = dijkstra(self._graph, indices=src, return_predecessors=True, min_only=True, limit=limit)
             best = min(dst, key=lambda s: dist[s])
             if math.isfinite(dist[best]):
-                break
-        if not math.isfinite(dist[best]):
-            raise NoRouteError(f"no route to station {goal!r} from {start!r} for a {self.vehicle.model}")
-        return self._unwind(pred, best, start, float(dist[best]))
+                return best, float(dist[best]), pred
+        return -1, math.inf, pred
 
-    def _unwind(self, pred: NDArray[np.int32], state: int, start: str, time_s: float) -> Route:
+    def _unwind(self, pred: NDArray[np.int32] | NDArray[np.int64], state: int, start: str, time_s: float) -> Route:
         travs: list[Traversal] = []
         while pred[state] >= 0:
             p = int(pred[state])
@@ -283,3 +316,116 @@ def _min_duplicates(rows: list[int], cols: list[int], cost: list[float], n: int)
     first = np.ones(r.shape, dtype=bool)
     first[1:] = (r[1:] != r[:-1]) | (c[1:] != c[:-1])
     return csr_matrix((w[first], (r[first], c[first])), shape=(n, n))
+
+
+class _Search:
+    """The A* search's arrays: the CSR graph, each state's position, and the per-query scratch kept between
+    queries (distances, predecessors, the query stamp that says which entries are this query's, the heap)."""
+
+    def __init__(self, graph: Any, xy: NDArray[np.float64]) -> None:
+        self.indptr = np.asarray(graph.indptr, dtype=np.int64)
+        self.indices = np.asarray(graph.indices, dtype=np.int64)
+        self.weights = np.asarray(graph.data, dtype=np.float64)
+        n = len(self.indptr) - 1
+        self.x, self.y = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
+        self.dist = np.zeros(n)
+        self.pred = np.full(n, -1, dtype=np.int64)
+        self.stamp = np.zeros(n, dtype=np.int64)
+        self.goal = np.zeros(n, dtype=np.int64)
+        size = len(self.indices) + n + 1  # every relaxation pushes once at most, every source once
+        self.heap_cost = np.zeros(size)
+        self.heap_state = np.zeros(size, dtype=np.int64)
+        self.query = 0
+
+    def run(self, src: list[int], dst: list[int], gx: float, gy: float, inv_speed: float
+            ) -> tuple[int, float, NDArray[np.int64]]:
+        """A* from states ``src`` to any of ``dst`` (goal node at ``gx``, ``gy`` m): goal state (-1: none, -2: the
+        heap overflowed), its time (s), the predecessors."""
+        self.query += 1
+        self.goal[np.asarray(dst, dtype=np.int64)] = self.query
+        best = int(astar_kernel(self.indptr, self.indices, self.weights, self.x, self.y,
+                                np.asarray(src, dtype=np.int64), self.goal, gx, gy, inv_speed * (1.0 - 1e-9),
+                                self.dist, self.pred, self.stamp, self.query, self.heap_cost, self.heap_state))
+        return best, (float(self.dist[best]) if best >= 0 else math.inf), self.pred
+
+
+@jit
+def astar_kernel(indptr: Any, indices: Any, weights: Any, x: Any, y: Any, sources: Any, goal: Any, gx: float,
+                 gy: float, inv_speed: float, dist: Any, pred: Any, stamp: Any, query: int, heap_cost: Any,
+                 heap_state: Any) -> int:
+    """A* on a CSR graph (module doc): the first goal state settled (``goal[s] == query``), -1 for none,
+    -2 when the heap scratch is full (then nothing is known).
+
+    ``indptr``, ``indices``, ``weights``: the CSR arcs (s); ``x``, ``y``: each state's position
+    (m); heuristic ``hypot(x - gx, y - gy) * inv_speed`` (s). On return ``dist`` (s) and ``pred``
+    hold the search's values for the states with ``stamp == query`` (``pred`` -1 at a source);
+    ``heap_cost``/``heap_state`` are scratch of at least ``len(indices) + len(sources)`` entries.
+    A binary min-heap on ``g + h`` with lazy deletion (a popped entry whose ``g`` is stale is skipped).
+    """
+    size = 0
+    for s in sources:
+        stamp[s] = query
+        dist[s] = 0.0
+        pred[s] = -1
+        f = math.hypot(x[s] - gx, y[s] - gy) * inv_speed
+        # push (f, s): sift up
+        i = size
+        size += 1
+        while i > 0:
+            parent = (i - 1) // 2
+            if heap_cost[parent] <= f:
+                break
+            heap_cost[i] = heap_cost[parent]
+            heap_state[i] = heap_state[parent]
+            i = parent
+        heap_cost[i] = f
+        heap_state[i] = s
+    while size > 0:
+        top_f = heap_cost[0]
+        u = heap_state[0]
+        # pop: move the last entry to the root and sift it down
+        size -= 1
+        last_f = heap_cost[size]
+        last_s = heap_state[size]
+        i = 0
+        while True:
+            child = 2 * i + 1
+            if child >= size:
+                break
+            if child + 1 < size and heap_cost[child + 1] < heap_cost[child]:
+                child += 1
+            if heap_cost[child] >= last_f:
+                break
+            heap_cost[i] = heap_cost[child]
+            heap_state[i] = heap_state[child]
+            i = child
+        if size > 0:
+            heap_cost[i] = last_f
+            heap_state[i] = last_s
+        g = dist[u]
+        if top_f > g + math.hypot(x[u] - gx, y[u] - gy) * inv_speed + 1e-12 * (1.0 + top_f):
+            continue  # a stale entry: u was reached cheaper since
+        if goal[u] == query:
+            return u
+        for k in range(indptr[u], indptr[u + 1]):
+            v = indices[k]
+            nd = g + weights[k]
+            if stamp[v] != query or nd < dist[v]:
+                if size >= len(heap_cost):
+                    return -2
+                stamp[v] = query
+                dist[v] = nd
+                pred[v] = u
+                f = nd + math.hypot(x[v] - gx, y[v] - gy) * inv_speed
+                i = size
+                size += 1
+                while i > 0:
+                    parent = (i - 1) // 2
+                    if heap_cost[parent] <= f:
+                        break
+                    heap_cost[i] = heap_cost[parent]
+                    heap_state[i] = heap_state[parent]
+                    i = parent
+                heap_cost[i] = f
+                heap_state[i] = v
+    return -1
