@@ -318,10 +318,15 @@ def _planning_kernel_outputs(rng: np.random.Generator) -> Outputs:
     w = np.hypot(x[rows] - x[cols], y[rows] - y[cols]) * rng.uniform(1.0, 2.0, len(rows))
     goal = np.zeros(n, dtype=np.int64)
     goal[[7, 8]] = 1
-    dist, pred, stamp = np.zeros(n), np.full(n, -1, dtype=np.int64), np.zeros(n, dtype=np.int64)
+    dist, pred, arc, stamp = (np.zeros(n), np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64),
+                              np.zeros(n, dtype=np.int64))
+    lm_from, lm_to = np.abs(x[:, None] - x[None, :2]) * 0.1, np.abs(y[:, None] - y[None, :2]) * 0.1
     best = astar_kernel(indptr, cols.astype(np.int64), w, x, y, np.array([0, 1], dtype=np.int64), goal,
-                        float(x[7]), float(y[7]), 0.5, dist, pred, stamp, 1, np.zeros(3000), np.zeros(3000, np.int64))
-    return {"astar_kernel": [np.array([best, dist[best]]), np.where(stamp == 1, dist, -1.0), pred.astype(float)]}
+                        float(x[7]), float(y[7]), 0.5, lm_from, lm_to, lm_from[[7, 8]].min(axis=0),
+                        lm_to[[7, 8]].max(axis=0), dist, pred, arc, stamp, 1, np.zeros(3000), np.zeros(3000),
+                        np.zeros(3000, np.int64))
+    return {"astar_kernel": [np.array([best, dist[best]]), np.where(stamp == 1, dist, -1.0), pred.astype(float),
+                             arc.astype(float)]}
 
 
 @pytest.fixture(scope="module")

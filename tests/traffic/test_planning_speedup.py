@@ -36,7 +36,7 @@ def test_astar_routes_equal_dijkstra_routes_on_the_warehouse(model: str) -> None
         if ref is None:
             assert fast is None
             continue
-        assert fast is not None and fast.time_s == pytest.approx(ref.time_s, abs=1e-9)
+        assert fast is not None and fast.time_s == pytest.approx(ref.time_s, abs=1e-6)  # QUEUE_RESOLUTION_S
         assert fast.nodes == ref.nodes  # the warehouse has no ties between fastest routes
 
 
@@ -48,13 +48,14 @@ def test_astar_times_equal_dijkstra_times_on_a_grid_with_blocked_edges() -> None
     for a, b in rng.integers(0, len(ids), (60, 2)):
         fast, ref = _plan_both(planner, ids[a], ids[b])
         assert fast is not None and ref is not None
-        assert fast.time_s == pytest.approx(ref.time_s, abs=1e-9)
+        assert fast.time_s == pytest.approx(ref.time_s, abs=1e-6)
         assert all(t.edge.id.removesuffix("~r") not in planner.blocked for t in fast.traversals)
         nodes = [fast.nodes[0]] + [t.edge.target for t in fast.traversals]
         assert nodes == list(fast.nodes) and all(
             t.edge.source == n for t, n in zip(fast.traversals, fast.nodes, strict=False))
 
 
+@pytest.mark.slow
 def test_bench_planning_reports_checked_figures() -> None:
     out = bench_planning(quick=True)
     assert out["plan_ok"] and out["plan_nodes"] == 2500 and out["plan_queries"] == 20
