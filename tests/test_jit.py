@@ -26,6 +26,7 @@ from agvnav.positioning.gating import BearingIndex, GateSpec, near_rows
 from agvnav.positioning.integrity import IntegrityMonitor, _fde_statistics, _window_tally
 from agvnav.positioning.total import _div, _wrap, total_batch
 from agvnav.positioning.triangulation import _layout_ok_kernel
+from agvnav.routes.planning import astar_kernel
 from agvnav.sensors import beam
 from agvnav.vehicles.tricycle import hermite_poses
 
@@ -302,7 +303,30 @@ def _outputs(compiled: bool) -> Outputs:
     out.update(_scalar_kernel_outputs(rng))
     out.update(_integrity_kernel_outputs(rng))
     out.update(_triangulation_kernel_outputs(rng))
+    out.update(_planning_kernel_outputs(rng))
     return out
+
+
+def _planning_kernel_outputs(rng: np.random.Generator) -> Outputs:
+    """The route planner's A* on a random sparse graph of 300 states (goal, times, predecessors)."""
+    n = 300
+    rows, cols = rng.integers(0, n, 2400), rng.integers(0, n, 2400)
+    order = np.lexsort((cols, rows))
+    rows, cols = rows[order], cols[order]
+    indptr = np.searchsorted(rows, np.arange(n + 1)).astype(np.int64)
+    x, y = rng.uniform(0.0, 50.0, n), rng.uniform(0.0, 50.0, n)
+    w = np.hypot(x[rows] - x[cols], y[rows] - y[cols]) * rng.uniform(1.0, 2.0, len(rows))
+    goal = np.zeros(n, dtype=np.int64)
+    goal[[7, 8]] = 1
+    dist, pred, arc, stamp = (np.zeros(n), np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64),
+                              np.zeros(n, dtype=np.int64))
+    lm_from, lm_to = np.abs(x[:, None] - x[None, :2]) * 0.1, np.abs(y[:, None] - y[None, :2]) * 0.1
+    best = astar_kernel(indptr, cols.astype(np.int64), w, x, y, np.array([0, 1], dtype=np.int64), goal,
+                        float(x[7]), float(y[7]), 0.5, lm_from, lm_to, lm_from[[7, 8]].min(axis=0),
+                        lm_to[[7, 8]].max(axis=0), dist, pred, arc, stamp, 1, np.zeros(3000), np.zeros(3000),
+                        np.zeros(3000, np.int64))
+    return {"astar_kernel": [np.array([best, dist[best]]), np.where(stamp == 1, dist, -1.0), pred.astype(float),
+                             arc.astype(float)]}
 
 
 @pytest.fixture(scope="module")
