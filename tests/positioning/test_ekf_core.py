@@ -66,7 +66,7 @@ def test_step_record_is_the_hand_computed_kalman_step() -> None:
     A = np.eye(3) - np.outer(K, H)
     assert step.accepted and step.reason == "accepted" and step.index == 3 and step.t == 0.5
     assert step.innovation == pytest.approx(y, abs=1e-15)
-    assert step.S == pytest.approx(S, rel=1e-14)
+    assert pytest.approx(S, rel=1e-14) == step.S
     np.testing.assert_allclose(step.K, K, rtol=1e-13)
     np.testing.assert_allclose(step.x_prior, x0, rtol=0)
     np.testing.assert_allclose(step.P_prior, P, rtol=0)
@@ -88,7 +88,7 @@ def test_gate_refuses_without_changing_the_state() -> None:
     step = make_step(core.update(_Linear((1.0, 0.0, 0.0), 0.01, gate=9.0), 5.0))
     assert not step.accepted and step.reason == "outside_gate"
     assert step.nis > 9.0 and np.isnan(step.K).all()
-    assert core.x == (0.0, 0.0, 0.0) and core.P == tuple(P.reshape(9).tolist())
+    assert core.x == (0.0, 0.0, 0.0) and tuple(P.reshape(9).tolist()) == core.P
 
 
 def test_bearing_step_with_a_survey_consider_block_is_the_schmidt_kalman_step() -> None:
