@@ -22,7 +22,7 @@ import numpy as np
 
 from agvnav.guidance.clothoid import Clothoid
 
-__all__ = ["corner_extent", "grid_network", "hall_loop", "warehouse_network"]
+__all__ = ["corner_extent", "grid_network", "hall_loop", "warehouse_grid", "warehouse_network"]
 
 #: Corner radius (m) and clothoid length (m) of the hall loop.
 CORNER_RADIUS_M = 2.0
@@ -242,3 +242,31 @@ def grid_network(side: int, spacing: float = 5.0) -> dict[str, Any]:
             if j + 1 < side:
                 edges.append({"id": f"v{i}_{j}", "from": f"n{i}_{j}", "to": f"n{i}_{j + 1}", "two_way": True})
     return {"name": f"grid{side}x{side}", "nodes": nodes, "edges": edges}
+
+
+def warehouse_grid(cols: int = 7, rows: int = 5, spacing: float = 8.0, spur: float = 3.0) -> dict[str, Any]:
+    """``agvnav/data/routes/warehouse_grid.yaml``: a traffic layout in the 60 m x 40 m ``warehouse`` map (issue 30).
+
+    A ``cols`` x ``rows`` grid of two-way lanes (junctions ``Jc_r`` every ``spacing`` m from (6, 4) m), and
+    at every junction two dead-end spurs of ``spur`` m: a station ``Sc_r`` to the north (pick and drop
+    places) and a parking place ``Pc_r`` to the south. For vehicles that turn on the spot (every joint is
+    a corner); the traffic benchmark runs its Monte Carlo fleets here.
+    """
+    nodes: list[dict[str, Any]] = []
+    edges: list[dict[str, Any]] = []
+    for c in range(cols):
+        for r in range(rows):
+            x, y = 6.0 + c * spacing, 4.0 + r * spacing
+            j = f"J{c}_{r}"
+            nodes += [{"id": j, "x": x, "y": y},
+                      {"id": f"S{c}_{r}", "x": x, "y": y + spur, "heading_deg": 90.0, "kind": "station"},
+                      {"id": f"P{c}_{r}", "x": x, "y": y - spur, "heading_deg": 270.0, "kind": "station"}]
+            edges += [{"id": f"{j}-S", "from": j, "to": f"S{c}_{r}", "speed_m_s": 0.5, "two_way": True},
+                      {"id": f"{j}-P", "from": j, "to": f"P{c}_{r}", "speed_m_s": 0.5, "two_way": True}]
+            if c + 1 < cols:
+                edges.append({"id": f"{j}-E", "from": j, "to": f"J{c + 1}_{r}", "speed_m_s": 1.0, "two_way": True})
+            if r + 1 < rows:
+                edges.append({"id": f"{j}-N", "from": j, "to": f"J{c}_{r + 1}", "speed_m_s": 1.0, "two_way": True})
+    return {"name": "warehouse_grid", "description": f"{cols} x {rows} grid of two-way lanes, a station and a "
+            "parking spur at every junction (vehicles that turn on the spot)",
+            "tolerances": {"joint_deg": 5.0}, "nodes": nodes, "edges": edges}
