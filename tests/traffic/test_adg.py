@@ -107,7 +107,7 @@ def test_without_the_adg_the_same_delays_collide_or_conflict() -> None:
 
 
 def test_an_overlapping_plan_is_refused() -> None:
-    net, zones, plan = _swap()
+    _net, zones, plan = _swap()
     v0, v2 = plan.plans["V0"], plan.plans["V2"]
     shift = v2.steps[0].t_start - v0.steps[0].t_start
     moved = tuple(dataclasses.replace(s, t_start=s.t_start - shift, t_end=s.t_end - shift) for s in v2.steps)
@@ -117,7 +117,7 @@ def test_an_overlapping_plan_is_refused() -> None:
 
 
 def test_events_happen_in_order_and_after_their_dependencies() -> None:
-    net, zones, plan = _swap()
+    _net, zones, plan = _swap()
     adg = build_adg(plan, zones)
     waiting = next((v, e) for v, by in adg.deps.items() for e in by if e == 0)
     with pytest.raises(ValueError, match="before its dependencies"):

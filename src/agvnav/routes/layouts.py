@@ -244,12 +244,13 @@ def grid_network(side: int, spacing: float = 5.0) -> dict[str, Any]:
     return {"name": f"grid{side}x{side}", "nodes": nodes, "edges": edges}
 
 
-def warehouse_grid(cols: int = 7, rows: int = 5, spacing: float = 8.0, spur: float = 3.0) -> dict[str, Any]:
+def warehouse_grid(cols: int = 7, rows: int = 5, spacing: float = 8.0, spur: float = 2.2) -> dict[str, Any]:
     """``agvnav/data/routes/warehouse_grid.yaml``: a traffic layout in the 60 m x 40 m ``warehouse`` map (issue 30).
 
     A ``cols`` x ``rows`` grid of two-way lanes (junctions ``Jc_r`` every ``spacing`` m from (6, 4) m), and
-    at every junction two dead-end spurs of ``spur`` m: a station ``Sc_r`` to the north (pick and drop
-    places) and a parking place ``Pc_r`` to the south. For vehicles that turn on the spot (every joint is
+    at every junction two diagonal dead-end spurs clear of the lanes (``spur`` m in x and in y): a station
+    ``Sc_r`` to the north-east (pick and drop places) and a parking place ``Pc_r`` to the south-west.
+    For vehicles that turn on the spot (every joint is
     a corner); the traffic benchmark runs its Monte Carlo fleets here.
     """
     nodes: list[dict[str, Any]] = []
@@ -259,8 +260,8 @@ def warehouse_grid(cols: int = 7, rows: int = 5, spacing: float = 8.0, spur: flo
             x, y = 6.0 + c * spacing, 4.0 + r * spacing
             j = f"J{c}_{r}"
             nodes += [{"id": j, "x": x, "y": y},
-                      {"id": f"S{c}_{r}", "x": x, "y": y + spur, "heading_deg": 90.0, "kind": "station"},
-                      {"id": f"P{c}_{r}", "x": x, "y": y - spur, "heading_deg": 270.0, "kind": "station"}]
+                      {"id": f"S{c}_{r}", "x": x + spur, "y": y + spur, "heading_deg": 45.0, "kind": "station"},
+                      {"id": f"P{c}_{r}", "x": x - spur, "y": y - spur, "heading_deg": 225.0, "kind": "station"}]
             edges += [{"id": f"{j}-S", "from": j, "to": f"S{c}_{r}", "speed_m_s": 0.5, "two_way": True},
                       {"id": f"{j}-P", "from": j, "to": f"P{c}_{r}", "speed_m_s": 0.5, "two_way": True}]
             if c + 1 < cols:
