@@ -322,7 +322,7 @@ class _Graph:
                 cols.append(index[u])
                 w.append(dur + 1e-9)
         m = csr_matrix((w, (rows, cols)), shape=(len(ids), len(ids)))
-        d = dijkstra(m, indices=index[goal])
+        d = dijkstra(m, indices=[index[goal]], min_only=True)
         return {n: float(d[i]) for n, i in index.items()}
 
 
