@@ -110,7 +110,7 @@ def test_an_overlapping_plan_is_refused() -> None:
     _net, zones, plan = _swap()
     v0, v2 = plan.plans["V0"], plan.plans["V2"]
     shift = v2.steps[0].t_start - v0.steps[0].t_start
-    moved = tuple(dataclasses.replace(s, t_start=s.t_start - shift, t_end=s.t_end - shift) for s in v2.steps)
+    moved = tuple(s._replace(t_start=s.t_start - shift, t_end=s.t_end - shift) for s in v2.steps)
     plan.plans["V2"] = dataclasses.replace(v2, steps=moved)
     with pytest.raises(PlanConflictError, match="overlapping"):
         build_adg(plan, zones)

@@ -14,7 +14,14 @@ it holds ``("node", n)``. A resource ``r`` of model ``b`` is busy while some veh
 ``a`` holds a resource ``q`` with ``r in zones.conflicts(a, q, b)`` (:class:`Conflicts`). A plan is
 *valid* when no two vehicles hold conflicting resources at overlapping times; the planner keeps
 every vehicle's start node reserved until it leaves and its last goal reserved for ever after it
-arrives (it parks there), so a valid plan stays valid after its end.
+arrives (it parks there), so a valid plan stays valid after its end. Before a vehicle is planned its
+last goal is also reserved from the earliest time it could get there (static lower bound), so the
+vehicles planned before it do not cross it later (prioritised planning with reserved end points:
+fewer vehicles sent to wait for a goal that others keep crossing, and far fewer search expansions).
+
+Speed: the search runs on integers (:class:`TrafficIndex`, kernels in :mod:`agvnav.traffic._sipp`,
+compiled by numba): the conflict relation, each model's traversals and the reverse-Dijkstra lower
+bound of each goal are computed once per network and kept; replanning costs the searches only.
 
 Each vehicle's work is a list of :class:`Goal` (a station, the dwell there, the earliest time the
 dwell may start: a job's release). All goals of a vehicle are searched in one SIPP (the goal index
@@ -26,21 +33,19 @@ left planned half-way.
 
 from __future__ import annotations
 
-import bisect
-import heapq
 import math
 import time
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import Protocol
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import NamedTuple, Protocol
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import dijkstra
+from numpy.typing import NDArray
 
 from agvnav.geometry.angles import wrap_angle_scalar
 from agvnav.routes.network import RouteNetwork
 from agvnav.routes.planning import HEADING_CLASS_TOL_RAD, Traversal, VehicleLimits, edge_time
+from agvnav.traffic._sipp import dijkstra_to, release, reserve, safe_intervals, sipp
 
 __all__ = [
     "INF",
@@ -53,12 +58,15 @@ __all__ = [
     "Reservations",
     "Resource",
     "Step",
+    "TrafficIndex",
     "VehiclePlan",
     "VehicleTask",
     "arrive_event",
+    "occupation_arrays",
     "plan_fleet",
     "plan_vehicle",
     "start_event",
+    "traffic_index",
 ]
 
 #: A node ``("node", node_id)`` or an edge ``("edge", edge_id)`` of the network.
@@ -103,8 +111,7 @@ class VehicleTask:
     ready_s: float = 0.0
 
 
-@dataclass(frozen=True)
-class Step:
+class Step(NamedTuple):
     """One planned action: drive ``traversal`` from ``source`` to ``target`` over ``[t_start, t_end]`` (s).
 
     ``goal``: index of the goal it drives to; ``dwell_s`` and ``not_before_s``: the vehicle dwells that
@@ -210,313 +217,304 @@ class Occupation:
     release: int
 
 
-class Reservations:
-    """Busy intervals (s) of every resource, per model of the vehicle that would hold it, by owner."""
+class TrafficIndex:
+    """Compact integer indexing of a network and its conflict relation, built once and reused.
 
-    def __init__(self, zones: Conflicts, models: Sequence[str]) -> None:
+    Node ``i`` of ``network.nodes`` is resource ``i``, edge ``j`` of ``network.edges`` is resource
+    ``n_nodes + j`` (:mod:`agvnav.traffic._sipp`). The conflict relation of each pair of models is
+    asked of ``zones`` once per resource and kept as a CSR; each vehicle model's traversals, heading
+    classes and static lower bounds (one reverse Dijkstra per goal) are kept too, so replanning a
+    fleet costs the searches only.
+    """
+
+    def __init__(self, network: RouteNetwork, zones: Conflicts) -> None:
+        self.network = network
         self.zones = zones
-        self.models = tuple(dict.fromkeys(models))
-        self._busy: dict[tuple[str, Resource], list[tuple[float, float, str]]] = {}
-        self._cache: dict[tuple[str, Resource, str], frozenset[Resource]] = {}
+        self.node_ids = list(network.nodes)
+        self.node_index = {n: i for i, n in enumerate(self.node_ids)}
+        self.n_nodes = len(self.node_ids)
+        self.edge_index = {e: self.n_nodes + j for j, e in enumerate(network.edges)}
+        self.n_res = self.n_nodes + len(self.edge_index)
+        self._conf: dict[tuple[str, str], tuple[NDArray[np.int64], NDArray[np.int64]]] = {}
+        self._graphs: dict[VehicleLimits, _Graph] = {}
 
-    def _conflicts(self, model_a: str, res: Resource, model_b: str) -> frozenset[Resource]:
-        key = (model_a, res, model_b)
-        c = self._cache.get(key)
+    def resource(self, r: Resource) -> int:
+        """The integer of resource ``r``."""
+        return self.node_index[r[1]] if r[0] == "node" else self.edge_index[r[1]]
+
+    def conf(self, model_a: str, model_b: str) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """CSR ``(ptr, idx)``: the resources of ``model_b`` that ``model_a`` holding resource ``q`` makes busy."""
+        key = (model_a, model_b)
+        c = self._conf.get(key)
         if c is None:
-            c = self._cache[key] = self.zones.conflicts(model_a, res, model_b)
+            ptr = np.zeros(self.n_res + 1, dtype=np.int64)
+            idx: list[int] = []
+            res = [("node", n) for n in self.node_ids] + [("edge", e) for e in self.network.edges]
+            for q, r in enumerate(res):
+                idx += sorted(self.resource(x) for x in self.zones.conflicts(model_a, r, model_b))
+                ptr[q + 1] = len(idx)
+            c = self._conf[key] = (ptr, np.asarray(idx, dtype=np.int64))
         return c
+
+    def graph(self, limits: VehicleLimits) -> _Graph:
+        """The planning graph of a vehicle model (built once)."""
+        g = self._graphs.get(limits)
+        if g is None:
+            g = self._graphs[limits] = _Graph.build(self, limits)
+        return g
+
+
+_INDEX_CACHE: dict[tuple[int, int], TrafficIndex] = {}
+
+
+def traffic_index(network: RouteNetwork, zones: Conflicts) -> TrafficIndex:
+    """The :class:`TrafficIndex` of ``network`` and ``zones`` (the last few are kept)."""
+    key = (id(network), id(zones))
+    idx = _INDEX_CACHE.get(key)
+    if idx is None or idx.network is not network or idx.zones is not zones:
+        if len(_INDEX_CACHE) >= 4:
+            _INDEX_CACHE.pop(next(iter(_INDEX_CACHE)))
+        idx = _INDEX_CACHE[key] = TrafficIndex(network, zones)
+    return idx
+
+
+class Reservations:
+    """Busy intervals (s) of every resource per model of the vehicle that would hold it, with their owner.
+
+    Kept as ``(R, cap)`` arrays sorted by start (:mod:`agvnav.traffic._sipp`); ``cap`` doubles when a
+    resource fills up.
+    """
+
+    def __init__(self, index: TrafficIndex, models: Sequence[str], cap: int = 32) -> None:
+        self.index = index
+        self.models = tuple(dict.fromkeys(models))
+        r = index.n_res
+        self.b0 = {m: np.empty((r, cap)) for m in self.models}
+        self.b1 = {m: np.empty((r, cap)) for m in self.models}
+        self.bo = {m: np.empty((r, cap), dtype=np.int64) for m in self.models}
+        self.bn = {m: np.zeros(r, dtype=np.int64) for m in self.models}
+        self._owner: dict[str, int] = {}
+
+    def owner(self, vehicle: str) -> int:
+        """The integer of ``vehicle``."""
+        return self._owner.setdefault(vehicle, len(self._owner))
+
+    def add_arrays(self, vehicle: str, model: str, qs: NDArray[np.int64], t0s: NDArray[np.float64],
+                   t1s: NDArray[np.float64]) -> None:
+        """Reserve what ``vehicle`` (``model``) holding resources ``qs`` over ``[t0s, t1s]`` makes busy."""
+        o = self.owner(vehicle)
+        for mb in self.models:
+            ptr, idx = self.index.conf(model, mb)
+            i = 0
+            while True:
+                i += reserve(ptr, idx, qs[i:], t0s[i:], t1s[i:], o, self.b0[mb], self.b1[mb], self.bo[mb],
+                             self.bn[mb])
+                if i >= len(qs):
+                    break
+                self._grow(mb)
+
+    def _grow(self, mb: str) -> None:
+        cap = self.b0[mb].shape[1]
+        for arrs in (self.b0, self.b1, self.bo):
+            a = arrs[mb]
+            arrs[mb] = np.empty((a.shape[0], 2 * cap), dtype=a.dtype)
+            arrs[mb][:, :cap] = a
 
     def add(self, occ: Occupation) -> None:
         """Reserve what ``occ`` makes busy for every model."""
+        self.add_arrays(occ.vehicle, occ.model, np.array([self.index.resource(occ.resource)], dtype=np.int64),
+                        np.array([occ.t0]), np.array([occ.t1]))
+
+    def release(self, vehicle: str, model: str, held: Sequence[Resource]) -> None:
+        """Forget what ``vehicle`` holding ``held`` made busy."""
+        o = self.owner(vehicle)
+        qs = [self.index.resource(r) for r in held]
         for mb in self.models:
-            for r in self._conflicts(occ.model, occ.resource, mb):
-                bisect.insort(self._busy.setdefault((mb, r), []), (occ.t0, occ.t1, occ.vehicle))
+            ptr, idx = self.index.conf(model, mb)
+            rows = np.unique(np.concatenate([idx[ptr[q]:ptr[q + 1]] for q in qs])) if qs else idx[:0]
+            release(rows, o, self.b0[mb], self.b1[mb], self.bo[mb], self.bn[mb])
 
     def remove_vehicle(self, vehicle: str) -> None:
         """Forget every reservation of ``vehicle``."""
-        for key, lst in self._busy.items():
-            if any(v == vehicle for _, _, v in lst):
-                self._busy[key] = [b for b in lst if b[2] != vehicle]
+        o = self.owner(vehicle)
+        rows = np.arange(self.index.n_res, dtype=np.int64)
+        for mb in self.models:
+            release(rows, o, self.b0[mb], self.b1[mb], self.bo[mb], self.bn[mb])
 
-    def busy(self, model: str, res: Resource) -> list[tuple[float, float, str]]:
-        """The intervals ``(t0, t1, owner)`` in which a ``model`` vehicle may not hold ``res``, sorted."""
-        return self._busy.get((model, res), [])
+    def busy(self, model: str, res: Resource) -> list[tuple[float, float]]:
+        """The intervals ``(t0, t1)`` (s) in which a ``model`` vehicle may not hold ``res``, sorted by start."""
+        q = self.index.resource(res)
+        n = int(self.bn[model][q])
+        return [(float(a), float(b)) for a, b in zip(self.b0[model][q, :n], self.b1[model][q, :n], strict=True)]
 
     def safe_intervals(self, model: str, res: Resource) -> list[tuple[float, float]]:
         """The complement of :meth:`busy` on ``[0, inf)``: when ``res`` is free for ``model``."""
-        out: list[tuple[float, float]] = []
-        t = 0.0
-        for a, b in _merged(self.busy(model, res)):
-            if a > t:
-                out.append((t, a))
-            t = max(t, b)
-        if t < INF:
-            out.append((t, INF))
-        return out
-
-    def first_clash(self, model: str, res: Resource, t0: float, t1: float) -> float | None:
-        """End (s) of the latest busy interval of ``res`` overlapping ``[t0, t1]``; None when it is free."""
-        end: float | None = None
-        for a, b, _ in self.busy(model, res):
-            if a >= t1:
-                break
-            if b > t0 and (end is None or b > end):
-                end = b
-        return end
+        q = self.index.resource(res)
+        cap = self.b0[model].shape[1] + 1
+        a, b = np.empty(cap), np.empty(cap)
+        m = safe_intervals(self.b0[model][q], self.b1[model][q], int(self.bn[model][q]), a, b)
+        return [(float(a[i]), float(b[i])) for i in range(m)]
 
 
-def _merged(lst: list[tuple[float, float, str]]) -> list[tuple[float, float]]:
-    out: list[tuple[float, float]] = []
-    for a, b, _ in lst:
-        if out and a <= out[-1][1]:
-            out[-1] = (out[-1][0], max(out[-1][1], b))
-        else:
-            out.append((a, b))
-    return out
-
-
-@dataclass
 class _Graph:
-    """The traversals of one vehicle model, by source node, with drive times; heading classes per node."""
+    """One vehicle model's traversals as arrays (CSR by source node), heading classes, static lower bounds."""
 
-    network: RouteNetwork
-    limits: VehicleLimits
-    out: dict[str, list[tuple[Traversal, float, int, int]]] = field(default_factory=dict)
-    classes: dict[str, list[float]] = field(default_factory=dict)
+    def __init__(self, index: TrafficIndex, limits: VehicleLimits) -> None:
+        self.index, self.limits = index, limits
+        self.classes: list[list[float]] = []
+        self.travs: list[Traversal] = []
+        self._flat: tuple[NDArray[np.int64], NDArray[np.float64]] | None = None
+        self._bounds: dict[int, NDArray[np.float64]] = {}
+        empty_i, empty_f = np.zeros(0, dtype=np.int64), np.zeros(0)
+        self.order = self.src = self.dst = self.k0 = self.k1 = self.mode = self.res = empty_i
+        self.out_ptr = self.rev_ptr = self.rev_from = empty_i
+        self.dur = self.rev_w = empty_f
 
     @classmethod
-    def build(cls, network: RouteNetwork, limits: VehicleLimits) -> _Graph:
-        g = cls(network, limits)
-        for n in network.nodes.values():
-            g.classes[n.id] = [] if n.heading is None else [n.heading]
-            g.out[n.id] = []
-        for e in network.edges.values():
+    def build(cls, index: TrafficIndex, limits: VehicleLimits) -> _Graph:
+        g = cls(index, limits)
+        net = index.network
+        g.classes = [[] if net.nodes[n].heading is None else [float(net.nodes[n].heading)]  # type: ignore[arg-type]
+                     for n in index.node_ids]
+        rows: list[tuple[int, int, float, int, int, int, int]] = []
+        for e in net.edges.values():
             if not e.allows(limits.model):
                 continue
             dur = edge_time(e, limits)
+            u, v = index.node_index[e.source], index.node_index[e.target]
             for m in e.modes:
                 if m < 0 and not limits.reverses:
                     continue
                 tr = Traversal(e, m)
-                k0 = g.cls(e.source, tr.start_heading)
-                k1 = g.cls(e.target, tr.end_heading)
-                g.out[e.source].append((tr, dur, k0, k1))
+                rows.append((u, v, dur, g.cls(u, tr.start_heading), g.cls(v, tr.end_heading), m, len(g.travs)))
+                g.travs.append(tr)
+        rows.sort(key=lambda r: r[0])
+        n = index.n_nodes
+        g.order = np.array([r[6] for r in rows], dtype=np.int64)
+        src = np.array([r[0] for r in rows], dtype=np.int64)
+        g.travs = [g.travs[i] for i in g.order]
+        g.src = src
+        g.dst = np.array([r[1] for r in rows], dtype=np.int64)
+        g.dur = np.array([r[2] for r in rows], dtype=np.float64)
+        g.k0 = np.array([r[3] for r in rows], dtype=np.int64)
+        g.k1 = np.array([r[4] for r in rows], dtype=np.int64)
+        g.mode = np.array([r[5] for r in rows], dtype=np.int64)
+        g.res = np.array([index.edge_index[t.edge.id] for t in g.travs], dtype=np.int64)
+        g.out_ptr = np.searchsorted(src, np.arange(n + 1)).astype(np.int64)
+        rev = np.argsort(g.dst, kind="stable")
+        g.rev_ptr = np.searchsorted(g.dst[rev], np.arange(n + 1)).astype(np.int64)
+        g.rev_from = src[rev]
+        g.rev_w = g.dur[rev] + 1e-9
         return g
 
-    def cls(self, node: str, h: float) -> int:
+    def cls(self, node: int, h: float) -> int:
+        """The heading class of ``h`` (rad) at node ``node`` (a new one when none is within the tolerance)."""
         hs = self.classes[node]
         for i, c in enumerate(hs):
             if abs(wrap_angle_scalar(h - c)) <= HEADING_CLASS_TOL_RAD:
                 return i
         hs.append(h)
+        self._flat = None
         return len(hs) - 1
 
-    def lower_bounds(self, goal: str) -> dict[str, float]:
-        """Static shortest drive time (s) from every node to ``goal`` (headings ignored): the A* heuristic."""
-        ids = list(self.network.nodes)
-        index = {n: i for i, n in enumerate(ids)}
-        rows, cols, w = [], [], []
-        for u, lst in self.out.items():
-            for tr, dur, _, _ in lst:
-                rows.append(index[tr.edge.target])
-                cols.append(index[u])
-                w.append(dur + 1e-9)
-        m = csr_matrix((w, (rows, cols)), shape=(len(ids), len(ids)))
-        d = dijkstra(m, indices=[index[goal]], min_only=True)
-        return {n: float(d[i]) for n, i in index.items()}
+    def flat_classes(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """``(cls_ptr, cls_h)``: the heading classes of every node, flat."""
+        if self._flat is None:
+            ptr = np.zeros(len(self.classes) + 1, dtype=np.int64)
+            ptr[1:] = np.cumsum([len(c) for c in self.classes])
+            h = np.array([x for c in self.classes for x in c], dtype=np.float64)
+            self._flat = (ptr, h)
+        return self._flat
 
-
-def _prep_time(g: _Graph, node: str, k: int, mode: int, k0: int, m: int) -> float | None:
-    """Time (s) to get from heading class ``k``, direction ``mode`` to ``k0``, ``m`` at ``node`` (None: cannot)."""
-    t = 0.0
-    if k != k0 and k >= 0:
-        if not g.limits.turns_on_spot:
-            return None
-        hs = g.classes[node]
-        t += abs(wrap_angle_scalar(hs[k0] - hs[k])) / g.limits.turn_rate
-    if mode != 0 and m != mode:
-        t += g.limits.cusp_s
-    return t
-
-
-@dataclass(order=True)
-class _Node:
-    f: float
-    tie: int
-    t: float = field(compare=False)
-    key: tuple[int, str, int, int, int] = field(compare=False)
-    parent: _Node | None = field(compare=False, default=None)
-    step: tuple[Traversal, float, float] | None = field(compare=False, default=None)
+    def lower_bounds(self, goal: int) -> NDArray[np.float64]:
+        """Static shortest drive time (s) from every node to node ``goal`` (headings ignored): the A* heuristic."""
+        b = self._bounds.get(goal)
+        if b is None:
+            b = self._bounds[goal] = dijkstra_to(goal, self.rev_ptr, self.rev_from, self.rev_w, self.index.n_nodes)
+        return b
 
 
 def plan_vehicle(task: VehicleTask, graph: _Graph, res: Reservations,
-                 bounds: list[dict[str, float]] | None = None) -> VehiclePlan | None:
+                 bounds: Sequence[NDArray[np.float64]] | None = None) -> VehiclePlan | None:
     """SIPP for one vehicle against ``res`` (module doc); None when its goals cannot all be reached."""
-    model = task.limits.model
+    ix = graph.index
     goals = task.goals
+    gnode = np.array([ix.node_index[g.station] for g in goals], dtype=np.int64)
     if bounds is None:
-        bounds = [graph.lower_bounds(g.station) for g in goals]
-    rest = _rest_bounds(goals, bounds)
-    node_iv = _interval_cache(res, model)
-    k_start = -1
-    if task.start_heading is not None or graph.network.nodes[task.start].heading is not None:
-        h0 = task.start_heading if task.start_heading is not None else graph.network.nodes[task.start].heading
-        assert h0 is not None
-        k_start = graph.cls(task.start, h0)
-    ivs = node_iv(task.start)
-    iv0 = _containing(ivs, task.ready_s)
-    if iv0 is None:
+        bounds = [graph.lower_bounds(int(n)) for n in gnode]
+    start = ix.node_index[task.start]
+    h0 = task.start_heading if task.start_heading is not None else ix.network.nodes[task.start].heading
+    k_start = -1 if h0 is None else graph.cls(start, h0)
+    cls_ptr, cls_h = graph.flat_classes()
+    h = np.stack(bounds) if goals else np.zeros((0, ix.n_nodes))
+    rest = _rest_bounds(goals, h, gnode)
+    lim, model = graph.limits, graph.limits.model
+    tr, dep, t, _ = sipp(graph.out_ptr, graph.dst, graph.dur, graph.k0, graph.k1, graph.mode, graph.res, cls_ptr, cls_h,
+                      lim.turn_rate, lim.turns_on_spot, lim.cusp_s, gnode,
+                      np.array([g.dwell_s for g in goals]), np.array([g.not_before_s for g in goals]),
+                      np.array([2 if g.arrive_mode is None else g.arrive_mode for g in goals], dtype=np.int64),
+                      h, rest, res.b0[model], res.b1[model], res.bn[model], start, k_start, task.ready_s,
+                      MAX_EXPANSIONS)
+    if len(tr) == 0:
         return None
-    tie = 0
-    start = _Node(0.0, 0, task.ready_s, (0, task.start, k_start, 0, iv0))
-    start.f = task.ready_s + _h(start.key, bounds, rest)
-    heap = [start]
-    best: dict[tuple[int, str, int, int, int], float] = {start.key: task.ready_s}
-    expansions = 0
-    while heap and expansions < MAX_EXPANSIONS:
-        cur = heapq.heappop(heap)
-        if best.get(cur.key, INF) < cur.t:
-            continue
-        expansions += 1
-        gi, node, k, mode, iv = cur.key
-        iv_end = node_iv(node)[iv][1]
-        if gi < len(goals) and node == goals[gi].station and _mode_ok(goals[gi], mode):
-            g = goals[gi]
-            leave = max(cur.t, g.not_before_s) + g.dwell_s
-            last = gi + 1 == len(goals)
-            if (last and iv_end == INF) or (not last and leave <= iv_end):
-                nxt = _Node(0.0, tie, leave, (gi + 1, node, k, mode, iv), cur, None)
-                if last:
-                    return _unwind(task, nxt, goals)
-                if leave < best.get(nxt.key, INF):
-                    best[nxt.key] = leave
-                    nxt.f = leave + _h(nxt.key, bounds, rest)
-                    tie += 1
-                    nxt.tie = tie
-                    heapq.heappush(heap, nxt)
-        if gi >= len(goals):
-            continue
-        for tr, dur, k0, k1 in graph.out[node]:
-            prep = _prep_time(graph, node, k, mode, k0, tr.mode)
-            if prep is None:
-                continue
-            for t_dep, iv1 in _departures(res, model, tr, dur, node_iv(tr.edge.target), cur.t + prep, iv_end):
-                t_arr = t_dep + dur
-                key = (gi, tr.edge.target, k1, tr.mode, iv1)
-                if t_arr >= best.get(key, INF):
-                    continue
-                best[key] = t_arr
-                tie += 1
-                child = _Node(t_arr + _h(key, bounds, rest), tie, t_arr, key, cur, (tr, t_dep, t_arr))
-                heapq.heappush(heap, child)
-    return None
+    return _unwind(task, graph, tr.tolist(), dep.tolist(), t.tolist())
 
 
-def _mode_ok(goal: Goal, mode: int) -> bool:
-    return goal.arrive_mode is None or goal.arrive_mode == mode
-
-
-def _rest_bounds(goals: Sequence[Goal], bounds: list[dict[str, float]]) -> list[float]:
+def _rest_bounds(goals: Sequence[Goal], h: NDArray[np.float64], gnode: NDArray[np.int64]) -> NDArray[np.float64]:
     """Lower bound (s) of the work after reaching goal ``i``: dwells and the static times between goals."""
-    rest = [0.0] * (len(goals) + 1)
+    rest = np.zeros(len(goals) + 1)
     for i in range(len(goals) - 1, -1, -1):
-        hop = bounds[i + 1][goals[i].station] if i + 1 < len(goals) else 0.0
+        hop = float(h[i + 1, gnode[i]]) if i + 1 < len(goals) else 0.0
         rest[i] = goals[i].dwell_s + (hop if math.isfinite(hop) else 0.0) + rest[i + 1]
     return rest
 
 
-def _h(key: tuple[int, str, int, int, int], bounds: list[dict[str, float]], rest: list[float]) -> float:
-    gi, node = key[0], key[1]
-    if gi >= len(bounds):
-        return 0.0
-    return bounds[gi].get(node, INF) + rest[gi]
-
-
-def _interval_cache(res: Reservations, model: str) -> _IntervalCache:
-    return _IntervalCache(res, model)
-
-
-class _IntervalCache:
-    def __init__(self, res: Reservations, model: str) -> None:
-        self.res, self.model = res, model
-        self.memo: dict[str, list[tuple[float, float]]] = {}
-
-    def __call__(self, node: str) -> list[tuple[float, float]]:
-        v = self.memo.get(node)
-        if v is None:
-            v = self.memo[node] = self.res.safe_intervals(self.model, ("node", node))
-        return v
-
-
-def _containing(ivs: list[tuple[float, float]], t: float) -> int | None:
-    for i, (a, b) in enumerate(ivs):
-        if a <= t < b or (a <= t and b == INF):
-            return i
-    return None
-
-
-def _departures(res: Reservations, model: str, tr: Traversal, dur: float, v_ivs: list[tuple[float, float]],
-                t_ready: float, iv_end: float) -> list[tuple[float, int]]:
-    """Earliest departure (s) into each safe interval of the target node (SIPP successors).
-
-    The vehicle waits at the source node (free until ``iv_end``), then holds source, edge and target
-    for ``dur`` s; the target must be free from the departure on.
-    """
-    out: list[tuple[float, int]] = []
-    edge = ("edge", tr.edge.id)
-    src = ("node", tr.edge.source)
-    for j, (a, b) in enumerate(v_ivs):
-        if b <= t_ready:
-            continue
-        t = max(t_ready, a)
-        while t + dur <= iv_end and t < b:
-            clash = None
-            for r in (edge, src):
-                c = res.first_clash(model, r, t, t + dur)
-                if c is not None and (clash is None or c > clash):
-                    clash = c
-            if clash is None:
-                break
-            t = clash
-        if t + dur > iv_end:
-            break
-        if t < b and t + dur < b:
-            out.append((t, j))
-    return out
-
-
-def _unwind(task: VehicleTask, end: _Node, goals: Sequence[Goal]) -> VehiclePlan:
-    chain: list[_Node] = []
-    n: _Node | None = end
-    while n is not None:
-        chain.append(n)
-        n = n.parent
-    chain.reverse()
+def _unwind(task: VehicleTask, graph: _Graph, tr: list[int], dep: list[float], t: list[float]) -> VehiclePlan:
+    """The plan of the chain of states the search returned (:func:`agvnav.traffic._sipp.sipp`)."""
+    goals = task.goals
     steps: list[Step] = []
     arrivals = [INF] * len(goals)
     pending_dwell, pending_nb = 0.0, 0.0
-    for node in chain:
-        gi = node.key[0]
-        if node.step is None:
-            if node.parent is not None and gi > node.parent.key[0]:  # a goal reached: the stop
-                g = goals[gi - 1]
-                arrivals[gi - 1] = node.parent.t
-                pending_dwell, pending_nb = g.dwell_s, g.not_before_s + g.dwell_s
-                if steps:
-                    steps[-1] = _with_arrival(steps[-1], gi - 1)
+    gi = 0
+    for i in range(1, len(tr)):
+        if tr[i] == -1:  # a goal reached: the stop
+            g = goals[gi]
+            arrivals[gi] = t[i - 1]
+            pending_dwell, pending_nb = g.dwell_s, g.not_before_s + g.dwell_s
+            if steps:
+                steps[-1] = _with_arrival(steps[-1], gi)
+            gi += 1
             continue
-        tr, t0, t1 = node.step
-        steps.append(Step(tr, tr.edge.source, tr.edge.target, t0, t1, gi, pending_dwell, pending_nb))
+        trav = graph.travs[tr[i]]
+        steps.append(Step(trav, trav.edge.source, trav.edge.target, dep[i], t[i], gi, pending_dwell, pending_nb))
         pending_dwell, pending_nb = 0.0, 0.0
-    for i, g in enumerate(goals):  # a goal at the start node is reached at once
-        if not math.isfinite(arrivals[i]) and g.station == task.start and not steps:
-            arrivals[i] = task.ready_s
     return VehiclePlan(task.vehicle, task.limits.model, task.start, tuple(steps), tuple(goals), tuple(arrivals),
                        task.ready_s)
 
 
 def _with_arrival(st: Step, goal: int) -> Step:
-    return Step(st.traversal, st.source, st.target, st.t_start, st.t_end, st.goal, st.dwell_s, st.not_before_s, goal)
+    return st._replace(arrives=goal)
+
+
+def occupation_arrays(plan: VehiclePlan, index: TrafficIndex
+                      ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    """:meth:`VehiclePlan.occupations` as arrays ``(resource, t0, t1)`` (resources of ``index``)."""
+    ni, ei = index.node_index, index.edge_index
+    q: list[int] = [ni[plan.start]]
+    t0: list[float] = [plan.ready_s]
+    t1: list[float] = [plan.steps[0].t_start if plan.steps else INF]
+    n = len(plan.steps)
+    for k, st in enumerate(plan.steps):
+        u, v = ni[st.source], ni[st.target]
+        q += (u, ei[st.edge], v)
+        t0 += (st.t_start, st.t_start, st.t_start)
+        t1 += (st.t_end, st.t_end, st.t_end)
+        nxt = plan.steps[k + 1].t_start if k + 1 < n else INF
+        if nxt > st.t_end:
+            q.append(v)
+            t0.append(st.t_end)
+            t1.append(nxt)
+    return np.array(q, dtype=np.int64), np.array(t0), np.array(t1)
 
 
 @dataclass
@@ -531,52 +529,61 @@ class FleetPlan:
 
 
 def plan_fleet(network: RouteNetwork, tasks: Sequence[VehicleTask], zones: Conflicts,
-               graphs: Mapping[str, _Graph] | None = None) -> FleetPlan:
+               index: TrafficIndex | None = None) -> FleetPlan:
     """Prioritised planning (module doc): tasks in the order given; every start reserved until it is left.
 
     A vehicle whose goals cannot be reached stays at its start (reserved for ever) and is listed in
-    ``unserved`` with the reason.
+    ``unserved`` with the reason. ``index``: the network's :class:`TrafficIndex` (default: kept per
+    network and zones, :func:`traffic_index`).
     """
     t_wall = time.perf_counter()
-    res = Reservations(zones, [t.limits.model for t in tasks])
-    g_by: dict[tuple[str, VehicleLimits], _Graph] = {}
+    ix = index if index is not None else traffic_index(network, zones)
+    res = Reservations(ix, [t.limits.model for t in tasks])
     for t in tasks:
         if t.start not in network.nodes:
             raise ValueError(f"vehicle {t.vehicle!r}: unknown start node {t.start!r}")
         for g in t.goals:
             if g.station not in network.nodes:
                 raise ValueError(f"vehicle {t.vehicle!r}: unknown station {g.station!r}")
-        res.add(Occupation(t.vehicle, t.limits.model, ("node", t.start), t.ready_s, INF, -1, 0))
+    bounds_of = {t.vehicle: [ix.graph(t.limits).lower_bounds(ix.node_index[g.station]) for g in t.goals]
+                 for t in tasks}
+    for t in tasks:
+        res.add_arrays(t.vehicle, t.limits.model, *_endpoints(t, bounds_of[t.vehicle], ix))
     plans: dict[str, VehiclePlan] = {}
     unserved: dict[str, str] = {}
-    bound_cache: dict[tuple[str, VehicleLimits, str], dict[str, float]] = {}
     for t in tasks:
-        key = (t.limits.model, t.limits)
-        graph = (graphs or {}).get(t.limits.model) or g_by.get(key)
-        if graph is None:
-            graph = g_by[key] = _Graph.build(network, t.limits)
-        bounds = []
-        for g in t.goals:
-            bk = (t.limits.model, t.limits, g.station)
-            if bk not in bound_cache:
-                bound_cache[bk] = graph.lower_bounds(g.station)
-            bounds.append(bound_cache[bk])
-        unreachable = _unreachable(t, bounds)
-        res.remove_vehicle(t.vehicle)
+        graph = ix.graph(t.limits)
+        bounds = bounds_of[t.vehicle]
+        unreachable = _unreachable(t, bounds, ix)
+        res.release(t.vehicle, t.limits.model, [("node", t.start)] + [("node", g.station) for g in t.goals[-1:]])
         plan = None if unreachable else plan_vehicle(t, graph, res, bounds)
         if plan is None:
             unserved[t.vehicle] = unreachable or "the reservations of the vehicles planned before it never clear"
             plan = VehiclePlan(t.vehicle, t.limits.model, t.start, (), (), (), t.ready_s)
         plans[t.vehicle] = plan
-        for occ in plan.occupations():
-            res.add(occ)
+        res.add_arrays(t.vehicle, t.limits.model, *occupation_arrays(plan, ix))
     return FleetPlan(plans, unserved, tuple(t.vehicle for t in tasks), time.perf_counter() - t_wall)
 
 
-def _unreachable(task: VehicleTask, bounds: list[dict[str, float]]) -> str | None:
+def _endpoints(task: VehicleTask, bounds: list[NDArray[np.float64]], ix: TrafficIndex
+               ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    """The reservations a vehicle holds before it is planned: its start from its ready time on, and its
+    last goal from the earliest time it could get there on (module doc)."""
+    q, t0 = [ix.node_index[task.start]], [task.ready_s]
+    if task.goals and _unreachable(task, bounds, ix) is None:
+        g = task.goals[-1]
+        h = np.stack(bounds)
+        gnode = np.array([ix.node_index[x.station] for x in task.goals], dtype=np.int64)
+        earliest = task.ready_s + float(h[0, q[0]]) + float(_rest_bounds(task.goals, h, gnode)[0]) - g.dwell_s
+        q.append(ix.node_index[g.station])
+        t0.append(earliest)
+    return np.array(q, dtype=np.int64), np.array(t0), np.full(len(q), INF)
+
+
+def _unreachable(task: VehicleTask, bounds: list[NDArray[np.float64]], ix: TrafficIndex) -> str | None:
     node = task.start
     for g, b in zip(task.goals, bounds, strict=True):
-        if not np.isfinite(b.get(node, INF)):
+        if not np.isfinite(b[ix.node_index[node]]):
             return f"no route from {node!r} to station {g.station!r} for a {task.limits.model}"
         node = g.station
     return None
