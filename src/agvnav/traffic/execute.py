@@ -99,8 +99,8 @@ class RouteStep:
     traversal: Traversal
     dwell_s: float = 0.0
     not_before_s: float = 0.0
-    delivers: bool = False
-    """the step ends at a drop station (a delivery once its dwell is over)."""
+    delivers: int = 0
+    """deliveries at the step's end (drops there; each counts once its dwell is over)."""
     drop_dwell_s: float = 0.0
 
 
@@ -276,7 +276,7 @@ def _advance(v: str, st: _State, r: VehicleRoute, t: float, dt: float, controlle
         controller.arrived(v, st.k, t + dt)
         st.held = (("node", step.traversal.edge.target),)
         st.heading = step.traversal.end_heading
-        if step.delivers:
+        for _ in range(step.delivers):
             res.deliveries[v] += 1
             res.delivery_times.append(t + dt + step.drop_dwell_s)
         st.k += 1
@@ -358,9 +358,10 @@ def routes_from_plan(plan: FleetPlan, network: RouteNetwork, limits: Mapping[str
         p = plan.plans[v]
         steps = []
         for st in p.steps:
-            g = p.goals[st.arrives] if st.arrives is not None else None
-            steps.append(RouteStep(st.traversal, st.dwell_s, st.not_before_s, g is not None and g.action == "drop",
-                                   g.dwell_s if g is not None else 0.0))
+            reached = p.goals[st.arrives:st.arrives + st.reached] if st.arrives is not None else ()
+            drops = [g for g in reached if g.action == "drop"]
+            steps.append(RouteStep(st.traversal, st.dwell_s, st.not_before_s, len(drops),
+                                   drops[0].dwell_s if drops else 0.0))
         node = network.nodes[p.start]
         h0 = p.steps[0].traversal.start_heading if p.steps else 0.0
         out.append(VehicleRoute(v, limits[v], footprints[v], p.start, node.heading if node.heading is not None else h0,

@@ -128,6 +128,8 @@ class Step(NamedTuple):
     dwell_s: float = 0.0
     not_before_s: float = 0.0
     arrives: int | None = None
+    reached: int = 0
+    """how many goals in a row (from ``arrives`` on) are reached at ``target`` (a drop, then the next pick)."""
 
     @property
     def edge(self) -> str:
@@ -477,10 +479,11 @@ def _unwind(task: VehicleTask, graph: _Graph, tr: list[int], dep: list[float], t
     pending_dwell, pending_nb = 0.0, 0.0
     gi = 0
     for i in range(1, len(tr)):
-        if tr[i] == -1:  # a goal reached: the stop
+        if tr[i] == -1:  # a goal reached: the stop (several goals at one node: their dwells add up)
             g = goals[gi]
-            arrivals[gi] = t[i - 1]
-            pending_dwell, pending_nb = g.dwell_s, g.not_before_s + g.dwell_s
+            arrivals[gi] = t[i - 1] if tr[i - 1] != -1 else arrivals[gi - 1]
+            pending_nb = max(pending_nb + g.dwell_s, g.not_before_s + g.dwell_s)
+            pending_dwell += g.dwell_s
             if steps:
                 steps[-1] = _with_arrival(steps[-1], gi)
             gi += 1
@@ -493,7 +496,9 @@ def _unwind(task: VehicleTask, graph: _Graph, tr: list[int], dep: list[float], t
 
 
 def _with_arrival(st: Step, goal: int) -> Step:
-    return st._replace(arrives=goal)
+    if st.arrives is None:
+        return st._replace(arrives=goal, reached=1)
+    return st._replace(reached=st.reached + 1)
 
 
 def occupation_arrays(plan: VehiclePlan, index: TrafficIndex
