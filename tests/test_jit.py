@@ -28,6 +28,7 @@ from agvnav.positioning.total import _div, _wrap, total_batch
 from agvnav.positioning.triangulation import _layout_ok_kernel
 from agvnav.routes.planning import astar_kernel
 from agvnav.sensors import beam
+from agvnav.traffic import _sipp  # noqa: F401 - its kernels are in the property test
 from agvnav.vehicles.tricycle import hermite_poses
 
 pytestmark = pytest.mark.usefixtures("restore_jit_mode")
@@ -270,7 +271,43 @@ NESTED = {
     "_hits_disc": "line_of_sight", "near_one": "near_rows", "_visit_box": "grid_rows", "_finite_poses": "scan_hermite",
     "_solve_augmented": "_fde_statistics", "_normal_equations": "_fde_statistics", "position_crlb_one": "best_triple",
     "schmidt_accept": "gate_accept", "total_core": "total_batch",
+    "_clash_end": "sipp", "_turn": "sipp", "_key": "sipp", "_push_state": "sipp", "_chain": "sipp",
+    "_node_intervals": "sipp",
 }
+
+
+class _TouchZones:
+    """A conflict relation for the traffic kernels: a node conflicts with itself and the edges at it, an edge
+    with its twin and its end nodes."""
+
+    def __init__(self, network: Any) -> None:
+        self.net = network
+
+    def conflicts(self, model_a: str, res: tuple[str, str], model_b: str) -> frozenset[tuple[str, str]]:
+        if res[0] == "node":
+            at = {("edge", e.id) for e in self.net.edges.values() if res[1] in (e.source, e.target)}
+            return frozenset({res} | at)
+        e = self.net.edges[res[1]]
+        twin = {("edge", x.id) for x in self.net.edges.values() if {x.source, x.target} == {e.source, e.target}}
+        return frozenset({res, ("node", e.source), ("node", e.target)} | twin)
+
+
+def _traffic_kernel_outputs(rng: np.random.Generator) -> Outputs:
+    """The traffic planner's kernels (``traffic._sipp``) through a fleet plan on a 10 x 10 grid: planned times."""
+    from agvnav.routes.layouts import grid_network
+    from agvnav.routes.network import network_from_dict
+    from agvnav.routes.planning import VehicleLimits
+    from agvnav.traffic.plan import Goal, VehicleTask, plan_fleet
+
+    net = network_from_dict(grid_network(10, 5.0))
+    nodes = list(net.nodes)
+    pick = rng.choice(len(nodes), 24, replace=False)
+    lim = VehicleLimits("differential", 1.0)
+    tasks = [VehicleTask(f"V{i}", lim, nodes[int(pick[i])], (Goal(nodes[int(pick[12 + i])], 2.0),))
+             for i in range(12)]
+    plan = plan_fleet(net, tasks, _TouchZones(net))
+    times = [np.array([(s.t_start, s.t_end) for s in p.steps] or [(0.0, 0.0)]) for p in plan.plans.values()]
+    return {name: list(times) for name in ("sipp", "dijkstra_to", "reserve", "release", "safe_intervals")}
 
 
 def _triangulation_kernel_outputs(rng: np.random.Generator) -> Outputs:
@@ -304,6 +341,7 @@ def _outputs(compiled: bool) -> Outputs:
     out.update(_integrity_kernel_outputs(rng))
     out.update(_triangulation_kernel_outputs(rng))
     out.update(_planning_kernel_outputs(rng))
+    out.update(_traffic_kernel_outputs(rng))
     return out
 
 

@@ -175,6 +175,13 @@ def mapping(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT
     _run("mapping", json, quick, seed, wide)
 
 
+@bench_app.command("traffic")
+@user_errors
+def traffic(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
+    """Traffic control: collisions and deadlocks under delays, deliveries/h beside the baseline, planning time."""
+    _run("traffic", json, quick, seed, wide)
+
+
 @bench_app.command("fleet")
 @user_errors
 def fleet(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:

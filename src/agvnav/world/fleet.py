@@ -70,6 +70,8 @@ __all__ = [
     "FleetScenario",
     "FleetSpec",
     "FleetVehicleSpec",
+    "JobStreamSpec",
+    "TransportJobSpec",
     "VehicleSections",
     "is_fleet_document",
     "load_fleet",
@@ -137,11 +139,53 @@ class FleetVehicleSpec(VehicleSections):
     """initial placement relative to its path start."""
 
 
+class TransportJobSpec(StrictModel):
+    """A transport job (issue 30): pick at station ``pick``, drop at station ``drop``."""
+
+    id: Annotated[str, Field(min_length=1, max_length=64)]
+    """name of the job (unique)."""
+    pick: str
+    """station where the load is picked."""
+    drop: str
+    """station where it is dropped."""
+    release_s: NonNegFloat = 0.0
+    """the pick may not start before this time."""
+    priority: int = 0
+    """higher first among jobs released at the same time."""
+    pick_s: NonNegFloat = 3.0
+    """time the pick takes."""
+    drop_s: NonNegFloat = 3.0
+    """time the drop takes."""
+
+
+class JobStreamSpec(StrictModel):
+    """Transport jobs generated at a rate (Poisson releases) between random distinct stations."""
+
+    rate_per_h: PosFloat
+    """mean jobs per hour."""
+    count: Annotated[int, Field(ge=1, le=100000)]
+    """how many jobs."""
+    seed: Annotated[int, Field(ge=0)] = 0
+    """random seed of the stream."""
+    stations: list[str] | None = None
+    """stations to pick at and drop to (null: every station of the network that is no vehicle's start)."""
+    pick_s: NonNegFloat = 3.0
+    """time each pick takes."""
+    drop_s: NonNegFloat = 3.0
+    """time each drop takes."""
+
+
 class FleetSpec(StrictModel):
-    """The vehicles of a fleet scenario (issue 28), each driving its own mission or path."""
+    """The vehicles of a fleet scenario (issue 28), each driving its own mission or path; the transport jobs."""
 
     vehicles: Annotated[list[FleetVehicleSpec], Field(min_length=1, max_length=MAX_FLEET_VEHICLES)]
     """the vehicles, each with an id and its mission (or path)."""
+    jobs: list[TransportJobSpec] | None = None
+    """transport jobs dispatched to the mission vehicles after their own jobs (issue 30)."""
+    job_stream: JobStreamSpec | None = None
+    """transport jobs generated at a rate (issue 30)."""
+    jobs_file: str | None = None
+    """a YAML file (relative to the scenario) with ``jobs`` and/or ``job_stream`` as here."""
 
     @model_validator(mode="after")
     def _unique_ids(self) -> FleetSpec:
