@@ -122,12 +122,10 @@ class OccludedReflections:
             return ev
         heads = compose(np.asarray(pose_at(ev[:, 0]), dtype=np.float64).reshape(-1, 3), self.mount)
         keep = np.ones(ev.shape[0], dtype=bool)
-        for k in range(ev.shape[0]):
-            i = int(ev[k, 2])
-            if i < 0:
-                continue
-            if self.obstacles.blocks(heads[k, :2], self.reflector_xy[i], float(ev[k, 0])):
-                keep[k] = False
+        real = np.flatnonzero(ev[:, 2] >= 0)  # spurious reflections (index -1) have no line of sight
+        if real.size:
+            target = self.reflector_xy[ev[real, 2].astype(np.int64)]
+            keep[real] = ~self.obstacles.blocked(heads[real, :2], target, ev[real, 0])
         self.n_occluded += int((~keep).sum())
         return ev[keep]
 
