@@ -23,13 +23,14 @@ from __future__ import annotations
 import math
 import resource
 import sys
+import tracemalloc
 from collections.abc import Callable
 from typing import Any
 
-from agvnav.sim.fleet import build_fleet, run_fleet
+from agvnav.sim.fleet import build_fleet, fleet_stride, run_fleet
 from agvnav.world.fleet import parse_fleet
 
-__all__ = ["PRIORITY", "SIZES", "TITLE", "fleet_text", "run", "slots"]
+__all__ = ["PRIORITY", "SIZES", "TITLE", "fleet_text", "run", "shift_memory", "slots"]
 
 TITLE = "Fleet in the warehouse: CPU per vehicle-step, real-time factor, memory (issue 28; target 50x at 50)"
 PRIORITY = ("vehicles", "us_per_vehicle_step", "real_time_factor_cpu", "peak_mib", "collisions", "min_separation_m",
@@ -82,11 +83,13 @@ def slots() -> list[tuple[float, float, float]]:
     return out
 
 
-def fleet_text(n: int, seed: int, duration: float) -> str:
-    """The fleet scenario of ``n`` vehicles (YAML text)."""
+def fleet_text(n: int, seed: int, duration: float, record_step_s: float | None = None) -> str:
+    """The fleet scenario of ``n`` vehicles (YAML text); ``record_step_s`` its recording period (s; None automatic)."""
     if n > len(slots()):
         raise ValueError(f"the bench places at most {len(slots())} vehicles, got {n}")
     lines = [_HEAD.format(n=n, seed=seed, duration=duration)]
+    if record_step_s is not None:
+        lines.insert(0, f"record_step_s: {record_step_s}\n")
     for i, (x, y, h) in enumerate(slots()[:n]):
         path = f"{{start: [{x}, {y}, {h}], segments: [{{type: line, length_m: {PATH_M}}}]}}"
         lines.append(f"    - id: v{i}\n      path: {path}\n")
@@ -124,5 +127,67 @@ def run(quick: bool, seed: int, progress: Callable[[int, int], None] | None = No
             "outcome": result.outcome,
         })
         if progress is not None:
-            progress(k + 1, len(sizes))
+            progress(k + 1, len(sizes) + 1)
+    records.append(shift_memory(quick, seed))
+    if progress is not None:
+        progress(len(sizes) + 1, len(sizes) + 1)
     return records
+
+
+def _baseline_growth(samples: list[tuple[float, int]], sim_s: float) -> float:
+    """Growth (bytes/s) of the traced memory's floor: its least value over the third quarter of the run and over
+    the fourth, apart by a quarter of the run (a step's transient arrays sit on top of the floor, so a
+    straight-line fit through the samples measures their noise, not the growth)."""
+    q3 = [b for t, b in samples if 0.5 * sim_s <= t < 0.75 * sim_s]
+    q4 = [b for t, b in samples if t >= 0.75 * sim_s]
+    if not q3 or not q4:
+        return 0.0
+    return (min(q4) - min(q3)) / (0.25 * sim_s)
+
+
+#: The shift whose memory is projected: vehicles and simulated time (s).
+SHIFT_VEHICLES = 50
+SHIFT_S = 8 * 3600.0
+#: The shorter run it is projected from: vehicles and simulated time (s), quick and not.
+MEMORY_RUN = {True: (5, 30.0), False: (10, 120.0)}
+
+
+def shift_memory(quick: bool, seed: int) -> dict[str, Any]:
+    """Memory of an 8-hour shift of 50 vehicles, projected from a shorter run (module docstring of the row).
+
+    The shorter run records at the shift's automatic rate (:func:`agvnav.sim.fleet.fleet_stride`). What a
+    run keeps grows with time: the recorded rows (series and the recorded steps' events: counted in the
+    result, bytes per vehicle-hour) and anything else the roles accumulate (:func:`_baseline_growth` of the
+    memory traced by ``tracemalloc``; the recorder's blocks are allocated up front, so they are not in it).
+    Projection: the process's peak so far (the 50-vehicle row's build included) plus both growths times
+    50 vehicles times 8 h.
+    """
+    n, sim_s = MEMORY_RUN[quick]
+    shift = parse_fleet(fleet_text(SHIFT_VEHICLES, seed, SHIFT_S), "<bench fleet shift>")
+    stride = fleet_stride(shift, SHIFT_VEHICLES, shift.step_s, SHIFT_S)
+    record_s = stride * shift.step_s
+    built = build_fleet(parse_fleet(fleet_text(n, seed, sim_s, record_s), "<bench fleet memory>"))
+    samples: list[tuple[float, int]] = []
+    tracemalloc.start()
+    try:
+        result = run_fleet(built, progress=lambda t: samples.append((t, tracemalloc.get_traced_memory()[0])))
+    finally:
+        tracemalloc.stop()
+    kept = sum(sum(a.nbytes for a in r.series.values()) + sum(a.nbytes for ev in r.events.values()
+                                                               for a in ev.values()) for r in result.results)
+    other = _baseline_growth(samples[:-1], sim_s)  # the last sample follows finish()
+    recorded_h = kept / (n * sim_s) * 3600.0 / 2**20
+    other_h = max(other, 0.0) / n * 3600.0 / 2**20
+    base = _peak_mib()
+    return {
+        "vehicles": SHIFT_VEHICLES,
+        "sim_time_s": SHIFT_S,
+        "measure": "projected",
+        "record_step_s": record_s,
+        "recorded_mib_per_vehicle_hour": recorded_h,
+        "other_mib_per_vehicle_hour": other_h,
+        "peak_mib": base + SHIFT_VEHICLES * SHIFT_S / 3600.0 * (recorded_h + other_h),
+        "measured_vehicles": n,
+        "measured_sim_s": sim_s,
+        "outcome": result.outcome,
+    }

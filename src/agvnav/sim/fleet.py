@@ -43,6 +43,7 @@ from shapely.geometry import Polygon
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.sim.bodies import BodiesInView, FleetBodies, placed_footprints
 from agvnav.sim.build import Built, build
+from agvnav.sim.engine import record_stride
 from agvnav.sim.mission import load_mission_network
 from agvnav.sim.rangers import UltrasonicSensorRole
 from agvnav.sim.reactive import ObstacleRangers, OccludedReflections, ReactiveInputs, ScannerRole
@@ -54,10 +55,13 @@ from agvnav.world.scenario import Scenario, ScenarioError
 
 __all__ = [
     "EXACT_WITHIN_M",
+    "FLEET_MAX_ROWS",
+    "TALLY_NAMES",
     "BuiltFleet",
     "FleetResult",
     "build_fleet",
     "fleet_figures",
+    "fleet_stride",
     "run_fleet",
     "simulate_fleet",
 ]
@@ -142,7 +146,25 @@ def build_fleet(fleet: FleetScenario) -> BuiltFleet:
     for i, b in enumerate(built):
         _wire_others(b, scenarios[i], bodies, i)
     duration = float(fleet.duration_s) if fleet.duration_s is not None else max(b.duration for b in built)
+    stride = fleet_stride(fleet, len(built), float(built[0].loop.dt), duration)
+    for b in built:
+        b.loop.record_every = stride
     return BuiltFleet(fleet, ids, scenarios, built, bodies, duration, n_obs)
+
+
+#: Recorded rows of all the vehicles together a fleet keeps at most when its rate is automatic
+#: (about 0.8 GB of series at 50 columns; an 8-hour shift of 50 vehicles records every 15th step).
+FLEET_MAX_ROWS = 2_000_000
+
+
+def fleet_stride(fleet: FleetScenario, n_vehicles: int, dt: float, duration: float) -> int:
+    """Steps between two recorded rows of each vehicle: ``record_step_s`` in whole steps, or automatic (every
+    step, unless a vehicle would pass :data:`~agvnav.sim.engine.MAX_RECORDED_ROWS` or the fleet
+    :data:`FLEET_MAX_ROWS`)."""
+    if fleet.record_step_s is not None:
+        return max(1, round(float(fleet.record_step_s) / dt))
+    n_steps = math.ceil(duration / dt - 1e-9)
+    return max(record_stride(n_steps, None), math.ceil(n_vehicles * n_steps / FLEET_MAX_ROWS))
 
 
 def _check_stations(fleet: FleetScenario, scenarios: list[Scenario]) -> None:
@@ -212,6 +234,53 @@ class FleetResult:
         return self.outcome == "completed"
 
 
+#: Time (s) each vehicle spent in each state, counted every step (:class:`_Tally`).
+TALLY_NAMES = ("time_slowed_positioning_s", "time_stopped_positioning_s", "time_slowed_fields_s",
+               "time_stopped_fields_s", "time_stopped_by_vehicle_s")
+
+
+_TALLIED = ("guard_level", "reaction_level", "field_trigger")
+
+
+class _Tally:
+    """The fleet's per-vehicle times slowed and stopped and why, counted every step from the autopilots'
+    signals (whatever the recording rate): the guard's level (1 slowed, 2 stopped), the reaction's level and
+    the obstacle index that triggered it (a vehicle's body: at least ``n_obstacles``)."""
+
+    def __init__(self, bf: BuiltFleet) -> None:
+        n = len(bf.built)
+        self.n_obstacles = bf.n_obstacles
+        self.times = np.zeros((n, len(TALLY_NAMES)))
+        self.by = [dict[str, float]() for _ in range(n)]
+        """per vehicle, time stopped by each other vehicle's body (s), by id."""
+        self.ids = bf.ids
+        self.index: list[tuple[int, int, int]] = []
+        for b in bf.built:
+            names = list(b.loop.autopilot.signal_names)
+            ig, ir, it = (names.index(c) if c in names else -1 for c in _TALLIED)
+            self.index.append((ig, ir, it))
+
+    def count(self, i: int, pilot_signals: tuple[float, ...], dt: float) -> None:
+        """Add a step of ``dt`` (s) of vehicle ``i`` in the state its autopilot's signals give."""
+        ig, ir, it = self.index[i]
+        guard = pilot_signals[ig] if ig >= 0 else 0.0
+        react = pilot_signals[ir] if ir >= 0 else 0.0
+        row = self.times[i]
+        if guard == 1.0:
+            row[0] += dt
+        elif guard >= 2.0:
+            row[1] += dt
+        if react == 1.0:
+            row[2] += dt
+        elif react >= 2.0:
+            row[3] += dt
+            trig = int(pilot_signals[it]) if it >= 0 else -1
+            if trig >= self.n_obstacles:
+                row[4] += dt
+                other = self.ids[trig - self.n_obstacles]
+                self.by[i][other] = self.by[i].get(other, 0.0) + dt
+
+
 @dataclass
 class _Separation:
     """Smallest footprint-to-footprint distance seen, per vehicle and for the fleet."""
@@ -232,6 +301,7 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
     dt = float(bf.built[0].loop.dt)
     every = max(1, math.ceil(bf.duration / dt) // 100)
     sep = _Separation(np.full(n, math.inf), [""] * n)
+    tally = _Tally(bf)
     collisions: list[dict[str, Any]] = []
     ended_at = [math.nan] * n
     cpu0, wall0 = time.process_time(), time.perf_counter()
@@ -247,6 +317,7 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
         for i in active:
             if not loops[i].sense():
                 ended_at[i] = t1
+            tally.count(i, loops[i].autopilot.signals(), dt)
         vehicle_steps += len(active)
         steps += 1
         t = t1
@@ -266,7 +337,7 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
     for sc, vb, out in zip(bf.scenarios, bf.built, outputs, strict=True):
         out.wall_time_s = wall
         results.append(result_of(sc, vb, out))
-    vehicles = [_vehicle_figures(bf, i, results[i], sep, collisions) for i in range(n)]
+    vehicles = [_vehicle_figures(bf, i, results[i], sep, collisions, tally) for i in range(n)]
     figures = fleet_figures(vehicles, collisions, sep, t)
     figures.update(steps=steps, vehicle_steps=vehicle_steps, cpu_time_s=cpu, wall_time_s=wall,
                    real_time_factor_cpu=t / cpu if cpu > 0 else math.inf,
@@ -334,17 +405,12 @@ def _separations(bf: BuiltFleet, sep: _Separation, t: float) -> tuple[int, int] 
 
 
 def _vehicle_figures(bf: BuiltFleet, i: int, result: SimResult, sep: _Separation,
-                     collisions: list[dict[str, Any]]) -> dict[str, Any]:
-    """One vehicle's row: outcome, jobs, slowed/stopped and why, separation."""
+                     collisions: list[dict[str, Any]], tally: _Tally) -> dict[str, Any]:
+    """One vehicle's row: outcome, jobs, slowed/stopped and why (counted every step), separation."""
     s = result.series
     t = s["t"]
-    dt = np.diff(t, prepend=t[0])
     built = bf.built[i]
     jobs, done, deliveries = _job_counts(built, result)
-    guard = s["guard_level"] if "guard_level" in s else np.zeros_like(t)
-    react = s["reaction_level"] if "reaction_level" in s else np.zeros_like(t)
-    trig = s["field_trigger"] if "field_trigger" in s else np.full_like(t, -1.0)
-    by_vehicle = (react >= 2.0) & (trig >= bf.n_obstacles)
     reason = result.reason
     if reason == "fleet_stopped" and collisions:
         c = collisions[0]
@@ -352,6 +418,7 @@ def _vehicle_figures(bf: BuiltFleet, i: int, result: SimResult, sep: _Separation
     elif reason == "collision":
         other = [v for c in collisions for v in c["vehicles"] if bf.ids[i] in c["vehicles"] and v != bf.ids[i]]
         reason = f"collision with {other[0]}" if other else "collision"
+    by = tally.by[i]
     return {
         "id": bf.ids[i],
         "model": result.scenario.vehicle.model,
@@ -361,11 +428,8 @@ def _vehicle_figures(bf: BuiltFleet, i: int, result: SimResult, sep: _Separation
         "jobs_completed": done,
         "deliveries": deliveries,
         "distance_m": float(np.nanmax(np.abs(_distance(s)))) if t.size else 0.0,
-        "time_slowed_positioning_s": float(np.sum(dt[guard == 1.0])),
-        "time_stopped_positioning_s": float(np.sum(dt[guard >= 2.0])),
-        "time_slowed_fields_s": float(np.sum(dt[react == 1.0])),
-        "time_stopped_fields_s": float(np.sum(dt[react >= 2.0])),
-        "time_stopped_by_vehicle_s": float(np.sum(dt[by_vehicle])),
+        **{name: float(v) for name, v in zip(TALLY_NAMES, tally.times[i], strict=True)},
+        "stopped_most_by": max(by, key=lambda k: by[k]) if by else None,
         "min_separation_m": float(sep.per_vehicle[i]),
         "nearest_vehicle": sep.nearest[i] or None,
         "end_s": float(t[-1]) if t.size else 0.0,
