@@ -220,6 +220,14 @@ class FleetScenario(VehicleSections, SourcedModel):
         vehicles = data["fleet"]["vehicles"]
         return dict(vehicles[i])
 
+    def with_seed(self, seed: int) -> FleetScenario:
+        """A copy with another fleet seed (keeps the source, line map and the raw document)."""
+        if seed < 0:
+            raise ValueError(f"seed must be >= 0, got {seed}")
+        new = self.copy_attached({"seed": int(seed)})
+        new.__pydantic_private__["_data"] = getattr(self, "_data", None)  # type: ignore[index]
+        return new
+
     def vehicle_scenarios(self) -> list[Scenario]:
         """Every vehicle as a :class:`Scenario` (see the module docstring); errors located in the fleet file."""
         return [self.vehicle_scenario(i) for i in range(len(self.fleet.vehicles))]
