@@ -182,3 +182,23 @@ def test_a_vehicle_stopped_behind_another_counts_it_every_step_whatever_the_reco
     at = np.searchsorted(full["t"], few["t"])
     np.testing.assert_array_equal(full["t"][at], few["t"])
     np.testing.assert_array_equal(full["x"][at], few["x"])  # the same run, recorded every 10th step
+
+
+def test_a_mission_vehicle_stops_for_another_in_its_safety_field_and_without_fields_runs_into_it() -> None:
+    # 'mover' leaves S1 (8, 3) east for S2; 'parked' stands on that lane at (13, 3)
+    vehicles = ("duration_s: 14.0\nfleet:\n  vehicles:\n" + _mission("mover", "S1", "S2")
+                + "    - id: parked\n      path: " + _line(13.0, 3.0, 0.0, 0.2) + "\n")
+    fields = simulate_fleet(parse_fleet(HALL + REACTIVE + vehicles, "m.yaml"))
+    mover = fields.vehicles[0]
+    assert fields.collisions == [] and mover["reason"] == "timeout"
+    assert mover["stopped_most_by"] == "parked" and mover["time_stopped_by_vehicle_s"] > 3.0
+    assert 0.2 < fields.figures["min_separation_m"] < 2.5
+    blind = simulate_fleet(parse_fleet(HALL + vehicles, "m.yaml"))
+    assert blind.outcome == "failed" and blind.reason is not None and "collision of mover and parked" in blind.reason
+
+
+def test_a_mission_vehicle_refuses_local_avoidance_at_its_key() -> None:
+    text = HALL + "scanner: {}\nreactive: {avoid_segments: all, corridor_left_m: 1.0}\nfleet:\n  vehicles:\n" \
+        + _mission("mover", "S1", "S2")
+    with pytest.raises(ScenarioError, match=r"m.yaml:\d+: reactive.avoid_segments: vehicle 'mover': local avoidance"):
+        build_fleet(parse_fleet(text, "m.yaml"))
