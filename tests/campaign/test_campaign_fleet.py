@@ -4,8 +4,8 @@ import pytest
 
 from agvnav.campaign import load_base, load_campaign, plan_runs, run_batch
 from agvnav.campaign.overrides import apply_overrides, dump_yaml
-from agvnav.campaign.summary import summarize
 from agvnav.campaign.store import records_table
+from agvnav.campaign.summary import summarize
 from agvnav.world.strict import ScenarioError
 
 #: Three vehicles in the lab, each dropping once at the end of a short line (a path vehicle: one job).
