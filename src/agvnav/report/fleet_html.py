@@ -119,7 +119,8 @@ _SCRIPT = """
     for (var i = 0; i < d.x.length; i++) {
       var x = d.x[i][k], y = d.y[i][k], psi = d.psi[i][k], g = document.getElementById('agv' + i);
       if (g && x !== null && y !== null && psi !== null) {
-        g.setAttribute('transform', 'translate(' + x + ',' + (-y) + ') rotate(' + (-psi * 180 / Math.PI) + ')');
+        g.setAttribute('transform', 'translate(' + x + ',' + (-y) + ')');  // the label stays upright
+        g.firstChild.setAttribute('transform', 'rotate(' + (-psi * 180 / Math.PI) + ')');
       }
     }
     label.textContent = 't = ' + d.t[k].toFixed(2) + ' s, ' + d.x.length + ' vehicles';
