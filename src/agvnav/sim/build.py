@@ -625,7 +625,7 @@ def build_docking(sc: Scenario) -> Built:
     g = sc.goniometer
     mount = (g.mount[0], g.mount[1], math.radians(g.mount[2]))
     station = StationEstimator(target, mount, g.pulses_per_rev, 1.0 / g.rate_hz,
-                               OdometryNoise(*sc.positioning.odometry_noise))
+                               docking.station_noise(sc, odometry_noise(sc)))
     estimate = DockingEstimate(estimator, station)
     approach = PathAutopilot(follower, path, profile, plant, 0.0, end_tolerance=target.max_offset[0] + 0.05,
                              watch=_watch(sc))

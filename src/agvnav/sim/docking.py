@@ -20,13 +20,17 @@ from numpy.typing import NDArray
 
 from agvnav.guidance import LineSegment, Path
 from agvnav.navigation.docking import DockingAutopilot
+from agvnav.odometry import OdometryNoise, wheel_pair_noise
 from agvnav.positioning.station import to_station
 from agvnav.world import WorldMap, builtin_map, builtin_map_names
 from agvnav.world.docking import DockingTarget, approach_start, check_target, load_docking_targets
 from agvnav.world.map import Reflector, Wall
 from agvnav.world.scenario import Scenario
+from agvnav.world.vehicle_specs import WheeledVehicleSpec
 
-__all__ = ["PERSON_SIDE_M", "approach_path", "compose", "docking_figures", "true_station", "true_world"]
+__all__ = [
+    "PERSON_SIDE_M", "approach_path", "compose", "docking_figures", "station_noise", "true_station", "true_world",
+]
 
 #: Side of the square a standing person occupies (m).
 PERSON_SIDE_M = 0.4
@@ -68,6 +72,19 @@ def load_target(sc: Scenario) -> DockingTarget:
     if sc.docking.target not in ids:
         raise sc.error(("docking", "target"), f"no docking target {sc.docking.target!r} in the map (has {ids})")
     return check_target(doc, ids.index(sc.docking.target), sc.goniometer.pulses_per_rev, _turn_radius(sc))
+
+
+def station_noise(sc: Scenario, noise: OdometryNoise) -> OdometryNoise:
+    """The station estimator's odometry model: the global one's, completed for two driven wheels.
+
+    A vehicle on two driven wheels (differential, tractor) fine-positions with turns on the spot,
+    where Crowley's form [seed002 eq17] puts the translation variance at zero while the wheels'
+    slips shift the base: :func:`agvnav.odometry.wheel_pair_noise` on the vehicle's track (issue 32,
+    the false alarm of the consistency test after a spot turn). Other vehicles keep ``noise``.
+    """
+    if isinstance(sc.vehicle, WheeledVehicleSpec):
+        return wheel_pair_noise(noise, float(sc.vehicle.track_m))
+    return noise
 
 
 def true_station(sc: Scenario, target: DockingTarget) -> tuple[float, float, float]:
