@@ -11,7 +11,8 @@ to the *true* station:
   ``finished`` how many of them the vehicle reported finished (a failed docking counts its error too);
 * ``silent_failures``: dockings reported finished whose true error exceeds 10 mm or 0.5 deg, over
   the nominal runs and the fault cases (one target reflector missing, one moved by 10 mm, clutter
-  next to the target, a person standing in front of it; ``fault_runs`` runs, ``fault_failed`` of
+  next to the target, a person standing in front of it, a person walking past in front of it
+  mid-approach (:func:`fault_cases`); ``fault_runs`` runs, ``fault_failed`` of
   them ended as a failed docking) [target 0];
 * ``dock_time_s``: median time from the approach start (the approach node) to the judgement;
 * ``global_stop_error_m``: mean true error of today's stop on the global pose where the map places
@@ -29,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from agvnav.sim import simulate
-from agvnav.world.scenario import Scenario, load_scenario
+from agvnav.world.scenario import Scenario, WalkingPersonSpec, load_scenario
 
 TITLE = "Docking relative to the station (20 mm / 0.5 deg off the map): true final error, silent failures, time"
 
@@ -49,22 +50,31 @@ SILENT_ERROR_M, SILENT_HEADING_RAD = 0.010, math.radians(0.5)
 TARGET_ERROR_M, TARGET_HEADING_RAD = 0.003, math.radians(0.1)
 
 
-def fault_cases(reflector: str, hidden: str, xy: tuple[float, float]) -> dict[str, dict[str, Any]]:
+#: The walking person's fault case: crossing 0.3 m in front of the target, 1.5 m either side of the hidden
+#: reflector, at a slow walk (m/s), from this time (s; mid-approach: recognition takes 1-2 s, the approach ~20 s).
+WALK_SPEED_M_S, WALK_START_S, WALK_HALF_M = 0.5, 6.0, 1.5
+
+
+def fault_cases(reflector_xy: tuple[float, float], hidden_xy: tuple[float, float],
+                reflector: str) -> dict[str, dict[str, Any]]:
     """``docking.truth`` additions of the fault cases: ``reflector`` missing or moved 10 mm sideways,
-    clutter 30 mm beside it (``xy`` its position in the station frame, m), a person in front of ``hidden``."""
+    clutter 30 mm beside it (``reflector_xy`` its position in the station frame, m), a person standing
+    0.3 m in front of the reflector at ``hidden_xy`` (m), a person walking past there mid-approach."""
+    hx, hy = hidden_xy[0] + 0.3, hidden_xy[1]
+    walk = WalkingPersonSpec(path=[(hx, hy - WALK_HALF_M), (hx, hy + WALK_HALF_M)], speed_m_s=WALK_SPEED_M_S,
+                             start_s=WALK_START_S)
     return {
         "missing": {"missing": [reflector]},
         "moved_10mm": {"moved": {reflector: (0.0, 10.0)}},
-        "clutter": {"clutter": [(xy[0], xy[1] + 0.03)]},
-        "person": {"person": None},  # placed by :func:`_with_truth` in front of ``hidden``
+        "clutter": {"clutter": [(reflector_xy[0], reflector_xy[1] + 0.03)]},
+        "person": {"person": (hx, hy)},
+        "person_walking": {"person_walking": walk},
     }
 
 
-def _with_truth(sc: Scenario, hidden_xy: tuple[float, float] | None, **truth: Any) -> Scenario:
+def _with_truth(sc: Scenario, **truth: Any) -> Scenario:
     dk = sc.docking
     assert dk is not None
-    if "person" in truth and hidden_xy is not None:
-        truth["person"] = (hidden_xy[0] + 0.3, hidden_xy[1])
     new = dk.model_copy(update={"truth": dk.truth.model_copy(update=truth)})
     return sc.copy_attached({"docking": new})
 
@@ -96,9 +106,9 @@ def vehicle_record(vehicle: str, quick: bool, seed: int, tick: Callable[[], None
         tick()
     xy = {rid: (float(p[0]), float(p[1])) for rid, p in zip(target.reflector_ids, target.reflector_xy, strict=True)}
     faults = []
-    for truth in fault_cases(reflector, hidden, xy[reflector]).values():
+    for truth in fault_cases(xy[reflector], xy[hidden], reflector).values():
         for k in range(n_fault):
-            faults.append(_run(_with_truth(sc.with_seed(seed + 100 + k), xy[hidden], **truth)))
+            faults.append(_run(_with_truth(sc.with_seed(seed + 100 + k), **truth)))
             tick()
     base = []
     for k in range(n_base):
@@ -132,7 +142,8 @@ def vehicle_record(vehicle: str, quick: bool, seed: int, tick: Callable[[], None
 
 def run(quick: bool, seed: int, progress: Callable[[int, int], None] | None = None) -> list[dict[str, Any]]:
     """One record per vehicle (module doc); ``progress(done, total)`` after every run."""
-    per = (3 + 4 + 1) if quick else (20 + 8 + 3)
+    n_cases = len(fault_cases((0.0, 0.0), (0.0, 0.0), ""))
+    per = (3 + n_cases + 1) if quick else (20 + 2 * n_cases + 3)
     total, done = per * len(VEHICLES), [0]
 
     def tick() -> None:

@@ -22,14 +22,20 @@ from agvnav.guidance import LineSegment, Path
 from agvnav.navigation.docking import DockingAutopilot
 from agvnav.odometry import OdometryNoise, wheel_pair_noise
 from agvnav.positioning.station import to_station
+from agvnav.roles import BearingEstimator, Sensor
+from agvnav.sensors.goniometer import Goniometer
+from agvnav.sim.reactive import OccludedReflections
+from agvnav.sim.roles import GoniometerSensor
 from agvnav.world import WorldMap, builtin_map, builtin_map_names
 from agvnav.world.docking import DockingTarget, approach_start, check_target, load_docking_targets
 from agvnav.world.map import Reflector, Wall
+from agvnav.world.obstacles import Obstacle, ObstacleSet
 from agvnav.world.scenario import Scenario
 from agvnav.world.vehicle_specs import WheeledVehicleSpec
 
 __all__ = [
-    "PERSON_SIDE_M", "approach_path", "compose", "docking_figures", "station_noise", "true_station", "true_world",
+    "PERSON_SIDE_M", "approach_path", "compose", "docking_figures", "goniometer_role", "station_noise",
+    "true_station", "true_world", "walking_person",
 ]
 
 #: Side of the square a standing person occupies (m).
@@ -121,6 +127,32 @@ def true_world(sc: Scenario, base: WorldMap, target: DockingTarget) -> WorldMap:
                    for u, v in ((-h, -h), (h, -h), (h, h), (-h, h))]
         walls.append(Wall("person", np.array(corners), closed=True))
     return dataclasses.replace(base, reflectors=tuple(refl), walls=tuple(walls))
+
+
+def walking_person(sc: Scenario, target: DockingTarget) -> Obstacle | None:
+    """``docking.truth.person_walking`` as a moving cylinder in ``map`` (its path carried from the true station's
+    frame), or None."""
+    assert sc.docking is not None
+    walk = sc.docking.truth.person_walking
+    if walk is None:
+        return None
+    st = true_station(sc, target)
+    points = np.array([compose(st, (x, y, 0.0))[:2] for x, y in walk.path], dtype=np.float64)
+    return Obstacle("person_walking", "cylinder", (walk.radius_m,), points, walk.speed_m_s, walk.start_s)
+
+
+def goniometer_role(sc: Scenario, target: DockingTarget, goniometer: Goniometer, world: WorldMap,
+                    estimate: BearingEstimator) -> Sensor:
+    """The goniometer scanning the true ``world`` (:func:`true_world`) for ``estimate``; a reflection whose line
+    of sight a walking person (:func:`walking_person`) cuts at its instant is dropped."""
+    role = GoniometerSensor(goniometer, world, estimate)
+    person = walking_person(sc, target)
+    if person is None:
+        return role
+    assert sc.goniometer is not None
+    g = sc.goniometer
+    return OccludedReflections(role, ObstacleSet((person,)), world.reflector_xy,
+                               (g.mount[0], g.mount[1], math.radians(g.mount[2])))
 
 
 def approach_path(target: DockingTarget) -> Path:
