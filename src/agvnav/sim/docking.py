@@ -31,11 +31,11 @@ from agvnav.world.docking import DockingTarget, approach_start, check_target, lo
 from agvnav.world.map import Reflector, Wall
 from agvnav.world.obstacles import Obstacle, ObstacleSet
 from agvnav.world.scenario import Scenario
-from agvnav.world.vehicle_specs import WheeledVehicleSpec
+from agvnav.world.vehicle_specs import SteeredVehicleSpec, WheeledVehicleSpec
 
 __all__ = [
     "PERSON_SIDE_M", "approach_path", "compose", "docking_figures", "goniometer_role", "station_noise",
-    "true_station", "true_world", "walking_person",
+    "true_station", "true_world", "turn_radius", "walking_person",
 ]
 
 #: Side of the square a standing person occupies (m).
@@ -60,12 +60,14 @@ def _map_file(sc: Scenario) -> FsPath:
     return sc.base_dir / p if not p.is_absolute() and sc.base_dir is not None else p
 
 
-def _turn_radius(sc: Scenario) -> float:
-    """The vehicle's smallest turning radius of point O (m): ``L / tan(gamma_max)``; 0 if it turns on the spot."""
-    if sc.vehicle.family != "steered":
+def turn_radius(sc: Scenario) -> float:
+    """The vehicle's smallest turning radius of point O (m): ``L / tan(gamma_max)`` [seed000 eq8]; 0 if it turns
+    on the spot (a vehicle that is not steered, or a steering limit of 90 deg)."""
+    v = sc.vehicle
+    if not isinstance(v, SteeredVehicleSpec):
         return 0.0
-    gmax = math.radians(sc.vehicle.steering.max_angle_deg)  # type: ignore[union-attr]
-    return 0.0 if gmax >= 0.5 * math.pi - 1e-9 else float(sc.vehicle.wheelbase_m) / math.tan(gmax)  # type: ignore[union-attr]
+    gmax = math.radians(v.steering.max_angle_deg)
+    return 0.0 if gmax >= 0.5 * math.pi - 1e-9 else float(v.wheelbase_m) / math.tan(gmax)
 
 
 def load_target(sc: Scenario) -> DockingTarget:
@@ -77,7 +79,7 @@ def load_target(sc: Scenario) -> DockingTarget:
     ids = [t.id for t in doc.docking_targets]
     if sc.docking.target not in ids:
         raise sc.error(("docking", "target"), f"no docking target {sc.docking.target!r} in the map (has {ids})")
-    return check_target(doc, ids.index(sc.docking.target), sc.goniometer.pulses_per_rev, _turn_radius(sc))
+    return check_target(doc, ids.index(sc.docking.target), sc.goniometer.pulses_per_rev, turn_radius(sc))
 
 
 def station_noise(sc: Scenario, noise: OdometryNoise) -> OdometryNoise:
