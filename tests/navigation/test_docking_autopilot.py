@@ -55,6 +55,36 @@ def test_untrusted_dockings_fail_with_their_reason(tmp_path, truth, words):
     assert r.reason is not None and r.reason.startswith("docking_failed") and words in r.reason, r.reason
 
 
+def _with_truth(tmp_path, truth: str):
+    _short_stacker(tmp_path)
+    text = (tmp_path / "s.yaml").read_text(encoding="utf-8").replace(
+        "    station_offset: [20.0, 0.0, 0.5]", "    station_offset: [20.0, 0.0, 0.5]\n" + truth.rstrip("\n"))
+    return parse_scenario(text, str(tmp_path / "s.yaml"), tmp_path)
+
+
+def test_a_person_walking_in_front_of_the_target_mid_approach_fails_the_docking(tmp_path):
+    """A slow walk across the line of sight hides each target reflector for over a second: the station estimate
+    is no longer trusted and the docking fails with the reason, mid-approach (it does not wait)."""
+    walk = "    person_walking: {path: [[0.6, -1.5], [0.6, 1.5]], speed_m_s: 0.5, start_s: 2.0}\n"
+    r = simulate(_with_truth(tmp_path, walk))
+    assert r.outcome == "failed" and r.extra["docking_reported_finished"] == 0.0
+    assert r.reason is not None and "unseen" in r.reason and "occluded" in r.reason, r.reason
+    phase = r.series["dock_phase"]
+    failed_at = float(r.series["t"][np.argmax(phase < 0)])
+    assert 2.0 < failed_at < 2.0 + 3.0 / 0.5, failed_at  # while the person crosses, not at the judgement
+
+
+def test_a_person_running_past_never_finishes_a_docking_silently(tmp_path):
+    """A quick pass hides each reflector for a fraction of a second: the docking may go on, but a docking
+    reported finished is within its tolerance on the truth (never a silent failure)."""
+    walk = "    person_walking: {path: [[0.6, -1.5], [0.6, 1.5]], speed_m_s: 2.5, start_s: 2.0}\n"
+    r = simulate(_with_truth(tmp_path, walk))
+    if r.extra["docking_reported_finished"]:
+        assert r.extra["dock_error_m"] < 0.003 and r.extra["dock_heading_error_rad"] < math.radians(0.1)
+    else:
+        assert r.reason is not None and r.reason.startswith("docking_failed"), r.reason
+
+
 def test_unreachable_docking_pose_refused_at_build_with_the_map_line(tmp_path):
     sc = _short_stacker(tmp_path, approach=0.5, max_angle=30.0)
     with pytest.raises(ScenarioError) as info:

@@ -218,7 +218,7 @@ class DockingAutopilot:
         if station.status == "tracking":
             self.phase = "approach"
         elif t - self._t0 > self.tol.recognise_s:
-            station.recognition_revolutions = 0  # the next judged revolution gives the reason
+            station.last_try()
         return self._hold()
 
     def _start_on_map(self, t: float, estimator: Estimator) -> tuple[float, ...]:

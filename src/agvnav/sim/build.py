@@ -625,7 +625,7 @@ def build_docking(sc: Scenario) -> Built:
     g = sc.goniometer
     mount = (g.mount[0], g.mount[1], math.radians(g.mount[2]))
     station = StationEstimator(target, mount, g.pulses_per_rev, 1.0 / g.rate_hz,
-                               OdometryNoise(*sc.positioning.odometry_noise))
+                               docking.station_noise(sc, odometry_noise(sc)))
     estimate = DockingEstimate(estimator, station)
     approach = PathAutopilot(follower, path, profile, plant, 0.0, end_tolerance=target.max_offset[0] + 0.05,
                              watch=_watch(sc))
@@ -640,7 +640,7 @@ def build_docking(sc: Scenario) -> Built:
     tol = DockingTolerances(dk.tolerance_mm * 1e-3, math.radians(dk.heading_tolerance_deg))
     pilot = DockingAutopilot(target, approach, estimate, tol, fine, relative=dk.guide_on == "station")
     truth = surveyed_truth(world, sc.world_truth.reflector_survey_std_m, sc.seed)
-    sensors = [GoniometerSensor(_goniometer(sc), docking.true_world(sc, truth, target), estimate)]
+    sensors = [docking.goniometer_role(sc, target, _goniometer(sc), docking.true_world(sc, truth, target), estimate)]
     loop = ClosedLoop(_loop_plant(sc, plant, world), sensors, estimate, pilot, sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else 2.0 * target.approach / dk.speed_m_s + 60.0
     return Built(loop, world, path, plant, pilot, estimator, duration, point, 0.0)

@@ -20,13 +20,23 @@ from numpy.typing import NDArray
 
 from agvnav.guidance import LineSegment, Path
 from agvnav.navigation.docking import DockingAutopilot
+from agvnav.odometry import OdometryNoise, wheel_pair_noise
 from agvnav.positioning.station import to_station
+from agvnav.roles import BearingEstimator, Sensor
+from agvnav.sensors.goniometer import Goniometer
+from agvnav.sim.reactive import OccludedReflections
+from agvnav.sim.roles import GoniometerSensor
 from agvnav.world import WorldMap, builtin_map, builtin_map_names
 from agvnav.world.docking import DockingTarget, approach_start, check_target, load_docking_targets
 from agvnav.world.map import Reflector, Wall
+from agvnav.world.obstacles import Obstacle, ObstacleSet
 from agvnav.world.scenario import Scenario
+from agvnav.world.vehicle_specs import SteeredVehicleSpec, WheeledVehicleSpec
 
-__all__ = ["PERSON_SIDE_M", "approach_path", "compose", "docking_figures", "true_station", "true_world"]
+__all__ = [
+    "PERSON_SIDE_M", "approach_path", "compose", "docking_figures", "goniometer_role", "station_noise",
+    "true_station", "true_world", "turn_radius", "walking_person",
+]
 
 #: Side of the square a standing person occupies (m).
 PERSON_SIDE_M = 0.4
@@ -50,12 +60,14 @@ def _map_file(sc: Scenario) -> FsPath:
     return sc.base_dir / p if not p.is_absolute() and sc.base_dir is not None else p
 
 
-def _turn_radius(sc: Scenario) -> float:
-    """The vehicle's smallest turning radius of point O (m): ``L / tan(gamma_max)``; 0 if it turns on the spot."""
-    if sc.vehicle.family != "steered":
+def turn_radius(sc: Scenario) -> float:
+    """The vehicle's smallest turning radius of point O (m): ``L / tan(gamma_max)`` [seed000 eq8]; 0 if it turns
+    on the spot (a vehicle that is not steered, or a steering limit of 90 deg)."""
+    v = sc.vehicle
+    if not isinstance(v, SteeredVehicleSpec):
         return 0.0
-    gmax = math.radians(sc.vehicle.steering.max_angle_deg)  # type: ignore[union-attr]
-    return 0.0 if gmax >= 0.5 * math.pi - 1e-9 else float(sc.vehicle.wheelbase_m) / math.tan(gmax)  # type: ignore[union-attr]
+    gmax = math.radians(v.steering.max_angle_deg)
+    return 0.0 if gmax >= 0.5 * math.pi - 1e-9 else float(v.wheelbase_m) / math.tan(gmax)
 
 
 def load_target(sc: Scenario) -> DockingTarget:
@@ -67,7 +79,20 @@ def load_target(sc: Scenario) -> DockingTarget:
     ids = [t.id for t in doc.docking_targets]
     if sc.docking.target not in ids:
         raise sc.error(("docking", "target"), f"no docking target {sc.docking.target!r} in the map (has {ids})")
-    return check_target(doc, ids.index(sc.docking.target), sc.goniometer.pulses_per_rev, _turn_radius(sc))
+    return check_target(doc, ids.index(sc.docking.target), sc.goniometer.pulses_per_rev, turn_radius(sc))
+
+
+def station_noise(sc: Scenario, noise: OdometryNoise) -> OdometryNoise:
+    """The station estimator's odometry model: the global one's, completed for two driven wheels.
+
+    A vehicle on two driven wheels (differential, tractor) fine-positions with turns on the spot,
+    where Crowley's form [seed002 eq17] puts the translation variance at zero while the wheels'
+    slips shift the base: :func:`agvnav.odometry.wheel_pair_noise` on the vehicle's track (issue 32,
+    the false alarm of the consistency test after a spot turn). Other vehicles keep ``noise``.
+    """
+    if isinstance(sc.vehicle, WheeledVehicleSpec):
+        return wheel_pair_noise(noise, float(sc.vehicle.track_m))
+    return noise
 
 
 def true_station(sc: Scenario, target: DockingTarget) -> tuple[float, float, float]:
@@ -104,6 +129,32 @@ def true_world(sc: Scenario, base: WorldMap, target: DockingTarget) -> WorldMap:
                    for u, v in ((-h, -h), (h, -h), (h, h), (-h, h))]
         walls.append(Wall("person", np.array(corners), closed=True))
     return dataclasses.replace(base, reflectors=tuple(refl), walls=tuple(walls))
+
+
+def walking_person(sc: Scenario, target: DockingTarget) -> Obstacle | None:
+    """``docking.truth.person_walking`` as a moving cylinder in ``map`` (its path carried from the true station's
+    frame), or None."""
+    assert sc.docking is not None
+    walk = sc.docking.truth.person_walking
+    if walk is None:
+        return None
+    st = true_station(sc, target)
+    points = np.array([compose(st, (x, y, 0.0))[:2] for x, y in walk.path], dtype=np.float64)
+    return Obstacle("person_walking", "cylinder", (walk.radius_m,), points, walk.speed_m_s, walk.start_s)
+
+
+def goniometer_role(sc: Scenario, target: DockingTarget, goniometer: Goniometer, world: WorldMap,
+                    estimate: BearingEstimator) -> Sensor:
+    """The goniometer scanning the true ``world`` (:func:`true_world`) for ``estimate``; a reflection whose line
+    of sight a walking person (:func:`walking_person`) cuts at its instant is dropped."""
+    role = GoniometerSensor(goniometer, world, estimate)
+    person = walking_person(sc, target)
+    if person is None:
+        return role
+    assert sc.goniometer is not None
+    g = sc.goniometer
+    return OccludedReflections(role, ObstacleSet((person,)), world.reflector_xy,
+                               (g.mount[0], g.mount[1], math.radians(g.mount[2])))
 
 
 def approach_path(target: DockingTarget) -> Path:

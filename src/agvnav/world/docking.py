@@ -168,7 +168,9 @@ def load_docking_targets(path: str | Path) -> DockingTargets:
 def min_approach_m(turn_radius: float, max_offset: float) -> float:
     """Shortest straight approach (m) that takes up a lateral offset ``max_offset`` (m) at ``turn_radius`` (m).
 
-    Two opposite arcs of radius R (an S) shift the path sideways by ``delta`` over the length
+    A stand-in rule of issue 32 (no seed gives one; docs/docking.md): the shortest S of two full-lock
+    arcs, doubled for a follower that converges smoothly. Two opposite arcs of radius R (an S)
+    shift the path sideways by ``delta`` over the length
     ``2 sqrt(R delta)`` (for ``delta << R``: ``delta = 2 R (1 - cos a)``, length ``2 R sin a``);
     the follower needs about as much again to settle (the seed-000 law converges over its
     convergence distance): twice that.
@@ -180,39 +182,49 @@ def check_target(doc: DockingTargets, index: int, pulses_per_rev: int, turn_radi
                  key: KeyPath | None = None) -> DockingTarget:
     """The target ``index`` of ``doc`` checked for a vehicle and a goniometer; ScenarioError with its line.
 
-    * two reflections must be told apart from the approach start (the farthest point): the angle
-      between the reflectors' centres seen from there, less each one's angular radius
-      ``asin(r / d)``, must hold :data:`MIN_SEPARATION_PULSES` beam pulses (``2 pi / pulses_per_rev``);
-    * the docking pose must be reachable: a straight approach of ``approach_m`` must take up the
-      station's allowed offset ``max_offset_m`` at the vehicle's smallest ``turn_radius`` (m; 0 for a
-      vehicle that turns on the spot): :func:`min_approach_m`.
+    * two reflections must be told apart from the approach start (:func:`_check_separation`);
+    * the docking pose must be reachable (:func:`_check_reach`; ``turn_radius`` (m) the vehicle's
+      smallest, 0 for a vehicle that turns on the spot).
     """
-    spec = doc.docking_targets[index]
     where: KeyPath = ("docking_targets", index) if key is None else key
-    target = DockingTarget.from_spec(spec)
+    target = DockingTarget.from_spec(doc.docking_targets[index])
+    _check_separation(doc, where, target, pulses_per_rev)
+    _check_reach(doc, where, target, turn_radius)
+    return target
+
+
+def _check_separation(doc: DockingTargets, where: KeyPath, target: DockingTarget, pulses_per_rev: int) -> None:
+    """From the approach start (the farthest point), the angle between two reflectors' centres less each one's
+    angular radius ``asin(r / d)`` must hold :data:`MIN_SEPARATION_PULSES` beam pulses (``2 pi / pulses_per_rev``
+    each, seed 000 §2.1)."""
     start = approach_start(target)
     resolution = 2.0 * math.pi / pulses_per_rev
     xy = target.reflector_xy
     d = np.hypot(xy[:, 0] - start[0], xy[:, 1] - start[1])
     half = np.arcsin(np.clip(target.radius / np.maximum(d, 1e-9), 0.0, 1.0))
     angles = np.arctan2(xy[:, 1] - start[1], xy[:, 0] - start[0])
+    need = MIN_SEPARATION_PULSES * resolution
     for i in range(len(xy)):
         for j in range(i + 1, len(xy)):
             sep = abs(math.remainder(float(angles[i] - angles[j]), 2.0 * math.pi)) - float(half[i] + half[j])
-            if sep < MIN_SEPARATION_PULSES * resolution:
+            if sep < need:
                 raise doc.error((*where, "reflectors", j),
                                 f"reflectors {target.reflector_ids[i]!r} and {target.reflector_ids[j]!r} are "
                                 f"{math.degrees(max(sep, 0.0)) * 1e3:.1f} mdeg apart edge to edge from the approach "
                                 f"start {target.approach:g} m out: the goniometer needs "
-                                f"{math.degrees(MIN_SEPARATION_PULSES * resolution) * 1e3:.1f} mdeg "
-                                f"({MIN_SEPARATION_PULSES} pulses) to tell them apart")
+                                f"{math.degrees(need) * 1e3:.1f} mdeg ({MIN_SEPARATION_PULSES} pulses) to tell "
+                                "them apart")
+
+
+def _check_reach(doc: DockingTargets, where: KeyPath, target: DockingTarget, turn_radius: float) -> None:
+    """The straight approach must take up the station's allowed offset at the smallest turning radius
+    (:func:`min_approach_m`, a stand-in rule: docs/docking.md)."""
     need = min_approach_m(turn_radius, target.max_offset[0])
     if target.approach < need:
         raise doc.error((*where, "docking_pose"),
                         f"docking pose of {target.id!r} unreachable: taking up the station's allowed offset "
                         f"{target.max_offset[0]:g} m at the vehicle's turning radius {turn_radius:.3g} m needs a "
                         f"straight approach of {need:.3g} m, approach_m is {target.approach:g}")
-    return target
 
 
 def approach_start(target: DockingTarget) -> tuple[float, float, float]:

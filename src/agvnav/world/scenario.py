@@ -497,6 +497,20 @@ class MissionSpec(StrictModel):
     corrections to 2 mm, the station heading: ``guidance.FinePositioner``)."""
 
 
+class WalkingPersonSpec(StrictModel):
+    """A person walking past the station (a cylinder), hiding the reflectors behind while in the line of sight."""
+
+    path: Annotated[list[tuple[Finite, Finite]], Field(min_length=2)]
+    """waypoints x, y in the station frame (m): the person stands at the first until start_s, walks, stays at the
+    last."""
+    speed_m_s: PosFloat = 0.5
+    """walking speed (m/s)."""
+    start_s: NonNegFloat = 0.0
+    """time the person starts walking (s, from the start of the run)."""
+    radius_m: PosFloat = 0.25
+    """the person's radius (m)."""
+
+
 class DockingTruthSpec(StrictModel):
     """Where the station and its target really are (the simulator's truth; the vehicle never reads it)."""
 
@@ -510,6 +524,8 @@ class DockingTruthSpec(StrictModel):
     """shiny objects (reflections like a reflector's) near the station: (x, y) in the station frame (m)."""
     person: tuple[Finite, Finite] | None = None
     """a person (0.4 m square) standing at (x, y) in the station frame (m), hiding what is behind."""
+    person_walking: WalkingPersonSpec | None = None
+    """a person walking past the station (in the station frame), hiding what is behind while in the way."""
 
 
 class DockingSpec(StrictModel):
