@@ -22,30 +22,77 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
+class Mosquitto:
+    """A mosquitto on 127.0.0.1:``port`` that a test may kill and start again on the same port."""
+
+    def __init__(self, folder: Path) -> None:
+        exe = shutil.which("mosquitto") or next(
+            (p for p in ("/usr/sbin/mosquitto", "/usr/bin/mosquitto") if Path(p).exists()), None)
+        if exe is None:
+            pytest.fail("mosquitto is not installed: run `make broker` (root) or `apt-get install mosquitto`")
+        self.exe, self.port = exe, _free_port()
+        self.conf = folder / "mosquitto.conf"
+        self.conf.write_text(f"listener {self.port} 127.0.0.1\nallow_anonymous true\npersistence false\n")
+        self.proc: subprocess.Popen[bytes] | None = None
+
+    def start(self) -> None:
+        """Start it and wait until it accepts connections (fails the test after 10 s)."""
+        self.proc = subprocess.Popen([self.exe, "-c", str(self.conf)], stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.DEVNULL)
+        deadline = time.monotonic() + 10.0
+        while True:
+            try:
+                socket.create_connection(("127.0.0.1", self.port), timeout=0.2).close()
+                return
+            except OSError:
+                if self.proc.poll() is not None or time.monotonic() > deadline:
+                    self.proc.kill()
+                    pytest.fail(f"mosquitto did not start on port {self.port}")
+                time.sleep(0.05)
+
+    def kill(self) -> None:
+        """SIGKILL: the broker goes away without a word."""
+        if self.proc is not None:
+            self.proc.kill()
+            self.proc.wait(5.0)
+
+    def stop(self) -> None:
+        """SIGTERM, then SIGKILL after 5 s."""
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(5.0)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+
+
 @pytest.fixture(scope="session")
 def broker(tmp_path_factory: pytest.TempPathFactory) -> Iterator[int]:
     """A mosquitto on 127.0.0.1 (its port), stopped after the session."""
-    exe = shutil.which("mosquitto") or next(
-        (p for p in ("/usr/sbin/mosquitto", "/usr/bin/mosquitto") if Path(p).exists()), None)
-    if exe is None:
-        pytest.fail("mosquitto is not installed: run `make broker` (root) or `apt-get install mosquitto`")
-    port = _free_port()
-    conf = tmp_path_factory.mktemp("mosquitto") / "mosquitto.conf"
-    conf.write_text(f"listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n")
-    proc = subprocess.Popen([exe, "-c", str(conf)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    deadline = time.monotonic() + 10.0
-    while True:
-        try:
-            socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
-            break
-        except OSError:
-            if proc.poll() is not None or time.monotonic() > deadline:
-                proc.kill()
-                pytest.fail(f"mosquitto did not start on port {port}")
-            time.sleep(0.05)
-    yield port
-    proc.terminate()
-    try:
-        proc.wait(5.0)
-    except subprocess.TimeoutExpired:
-        proc.kill()
+    m = Mosquitto(tmp_path_factory.mktemp("mosquitto"))
+    m.start()
+    yield m.port
+    m.stop()
+
+
+@pytest.fixture
+def own_broker(tmp_path: Path) -> Iterator[Mosquitto]:
+    """A mosquitto of this test alone (started), to kill and restart."""
+    m = Mosquitto(tmp_path)
+    m.start()
+    yield m
+    m.stop()
+
+
+@pytest.fixture(scope="session")
+def kernels_compiled() -> None:
+    """The vehicle's kernels compiled into the on-disk cache before a test starts ``agvnav vehicle`` processes.
+
+    On a fresh checkout the first vehicle compiles agvnav's kernels (a minute or more on a busy
+    machine) before it connects; compiled here once, every process started after loads them.
+    """
+    from agvnav.vda5050.vehicle import VdaVehicle, VehicleConfig
+    from agvnav.world.scenario import load_scenario
+
+    v = VdaVehicle(load_scenario("mission_hall_differential"), VehicleConfig("warm", "up"))
+    v.step()

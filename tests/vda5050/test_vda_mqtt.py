@@ -33,7 +33,7 @@ def wait_for(q: queue.Queue[tuple[str, dict[str, object]]], pred: object, timeou
     raise AssertionError("timed out waiting for a message")
 
 
-def test_vehicle_on_mosquitto(broker: int) -> None:
+def test_vehicle_on_mosquitto(broker: int, kernels_compiled: None) -> None:
     env = os.environ | {"PYTHONPATH": str(SRC)}
     proc = subprocess.Popen(
         [sys.executable, "-c", CLI, "vehicle", "mission_hall_differential", "--broker",
@@ -69,7 +69,7 @@ def test_vehicle_on_mosquitto(broker: int) -> None:
         client.disconnect()
 
 
-def test_last_will_is_connectionbroken(broker: int) -> None:
+def test_last_will_is_connectionbroken(broker: int, kernels_compiled: None) -> None:
     env = os.environ | {"PYTHONPATH": str(SRC)}
     proc = subprocess.Popen(
         [sys.executable, "-c", CLI, "vehicle", "mission_hall_differential", "--broker",

@@ -52,6 +52,7 @@ def test_bad_orders_are_rejected_and_the_vehicle_stays_idle(version: str) -> Non
     st = v.state()
     refs = {r["referenceKey"]: r["referenceValue"] for r in st["errors"][0]["errorReferences"]}  # type: ignore[index]
     assert refs["nodeId"] == "NOPE" and refs["orderId"] == "o"
+    assert refs["orderUpdateId"] == "0" and refs["topic"] == "order"  # a master attributes it by these
     no_edge = m.order("o", 0, ["S1", "Q"], 2)  # no edge S1 -> Q
     v.receive("order", json.dumps(no_edge))
     assert errors(v) == ["NO_ROUTE_TO_TARGET" if v3 else "noRouteError"]
@@ -115,6 +116,10 @@ def test_order_update_pause_pick_and_cancel() -> None:
     assert next(a for a in st["actionStates"] if a["actionId"] == "pk")["actionStatus"] == "FINISHED"  # type: ignore[union-attr]
     assert st["loads"] and st["driving"]
     bus.publish_master("S", "instantActions", m.instant(m.action("cancelOrder", "cx")))
+    bus.step()
+    st = v.state()  # stopping: the cancel runs, the order's states stay until it stands (a master sees why it ends)
+    cx = next(a for a in st["actionStates"] if a["actionId"] == "cx")  # type: ignore[union-attr]
+    assert cx["actionStatus"] == "RUNNING" and st["nodeStates"] != []
     run(bus, v, 3.0)
     st = v.state()
     cx = next(a for a in st["actionStates"] if a["actionId"] == "cx")  # type: ignore[union-attr]
@@ -145,3 +150,25 @@ def test_not_localized_refuses_to_drive(monkeypatch: pytest.MonkeyPatch) -> None
     run(bus, v, 3.0)  # the positioning guard resumes after its delay
     assert v.state()["driving"] and "LOCALIZATION_ERROR" not in errors(v)
     assert bus.checked.failures == []
+
+
+@pytest.mark.parametrize("version", ["2.0.0", "3.0.0"])
+def test_link_lost_stands_still_then_reports_and_resumes(version: str) -> None:
+    v, m, bus, states = make(version)
+    run(bus, v, 0.5)
+    v.receive("order", json.dumps(m.order("o1", 0, ["S1", "P"], 2)))
+    run(bus, v, 4.0)
+    assert v.pilot.v > 0.0
+    v.link_lost()
+    bus.step()
+    assert v.pilot.hold and v.pilot.v == 0.0  # an immediate zero command, as a pause
+    run(bus, v, 3.0)
+    assert v._speed() < 0.01
+    v.link_restored()
+    run(bus, v, 0.1)
+    info = states[-1]["information"]
+    assert [i["infoType"] for i in info] == ["brokerConnectionLost"]  # type: ignore[union-attr, index]
+    text = info[0]["infoDescriptor" if version == "3.0.0" else "infoDescription"]  # type: ignore[index]
+    assert "lost for 3.1 s" in text  # 3 s and the step of the loss
+    run(bus, v, 2.0)
+    assert v.pilot.v > 0.0 and bus.checked.failures == []

@@ -47,6 +47,10 @@ LAZY_COMMANDS: dict[str, tuple[str, str, str]] = {
         "agvnav.cli.vehicle", "vehicle",
         "Run a scenario's vehicle as a VDA 5050 vehicle on an MQTT broker until SIGINT/SIGTERM.",
     ),
+    "fleet": (
+        "agvnav.cli.fleet", "fleet",
+        "Dispatch pick-and-drop jobs over VDA 5050 to the vehicles of SPEC (any vendor's); no traffic control yet.",
+    ),
     "report": (
         "agvnav.cli.report", "report",
         "Write one self-contained HTML report (plots, metrics, a time slider) of a run folder.",

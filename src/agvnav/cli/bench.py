@@ -187,3 +187,23 @@ def traffic(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT
 def fleet(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """A fleet in the warehouse (1 to 200 vehicles): CPU per vehicle-step, real-time factor, memory, separation."""
     _run("fleet", json, quick, seed, wide)
+
+
+@bench_app.command("vda5050")
+@user_errors
+def vda5050(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT,
+            full: bool = typer.Option(False, "--full", help="Issue 31's sizes: 10 vehicles x 1 simulated hour per "
+                                      "version, 10^5 states; hours of CPU.")) -> None:
+    """VDA 5050: message conformance per version, order-to-motion latency on mosquitto, deviationRange misses."""
+    from agvnav.bench import vda5050 as bench
+
+    if quick and full:
+        raise fail("--quick and --full exclude each other")
+    try:
+        with RunProgress("bench vda5050", None, "", key=f"bench vda5050{' --quick' if quick else ''}"
+                         f"{' --full' if full else ''}") as _bar:
+            records = bench.run(quick=quick, seed=seed, full=full)
+    except ModuleNotFoundError as exc:
+        raise _missing_extra("vda5050", exc) or exc from None
+    emit("vda5050", records, as_json=json, title=bench.TITLE, seed=seed, quick=quick, wide=wide,
+         priority=bench.PRIORITY)

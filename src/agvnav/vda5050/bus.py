@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from types import ModuleType
 from urllib.parse import urlparse
 
+from agvnav.vda5050.master import JobMaster
 from agvnav.vda5050.schemas import JsonObject, major, problems
 from agvnav.vda5050.vehicle import VdaVehicle
 
@@ -31,9 +32,11 @@ __all__ = [
     "VEHICLE_TOPICS",
     "Checked",
     "InProcessBus",
+    "MasterRun",
     "MissingExtraError",
     "parse_broker",
     "require_mqtt",
+    "serve_master",
     "serve_mqtt",
     "topic",
 ]
@@ -41,6 +44,8 @@ __all__ = [
 #: Topics a vehicle subscribes to, and those it publishes.
 MASTER_TOPICS = ("order", "instantActions")
 VEHICLE_TOPICS = ("state", "visualization", "connection", "factsheet")
+#: The inbox's name for a change of the broker link (not a topic: topics never hold '/').
+LINK = "/link"
 
 
 class MissingExtraError(RuntimeError):
@@ -127,6 +132,13 @@ def serve_mqtt(vehicle: VdaVehicle, host: str, port: int, time_scale: float = 1.
     handed to the vehicle between steps (paho's network thread only queues them). A lost broker: the
     vehicle holds (the order keeps its base), paho reconnects, ONLINE is published again, and an
     information line says so through ``log``.
+
+    A lost broker (:meth:`~agvnav.vda5050.vehicle.VdaVehicle.link_lost`): the vehicle stands still
+    at once, as on a pause, while paho reconnects (every 1 to 5 s); on reconnection ONLINE is
+    published again with the last will set anew, the vehicle reports an information entry
+    ``brokerConnectionLost`` (how long, how far it moved while stopping) in its next state and
+    goes on with its order. Meanwhile the broker has published the will (CONNECTIONBROKEN) if it
+    saw the connection break while it stayed up.
     """
     mqtt = require_mqtt()
     if not (math.isfinite(time_scale) and time_scale > 0):
@@ -148,11 +160,13 @@ def serve_mqtt(vehicle: VdaVehicle, host: str, port: int, time_scale: float = 1.
         client.publish(t("connection"), json.dumps(vehicle.connection("ONLINE")), qos=1, retain=True)
         if connected.is_set():
             say("reconnected to the broker")
+            inbox.put((LINK, b"up"))
         connected.set()
 
     def on_disconnect(cl: object, userdata: object, flags: object, rc: object, props: object = None) -> None:
         if not stop.is_set():
-            say(f"broker connection lost ({rc}); reconnecting")
+            inbox.put((LINK, b"down"))
+            say(f"broker connection lost ({rc}); the vehicle stands still; reconnecting")
 
     def on_message(cl: object, userdata: object, msg: object) -> None:
         inbox.put((str(getattr(msg, "topic", "")).rsplit("/", 1)[-1], bytes(getattr(msg, "payload", b""))))
@@ -169,7 +183,12 @@ def serve_mqtt(vehicle: VdaVehicle, host: str, port: int, time_scale: float = 1.
         while not stop.is_set():
             while not inbox.empty():
                 name, payload = inbox.get_nowait()
-                vehicle.receive(name, payload)
+                if name != LINK:
+                    vehicle.receive(name, payload)
+                elif payload == b"down":
+                    vehicle.link_lost()
+                else:
+                    vehicle.link_restored()
             target = start_sim + (time.monotonic() - start_wall) * time_scale
             if vehicle.t + vehicle.dt <= target:
                 vehicle.step()
@@ -184,3 +203,80 @@ def serve_mqtt(vehicle: VdaVehicle, host: str, port: int, time_scale: float = 1.
         client.disconnect()
         client.loop_stop()
     return 0
+
+
+@dataclass
+class MasterRun:
+    """How a master's run on a broker ended: messages checked both ways, jobs done, vehicles seen."""
+
+    sent: Checked
+    received: Checked
+    jobs_done: int
+    online: set[str]
+    timed_out: bool
+
+
+def serve_master(master: JobMaster, host: str, port: int, version: str, interface: str, manufacturer: str,
+                 jobs: int, timeout_s: float, stop: threading.Event | None = None,
+                 log: Callable[[str], None] | None = None) -> MasterRun:
+    """Run ``master`` on the broker until every vehicle has done ``jobs`` jobs, ``timeout_s`` (s) or ``stop``.
+
+    What the master sends is checked strictly against the schema (as on the in-process bus);
+    what the vehicles send is checked too (counted in ``received``; a vendor's extra keys count
+    as failures there but are still handed to the master). The master's clock is the wall clock.
+    """
+    mqtt = require_mqtt()
+    stop = stop or threading.Event()
+    say = log or (lambda _s: None)
+    inbox: queue.Queue[tuple[str, str, bytes]] = queue.Queue()
+    run = MasterRun(Checked(version), Checked(version), 0, set(), False)
+    serials = list(master.vehicles)
+    client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=f"agvnav-master-{manufacturer}")
+
+    def on_connect(cl: object, userdata: object, flags: object, rc: object, props: object = None) -> None:
+        client.subscribe([(topic(interface, version, manufacturer, s, n), 1 if n == "connection" else 0)
+                          for s in serials for n in ("state", "connection")])
+
+    def on_message(cl: object, userdata: object, msg: object) -> None:
+        parts = str(getattr(msg, "topic", "")).split("/")
+        inbox.put((parts[-2], parts[-1], bytes(getattr(msg, "payload", b""))))
+
+    def send(serial: str, name: str, message: JsonObject) -> None:
+        run.sent.check(name, message)
+        client.publish(topic(interface, version, manufacturer, serial, name), json.dumps(message), qos=0)
+
+    master.send, master.max_jobs = send, jobs
+    client.on_connect, client.on_message = on_connect, on_message
+    client.reconnect_delay_set(min_delay=1, max_delay=5)
+    client.connect(host, port, keepalive=10)
+    client.loop_start()
+    start = time.monotonic()
+    try:
+        while not stop.is_set():
+            t = time.monotonic() - start
+            if t > timeout_s:
+                run.timed_out = True
+                break
+            while not inbox.empty():
+                serial, name, payload = inbox.get_nowait()
+                try:
+                    msg = json.loads(payload)
+                except ValueError:
+                    run.received.count += 1
+                    run.received.failures.append(f"{serial}/{name}: malformed JSON")
+                    continue
+                run.received.check(name, msg)
+                if name == "connection" and msg.get("connectionState") == "ONLINE" and serial not in run.online:
+                    run.online.add(serial)
+                    say(f"vehicle {manufacturer}/{serial} online")
+                master.on_message(serial, name, msg)
+            if all(s in run.online for s in serials):
+                master.tick(t)
+            if all(d.done >= jobs for d in master.vehicles.values()):
+                break
+            stop.wait(0.02)
+    finally:
+        client.disconnect()
+        client.loop_stop()
+    run.jobs_done = master.jobs_done
+    return run

@@ -1,21 +1,39 @@
-"""A master control's messages for agvnav's tests and bench: orders over a route network, instant actions.
+"""A master control's side: the messages (:class:`MasterMessages`) and a small job dispatcher (:class:`JobMaster`).
 
-Not a master control (job dispatch and traffic control are left to a later issue): it writes the
-messages such a master sends, in the form of the version spoken (2.x edges name their nodes, 3.0
-edges do not), with its own header ids per topic.
+:class:`MasterMessages` writes the messages a master sends, in the form of the version spoken
+(2.x edges name their nodes, 3.0 edges do not), with its own header ids per topic.
+:class:`JobMaster` dispatches pick-and-drop jobs over routes it plans, with order updates and
+instant actions, through any transport (the in-process bus of the bench, MQTT). It has no
+traffic control: the vehicles it drives must not share the floor (each in its own simulated
+world, or real vehicles on separate networks) until the traffic control of the issue filed
+beside issue 31 exists.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+from pydantic import Field, model_validator
 
 from agvnav.routes.network import RouteNetwork
+from agvnav.routes.planning import Planner, VehicleLimits
 from agvnav.vda5050.messages import iso_timestamp
 from agvnav.vda5050.schemas import JsonObject, major
+from agvnav.world.strict import (
+    SourcedModel,
+    StrictModel,
+    load_yaml_document,
+    read_document_text,
+    validate_document,
+)
 
-__all__ = ["MasterMessages"]
+__all__ = ["FleetSpec", "FleetVehicle", "JobMaster", "MasterMessages", "job_master", "load_fleet_spec"]
 
 
 @dataclass
@@ -52,8 +70,9 @@ class MasterMessages:
         out_edges: list[JsonObject] = []
         for i, nid in enumerate(nodes):
             n = self.network.nodes[nid]
+            theta = math.remainder(n.heading or 0.0, 2 * math.pi)
             out_nodes.append({"nodeId": nid, "sequenceId": first_seq + 2 * i, "released": i < released,
-                              "nodePosition": {"x": n.x, "y": n.y, "theta": n.heading or 0.0, "mapId": self.map_id},
+                              "nodePosition": {"x": n.x, "y": n.y, "theta": theta, "mapId": self.map_id},
                               "actions": acts.get(i, [])})
             if i:
                 e: JsonObject = {"edgeId": f"{nodes[i - 1]}-{nid}", "sequenceId": first_seq + 2 * i - 1,
@@ -68,3 +87,213 @@ class MasterMessages:
         """An instantActions message (3.0 instant actions are NONE-blocking)."""
         acts = [a | {"blockingType": "NONE"} for a in actions] if major(self.version) == "v3" else list(actions)
         return self._header("instantActions") | {"actions": acts}
+
+
+@dataclass
+class _Dispatch:
+    """What the job master knows of one vehicle."""
+
+    messages: MasterMessages
+    node: str
+    """the node the vehicle stands at or last passed."""
+    order: int = 0
+    busy: bool = False
+    horizon: tuple[str, ...] = ()
+    """nodes of the running order still held back (sent unreleased), released by an update."""
+    decision_seq: int = 0
+    update_id: int = 0
+    goal_actions: list[JsonObject] = field(default_factory=list)
+    carrying: bool = False
+    failed: str | None = None
+    paused_until: float | None = None
+    next_instant: float = 0.0
+    done: int = 0
+    rejected: int = 0
+
+
+class JobMaster:
+    """A small master control: pick-and-drop jobs between random stations, over any transport.
+
+    For every vehicle (``serials``, starting at ``start``: one node for all, or per serial) it plans the fastest route
+    (:class:`~agvnav.routes.planning.Planner`) from where the vehicle stands to the next station
+    and sends it as an order with a ``pick`` (then a ``drop``) at its last node: the first half
+    of the route released, the rest as horizon, released by an order update stitched at the
+    decision point once the vehicle has passed the node before it. Between jobs, now and then,
+    instant actions: ``stateRequest``, ``factsheetRequest``, ``startPause`` followed ``pause_s``
+    later by ``stopPause`` (``instant_period_s``: their mean interval; 0 for none). Messages go out
+    through ``send(serial, topic, message)``; the vehicles' answers come in through
+    :meth:`on_message`; :meth:`tick` at the caller's clock ``t`` (s) sends what is due.
+    """
+
+    def __init__(self, network: RouteNetwork, map_id: str, version: str, manufacturer: str, serials: Sequence[str],
+                 start: str | dict[str, str], send: Callable[[str, str, JsonObject], None],
+                 model: str = "differential", seed: int = 0, instant_period_s: float = 60.0, pause_s: float = 2.0,
+                 action_s: float = 3.0) -> None:
+        self.network, self.send = network, send
+        self.planner = Planner(network, VehicleLimits(model))
+        starts = start if isinstance(start, dict) else dict.fromkeys(serials, start)
+        self.stations = [s for s in network.stations if s not in starts.values()] or list(network.stations)
+        self.rng = np.random.default_rng(seed)
+        self.max_jobs: float = math.inf
+        """jobs per vehicle after which no new order is sent."""
+        self.instant_period_s, self.pause_s, self.action_s = instant_period_s, pause_s, action_s
+        self.vehicles = {s: _Dispatch(MasterMessages(network, map_id, version, manufacturer, s), starts[s])
+                         for s in serials}
+        for d in self.vehicles.values():
+            d.next_instant = self._gap()
+
+    def _gap(self) -> float:
+        return float(self.rng.exponential(self.instant_period_s)) if self.instant_period_s > 0 else math.inf
+
+    @property
+    def jobs_done(self) -> int:
+        """Orders completed, over all vehicles."""
+        return sum(d.done for d in self.vehicles.values())
+
+    def tick(self, t: float) -> None:
+        """Send what is due at time ``t`` (s): new orders to idle vehicles, instant actions."""
+        for serial, d in self.vehicles.items():
+            if d.failed is not None:
+                continue
+            if d.paused_until is not None and t >= d.paused_until:
+                self.send(serial, "instantActions", d.messages.instant(d.messages.action("stopPause", f"sp{t:.2f}")))
+                d.paused_until = None
+            if not d.busy and d.done < self.max_jobs:
+                self._dispatch(serial, d)
+            if t >= d.next_instant and d.paused_until is None:
+                kind = str(self.rng.choice(["stateRequest", "factsheetRequest", "startPause"]))
+                self.send(serial, "instantActions", d.messages.instant(d.messages.action(kind, f"i{t:.2f}", "NONE")))
+                if kind == "startPause":
+                    d.paused_until = t + self.pause_s
+                d.next_instant = t + self._gap()
+
+    def _dispatch(self, serial: str, d: _Dispatch) -> None:
+        goal = str(self.rng.choice([s for s in self.stations if s != d.node] or self.stations))
+        route = self.planner.plan(d.node, goal)
+        nodes = list(route.nodes)
+        if any(t.mode < 0 for t in route.traversals) or len(nodes) < 2:
+            return  # this vehicle drives forward only: another goal next tick
+        d.order += 1
+        released = max(2, (len(nodes) + 1) // 2)
+        act = "drop" if d.carrying else "pick"
+        # the predefined parameters of pick/drop (2.1 §6.8.1): the station and load types, the load's id
+        d.goal_actions = [MasterMessages.action(act, f"{serial}-{d.order}-{act}", "HARD", stationType="floor",
+                                                loadType="EPAL", loadId=f"load-{serial}-{d.order - int(d.carrying)}",
+                                                duration=self.action_s)]
+        self.send(serial, "order", d.messages.order(f"{serial}-job{d.order}", 0, nodes, released, 0,
+                                                    {len(nodes) - 1: d.goal_actions}))
+        d.busy, d.update_id = True, 0
+        d.horizon = tuple(nodes[released - 1:]) if released < len(nodes) else ()
+        d.decision_seq = 2 * (released - 1)
+
+    def on_message(self, serial: str, topic: str, msg: JsonObject) -> None:
+        """A vehicle's message (its state drives the dispatch)."""
+        d = self.vehicles.get(serial)
+        if d is None or topic != "state":
+            return
+        errors = msg.get("errors", [])
+        if isinstance(errors, list) and any(isinstance(e, dict) and e.get("errorLevel") == "FATAL"
+                                            and e.get("errorType") not in ("localizationError", "LOCALIZATION_ERROR")
+                                            for e in errors):
+            d.failed = str(errors)
+        if d.busy and isinstance(errors, list) and any(
+                isinstance(e, dict) and {"referenceKey": "orderId", "referenceValue": f"{serial}-job{d.order}"}
+                in (e.get("errorReferences") or []) for e in errors):
+            d.busy, d.horizon = False, ()  # refused: plan again from where it stands
+            d.rejected += 1
+        last = msg.get("lastNodeId")
+        if isinstance(last, str) and last:
+            d.node = last
+        nodes = msg.get("nodeStates", [])
+        acts = [*msg.get("actionStates", []), *msg.get("instantActionStates", [])]  # type: ignore[misc]
+        order_acts = [a for a in acts if isinstance(a, dict)
+                      and str(a.get("actionId", "")).startswith(f"{serial}-{d.order}-")]
+        if d.horizon and isinstance(nodes, list):
+            released = [n for n in nodes if isinstance(n, dict) and n.get("released")]
+            if len(released) <= 1:  # the vehicle is on its way to the decision point: release the rest
+                self._release(serial, d)
+        if d.busy and not d.horizon and nodes == [] and order_acts and all(
+                a.get("actionStatus") in ("FINISHED", "FAILED") for a in order_acts):
+            d.busy = False
+            d.done += 1
+            d.carrying = not d.carrying
+
+    def _release(self, serial: str, d: _Dispatch) -> None:
+        d.update_id += 1
+        m = d.messages.order(f"{serial}-job{d.order}", d.update_id, list(d.horizon), len(d.horizon),
+                             d.decision_seq, {len(d.horizon) - 1: d.goal_actions})
+        self.send(serial, "order", m)
+        d.horizon = ()
+
+
+class FleetVehicle(StrictModel):
+    """One vehicle the master dispatches to."""
+
+    serial: str
+    """its serialNumber (a topic level)."""
+    start: str
+    """the network node it stands at when the master starts."""
+
+
+class FleetSpec(SourcedModel):
+    """What ``agvnav fleet SPEC`` dispatches: the route network (a scenario's), the vehicles, the jobs."""
+
+    scenario: str
+    """scenario file or shipped name whose ``mission.network`` and ``map`` the orders use."""
+    version: Literal["2.0.0", "2.1.0", "3.0.0"] = "2.1.0"
+    """VDA 5050 version spoken."""
+    interface: str = "uagv"
+    """interface name, the first topic level."""
+    manufacturer: str
+    """the vehicles' manufacturer (a topic level)."""
+    vehicles: list[FleetVehicle] = Field(min_length=1)
+    """the vehicles, with distinct serials."""
+    jobs: int = Field(default=2, ge=1)
+    """pick-or-drop jobs per vehicle before the master ends."""
+    timeout_s: float = Field(default=600.0, gt=0.0)
+    """wall-clock limit (s): the run fails when the jobs are not done by then."""
+    action_s: float = Field(default=3.0, ge=0.0)
+    """``duration`` parameter of every pick and drop (s)."""
+    instant_period_s: float = Field(default=0.0, ge=0.0)
+    """mean interval (s) of the stateRequest/factsheetRequest/pause instant actions (0: none)."""
+    seed: int = Field(default=0, ge=0)
+    """seed of the choice of stations."""
+
+    @model_validator(mode="after")
+    def _distinct(self) -> FleetSpec:
+        serials = [v.serial for v in self.vehicles]
+        if len(set(serials)) != len(serials):
+            raise ValueError(f"vehicles: serials must be distinct, got {serials}")
+        for name in (self.interface, self.manufacturer, *serials):
+            if not name or any(c in name for c in "/#+$"):
+                raise ValueError(f"interface, manufacturer and serials are topic levels: no '/', '#', '+', '$' or "
+                                 f"empty, got {name!r}")
+        return self
+
+
+def load_fleet_spec(path: str | Path) -> FleetSpec:
+    """Read a fleet spec YAML file; a ScenarioError names file, line and key."""
+    text = read_document_text(path, "fleet spec")
+    data, nodes = load_yaml_document(text, str(path), "fleet spec")
+    return validate_document(FleetSpec, data, nodes, str(path), Path(path).parent)
+
+
+def job_master(fs: FleetSpec) -> JobMaster:
+    """The :class:`JobMaster` of spec ``fs`` (its messages go nowhere until a transport sets ``send``).
+
+    ValueError when the scenario has no route network or a vehicle starts off its nodes.
+    """
+    from agvnav.sim.mission import load_mission_network  # noqa: PLC0415 - a spec's scenario, read when used
+    from agvnav.world.scenario import load_scenario  # noqa: PLC0415
+
+    sc = load_scenario(fs.scenario)
+    if sc.mission is None:
+        raise ValueError(f"scenario {fs.scenario!r} has no route network (mission.network)")
+    net = load_mission_network(sc)
+    for v in fs.vehicles:
+        if v.start not in net.nodes:
+            raise ValueError(f"vehicle {v.serial!r} starts at {v.start!r}, not a node of {sc.mission.network!r}")
+    map_id = sc.map if isinstance(sc.map, str) else str(sc.map.get("name", "map"))
+    return JobMaster(net, map_id, fs.version, fs.manufacturer, [v.serial for v in fs.vehicles],
+                     {v.serial: v.start for v in fs.vehicles}, lambda _s, _n, _m: None, sc.vehicle.model, fs.seed,
+                     fs.instant_period_s, action_s=fs.action_s)

@@ -223,6 +223,8 @@ class Snapshot:
     field_violation: bool = False
     loads: tuple[str, ...] = ()
     operating_mode: str = "AUTOMATIC"
+    information: tuple[ErrorSnap, ...] = ()
+    """information entries (level INFO or DEBUG): for people and logs, not for a master's logic."""
     extra: dict[str, object] = field(default_factory=dict)
 
 
@@ -291,6 +293,16 @@ class Error(_Out):
     errorReferences: list[ErrorReference] | None = None
     errorDescription: str | None = None
     errorLevel: str
+
+
+class Info(_Out):
+    """An information entry of the state (2.x ``infoDescription``, 3.0 ``infoDescriptor``)."""
+
+    infoType: str
+    infoReferences: list[ErrorReference] | None = None
+    infoDescription: str | None = None
+    infoDescriptor: str | None = None
+    infoLevel: Literal["INFO", "DEBUG"]
 
 
 class Load(_Out):
@@ -383,6 +395,7 @@ class _StateCommon(Header):
     velocity: Velocity
     loads: list[Load]
     errors: list[Error]
+    information: list[Info]
 
 
 class StateV2(_StateCommon):
@@ -452,6 +465,15 @@ def _errors(s: Snapshot) -> list[Error]:
             for e in s.errors]
 
 
+def _information(s: Snapshot, v3: bool) -> list[Info]:
+    out = []
+    for i in s.information:
+        refs = [ErrorReference(referenceKey=k, referenceValue=v) for k, v in i.references] or None
+        text = {"infoDescriptor" if v3 else "infoDescription": i.description}
+        out.append(Info.model_validate({"infoType": i.error_type, "infoLevel": i.level, "infoReferences": refs} | text))
+    return out
+
+
 def _node_position(s: Snapshot, x: float, y: float, theta: float | None,
                    version: str) -> dict[str, float | str] | None:
     """A node state's position (2.0.0 requires its theta: left out for a node without one)."""
@@ -473,6 +495,7 @@ def state_message(s: Snapshot, header_id: int, version: str, manufacturer: str, 
         "distanceSinceLastNode": s.distance_since_last_node,
         "velocity": Velocity(vx=s.velocity[0], vy=s.velocity[1], omega=s.velocity[2]),
         "loads": [Load(loadId=i) for i in s.loads], "errors": _errors(s), "operatingMode": s.operating_mode,
+        "information": _information(s, v3),
     }
     if v3:
         def a3(a: ActionSnap) -> ActionStateV3:
