@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import Polygon
 
+from agvnav.geometry import wrap_angle
 from agvnav.world.obstacles import ObstacleSet
 
 __all__ = ["CULL_MARGIN_M", "BodiesInView", "FleetBodies", "placed_footprints", "segments_hit_boxes"]
@@ -42,7 +43,7 @@ _EMPTY_OWNERS = np.zeros(0, dtype=np.int64)
 
 
 def _wrap(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.asarray((a + math.pi) % (2.0 * math.pi) - math.pi, dtype=np.float64)
+    return wrap_angle(a)
 
 
 def placed_footprints(footprints: NDArray[np.float64], poses: NDArray[np.float64]) -> NDArray[np.float64]:

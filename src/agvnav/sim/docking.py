@@ -18,6 +18,7 @@ from pathlib import Path as FsPath
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.geometry import se2, wrap_angle_scalar
 from agvnav.guidance import LineSegment, Path
 from agvnav.navigation.docking import DockingAutopilot
 from agvnav.odometry import OdometryNoise, wheel_pair_noise
@@ -45,9 +46,8 @@ PERSON_SIDE_M = 0.4
 def compose(a: tuple[float, float, float] | NDArray[np.float64],
             b_: tuple[float, float, float] | NDArray[np.float64]) -> tuple[float, float, float]:
     """SE(2) ``a b`` of two poses (m, m, rad)."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return (float(a[0] + c * b_[0] - s * b_[1]), float(a[1] + s * b_[0] + c * b_[1]),
-            math.remainder(float(a[2] + b_[2]), 2.0 * math.pi))
+    x, y, psi = se2.compose(np.asarray(a, dtype=np.float64), np.asarray(b_, dtype=np.float64))
+    return float(x), float(y), float(psi)
 
 
 def _map_file(sc: Scenario) -> FsPath:
@@ -175,7 +175,7 @@ def docking_figures(sc: Scenario, series: dict[str, NDArray[np.float64]], pilot:
     o = sc.docking.truth.station_offset
     return {
         "dock_error_m": float(math.hypot(rel[0] - d[0], rel[1] - d[1])),
-        "dock_heading_error_rad": float(abs(math.remainder(float(rel[2] - d[2]), 2.0 * math.pi))),
+        "dock_heading_error_rad": abs(wrap_angle_scalar(float(rel[2] - d[2]))),
         "dock_time_s": float(pilot.dock_time_s),
         "station_offset_measured_x_m": float(pilot.offset[0]),
         "station_offset_measured_y_m": float(pilot.offset[1]),

@@ -202,11 +202,12 @@ def _check_separation(doc: DockingTargets, where: KeyPath, target: DockingTarget
     xy = target.reflector_xy
     d = np.hypot(xy[:, 0] - start[0], xy[:, 1] - start[1])
     half = np.arcsin(np.clip(target.radius / np.maximum(d, 1e-9), 0.0, 1.0))
-    angles = np.arctan2(xy[:, 1] - start[1], xy[:, 0] - start[0])
+    ux, uy = (xy[:, 0] - start[0]) / np.maximum(d, 1e-9), (xy[:, 1] - start[1]) / np.maximum(d, 1e-9)
     need = MIN_SEPARATION_PULSES * resolution
     for i in range(len(xy)):
         for j in range(i + 1, len(xy)):
-            sep = abs(math.remainder(float(angles[i] - angles[j]), 2.0 * math.pi)) - float(half[i] + half[j])
+            between = math.atan2(abs(float(ux[i] * uy[j] - uy[i] * ux[j])), float(ux[i] * ux[j] + uy[i] * uy[j]))
+            sep = between - float(half[i] + half[j])
             if sep < need:
                 raise doc.error((*where, "reflectors", j),
                                 f"reflectors {target.reflector_ids[i]!r} and {target.reflector_ids[j]!r} are "
