@@ -26,7 +26,9 @@ from agvnav.positioning.gating import BearingIndex, GateSpec, near_rows
 from agvnav.positioning.integrity import IntegrityMonitor, _fde_statistics, _window_tally
 from agvnav.positioning.total import _div, _wrap, total_batch
 from agvnav.positioning.triangulation import _layout_ok_kernel
+from agvnav.routes.planning import astar_kernel
 from agvnav.sensors import beam
+from agvnav.traffic import _sipp  # noqa: F401 - its kernels are in the property test
 from agvnav.vehicles.tricycle import hermite_poses
 
 pytestmark = pytest.mark.usefixtures("restore_jit_mode")
@@ -269,7 +271,43 @@ NESTED = {
     "_hits_disc": "line_of_sight", "near_one": "near_rows", "_visit_box": "grid_rows", "_finite_poses": "scan_hermite",
     "_solve_augmented": "_fde_statistics", "_normal_equations": "_fde_statistics", "position_crlb_one": "best_triple",
     "schmidt_accept": "gate_accept", "total_core": "total_batch",
+    "_clash_end": "sipp", "_turn": "sipp", "_key": "sipp", "_push_state": "sipp", "_chain": "sipp",
+    "_node_intervals": "sipp",
 }
+
+
+class _TouchZones:
+    """A conflict relation for the traffic kernels: a node conflicts with itself and the edges at it, an edge
+    with its twin and its end nodes."""
+
+    def __init__(self, network: Any) -> None:
+        self.net = network
+
+    def conflicts(self, model_a: str, res: tuple[str, str], model_b: str) -> frozenset[tuple[str, str]]:
+        if res[0] == "node":
+            at = {("edge", e.id) for e in self.net.edges.values() if res[1] in (e.source, e.target)}
+            return frozenset({res} | at)
+        e = self.net.edges[res[1]]
+        twin = {("edge", x.id) for x in self.net.edges.values() if {x.source, x.target} == {e.source, e.target}}
+        return frozenset({res, ("node", e.source), ("node", e.target)} | twin)
+
+
+def _traffic_kernel_outputs(rng: np.random.Generator) -> Outputs:
+    """The traffic planner's kernels (``traffic._sipp``) through a fleet plan on a 10 x 10 grid: planned times."""
+    from agvnav.routes.layouts import grid_network
+    from agvnav.routes.network import network_from_dict
+    from agvnav.routes.planning import VehicleLimits
+    from agvnav.traffic.plan import Goal, VehicleTask, plan_fleet
+
+    net = network_from_dict(grid_network(10, 5.0))
+    nodes = list(net.nodes)
+    pick = rng.choice(len(nodes), 24, replace=False)
+    lim = VehicleLimits("differential", 1.0)
+    tasks = [VehicleTask(f"V{i}", lim, nodes[int(pick[i])], (Goal(nodes[int(pick[12 + i])], 2.0),))
+             for i in range(12)]
+    plan = plan_fleet(net, tasks, _TouchZones(net))
+    times = [np.array([(s.t_start, s.t_end) for s in p.steps] or [(0.0, 0.0)]) for p in plan.plans.values()]
+    return {name: list(times) for name in ("sipp", "dijkstra_to", "reserve", "release", "safe_intervals")}
 
 
 def _triangulation_kernel_outputs(rng: np.random.Generator) -> Outputs:
@@ -302,7 +340,31 @@ def _outputs(compiled: bool) -> Outputs:
     out.update(_scalar_kernel_outputs(rng))
     out.update(_integrity_kernel_outputs(rng))
     out.update(_triangulation_kernel_outputs(rng))
+    out.update(_planning_kernel_outputs(rng))
+    out.update(_traffic_kernel_outputs(rng))
     return out
+
+
+def _planning_kernel_outputs(rng: np.random.Generator) -> Outputs:
+    """The route planner's A* on a random sparse graph of 300 states (goal, times, predecessors)."""
+    n = 300
+    rows, cols = rng.integers(0, n, 2400), rng.integers(0, n, 2400)
+    order = np.lexsort((cols, rows))
+    rows, cols = rows[order], cols[order]
+    indptr = np.searchsorted(rows, np.arange(n + 1)).astype(np.int64)
+    x, y = rng.uniform(0.0, 50.0, n), rng.uniform(0.0, 50.0, n)
+    w = np.hypot(x[rows] - x[cols], y[rows] - y[cols]) * rng.uniform(1.0, 2.0, len(rows))
+    goal = np.zeros(n, dtype=np.int64)
+    goal[[7, 8]] = 1
+    dist, pred, arc, stamp = (np.zeros(n), np.full(n, -1, dtype=np.int64), np.full(n, -1, dtype=np.int64),
+                              np.zeros(n, dtype=np.int64))
+    lm_from, lm_to = np.abs(x[:, None] - x[None, :2]) * 0.1, np.abs(y[:, None] - y[None, :2]) * 0.1
+    best = astar_kernel(indptr, cols.astype(np.int64), w, x, y, np.array([0, 1], dtype=np.int64), goal,
+                        float(x[7]), float(y[7]), 0.5, lm_from, lm_to, lm_from[[7, 8]].min(axis=0),
+                        lm_to[[7, 8]].max(axis=0), dist, pred, arc, stamp, 1, np.zeros(3000), np.zeros(3000),
+                        np.zeros(3000, np.int64))
+    return {"astar_kernel": [np.array([best, dist[best]]), np.where(stamp == 1, dist, -1.0), pred.astype(float),
+                             arc.astype(float)]}
 
 
 @pytest.fixture(scope="module")

@@ -45,8 +45,13 @@ def _same_run(a: tuple[dict[str, np.ndarray], object], b: tuple[dict[str, np.nda
     for name in sa:
         x, y = np.asarray(sa[name]), np.asarray(sb[name])
         assert x.shape == y.shape and x.tobytes() == y.tobytes(), name
-    for attr in ("n_accepted", "n_rejected", "n_inflations", "_x_t", "_P_t", "_odom_t", "_M", "_Pxc"):
-        assert getattr(ea, attr, None) == getattr(eb, attr, None), attr
+    for attr in ("n_accepted", "n_rejected", "n_inflations"):
+        assert getattr(ea, attr) == getattr(eb, attr), attr
+    ca, cb = ea.core, eb.core  # type: ignore[attr-defined]
+    assert (ca.x, ca.P, ca.odom) == (cb.x, cb.P, cb.odom)
+    if ca.consider is not None:
+        assert (ca.consider.M, ca.consider.Pxc) == (cb.consider.M, cb.consider.Pxc)
+        assert ca.consider.C.tobytes() == cb.consider.C.tobytes()
 
 
 @pytest.mark.parametrize("compiled", [False, True], ids=["interpreted", "compiled"])
@@ -66,7 +71,7 @@ def test_the_two_modes_agree(case: str) -> None:
     for attr in ("n_accepted", "n_rejected", "n_inflations"):
         a, b = getattr(est_p, attr), getattr(est_f, attr)
         assert abs(a - b) <= max(1, 0.02 * a), attr
-    np.testing.assert_allclose(est_p._x_t, est_f._x_t, rtol=0.0, atol=1e-6)  # type: ignore[attr-defined]
+    np.testing.assert_allclose(est_p.core.x, est_f.core.x, rtol=0.0, atol=1e-6)  # type: ignore[attr-defined]
     for name in ("est_x", "est_y", "x", "y"):
         err = np.abs(np.asarray(plain[name]) - np.asarray(fast[name]))
         assert np.nanmax(err, initial=0.0) < 1e-6, name
@@ -92,14 +97,16 @@ def test_lockout_inflation_between_gate_and_update(p_xy: float) -> None:
         est = make_estimator("ekf", world, mount, initial_pose=pose,
                              initial_covariance=np.diag([0.01, 0.01, 1e-6]), strict=True)
         est.predict(0.0, 0.0, 0.0)
-        est._P_t = (p_xy, 0.0, 0.0, 0.0, p_xy, 0.0, 0.0, 0.0, 1e-6)  # type: ignore[attr-defined]  # grown since
-        est._recent.extend((0.001 * (k + 1), False) for k in range(5))  # type: ignore[attr-defined]  # 5 in no gate
+        est.core.P = (p_xy, 0.0, 0.0, 0.0, p_xy, 0.0, 0.0, 0.0, 1e-6)  # grown since
+        est.lockout.recent.extend((0.001 * (k + 1), False) for k in range(5))  # 5 in no gate
         h, _, _ = bearing_model(pose, mount, world.reflector_xy, world.reflector_radius)
         # a reflector its own bearing identifies (alone in its gate), the farthest such
         j = next(int(i) for i in np.argsort(-np.hypot(*(world.reflector_xy - pose[:2]).T))
                  if est._gate(0.01, float(h[i])).index == i)  # type: ignore[attr-defined]
         accepted = est.update(0.01, float(h[j]) - est.bearing_offset)
-        results.append((accepted, est.n_inflations, est._x_t, est._P_t, est._M, est._C))  # type: ignore[attr-defined]
+        c = est.core.consider
+        assert c is not None
+        results.append((accepted, est.n_inflations, est.core.x, est.core.P, c.M, c.C))
     assert results[0][0] and results[0][:2] == results[1][:2]
     assert results[0][1] == (1 if p_xy == 0.01 else 0)
     for a, b in zip(results[0][2:], results[1][2:], strict=True):  # the two modes agree to rounding

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from agvnav.positioning import _fast, make_estimator
-from agvnav.positioning import estimator as estimator_module
+from agvnav.positioning import association as association_module
 from agvnav.positioning.gating import INDEX_MIN_REFLECTORS, BearingIndex, GateSpec, grid_rows, near_rows
 from agvnav.positioning.identification import bearing_model, measurement_variance
 from agvnav.positioning.integrity import IntegrityLimits
@@ -190,7 +190,7 @@ def test_ekf_with_and_without_the_index_is_bit_identical(n: int, monkeypatch: py
         return out, est.n_accepted, est.n_rejected, est.n_inflations
 
     with_index = run()
-    monkeypatch.setattr(estimator_module, "INDEX_MIN_REFLECTORS", 10**9)
+    monkeypatch.setattr(association_module, "INDEX_MIN_REFLECTORS", 10**9)
     without_index = run()
     assert with_index == without_index
     assert with_index[1] > 100  # updates were accepted

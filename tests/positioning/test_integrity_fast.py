@@ -310,16 +310,22 @@ def test_crosscheck_fix_is_the_former_propagation_and_fix() -> None:
 
 
 def test_the_monitor_writes_its_window_rows_in_the_kernels_layout() -> None:
-    """``accepted`` stores each value in the column the kernels read it from (the layout of ``_integrity_fast``)."""
+    """``accepted`` stores each value in its named field, the column the kernels read it from."""
+    from agvnav.positioning import integrity_window as iw
+
     mon = IntegrityMonitor(np.array([[1.0, 2.0], [3.0, 4.0]]), np.full(2, 0.04), (0.3, 0.05, 0.01), 1e-3, 0.125)
     mon.accepted(7.0, 2.5, 1, 0.4, (5.0, 6.0, 0.7), (0.01, 0.02, 1e-4, 2e-5, 3e-4), (0.003, 4e-6, 0.1, -0.2, -1.0))
-    row = mon._entries.row(0)
-    assert len(row) == fast._WIDTH == _WIDTH
-    assert (row[fast._T], row[fast._NIS], row[fast._IDX], row[fast._BEAR]) == (7.0, 2.5, 1.0, 0.4)
-    assert (row[fast._OX], row[fast._OY], row[fast._OPSI], row[fast._ON_TIME]) == (5.0, 6.0, 0.7, 1.0)
-    assert row[fast._HAS_C] == 1.0 and row[fast._C0:fast._C0 + 5] == [0.01, 0.02, 1e-4, 2e-5, 3e-4]
-    assert row[fast._HAS_I] == 1.0 and row[fast._Y] == 0.003 and row[fast._S] == 4e-6
-    assert row[fast._H0:fast._H0 + 3] == [0.1, -0.2, -1.0]
+    rec = mon._entries.records()[0]
+    assert len(rec) == iw._WIDTH == _WIDTH
+    assert (rec["t"], rec["nis"], rec["reflector"], rec["bearing"]) == (7.0, 2.5, 1.0, 0.4)
+    assert (rec["odom_x"], rec["odom_y"], rec["odom_psi"], rec["on_time"]) == (5.0, 6.0, 0.7, 1.0)
+    assert rec["has_correction"] == 1.0 and [rec[f] for f in ("dx", "dy", "dP00", "dP01", "dP11")] == [
+        0.01, 0.02, 1e-4, 2e-5, 3e-4]
+    assert rec["has_innovation"] == 1.0 and rec["y"] == 0.003 and rec["S"] == 4e-6
+    assert [rec["H0"], rec["H1"], rec["H2"]] == [0.1, -0.2, -1.0]
+    row = mon._entries.row(0)  # the kernels' offsets name the same columns
+    assert (row[iw._T], row[iw._IDX], row[iw._OX], row[iw._C0], row[iw._Y], row[iw._H0]) == (
+        7.0, 1.0, 5.0, 0.01, 0.003, 0.1)
 
 
 def _reference_inverse3(a: list[float]) -> tuple[float, ...] | None:

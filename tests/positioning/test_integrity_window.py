@@ -281,3 +281,22 @@ def test_the_window_grows_while_a_profiler_holds_its_frames(on: bool) -> None:
     assert len(w) == 3 and w.first_t() == 3.0
     assert [buf[start + k * WIDTH] for k in range(5)] == [0.0, 1.0, 2.0, 3.0, 4.0]
     assert rows[:, 0].tolist() == [0.0, 1.0, 2.0, 3.0, 4.0]
+
+
+def test_window_rows_are_typed_records_with_named_fields() -> None:
+    """:func:`window_row` builds a row by name; :meth:`_Window.records` reads it back by name."""
+    from agvnav.positioning.integrity_window import WINDOW_DTYPE, WINDOW_FIELDS, window_row
+
+    assert len(WINDOW_FIELDS) == WIDTH and WINDOW_DTYPE.itemsize == 8 * WIDTH
+    w = _Window()
+    w.append(window_row(1.5, 0.7, 4, 0.25, (1.0, 2.0, 0.3), True, (0.01, -0.02, 1e-4, 2e-5, 3e-4), None))
+    w.append(window_row(1.6, 1.2, 9, -0.5, (1.1, 2.0, 0.31), False, None, (1e-3, 4e-6, 0.1, -0.2, -1.0)))
+    rec = w.records()
+    assert rec.dtype == WINDOW_DTYPE and rec.shape == (2,)
+    np.testing.assert_array_equal(rec["t"], [1.5, 1.6])
+    np.testing.assert_array_equal(rec["reflector"], [4, 9])
+    np.testing.assert_array_equal(rec["on_time"], [1.0, 0.0])
+    assert (rec["has_correction"][0], rec["dx"][0], rec["dP11"][0]) == (1.0, 0.01, 3e-4)
+    assert (rec["has_innovation"][1], rec["y"][1], rec["S"][1], rec["H2"][1]) == (1.0, 1e-3, 4e-6, -1.0)
+    assert rec["has_correction"][1] == 0.0 and rec["has_innovation"][0] == 0.0
+    np.testing.assert_array_equal(rec.view(np.float64).reshape(2, WIDTH), w.rows())

@@ -319,3 +319,72 @@ def test_the_report_refuses_a_file_it_did_not_write(run_dir, tmp_path):
     write_html_report(run_dir, mine, force=True)
     assert mine.read_text(encoding="utf-8").startswith(REPORT_HEADER)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.html", "r.html"]
+
+
+FLEET = """\
+name: lab_pair
+seed: 3
+step_s: 0.05
+duration_s: 4.0
+map: lab
+traction: {speed_m_s: 0.5, max_accel_m_s2: 0.5, max_decel_m_s2: 0.5}
+goniometer: {mount: [0.0, 0.0, 0.0], p_miss: 0.05}
+positioning: {method: ekf, odometry_noise: [5.0e-5, 8.0e-4, 2.0e-4]}
+vehicle: {model: differential, track_m: 0.5, wheel_radius_m: 0.08, encoder_counts_per_rev: 4096}
+controller: {name: kanayama, params: {convergence_distance: 1.0}}
+fleet:
+  vehicles:
+    - {id: south, path: {start: [3.0, 2.0, 0.0], segments: [{type: line, length_m: 1.0}]}}
+    - {id: west, path: {start: [2.0, 4.0, 90.0], segments: [{type: line, length_m: 1.0}]}}
+"""
+
+
+@pytest.fixture(scope="module")
+def fleet_dir(tmp_path_factory):
+    from agvnav.report.fleet import save_fleet
+    from agvnav.sim.fleet import simulate_fleet
+    from agvnav.world.fleet import parse_fleet
+
+    out = tmp_path_factory.mktemp("fleet_html") / "fleet"
+    save_fleet(simulate_fleet(parse_fleet(FLEET, "pair.yaml")), out, plots=False, report=True)
+    return out
+
+
+def test_a_fleet_report_holds_every_vehicle_and_agvnav_report_writes_it_too(fleet_dir, tmp_path):
+    from agvnav.report.fleet_html import fleet_slider_data
+
+    page = (fleet_dir / "report.html").read_text(encoding="utf-8")
+    assert page.startswith(REPORT_HEADER) and 'id="agv0"' in page and 'id="agv1"' in page
+    assert "<td>south</td>" in page and "<td>west</td>" in page and "http" not in page.split("<body>")[1]
+    again = write_html_report(fleet_dir, tmp_path / "again.html")
+    assert again.read_text(encoding="utf-8") == page  # the folder alone gives the same report
+    # the slider's poses are the recorded ones: the last instant is each vehicle's last row
+    cols = {}
+    with (fleet_dir / "timeseries.csv").open() as f:
+        names = f.readline().strip().split(",")
+        data = np.loadtxt(f, delimiter=",", ndmin=2)
+    cols = {n: data[:, i] for i, n in enumerate(names)}
+    d = fleet_slider_data(cols, 2)
+    for i in range(2):
+        last = cols["x"][cols["vehicle"] == i][-1]
+        assert d["x"][i][-1] == pytest.approx(last, abs=1e-4)
+        assert d["x"][i][0] == pytest.approx(cols["x"][cols["vehicle"] == i][0], abs=1e-4)
+
+
+FLEET_SLIDE = """(function () {
+  var s = document.getElementById('time'), a = document.getElementById('agv1');
+  var before = a.getAttribute('transform');
+  s.value = s.max; s.dispatchEvent(new Event('input'));
+  return [before, a.getAttribute('transform'), document.getElementById('time-label').textContent];
+})()"""
+
+
+@NEEDS_CHROMIUM
+def test_chromium_opens_the_fleet_report_offline_and_its_slider_moves_the_vehicles(fleet_dir, tmp_path):
+    problems, png, slid = _visit(fleet_dir / "report.html", tmp_path / "profile", FLEET_SLIDE)
+    assert problems == {"console": [], "exceptions": [], "log": [], "requests": []}
+    before, after, label = slid
+    assert before != after and label.startswith("t = ") and label.endswith("2 vehicles")
+    image = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.float64)
+    assert np.mean(np.any(image < 240, axis=2)) > 0.03 and image.std() > 20
+    (tmp_path / "fleet_report.png").write_bytes(png)

@@ -154,3 +154,51 @@ def test_a_vehicle_that_fails_stops_there_and_the_others_go_on() -> None:
     assert ok["outcome"] == "completed" and ok["end_s"] > walled["end_s"] + 5.0
     assert result.outcome == "failed" and result.reason == "walled: collision"
     assert result.collisions == [] and result.figures["completed"] == 1 and result.figures["failed"] == 1
+
+
+REACTIVE = "scanner: {rate_hz: 12.5, step_deg: 1.0}\nreactive: {approach_speed_m_s: 0.0}\n"
+
+
+def test_a_vehicle_stopped_behind_another_counts_it_every_step_whatever_the_recording_rate() -> None:
+    body = ("duration_s: 14.0\nfleet:\n  vehicles:\n"
+            "    - id: mover\n      path: " + _line(3.0, 2.0, 0.0, 9.0) + "\n"
+            "    - id: parked\n      path: " + _line(9.0, 2.0, 0.0, 0.2) + "\n")
+    every = simulate_fleet(parse_fleet(HEAD + REACTIVE + body, "stop.yaml"))
+    sparse = simulate_fleet(parse_fleet(HEAD + REACTIVE + "record_step_s: 0.5\n" + body, "stop.yaml"))
+    mover = every.vehicles[0]
+    assert mover["outcome"] == "failed" and mover["reason"] == "timeout"  # it waits behind 'parked'
+    assert mover["stopped_most_by"] == "parked"
+    assert 1.0 < mover["time_stopped_by_vehicle_s"] <= mover["time_stopped_fields_s"]
+    assert every.collisions == [] and every.figures["min_separation_m"] > 0.3
+    # the per-step count agrees with the recorded series (every step recorded)
+    s = every.results[0].series
+    dt = np.diff(s["t"], prepend=s["t"][0])
+    assert mover["time_stopped_fields_s"] == pytest.approx(float(np.sum(dt[s["reaction_level"] >= 2.0])), abs=1e-9)
+    # a tenth of the rows, the same figures (counted every step) and the same run
+    assert sparse.results[0].series["t"].size == pytest.approx(every.results[0].series["t"].size / 10, abs=2)
+    for key in ("time_stopped_fields_s", "time_stopped_by_vehicle_s", "jobs_completed", "min_separation_m"):
+        assert sparse.vehicles[0][key] == every.vehicles[0][key], key
+    full, few = every.results[0].series, sparse.results[0].series
+    at = np.searchsorted(full["t"], few["t"])
+    np.testing.assert_array_equal(full["t"][at], few["t"])
+    np.testing.assert_array_equal(full["x"][at], few["x"])  # the same run, recorded every 10th step
+
+
+def test_a_mission_vehicle_stops_for_another_in_its_safety_field_and_without_fields_runs_into_it() -> None:
+    # 'mover' leaves S1 (8, 3) east for S2; 'parked' stands on that lane at (13, 3)
+    vehicles = ("duration_s: 14.0\nfleet:\n  vehicles:\n" + _mission("mover", "S1", "S2")
+                + "    - id: parked\n      path: " + _line(13.0, 3.0, 0.0, 0.2) + "\n")
+    fields = simulate_fleet(parse_fleet(HALL + REACTIVE + vehicles, "m.yaml"))
+    mover = fields.vehicles[0]
+    assert fields.collisions == [] and mover["reason"] == "timeout"
+    assert mover["stopped_most_by"] == "parked" and mover["time_stopped_by_vehicle_s"] > 3.0
+    assert 0.2 < fields.figures["min_separation_m"] < 2.5
+    blind = simulate_fleet(parse_fleet(HALL + vehicles, "m.yaml"))
+    assert blind.outcome == "failed" and blind.reason is not None and "collision of mover and parked" in blind.reason
+
+
+def test_a_mission_vehicle_refuses_local_avoidance_at_its_key() -> None:
+    text = HALL + "scanner: {}\nreactive: {avoid_segments: all, corridor_left_m: 1.0}\nfleet:\n  vehicles:\n" \
+        + _mission("mover", "S1", "S2")
+    with pytest.raises(ScenarioError, match=r"m.yaml:\d+: reactive.avoid_segments: vehicle 'mover': local avoidance"):
+        build_fleet(parse_fleet(text, "m.yaml"))

@@ -14,6 +14,7 @@ silently testing less, as the broker tests do for mosquitto.
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import math
@@ -44,17 +45,19 @@ def interop_dir() -> Path:
     lock = (HERE / "package-lock.json").read_bytes()
     root = Path(os.environ.get("AGVNAV_NPM_CACHE", Path.home() / ".cache" / "agvnav" / "npm"))
     folder = root / f"vda5050-interop-{hashlib.sha256(lock).hexdigest()[:16]}"
-    if not (folder / "node_modules" / ".agvnav-complete").is_file():
-        folder.mkdir(parents=True, exist_ok=True)
-        for name in ("package.json", "package-lock.json"):
-            shutil.copy(HERE / name, folder / name)
-        done = subprocess.run([npm, "ci", "--no-audit", "--no-fund"], cwd=folder, capture_output=True, text=True,
-                              timeout=300, check=False)
-        if done.returncode != 0:
-            pytest.fail(f"npm ci of the pinned vda-5050-lib failed in {folder}: {done.stderr.strip()[-500:]}")
-        (folder / "node_modules" / ".agvnav-complete").write_text("ok\n")
-    for script in HERE.glob("*.js"):
-        shutil.copy(script, folder / script.name)
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder.with_suffix(".lock"), "w") as lockfile:  # two xdist workers never install at once
+        fcntl.flock(lockfile, fcntl.LOCK_EX)
+        if not (folder / "node_modules" / ".agvnav-complete").is_file():
+            for name in ("package.json", "package-lock.json"):
+                shutil.copy(HERE / name, folder / name)
+            done = subprocess.run([npm, "ci", "--no-audit", "--no-fund"], cwd=folder, capture_output=True,
+                                  text=True, timeout=300, check=False)
+            if done.returncode != 0:
+                pytest.fail(f"npm ci of the pinned vda-5050-lib failed in {folder}: {done.stderr.strip()[-500:]}")
+            (folder / "node_modules" / ".agvnav-complete").write_text("ok\n")
+        for script in HERE.glob("*.js"):
+            shutil.copy(script, folder / script.name)
     return folder
 
 

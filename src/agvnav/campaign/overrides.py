@@ -3,8 +3,14 @@
 A dotted key walks nested mappings (missing ones are created) and, with an
 integer part, list items (``path.segments.0.radius_m``). Overrides never
 mutate their input: every function returns a new mapping. The result is turned
-back into YAML text and validated by :func:`agvnav.world.scenario.parse_scenario`,
-so the scenario schema, not this module, decides what a value may be.
+back into YAML text and validated by :func:`parse_document` (a scenario, or a
+fleet scenario when the document has a ``fleet`` key), so the scenario schema,
+not this module, decides what a value may be.
+
+A fleet's size is the one key that is not a scenario key: ``fleet.size: N``
+keeps the first ``N`` vehicles of ``fleet.vehicles`` (applied after the other
+overrides), so a campaign sweeps the fleet size over the vehicles its base
+scenario lists (:data:`FLEET_SIZE_KEY`).
 """
 
 from __future__ import annotations
@@ -18,10 +24,31 @@ from typing import Any
 import yaml
 
 from agvnav.world import builtin_map_names
-from agvnav.world.scenario import ScenarioError, builtin_scenario, builtin_scenario_names, parse_scenario
+from agvnav.world.fleet import FleetScenario, is_fleet_document, parse_fleet
+from agvnav.world.scenario import Scenario, ScenarioError, builtin_scenario, builtin_scenario_names, parse_scenario
 from agvnav.world.strict import load_yaml_document
 
-__all__ = ["BaseScenario", "apply_overrides", "dump_yaml", "load_base", "replay_mapping", "set_dotted"]
+__all__ = [
+    "FLEET_SIZE_KEY",
+    "BaseScenario",
+    "apply_overrides",
+    "dump_yaml",
+    "load_base",
+    "parse_document",
+    "replay_mapping",
+    "set_dotted",
+]
+
+#: The dotted key of a fleet's size: the first N vehicles of ``fleet.vehicles``.
+FLEET_SIZE_KEY = "fleet.size"
+
+
+def parse_document(text: str, source: str, base_dir: Path | None = None) -> Scenario | FleetScenario:
+    """A scenario, or a fleet scenario when the document lists a fleet (a ``fleet`` key); ScenarioError located."""
+    data, _ = load_yaml_document(text, source, "scenario")
+    if is_fleet_document(data):
+        return parse_fleet(text, source=source, base_dir=base_dir)
+    return parse_scenario(text, source=source, base_dir=base_dir)
 
 
 @dataclass(frozen=True)
@@ -48,7 +75,7 @@ def load_base(base: str) -> BaseScenario:
     if not p.is_file():
         raise ScenarioError(f"no such scenario file (shipped: {', '.join(builtin_scenario_names())})", (), None, base)
     text = p.read_text(encoding="utf-8")
-    parse_scenario(text, source=base, base_dir=p.parent)
+    parse_document(text, source=base, base_dir=p.parent)
     mapping, _ = load_yaml_document(text, base)
     return BaseScenario(text, dict(mapping), base, p.parent)
 
@@ -86,10 +113,27 @@ def set_dotted(mapping: Mapping[str, Any], key: str, value: Any) -> dict[str, An
 
 
 def apply_overrides(mapping: Mapping[str, Any], overrides: Mapping[str, Any]) -> dict[str, Any]:
-    """``mapping`` with every dotted-key override applied, in order (a new mapping)."""
+    """``mapping`` with every dotted-key override applied, in order, the fleet's size last (a new mapping)."""
     out = dict(mapping)
     for key, value in overrides.items():
-        out = set_dotted(out, key, value)
+        if key != FLEET_SIZE_KEY:
+            out = set_dotted(out, key, value)
+    if FLEET_SIZE_KEY in overrides:
+        out = fleet_of_size(out, overrides[FLEET_SIZE_KEY])
+    return out
+
+
+def fleet_of_size(mapping: Mapping[str, Any], size: Any) -> dict[str, Any]:
+    """A fleet document keeping the first ``size`` of its vehicles (ValueError naming :data:`FLEET_SIZE_KEY`)."""
+    fleet = mapping.get("fleet")
+    vehicles = fleet.get("vehicles") if isinstance(fleet, Mapping) else None
+    if not isinstance(vehicles, list):
+        raise ValueError(f"{FLEET_SIZE_KEY}: the base scenario is not a fleet (give it fleet.vehicles)")
+    if isinstance(size, bool) or not isinstance(size, int) or not 1 <= size <= len(vehicles):
+        raise ValueError(f"{FLEET_SIZE_KEY}: {size!r} is not a fleet size of 1 to {len(vehicles)} (the vehicles the "
+                         f"base scenario lists)")
+    out = copy.deepcopy(dict(mapping))
+    out["fleet"]["vehicles"] = out["fleet"]["vehicles"][:size]
     return out
 
 

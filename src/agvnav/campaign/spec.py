@@ -6,7 +6,8 @@ campaign file), fixed ``overrides`` for every run, the parameters to sweep
 run from ``uniform``, ``normal`` or ``choice``), how many runs (``runs``, or
 ``seeds`` replicates per grid point), the ``metrics`` to collect (default all)
 and the campaign ``seed`` from which every run's seed is derived. Parameters
-are dotted scenario keys (``traction.speed_m_s``, ``path.segments.0.radius_m``).
+are dotted scenario keys (``traction.speed_m_s``, ``path.segments.0.radius_m``); a fleet
+scenario's size is ``fleet.size`` (its first N vehicles: :mod:`agvnav.campaign.overrides`).
 
 The schema is strict and every error names the file, the line and the key
 (:mod:`agvnav.world.strict`), e.g. ``sweep.yaml:9: grid.goniometer.p_miss[1]:
@@ -27,9 +28,9 @@ from typing import Annotated, Any
 
 from pydantic import Field, model_validator
 
-from agvnav.campaign.overrides import apply_overrides, dump_yaml, load_base
+from agvnav.campaign.overrides import apply_overrides, dump_yaml, load_base, parse_document
 from agvnav.campaign.task import METRIC_SECTIONS, is_metric_name, metric_names
-from agvnav.world.scenario import KeyPath, ScenarioError, format_key, parse_scenario, scenario_reference
+from agvnav.world.scenario import KeyPath, ScenarioError, format_key, scenario_reference
 from agvnav.world.strict import Finite, SourcedModel, StrictModel, load_yaml_document, validate_document
 
 __all__ = ["CampaignSpec", "Distribution", "builtin_campaign_names", "is_number", "load_campaign", "parse_campaign"]
@@ -198,7 +199,7 @@ def _validated(
     """``mapping`` with ``overrides`` applied, checked with ``parse_scenario``; errors located in the campaign."""
     try:
         merged = apply_overrides(mapping, overrides)
-        parse_scenario(dump_yaml(merged), source=base.source, base_dir=base.base_dir)
+        parse_document(dump_yaml(merged), source=base.source, base_dir=base.base_dir)
     except ScenarioError as exc:
         raise _relocate(spec, exc, overrides, where) from None
     except ValueError as exc:  # a dotted key that cannot be set

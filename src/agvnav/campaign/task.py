@@ -22,11 +22,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from agvnav.campaign.overrides import apply_overrides, dump_yaml
+from agvnav.campaign.overrides import apply_overrides, dump_yaml, parse_document
 from agvnav.sim import simulate
+from agvnav.sim.fleet import simulate_fleet
 from agvnav.sim.metrics import RunMetrics
 from agvnav.world import builtin_map_names, load_builtin_map
-from agvnav.world.scenario import Scenario, parse_scenario
+from agvnav.world.fleet import FleetScenario
+from agvnav.world.scenario import Scenario
 from agvnav.world.strict import load_yaml_document
 
 __all__ = [
@@ -55,8 +57,12 @@ class SimSummary:
     sim_time_s: float | None
 
 
-#: Nested metric sections of a run, collected as ``<section>.<name>`` (their names vary by vehicle).
-METRIC_SECTIONS = ("integrity", "extra")
+#: Nested metric sections of a run, collected as ``<section>.<name>`` (their names vary by vehicle); a fleet
+#: run's metrics are its figures, ``fleet.<name>`` (``fleet.deliveries_per_hour``, ``fleet.jobs_completed``).
+METRIC_SECTIONS = ("integrity", "extra", "fleet")
+
+#: Fleet figures that are timing, not results (never collected).
+FLEET_TIMING = ("cpu_time_s", "wall_time_s", "real_time_factor_cpu", "us_per_vehicle_step")
 
 
 def metric_names() -> list[str]:
@@ -83,8 +89,11 @@ def flatten(values: Mapping[str, Any], prefix: str = "") -> dict[str, float | No
     return out
 
 
-def simulate_metrics(scenario: Scenario) -> SimSummary:
-    """Run ``scenario`` with :func:`agvnav.sim.simulate`; the adapter between campaigns and the simulator."""
+def simulate_metrics(scenario: Scenario | FleetScenario) -> SimSummary:
+    """Run ``scenario`` with :func:`agvnav.sim.simulate` (a fleet with :func:`agvnav.sim.fleet.simulate_fleet`);
+    the adapter between campaigns and the simulator."""
+    if isinstance(scenario, FleetScenario):
+        return fleet_metrics(scenario)
     result = simulate(scenario)
     raw = result.metrics
     metrics = flatten(raw() if callable(raw) else raw.to_dict())  # the tracked automaton's metrics are a method
@@ -93,6 +102,15 @@ def simulate_metrics(scenario: Scenario) -> SimSummary:
     completed = outcome == "completed" if outcome is not None else metrics.get("path_completed", 1.0) == 1.0
     reason = "" if completed else str(getattr(result, "reason", None) or "path not completed")
     return SimSummary(metrics, completed, reason, metrics.get("sim_time_s"))
+
+
+def fleet_metrics(fleet: FleetScenario) -> SimSummary:
+    """Run a fleet scenario; its figures (without timing) as ``fleet.<name>``, completed when every vehicle did."""
+    result = simulate_fleet(fleet)
+    figures = {k: v for k, v in result.figures.items() if k not in FLEET_TIMING}
+    metrics = flatten({"fleet": figures})
+    return SimSummary(metrics, result.completed, "" if result.completed else str(result.reason or "failed"),
+                      metrics.get("fleet.sim_time_s"))
 
 
 def _record(index: int, overrides: Mapping[str, Any], seed: int) -> Record:
@@ -104,7 +122,7 @@ def _record(index: int, overrides: Mapping[str, Any], seed: int) -> Record:
 def _scenario(
     base: Mapping[str, Any], overrides: Mapping[str, Any], source: str, base_dir: str | None,
     maps: dict[str, dict[str, Any]],
-) -> Scenario:
+) -> Scenario | FleetScenario:
     """The scenario of one set of overrides, a shipped map (``map: lab``) given inline.
 
     Every run builds its world from the scenario: a shipped map named there is read and
@@ -118,10 +136,11 @@ def _scenario(
         if name not in maps:
             maps[name] = load_builtin_map(name).to_dict()
         mapping = {**mapping, "map": maps[name]}
-    return parse_scenario(dump_yaml(mapping), source=source, base_dir=Path(base_dir) if base_dir else None)
+    return parse_document(dump_yaml(mapping), source=source, base_dir=Path(base_dir) if base_dir else None)
 
 
-def _simulate_record(rec: Record, scenario: Scenario, seed: int, metrics: Sequence[str] | None) -> Record:
+def _simulate_record(rec: Record, scenario: Scenario | FleetScenario, seed: int,
+                     metrics: Sequence[str] | None) -> Record:
     t0 = time.thread_time()
     try:
         summary = simulate_metrics(scenario.with_seed(seed))
@@ -174,7 +193,7 @@ def run_batch(
     run that raises is an ``error`` record. Runs with the same overrides share
     one parsed scenario.
     """
-    parsed: dict[str, Scenario | Exception] = {}
+    parsed: dict[str, Scenario | FleetScenario | Exception] = {}
     maps: dict[str, dict[str, Any]] = {}
     out = []
     base: Mapping[str, Any] | None = None

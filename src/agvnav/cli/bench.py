@@ -147,6 +147,13 @@ def missions(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OP
     _run("missions", json, quick, seed, wide)
 
 
+@bench_app.command("docking")
+@user_errors
+def docking(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
+    """Docking relative to the station: true final error (p95), silent failures, dock time vs the global stop."""
+    _run("docking", json, quick, seed, wide)
+
+
 @bench_app.command("layout")
 @user_errors
 def layout(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
@@ -166,6 +173,13 @@ def safety(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT,
 def mapping(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
     """Reflector mapping (SLAM): reflectors found, spurious, map RMS and NEES per anchor; positioning on the map."""
     _run("mapping", json, quick, seed, wide)
+
+
+@bench_app.command("traffic")
+@user_errors
+def traffic(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
+    """Traffic control: collisions and deadlocks under delays, deliveries/h beside the baseline, planning time."""
+    _run("traffic", json, quick, seed, wide)
 
 
 @bench_app.command("fleet")

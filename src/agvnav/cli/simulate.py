@@ -154,8 +154,8 @@ def _simulate_fleet(
     from agvnav.sim.fleet import build_fleet, run_fleet
     from agvnav.world.fleet import load_fleet
 
-    if log is not None or report:
-        raise fail("--log and --report are for single-vehicle scenarios; a fleet writes its metrics, series and plots")
+    if log is not None:
+        raise fail("--log is for single-vehicle scenarios; a fleet writes its metrics, series and plots")
     fleet = load_fleet(scenario)
     if seed is not None:
         fleet = fleet.copy_attached({"seed": int(seed)})
@@ -167,8 +167,8 @@ def _simulate_fleet(
     _prepare_out(out, force)
     with RunProgress(fleet.name, built.duration, "s simulated") as bar:
         result = run_fleet(built, progress=bar.update)
-    with RunProgress(f"writing {out}", key="simulate fleet save" + " plots" * plots):
-        written = save_fleet(result, out, plots=plots, force=force)
+    with RunProgress(f"writing {out}", key="simulate fleet save" + " plots" * plots + " report" * report):
+        written = save_fleet(result, out, plots=plots, force=force, report=report)
     if json:
         from agvnav.bench.common import json_document
 

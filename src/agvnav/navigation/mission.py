@@ -226,11 +226,24 @@ class MissionAutopilot:
         self._aligning: StationStop | None = None
         self._node_s = [s for s, _ in plan.node_s]
         self._handover_at = math.inf
+        self._wrap: Callable[[PathAutopilot], PathAutopilot] | None = None
+        self._begin()
+
+    def _begin(self) -> None:
+        """The first stint's pilot, and the signal names its pilots give."""
         self.pilot = self._start(0)
         names = self.pilot.signal_names
         self._i_s, self._i_rem = names.index("s_est"), names.index("remaining")
         self.signal_names = (*names, "leg", "nodes_passed", "dwelling", "point_offset")
         self._sig = (*self.pilot.signals(), 0.0, 0.0, 0.0, self._offsets[self._stints[0].point])
+
+    def wrap_stints(self, wrap: Callable[[PathAutopilot], PathAutopilot]) -> None:
+        """Drive every stint with ``wrap(pilot)`` instead of its PathAutopilot (e.g. the reaction to the safety
+        fields, :class:`~agvnav.navigation.reactive.ReactiveAutopilot`); before the mission starts only."""
+        if self._k != 0 or self.stops or self.finished:
+            raise ValueError("wrap the stints before the mission starts")
+        self._wrap = wrap
+        self._begin()
 
     def _stint_path(self, st: Stint) -> tuple[Path, NDArray[np.float64]]:
         segs, idx = sub_path(self.plan, st.s0, st.s1)
@@ -262,6 +275,8 @@ class MissionAutopilot:
         self.profile.carry_on = self._stints[i + 1].s1 - self._stints[i + 1].s0 if st.handover else 0.0
         self._handover_at = path.length - 1e-6 if st.handover else math.inf
         pilot = self._make(path, self.profile, st.point, self._station_point(st) if st.last else None)
+        if self._wrap is not None:
+            pilot = self._wrap(pilot)
         i_s = pilot.signal_names.index("s_est")
         step = float(s_grid[1] - s_grid[0])
 

@@ -6,11 +6,13 @@ from agvnav.odometry.covariance import (
     WHEEL_ODOMETRY_KEYS,
     OdometryNoise,
     SteeredOdometryNoise,
+    WheelPairOdometryNoise,
     calibration_jacobian,
     motion_covariance,
     noise_from_truth,
     propagate,
     steered_noise,
+    wheel_pair_noise,
 )
 from agvnav.odometry.errors import (
     DifferentialGeometry,
@@ -41,6 +43,7 @@ __all__ = [
     "TrueDifferentialVehicle",
     "TrueTricycleVehicle",
     "UMBmarkResult",
+    "WheelPairOdometryNoise",
     "calibration_jacobian",
     "differential_increments",
     "differential_wheel_distances",
@@ -55,4 +58,5 @@ __all__ = [
     "steered_noise",
     "tricycle_increments",
     "umbmark",
+    "wheel_pair_noise",
 ]

@@ -127,6 +127,68 @@ def noise_from_truth(model: str, slip_k: float, base_m: float, steering_std: flo
     return OdometryNoise(k_d=slip_k, k_dtheta=steering_std**2 * step_m / base_m**2, k_theta=slip_k / base_m)
 
 
+@dataclass(frozen=True)
+class WheelPairOdometryNoise(OdometryNoise):
+    """The exact random odometry error of two driven wheels on one axle (a differential drive; issue 32).
+
+    The increments come from the wheels' rolled distances ``s_R = dD + b dtheta / 2`` and
+    ``s_L = dD - b dtheta / 2`` ([seed002 eq16], ``b`` the nominal track), each slipping with
+    ``var(s) = slip_k |s|`` independently, so ``Sigma = J diag(slip_k |s_R|, slip_k |s_L|) J^T``
+    with ``J = d(dD, dtheta)/d(s_R, s_L) = [[1/2, 1/2], [1/b, -1/b]]``:
+
+    * ``var(dD) = slip_k (|s_R| + |s_L|) / 4``, ``var(dtheta) = slip_k (|s_R| + |s_L|) / b^2``,
+      ``cov(dD, dtheta) = slip_k (|s_R| - |s_L|) / (2 b)``.
+
+    Crowley's three terms [seed002 eq17] are this model driving straight (``k_d = slip_k / 2``,
+    ``k_dtheta = 2 slip_k / b^2``) and for the heading of a turn on the spot (``k_theta = slip_k / b``),
+    but they miss the translation a turn on the spot makes: the wheels roll ``b |dtheta| / 2`` each in
+    opposite directions and their slips do not cancel, ``var(dD) = slip_k b |dtheta| / 4``, where
+    ``K_D |dD|`` says 0. A filter on that form is overconfident along the heading after every spot
+    turn (0.6 mm of random shift for a 1.5 deg turn at ``slip_k = 1e-4``, ``b = 0.5`` m, against a
+    covariance that did not grow): the station estimator's false alarm of issue 32.
+
+    ``track_m`` (m) the nominal track ``b``; ``slip_k`` (m^2/m) a wheel's slip variance per metre rolled.
+    The inherited ``k_d, k_dtheta, k_theta`` are not inputs: they hold Crowley's form of the same slip
+    (:func:`noise_from_truth`) for the consumers that take three coefficients.
+    """
+
+    k_d: float = field(default=0.0, init=False)
+    k_dtheta: float = field(default=0.0, init=False)
+    k_theta: float = field(default=0.0, init=False)
+    track_m: float = 0.5
+    slip_k: float = 0.0
+
+    def __post_init__(self) -> None:
+        bound = noise_from_truth("differential", self.slip_k, self.track_m)
+        for name in ("k_d", "k_dtheta", "k_theta"):
+            object.__setattr__(self, name, getattr(bound, name))
+        super().__post_init__()
+
+    def increment_covariance(self, delta_d: ArrayLike, delta_theta: ArrayLike) -> FloatArray:
+        """``Sigma (..., 2, 2)`` of the increments ``(dD, dtheta)`` (m, rad) from the two wheels' slip (class doc)."""
+        dd, dth = np.broadcast_arrays(np.asarray(delta_d, dtype=np.float64), np.asarray(delta_theta, dtype=np.float64))
+        b = self.track_m
+        roll_r, roll_l = np.abs(dd + 0.5 * b * dth), np.abs(dd - 0.5 * b * dth)
+        cov = np.zeros(dd.shape + (2, 2))
+        cov[..., 0, 0] = 0.25 * self.slip_k * (roll_r + roll_l)
+        cov[..., 1, 1] = self.slip_k * (roll_r + roll_l) / (b * b)
+        cov[..., 0, 1] = cov[..., 1, 0] = 0.5 * self.slip_k * (roll_r - roll_l) / b
+        return cov
+
+
+def wheel_pair_noise(noise: OdometryNoise, track_m: float) -> WheelPairOdometryNoise:
+    """The wheel-pair model (:class:`WheelPairOdometryNoise`) of a differential drive given Crowley's coefficients.
+
+    Each coefficient [seed002 eq17] implies a wheel slip (``2 k_d``, ``k_dtheta b^2 / 2``, ``k_theta b``,
+    :func:`noise_from_truth` inverted); the largest is taken, so the model bounds every one of them
+    and equals them when they come from one slip. ``track_m`` (m) the nominal track ``b``.
+    """
+    if not (np.isfinite(track_m) and track_m > 0.0):
+        raise ValueError(f"track_m must be a positive finite length (m), got {track_m!r}")
+    slip_k = max(2.0 * noise.k_d, 0.5 * noise.k_dtheta * track_m**2, noise.k_theta * track_m)
+    return WheelPairOdometryNoise(track_m=float(track_m), slip_k=slip_k)
+
+
 #: Steered vehicles :class:`SteeredOdometryNoise` models exactly.
 STEERED_MODELS = ("tricycle", "tricycle_rear")
 

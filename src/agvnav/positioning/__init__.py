@@ -23,6 +23,7 @@ from agvnav.positioning.dynamic import (
     propagate_bearings,
 )
 from agvnav.positioning.ekf import EkfEstimator, ekf_predict, ekf_update
+from agvnav.positioning.ekf_core import EkfCore, EkfStep
 from agvnav.positioning.estimator import METHODS as ESTIMATOR_METHODS
 from agvnav.positioning.estimator import StreamingEstimator, make_estimator
 from agvnav.positioning.identification import (
@@ -32,15 +33,21 @@ from agvnav.positioning.identification import (
     gate_reflection,
     initial_pose_search,
 )
+from agvnav.positioning.measurement import BearingMeasurement, MeasurementModel, WallRangeMeasurement
 
 __all__ += [
     "ESTIMATOR_METHODS",
     "AnglePropagationEstimator",
     "BatchMLEstimator",
+    "BearingMeasurement",
+    "EkfCore",
     "EkfEstimator",
+    "EkfStep",
     "InitialPoseResult",
+    "MeasurementModel",
     "NaiveEstimator",
     "StreamingEstimator",
+    "WallRangeMeasurement",
     "associate_sweep",
     "batch_ml_fix",
     "bearing_model",

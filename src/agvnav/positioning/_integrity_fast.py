@@ -15,8 +15,8 @@ the kernels the streaming estimator calls.
 numba's on-disk cache keys a kernel on its own source file only (:mod:`agvnav._jit`): these
 kernels read constants of other modules, which numba freezes into their machine code:
 ``LAYOUT_TOL``, ``NONLINEAR_RATIO``, ``PARALLEL_TOL`` (``positioning.triangulation``),
-``CRITICAL_TOL`` and ``REORDER_TOL`` (``positioning._three``); and ``integrity._window_tally``
-reads the window layout (``_T``, ...) from here. An edit of one of those alone leaves the cached
+``CRITICAL_TOL`` and ``REORDER_TOL`` (``positioning._three``), and the window layout (``_T``, ...)
+of :mod:`agvnav.positioning.integrity_window`. An edit of one of those alone leaves the cached
 kernels with the old values until their own file changes or ``__pycache__`` is cleared
 (``tests/test_jit.py`` then sees the two modes differ where the change matters on its inputs).
 """
@@ -32,6 +32,7 @@ from agvnav._jit import jit
 from agvnav.geometry.angles import wrap_angle_kernel
 from agvnav.positioning._fast import edge_bearing, increment_variances
 from agvnav.positioning._three import CRITICAL_TOL, REORDER_TOL
+from agvnav.positioning.integrity_window import _BEAR, _HAS_I, _IDX, _OPSI, _OX, _OY, _T, _WIDTH, _Y
 from agvnav.positioning.total import total_core
 from agvnav.positioning.triangulation import LAYOUT_TOL, NONLINEAR_RATIO, PARALLEL_TOL
 
@@ -49,15 +50,6 @@ CROSSCHECK_NONE, CROSSCHECK_FIX = 0, 1
 
 _CRIT2 = (2.0 * CRITICAL_TOL) * (2.0 * CRITICAL_TOL)  # total's critical-circle bound (total_kernel's)
 
-#: Columns of a window row (:class:`~agvnav.positioning.integrity._Window`, written by
-#: :meth:`~agvnav.positioning.integrity.IntegrityMonitor.accepted`, defined here only): stamp (s), NIS,
-#: map row, edge bearing (rad, head frame), odometric base_link pose then (m, m, rad), on time (1/0,
-#: ``integrity._HeadClock``), has a correction (1/0), the update's position correction (dx, dy) (m)
-#: and covariance decrease P- - P+ (00, 01, 11) (m²), has an innovation (1/0), the EKF's innovation y
-#: (rad), its variance S (rad²) and Jacobian row H (3,).
-_T, _NIS, _IDX, _BEAR, _OX, _OY, _OPSI, _ON_TIME, _HAS_C, _C0 = range(10)
-_HAS_I, _Y, _S, _H0 = 14, 15, 16, 17
-_WIDTH = 20
 
 
 @jit

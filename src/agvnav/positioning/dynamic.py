@@ -247,7 +247,12 @@ class _FixEstimator(StreamingEstimator):
         self.n_fixes = 0
         self.n_fixes_refused = 0
 
-    def _accept(self, t: float, bearing: float, assoc: Any) -> None:
+    def _accept(self, t: float, bearing: float, assoc: Any) -> tuple[float, float, float]:
+        """Buffer the identified reflection and replace the pose by a plausible fix; no gain (NaN)."""
+        self._take_fix(t, bearing, assoc)
+        return (math.nan, math.nan, math.nan)
+
+    def _take_fix(self, t: float, bearing: float, assoc: Any) -> None:
         self._entries.append((t, bearing, assoc.index, self._odom.copy()))
         while self._entries and t - self._entries[0][0] > 2.0 / self.rate_hz + 1.0:
             self._entries.popleft()
@@ -380,7 +385,8 @@ class NaiveEstimator(_FixEstimator):
             return None
         pose = compose(head, inverse(self.mount))
         cov = self._fix_covariance(pose, entries, np.zeros((3, 3)))
-        per_rev = np.array([math.hypot(self._rate[0], self._rate[2]), abs(self._rate[1])]) / self.rate_hz
+        rate = self.inputs.rate
+        per_rev = np.array([math.hypot(rate[0], rate[2]), abs(rate[1])]) / self.rate_hz
         return pose, cov + np.diag([per_rev[0] ** 2, per_rev[0] ** 2, per_rev[1] ** 2])
 
 

@@ -87,18 +87,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav.geometry import wrap_angle
 from agvnav.positioning import _fast
+from agvnav.positioning.ekf_core import CONSIDER_MAX_ENTRY, CONSIDER_MIN_DET, ConsiderState, Linearisation
 from agvnav.positioning.estimator import StreamingEstimator
 from agvnav.positioning.identification import Association
-from agvnav.positioning.wall_ranges import WallRangeModel
+from agvnav.positioning.wall_ranges import RangeAssociation, WallRangeModel
 
 __all__ = ["CONSIDER_MAX_ENTRY", "CONSIDER_MIN_DET", "EkfEstimator", "ekf_predict", "ekf_update"]
-
-#: ``M`` of the factored ``P_xp = M C^T`` is folded into ``C`` below this ``|det M|`` ...
-CONSIDER_MIN_DET = 0.05
-#: ... or above this largest ``|M_ik|`` (keeps ``M^-1`` well conditioned, see the module docstring).
-CONSIDER_MAX_ENTRY = 20.0
-
-_IDENTITY = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 
 
 def ekf_predict(
@@ -178,8 +172,9 @@ class EkfEstimator(StreamingEstimator):
         **kwargs: Any,
     ) -> None:
         super().__init__(world, mount, **kwargs)
-        self._gate_consts = _fast.gate_constants(  # the compiled update's fold limits and P_xc too
-            self._spec, self._mount_t, self._grid_consts, self.bearing_std**2, CONSIDER_MIN_DET, CONSIDER_MAX_ENTRY,
+        assoc = self.association
+        assoc.consts = _fast.gate_constants(  # the compiled update's fold limits and P_xc too
+            assoc.spec, assoc.mount_t, assoc.grid_consts, self.bearing_std**2, CONSIDER_MIN_DET, CONSIDER_MAX_ENTRY,
             self._calibration_var != (0.0, 0.0),
         )
         self.last_innovation = float("nan")
@@ -192,9 +187,7 @@ class EkfEstimator(StreamingEstimator):
             self.wall_ranges = WallRangeModel(walls, rangers, beam=range_beam, end_margin=range_end_margin)
         self.n_ranges_accepted = 0
         self.n_ranges_rejected = 0
-        self.last_range: Any = None
-        if not hasattr(self, "_C"):  # no initial pose: the consider state starts with the search
-            self._consider_reset()
+        self.last_range: RangeAssociation | None = None
 
     @property
     def covariance(self) -> NDArray[np.float64]:
@@ -229,12 +222,18 @@ class EkfEstimator(StreamingEstimator):
         return self._P
 
     @property
+    def _consider(self) -> ConsiderState:
+        c = self.core.consider
+        assert c is not None  # a consider filter's core always holds one
+        return c
+
+    @property
     def cross_covariance(self) -> NDArray[np.float64]:
         """``(3, 2N)`` ``P_xp``: covariance of the pose error with the reflectors' survey errors (m², m rad).
 
         Columns ``2j, 2j+1``: reflector j's x and y error (map rows).
         """
-        return np.asarray(self._M).reshape(3, 3) @ self._C.reshape(-1, 3).T
+        return self._consider.cross_covariance()
 
     @property
     def calibration_cross_covariance(self) -> NDArray[np.float64]:
@@ -244,97 +243,51 @@ class EkfEstimator(StreamingEstimator):
         steering offset (m rad, m rad, rad²); zero unless the odometry noise is a
         :class:`~agvnav.odometry.SteeredOdometryNoise` with a calibration tolerance.
         """
-        return np.asarray(self._Pxc, dtype=np.float64).reshape(3, 2)
-
-    # ------------------------------------------------------------------ consider state
-    def _consider_reset(self) -> None:
-        n = self.reflector_xy.shape[0]
-        self._M: tuple[float, ...] = _IDENTITY
-        self._C = np.zeros((n, 6))
-        self._svar = (self.survey_std**2).tolist()
-        self._Pxc: tuple[float, ...] = (0.0,) * 6
-        self._calibrated = self._calibration_var != (0.0, 0.0)
-
-    def _consider_args(self, f02: float, f12: float) -> Any:
-        M = self._M if f02 == 0.0 and f12 == 0.0 else _fast.shear(self._M, f02, f12)
-        return M, self._C, self._svar
-
-    def _consider_factors(self) -> tuple[tuple[float, ...], NDArray[np.float64]]:
-        return self._M, self._C
-
-    def _move_factors(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
-        return self._M, self._Pxc
-
-    def _moved_factors(self, M: tuple[float, ...], X: tuple[float, ...]) -> None:
-        self._M, self._Pxc = M, X
-
-    def _fold(self, M: tuple[float, ...]) -> None:
-        """``C <- C M^T`` (``P_xp = M C^T`` unchanged) and ``M <- I``: O(N), rare."""
-        C3 = self._C.reshape(-1, 3)
-        C3[...] = C3 @ np.asarray(M).reshape(3, 3).T
-        self._M = _IDENTITY
-
-    def _fold_into_row(self, M: tuple[float, ...], K: Sequence[float], j: int, h0: float, h1: float) -> None:
-        """Fold ``M`` (:meth:`_fold`), then add reflector ``j``'s new ``P_xp`` columns ``K (h0, h1) svar_j``.
-
-        The compiled update's folded case: the same operations as the folded branch of :meth:`_accept`.
-        """
-        self._fold(M)
-        svar = self._svar[j]
-        u0, u1, u2 = K
-        row = self._C[j].tolist()
-        ax, ay = h0 * svar, h1 * svar
-        self._C[j] = (row[0] + u0 * ax, row[1] + u1 * ax, row[2] + u2 * ax, row[3] + u0 * ay, row[4] + u1 * ay,
-                      row[5] + u2 * ay)
-
-    def _left(self, K: Sequence[float], H: Sequence[float]) -> tuple[float, ...]:
-        """``M <- (I - K H) M``; returns the new ``M`` folded to ``I`` when ill-conditioned."""
-        M = _fast.left_update(self._M, K, H)
-        if not (abs(_fast.det3(M)) >= CONSIDER_MIN_DET and max(map(abs, M)) <= CONSIDER_MAX_ENTRY):
-            self._fold(M)
-            M = _IDENTITY
-        self._M = M
-        return M
+        return np.asarray(self._consider.Pxc, dtype=np.float64).reshape(3, 2)
 
     def update_ranges(self, t: float, ranges: Mapping[str, float]) -> int:
         """Ultrasonic readings ``{sensor: range (m)}`` made at ``t`` (s); returns how many were fused.
 
-        One Joseph-form update per reading whose nearest modelled wall passes the
+        One update of the core per reading whose nearest modelled wall passes the
         chi-square gate [seed004 eq8] (a side pair's two ranges also fix the heading,
-        as [seed004 eq6] [seed004 eq7] do). nan readings (no echo) are skipped. The
-        ranges must come after :meth:`predict` up to ``t`` (the closed loop does so).
+        as [seed004 eq6] [seed004 eq7] do): the measurement model
+        :class:`~agvnav.positioning.measurement.WallRangeMeasurement`
+        (:meth:`~agvnav.positioning.wall_ranges.WallRangeModel.measurement`). nan readings
+        (no echo) are skipped. The ranges must come after :meth:`predict` up to ``t``.
         """
         if self.wall_ranges is None:
             raise ValueError(
                 "this estimator was built without walls and rangers (make_estimator(..., walls=, rangers=))"
             )
         self.wall_ranges.check_names(list(ranges))
+        inputs = self.inputs
         try:
-            t = self._check_time(t, "ranges")
-            if self._t is not None and t > self._t + 1e-9:
+            t = inputs.check_time(t, "ranges")
+            if inputs.t is not None and t > inputs.t + 1e-9:
                 raise ValueError(
-                    f"ranges at t={t!r} s are ahead of the latest odometry at t={self._t!r} s; predict first"
+                    f"ranges at t={t!r} s are ahead of the latest odometry at t={inputs.t!r} s; predict first"
                 )
         except ValueError as exc:  # a running vehicle drops them (counted)
-            self._refuse(self.t, "ranges_time", str(exc))
+            inputs.refuse(inputs.now, "ranges_time", str(exc))
             return 0
-        self._t = t
-        if not self._has_pose():
+        inputs.t = t
+        if not self.core.has_pose():
             return 0
         fused = 0
         for name, r in ranges.items():
             if not math.isfinite(r):
                 continue
-            assoc = self.wall_ranges.associate(name, float(r), self._x_t, self._P_t, self.gate)
-            if assoc is None:
+            model = self.wall_ranges.measurement(name, float(r), self.core.x, self.gate)
+            if model is None:
                 self.n_ranges_rejected += 1
                 continue
-            K = _fast.gain(self._P_t, assoc.H, assoc.R)
-            self._x_t, self._P_t = _fast.joseph_update(self._x_t, self._P_t, assoc.innovation, assoc.H, assoc.R)
-            self._left(K, tuple(assoc.H))  # P_xp <- (I - K H) P_xp: a range does not see the survey errors
-            if self._calibrated:
-                self._Pxc = _fast.calibration_update(self._Pxc, K, tuple(assoc.H))
-            self.last_range = assoc
+            step = self.core.update(model, float(r), t)
+            self._keep_step(step)
+            if not step[11]:
+                self.n_ranges_rejected += 1
+                continue
+            y, S, H = step[6], step[7], model.jacobian(step[4])
+            self.last_range = RangeAssociation(model.index, y, H, model.range_var, S, y * y / S)
             fused += 1
         self.n_ranges_accepted += fused
         if fused:
@@ -342,47 +295,39 @@ class EkfEstimator(StreamingEstimator):
         self._judge_state(t)
         return fused
 
-    def _gate_accept(self, t: float, z: float) -> Association:
+    def _gate_accept(self, t: float, z: float) -> tuple[Association, Sequence[float]]:
         """:meth:`_gate` and :meth:`_accept` in one compiled call (:func:`~agvnav.positioning._fast.gate_accept`).
 
-        The same numbers as the two methods; a fold of ``M`` (rare) is finished here, as
-        :meth:`_accept` does it.
+        The bearing model's compiled form: the same numbers as the core's update with a
+        :class:`~agvnav.positioning.measurement.BearingMeasurement` (to 1e-12,
+        ``tests/positioning/test_ekf_core.py``); a fold of ``M`` (rare) is finished here.
         """
-        sight = self._sight(t)
+        a, core, c = self.association, self.core, self._consider
+        sight = a.sight(t, core.x)
         (j, y, nis, n_in, h0, h1, h2, S, R), x1, P1, K, M, X, fold = _fast.gate_accept(
-            z, t, self._x_t, self._P_t, self._M, self._Pxc, self._C, self._claimed,
-            self._in_sight_all if sight is None else sight, self._gate_tab, self._gate_consts, *self._gate_grid,
+            z, t, core.x, core.P, c.M, c.Pxc, c.C, a.claimed, a.in_sight_all if sight is None else sight,
+            a.table, a.consts, *a.grid,
         )
         assoc = Association(j, y, nis, n_in, np.array((h0, h1, h2)), S, R)
         if j < 0:
-            return assoc
-        self._x_t, self._P_t, self._Pxc = x1, P1, X
-        if fold:  # as _left and the folded branch of _accept
-            self._fold_into_row(M, K, j, h0, h1)
-        else:
-            self._M = M
+            return assoc, K
+        core.x, core.P, c.Pxc = x1, P1, X
+        c.keep(M, K, fold, j, h0, h1)
         self.last_innovation = y
         self.last_nis = nis
         self.last_reflector = j
-        return assoc
+        return assoc, K
 
-    def _accept(self, t: float, bearing: float, assoc: Any) -> None:
-        """The Schmidt-Kalman update of one identified bearing (module docstring).
+    def _accept(self, t: float, bearing: float, assoc: Association) -> Sequence[float]:
+        """The Schmidt-Kalman update of one identified bearing (module docstring), by the core.
 
-        One kernel call (:func:`~agvnav.positioning._fast.schmidt_accept`), unless ``M`` must be
-        folded: then the fold and reflector ``j``'s row are done here (:meth:`_fold_into_row`).
+        The gate's linearisation (innovation, ``H``) with ``R = sigma_b^2`` and the reflector's
+        survey error as the consider block (``H_p = -H[:2]``).
         """
-        j = assoc.index
-        h0, h1 = float(assoc.H[0]), float(assoc.H[1])
-        H = (h0, h1, float(assoc.H[2]))
-        self._x_t, self._P_t, K, M, self._Pxc, fold = _fast.schmidt_accept(
-            self._x_t, self._P_t, self._M, self._Pxc, self._C, j, self._svar[j], assoc.innovation, H,
-            self.bearing_std**2, self._calibrated, CONSIDER_MIN_DET, CONSIDER_MAX_ENTRY,
-        )
-        if fold:  # as _left
-            self._fold_into_row(M, K, j, h0, h1)
-        else:
-            self._M = M
+        H = (float(assoc.H[0]), float(assoc.H[1]), float(assoc.H[2]))
+        lin = Linearisation(assoc.innovation, H, self.bearing_std**2, assoc.index, (-H[0], -H[1]))
+        step = self.core.apply(lin, t, "bearing", assoc.index, bearing)
         self.last_innovation = assoc.innovation
         self.last_nis = assoc.nis
         self.last_reflector = assoc.index
+        return step[8]

@@ -2,7 +2,13 @@
 
 :class:`IntegrityMonitor` watches what supports the estimate and turns it into a verdict
 (``"ok"``, ``"degraded"``, ``"lost"``) and a 0-1 quality figure, as commercial reflector
-navigators report one:
+navigators report one. This module is the monitor (its state, the verdict and the
+drift episode); each check lives in its own module, over the typed window record of
+:mod:`agvnav.positioning.integrity_window` (one row per accepted reflection, named fields):
+:mod:`~agvnav.positioning.integrity_nis` (innovation chi-square, corrections, uncertainty),
+:mod:`~agvnav.positioning.integrity_raim` (leave-one-out FDE),
+:mod:`~agvnav.positioning.integrity_crosscheck` (ToTal cross-check) and
+:mod:`~agvnav.positioning.integrity_sight` (visibility, head clock). The checks:
 
 * consistency of the recent innovations: the windowed NIS ``sum y_i^2 / S_i`` of the
   accepted bearings of the last ``window_s`` seconds against the upper
@@ -130,35 +136,16 @@ summed beyond ``max_correction_m``; the hold, its checks passing, does not count
 
 from __future__ import annotations
 
-import functools
 import math
-from array import array
 from collections import deque
 from dataclasses import dataclass
-from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from agvnav._jit import jit
-from agvnav.geometry import wrap_angle_scalar
-from agvnav.positioning._chi2_table import FALSE_ALARM, QUANTILES_1E5
-from agvnav.positioning._integrity_fast import (  # the window row's columns (_T, ...) are defined there
-    _C0,
-    _HAS_C,
-    _HAS_I,
-    _IDX,
-    _NIS,
-    _ON_TIME,
-    _OX,
-    _OY,
-    _T,
-    _WIDTH,
-    _Y,
-    CROSSCHECK_FIX,
-    _fde_statistics,
+from agvnav.positioning._integrity_fast import (
+    _fde_statistics,  # noqa: F401 - re-exported (the checks' kernels, tests/test_jit.py)
     _head,
-    crosscheck_fix,
     in_range,
     information,
     mean_innovations,
@@ -166,42 +153,32 @@ from agvnav.positioning._integrity_fast import (  # the window row's columns (_T
     revolution_offset,
     window_fde,
 )
-from agvnav.sensors.beam import line_of_sight
+from agvnav.positioning.integrity_crosscheck import crosscheck_distance
+from agvnav.positioning.integrity_nis import CHI2_2DOF_999, chi2_upper, corrections_drift, uncertainty_failures
+from agvnav.positioning.integrity_raim import (
+    FdeResult,
+    _chi2_3dof_isf,
+    _fde_result,
+    chi2_threshold,
+    leave_one_out_fde,
+)
+from agvnav.positioning.integrity_sight import HeadClock, reflectors_in_sight
+from agvnav.positioning.integrity_window import (  # noqa: F401 - _WIDTH re-exported
+    _OX,
+    _OY,
+    _WIDTH,
+    _Tally,
+    _Window,
+    _window_tally,
+    window_row,
+)
 
 __all__ = [
     "CHI2_2DOF_999", "FdeResult", "IntegrityLimits", "IntegrityMonitor", "chi2_threshold", "chi2_upper",
     "leave_one_out_fde", "reflectors_in_sight",
 ]
 
-#: Chi-square quantile, 2 dof, 0.999: agreement bound of the triangulation cross-check.
-CHI2_2DOF_999 = 13.815510557964274
-
-#: Normal quantiles of the supported confidences, for :func:`chi2_upper`.
-_Z = {0.95: 1.6448536269514722, 0.99: 2.3263478740408408, 0.999: 3.090232306167813}
-
-
-#: Exact 1-dof quantiles (the square of the two-sided normal quantile).
-_CHI2_1DOF = {0.95: 3.841458820694124, 0.99: 6.634896601021214, 0.999: 10.827566170662733}
-
-
-def chi2_upper(dof: int, confidence: float = 0.999) -> float:
-    """Upper ``confidence`` quantile of a chi-square with ``dof`` degrees of freedom.
-
-    Wilson-Hilferty cube-root approximation, ``dof (1 - a + z sqrt(a))^3`` with
-    ``a = 2 / (9 dof)`` and ``z`` the normal quantile (within 2 % of the exact value
-    from 3 dof on; the 1- and 2-dof values are exact). ``confidence`` is 0.95, 0.99 or 0.999.
-    """
-    if dof < 1:
-        raise ValueError(f"dof must be >= 1, got {dof!r}")
-    if confidence not in _Z:
-        raise ValueError(f"confidence must be one of {sorted(_Z)}, got {confidence!r}")
-    z = _Z[confidence]
-    if dof == 1:
-        return _CHI2_1DOF[confidence]
-    if dof == 2:
-        return -2.0 * math.log(1.0 - confidence)
-    a = 2.0 / (9.0 * dof)
-    return dof * (1.0 - a + z * math.sqrt(a)) ** 3
+_INF = math.inf
 
 
 @dataclass(frozen=True)
@@ -272,268 +249,12 @@ class IntegrityLimits:
         chi2_upper(1, self.nis_confidence)
 
 
-_NO_FIVE = (0.0, 0.0, 0.0, 0.0, 0.0)
 _NO_ATTRIBUTED = np.zeros((0, 7))
 #: Fraction of a revolution in which a reflector reflects once (the estimator's claim window).
 _SWEEP = 0.75
 #: Failed checks that say the estimate moved off its bearings (not a named measurement fault): they open
 #: a drift episode (:meth:`IntegrityMonitor._measure_drift`).
 _ODOMETRY_REASONS = frozenset({"nis", "corrections", "rejections", "unexplained", "offset"})
-
-
-class _Tally(NamedTuple):
-    """The window's sums per map row (:func:`_window_tally`; ``N`` map rows).
-
-    ``sightings (N,)`` per reflector, ``first (N,)`` position of the first (-1: none), ``nis (N,)``
-    their NIS summed, ``innovations (N, 6)`` the EKF's ``y, S, H0, H1, H2`` summed over the
-    sightings within ``window_s`` of the check and not excluded, and their count,
-    ``newest (N,)`` position of the newest sighting within one revolution (-1: none),
-    ``corrections (6,)`` the Kalman corrections ``dx, dy, c00, c01, c11`` summed and their
-    count, ``late`` the sightings off the head's phase. Every sum in window order.
-    """
-
-    sightings: np.ndarray
-    first: np.ndarray
-    nis: np.ndarray
-    innovations: np.ndarray
-    newest: np.ndarray
-    corrections: tuple[float, ...]
-    late: int
-
-
-@jit
-def _window_tally(
-    buf: Any, start: int, n: int, t: float, window_s: float, revolution_s: float, excluded: Any,
-) -> tuple[Any, Any, Any, Any, Any, tuple[float, float, float, float, float, float], int]:
-    """One pass over the ``n`` window rows of ``buf`` from offset ``start`` (:class:`_Window`), at ``t`` (s).
-
-    Returns the fields of :class:`_Tally`; ``excluded (N,)`` flags the excluded map rows
-    (non-zero), ``window_s`` and ``revolution_s`` (s) bound the innovations and the newest
-    sightings. Every sum adds in window order from 0.0 (as the checks' loops did). The columns
-    (``_T``, ...) are :mod:`~agvnav.positioning._integrity_fast`'s, frozen into the cached machine
-    code (that module's docstring: after an edit of the layout there, clear ``__pycache__``).
-    """
-    m = excluded.shape[0]
-    count, nis = np.zeros(m), np.zeros(m)
-    first, newest = np.full(m, -1, np.int64), np.full(m, -1, np.int64)
-    innov = np.zeros((m, 6))
-    dx = dy = c00 = c01 = c11 = n_corr = 0.0
-    late = 0
-    for k in range(n):
-        o = start + k * _WIDTH
-        j = int(buf[o + _IDX])
-        if count[j] == 0.0:
-            first[j] = k
-        count[j] += 1.0
-        nis[j] += buf[o + _NIS]
-        if buf[o + _ON_TIME] == 0.0:
-            late += 1
-        if buf[o + _HAS_C] != 0.0:
-            dx, dy = dx + buf[o + _C0], dy + buf[o + _C0 + 1]
-            c00, c01, c11 = c00 + buf[o + _C0 + 2], c01 + buf[o + _C0 + 3], c11 + buf[o + _C0 + 4]
-            n_corr += 1.0
-        age = t - buf[o + _T]
-        if buf[o + _HAS_I] != 0.0 and not age > window_s and excluded[j] == 0:
-            for c in range(5):
-                innov[j, c] += buf[o + _Y + c]
-            innov[j, 5] += 1.0
-        if age <= revolution_s:
-            newest[j] = k
-    return count, first, nis, innov, newest, (dx, dy, c00, c01, c11, n_corr), late
-
-
-def _owned(part: array) -> np.ndarray:
-    """``part`` (a slice of a window's buffer, its own copy) as a float64 NumPy array over its memory.
-
-    Never a view of the live buffer: while any view of it exists the buffer cannot grow
-    (``BufferError``), and a frame held by a sampling profiler (Dask's worker profiler takes
-    the running thread's stack every 10 ms) keeps a function's local views alive after it
-    returned, so an ``np.frombuffer`` of the buffer failed a campaign run now and then.
-    """
-    return np.frombuffer(part, dtype=np.float64)
-
-
-class _Window:
-    """The accepted reflections of the window, oldest first: rows of :data:`_WIDTH` floats in one flat buffer.
-
-    Appending a row is one ``array.extend``; :meth:`buffer` hands the check's compiled kernels
-    (:mod:`agvnav.positioning._integrity_fast`, :func:`_window_tally`) the whole window in one
-    pass each (issue 11: 1,400 reflections in the window of a 256-reflector map), compiled as
-    one NumPy copy made once per change of the window.
-
-    That copy is valid while ``(len(_flat), head)`` is the one it was taken at: rows are only
-    ever appended at the end (``len`` grows: :meth:`append`, :meth:`push`) or dropped at the front
-    (``head`` grows: :meth:`popleft`, :meth:`drop_older`), and every change that shrinks the buffer
-    (:meth:`clear`, :meth:`keep`, :meth:`popleft`'s compaction) goes through :meth:`_reset`, which
-    voids the copy. No row is written in place.
-    """
-
-    def __init__(self) -> None:
-        self._flat = array("d")
-        self._head = 0  # rows before it have left the window
-        self._copy: tuple[tuple[int, int], np.ndarray] | None = None  # :meth:`buffer`'s key and copy
-
-    def __len__(self) -> int:
-        return len(self._flat) // _WIDTH - self._head
-
-    def append(self, row: tuple[float, ...]) -> None:
-        """Add one row (:data:`_WIDTH` floats) at the new end."""
-        self._flat.extend(row)
-
-    def push(self, row: tuple[float, ...], t: float, window_s: float) -> None:
-        """:meth:`append` ``row``, then :meth:`drop_older` at ``t`` (s), called only when the oldest row expired."""
-        flat = self._flat
-        flat.extend(row)
-        if t - flat[self._head * _WIDTH] > window_s:  # else drop_older drops nothing
-            self.drop_older(t, window_s)
-
-    def first_t(self) -> float:
-        """Stamp (s) of the oldest row (the window must not be empty)."""
-        return self._flat[self._head * _WIDTH]
-
-    def drop_older(self, t: float, window_s: float) -> None:
-        """Drop the oldest rows while their stamp is more than ``window_s`` (s) before ``t`` (s)."""
-        flat, head, width = self._flat, self._head, _WIDTH
-        end = len(flat)
-        while head * width < end and t - flat[head * width] > window_s:
-            head += 1
-        if head != self._head:
-            self._head = head - 1
-            self.popleft()  # the last one through popleft: it compacts the buffer when due
-
-    def popleft(self) -> None:
-        """Drop the oldest row (the buffer is compacted once half of it is dropped rows)."""
-        self._head += 1
-        if self._head >= 256 and 2 * self._head >= len(self._flat) // _WIDTH:
-            self._reset(self._head * _WIDTH)
-
-    def clear(self) -> None:
-        """Drop every row."""
-        self._reset(len(self._flat))
-
-    def _reset(self, cut: int) -> None:
-        """Delete the first ``cut`` floats of the buffer, the head back at 0 (the copy of :meth:`buffer` is void)."""
-        del self._flat[:cut]
-        self._head = 0
-        self._copy = None
-
-    def rows(self) -> np.ndarray:
-        """``(n, 20)`` copy of the window's rows, oldest first."""
-        if not len(self):
-            return np.empty((0, _WIDTH))
-        return _owned(self._flat[self._head * _WIDTH:]).reshape(-1, _WIDTH)
-
-    def keep(self, mask: np.ndarray) -> None:
-        """Keep only the rows where ``mask (n,)`` is True, in order."""
-        kept = self.rows()[mask]
-        self.clear()  # voids the copy of :meth:`buffer`
-        self._flat.frombytes(np.ascontiguousarray(kept).tobytes())
-
-    def indices(self) -> list[int]:
-        """Map rows of the window's reflections, oldest first."""
-        return list(map(int, self._flat[self._head * _WIDTH + _IDX::_WIDTH]))
-
-    def row(self, k: int) -> list[float]:
-        """Row ``k`` (0: the oldest) as floats."""
-        o = (self._head + k) * _WIDTH
-        return self._flat[o:o + _WIDTH].tolist()
-
-    def buffer(self) -> tuple[Any, int]:
-        """The flat buffer for :func:`_window_tally` and the offset of the oldest row in it.
-
-        A NumPy copy of the window (numba takes arrays), made once while the window stays as it
-        is (the class docstring).
-        """
-        key = (len(self._flat), self._head)
-        held = self._copy
-        if held is None or held[0] != key:
-            held = self._copy = key, _owned(self._flat[self._head * _WIDTH:])
-        return held[1], 0
-
-
-def reflectors_in_sight(
-    reflector_xy: ArrayLike,
-    reflector_radius: ArrayLike,
-    head_xy: ArrayLike,
-    walls: ArrayLike | None = None,
-    max_range: float = math.inf,
-    min_range: float = 0.0,
-) -> np.ndarray:
-    """``(N,)`` bool: which reflectors the goniometer head at ``head_xy`` can see.
-
-    The goniometer's own test (:func:`agvnav.sensors.beam.line_of_sight`): the beam
-    length to the tangent point ``sqrt(d^2 - r^2)`` within ``[min_range, max_range]`` (m)
-    and the segment from the head to the reflector's near surface crossing no wall
-    segment of ``walls (M, 2, 2)`` (m; :attr:`agvnav.world.WorldMap.wall_segments`, racks
-    and pillars included) and no other reflector. Without ``walls`` only the range counts.
-
-    ``reflector_xy (N, 2)`` and ``reflector_radius (N,)`` in m, ``head_xy (2,)`` in m.
-    """
-    xy = np.asarray(reflector_xy, dtype=np.float64).reshape(-1, 2)
-    r = np.ascontiguousarray(np.asarray(reflector_radius, dtype=np.float64).reshape(-1))
-    if r.shape[0] != xy.shape[0]:
-        raise ValueError(f"reflector_radius must have shape ({xy.shape[0]},), got {r.shape}")
-    head = np.asarray(head_xy, dtype=np.float64).reshape(-1)
-    if head.shape != (2,) or not np.all(np.isfinite(head)):
-        raise ValueError(f"head_xy must be a finite (2,) position, got {head_xy!r}")
-    w = np.zeros((0, 2, 2)) if walls is None else np.asarray(walls, dtype=np.float64).reshape(-1, 2, 2)
-    n = xy.shape[0]
-    rx, ry = np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1])
-    d = np.hypot(rx - head[0], ry - head[1])
-    return np.asarray(line_of_sight(
-        np.arange(n, dtype=np.int64), np.full(n, head[0]), np.full(n, head[1]), d, rx, ry, r,
-        np.ascontiguousarray(w[:, 0, 0]), np.ascontiguousarray(w[:, 0, 1]),
-        np.ascontiguousarray(w[:, 1, 0] - w[:, 0, 0]), np.ascontiguousarray(w[:, 1, 1] - w[:, 0, 1]),
-        float(min_range), float(max_range) if math.isfinite(max_range) else 1e300,
-    ), dtype=bool)
-
-
-_INF = math.inf
-_PI = math.pi
-
-
-class _HeadClock:
-    """The goniometer head's phase, learnt from the stamps and bearings of the reflections.
-
-    A reported bearing is the encoder reading at the reflection's instant, so
-    ``wrap(z - s omega t)`` is the same for every reflection (``s`` the turning sense,
-    ``omega = 2 pi / revolution_s``). The first ``LEARN`` residuals fix ``s`` and the
-    reference phase when they agree within ``tolerance`` (else the clock stays unknown
-    and keeps trying on the latest ones: synthetic streams need not come from a
-    rotating head); afterwards each residual within ``tolerance`` nudges the reference
-    (gain ``GAIN``: slow drift of the head's rate is followed), the others are late.
-    """
-
-    LEARN = 16
-    GAIN = 0.05
-
-    def __init__(self, revolution_s: float, tolerance: float) -> None:
-        self.omega = 2.0 * math.pi / revolution_s
-        self.tolerance = tolerance
-        self.sense = 0  # 0 unknown, +1 CCW, -1 CW
-        self.phase = 0.0
-        self._learn: deque[tuple[float, float]] = deque(maxlen=self.LEARN)
-
-    def on_time(self, t: float, z: float) -> bool:
-        """True when the reflection ``(t s, z rad)`` agrees with the head's phase (or it is not known yet)."""
-        w = self.omega * t
-        if self.sense == 0:
-            self._learn.append((wrap_angle_scalar(z - w), wrap_angle_scalar(z + w)))
-            if len(self._learn) == self.LEARN:
-                for k, sense in ((0, 1), (1, -1)):
-                    ref = math.atan2(sum(math.sin(v[k]) for v in self._learn), sum(math.cos(v[k]) for v in self._learn))
-                    if all(abs(wrap_angle_scalar(v[k] - ref)) <= 0.5 * self.tolerance for v in self._learn):
-                        self.sense, self.phase = sense, ref
-                        break
-            return True
-        dev = z - self.sense * w - self.phase
-        if not -_PI <= dev < _PI:  # wrap_angle_scalar's own shortcut, its call only when it wraps (issue 11)
-            dev = wrap_angle_scalar(dev)
-        if abs(dev) <= self.tolerance:
-            phase = self.phase + self.GAIN * dev
-            self.phase = phase if -_PI <= phase < _PI else wrap_angle_scalar(phase)
-            return True
-        return False
 
 
 class IntegrityMonitor:
@@ -619,7 +340,7 @@ class IntegrityMonitor:
         self._mount_t = (float(self.mount[0]), float(self.mount[1]), float(self.mount[2]))
         self._flags_of: tuple[int, ...] | None = None  # the exclusions self._flags holds (:meth:`_excluded_flags`)
         self._flags = np.zeros(0, dtype=np.int64)
-        self._clock = _HeadClock(self.revolution_s, self.limits.max_latency_s * 2.0 * math.pi / self.revolution_s)
+        self._clock = HeadClock(self.revolution_s, self.limits.max_latency_s * 2.0 * math.pi / self.revolution_s)
         self._mean_nu = [0.0] * self.xy.shape[0]  # EWMA of the NIS y^2 / S per reflector
         self._n_nu = [0] * self.xy.shape[0]
         self.excluded: tuple[int, ...] = ()
@@ -693,11 +414,8 @@ class IntegrityMonitor:
         bearing Jacobian row) for the leave-one-out test (:meth:`raim`); None without one.
         """
         j = int(index)
-        self._entries.push((
-            t, nis, j, bearing, odom[0], odom[1], odom[2], 1.0 if self._clock.on_time(t, bearing) else 0.0,
-            0.0 if correction is None else 1.0, *(correction or _NO_FIVE),
-            0.0 if innovation is None else 1.0, *(innovation or _NO_FIVE),
-        ), t, self.limits.window_s)  # stored as doubles
+        row = window_row(t, nis, j, bearing, odom, self._clock.on_time(t, bearing), correction, innovation)
+        self._entries.push(row, t, self.limits.window_s)  # stored as doubles
         if self._attributed:
             self._void_attributions(t, j)
         if -_INF < nis < _INF:
@@ -787,7 +505,7 @@ class IntegrityMonitor:
         if self.limits.enabled and not dead_reckoning and not young:
             reasons += self._raim_failures(t, tally)
             reasons += self._offset_failures(t)
-        reasons += self._uncertainty_failures(cov)
+        reasons += uncertainty_failures(cov, self.limits.lost_position_std_m, self.limits.lost_heading_std_rad)
         self.reasons = tuple(reasons) if self.limits.enabled else ()
         reasons = list(self.reasons)
         if self.limits.enabled and not dead_reckoning and not young and not self._raim_ran:
@@ -851,28 +569,11 @@ class IntegrityMonitor:
         return out
 
     def _corrections_drift(self, sums: tuple[float, ...]) -> bool:
-        """True when the window's Kalman corrections add up to a drift the filter does not expect.
-
-        Each update moves the estimate by ``K y``; for a consistent filter these are
-        white with covariance ``P- - P+`` (``K S K^T``), so their sum ``D`` over the window
-        has covariance ``C``, the sum of the decreases. ``D^T C^-1 D`` beyond the
-        chi-square bound (2 dof, 0.999) with ``|D|`` above ``max_correction_m`` means the
-        odometry keeps carrying the estimate off the bearings: wheel slip beyond the noise
-        model. A 30 % slip burst left a truth-noise tricycle "tracking" 25-29 mm (5-6 sigma)
-        off for 3 s with its NIS within bounds: the per-revolution corrections (7 mm,
-        always forward) are small, their sum is not. ``sums``: the window's corrections
-        summed in order, ``(dx, dy, c00, c01, c11, count)`` (:func:`_window_tally`).
-        """
-        dx, dy, c00, c01, c11, n = sums
-        if n < 8:
-            return False
-        if math.hypot(dx, dy) <= self.limits.max_correction_m:
-            return False
-        det = c00 * c11 - c01 * c01
-        if not det > 0.0:
-            return True  # a drift beyond the floor where the filter expects none
-        self.correction_d2 = (c11 * dx * dx - 2.0 * c01 * dx * dy + c00 * dy * dy) / det
-        return self.correction_d2 > CHI2_2DOF_999
+        """The corrections check (:func:`~agvnav.positioning.integrity_nis.corrections_drift`)."""
+        drift, d2 = corrections_drift(sums, self.limits.max_correction_m)
+        if not math.isnan(d2):
+            self.correction_d2 = d2
+        return drift
 
     def _information(self, head: tuple[float, float, float], sightings: np.ndarray) -> tuple[float, np.ndarray]:
         """PDOP² of the sighted reflectors from the head (m²/rad², inf if unobservable) and the survey floor ``(3, 3)``.
@@ -930,59 +631,14 @@ class IntegrityMonitor:
         rx, ry, _, _ = self._tables
         return int(in_range(hx, hy, rx, ry, self.max_range, self._excluded_flags()))
 
-    def _uncertainty_failures(self, P: np.ndarray) -> list[str]:
-        """``["uncertainty"]`` when the position (largest eigenvalue of ``P``'s position block, m²) or
-        heading variance (rad²) is beyond what the gate can identify reflectors with."""
-        lim = self.limits
-        a, b, c = float(P[0, 0]), 0.5 * (float(P[0, 1]) + float(P[1, 0])), float(P[1, 1])
-        half = 0.5 * (a - c)
-        pos_var = 0.5 * (a + c) + math.sqrt(half * half + b * b)  # largest eigenvalue of [[a, b], [b, c]]
-        if not (pos_var <= lim.lost_position_std_m**2 and P[2, 2] <= lim.lost_heading_std_rad**2):
-            return ["uncertainty"]
-        return []
-
     def _crosscheck(
         self, t: float, x: np.ndarray, P: np.ndarray, odom: tuple[float, ...], tally: _Tally
     ) -> float:
-        """Mahalanobis distance² between the head position of the estimate and a ToTal fix (NaN if none).
-
-        The bearings of the best triple seen in the last revolution are brought to now
-        through the odometry (``z_now = centre + h(now) - h(then)``, seed 000 §2.2) and
-        triangulated with ToTal (:func:`~agvnav.positioning.triangulate`), in one compiled pass
-        over the window (:func:`~agvnav.positioning._integrity_fast.crosscheck_fix`).
-        Each propagated bearing's variance is the bearing's, the survey's
-        ``(map_std / d)^2`` and the error of the odometry between then and now
-        (``var_th + var_pos / d^2``, ``var_th = k_dtheta s + k_theta |turn|``,
-        ``var_pos = k_d s + var_th s^2 / 3`` over the ``s`` m travelled): without that
-        last term a differential AGV, whose odometric heading wanders ~7 mrad in the 6 cm
-        of one revolution at 0.5 m/s, failed the check every ~2 s with its estimate a few
-        mm from the truth (fix 5-14 cm off, from the 10-13 m distant reflectors of a
-        revolution-old triple).
-
-        The triple (:func:`~agvnav.positioning._integrity_fast.best_triple`) is the one with the
-        smallest position CRLB (seed 000 §2.3) with these variances, among those whose bound with
-        the bearing noise alone is within ``max_fix_std_m``: near the critical circle of a triple
-        its linearised covariance is not honest (issue 12). Of more than eight reflectors seen, the
-        candidates are eight spread evenly over the revolution (``numpy.linspace(0, n - 1, 8)``
-        rounded, in time order; only theirs are propagated): with 256 reflectors in the lab the
-        eight newest reflections came from one 15° sector, and the best of their triples (three
-        reflectors 1.7 m apart on one wall: 19 x 48 cm fix std with the 5 mm survey error, far
-        from Gaussian) put fixes 5-7 cm off a sound estimate on 3 % of the checks.
-        """
-        buf, start = self._entries.buffer()
-        rx, ry, radius, map_std = self._tables
-        out = crosscheck_fix(
-            buf, start, tally.newest, (float(x[0]), float(x[1]), float(x[2])),
-            (float(odom[0]), float(odom[1]), float(odom[2])), self._mount_t, rx, ry, radius, map_std,
-            self.odometry_noise, self.bearing_std**2, self.limits.max_fix_std_m**2)
-        if out[0] != CROSSCHECK_FIX:
-            return math.nan
-        fx, fy, c00, c01, c11 = out[1:6]
-        head_now = _head(float(x[0]), float(x[1]), float(x[2]), *self._mount_t)
-        dx, dy = fx - head_now[0], fy - head_now[1]
-        if math.hypot(dx, dy) <= self.limits.crosscheck_min_m:
-            return 0.0  # agreement within the gross-error floor
-        return _mahalanobis2(dx, dy, float(c00 + P[0, 0]), float(c01 + P[0, 1]), float(c11 + P[1, 1]))
+        """The ToTal cross-check (:func:`~agvnav.positioning.integrity_crosscheck.crosscheck_distance`)."""
+        return crosscheck_distance(
+            self._entries.buffer(), tally.newest, x, P, odom, self._mount_t, self._tables, self.odometry_noise,
+            self.bearing_std**2, self.limits.max_fix_std_m, self.limits.crosscheck_min_m,
+        )
 
     # ------------------------------------------------------------------ RAIM
     def raim(self, t: float, tally: _Tally | None = None) -> tuple[tuple[int, ...], FdeResult] | None:
@@ -1053,7 +709,7 @@ class IntegrityMonitor:
         if j in self.excluded:
             return
         self.excluded = (*self.excluded, j)
-        self._entries.keep(self._entries.rows()[:, _IDX] != j)
+        self._entries.keep(self._entries.records()["reflector"] != j)
         self._n_nu = [0] * len(self._n_nu)
         self._mean_nu = [0.0] * len(self._mean_nu)
 
@@ -1172,7 +828,7 @@ class IntegrityMonitor:
         if n >= 8 and not dead_reckoning:
             first = self._entries.row(0)
             self._drift_d = (dx, dy)
-            self._drift_s = math.hypot(ox - first[_OX], oy - first[_OY])
+            self._drift_s = math.hypot(ox - first[_OX], oy - first[_OY])  # the oldest row's odom_x, odom_y
             if math.hypot(dx, dy) > self.limits.max_correction_m:
                 self._drift_seen = t
         self.drift_noise = (0.0, 0.0, 0.0)
@@ -1228,139 +884,7 @@ class IntegrityMonitor:
         return q_count * q_nis * q_check
 
 
-@dataclass(frozen=True)
-class FdeResult:
-    """Outcome of :func:`leave_one_out_fde` (statistics are chi-square distributed under no fault).
-
-    ``statistic``: weighted sum of squared residuals of the fit of all the rows, ``dof``
-    its degrees of freedom (rows - states), ``threshold`` its upper ``1 - false_alarm``
-    quantile; ``detected``: ``statistic > threshold``. ``without[k]``: the statistic of
-    the fit without row ``k`` (``dof - 1`` degrees of freedom, NaN when that leaves no
-    redundancy), ``exclusion_threshold`` its bound; ``faulty``: the row whose removal
-    leaves the others consistent (the smallest ``without`` below its bound), -1 if none
-    or nothing was detected.
-    """
-
-    statistic: float
-    dof: int
-    threshold: float
-    detected: bool
-    without: tuple[float, ...]
-    exclusion_threshold: float
-    faulty: int
-
-
-def chi2_threshold(dof: int, false_alarm: float) -> float:
-    """Upper quantile of a chi-square with ``dof`` degrees of freedom exceeded with probability ``false_alarm``.
-
-    scipy's ``chi2.isf``: from a table for the RAIM's default 1e-5
-    (:mod:`agvnav.positioning._chi2_table`, the same bits), else computed once per
-    ``(dof, false_alarm)`` and kept: the RAIM asks for the same few quantiles at every check (issue 11).
-    """
-    if dof < 1:
-        raise ValueError(f"dof must be >= 1, got {dof!r}")
-    if not 0.0 < false_alarm < 1.0:
-        raise ValueError(f"false_alarm must be in (0, 1), got {false_alarm!r}")
-    if false_alarm == FALSE_ALARM and dof <= len(QUANTILES_1E5):
-        return QUANTILES_1E5[dof - 1]  # the RAIM's default: no scipy.stats import (half a second)
-    key = (int(dof), float(false_alarm))
-    value = _CHI2_QUANTILES.get(key)
-    if value is None:
-        from scipy.stats import chi2  # noqa: PLC0415 - heavy third-party import, deferred (issue 11)
-
-        value = _CHI2_QUANTILES[key] = float(chi2.isf(key[1], key[0]))
-    return value
-
-
-_CHI2_QUANTILES: dict[tuple[int, float], float] = {}
-
-
-def _chi2_3dof_sf(x: float) -> float:
-    """Survival function of the chi-square with 3 dof: ``erfc(sqrt(x/2)) + sqrt(2x/pi) exp(-x/2)``."""
-    return math.erfc(math.sqrt(0.5 * x)) + math.sqrt(2.0 * x / math.pi) * math.exp(-0.5 * x)
-
-
-@functools.lru_cache(maxsize=8)
-def _chi2_3dof_isf(p: float) -> float:
-    """Upper ``p`` quantile of the chi-square with 3 dof (bisection on the closed form; no scipy import)."""
-    lo, hi = 0.0, 1.0
-    while _chi2_3dof_sf(hi) > p:
-        hi *= 2.0
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if _chi2_3dof_sf(mid) > p:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo <= 1e-12 * hi:
-            break
-    return 0.5 * (lo + hi)
-
-
-def leave_one_out_fde(
-    residuals: ArrayLike, jacobian: ArrayLike, variances: ArrayLike, false_alarm: float
-) -> FdeResult:
-    """Fault detection and exclusion over one set of independent measurements (RAIM).
-
-    Residual-based RAIM (Parkinson & Axelrad 1988; Brown 1992, "A baseline GPS RAIM
-    scheme", with the leave-one-out / solution-separation exclusion of Brown & McBurney
-    1988; applied to Kalman innovations as innovation-based FDE, Joerger & Pervan 2013):
-    the residuals ``r (n,)`` of the measurements about a linearisation point, their
-    Jacobian ``H (n, m)`` with respect to the ``m`` states and their independent
-    ``variances (n,)`` are fitted by weighted least squares; the weighted sum of the
-    squared fit residuals is chi-square with ``n - m`` degrees of freedom when every
-    measurement is sound. Above its ``1 - false_alarm`` quantile a fault is *detected*;
-    each row is then left out in turn, and the row whose removal leaves the others
-    consistent (their statistic, ``n - m - 1`` dof, below the same-probability bound;
-    the smallest when several do) is the faulty one. A probability of a false exclusion
-    given a detection is not bounded here: the caller confirms it over several checks.
-
-    Units are the caller's (here rad and rad²). Raises ValueError on mismatched shapes,
-    non-positive variances, or fewer rows than ``m + 1``.
-    """
-    r = np.asarray(residuals, dtype=np.float64).reshape(-1)
-    H = np.asarray(jacobian, dtype=np.float64)
-    v = np.asarray(variances, dtype=np.float64).reshape(-1)
-    n = r.shape[0]
-    if H.ndim != 2 or H.shape[0] != n or v.shape != (n,):
-        raise ValueError(f"jacobian must be ({n}, m) and variances ({n},), got {H.shape} and {v.shape}")
-    m = H.shape[1]
-    if n <= m:
-        raise ValueError(f"leave_one_out_fde needs more rows than states ({m}), got {n}")
-    if not (np.all(np.isfinite(v)) and np.all(v > 0.0)):
-        raise ValueError("variances must be positive and finite")
-    w = 1.0 / v
-    h = np.ascontiguousarray(H).reshape(-1)
-    return _fde_result(_fde_statistics(r, h, w, m).tolist(), n, m, false_alarm)
-
-
-def _fde_result(stats: list[float], n: int, m: int, false_alarm: float) -> FdeResult:
-    """:class:`FdeResult` of ``n`` rows and ``m`` states from their fits' statistics (:func:`_fde_statistics`)."""
-    dof = n - m
-    stat = stats[0]
-    thr = chi2_threshold(dof, false_alarm)
-    detected = bool(stat > thr)
-    without = [math.nan] * n
-    thr_x = chi2_threshold(dof - 1, false_alarm) if dof >= 2 else math.nan
-    faulty = -1
-    if dof >= 2:
-        without = stats[1:]
-        if detected:
-            ok = [(without[k], k) for k in range(n) if without[k] <= thr_x]
-            if ok:
-                faulty = min(ok)[1]
-    return FdeResult(float(stat), dof, thr, detected, tuple(without), thr_x, faulty)
-
-
 def _frozen(a: np.ndarray) -> np.ndarray:
     """``a`` made read-only (its own copy: the caller's array is not touched)."""
     a.flags.writeable = False
     return a
-
-
-def _mahalanobis2(dx: float, dy: float, s00: float, s01: float, s11: float) -> float:
-    """``[dx dy] S^-1 [dx dy]^T`` for the symmetric 2x2 ``S`` (NaN if not positive definite)."""
-    det = s00 * s11 - s01 * s01
-    if not det > 0.0:
-        return math.nan
-    return (s11 * dx * dx - 2.0 * s01 * dx * dy + s00 * dy * dy) / det

@@ -11,8 +11,8 @@ Methods (see each module):
   estimate (``None`` means 0: the method corrects any heading error away from the
   critical circle, but on it no estimate means no fix, so ``valid=False`` there);
 * ``"relative_angles"`` (``relative_angles``): circle intersection, heading-free;
-* ``"total"`` (``total``): ToTal, the speed baseline; its batches run compiled
-  (``total.total_batch``, the NumPy kernel's numbers) when the kernels do (:mod:`agvnav._jit`);
+* ``"total"`` (``total``): ToTal, the speed baseline; its batches run its kernel
+  (``total.total_batch``, compiled or interpreted as :mod:`agvnav._jit` runs every kernel);
 * ``"least_squares"`` (``least_squares``): maximum likelihood over N >= 3 bearings, or
   N >= 2 with ``heading_estimate`` and ``heading_std``.
 
@@ -50,7 +50,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav._jit import compiled, jit
+from agvnav._jit import jit
 from agvnav._validate import as_float_array
 from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 from agvnav.positioning._three import ScalarMath, layout_scale2
@@ -84,13 +84,6 @@ NONLINEAR_RATIO = 0.3
 #: Largest |sin| of the pairwise bearing differences for which the rays count as parallel
 #: (P on the line of collinear reflectors: the fix is undetermined).
 PARALLEL_TOL = 1e-9
-#: ``LAYOUT_TOL**2`` as :func:`_layout_flags` computes it (a Python float power, frozen here so the
-#: compiled :func:`_layout_ok_kernel` compares with the same bits).
-_LAYOUT_TOL2 = LAYOUT_TOL**2
-#: Largest N for which :func:`_layout_ok_kernel` computes per-element layout flags itself: NumPy sums
-#: fewer than 8 terms in order (as the kernel does) and pairwise with 8 accumulators from 8 on.
-_KERNEL_MAX_N = 7
-
 
 @dataclass(frozen=True)
 class TriangulationResult:
@@ -326,35 +319,17 @@ def _layout_ok(r: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.boo
     ``r`` is one shared layout ``(N, 2)`` or one per fix ``(m, N, 2)``, ``b (m, N)``. False where a
     bearing is NaN or inf, the reflectors coincide, or they are collinear and every pair of rays
     is parallel (P on their line): ``~(coincident | collinear & parallel) & finite`` with the flags
-    of :func:`_layout_flags` and :func:`_parallel_rays`, which stay the definition. Those build
-    ``(m, N, N)`` temporaries (``sin`` of every bearing pair for every fix); here the parallel test
-    runs only where the layout is collinear, which a shared layout settles once, and compiled
-    (:func:`_layout_ok_kernel`) everything is one pass over the fixes.
+    of :func:`_layout_flags` and :func:`_parallel_rays`, which stay the definition (and the test
+    oracle). One pass over the fixes (:func:`_layout_ok_kernel`); a shared layout's flags are
+    settled once here.
     """
-    m, n = b.shape
+    m = b.shape[0]
     shared = r.ndim == 2
-    in_kernel = compiled() and (shared or n <= _KERNEL_MAX_N)
-    coincident: Any = False
-    collinear: Any = False
-    if shared or not in_kernel:
-        coincident, collinear = _layout_flags(r)
-    if in_kernel:
-        ok = np.empty(m, dtype=bool)
-        rr = r[None] if shared else r
-        _layout_ok_kernel(np.ascontiguousarray(rr), np.ascontiguousarray(b), shared, bool(coincident),
-                          bool(collinear), ok)
-        return ok
-    ok = np.all(np.isfinite(b), axis=-1)
-    if shared:
-        if coincident:
-            return np.zeros(m, dtype=bool)
-        if collinear:
-            ok &= ~_parallel_rays(b)
-        return ok
-    ok &= ~coincident
-    on_line = np.flatnonzero(collinear)
-    if on_line.size:
-        ok[on_line] &= ~_parallel_rays(b[on_line])
+    coincident, collinear = _layout_flags(r) if shared else (False, False)
+    ok = np.empty(m, dtype=bool)
+    rr = r[None] if shared else r
+    _layout_ok_kernel(np.ascontiguousarray(rr), np.ascontiguousarray(b), shared, bool(coincident), bool(collinear),
+                      ok)
     return ok
 
 
@@ -371,8 +346,7 @@ def _layout_ok_kernel(
 
     ``shared``: ``r`` is one layout whose ``coincident``/``collinear`` flags the caller computed
     (:func:`_layout_flags`); otherwise each fix's flags are computed here as :func:`_layout_flags`
-    does, in its order of operations (``N <= _KERNEL_MAX_N``: NumPy's sums of fewer than 8 terms
-    run in order), NaN comparing False as in its reductions. The parallel test is
+    defines them, NaN comparing False as in its reductions. The parallel test is
     :func:`_parallel_rays` over the pairs ``i < j`` (``sin`` is odd; ``sin(0) = 0`` on the diagonal).
     """
     m, n = b.shape
@@ -401,7 +375,7 @@ def _layout_ok_kernel(
                         scale = d2
                     if i != j and d2 < near:
                         near = d2
-            coin = (not nan) and near <= _LAYOUT_TOL2 * scale
+            coin = (not nan) and near <= LAYOUT_TOL * LAYOUT_TOL * scale
             mx = 0.0
             my = 0.0
             for i in range(n):
@@ -450,8 +424,8 @@ def _solve(
     hf = None if h is None else np.broadcast_to(h, batch).reshape(m)
     bsf = None if bs is None else np.broadcast_to(bs, batch + (n,)).reshape(m, n)
     hsf = None if hs is None else np.broadcast_to(hs, batch).reshape(m)
-    fused = method == "total" and compiled()
-    # the validity flags, NaN/inf bearings included; ToTal compiled flags NaN/inf bearings itself, so
+    fused = method == "total"  # ToTal's batch is its kernel (total_batch); the other methods' NumPy forms
+    # the validity flags, NaN/inf bearings included; ToTal's kernel flags NaN/inf bearings itself, so
     # a shared layout that is neither coincident nor collinear leaves it nothing to add
     plain = fused and shared and not any(bool(f) for f in _layout_flags(rf))
     layout_ok = None if plain else _layout_ok(rf, bf)
@@ -459,7 +433,7 @@ def _solve(
     out["valid"] = np.empty(m, dtype=bool)
     out["heading_from_estimate"] = np.zeros(m, dtype=bool)
     cov = None if bs is None else np.empty((m, 3, 3))
-    if fused:  # one compiled pass, the NumPy kernel's numbers (total_batch)
+    if fused:  # one pass of the kernel (total_batch)
         _total_batch(rf, bf, out)
     for start in range(0, m, CHUNK) if cov is not None or not fused else ():  # fused: only the covariance
         s = slice(start, min(start + CHUNK, m))
@@ -492,14 +466,15 @@ def _solve(
 
 
 def _total_batch(r: NDArray[np.float64], b: NDArray[np.float64], out: dict[str, NDArray[Any]]) -> None:
-    """ToTal over the flat batch ``b (m, 3)``, layout ``r`` ``(3, 2)`` or ``(m, 3, 2)``, compiled, into ``out``."""
+    """ToTal over the flat batch ``b (m, 3)``, layout ``r`` ``(3, 2)`` or ``(m, 3, 2)``, by its kernel, into ``out``."""
     x = (r[..., 0, 0], r[..., 1, 0], r[..., 2, 0])
     y = (r[..., 0, 1], r[..., 1, 1], r[..., 2, 1])
     scale2 = np.atleast_1d(np.asarray(layout_scale2(x, y), dtype=np.float64))  # NumPy's squares, as total_kernel
     rx = np.ascontiguousarray(np.atleast_2d(r[..., 0]))
     ry = np.ascontiguousarray(np.atleast_2d(r[..., 1]))
-    total_batch(rx, ry, scale2, np.ascontiguousarray(b), out["x"], out["y"], out["heading"], out["quality"],
-                out["valid"])
+    with np.errstate(all="ignore"):  # interpreted, the elements are NumPy scalars: inf * 0 warns
+        total_batch(rx, ry, scale2, np.ascontiguousarray(b), out["x"], out["y"], out["heading"], out["quality"],
+                    out["valid"])
 
 
 def _solve_single(

@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 from agvnav._validate import require_finite, require_nonnegative
 from agvnav.sensors.ultrasonic import UltrasonicArray, check_wall_segments
 
-__all__ = ["RangeAssociation", "WallRangeModel", "wall_range", "wall_range_jacobian"]
+__all__ = ["RangeAssociation", "WallRangeMeasurement", "WallRangeModel", "wall_range", "wall_range_jacobian"]
 
 BEAMS = ("cone", "ray")
 
@@ -116,6 +116,48 @@ class RangeAssociation:
     nis: float
 
 
+@dataclass(frozen=True)
+class WallRangeMeasurement:
+    """The range (m) of an ultrasonic ranger at ``mount`` to the wall line ``n . q = c`` [seed004 eq8].
+
+    ``normal`` points to the sensor; ``beam`` ``"cone"`` (perpendicular distance) or
+    ``"ray"`` (along the axis); ``R = range_var`` (m²). No consider parameter (walls are
+    taken as exact). [seed004 eq6] [seed004 eq7]: a side pair's two ranges fix the heading
+    through the ``psi`` column of ``H``.
+    """
+
+    mount: tuple[float, float, float]
+    normal: tuple[float, float]
+    c: float
+    range_var: float
+    beam: str = "cone"
+    index: int = -1
+    gate: float = math.inf
+    name: str = "wall_range"
+    consider_index: int = -1
+
+    def h(self, x: Sequence[float]) -> float:
+        """Predicted range (m)."""
+        return float(wall_range(np.asarray(x), self.mount, self.normal, self.c, self.beam))
+
+    def jacobian(self, x: Sequence[float]) -> tuple[float, float, float]:
+        """``dh/d[x, y, psi]`` (m/m, m/m, m/rad)."""
+        H = wall_range_jacobian(np.asarray(x), self.mount, self.normal, self.c, self.beam)
+        return float(H[0]), float(H[1]), float(H[2])
+
+    def noise(self, x: Sequence[float]) -> float:
+        """``sigma_r^2`` (m²) at the reading's range."""
+        return self.range_var
+
+    def residual(self, z: float, h: float) -> float:
+        """``z - h`` (m)."""
+        return z - h
+
+    def consider_jacobian(self, x: Sequence[float]) -> tuple[float, float]:
+        """No consider parameter: ``(0, 0)``."""
+        return 0.0, 0.0
+
+
 class WallRangeModel:
     """Known walls and the rangers that measure them: association and linearisation of one range.
 
@@ -182,13 +224,13 @@ class WallRangeModel:
         index = np.flatnonzero(ok)
         return index, h[index]
 
-    def associate(
-        self, name: str, r: float, x: Sequence[float], P: Sequence[float], gate: float
-    ) -> RangeAssociation | None:
-        """The nearest modelled wall for reading ``r`` (m) of sensor ``name`` if it passes the gate, else None.
+    def measurement(
+        self, name: str, r: float, x: Sequence[float], gate: float = math.inf
+    ) -> WallRangeMeasurement | None:
+        """The measurement model of reading ``r`` (m) of sensor ``name``: its nearest modelled wall at pose ``x``.
 
-        ``x`` the state ``(3,)``, ``P`` its covariance (flat row-major 9 or ``(3, 3)``),
-        ``gate`` the chi-square threshold on ``y² / S``.
+        None when the reading is out of the sensor's range or no wall's line model holds.
+        The chi-square ``gate`` is the model's (:meth:`~agvnav.positioning.ekf_core.EkfCore.update`).
         """
         sensor = self.rangers[name]
         limit = sensor.max_range if self.max_range is None else self.max_range
@@ -197,21 +239,36 @@ class WallRangeModel:
         index, h = self.candidates(name, x)
         if index.size == 0:
             return None
-        k = int(np.argmin(h))
-        j = int(index[k])
+        j = int(index[int(np.argmin(h))])
         pose = np.asarray(x, dtype=np.float64).reshape(3)
         n = self._normal[j]
         if float(n @ self._sensor_xy(name, pose) - self._c[j]) < 0.0:
             n = -n
-        c = float(n @ self.walls[j, 0])
-        H = wall_range_jacobian(pose, sensor.mount, n, c, self.beam)
-        innovation = float(r - h[k])
-        R = float(sensor.noise_std_at(r)) ** 2
-        S = float(H @ np.asarray(P, dtype=np.float64).reshape(3, 3) @ H) + R
+        mount = tuple(float(v) for v in sensor.mount)
+        return WallRangeMeasurement((mount[0], mount[1], mount[2]), (float(n[0]), float(n[1])),
+                                    float(n @ self.walls[j, 0]), float(sensor.noise_std_at(r)) ** 2, self.beam, j,
+                                    gate)
+
+    def associate(
+        self, name: str, r: float, x: Sequence[float], P: Sequence[float], gate: float
+    ) -> RangeAssociation | None:
+        """The nearest modelled wall for reading ``r`` (m) of sensor ``name`` if it passes the gate, else None.
+
+        ``x`` the state ``(3,)``, ``P`` its covariance (flat row-major 9 or ``(3, 3)``),
+        ``gate`` the chi-square threshold on ``y² / S``.
+        """
+        model = self.measurement(name, r, x, gate)
+        if model is None:
+            return None
+        pose = (float(x[0]), float(x[1]), float(x[2]))
+        H = np.array(model.jacobian(pose))
+        innovation = model.residual(r, model.h(pose))
+        S = float(H @ np.asarray(P, dtype=np.float64).reshape(3, 3) @ H) + model.range_var
         nis = innovation**2 / S
         if not nis <= gate:
             return None
-        return RangeAssociation(j, innovation, (float(H[0]), float(H[1]), float(H[2])), R, S, nis)
+        return RangeAssociation(model.index, innovation, (float(H[0]), float(H[1]), float(H[2])), model.range_var, S,
+                                nis)
 
     def _sensor_xy(self, name: str, pose: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.asarray(self.rangers[name].sensor_pose(pose), dtype=np.float64)[:2]

@@ -7,6 +7,8 @@
 * ``timing.json``: CPU and wall time, real-time factor, cost per vehicle-step;
 * ``timeseries.csv``: every vehicle's recorded series in long form, ``vehicle`` (its index in
   ``vehicles``) first, then the columns the vehicles share;
+* ``layout.json``: the hall (walls, reflectors) for the report; ``report.html`` (``report=True``): the
+  fleet's HTML report with its time slider (:mod:`agvnav.report.fleet_html`);
 * ``fleet_tracks.png``: every vehicle's true track on the map; ``fleet_timeline.png``: per vehicle,
   when it drove, dwelt at a station, was slowed or stopped.
 """
@@ -20,10 +22,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav.report.files import _json, _plain, atomic_dir, metrics_document, units_path, write_csv
+from agvnav.report.fleet_html import render_fleet_html
 from agvnav.report.plots import pyplot
 from agvnav.sim.fleet import FleetResult
 
-__all__ = ["FLEET_COLUMNS", "TIMING_FIGURES", "fleet_document", "fleet_series", "save_fleet", "timing_fleet"]
+__all__ = ["FLEET_COLUMNS", "TIMING_FIGURES", "fleet_document", "fleet_layout", "fleet_series", "save_fleet",
+           "timing_fleet"]
 
 #: Columns of the long time series (those a vehicle lacks are NaN).
 FLEET_COLUMNS = ("t", "x", "y", "psi", "est_x", "est_y", "est_psi", "est_status", "lateral_error", "guard_level",
@@ -64,8 +68,23 @@ def fleet_series(result: FleetResult) -> dict[str, NDArray[np.float64]]:
     return {k: np.concatenate(v) for k, v in parts.items()}
 
 
-def save_fleet(result: FleetResult, out_dir: str | Path, plots: bool = True, force: bool = False) -> list[Path]:
-    """Write the fleet's files (module docstring) atomically into ``out_dir``; return their paths."""
+def fleet_layout(result: FleetResult) -> dict[str, Any]:
+    """The content of layout.json: the hall the fleet drove in, ``reflectors`` [[x, y, radius], ...] and
+    ``walls`` [[[x0, y0], [x1, y1]], ...] (m), for the HTML report."""
+    w = result.results[0].world
+    return {
+        "scenario": result.fleet.name,
+        "reflectors": np.column_stack([w.reflector_xy, w.reflector_radius]).round(6).tolist(),
+        "walls": np.asarray(w.wall_segments).reshape(-1, 2, 2).round(6).tolist(),
+    }
+
+
+def save_fleet(result: FleetResult, out_dir: str | Path, plots: bool = True, force: bool = False,
+               report: bool = False) -> list[Path]:
+    """Write the fleet's files (module docstring) atomically into ``out_dir``; return their paths.
+
+    ``report``: also ``report.html``, the fleet's HTML report with its time slider
+    (:mod:`agvnav.report.fleet_html`), drawn from the files just written."""
     final = Path(out_dir)
     with atomic_dir(final, force) as tmp:
         written = [
@@ -73,10 +92,15 @@ def save_fleet(result: FleetResult, out_dir: str | Path, plots: bool = True, for
             _json(tmp / "timing.json", timing_fleet(result)),
             write_csv(tmp / "timeseries.csv", fleet_series(result)),
             units_path(tmp / "timeseries.csv"),
+            _json(tmp / "layout.json", fleet_layout(result)),
         ]
         if plots:
             written += [plot_tracks(result, tmp / "fleet_tracks.png"),
                         plot_timeline(result, tmp / "fleet_timeline.png")]
+        if report:
+            page = tmp / "report.html"
+            page.write_text(render_fleet_html(tmp), encoding="utf-8")
+            written.append(page)
     return [final / p.name for p in written]
 
 

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from agvnav._display import display_unit, format_number
 from agvnav.geometry import lateral_position_error, wrap_angle
+from agvnav.report.fleet_html import is_fleet_folder, render_fleet_html
 from agvnav.report.plots import pyplot
 
 __all__ = [
@@ -626,7 +627,8 @@ def check_report_file(path: str | Path, force: bool = False, option: str = "--ou
 
 
 def write_html_report(run_dir: str | Path, out: str | Path | None = None, force: bool = False) -> Path:
-    """Write the report of the run folder ``run_dir`` to ``out`` (default ``run_dir/report.html``).
+    """Write the report of the run folder ``run_dir`` to ``out`` (default ``run_dir/report.html``); a fleet's
+    folder gets the fleet's report (:mod:`agvnav.report.fleet_html`).
 
     An existing file that is not a report agvnav wrote is refused unless ``force``
     (:func:`check_report_file`). Atomic: the report is written to a temporary file beside the
@@ -634,8 +636,7 @@ def write_html_report(run_dir: str | Path, out: str | Path | None = None, force:
     """
     target = Path(out) if out is not None else Path(run_dir) / "report.html"
     check_report_file(target, force)
-    run = load_run(run_dir)
-    text = render_html(run)
+    text = render_fleet_html(run_dir) if is_fleet_folder(run_dir) else render_html(load_run(run_dir))
     fd, name = tempfile.mkstemp(prefix=f".{target.name}.partial-", suffix=".html", dir=target.parent)
     os.close(fd)
     tmp = Path(name)

@@ -22,7 +22,7 @@ import numpy as np
 
 from agvnav.guidance.clothoid import Clothoid
 
-__all__ = ["corner_extent", "grid_network", "hall_loop", "warehouse_network"]
+__all__ = ["corner_extent", "grid_network", "hall_loop", "warehouse_grid", "warehouse_network"]
 
 #: Corner radius (m) and clothoid length (m) of the hall loop.
 CORNER_RADIUS_M = 2.0
@@ -242,3 +242,53 @@ def grid_network(side: int, spacing: float = 5.0) -> dict[str, Any]:
             if j + 1 < side:
                 edges.append({"id": f"v{i}_{j}", "from": f"n{i}_{j}", "to": f"n{i}_{j + 1}", "two_way": True})
     return {"name": f"grid{side}x{side}", "nodes": nodes, "edges": edges}
+
+
+def warehouse_grid(cols: int = 7, rows: int = 5, spacing: float = 8.0, spur: float = 2.2,
+                   one_way: bool = False) -> dict[str, Any]:
+    """``agvnav/data/routes/warehouse_grid.yaml``: a traffic layout in the 60 m x 40 m ``warehouse`` map (issue 30).
+
+    A ``cols`` x ``rows`` grid of two-way lanes (junctions ``Jc_r`` every ``spacing`` m from (6, 4) m), and
+    at every junction two diagonal dead-end spurs clear of the lanes (``spur`` m in x and in y): a station
+    ``Sc_r`` to the north-east (pick and drop places) and a parking place ``Pc_r`` to the south-west.
+    For vehicles that turn on the spot (every joint is
+    a corner); the traffic benchmark runs its Monte Carlo fleets here.
+
+    ``one_way`` (``warehouse_oneway.yaml``, the layout an exclusive-resource controller such as openTCS
+    needs: two vehicles never meet head-on, and every loop of lanes is long, so that a cycle of vehicles
+    each waiting for the next needs many of them): one-way aisles along the rows, alternating in direction
+    (row 1 west), joined by the outer ring (counter-clockwise) only; the spurs stay two-way dead ends.
+    """
+    nodes: list[dict[str, Any]] = []
+    edges: list[dict[str, Any]] = []
+    for c in range(cols):
+        for r in range(rows):
+            x, y = 6.0 + c * spacing, 4.0 + r * spacing
+            j = f"J{c}_{r}"
+            nodes += [{"id": j, "x": x, "y": y},
+                      {"id": f"S{c}_{r}", "x": x + spur, "y": y + spur, "heading_deg": 45.0, "kind": "station"},
+                      {"id": f"P{c}_{r}", "x": x - spur, "y": y - spur, "heading_deg": 225.0, "kind": "station"}]
+            edges += [{"id": f"{j}-S", "from": j, "to": f"S{c}_{r}", "speed_m_s": 0.5, "two_way": True},
+                      {"id": f"{j}-P", "from": j, "to": f"P{c}_{r}", "speed_m_s": 0.5, "two_way": True}]
+            if c + 1 < cols:
+                edges.append(_lane(j, f"J{c + 1}_{r}", "E", None if not one_way else _row_east(r, rows)))
+            if r + 1 < rows and (not one_way or c in (0, cols - 1)):
+                edges.append(_lane(j, f"J{c}_{r + 1}", "N", None if not one_way else c == cols - 1))
+    kind = "one-way" if one_way else "two-way"
+    return {"name": "warehouse_oneway" if one_way else "warehouse_grid",
+            "description": f"{cols} x {rows} grid of {kind} lanes, a station and a "
+            "parking spur at every junction (vehicles that turn on the spot)",
+            "tolerances": {"joint_deg": 5.0}, "nodes": nodes, "edges": edges}
+
+
+def _row_east(r: int, rows: int) -> bool:
+    """Direction of grid row ``r`` in the one-way layout: the ring counter-clockwise, inner rows alternate."""
+    return r == 0 or (r != rows - 1 and r % 2 == 0)
+
+
+def _lane(a: str, b: str, side: str, forward: bool | None) -> dict[str, Any]:
+    """A lane from junction ``a`` to ``b`` (east or north of it): two-way (``forward`` None) or one way."""
+    if forward is None:
+        return {"id": f"{a}-{side}", "from": a, "to": b, "speed_m_s": 1.0, "two_way": True}
+    src, dst = (a, b) if forward else (b, a)
+    return {"id": f"{a}-{side}", "from": src, "to": dst, "speed_m_s": 1.0}

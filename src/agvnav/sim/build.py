@@ -42,16 +42,20 @@ from agvnav.guidance import (
 )
 from agvnav.guidance.errors import feedforward_steering
 from agvnav.kinematics import TractorTrailer
+from agvnav.navigation.docking import DockingAutopilot, DockingEstimate, DockingTolerances
+from agvnav.navigation.fine_positioning import fine_positioner
 from agvnav.navigation.guard import EstimatorWatch, GuardLimits, PositioningGuard
 from agvnav.navigation.path import PathAutopilot
 from agvnav.odometry import OdometryNoise, steered_noise
 from agvnav.positioning import make_estimator
 from agvnav.positioning.ekf import EkfEstimator
 from agvnav.positioning.estimator import StreamingEstimator
+from agvnav.positioning.station import StationEstimator
 from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
 from agvnav.roles import Plant, RangeEstimator, Sensor
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.sensors.ultrasonic import UltrasonicArray, UltrasonicSensor, seed_004_layout
+from agvnav.sim import docking
 from agvnav.sim.collision import CollisionWatch, WallCollider
 from agvnav.sim.engine import ClosedLoop
 from agvnav.sim.faults import PLANT_FAULTS, FaultyPlant, FaultySensor, world_with_faults
@@ -73,6 +77,7 @@ __all__ = [
     "Built",
     "PositioningEstimator",
     "build",
+    "build_docking",
     "build_path",
     "build_world",
     "guard",
@@ -101,7 +106,7 @@ class Built:
     world: WorldMap
     path: Path
     plant: VehiclePlant
-    autopilot: PathAutopilot | MissionAutopilot
+    autopilot: PathAutopilot | MissionAutopilot | DockingAutopilot
     estimator: PositioningEstimator
     duration: float
     point: str
@@ -554,6 +559,8 @@ def build(sc: Scenario) -> Built:
     """
     if sc.route is not None:
         raise sc.error(("route",), "a route scenario runs laps (agvnav.sim.simulate), it has no single path loop")
+    if sc.docking is not None:  # issue 32: dock relative to the station's target
+        return build_docking(sc)
     world = build_world(sc)
     mission = None
     if sc.mission is not None:
@@ -593,3 +600,47 @@ def build(sc: Scenario) -> Built:
     if mission is not None and sc.duration_s is None:
         duration = missions.mission_duration(sc, mission)
     return Built(loop, world, path, plant, pilot, estimator, duration, point, offset, mission)
+
+
+def build_docking(sc: Scenario) -> Built:
+    """Wire a docking scenario (module doc); every problem a ScenarioError naming file, line and key."""
+    assert sc.docking is not None and sc.goniometer is not None
+    world = build_world(sc)
+    target = docking.load_target(sc)
+    path = docking.approach_path(target)
+    family = sc.vehicle.family
+    point = _point(sc, family)
+    if point != "O":
+        raise sc.error(("controller", "point"), "docking guides point O (base_link): set controller.point: O")
+    x0 = _initial_state(sc, path, 0.0, family)
+    plant = guard(sc, ("vehicle",), build_plant, sc.vehicle, x0.tolist())
+    _check_mount(sc, plant)
+    follower = _follower(sc, path, family, plant.geometry)
+    dk = sc.docking
+    profile = guard(sc, ("docking", "speed_m_s"), SpeedProfile, cruise_speed=dk.speed_m_s,
+                      max_accel=sc.traction.max_accel_m_s2, max_decel=sc.traction.max_decel_m_s2)
+    estimator = _estimator(sc, world, x0, None)
+    if not isinstance(estimator, StreamingEstimator):
+        raise sc.error(("positioning", "method"), "docking positions globally with the goniometer: give ekf")
+    g = sc.goniometer
+    mount = (g.mount[0], g.mount[1], math.radians(g.mount[2]))
+    station = StationEstimator(target, mount, g.pulses_per_rev, 1.0 / g.rate_hz,
+                               docking.station_noise(sc, odometry_noise(sc)))
+    estimate = DockingEstimate(estimator, station)
+    approach = PathAutopilot(follower, path, profile, plant, 0.0, end_tolerance=target.max_offset[0] + 0.05,
+                             watch=_watch(sc))
+    fine = None
+    if family != "steered":
+        turn = math.radians(sc.mission.turn_rate_deg_s) if sc.mission is not None else math.radians(30.0)
+        fine = guard(sc, ("docking",), fine_positioner, plant, "X", 1.0 / g.rate_hz, sc.traction.max_accel_m_s2,
+                       turn)
+        fine.tolerance = 0.5 * dk.tolerance_mm * 1e-3
+        fine.heading_tolerance = 0.5 * math.radians(dk.heading_tolerance_deg)
+        fine.speed = 0.5 * fine.tolerance * g.rate_hz
+    tol = DockingTolerances(dk.tolerance_mm * 1e-3, math.radians(dk.heading_tolerance_deg))
+    pilot = DockingAutopilot(target, approach, estimate, tol, fine, relative=dk.guide_on == "station")
+    truth = surveyed_truth(world, sc.world_truth.reflector_survey_std_m, sc.seed)
+    sensors = [docking.goniometer_role(sc, target, _goniometer(sc), docking.true_world(sc, truth, target), estimate)]
+    loop = ClosedLoop(_loop_plant(sc, plant, world), sensors, estimate, pilot, sc.step_s, sc.seed)
+    duration = sc.duration_s if sc.duration_s is not None else 2.0 * target.approach / dk.speed_m_s + 60.0
+    return Built(loop, world, path, plant, pilot, estimator, duration, point, 0.0)

@@ -3,7 +3,8 @@
 :func:`build_fleet` builds each vehicle of a :class:`~agvnav.world.fleet.FleetScenario` exactly
 as a single run builds it (:func:`agvnav.sim.build.build` of the vehicle's own scenario), then
 makes the vehicles physical to one another: each vehicle's body is a moving obstacle
-(:class:`VehicleBody`) in every other vehicle's obstacle set, so it cuts their goniometer's line
+(:class:`~agvnav.sim.bodies.FleetBodies`, in arrays) in every other vehicle's obstacle set
+(:class:`~agvnav.sim.bodies.BodiesInView`, those within each sensor's reach), so it cuts their goniometer's line
 of sight (:class:`~agvnav.sim.reactive.OccludedReflections`), shows on their safety scanner and
 ultrasonic rangers (:class:`~agvnav.sim.reactive.ScannerRole`, :class:`~agvnav.sim.reactive.ObstacleRangers`).
 The cross-vehicle checks happen here, as :class:`~agvnav.world.scenario.ScenarioError` naming file,
@@ -35,27 +36,32 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+import shapely
+from numpy.typing import NDArray
 from shapely.geometry import Polygon
 
 from agvnav.geometry import wrap_angle_scalar
+from agvnav.sim.bodies import BodiesInView, FleetBodies, placed_footprints
 from agvnav.sim.build import Built, build
+from agvnav.sim.engine import record_stride
 from agvnav.sim.mission import load_mission_network
 from agvnav.sim.rangers import UltrasonicSensorRole
 from agvnav.sim.reactive import ObstacleRangers, OccludedReflections, ReactiveInputs, ScannerRole
 from agvnav.sim.roles import GoniometerSensor
 from agvnav.sim.run import SimResult, result_of
 from agvnav.world.fleet import FleetScenario
-from agvnav.world.obstacles import Obstacle, ObstacleSet, obstacle_from_spec
+from agvnav.world.obstacles import obstacle_from_spec
 from agvnav.world.scenario import Scenario, ScenarioError
 
 __all__ = [
     "EXACT_WITHIN_M",
+    "FLEET_MAX_ROWS",
+    "TALLY_NAMES",
     "BuiltFleet",
     "FleetResult",
-    "VehicleBody",
     "build_fleet",
     "fleet_figures",
+    "fleet_stride",
     "run_fleet",
     "simulate_fleet",
 ]
@@ -64,75 +70,6 @@ __all__ = [
 EXACT_WITHIN_M = 2.0
 #: A start pose lies on a node when within this distance (m) and the node's heading tolerance.
 START_ON_NODE_M = 0.1
-
-
-@dataclass
-class _Track:
-    """Where a body is over the current step: base_link at the step's start and end (m)."""
-
-    t0: float = 0.0
-    t1: float = 0.0
-    p0: tuple[float, float] = (0.0, 0.0)
-    p1: tuple[float, float] = (0.0, 0.0)
-
-
-@dataclass(frozen=True)
-class VehicleBody(Obstacle):
-    """Another vehicle as a moving obstacle: its footprint at its true pose (the plant's ``pose_at``).
-
-    ``centre_at`` (the bounding-circle test of the sensors) interpolates base_link over the current
-    step (:class:`_Track`, kept by the fleet loop); the exact geometry (``corners_at``) places the
-    footprint's bounding box (the footprint itself for a box body) at the plant's true pose.
-    """
-
-    plant: Any = field(default=None, compare=False, repr=False)
-    box: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
-    """x_min, x_max, y_min, y_max of the footprint in base_link (m)."""
-    track: _Track = field(default_factory=_Track, compare=False, repr=False)
-
-    @property
-    def static(self) -> bool:
-        """A vehicle moves."""
-        return False
-
-    @property
-    def radius(self) -> float:
-        """Bounding radius about base_link (m), with 1 cm for the interpolation of :meth:`centre_at`."""
-        x0, x1, y0, y1 = self.box
-        return max(math.hypot(x, y) for x in (x0, x1) for y in (y0, y1)) + 0.01
-
-    def present(self, t: float) -> bool:
-        """Always there."""
-        return True
-
-    def pose_at(self, t: ArrayLike) -> NDArray[np.float64]:
-        """True base_link pose ``(..., 3)`` at ``t`` (inside the current step; clipped to it)."""
-        tt = np.asarray(t, dtype=np.float64)
-        return np.asarray(self.plant.pose_at(tt.reshape(-1)), dtype=np.float64).reshape(*tt.shape, 3)
-
-    def centre_at(self, t: float) -> tuple[float, float]:
-        """base_link ``(x, y)`` (m) at ``t``, linear over the current step."""
-        tr = self.track
-        span = tr.t1 - tr.t0
-        u = 1.0 if span <= 0.0 else min(max((t - tr.t0) / span, 0.0), 1.0)
-        return (tr.p0[0] + u * (tr.p1[0] - tr.p0[0]), tr.p0[1] + u * (tr.p1[1] - tr.p0[1]))
-
-    def corners_at(self, t: float) -> NDArray[np.float64]:
-        """The body's box corners ``(4, 2)`` (m) at the true pose at ``t``, counter-clockwise."""
-        x, y, h = (float(v) for v in self.plant.pose_at(np.array([t], dtype=np.float64))[0])
-        x0, x1, y0, y1 = self.box
-        local = np.array([[x1, y1], [x0, y1], [x0, y0], [x1, y0]])
-        c, s = math.cos(h), math.sin(h)
-        return np.column_stack([x + c * local[:, 0] - s * local[:, 1], y + s * local[:, 0] + c * local[:, 1]])
-
-
-def _body(vid: str, plant: Any) -> VehicleBody:
-    fp = np.asarray(plant.footprint, dtype=np.float64)
-    box = (float(fp[:, 0].min()), float(fp[:, 0].max()), float(fp[:, 1].min()), float(fp[:, 1].max()))
-    pose = np.asarray(plant.pose, dtype=np.float64)
-    body = VehicleBody(vid, "box", (box[1] - box[0], box[3] - box[2]), pose[None, :2].copy(), plant=plant, box=box)
-    body.track.p0 = body.track.p1 = (float(pose[0]), float(pose[1]))
-    return body
 
 
 def _placed(plant: Any) -> Polygon:
@@ -151,12 +88,11 @@ class BuiltFleet:
     ids: list[str]
     scenarios: list[Scenario]
     built: list[Built]
-    bodies: list[VehicleBody]
+    bodies: FleetBodies
+    """every vehicle's body and true poses over the current step (:mod:`agvnav.sim.bodies`)."""
     duration: float
     n_obstacles: int
-    """obstacles of the scenario itself in each vehicle's set (the other vehicles' bodies come after them)."""
-    seen: list[_Seen]
-    """per vehicle, its sensors holding obstacle sets and their reach."""
+    """obstacles of the scenario itself in each vehicle's set (vehicle ``j``'s body is obstacle ``n_obstacles + j``)."""
 
 
 def _apply_at(fleet: FleetScenario, i: int, sc: Scenario) -> Scenario:
@@ -204,12 +140,31 @@ def build_fleet(fleet: FleetScenario) -> BuiltFleet:
         scenarios.append(sc)
         built.append(b)
     _check_overlaps(fleet, built)
-    bodies = [_body(vid, b.plant) for vid, b in zip(ids, built, strict=True)]
+    bodies = FleetBodies([np.asarray(b.plant.footprint, dtype=np.float64) for b in built],
+                         np.array([np.asarray(b.plant.pose, dtype=np.float64)[:3] for b in built]))
     n_obs = len(fleet.obstacles or [])
-    seen = [_wire_others(b, scenarios[i], [bodies[j] for j in range(len(bodies)) if j != i])
-            for i, b in enumerate(built)]
+    for i, b in enumerate(built):
+        _wire_others(b, scenarios[i], bodies, i)
     duration = float(fleet.duration_s) if fleet.duration_s is not None else max(b.duration for b in built)
-    return BuiltFleet(fleet, ids, scenarios, built, bodies, duration, n_obs, seen)
+    stride = fleet_stride(fleet, len(built), float(built[0].loop.dt), duration)
+    for b in built:
+        b.loop.record_every = stride
+    return BuiltFleet(fleet, ids, scenarios, built, bodies, duration, n_obs)
+
+
+#: Recorded rows of all the vehicles together a fleet keeps at most when its rate is automatic
+#: (about 0.8 GB of series at 50 columns; an 8-hour shift of 50 vehicles records every 15th step).
+FLEET_MAX_ROWS = 2_000_000
+
+
+def fleet_stride(fleet: FleetScenario, n_vehicles: int, dt: float, duration: float) -> int:
+    """Steps between two recorded rows of each vehicle: ``record_step_s`` in whole steps, or automatic (every
+    step, unless a vehicle would pass :data:`~agvnav.sim.engine.MAX_RECORDED_ROWS` or the fleet
+    :data:`FLEET_MAX_ROWS`)."""
+    if fleet.record_step_s is not None:
+        return max(1, round(float(fleet.record_step_s) / dt))
+    n_steps = math.ceil(duration / dt - 1e-9)
+    return max(record_stride(n_steps, None), math.ceil(n_vehicles * n_steps / FLEET_MAX_ROWS))
 
 
 def _check_stations(fleet: FleetScenario, scenarios: list[Scenario]) -> None:
@@ -236,52 +191,28 @@ def _check_overlaps(fleet: FleetScenario, built: list[Built]) -> None:
                                                             f"{fleet.ids[i]!r}: their start footprints touch")
 
 
-@dataclass
-class _Seen:
-    """What one vehicle's sensors may see of the others: its own scenario's obstacles, then the bodies
-    within each sensor's reach (updated every step, :func:`_cull`)."""
-
-    own: tuple[Obstacle, ...]
-    roles: list[tuple[Any, float]]
-    """(role holding an ``obstacles`` set, its reach in m)."""
-
-
-def _wire_others(b: Built, sc: Scenario, others: list[VehicleBody]) -> _Seen:
-    """Make the other vehicles' bodies obstacles to this vehicle's goniometer, scanner and rangers."""
+def _wire_others(b: Built, sc: Scenario, bodies: FleetBodies, me: int) -> None:
+    """Make the other vehicles' bodies obstacles to vehicle ``me``'s goniometer, scanner and rangers, each
+    sensor seeing those within its reach (:class:`~agvnav.sim.bodies.BodiesInView`)."""
     own = tuple(obstacle_from_spec(o) for o in (sc.obstacles or []))
-    obstacles = ObstacleSet((*own, *others))
-    sensors = list(b.loop.sensors)
     g = sc.goniometer
     reach = {"reflections": g.max_range_m if g is not None else math.inf,
              "scanner": sc.scanner.max_range_m if sc.scanner is not None else math.inf,
              "ultrasonic": sc.ultrasonic.max_range_m if sc.ultrasonic is not None else math.inf}
+
+    def view(name: str) -> BodiesInView:
+        return BodiesInView(own, bodies=bodies, me=me, reach=float(reach.get(name, math.inf)))
+
+    sensors = list(b.loop.sensors)
     for k, s in enumerate(sensors):
         if isinstance(s, (OccludedReflections, ScannerRole, ObstacleRangers)):
-            s.obstacles = obstacles
+            s.obstacles = view(s.name)
         elif isinstance(s, GoniometerSensor) and g is not None:
-            sensors[k] = OccludedReflections(s, obstacles, b.world.reflector_xy,
+            sensors[k] = OccludedReflections(s, view(s.name), b.world.reflector_xy,
                                              (g.mount[0], g.mount[1], math.radians(g.mount[2])))
         elif isinstance(s, UltrasonicSensorRole):
-            sensors[k] = ObstacleRangers(s, obstacles, ReactiveInputs(), None)
+            sensors[k] = ObstacleRangers(s, view(s.name), ReactiveInputs(), None)
     b.loop.sensors = sensors
-    roles = [(s, reach.get(getattr(s, "name", ""), math.inf)) for s in sensors if hasattr(s, "obstacles")]
-    return _Seen(own, roles)
-
-
-#: Margin (m) added to a sensor's reach when the bodies it may see are chosen for a step.
-CULL_MARGIN_M = 2.0
-
-
-def _cull(bf: BuiltFleet, active: list[int]) -> None:
-    """Give each active vehicle's sensors only the bodies within their reach (plus margins) this step."""
-    xy = np.array([body.track.p1 for body in bf.bodies], dtype=np.float64)
-    r = np.array([body.radius for body in bf.bodies])
-    d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1]) - r[:, None] - r[None, :]
-    for i in active:
-        seen = bf.seen[i]
-        for role, reach in seen.roles:
-            near = np.flatnonzero(d[i] <= reach + CULL_MARGIN_M)
-            role.obstacles = ObstacleSet((*seen.own, *(bf.bodies[j] for j in near.tolist() if j != i)))
 
 
 @dataclass
@@ -301,6 +232,53 @@ class FleetResult:
     def completed(self) -> bool:
         """True when every vehicle completed and nothing collided."""
         return self.outcome == "completed"
+
+
+#: Time (s) each vehicle spent in each state, counted every step (:class:`_Tally`).
+TALLY_NAMES = ("time_slowed_positioning_s", "time_stopped_positioning_s", "time_slowed_fields_s",
+               "time_stopped_fields_s", "time_stopped_by_vehicle_s")
+
+
+_TALLIED = ("guard_level", "reaction_level", "field_trigger")
+
+
+class _Tally:
+    """The fleet's per-vehicle times slowed and stopped and why, counted every step from the autopilots'
+    signals (whatever the recording rate): the guard's level (1 slowed, 2 stopped), the reaction's level and
+    the obstacle index that triggered it (a vehicle's body: at least ``n_obstacles``)."""
+
+    def __init__(self, bf: BuiltFleet) -> None:
+        n = len(bf.built)
+        self.n_obstacles = bf.n_obstacles
+        self.times = np.zeros((n, len(TALLY_NAMES)))
+        self.by = [dict[str, float]() for _ in range(n)]
+        """per vehicle, time stopped by each other vehicle's body (s), by id."""
+        self.ids = bf.ids
+        self.index: list[tuple[int, int, int]] = []
+        for b in bf.built:
+            names = list(b.loop.autopilot.signal_names)
+            ig, ir, it = (names.index(c) if c in names else -1 for c in _TALLIED)
+            self.index.append((ig, ir, it))
+
+    def count(self, i: int, pilot_signals: tuple[float, ...], dt: float) -> None:
+        """Add a step of ``dt`` (s) of vehicle ``i`` in the state its autopilot's signals give."""
+        ig, ir, it = self.index[i]
+        guard = pilot_signals[ig] if ig >= 0 else 0.0
+        react = pilot_signals[ir] if ir >= 0 else 0.0
+        row = self.times[i]
+        if guard == 1.0:
+            row[0] += dt
+        elif guard >= 2.0:
+            row[1] += dt
+        if react == 1.0:
+            row[2] += dt
+        elif react >= 2.0:
+            row[3] += dt
+            trig = int(pilot_signals[it]) if it >= 0 else -1
+            if trig >= self.n_obstacles:
+                row[4] += dt
+                other = self.ids[trig - self.n_obstacles]
+                self.by[i][other] = self.by[i].get(other, 0.0) + dt
 
 
 @dataclass
@@ -323,6 +301,7 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
     dt = float(bf.built[0].loop.dt)
     every = max(1, math.ceil(bf.duration / dt) // 100)
     sep = _Separation(np.full(n, math.inf), [""] * n)
+    tally = _Tally(bf)
     collisions: list[dict[str, Any]] = []
     ended_at = [math.nan] * n
     cpu0, wall0 = time.process_time(), time.perf_counter()
@@ -334,16 +313,11 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
         t1 = (steps + 1) * dt
         for i in active:
             loops[i].advance()
-        for i, body in enumerate(bf.bodies):
-            tr = body.track
-            tr.t0, tr.t1, tr.p0 = t, t1, tr.p1
-            if i in active:
-                p = body.plant.pose
-                tr.p1 = (float(p[0]), float(p[1]))
-        _cull(bf, active)
+        _move_bodies(bf, active, t, t1)
         for i in active:
             if not loops[i].sense():
                 ended_at[i] = t1
+            tally.count(i, loops[i].autopilot.signals(), dt)
         vehicle_steps += len(active)
         steps += 1
         t = t1
@@ -363,7 +337,7 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
     for sc, vb, out in zip(bf.scenarios, bf.built, outputs, strict=True):
         out.wall_time_s = wall
         results.append(result_of(sc, vb, out))
-    vehicles = [_vehicle_figures(bf, i, results[i], sep, collisions) for i in range(n)]
+    vehicles = [_vehicle_figures(bf, i, results[i], sep, collisions, tally) for i in range(n)]
     figures = fleet_figures(vehicles, collisions, sep, t)
     figures.update(steps=steps, vehicle_steps=vehicle_steps, cpu_time_s=cpu, wall_time_s=wall,
                    real_time_factor_cpu=t / cpu if cpu > 0 else math.inf,
@@ -381,26 +355,42 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
     return FleetResult(bf.fleet, bf.ids, results, figures, vehicles, outcome, reason, collisions)
 
 
+def _move_bodies(bf: BuiltFleet, active: list[int], t0: float, t1: float) -> None:
+    """The step ``(t0, t1]`` begins for the bodies: the active vehicles' true poses at ``t1`` (the others stand)."""
+    p1 = bf.bodies.p1.copy()
+    for i in active:
+        p1[i] = np.asarray(bf.built[i].plant.pose, dtype=np.float64)[:3]
+    bf.bodies.begin_step(t0, t1, p1)
+
+
 def _separations(bf: BuiltFleet, sep: _Separation, t: float) -> tuple[int, int] | None:
-    """Update the smallest separations at ``t`` (true poses); the first pair in contact, if any."""
-    n = len(bf.bodies)
+    """Update the smallest separations at ``t`` (true poses); the first pair in contact, if any.
+
+    Every pair's lower bound ``|c_a - c_b| - R_a - R_b`` (bounding circles of the footprints about
+    base_link) at once; the exact footprint-to-footprint distance (shapely, vectorised over the pairs)
+    for the pairs whose bound is within :data:`EXACT_WITHIN_M`.
+    """
+    n = bf.bodies.n
     if n < 2:
         return None
-    plants = [b.plant for b in bf.built]
-    xy = np.array([[float(p.pose[0]), float(p.pose[1])] for p in plants])
-    r = np.array([body.radius - 0.01 for body in bf.bodies])
+    bodies = bf.bodies
+    poses = bodies.p1  # the true poses now (:func:`_move_bodies`)
+    xy = poses[:, :2]
+    r = bodies.radius
     d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1]) - r[:, None] - r[None, :]
     np.fill_diagonal(d, math.inf)
     near = np.argwhere(np.triu(d <= EXACT_WITHIN_M, 1))
-    shapes: dict[int, Polygon] = {}
     hit = None
-    for a, b in near.tolist():
-        sa = shapes.setdefault(a, _placed(plants[a]))
-        sb = shapes.setdefault(b, _placed(plants[b]))
-        exact = float(sa.distance(sb))
+    if near.shape[0]:
+        used = np.unique(near)
+        shapes = np.empty(n, dtype=object)
+        shapes[used] = shapely.polygons(placed_footprints(bodies.footprints[used], poses[used]))
+        a, b = near[:, 0], near[:, 1]
+        exact = shapely.distance(shapes[a], shapes[b])
         d[a, b] = d[b, a] = exact
-        if exact <= 0.0 and hit is None:
-            hit = (a, b)
+        touching = np.flatnonzero(exact <= 0.0)
+        if touching.size:
+            hit = (int(a[touching[0]]), int(b[touching[0]]))
     d = np.maximum(d, 0.0)
     j = np.argmin(d, axis=1)
     best = d[np.arange(n), j]
@@ -415,17 +405,12 @@ def _separations(bf: BuiltFleet, sep: _Separation, t: float) -> tuple[int, int] 
 
 
 def _vehicle_figures(bf: BuiltFleet, i: int, result: SimResult, sep: _Separation,
-                     collisions: list[dict[str, Any]]) -> dict[str, Any]:
-    """One vehicle's row: outcome, jobs, slowed/stopped and why, separation."""
+                     collisions: list[dict[str, Any]], tally: _Tally) -> dict[str, Any]:
+    """One vehicle's row: outcome, jobs, slowed/stopped and why (counted every step), separation."""
     s = result.series
     t = s["t"]
-    dt = np.diff(t, prepend=t[0])
     built = bf.built[i]
     jobs, done, deliveries = _job_counts(built, result)
-    guard = s["guard_level"] if "guard_level" in s else np.zeros_like(t)
-    react = s["reaction_level"] if "reaction_level" in s else np.zeros_like(t)
-    trig = s["field_trigger"] if "field_trigger" in s else np.full_like(t, -1.0)
-    by_vehicle = (react >= 2.0) & (trig >= bf.n_obstacles)
     reason = result.reason
     if reason == "fleet_stopped" and collisions:
         c = collisions[0]
@@ -433,6 +418,7 @@ def _vehicle_figures(bf: BuiltFleet, i: int, result: SimResult, sep: _Separation
     elif reason == "collision":
         other = [v for c in collisions for v in c["vehicles"] if bf.ids[i] in c["vehicles"] and v != bf.ids[i]]
         reason = f"collision with {other[0]}" if other else "collision"
+    by = tally.by[i]
     return {
         "id": bf.ids[i],
         "model": result.scenario.vehicle.model,
@@ -442,11 +428,8 @@ def _vehicle_figures(bf: BuiltFleet, i: int, result: SimResult, sep: _Separation
         "jobs_completed": done,
         "deliveries": deliveries,
         "distance_m": float(np.nanmax(np.abs(_distance(s)))) if t.size else 0.0,
-        "time_slowed_positioning_s": float(np.sum(dt[guard == 1.0])),
-        "time_stopped_positioning_s": float(np.sum(dt[guard >= 2.0])),
-        "time_slowed_fields_s": float(np.sum(dt[react == 1.0])),
-        "time_stopped_fields_s": float(np.sum(dt[react >= 2.0])),
-        "time_stopped_by_vehicle_s": float(np.sum(dt[by_vehicle])),
+        **{name: float(v) for name, v in zip(TALLY_NAMES, tally.times[i], strict=True)},
+        "stopped_most_by": max(by, key=lambda k: by[k]) if by else None,
         "min_separation_m": float(sep.per_vehicle[i]),
         "nearest_vehicle": sep.nearest[i] or None,
         "end_s": float(t[-1]) if t.size else 0.0,

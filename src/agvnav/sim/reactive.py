@@ -35,7 +35,7 @@ from shapely.geometry import Polygon
 from agvnav.geometry import compose
 from agvnav.navigation.path import PathAutopilot
 from agvnav.navigation.reactive import AvoidParams, ReactiveAutopilot, ReactiveInputs, ReactiveWatch
-from agvnav.reactive import Reaction, ReactionLimits, generate_fields
+from agvnav.reactive import FieldConfig, Reaction, ReactionLimits, generate_fields
 from agvnav.roles import Plant, PoseFunction, Sensor
 from agvnav.sensors.scanner import SafetyScanner
 from agvnav.sim.rangers import UltrasonicSensorRole
@@ -122,12 +122,10 @@ class OccludedReflections:
             return ev
         heads = compose(np.asarray(pose_at(ev[:, 0]), dtype=np.float64).reshape(-1, 3), self.mount)
         keep = np.ones(ev.shape[0], dtype=bool)
-        for k in range(ev.shape[0]):
-            i = int(ev[k, 2])
-            if i < 0:
-                continue
-            if self.obstacles.blocks(heads[k, :2], self.reflector_xy[i], float(ev[k, 0])):
-                keep[k] = False
+        real = np.flatnonzero(ev[:, 2] >= 0)  # spurious reflections (index -1) have no line of sight
+        if real.size:
+            target = self.reflector_xy[ev[real, 2].astype(np.int64)]
+            keep[real] = ~self.obstacles.blocked(heads[real, :2], target, ev[real, 0])
         self.n_occluded += int((~keep).sum())
         return ev[keep]
 
@@ -222,52 +220,24 @@ def _min_radius(plant: Plant) -> float:
 
 def wire_reactive(
     sc: Scenario, world: WorldMap, plant: Plant, sensors: list[Sensor], pilot: PathAutopilot | MissionAutopilot
-) -> tuple[Plant, list[Sensor], ReactiveAutopilot]:
+) -> tuple[Plant, list[Sensor], PathAutopilot | MissionAutopilot]:
     """The loop's plant, sensors and autopilot with the scenario's obstacles, scanner and reaction.
 
     ``plant`` is the loop's plant (collision with walls already watched); ``pilot`` the route's
-    :class:`PathAutopilot`. Returns them wrapped (see the module docstring).
+    :class:`PathAutopilot`, or a mission's autopilot, each of whose stints then reacts to the fields
+    (:func:`_wire_mission`; no avoidance on a mission). Returns them wrapped (see the module docstring).
     """
     if not isinstance(pilot, PathAutopilot):
-        raise sc.error(("reactive",), "reactive control drives a path; missions are not supported yet")
+        return _wire_mission(sc, world, plant, sensors, pilot)
     if pilot.watch is None:
         raise ValueError("the reactive autopilot composes the reaction with the positioning guard: wire a watch")
     obstacles = ObstacleSet(tuple(obstacle_from_spec(o) for o in (sc.obstacles or [])))
     inputs = ReactiveInputs()
-    out_sensors: list[Sensor] = []
-    for s in sensors:
-        if s.name == "reflections" and len(obstacles) and sc.goniometer is not None:
-            g = sc.goniometer
-            head = (g.mount[0], g.mount[1], math.radians(g.mount[2]))
-            s = OccludedReflections(s, obstacles, world.reflector_xy, head)
-        elif isinstance(s, UltrasonicSensorRole):
-            r = sc.reactive
-            stop_sensor = r.ultrasonic_sensor if (r is not None and r.ultrasonic_stop_m is not None) else None
-            if stop_sensor is not None and stop_sensor not in s.names:
-                names = ", ".join(s.names)
-                raise sc.error(("reactive", "ultrasonic_sensor"), f"no ranger {stop_sensor!r} (have {names})")
-            s = ObstacleRangers(s, obstacles, inputs, stop_sensor)
-        out_sensors.append(s)
-    footprint = np.asarray(plant.footprint, dtype=np.float64)
-    if sc.scanner is not None:
-        sp = sc.scanner
-        mount = (float(footprint[:, 0].max()), 0.0, 0.0) if sp.mount is None else (
-            sp.mount[0], sp.mount[1], math.radians(sp.mount[2]))
-        scanner = SafetyScanner(mount, math.radians(sp.fov_deg), math.radians(sp.step_deg), sp.max_range_m,
-                                sp.noise_std_m, sp.rate_hz)
-        out_sensors.append(ScannerRole(scanner, world.wall_segments, obstacles, inputs))
+    out_sensors = _reactive_sensors(sc, world, plant, sensors, obstacles, inputs)
     r = sc.reactive
-    tc = sc.traction
-    decel = tc.max_decel_m_s2 if r is None or r.emergency_decel_m_s2 is None else r.emergency_decel_m_s2
-    fields = None
-    if sc.scanner is not None and r is not None:
-        reverse = any(seg.direction < 0 for seg in pilot.path.segments)
-        creep = r.slow_speed_fraction * tc.speed_m_s if r.detour_fields == "creep" else None
-        fields = generate_fields(footprint, tc.speed_m_s, decel, r.reaction_time_s, r.margin_m, r.lateral_margin_m,
-                                 r.warning_time_s, r.speed_bands, reverse, r.protective_length_m, r.warning_length_m,
-                                 r.approach_speed_m_s, creep)
-    limits = ReactionLimits(r.slow_speed_fraction, r.resume_after_s) if r is not None else ReactionLimits()
-    reaction = Reaction(limits, enabled=r is not None and r.enabled)
+    decel = _emergency_decel(sc)
+    fields = _fields(sc, plant, any(seg.direction < 0 for seg in pilot.path.segments))
+    reaction = _reaction(sc)
     avoid = None
     if r is not None:
         segments = r.avoid_segments
@@ -292,6 +262,90 @@ def wire_reactive(
                                   decel, avoid)
     loop_plant: Plant = ObstacleCollisionWatch(plant, obstacles) if len(obstacles) else plant
     return loop_plant, out_sensors, new_pilot
+
+
+def _reactive_sensors(sc: Scenario, world: WorldMap, plant: Plant, sensors: list[Sensor], obstacles: ObstacleSet,
+                      inputs: ReactiveInputs) -> list[Sensor]:
+    """The loop's sensors seeing the obstacles (goniometer occluded, rangers echoing), and the safety scanner."""
+    out_sensors: list[Sensor] = []
+    for s in sensors:
+        if s.name == "reflections" and len(obstacles) and sc.goniometer is not None:
+            g = sc.goniometer
+            head = (g.mount[0], g.mount[1], math.radians(g.mount[2]))
+            s = OccludedReflections(s, obstacles, world.reflector_xy, head)
+        elif isinstance(s, UltrasonicSensorRole):
+            r = sc.reactive
+            stop_sensor = r.ultrasonic_sensor if (r is not None and r.ultrasonic_stop_m is not None) else None
+            if stop_sensor is not None and stop_sensor not in s.names:
+                names = ", ".join(s.names)
+                raise sc.error(("reactive", "ultrasonic_sensor"), f"no ranger {stop_sensor!r} (have {names})")
+            s = ObstacleRangers(s, obstacles, inputs, stop_sensor)
+        out_sensors.append(s)
+    footprint = np.asarray(plant.footprint, dtype=np.float64)
+    if sc.scanner is not None:
+        sp = sc.scanner
+        mount = (float(footprint[:, 0].max()), 0.0, 0.0) if sp.mount is None else (
+            sp.mount[0], sp.mount[1], math.radians(sp.mount[2]))
+        scanner = SafetyScanner(mount, math.radians(sp.fov_deg), math.radians(sp.step_deg), sp.max_range_m,
+                                sp.noise_std_m, sp.rate_hz)
+        out_sensors.append(ScannerRole(scanner, world.wall_segments, obstacles, inputs))
+    return out_sensors
+
+
+def _emergency_decel(sc: Scenario) -> float:
+    r = sc.reactive
+    return float(sc.traction.max_decel_m_s2 if r is None or r.emergency_decel_m_s2 is None
+                 else r.emergency_decel_m_s2)
+
+
+def _fields(sc: Scenario, plant: Plant, reverse: bool) -> FieldConfig | None:
+    """The protective and warning fields of the scenario's reaction (None without a scanner or a reaction)."""
+    r, tc = sc.reactive, sc.traction
+    if sc.scanner is None or r is None:
+        return None
+    footprint = np.asarray(plant.footprint, dtype=np.float64)
+    creep = r.slow_speed_fraction * tc.speed_m_s if r.detour_fields == "creep" else None
+    return generate_fields(footprint, tc.speed_m_s, _emergency_decel(sc), r.reaction_time_s, r.margin_m,
+                           r.lateral_margin_m, r.warning_time_s, r.speed_bands, reverse, r.protective_length_m,
+                           r.warning_length_m, r.approach_speed_m_s, creep)
+
+
+def _reaction(sc: Scenario) -> Reaction:
+    r = sc.reactive
+    limits = ReactionLimits(r.slow_speed_fraction, r.resume_after_s) if r is not None else ReactionLimits()
+    return Reaction(limits, enabled=r is not None and r.enabled)
+
+
+def _wire_mission(sc: Scenario, world: WorldMap, plant: Plant, sensors: list[Sensor], pilot: MissionAutopilot
+                  ) -> tuple[Plant, list[Sensor], MissionAutopilot]:
+    """A mission vehicle with its obstacles, scanner and fields: every stint's PathAutopilot becomes a
+    :class:`ReactiveAutopilot` sharing one reaction, one watch and the scanner's inputs (so a stop or a slow-down
+    carries over a stint's end); no local avoidance (a detour plans on one path, a mission drives many)."""
+    r = sc.reactive
+    if r is not None and (r.avoid_segments == "all" or len(r.avoid_segments)):
+        raise sc.error(("reactive", "avoid_segments"), "local avoidance drives a path; a mission vehicle stops or "
+                                                       "slows for an obstacle (give no avoid_segments)")
+    obstacles = ObstacleSet(tuple(obstacle_from_spec(o) for o in (sc.obstacles or [])))
+    inputs = ReactiveInputs()
+    out_sensors = _reactive_sensors(sc, world, plant, sensors, obstacles, inputs)
+    decel = _emergency_decel(sc)
+    fields = _fields(sc, plant, any(seg.direction < 0 for seg in pilot.plan.path.segments))
+    reaction = _reaction(sc)
+    normal_decel = float(sc.traction.max_decel_m_s2)
+    shared: list[ReactiveWatch] = []
+
+    def react(stint: PathAutopilot) -> PathAutopilot:
+        if stint.watch is None:
+            raise ValueError("the reactive autopilot composes the reaction with the positioning guard: wire a watch")
+        if not shared:
+            shared.append(ReactiveWatch(stint.watch, obstacles.ids))
+        stint.profile.max_decel = normal_decel  # a stint may begin during an emergency stop
+        return ReactiveAutopilot(stint, shared[0], fields, reaction, inputs, obstacles, world.wall_segments, decel,
+                                 None)
+
+    pilot.wrap_stints(react)
+    loop_plant: Plant = ObstacleCollisionWatch(plant, obstacles) if len(obstacles) else plant
+    return loop_plant, out_sensors, pilot
 
 
 def reactive_figures(series: dict[str, NDArray[np.float64]], obstacle_ids: Sequence[str],

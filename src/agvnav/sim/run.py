@@ -134,6 +134,9 @@ def result_of(scenario: Scenario, built: Built, out: LoopOutput, spec: Transient
     true_pose = np.column_stack([series["x"], series["y"], series["psi"]])
     est_pose = np.column_stack([series["est_x"], series["est_y"], series["est_psi"]])
     outcome, reason = _outcome(out.finished, out.failure or built.autopilot.failure, series, built)
+    docking: dict[str, float] = {}
+    if scenario.docking is not None:  # issue 32: judged on the true pose relative to the true station
+        outcome, reason, docking = _docking_outcome(scenario, series, built, outcome, reason)
     refl = out.events.get("reflections", {})
     steered = built.plant.family == "steered"
     counted = None if mission_module is None else mission_module.moving_mask(series)
@@ -162,6 +165,7 @@ def result_of(scenario: Scenario, built: Built, out: LoopOutput, spec: Transient
     series["est_y_C"] = series["est_y"] + off * np.sin(series["est_psi"])
     t_end = None if k0 is None else float(series["t"][k0])
     extra = _extra_figures(series)
+    extra.update(docking)
     stops = getattr(built.autopilot, "stops", [])
     if mission_module is not None:  # stop errors, mission time, lateral error per edge kind (issue 14)
         extra.update(mission_module.mission_figures(series, built.mission, stops, counted))
@@ -283,6 +287,22 @@ def _outcome(
     if miss > END_TOLERANCE_M:
         return "failed", f"off_path_at_end ({miss:.3f} m from the path end)"
     return "completed", None
+
+
+def _docking_outcome(scenario: Scenario, series: dict[str, NDArray[np.float64]], built: Built, outcome: str,
+                     reason: str | None) -> tuple[str, str | None, dict[str, float]]:
+    """A docking reported finished fails when its true error exceeds the tolerance (issue 32)."""
+    from agvnav.navigation.docking import DockingAutopilot  # noqa: PLC0415 - docking runs only
+    from agvnav.sim.docking import docking_figures  # noqa: PLC0415
+
+    pilot = built.autopilot
+    assert isinstance(pilot, DockingAutopilot) and scenario.docking is not None
+    figs = docking_figures(scenario, series, pilot)
+    tol, tol_h = scenario.docking.tolerance_mm * 1e-3, math.radians(scenario.docking.heading_tolerance_deg)
+    if outcome == "completed" and (figs["dock_error_m"] > tol or figs["dock_heading_error_rad"] > tol_h):
+        return "failed", (f"docking_error ({figs['dock_error_m'] * 1e3:.2f} mm, "
+                          f"{math.degrees(figs['dock_heading_error_rad']):.3f} deg on the true station)"), figs
+    return outcome, reason, figs
 
 
 def _extra_figures(series: dict[str, NDArray[np.float64]]) -> dict[str, float]:

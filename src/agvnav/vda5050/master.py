@@ -21,6 +21,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, model_validator
 
+from agvnav.geometry import wrap_angle_scalar
 from agvnav.routes.network import RouteNetwork
 from agvnav.routes.planning import Planner, VehicleLimits
 from agvnav.vda5050.messages import iso_timestamp
@@ -70,7 +71,7 @@ class MasterMessages:
         out_edges: list[JsonObject] = []
         for i, nid in enumerate(nodes):
             n = self.network.nodes[nid]
-            theta = math.remainder(n.heading or 0.0, 2 * math.pi)
+            theta = wrap_angle_scalar(n.heading or 0.0)
             out_nodes.append({"nodeId": nid, "sequenceId": first_seq + 2 * i, "released": i < released,
                               "nodePosition": {"x": n.x, "y": n.y, "theta": theta, "mapId": self.map_id},
                               "actions": acts.get(i, [])})

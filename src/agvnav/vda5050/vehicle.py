@@ -71,6 +71,7 @@ from datetime import UTC, datetime
 import numpy as np
 from pydantic import ValidationError
 
+from agvnav.geometry import wrap_angle_scalar
 from agvnav.guidance import HeadingHoldApproach
 from agvnav.guidance.follower import PathFollower
 from agvnav.navigation.guard import EstimatorWatch, GuardLimits, PositioningGuard
@@ -748,7 +749,7 @@ class VdaVehicle:
         else:
             x, y, th = (float(self.estimator.pose[i]) for i in range(3))
             d = math.hypot(x - float(p["x"]), y - float(p["y"]))  # type: ignore[arg-type]
-            dth = abs(math.remainder(th - float(p["theta"]), 2 * math.pi))  # type: ignore[arg-type]
+            dth = abs(wrap_angle_scalar(th - float(p["theta"])))  # type: ignore[arg-type]
             ok = d <= 0.5 and dth <= math.radians(10.0)
             r.status = "FINISHED" if ok else "FAILED"
             r.result = f"reflector fix {d:.3f} m, {math.degrees(dth):.1f} deg from the given pose"
@@ -795,7 +796,7 @@ class VdaVehicle:
         c, s = math.cos(pose[2]), math.sin(pose[2])
         if np.all(np.isfinite(d)):
             self.velocity = ((c * d[0] + s * d[1]) / self.dt, (-s * d[0] + c * d[1]) / self.dt,
-                             math.remainder(float(d[2]), 2 * math.pi) / self.dt)
+                             wrap_angle_scalar(float(d[2])) / self.dt)
         self._last_pose = pose.copy()
         was_driving = self.pilot.v != 0.0
         self._update_localization()

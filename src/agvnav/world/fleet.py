@@ -64,12 +64,15 @@ from agvnav.world.strict import (
 from agvnav.world.vehicle_specs import VehicleSpec
 
 __all__ = [
+    "FLEET_ONLY_KEYS",
     "MAX_FLEET_VEHICLES",
     "PER_VEHICLE_KEYS",
     "SHARED_KEYS",
     "FleetScenario",
     "FleetSpec",
     "FleetVehicleSpec",
+    "JobStreamSpec",
+    "TransportJobSpec",
     "VehicleSections",
     "is_fleet_document",
     "load_fleet",
@@ -81,7 +84,11 @@ __all__ = [
 MAX_FLEET_VEHICLES = 1000
 
 #: Keys only the fleet as a whole has (the world and the time).
-SHARED_KEYS = ("name", "description", "seed", "step_s", "duration_s", "end_hold_s", "map", "world_truth", "obstacles")
+SHARED_KEYS = ("name", "description", "seed", "step_s", "duration_s", "end_hold_s", "map", "world_truth", "obstacles",
+               "record_step_s")
+
+#: Keys of the fleet document that no vehicle's scenario has.
+FLEET_ONLY_KEYS = ("fleet", "record_step_s")
 
 #: Keys a vehicle may give itself (replacing the shared default of the same name).
 PER_VEHICLE_KEYS = (
@@ -137,11 +144,53 @@ class FleetVehicleSpec(VehicleSections):
     """initial placement relative to its path start."""
 
 
+class TransportJobSpec(StrictModel):
+    """A transport job (issue 30): pick at station ``pick``, drop at station ``drop``."""
+
+    id: Annotated[str, Field(min_length=1, max_length=64)]
+    """name of the job (unique)."""
+    pick: str
+    """station where the load is picked."""
+    drop: str
+    """station where it is dropped."""
+    release_s: NonNegFloat = 0.0
+    """the pick may not start before this time."""
+    priority: int = 0
+    """higher first among jobs released at the same time."""
+    pick_s: NonNegFloat = 3.0
+    """time the pick takes."""
+    drop_s: NonNegFloat = 3.0
+    """time the drop takes."""
+
+
+class JobStreamSpec(StrictModel):
+    """Transport jobs generated at a rate (Poisson releases) between random distinct stations."""
+
+    rate_per_h: PosFloat
+    """mean jobs per hour."""
+    count: Annotated[int, Field(ge=1, le=100000)]
+    """how many jobs."""
+    seed: Annotated[int, Field(ge=0)] = 0
+    """random seed of the stream."""
+    stations: list[str] | None = None
+    """stations to pick at and drop to (null: every station of the network that is no vehicle's start)."""
+    pick_s: NonNegFloat = 3.0
+    """time each pick takes."""
+    drop_s: NonNegFloat = 3.0
+    """time each drop takes."""
+
+
 class FleetSpec(StrictModel):
-    """The vehicles of a fleet scenario (issue 28), each driving its own mission or path."""
+    """The vehicles of a fleet scenario (issue 28), each driving its own mission or path; the transport jobs."""
 
     vehicles: Annotated[list[FleetVehicleSpec], Field(min_length=1, max_length=MAX_FLEET_VEHICLES)]
     """the vehicles, each with an id and its mission (or path)."""
+    jobs: list[TransportJobSpec] | None = None
+    """transport jobs dispatched to the mission vehicles after their own jobs (issue 30)."""
+    job_stream: JobStreamSpec | None = None
+    """transport jobs generated at a rate (issue 30)."""
+    jobs_file: str | None = None
+    """a YAML file (relative to the scenario) with ``jobs`` and/or ``job_stream`` as here."""
 
     @model_validator(mode="after")
     def _unique_ids(self) -> FleetSpec:
@@ -174,6 +223,10 @@ class FleetScenario(VehicleSections, SourcedModel):
     """how the real world differs from the map (shared)."""
     obstacles: list[ObstacleSpec] | None = None
     """obstacles the map does not hold (shared by every vehicle)."""
+    record_step_s: PosFloat | None = None
+    """time between two recorded rows of each vehicle's series (s; rounded to whole steps); null: automatic,
+    every step unless the fleet's rows would pass 2,000,000 (an 8-hour shift of 50 vehicles records about
+    every 0.75 s). The fleet's figures are counted every step whatever the rate."""
     fleet: FleetSpec
     """the vehicles."""
 
@@ -211,6 +264,14 @@ class FleetScenario(VehicleSections, SourcedModel):
         vehicles = data["fleet"]["vehicles"]
         return dict(vehicles[i])
 
+    def with_seed(self, seed: int) -> FleetScenario:
+        """A copy with another fleet seed (keeps the source, line map and the raw document)."""
+        if seed < 0:
+            raise ValueError(f"seed must be >= 0, got {seed}")
+        new = self.copy_attached({"seed": int(seed)})
+        new.__pydantic_private__["_data"] = getattr(self, "_data", None)  # type: ignore[index]
+        return new
+
     def vehicle_scenarios(self) -> list[Scenario]:
         """Every vehicle as a :class:`Scenario` (see the module docstring); errors located in the fleet file."""
         return [self.vehicle_scenario(i) for i in range(len(self.fleet.vehicles))]
@@ -220,7 +281,7 @@ class FleetScenario(VehicleSections, SourcedModel):
         data: dict[str, Any] = getattr(self, "_data", None) or {}
         nodes = self._nodes
         own = self._vehicle_data(i)
-        merged: dict[str, Any] = {k: v for k, v in data.items() if k != "fleet"}
+        merged: dict[str, Any] = {k: v for k, v in data.items() if k not in FLEET_ONLY_KEYS}
         merged.update(own)
         vid = self.fleet.vehicles[i].id
         merged["name"] = f"{self.name}.{vid}"
@@ -228,7 +289,7 @@ class FleetScenario(VehicleSections, SourcedModel):
         v_node = _vehicle_node(nodes, i)
         pairs = []
         if isinstance(nodes, yaml.MappingNode):
-            pairs += [(k, v) for k, v in nodes.value if getattr(k, "value", None) not in ("fleet", *own)]
+            pairs += [(k, v) for k, v in nodes.value if getattr(k, "value", None) not in (*FLEET_ONLY_KEYS, *own)]
         if isinstance(v_node, yaml.MappingNode):
             pairs += [(k, v) for k, v in v_node.value if getattr(k, "value", None) in own]
         mark = (v_node or nodes).start_mark if (v_node or nodes) is not None else None

@@ -37,7 +37,7 @@ __all__ = ["Reflector", "Wall", "WorldMap", "load_map", "save_map"]
 
 _REFLECTOR_KEYS = ("id", "x", "y", "radius", "survey_std_m", "covariance_m2")
 _WALL_KEYS = ("id", "points", "closed")
-_MAP_KEYS = ("reflectors", "walls")
+_MAP_KEYS = ("reflectors", "walls", "docking_targets")  # docking targets: agvnav.world.docking
 
 
 def _check_id(value: Any) -> str:

@@ -406,6 +406,10 @@ class ObstacleSet:
                 return True
         return False
 
+    def blocked(self, p0: NDArray[np.float64], p1: NDArray[np.float64], t: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """:meth:`blocks` for many lines of sight: ``p0 (k, 2) -> p1 (k, 2)`` at times ``t (k,)``; ``(k,)``."""
+        return np.array([self.blocks(a, b, float(tk)) for a, b, tk in zip(p0, p1, t, strict=True)], dtype=bool)
+
     def any_within(self, geometry: BaseGeometry, t: float, distance: float) -> NDArray[np.bool_]:
         """Which obstacles lie within ``distance`` (m) of ``geometry`` at ``t``, ``(n,)``."""
         return self.distances(geometry, t) <= distance

@@ -46,6 +46,8 @@ __all__ = [
     "FAULT_KINDS",
     "ArcSpec",
     "ControllerSpec",
+    "DockingSpec",
+    "DockingTruthSpec",
     "FaultSpec",
     "GoniometerSpec",
     "JobSpec",
@@ -495,6 +497,59 @@ class MissionSpec(StrictModel):
     corrections to 2 mm, the station heading: ``guidance.FinePositioner``)."""
 
 
+class WalkingPersonSpec(StrictModel):
+    """A person walking past the station (a cylinder), hiding the reflectors behind while in the line of sight."""
+
+    path: Annotated[list[tuple[Finite, Finite]], Field(min_length=2)]
+    """waypoints x, y in the station frame (m): the person stands at the first until start_s, walks, stays at the
+    last."""
+    speed_m_s: PosFloat = 0.5
+    """walking speed (m/s)."""
+    start_s: NonNegFloat = 0.0
+    """time the person starts walking (s, from the start of the run)."""
+    radius_m: PosFloat = 0.25
+    """the person's radius (m)."""
+
+
+class DockingTruthSpec(StrictModel):
+    """Where the station and its target really are (the simulator's truth; the vehicle never reads it)."""
+
+    station_offset: tuple[Finite, Finite, Finite] = (0.0, 0.0, 0.0)
+    """true station pose minus its map pose, in the station frame: x (mm), y (mm), heading (deg)."""
+    missing: list[str] = Field(default_factory=list)
+    """target reflectors that are not there (damaged, removed)."""
+    moved: dict[str, tuple[Finite, Finite]] = Field(default_factory=dict)
+    """target reflectors moved on the station: id -> (dx, dy) in the station frame (mm)."""
+    clutter: list[tuple[Finite, Finite]] = Field(default_factory=list)
+    """shiny objects (reflections like a reflector's) near the station: (x, y) in the station frame (m)."""
+    person: tuple[Finite, Finite] | None = None
+    """a person (0.4 m square) standing at (x, y) in the station frame (m), hiding what is behind."""
+    person_walking: WalkingPersonSpec | None = None
+    """a person walking past the station (in the station frame), hiding what is behind while in the way."""
+
+
+class DockingSpec(StrictModel):
+    """Dock at a station relative to its target reflectors (issue 32), driven instead of a ``path``.
+
+    The vehicle starts at the approach start of the map's target (``approach_m`` before the
+    docking pose, as the map places the station) and docks relative to the target it sees.
+    """
+
+    target: str
+    """id of a docking target in the map's ``docking_targets``."""
+    speed_m_s: PosFloat = 0.15
+    """approach speed (m/s)."""
+    tolerance_mm: PosFloat = 3.0
+    """docking position tolerance of the guided point (mm): 3 sigma of the estimate and the final error."""
+    heading_tolerance_deg: PosFloat = 0.1
+    """docking heading tolerance (deg)."""
+    truth: DockingTruthSpec = DockingTruthSpec()
+    """the station and its target as they really are."""
+    guide_on: Literal["station", "map"] = "station"
+    """station: dock on the station-relative pose (judged); map: stop on the global pose where the map places
+    the station, as a mission's station stop does (the comparison, never judged)."""
+
+
 class Scenario(SourcedModel):
     """A closed-loop run of any vehicle. All lengths in m, times in s, angles in deg."""
 
@@ -528,6 +583,8 @@ class Scenario(SourcedModel):
     """the seed-004 square route (tracked robot with the hybrid automaton)."""
     mission: MissionSpec | None = None
     """a mission on a route network, instead of a path (issue 14)."""
+    docking: DockingSpec | None = None
+    """dock at a station relative to its target reflectors, instead of a path (issue 32)."""
     start: StartSpec = StartSpec()
     """initial placement relative to the path start."""
     controller: ControllerSpec = ControllerSpec()
@@ -568,8 +625,11 @@ class Scenario(SourcedModel):
 
     @model_validator(mode="after")
     def _path_or_route(self) -> Scenario:
-        if self.path is None and self.route is None and self.mission is None:
-            raise ValueError("give a path (or a mission, or for the seed-004 automaton a route)")
+        given = [k for k in ("path", "route", "mission", "docking") if getattr(self, k) is not None]
+        if not given:
+            raise ValueError("give a path (or a mission, a docking, or for the seed-004 automaton a route)")
+        if self.docking is not None and len(given) > 1:
+            raise ValueError("a docking replaces the path: give one of path, mission, route, docking")
         if self.mission is not None and (self.path is not None or self.route is not None):
             raise ValueError("a mission replaces the path: give one of path, mission, route")
         if self.route is not None and self.vehicle.model != "tracked":

@@ -1,0 +1,196 @@
+"""``agvnav bench traffic``: traffic control under delays, throughput beside the baseline, planning time (issue 30).
+
+Monte Carlo on the kinematic-time executor (:mod:`agvnav.traffic.execute`: true footprints along the
+exact edges, brute-force collision check every 0.2 s; the closed loop is too slow for a thousand runs):
+
+* **warehouse**: 5 to 30 differential AGVs parked on the parking spurs of ``warehouse_grid`` (two-way
+  lanes) and of ``warehouse_oneway`` (one-way aisles joined by a ring, the layout an exclusive-resource
+  controller needs; both in the ``warehouse`` map), each dispatched :data:`JOBS_PER_VEHICLE` transport
+  jobs between the station spurs (nearest idle, :mod:`agvnav.traffic.dispatch`) then sent home, planned
+  together (:func:`agvnav.traffic.plan.plan_fleet`) and executed through the ADG, with random
+  per-vehicle delays: speed x U(0.7, 1.3), a Poisson number of stops (mean 2 in the window) of U(0, 60) s;
+* **lane swap**: four vehicles swapping ends on ``lane_swap`` (one two-way lane, one passing bay).
+
+The same jobs run under the openTCS-like baseline (:mod:`agvnav.traffic.baseline`) with the same delays.
+Throughput is deliveries per hour over the first :data:`WINDOW_S` s (every vehicle still has work then);
+``baseline_saturates`` marks, per layout, the fleet size where the baseline's throughput peaks, and
+``gain_pct`` ours against it. ``plan_ms`` is the single-vehicle
+query of :func:`agvnav.bench.traffic_planning.bench_planning`; ``replan_ms`` the median time to plan 100
+vehicles together on a 2,025-node grid (:func:`replan_ms`; ``replan_cpu_ms`` the process's CPU time, the
+figure on a loaded machine). ``missed_conflicts`` counts collisions of footprints whose held
+resources the zones did not say conflict.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from agvnav.routes.layouts import grid_network
+from agvnav.routes.network import RouteNetwork, load_network, network_from_dict
+from agvnav.routes.planning import VehicleLimits
+from agvnav.traffic.adg import build_adg
+from agvnav.traffic.baseline import BaselineAllocator, baseline_routes
+from agvnav.traffic.dispatch import DriveTimes, FleetVehicle, dispatch, tasks_of
+from agvnav.traffic.execute import AdgController, ExecResult, execute, random_delays, routes_from_plan
+from agvnav.traffic.jobs import TransportJob
+from agvnav.traffic.plan import Conflicts, Goal, VehicleTask, plan_fleet
+
+__all__ = ["PRIORITY", "TITLE", "run", "run_once"]
+
+TITLE = "Traffic: collisions and deadlocks under delays, deliveries/h beside the baseline, planning (issue 30)"
+PRIORITY = ("case", "vehicles", "runs", "collisions", "deadlocks", "deliveries_per_h", "baseline_deliveries_per_h",
+            "gain_pct", "baseline_deadlocks", "baseline_saturates", "unserved", "plan_ms", "replan_ms", "replan_cpu_ms",
+            "missed_conflicts")
+
+MODEL = "differential"
+LIMITS = VehicleLimits(MODEL, 1.0)
+JOBS_PER_VEHICLE = 5
+WINDOW_S = 600.0
+HORIZON_S = 3000.0
+SIZES = (5, 10, 20, 30)
+#: The warehouse layouts: two-way lanes (the baseline meets head-on and deadlocks), and one-way aisles joined by
+#: a ring (drawn for the baseline, as openTCS users do: the throughput comparison).
+NETWORKS = ("warehouse_grid", "warehouse_oneway")
+SWAP = (("WA", "EC"), ("WB", "ED"), ("EA", "WC"), ("EB", "WD"))
+
+
+def _zones(network: RouteNetwork) -> Conflicts:
+    from agvnav.traffic.zones import conflict_zones  # noqa: PLC0415 - heavy (shapely sweeps)
+
+    return conflict_zones(network, [MODEL])
+
+
+def _footprint() -> Any:
+    from agvnav.traffic.zones import model_footprint  # noqa: PLC0415
+
+    return model_footprint(MODEL)
+
+
+def _warehouse_tasks(net: RouteNetwork, n: int, rng: np.random.Generator) -> list[VehicleTask]:
+    parks = [s for s in net.stations if s.startswith("P")]
+    stations = [s for s in net.stations if s.startswith("S")]
+    homes = [parks[i] for i in rng.choice(len(parks), n, replace=False)]
+    vehicles = [FleetVehicle(f"V{i}", LIMITS, h) for i, h in enumerate(homes)]
+    jobs = []
+    for i in range(JOBS_PER_VEHICLE * n):
+        a, b = rng.choice(len(stations), 2, replace=False)
+        jobs.append(TransportJob(f"J{i}", stations[int(a)], stations[int(b)], 0.0, 0, 3.0, 3.0))
+    assignment = dispatch(jobs, vehicles, DriveTimes(net))
+    return tasks_of(assignment, vehicles)
+
+
+def _swap_tasks() -> list[VehicleTask]:
+    return [VehicleTask(f"V{i}", LIMITS, a, (Goal(b, 3.0, action="drop"),)) for i, (a, b) in enumerate(SWAP)]
+
+
+def run_once(net: RouteNetwork, zones: Conflicts, tasks: Sequence[VehicleTask], seed: int) -> dict[str, Any]:
+    """One Monte Carlo run: plan, ADG, execute under random delays; the baseline with the same delays."""
+    rng = np.random.default_rng(seed)
+    foot = _footprint()
+    plan = plan_fleet(net, tasks, zones)
+    adg = build_adg(plan, zones)
+    ids = [t.vehicle for t in tasks]
+    delays = random_delays(ids, rng, WINDOW_S)
+    feet = dict.fromkeys(ids, foot)
+    limits = {t.vehicle: t.limits for t in tasks}
+    ours = execute(net, routes_from_plan(plan, net, limits, feet), AdgController(adg), zones, delays, HORIZON_S)
+    broutes, _ = baseline_routes(net, tasks, feet)
+    base = execute(net, broutes, BaselineAllocator(net, broutes, zones), zones, delays, HORIZON_S)
+    return {"acyclic": adg.is_acyclic(), "ours": ours, "base": base, "unserved": len(plan.unserved),
+            "plan_s": plan.plan_s}
+
+
+def _rate(r: ExecResult) -> float:
+    return 3600.0 * sum(1 for t in r.delivery_times if t <= WINDOW_S) / WINDOW_S
+
+
+def _row(case: str, n: int, results: list[dict[str, Any]]) -> dict[str, Any]:
+    ours = [r["ours"] for r in results]
+    base = [r["base"] for r in results]
+    d, b = float(np.mean([_rate(r) for r in ours])), float(np.mean([_rate(r) for r in base]))
+    return {
+        "case": case, "vehicles": n, "runs": len(results),
+        "collisions": sum(len(r.collisions) for r in ours),
+        "deadlocks": sum(r.deadlock is not None for r in ours) + sum(not x["acyclic"] for x in results),
+        "conflict_violations": sum(len(r.violations) for r in ours),
+        "missed_conflicts": sum(1 for r in ours if r.collisions and not r.violations),
+        "deliveries_per_h": d, "baseline_deliveries_per_h": b,
+        "gain_pct": 100.0 * (d / b - 1.0) if b > 0 else float("inf"),
+        "baseline_deadlocks": sum(r.deadlock is not None for r in base),
+        "baseline_collisions": sum(len(r.collisions) for r in base),
+        "unserved": sum(x["unserved"] for x in results),
+        "fleet_plan_ms": 1e3 * float(np.median([x["plan_s"] for x in results])),
+        "wait_s_per_vehicle": float(np.mean([sum(r.wait_s.values()) / max(1, len(r.wait_s)) for r in ours])),
+    }
+
+
+def _saturation(rows: list[dict[str, Any]]) -> None:
+    """Mark, per network, the fleet size where the baseline's deliveries/h peak (it saturates) and the gain there."""
+    for name in NETWORKS:
+        mine = [r for r in rows if r["case"] == name]
+        if not mine:
+            continue
+        peak = max(mine, key=lambda r: r["baseline_deliveries_per_h"])
+        for r in mine:
+            r["baseline_saturates"] = r is peak
+
+
+def replan_ms(zones_of: Any = None, repeats: int = 3, n: int = 100, side: int = 45, seed: int = 0
+              ) -> dict[str, float]:
+    """Median time (ms, wall and this process's CPU) to plan ``n`` vehicles together on a ``side`` x ``side``
+    grid (2,025 nodes) from random starts to random goals, each repeat with new ones.
+
+    The network's :class:`~agvnav.traffic.plan.TrafficIndex` (conflict relation, traversals) is built
+    by a first planning left out of the figure, as a traffic controller keeps it; the lower bounds of
+    the new goals (one reverse Dijkstra each) are in. Also ``unserved`` (vehicles left unplanned, summed).
+    """
+    net = network_from_dict(grid_network(side, 5.0))
+    zones = (zones_of or _zones)(net)
+    rng = np.random.default_rng(seed)
+    nodes = list(net.nodes)
+    wall, cpu, unserved = [], [], 0
+    for k in range(repeats + 1):
+        pick = rng.choice(len(nodes), 2 * n, replace=False)
+        tasks = [VehicleTask(f"V{i}", LIMITS, nodes[int(pick[i])], (Goal(nodes[int(pick[n + i])]),))
+                 for i in range(n)]
+        t0, c0 = time.perf_counter(), time.process_time()
+        plan = plan_fleet(net, tasks, zones)
+        if k > 0:
+            wall.append(1e3 * (time.perf_counter() - t0))
+            cpu.append(1e3 * (time.process_time() - c0))
+            unserved += len(plan.unserved)
+    return {"replan_ms": float(statistics.median(wall)), "replan_cpu_ms": float(statistics.median(cpu)),
+            "replan_unserved": float(unserved)}
+
+
+def run(quick: bool = False, seed: int = 0) -> list[dict[str, Any]]:
+    """The table's rows: the lane swap, each fleet size, then the planning times (module doc)."""
+    from agvnav.bench.traffic_planning import bench_planning  # noqa: PLC0415
+
+    sizes = SIZES[:2] if quick else SIZES
+    runs = 2 if quick else 200
+    rows = []
+    swap_net = load_network("lane_swap")
+    swap_zones = _zones(swap_net)
+    rows.append(_row("lane_swap", 4, [run_once(swap_net, swap_zones, _swap_tasks(), seed + k) for k in range(runs)]))
+    for name in NETWORKS:
+        net = load_network(name)
+        zones = _zones(net)
+        for n in sizes:
+            results = []
+            for k in range(runs):
+                rng = np.random.default_rng([seed, n, k])
+                results.append(run_once(net, zones, _warehouse_tasks(net, n, rng), seed + 1000 * n + k))
+            rows.append(_row(name, n, results))
+    _saturation(rows)
+    planning = bench_planning(quick)
+    rp = replan_ms(repeats=3 if quick else 11)
+    for r in rows:
+        r["plan_ms"] = float(planning["plan_ms"])
+        r.update(rp)
+    return rows

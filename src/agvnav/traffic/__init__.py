@@ -1,0 +1,30 @@
+"""Traffic control on the route network (issue 30): conflict zones, jobs, dispatch, planning, execution.
+
+* :mod:`agvnav.traffic.zones`: which resources (nodes, edges) two vehicle models may not hold at once;
+* :mod:`agvnav.traffic.jobs`, :mod:`agvnav.traffic.dispatch`: transport jobs and their assignment;
+* :mod:`agvnav.traffic.plan`: prioritised planning with reservations over conflict resources (SIPP);
+* :mod:`agvnav.traffic.adg`: the action dependency graph that executes the plans under delays;
+* :mod:`agvnav.traffic.execute`: a kinematic-time executor of the plans (Monte Carlo, brute-force checks);
+* :mod:`agvnav.traffic.baseline`: an exclusive-resource allocator the way openTCS allocates;
+* :mod:`agvnav.traffic.lif`: LIF 1.0 (VDMA Layout Interchange Format) import and export.
+"""
+
+from agvnav.traffic.zones import (
+    DEFAULT_MARGIN_M,
+    ConflictZones,
+    Resource,
+    conflict_zones,
+    find_missed_conflicts,
+    missed_conflicts,
+    model_footprint,
+)
+
+__all__ = [
+    "DEFAULT_MARGIN_M",
+    "ConflictZones",
+    "Resource",
+    "conflict_zones",
+    "find_missed_conflicts",
+    "missed_conflicts",
+    "model_footprint",
+]

@@ -1,0 +1,369 @@
+"""A kinematic-time executor of fleet routes under delays, with brute-force safety checks (Monte Carlo).
+
+Each vehicle drives its steps (edges) along the exact edge geometry at the edge's mean planned speed
+times its own speed factor, turns on the spot at a node (``|dpsi| / turn_rate``) before an edge that
+leaves in another heading, dwells at its stations, and stops where it is during its random stops
+(:class:`Delays`). Before each step it asks the traffic :class:`Controller` (the ADG,
+:class:`AdgController`, or the baseline allocator, :mod:`agvnav.traffic.baseline`) whether it may start;
+until then it holds at the node (the time and the zone it waits for are recorded).
+
+Checks, independent of the controller:
+
+* **collisions**: every ``dt`` the true footprints (placed at the sampled poses) of every pair of
+  vehicles whose bounding circles meet are intersected (shapely);
+* **conflict violations**: whenever a vehicle takes a step's resources they are compared with every
+  resource the others hold (the zones' relation);
+* **deadlocks**: the vehicles waiting on the controller form a cycle of waits (the controller's
+  ``waiting_for``), or no vehicle has moved for ``stall_s`` while some have work left and none is in a
+  random stop.
+
+This executor replaces the closed loop (sensors, estimator, follower) by the kinematics the plan
+assumes, so a thousand Monte Carlo runs take minutes; ``agvnav.sim.fleet`` runs the same controller in
+the closed loop.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+from shapely.geometry import Polygon
+
+from agvnav.geometry.angles import wrap_angle_scalar
+from agvnav.routes.network import RouteNetwork
+from agvnav.routes.planning import Traversal, VehicleLimits, edge_time
+from agvnav.traffic.adg import Adg
+from agvnav.traffic.plan import Conflicts, FleetPlan, Resource
+
+__all__ = [
+    "AdgController",
+    "Controller",
+    "Delays",
+    "ExecResult",
+    "RouteStep",
+    "VehicleRoute",
+    "execute",
+    "random_delays",
+    "routes_from_plan",
+]
+
+
+class Controller(Protocol):
+    """The traffic controller the executor asks before each step."""
+
+    def may_start(self, vehicle: str, k: int, t: float) -> str | None:
+        """None when ``vehicle`` may start its step ``k`` now, else the zone (resource) it waits for."""
+
+    def started(self, vehicle: str, k: int, t: float) -> None:
+        """``vehicle`` started step ``k`` at ``t`` (s)."""
+
+    def arrived(self, vehicle: str, k: int, t: float) -> None:
+        """``vehicle`` arrived at the end of step ``k`` at ``t`` (s)."""
+
+    def waiting_for(self, vehicle: str, k: int) -> set[str]:
+        """The vehicles ``vehicle``'s step ``k`` waits for (empty when it may start)."""
+
+
+class AdgController:
+    """The ADG as a :class:`Controller`: step ``k`` is event ``2 k``, its arrival ``2 k + 1``."""
+
+    def __init__(self, adg: Adg) -> None:
+        self.adg = adg
+
+    def may_start(self, vehicle: str, k: int, t: float) -> str | None:
+        """None when every dependency of the step's start is met, else the resource it waits for."""
+        b = self.adg.blockers(vehicle, 2 * k)
+        return None if not b else f"{b[0].resource[0]}:{b[0].resource[1]}"
+
+    def started(self, vehicle: str, k: int, t: float) -> None:
+        """Mark the start event."""
+        self.adg.mark(vehicle, 2 * k)
+
+    def arrived(self, vehicle: str, k: int, t: float) -> None:
+        """Mark the arrival event."""
+        self.adg.mark(vehicle, 2 * k + 1)
+
+    def waiting_for(self, vehicle: str, k: int) -> set[str]:
+        """The vehicles whose events the start waits for."""
+        return {d.after for d in self.adg.blockers(vehicle, 2 * k)}
+
+
+@dataclass(frozen=True)
+class RouteStep:
+    """One edge to drive: the traversal, the dwell (s) at its source first, the earliest start (s), the delivery."""
+
+    traversal: Traversal
+    dwell_s: float = 0.0
+    not_before_s: float = 0.0
+    delivers: int = 0
+    """deliveries at the step's end (drops there; each counts once its dwell is over)."""
+    drop_dwell_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class VehicleRoute:
+    """A vehicle's route: model limits, footprint (k, 2) m in base_link, start node and heading (rad), steps."""
+
+    vehicle: str
+    limits: VehicleLimits
+    footprint: NDArray[np.float64]
+    start: str
+    start_heading: float
+    steps: tuple[RouteStep, ...]
+
+
+@dataclass(frozen=True)
+class Delays:
+    """Per vehicle: speed factor (1 = planned speed) and stops ``(t, duration)`` in s."""
+
+    speed: Mapping[str, float]
+    stops: Mapping[str, tuple[tuple[float, float], ...]]
+
+
+def random_delays(vehicles: Sequence[str], rng: np.random.Generator, horizon_s: float, speed_spread: float = 0.3,
+                  stops_per_vehicle: float = 2.0, max_stop_s: float = 60.0) -> Delays:
+    """Speed factors uniform in ``1 +- speed_spread``; a Poisson number of stops per vehicle (mean
+    ``stops_per_vehicle``) at uniform times in ``[0, horizon_s]``, each of uniform length in ``[0, max_stop_s]``."""
+    speed = {v: float(rng.uniform(1.0 - speed_spread, 1.0 + speed_spread)) for v in vehicles}
+    stops: dict[str, tuple[tuple[float, float], ...]] = {}
+    for v in vehicles:
+        n = int(rng.poisson(stops_per_vehicle))
+        ts = np.sort(rng.uniform(0.0, horizon_s, n))
+        stops[v] = tuple((float(t), float(rng.uniform(0.0, max_stop_s))) for t in ts)
+    return Delays(speed, stops)
+
+
+@dataclass
+class ExecResult:
+    """What an execution gave: per vehicle deliveries, traffic waits (s, by zone), and the safety counts."""
+
+    t_end: float
+    deliveries: dict[str, int]
+    delivery_times: list[float]
+    wait_s: dict[str, float]
+    wait_zones: dict[str, dict[str, float]]
+    collisions: list[tuple[str, str, float]]
+    violations: list[tuple[str, str, float]]
+    deadlock: str | None
+    finished: dict[str, bool]
+    steps_done: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def n_deliveries(self) -> int:
+        """Deliveries over the run."""
+        return sum(self.deliveries.values())
+
+
+@dataclass
+class _State:
+    k: int = 0
+    phase: str = "wait"  # wait, turn, drive, done
+    s: float = 0.0
+    turn_left: float = 0.0
+    ready_at: float = 0.0
+    heading: float = 0.0
+    xy: tuple[float, float] = (0.0, 0.0)
+    held: tuple[Resource, ...] = ()
+    model: str = ""
+
+
+class _EdgeGeom:
+    def __init__(self, tr: Traversal) -> None:
+        pts = tr.edge.curve.points
+        seg = np.hypot(*np.diff(pts, axis=0).T)
+        self.cum = np.concatenate([[0.0], np.cumsum(seg)])
+        self.pts = pts
+        self.head = np.unwrap(tr.edge.curve.headings) + (math.pi if tr.mode < 0 else 0.0)
+        self.length = float(self.cum[-1])
+
+    def pose(self, s: float) -> tuple[float, float, float]:
+        s = min(max(s, 0.0), self.length)
+        return (float(np.interp(s, self.cum, self.pts[:, 0])), float(np.interp(s, self.cum, self.pts[:, 1])),
+                float(np.interp(s, self.cum, self.head)))
+
+
+def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: Controller, zones: Conflicts,
+            delays: Delays, horizon_s: float, dt: float = 0.2, stall_s: float = 300.0) -> ExecResult:
+    """Run the routes under ``delays`` until all are done, a collision, a deadlock or ``horizon_s`` (module doc)."""
+    ids = [r.vehicle for r in routes]
+    geoms = {(r.vehicle, k): _EdgeGeom(st.traversal) for r in routes for k, st in enumerate(r.steps)}
+    speed = {(r.vehicle, k): st.traversal.edge.curve.length / edge_time(st.traversal.edge, r.limits)
+             for r in routes for k, st in enumerate(r.steps)}
+    radius = {r.vehicle: float(np.max(np.hypot(r.footprint[:, 0], r.footprint[:, 1]))) for r in routes}
+    states: dict[str, _State] = {}
+    for r in routes:
+        n = network.nodes[r.start]
+        states[r.vehicle] = _State(heading=r.start_heading, xy=(n.x, n.y), held=(("node", r.start),),
+                                   phase="wait" if r.steps else "done", model=r.limits.model)
+    res = ExecResult(0.0, dict.fromkeys(ids, 0), [], dict.fromkeys(ids, 0.0), {v: {} for v in ids}, [], [], None,
+                     {})
+    by_id = {r.vehicle: r for r in routes}
+    t, last_move = 0.0, 0.0
+    while t < horizon_s:
+        moved = False
+        waiting: dict[str, int] = {}
+        for v in ids:
+            st, r = states[v], by_id[v]
+            if st.phase == "done" or _stopped(delays, v, t):
+                continue
+            moved |= _advance(v, st, r, t, dt, controller, zones, states, geoms, speed, delays, res, waiting)
+        t += dt
+        if moved:
+            last_move = t
+        hit = _collision(routes, states, radius)
+        if hit is not None:
+            res.collisions.append((hit[0], hit[1], t))
+            break
+        cycle = _wait_cycle(controller, waiting)
+        if cycle is not None:
+            res.deadlock = f"cycle of waits at {t:.1f} s: {' -> '.join(cycle)}"
+            break
+        if all(s.phase == "done" for s in states.values()):
+            break
+        if t - last_move > stall_s and not any(_stopped(delays, v, t) for v in ids):
+            res.deadlock = f"no vehicle moved for {stall_s:.0f} s (at {t:.1f} s)"
+            break
+    res.t_end = t
+    res.finished = {v: states[v].phase == "done" for v in ids}
+    res.steps_done = {v: states[v].k for v in ids}
+    return res
+
+
+def _stopped(delays: Delays, v: str, t: float) -> bool:
+    return any(a <= t < a + d for a, d in delays.stops.get(v, ()))
+
+
+def _advance(v: str, st: _State, r: VehicleRoute, t: float, dt: float, controller: Controller, zones: Conflicts,
+             states: dict[str, _State], geoms: dict[tuple[str, int], _EdgeGeom], speed: dict[tuple[str, int], float],
+             delays: Delays, res: ExecResult, waiting: dict[str, int]) -> bool:
+    """One ``dt`` of one vehicle; True when it moved (or turned)."""
+    if st.phase == "wait":
+        step = r.steps[st.k]
+        if t < st.ready_at or t < step.not_before_s:
+            return False
+        zone = controller.may_start(v, st.k, t)
+        if zone is not None:
+            res.wait_s[v] += dt
+            res.wait_zones[v][zone] = res.wait_zones[v].get(zone, 0.0) + dt
+            waiting[v] = st.k
+            return False
+        controller.started(v, st.k, t)
+        held = (("node", step.traversal.edge.source), ("edge", step.traversal.edge.id),
+                ("node", step.traversal.edge.target))
+        _check_taken(v, r.limits.model, held, states, zones, res, t)
+        st.held = held
+        dpsi = abs(wrap_angle_scalar(step.traversal.start_heading - st.heading))
+        st.turn_left = dpsi / r.limits.turn_rate if dpsi > 1e-6 else 0.0
+        st.phase, st.s = "turn", 0.0
+    if st.phase == "turn":
+        if st.turn_left > 0.0:
+            target = r.steps[st.k].traversal.start_heading
+            frac = min(1.0, dt / st.turn_left)
+            st.heading += frac * wrap_angle_scalar(target - st.heading)
+            st.turn_left -= dt
+            return True
+        st.phase = "drive"
+    g = geoms[(v, st.k)]
+    st.s += speed[(v, st.k)] * delays.speed.get(v, 1.0) * dt
+    x, y, h = g.pose(st.s)
+    st.xy, st.heading = (x, y), h
+    if st.s >= g.length:
+        step = r.steps[st.k]
+        controller.arrived(v, st.k, t + dt)
+        st.held = (("node", step.traversal.edge.target),)
+        st.heading = step.traversal.end_heading
+        for _ in range(step.delivers):
+            res.deliveries[v] += 1
+            res.delivery_times.append(t + dt + step.drop_dwell_s)
+        st.k += 1
+        if st.k >= len(r.steps):
+            st.phase = "done"
+        else:
+            st.phase = "wait"
+            st.ready_at = t + dt + r.steps[st.k].dwell_s
+    return True
+
+
+def _check_taken(v: str, model: str, held: tuple[Resource, ...], states: dict[str, _State], zones: Conflicts,
+                 res: ExecResult, t: float) -> None:
+    """A conflict violation when a resource taken conflicts with one another vehicle holds."""
+    for u, other in states.items():
+        if u == v:
+            continue
+        ho = set(other.held)
+        for rr in held:
+            if ho & zones.conflicts(model, rr, other.model):
+                res.violations.append((v, u, t))
+                return
+
+
+def _placed(fp: NDArray[np.float64], x: float, y: float, h: float) -> Polygon:
+    c, s = math.cos(h), math.sin(h)
+    return Polygon(np.column_stack([x + c * fp[:, 0] - s * fp[:, 1], y + s * fp[:, 0] + c * fp[:, 1]]))
+
+
+def _collision(routes: Sequence[VehicleRoute], states: dict[str, _State], radius: dict[str, float]
+               ) -> tuple[str, str] | None:
+    """The first pair of vehicles whose true footprints intersect (bounding circles first)."""
+    ids = [r.vehicle for r in routes]
+    xy = np.array([states[v].xy for v in ids])
+    rad = np.array([radius[v] for v in ids])
+    d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
+    near = np.argwhere(np.triu(d < rad[:, None] + rad[None, :], 1))
+    for a, b in near.tolist():
+        sa, sb = states[ids[a]], states[ids[b]]
+        pa = _placed(routes[a].footprint, sa.xy[0], sa.xy[1], sa.heading)
+        pb = _placed(routes[b].footprint, sb.xy[0], sb.xy[1], sb.heading)
+        if pa.intersects(pb):
+            return ids[a], ids[b]
+    return None
+
+
+def _wait_cycle(controller: Controller, waiting: dict[str, int]) -> list[str] | None:
+    """A cycle in the wait-for graph of the vehicles waiting on the controller this step."""
+    graph = {v: controller.waiting_for(v, k) & set(waiting) for v, k in waiting.items()}
+    color: dict[str, int] = {}
+    for root in graph:
+        if color.get(root):
+            continue
+        stack = [(root, iter(sorted(graph[root])))]
+        path = [root]
+        color[root] = 1
+        while stack:
+            node, it = stack[-1]
+            nxt = next(it, None)
+            if nxt is None:
+                color[node] = 2
+                stack.pop()
+                path.pop()
+                continue
+            if color.get(nxt) == 1:
+                return [*path[path.index(nxt):], nxt]
+            if not color.get(nxt):
+                color[nxt] = 1
+                stack.append((nxt, iter(sorted(graph[nxt]))))
+                path.append(nxt)
+    return None
+
+
+def routes_from_plan(plan: FleetPlan, network: RouteNetwork, limits: Mapping[str, VehicleLimits],
+                     footprints: Mapping[str, NDArray[np.float64]]) -> list[VehicleRoute]:
+    """The executor's routes of a fleet plan (``limits`` and ``footprints`` by vehicle)."""
+    out = []
+    for v in plan.order:
+        p = plan.plans[v]
+        steps = []
+        for st in p.steps:
+            reached = p.goals[st.arrives:st.arrives + st.reached] if st.arrives is not None else ()
+            drops = [g for g in reached if g.action == "drop"]
+            steps.append(RouteStep(st.traversal, st.dwell_s, st.not_before_s, len(drops),
+                                   drops[0].dwell_s if drops else 0.0))
+        node = network.nodes[p.start]
+        h0 = p.steps[0].traversal.start_heading if p.steps else 0.0
+        out.append(VehicleRoute(v, limits[v], footprints[v], p.start, node.heading if node.heading is not None else h0,
+                                tuple(steps)))
+    return out
