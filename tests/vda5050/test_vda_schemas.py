@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from datetime import UTC, datetime
 
 import pytest
@@ -24,11 +25,14 @@ T = datetime(2026, 1, 2, 3, 4, 5, 678000, tzinfo=UTC)
 
 
 def snap(localized: bool = True) -> Snapshot:
-    return Snapshot(T, "o1", 2, "A", 4, (("B", 6, True, 1.0, 2.0, 0.5), ("C", 8, False, 3.0, 2.0, None)),
-                    (("e7", 7, True),), True, False, False, 0.3, (1.0, 2.0, 0.1), "hall", localized, 0.9, 0.02,
+    # a node heading 270 deg and a pose heading 3.5 rad: the schemas bound theta to [-pi, pi]
+    return Snapshot(T, "o1", 2, "A", 4, (("B", 6, True, 1.0, 2.0, 0.5), ("C", 8, False, 3.0, 2.0, None),
+                                         ("D", 10, False, 3.0, 4.0, 1.5 * math.pi)),
+                    (("e7", 7, True),), True, False, False, 0.3, (1.0, 2.0, 3.5), "hall", localized, 0.9, 0.02,
                     (0.5, 0.0, 0.1), (ActionSnap("a1", "pick", "RUNNING"), ActionSnap("i1", "startPause", "FINISHED",
                                                                                       instant=True)),
-                    (ErrorSnap("orderError", "WARNING", (("orderId", "x"),), "bad"),), loads=("l1",))
+                    (ErrorSnap("orderError", "WARNING", (("orderId", "x"),), "bad"),), loads=("l1",),
+                    information=(ErrorSnap("brokerConnectionLost", "INFO", (("lostAt", "t"),), "lost 3 s"),))
 
 
 @pytest.mark.parametrize("version", VERSIONS)

@@ -16,7 +16,9 @@ Three parts, each row judged against issue 31's target (``verdict``: ``met`` or 
   and times, on the wall clock, until the state saying ``driving`` arrives (an upper bound of
   the order's arrival to the first motion command: it includes both trips through the broker),
   then cancels it; alternately towards P and SW so the vehicle stays near S1. Target: every
-  order under 100 ms. **state jitter** (one row): the same vehicle idle with ``--state-period
+  order under 100 ms. The vehicle takes an order between loop steps and starts its leg at
+  once, but its clock steps the loop every 50 ms of wall time at time-scale 1: expect one step.
+  **state jitter** (one row): the same vehicle idle with ``--state-period
   1``: the intervals between the states received, their standard deviation and largest
   departure from 1 s. Without mosquitto both rows say so (``MISSED: not measured``).
 * **deviationRange** (one row per shipped ``fault_*`` scenario and a total): those scenarios
@@ -26,7 +28,9 @@ Three parts, each row judged against issue 31's target (``verdict``: ``met`` or 
   vehicle, publishing a state every loop step, runs jobs of the master. Over the states with
   ``positionInitialized``/``localized`` true: ``failed`` counts those whose true position error
   exceeds ``deviationRange``; ``localized_while_lost`` those reporting localized while the
-  integrity monitor's status is ``lost`` or ``initialising``. Target (on the total row, as the
+  integrity monitor's status is ``lost`` or ``initialising``. Misses while the monitor says
+  ``tracking`` are the estimator's silent failures (the bound is widened only while degraded,
+  :class:`~agvnav.vda5050.vehicle.VehicleConfig`). Target (on the total row, as the
   issue states it over all states): miss rate at most 1e-3, and never localized while lost.
   Default 200 s per scenario, ``--quick`` 60 s, ``--full`` enough for 10^5 states in all.
 """

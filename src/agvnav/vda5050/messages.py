@@ -24,6 +24,7 @@ from typing import Literal
 
 from pydantic import AliasChoices, BaseModel, ConfigDict, Field, field_validator
 
+from agvnav.geometry import wrap_angle_scalar
 from agvnav.vda5050.schemas import JsonObject, major
 
 __all__ = [
@@ -451,6 +452,7 @@ def _finite(v: float | None) -> float | None:
 
 def _position(s: Snapshot, v3: bool) -> AgvPosition | MobileRobotPosition:
     x, y, th = (c if math.isfinite(c) else 0.0 for c in s.pose)
+    th = wrap_angle_scalar(th)  # the schemas bound theta to [-pi, pi]
     kw: dict[str, object] = {"x": x, "y": y, "theta": th, "mapId": s.map_id,
                              "localizationScore": _finite(s.localization_score),
                              "deviationRange": _finite(s.deviation_range)}
@@ -479,7 +481,7 @@ def _node_position(s: Snapshot, x: float, y: float, theta: float | None,
     """A node state's position (2.0.0 requires its theta: left out for a node without one)."""
     if theta is None:
         return None if version == "2.0.0" else {"x": x, "y": y, "mapId": s.map_id}
-    return {"x": x, "y": y, "theta": theta, "mapId": s.map_id}
+    return {"x": x, "y": y, "theta": wrap_angle_scalar(theta), "mapId": s.map_id}  # schema: [-pi, pi]
 
 
 def state_message(s: Snapshot, header_id: int, version: str, manufacturer: str, serial: str) -> JsonObject:
