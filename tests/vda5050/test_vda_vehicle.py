@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import pytest
@@ -172,3 +173,21 @@ def test_link_lost_stands_still_then_reports_and_resumes(version: str) -> None:
     assert "lost for 3.1 s" in text  # 3 s and the step of the loss
     run(bus, v, 2.0)
     assert v.pilot.v > 0.0 and bus.checked.failures == []
+
+
+def test_fine_positioning_is_judged_on_the_estimate_and_its_bound() -> None:
+    v, m, bus, _ = make("2.1.0")
+    v.cfg = dataclasses.replace(v.cfg, fine_tolerance_m=0.5)
+    run(bus, v, 1.0)
+    fine = m.action("finePositioning", "fp", "HARD", duration=0.5)
+    bus.publish_master("S", "order", m.order("o1", 0, ["S1", "P"], 2, actions={1: [fine]}))
+    for _ in range(2000):
+        bus.step()
+        fp = next(a for a in v.state()["actionStates"] if a["actionId"] == "fp")  # type: ignore[union-attr]
+        if fp["actionStatus"] in ("FINISHED", "FAILED"):
+            break
+    assert fp["actionStatus"] == "FINISHED" and fp.get("resultDescription") is None
+    run_ = next(r for r in v.actions if r.action.action_id == "fp")
+    v.cfg = dataclasses.replace(v.cfg, fine_tolerance_m=1e-4)  # the same stop, a tolerance below its bound
+    reason = v._fine_positioning_failure(run_)
+    assert reason is not None and "deviationRange" in reason and "0.1 mm tolerance" in reason

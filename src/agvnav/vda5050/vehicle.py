@@ -31,7 +31,9 @@ up to the next node with a SOFT, SINGLE or HARD action or the decision point, wh
 no update extended the base. Actions (§6.12 / 3.0 §6.2.2): a node's actions are queued on
 arrival in order; NONE and SOFT run in parallel, SINGLE and HARD alone; SOFT and HARD forbid
 driving until they end. ``pick``/``drop`` (a load on/off), ``finePositioning`` take
-:attr:`VehicleConfig.action_s` seconds (a ``duration`` parameter overrides). Instant actions:
+:attr:`VehicleConfig.action_s` seconds (a ``duration`` parameter overrides); ``finePositioning``
+then ends FAILED, with the reason, unless the estimate and its ``deviationRange`` put the vehicle
+within the tolerance of its node (``_fine_positioning_failure``). Instant actions:
 ``startPause``/``stopPause``, ``cancelOrder`` (waiting and running actions FAILED, the vehicle
 stops, the cancel FINISHED once it stands, and only then the node and edge states cleared, so a
 master sees the order end by the cancel; without an order ``noOrderToCancel`` /
@@ -162,6 +164,9 @@ class VehicleConfig:
     start_tolerance_m: float = 0.5
     """how far from a new order's first node counts as on it when the node gives no allowedDeviationXY."""
     node_tolerance_m: float = 0.1
+    fine_tolerance_m: float = 0.01
+    """how far from its node's network position ``finePositioning`` may end, estimate and its
+    ``deviationRange`` included, unless the node's ``allowedDeviationXY`` says more (m)."""
     """how far an order's nodePosition may lie from the network's node."""
     action_s: dict[str, float] = field(default_factory=lambda: {"pick": 3.0, "drop": 3.0, "finePositioning": 1.0})
     epoch: datetime = field(default_factory=lambda: datetime.now(UTC))
@@ -666,8 +671,34 @@ class VdaVehicle:
             self.loads.append(str(load) if load is not None else r.action.action_id)
         elif kind == "drop" and self.loads:
             self.loads.remove(str(load)) if load is not None and str(load) in self.loads else self.loads.pop()
-        r.status = "FINISHED"
+        elif kind == "finePositioning":
+            r.result = self._fine_positioning_failure(r)
+        r.status = "FINISHED" if r.result is None else "FAILED"
         self._state_due = True
+
+    def _fine_positioning_failure(self, r: _ActionRun) -> str | None:
+        """Why the vehicle's stop at ``r``'s node cannot be trusted as fine positioning, or None.
+
+        Judged on the global estimate: not localized, or the estimated distance to the node's
+        network position plus the stated ``deviationRange`` beyond the tolerance
+        (:attr:`VehicleConfig.fine_tolerance_m` or the node's ``allowedDeviationXY``). Docking
+        relative to a station's own target (``agvnav.navigation.docking``) is not run here.
+        """
+        item = next((it for it in self.items if it.seq == r.node_seq and it.node is not None), None)
+        bound = self.deviation_range()
+        if item is None or item.node is None or bound is None or not self._localized:
+            return "not localized: fine positioning cannot be judged"
+        net = self.network.nodes[item.node.node_id]
+        tol = self.cfg.fine_tolerance_m
+        p = item.node.node_position
+        if p is not None and p.allowed_deviation_xy is not None:
+            tol = max(tol, float(p.allowed_deviation_xy))
+        x, y = (float(c) for c in self.estimator.pose[:2])
+        off = math.hypot(x - net.x, y - net.y)
+        if off + bound > tol:
+            return (f"stopped {off * 1e3:.1f} mm from node {item.node.node_id!r} with a deviationRange of "
+                    f"{bound * 1e3:.1f} mm: beyond the {tol * 1e3:.1f} mm tolerance")
+        return None
 
     # ------------------------------------------------------------------------------ instant actions
     def _receive_instant(self, msg: JsonObject) -> None:
