@@ -6,14 +6,35 @@ installs it as root through the Makefile's ``broker`` target; elsewhere ``apt-ge
 
 from __future__ import annotations
 
+import queue
 import shutil
 import socket
 import subprocess
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
+
+#: The source folder the vehicle processes import agvnav from, and how they run the command line.
+SRC = Path(__file__).resolve().parents[2] / "src"
+CLI = "from agvnav.cli import main; main()"
+
+#: A message seen on the broker: (topic's last part, its JSON).
+Msg = tuple[str, dict[str, object]]
+
+
+def wait_for(q: queue.Queue[Msg], pred: Callable[[str, dict[str, object]], bool], timeout: float) -> dict[str, object]:
+    """The first message of ``q`` for which ``pred(topic, message)`` holds, within ``timeout`` s."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        try:
+            name, msg = q.get(timeout=0.2)
+        except queue.Empty:
+            continue
+        if pred(name, msg):
+            return msg
+    raise AssertionError("timed out waiting for a message")
 
 
 def _free_port() -> int:

@@ -16,32 +16,17 @@ import queue
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import paho.mqtt.client as mqtt
-from tests.vda5050.conftest import Mosquitto
+from tests.vda5050.conftest import CLI, SRC, Mosquitto, Msg, wait_for
 
 from agvnav.routes.network import load_network
 from agvnav.vda5050.master import MasterMessages
 from agvnav.vda5050.schemas import problems
 
-SRC = Path(__file__).resolve().parents[2] / "src"
-CLI = "from agvnav.cli import main; main()"
 PREFIX = "uagv/v2/acme/lost"
 
-Msg = tuple[str, dict[str, object]]
 
-
-def wait_for(q: queue.Queue[Msg], pred: object, timeout: float) -> dict[str, object]:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        try:
-            name, msg = q.get(timeout=0.2)
-        except queue.Empty:
-            continue
-        if pred(name, msg):  # type: ignore[operator]
-            return msg
-    raise AssertionError("timed out waiting for a message")
 
 
 def xy(msg: dict[str, object]) -> tuple[float, float]:

@@ -28,13 +28,12 @@ from pathlib import Path
 
 import paho.mqtt.client as mqtt
 import pytest
+from tests.vda5050.conftest import CLI, SRC
 
 from agvnav.sim.mission import load_mission_network
 from agvnav.world.scenario import load_scenario
 
 HERE = Path(__file__).resolve().parent / "interop"
-SRC = Path(__file__).resolve().parents[2] / "src"
-CLI = "from agvnav.cli import main; main()"
 
 
 def interop_dir() -> Path:
