@@ -33,6 +33,7 @@ left planned half-way.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
@@ -534,16 +535,19 @@ class FleetPlan:
 
 
 def plan_fleet(network: RouteNetwork, tasks: Sequence[VehicleTask], zones: Conflicts,
-               index: TrafficIndex | None = None) -> FleetPlan:
+               index: TrafficIndex | None = None, committed: Sequence[Occupation] = ()) -> FleetPlan:
     """Prioritised planning (module doc): tasks in the order given; every start reserved until it is left.
 
     A vehicle whose goals cannot be reached stays at its start (reserved for ever) and is listed in
     ``unserved`` with the reason. ``index``: the network's :class:`TrafficIndex` (default: kept per
-    network and zones, :func:`traffic_index`).
+    network and zones, :func:`traffic_index`). ``committed``: occupations already decided (a step under
+    way, a vehicle parked, when replanning): reserved for every task and never released.
     """
     t_wall = time.perf_counter()
     ix = index if index is not None else traffic_index(network, zones)
-    res = Reservations(ix, [t.limits.model for t in tasks])
+    res = Reservations(ix, [t.limits.model for t in tasks] + [o.model for o in committed])
+    for o in committed:
+        res.add(dataclasses.replace(o, vehicle=f"{o.vehicle}@committed"))
     for t in tasks:
         if t.start not in network.nodes:
             raise ValueError(f"vehicle {t.vehicle!r}: unknown start node {t.start!r}")
