@@ -16,7 +16,11 @@ row misses (``-`` when it meets them all): collisions, deadlocks, missed conflic
 did not foresee, and the brute-force check of the zones themselves, ``zone_missed``), unserved vehicles,
 a gain under 20 % where the baseline saturates, ``plan_ms`` over 1 ms, ``replan_ms`` over 100 ms.
 
-The same jobs run under the openTCS-like baseline (:mod:`agvnav.traffic.baseline`) with the same delays.
+Each run is executed twice on our side: through the ADG of the first plan, and with replanning
+(:class:`agvnav.traffic.replan.Replanner`, once a vehicle has waited :data:`REPLAN_AFTER_S` s):
+``replan_deliveries_per_h``, ``replans`` (kept) of ``replans_tried``; ``collisions``, ``deadlocks`` and the
+conflict counts cover both executions. The same jobs run under the openTCS-like baseline
+(:mod:`agvnav.traffic.baseline`) with the same delays.
 Throughput is deliveries per hour over the first :data:`WINDOW_S` s (every vehicle still has work then);
 ``baseline_saturates`` marks, per layout, the fleet size where the baseline's throughput peaks, and
 ``gain_pct`` ours against it. ``plan_ms`` is the single-vehicle
@@ -44,13 +48,15 @@ from agvnav.traffic.dispatch import DriveTimes, FleetVehicle, dispatch, tasks_of
 from agvnav.traffic.execute import AdgController, ExecResult, execute, random_delays, routes_from_plan
 from agvnav.traffic.jobs import TransportJob
 from agvnav.traffic.plan import Conflicts, Goal, VehicleTask, plan_fleet
+from agvnav.traffic.replan import Replanner
 
 __all__ = ["PRIORITY", "TITLE", "judge", "run", "run_once"]
 
 TITLE = "Traffic: collisions and deadlocks under delays, deliveries/h beside the baseline, planning (issue 30)"
 PRIORITY = ("case", "vehicles", "runs", "missed_targets", "collisions", "deadlocks", "deliveries_per_h",
             "baseline_deliveries_per_h", "gain_pct", "baseline_deadlocks", "baseline_saturates", "unserved", "plan_ms",
-            "replan_ms", "replan_cpu_ms", "missed_conflicts", "zone_missed")
+            "replan_ms", "replan_cpu_ms", "missed_conflicts", "zone_missed",
+            "replan_deliveries_per_h", "replans")
 
 MODEL = "differential"
 LIMITS = VehicleLimits(MODEL, 1.0)
@@ -71,6 +77,8 @@ MAX_PLAN_MS = 1.0
 MAX_REPLAN_MS = 100.0
 #: Step (m) of the brute-force check of the zones (``zone_missed``).
 CHECK_STEP_M = 0.1
+#: A vehicle waiting on the ADG this long (s) makes the replanning executor replan (``replan_*`` columns).
+REPLAN_AFTER_S = 60.0
 
 
 def _zones(network: RouteNetwork) -> Conflicts:
@@ -133,9 +141,13 @@ def run_once(net: RouteNetwork, zones: Conflicts, tasks: Sequence[VehicleTask], 
     feet = dict.fromkeys(ids, foot)
     limits = {t.vehicle: t.limits for t in tasks}
     ours = execute(net, routes_from_plan(plan, net, limits, feet), AdgController(adg), zones, delays, HORIZON_S)
+    replanner = Replanner(net, zones, tasks, feet, plan)
+    replanned = execute(net, routes_from_plan(plan, net, limits, feet), AdgController(build_adg(plan, zones)), zones,
+                        delays, HORIZON_S, replan=replanner, replan_after_s=REPLAN_AFTER_S)
     broutes, _ = baseline_routes(net, tasks, feet)
     base = execute(net, broutes, BaselineAllocator(net, broutes, zones), zones, delays, HORIZON_S)
-    return {"acyclic": adg.is_acyclic(), "ours": ours, "base": base, "unserved": len(plan.unserved),
+    return {"acyclic": adg.is_acyclic(), "ours": ours, "replanned": replanned, "replans_tried": replanner.tried,
+            "base": base, "unserved": len(plan.unserved),
             "plan_s": plan.plan_s}
 
 
@@ -144,9 +156,10 @@ def _rate(r: ExecResult) -> float:
 
 
 def _row(case: str, n: int, results: list[dict[str, Any]]) -> dict[str, Any]:
-    ours = [r["ours"] for r in results]
+    ours = [r["ours"] for r in results] + [r["replanned"] for r in results]
     base = [r["base"] for r in results]
-    d, b = float(np.mean([_rate(r) for r in ours])), float(np.mean([_rate(r) for r in base]))
+    rep = [r["replanned"] for r in results]
+    d, b = float(np.mean([_rate(r["ours"]) for r in results])), float(np.mean([_rate(r) for r in base]))
     return {
         "case": case, "vehicles": n, "runs": len(results),
         "collisions": sum(len(r.collisions) for r in ours),
@@ -154,12 +167,15 @@ def _row(case: str, n: int, results: list[dict[str, Any]]) -> dict[str, Any]:
         "conflict_violations": sum(len(r.violations) for r in ours),
         "missed_conflicts": sum(1 for r in ours if r.collisions and not r.violations),
         "deliveries_per_h": d, "baseline_deliveries_per_h": b,
+        "replan_deliveries_per_h": float(np.mean([_rate(r) for r in rep])),
+        "replans": sum(r.replans for r in rep), "replans_tried": sum(x["replans_tried"] for x in results),
         "gain_pct": 100.0 * (d / b - 1.0) if b > 0 else float("inf"),
         "baseline_deadlocks": sum(r.deadlock is not None for r in base),
         "baseline_collisions": sum(len(r.collisions) for r in base),
         "unserved": sum(x["unserved"] for x in results),
         "fleet_plan_ms": 1e3 * float(np.median([x["plan_s"] for x in results])),
-        "wait_s_per_vehicle": float(np.mean([sum(r.wait_s.values()) / max(1, len(r.wait_s)) for r in ours])),
+        "wait_s_per_vehicle": float(np.mean([sum(r["ours"].wait_s.values()) / max(1, len(r["ours"].wait_s))
+                                             for r in results])),
     }
 
 

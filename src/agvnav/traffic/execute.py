@@ -263,6 +263,7 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
                 routes = [by_id[v] for v in ids]
                 _restart(states, by_id, geoms, speed)
                 blocked.clear()
+                waiting = {}  # the steps waited for were the old routes'; the new controller is asked next tick
                 res.replans += 1
         if moved:
             last_move = t

@@ -12,7 +12,8 @@ the vehicles are, so that the others may pass the late one:
 * **replanned**: every step not yet started, all vehicles together (:func:`agvnav.traffic.plan.plan_fleet`
   with the committed occupations), in the order of their next planned start in the plan being executed
   (a vehicle standing ahead on a lane is planned before the ones behind it; prioritised planning keeps
-  the start of every vehicle not yet planned reserved); when some are not served, again with those
+  the start of every vehicle not yet planned reserved for a few seconds), a vehicle in a stop last and
+  from the end of its expected stop on (its node reserved until then); when some are not served, again with those
   first (at most :data:`ATTEMPTS` plannings).
 * **accepted only when safe**: the new plan must serve every vehicle, hold no conflicting resources at
   overlapping times (:func:`agvnav.traffic.adg.build_adg` checks every pair) and give an acyclic ADG;
@@ -50,7 +51,7 @@ __all__ = ["Replanner"]
 #: Gap (s) between a moving vehicle's planned arrival and the start of its replanned part.
 EPS_S = 1e-3
 #: Plannings tried per replan (module doc).
-ATTEMPTS = 4
+ATTEMPTS = 2
 
 
 @dataclass
@@ -64,7 +65,12 @@ class Replanner:
     """Replans the fleet from the vehicles' progress (module doc); counts the replans tried and kept."""
 
     def __init__(self, network: RouteNetwork, zones: Conflicts, tasks: Sequence[VehicleTask],
-                 footprints: Mapping[str, NDArray[np.float64]], plan: FleetPlan) -> None:
+                 footprints: Mapping[str, NDArray[np.float64]], plan: FleetPlan, start_hold_s: float = 5.0,
+                 stop_guess_s: float = 30.0) -> None:
+        self.stop_guess_s = stop_guess_s
+        """how long (s) a vehicle in a stop is expected to stay stopped (it is planned to move on after it)."""
+        self.start_hold_s = start_hold_s
+        """how long (s) the start of a vehicle not yet planned stays reserved (:func:`plan_fleet`)."""
         self.plan = plan
         """the plan being executed (its steps are the routes' steps, one for one)."""
         self.network = network
@@ -93,20 +99,23 @@ class Replanner:
                 committed.append(Occupation(v, model, ("node", node), t, INF, -1, -1))
                 continue
             start, ready = self._position(v, p, r, t, committed, heads)
+            if p.stopped:
+                committed.append(Occupation(v, model, ("node", start), t, ready + self.stop_guess_s, -1, -1))
+                ready += self.stop_guess_s
             rest = goals[r.steps[p.k].reached:] if p.moving else goals
             if not rest:
                 committed.append(Occupation(v, model, ("node", start), t, INF, -1, -1))
                 continue
             task = VehicleTask(v, info.task.limits, start, rest, ready_s=ready)
-            tasks.append((self._next_start(v, p), task))
+            tasks.append((INF if p.stopped else self._next_start(v, p), task))
         order = [tk for _, tk in sorted(tasks, key=lambda x: x[0])]
-        plan = plan_fleet(self.network, order, self.zones, committed=committed)
+        plan = plan_fleet(self.network, order, self.zones, committed=committed, start_hold_s=self.start_hold_s)
         for _ in range(ATTEMPTS - 1):
             if not plan.unserved:
                 break
             order = [tk for tk in order if tk.vehicle in plan.unserved] + [
                 tk for tk in order if tk.vehicle not in plan.unserved]
-            plan = plan_fleet(self.network, order, self.zones, committed=committed)
+            plan = plan_fleet(self.network, order, self.zones, committed=committed, start_hold_s=self.start_hold_s)
         if plan.unserved:
             return None
         plan = self._with_heads(plan, heads, progress, routes, t)
