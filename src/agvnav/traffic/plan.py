@@ -544,7 +544,7 @@ def plan_fleet(network: RouteNetwork, tasks: Sequence[VehicleTask], zones: Confl
     network and zones, :func:`traffic_index`). ``committed``: occupations already decided (a step under
     way, a vehicle parked, when replanning): reserved for every task and never released. ``start_hold_s``:
     how long (s) after its ready time the start of a vehicle not yet planned stays reserved (default for
-    ever; when replanning vehicles that stand on the lanes, a few seconds: a vehicle planned before it may
+    ever; when replanning vehicles that stand on the lanes, some tens of seconds: a vehicle planned before it may
     then pass its start later, and it must leave before, or it is unserved).
     """
     t_wall = time.perf_counter()

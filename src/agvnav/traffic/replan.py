@@ -12,7 +12,7 @@ the vehicles are, so that the others may pass the late one:
 * **replanned**: every step not yet started, all vehicles together (:func:`agvnav.traffic.plan.plan_fleet`
   with the committed occupations), in the order of their next planned start in the plan being executed
   (a vehicle standing ahead on a lane is planned before the ones behind it; prioritised planning keeps
-  the start of every vehicle not yet planned reserved for a few seconds), a vehicle in a stop last and
+  the start of every vehicle not yet planned reserved for ``start_hold_s``), a vehicle in a stop last and
   from the end of its expected stop on (its node reserved until then); when some are not served, again with those
   first (at most :data:`ATTEMPTS` plannings).
 * **accepted only when safe**: the new plan must serve every vehicle, hold no conflicting resources at
@@ -65,7 +65,7 @@ class Replanner:
     """Replans the fleet from the vehicles' progress (module doc); counts the replans tried and kept."""
 
     def __init__(self, network: RouteNetwork, zones: Conflicts, tasks: Sequence[VehicleTask],
-                 footprints: Mapping[str, NDArray[np.float64]], plan: FleetPlan, start_hold_s: float = 5.0,
+                 footprints: Mapping[str, NDArray[np.float64]], plan: FleetPlan, start_hold_s: float = 30.0,
                  stop_guess_s: float = 30.0) -> None:
         self.stop_guess_s = stop_guess_s
         """how long (s) a vehicle in a stop is expected to stay stopped (it is planned to move on after it)."""
