@@ -17,6 +17,11 @@ Checks, independent of the controller:
   ``waiting_for``), or no vehicle has moved for ``stall_s`` while some have work left and none is in a
   random stop.
 
+Replanning (:mod:`agvnav.traffic.replan`): with a ``replan`` given, once a vehicle has waited on the
+controller for more than ``replan_after_s`` the executor hands every vehicle's :class:`Progress` to it;
+a new set of routes and controller it returns takes over from the next tick (the steps under way are
+kept as the first steps of the new routes). The checks above run unchanged across it.
+
 This executor replaces the closed loop (sensors, estimator, follower) by the kinematics the plan
 assumes, so a thousand Monte Carlo runs take minutes; ``agvnav.sim.fleet`` runs the same controller in
 the closed loop.
@@ -44,6 +49,8 @@ __all__ = [
     "Controller",
     "Delays",
     "ExecResult",
+    "Progress",
+    "Replan",
     "RouteStep",
     "VehicleRoute",
     "execute",
@@ -102,6 +109,8 @@ class RouteStep:
     delivers: int = 0
     """deliveries at the step's end (drops there; each counts once its dwell is over)."""
     drop_dwell_s: float = 0.0
+    reached: int = 0
+    """goals of the plan reached at the step's end."""
 
 
 @dataclass(frozen=True)
@@ -151,6 +160,8 @@ class ExecResult:
     deadlock: str | None
     finished: dict[str, bool]
     steps_done: dict[str, int] = field(default_factory=dict)
+    replans: int = 0
+    """how many times the routes were replanned (a vehicle blocked long)."""
 
     @property
     def n_deliveries(self) -> int:
@@ -171,6 +182,29 @@ class _State:
     model: str = ""
 
 
+@dataclass(frozen=True)
+class Progress:
+    """Where a vehicle is in its route: step ``k`` is next (``moving``: under way, its start done).
+
+    ``eta_s``: when a moving vehicle should arrive at the step's end at planned speed (s); ``stopped``: in a
+    stop (a person, a fault); ``done``: every step driven.
+    """
+
+    k: int
+    moving: bool
+    eta_s: float
+    stopped: bool
+    done: bool
+
+
+class Replan(Protocol):
+    """Replans the routes from the vehicles' progress at ``t`` (s): new routes and controller, or None."""
+
+    def __call__(self, t: float, progress: Mapping[str, Progress], routes: Mapping[str, VehicleRoute]
+                 ) -> tuple[dict[str, VehicleRoute], Controller] | None:
+        """New routes (their first step is the one under way for a moving vehicle) and their controller."""
+
+
 class _EdgeGeom:
     def __init__(self, tr: Traversal) -> None:
         pts = tr.edge.curve.points
@@ -187,12 +221,15 @@ class _EdgeGeom:
 
 
 def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: Controller, zones: Conflicts,
-            delays: Delays, horizon_s: float, dt: float = 0.2, stall_s: float = 300.0) -> ExecResult:
+            delays: Delays, horizon_s: float, dt: float = 0.2, stall_s: float = 300.0, replan: Replan | None = None,
+            replan_after_s: float = 60.0) -> ExecResult:
     """Run the routes under ``delays`` until all are done, a collision, a deadlock or ``horizon_s`` (module doc)."""
+    routes = list(routes)
     ids = [r.vehicle for r in routes]
-    geoms = {(r.vehicle, k): _EdgeGeom(st.traversal) for r in routes for k, st in enumerate(r.steps)}
-    speed = {(r.vehicle, k): st.traversal.edge.curve.length / edge_time(st.traversal.edge, r.limits)
-             for r in routes for k, st in enumerate(r.steps)}
+    geoms: dict[tuple[str, int], _EdgeGeom] = {}
+    speed: dict[tuple[str, int], float] = {}
+    for r in routes:
+        _index_route(r, geoms, speed)
     radius = {r.vehicle: float(np.max(np.hypot(r.footprint[:, 0], r.footprint[:, 1]))) for r in routes}
     states: dict[str, _State] = {}
     for r in routes:
@@ -202,7 +239,8 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
     res = ExecResult(0.0, dict.fromkeys(ids, 0), [], dict.fromkeys(ids, 0.0), {v: {} for v in ids}, [], [], None,
                      {})
     by_id = {r.vehicle: r for r in routes}
-    t, last_move = 0.0, 0.0
+    t, last_move, last_replan = 0.0, 0.0, -math.inf
+    blocked: dict[str, float] = {}
     while t < horizon_s:
         moved = False
         waiting: dict[str, int] = {}
@@ -211,7 +249,22 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
             if st.phase == "done" or _stopped(delays, v, t):
                 continue
             moved |= _advance(v, st, r, t, dt, controller, zones, states, geoms, speed, delays, res, waiting)
+            if v in waiting:
+                blocked.setdefault(v, t)
+            else:
+                blocked.pop(v, None)
         t += dt
+        if (replan is not None and blocked and t - min(blocked.values()) > replan_after_s
+                and t - last_replan > replan_after_s):
+            last_replan = t
+            new = replan(t, _progress(states, by_id, speed, delays, t), by_id)
+            if new is not None:
+                by_id, controller = new
+                routes = [by_id[v] for v in ids]
+                _restart(states, by_id, geoms, speed)
+                blocked.clear()
+                waiting = {}  # the steps waited for were the old routes'; the new controller is asked next tick
+                res.replans += 1
         if moved:
             last_move = t
         hit = _collision(routes, states, radius)
@@ -231,6 +284,42 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
     res.finished = {v: states[v].phase == "done" for v in ids}
     res.steps_done = {v: states[v].k for v in ids}
     return res
+
+
+def _index_route(r: VehicleRoute, geoms: dict[tuple[str, int], _EdgeGeom], speed: dict[tuple[str, int], float]
+                 ) -> None:
+    """The edge geometry and planned speed (m/s) of each step of ``r``."""
+    for k, st in enumerate(r.steps):
+        geoms[(r.vehicle, k)] = _EdgeGeom(st.traversal)
+        speed[(r.vehicle, k)] = st.traversal.edge.curve.length / edge_time(st.traversal.edge, r.limits)
+
+
+def _progress(states: dict[str, _State], by_id: dict[str, VehicleRoute], speed: dict[tuple[str, int], float],
+              delays: Delays, t: float) -> dict[str, Progress]:
+    """Each vehicle's :class:`Progress` at ``t`` (planned speed for the arrival estimate)."""
+    out = {}
+    for v, st in states.items():
+        moving = st.phase in ("turn", "drive")
+        eta = t
+        if moving:
+            g_len = by_id[v].steps[st.k].traversal.edge.curve.length
+            eta = t + max(st.turn_left, 0.0) + max(g_len - st.s, 0.0) / speed[(v, st.k)]
+        out[v] = Progress(st.k, moving, eta, _stopped(delays, v, t), st.phase == "done")
+    return out
+
+
+def _restart(states: dict[str, _State], by_id: dict[str, VehicleRoute], geoms: dict[tuple[str, int], _EdgeGeom],
+             speed: dict[tuple[str, int], float]) -> None:
+    """Every vehicle at the first step of its new route (the one under way when it moves)."""
+    geoms.clear()
+    speed.clear()
+    for v, st in states.items():
+        r = by_id[v]
+        _index_route(r, geoms, speed)
+        if st.phase != "done":
+            st.k = 0
+            if not r.steps:
+                st.phase = "done"
 
 
 def _stopped(delays: Delays, v: str, t: float) -> bool:
@@ -361,7 +450,7 @@ def routes_from_plan(plan: FleetPlan, network: RouteNetwork, limits: Mapping[str
             reached = p.goals[st.arrives:st.arrives + st.reached] if st.arrives is not None else ()
             drops = [g for g in reached if g.action == "drop"]
             steps.append(RouteStep(st.traversal, st.dwell_s, st.not_before_s, len(drops),
-                                   drops[0].dwell_s if drops else 0.0))
+                                   drops[0].dwell_s if drops else 0.0, st.reached))
         node = network.nodes[p.start]
         h0 = p.steps[0].traversal.start_heading if p.steps else 0.0
         out.append(VehicleRoute(v, limits[v], footprints[v], p.start, node.heading if node.heading is not None else h0,

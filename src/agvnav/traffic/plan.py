@@ -33,6 +33,7 @@ left planned half-way.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
@@ -534,16 +535,23 @@ class FleetPlan:
 
 
 def plan_fleet(network: RouteNetwork, tasks: Sequence[VehicleTask], zones: Conflicts,
-               index: TrafficIndex | None = None) -> FleetPlan:
+               index: TrafficIndex | None = None, committed: Sequence[Occupation] = (),
+               start_hold_s: float = INF) -> FleetPlan:
     """Prioritised planning (module doc): tasks in the order given; every start reserved until it is left.
 
     A vehicle whose goals cannot be reached stays at its start (reserved for ever) and is listed in
     ``unserved`` with the reason. ``index``: the network's :class:`TrafficIndex` (default: kept per
-    network and zones, :func:`traffic_index`).
+    network and zones, :func:`traffic_index`). ``committed``: occupations already decided (a step under
+    way, a vehicle parked, when replanning): reserved for every task and never released. ``start_hold_s``:
+    how long (s) after its ready time the start of a vehicle not yet planned stays reserved (default for
+    ever; when replanning vehicles that stand on the lanes, some tens of seconds: a vehicle planned before it may
+    then pass its start later, and it must leave before, or it is unserved).
     """
     t_wall = time.perf_counter()
     ix = index if index is not None else traffic_index(network, zones)
-    res = Reservations(ix, [t.limits.model for t in tasks])
+    res = Reservations(ix, [t.limits.model for t in tasks] + [o.model for o in committed])
+    for o in committed:
+        res.add(dataclasses.replace(o, vehicle=f"{o.vehicle}@committed"))
     for t in tasks:
         if t.start not in network.nodes:
             raise ValueError(f"vehicle {t.vehicle!r}: unknown start node {t.start!r}")
@@ -553,7 +561,7 @@ def plan_fleet(network: RouteNetwork, tasks: Sequence[VehicleTask], zones: Confl
     bounds_of = {t.vehicle: [ix.graph(t.limits).lower_bounds(ix.node_index[g.station]) for g in t.goals]
                  for t in tasks}
     for t in tasks:
-        res.add_arrays(t.vehicle, t.limits.model, *_endpoints(t, bounds_of[t.vehicle], ix))
+        res.add_arrays(t.vehicle, t.limits.model, *_endpoints(t, bounds_of[t.vehicle], ix, start_hold_s))
     plans: dict[str, VehiclePlan] = {}
     unserved: dict[str, str] = {}
     for t in tasks:
@@ -570,7 +578,7 @@ def plan_fleet(network: RouteNetwork, tasks: Sequence[VehicleTask], zones: Confl
     return FleetPlan(plans, unserved, tuple(t.vehicle for t in tasks), time.perf_counter() - t_wall)
 
 
-def _endpoints(task: VehicleTask, bounds: list[NDArray[np.float64]], ix: TrafficIndex
+def _endpoints(task: VehicleTask, bounds: list[NDArray[np.float64]], ix: TrafficIndex, start_hold_s: float = INF
                ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
     """The reservations a vehicle holds before it is planned: its start from its ready time on, and its
     last goal from the earliest time it could get there on (module doc)."""
@@ -582,7 +590,9 @@ def _endpoints(task: VehicleTask, bounds: list[NDArray[np.float64]], ix: Traffic
         earliest = task.ready_s + float(h[0, q[0]]) + float(_rest_bounds(task.goals, h, gnode)[0]) - g.dwell_s
         q.append(ix.node_index[g.station])
         t0.append(earliest)
-    return np.array(q, dtype=np.int64), np.array(t0), np.full(len(q), INF)
+    t1 = np.full(len(q), INF)
+    t1[0] = task.ready_s + start_hold_s
+    return np.array(q, dtype=np.int64), np.array(t0), t1
 
 
 def _unreachable(task: VehicleTask, bounds: list[NDArray[np.float64]], ix: TrafficIndex) -> str | None:

@@ -1,0 +1,44 @@
+"""``agvnav bench traffic``: each row judged against the issue's targets, the judgement agreeing with the figures."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from agvnav.bench import traffic
+
+
+def _row(**kw: Any) -> dict[str, Any]:
+    row = {"collisions": 0, "deadlocks": 0, "missed_conflicts": 0, "zone_missed": 0, "unserved": 0,
+           "baseline_saturates": False, "gain_pct": 0.0, "plan_ms": 0.3, "replan_ms": 50.0}
+    row.update(kw)
+    return row
+
+
+def test_a_row_meeting_every_target_says_so() -> None:
+    assert traffic.judge(_row()) == "-"
+    assert traffic.judge(_row(baseline_saturates=True, gain_pct=25.0)) == "-"
+
+
+@pytest.mark.parametrize(("change", "named"), [
+    ({"collisions": 1}, "collisions"), ({"deadlocks": 2}, "deadlocks"), ({"zone_missed": 1}, "zone_missed"),
+    ({"missed_conflicts": 1}, "missed_conflicts"), ({"unserved": 3}, "unserved"),
+    ({"baseline_saturates": True, "gain_pct": 19.9}, "gain<20%"), ({"plan_ms": 1.2}, "plan>1ms"),
+    ({"replan_ms": 150.0}, "replan>100ms"),
+])
+def test_each_target_missed_is_named(change: dict[str, Any], named: str) -> None:
+    assert traffic.judge(_row(**change)).split(",") == [named]
+
+
+def test_a_gain_under_target_away_from_saturation_is_not_judged() -> None:
+    assert traffic.judge(_row(gain_pct=-50.0)) == "-"
+
+
+@pytest.mark.slow
+def test_the_quick_bench_rows_are_judged_from_their_own_figures() -> None:
+    rows = traffic.run(quick=True)
+    assert {r["case"] for r in rows} == {"lane_swap", *traffic.NETWORKS}
+    for r in rows:
+        assert r["missed_targets"] == traffic.judge(r)
+        assert r["collisions"] == 0 and r["deadlocks"] == 0 and r["zone_missed"] == 0
