@@ -403,6 +403,22 @@ def _stop_window_rows(result: Any) -> list[tuple[str, str, str]]:
             for w in stops[:MAX_WINDOW_ROWS]]
 
 
+def _docking_rows(result: Any) -> list[tuple[str, str, str]]:
+    """A docking's figures (issue 32): true error against the true station, time, measured station offset."""
+    extra = getattr(result, "extra", None) or {}
+    if "dock_error_m" not in extra:
+        return []
+    offset = math.hypot(extra["station_offset_measured_x_m"], extra["station_offset_measured_y_m"])
+    return [
+        ("docking error, true station (mm)", _fmt(extra["dock_error_m"], 1e3, 2), ""),
+        ("docking heading error (deg)", _fmt(math.degrees(extra["dock_heading_error_rad"]), 1.0, 3), ""),
+        ("docking reported finished", "yes" if extra["docking_reported_finished"] else "no", ""),
+        ("time to dock (s)", _fmt(extra["dock_time_s"], 1.0, 1), ""),
+        ("station offset measured / true (mm)",
+         f"{_fmt(offset, 1e3, 1)} / {_fmt(extra['station_offset_true_m'], 1e3, 1)}", ""),
+    ]
+
+
 #: Most reactive stop windows listed one per row in the summary table.
 MAX_WINDOW_ROWS = 5
 
@@ -435,6 +451,7 @@ def _summary(result: Any) -> tuple[str, list[Col], list[list[str]]]:
         rows.append(("settling distance (m)", _fmt(m.settling_distance_m, 1.0, 3), ""))
     rows += [
         *_mission_rows(result),
+        *_docking_rows(result),
         ("positioning RMS (mm)", _fmt(m.positioning_rms_m, 1e3), ""),
         ("positioning mean |e_lat| (mm)", _fmt(m.positioning_lateral_mean_abs_m, 1e3),
          "positioning_lateral_mean_abs_m"),
