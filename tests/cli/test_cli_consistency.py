@@ -135,7 +135,7 @@ def test_every_csv_of_a_run_has_a_units_sidecar_documenting_each_column(tmp_path
 def test_laps_csv_units_come_from_the_reference(tmp_path):
     import numpy as np
 
-    from agvnav.report.files import units_path, write_csv
+    from agvnav.report.series_csv import units_path, write_csv
 
     path = write_csv(tmp_path / "laps.csv", {"lap": np.array([1.0]), "with_landmarks_per_lap_m": np.array([0.02]),
                                              "mystery": np.array([3.0])})

@@ -39,9 +39,10 @@ from agvnav.logs.localize import Localization, judge
 from agvnav.logs.reader import RecordedLog
 from agvnav.logs.runlog import covariance3, write_estimate_messages, write_reflector_map
 from agvnav.logs.writer import LogWriter, logs_extra_installed
-from agvnav.report.files import atomic_dir, write_csv
+from agvnav.report.files import atomic_dir
 from agvnav.report.html import plot_positioning_errors, plot_status
 from agvnav.report.plots import plot_map, plot_positioning_histogram, pyplot
+from agvnav.report.series_csv import write_csv
 
 __all__ = ["localization_summary", "save_localization"]
 

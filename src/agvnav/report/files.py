@@ -18,24 +18,23 @@ so two runs with the same seed write byte-identical files except timing.json.
 
 from __future__ import annotations
 
-import csv
 import math
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from agvnav._json import json_text
 from agvnav.jit import mode as kernel_mode
 from agvnav.report.html import write_html_report
 from agvnav.report.plots import write_plots
-from agvnav.report.reference import COLUMNS, EVENT_COLUMNS, LAP_COLUMNS, PER_OBSTACLE
+from agvnav.report.reference import EVENT_COLUMNS
+from agvnav.report.series_csv import units_path, write_csv
 
 if TYPE_CHECKING:
     from agvnav.report.plot_worker import PlotWorker
@@ -288,33 +287,3 @@ def _write_data(result: SimResult, out: Path) -> list[Path]:
     if refl is not None:
         written += [write_csv(out / "reflections.csv", refl, EVENT_COLUMNS), units_path(out / "reflections.csv")]
     return written
-
-
-def write_csv(
-    path: Path, columns: dict[str, NDArray[np.float64]], units: Mapping[str, tuple[str, str]] | None = None
-) -> Path:
-    """One column per series, a header row of names, ``%.10g`` values; the units in a sidecar.
-
-    ``units`` maps a column name to ``(unit, meaning)``; by default the documented
-    columns of :mod:`agvnav.report.reference` (time series, then laps); a per-obstacle column
-    ``NAME__ID`` is documented as ``NAME__<id>``. The sidecar
-    :func:`units_path` lists every column in order; an undocumented one says so.
-    Returns the CSV's path.
-    """
-    names = list(columns)
-    data = np.column_stack([np.asarray(columns[n], dtype=np.float64) for n in names])
-    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
-    table = {**LAP_COLUMNS, **COLUMNS} if units is None else units
-    with open(units_path(path), "w", encoding="utf-8", newline="") as fh:
-        out = csv.writer(fh)
-        out.writerow(["column", "unit", "meaning"])
-        for name in names:
-            unit, meaning = table.get(name) or table.get(name.split("__")[0] + PER_OBSTACLE, ("", "not documented"))
-            out.writerow([name, unit, meaning])
-    return path
-
-
-def units_path(csv_path: str | Path) -> Path:
-    """The units sidecar of a CSV file: ``NAME.csv`` -> ``NAME.units.csv``."""
-    p = Path(csv_path)
-    return p.with_name(f"{p.stem}.units.csv")

@@ -21,9 +21,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.report.files import _json, _plain, atomic_dir, metrics_document, units_path, write_csv
+from agvnav.report.files import _json, _plain, atomic_dir, metrics_document
 from agvnav.report.fleet_html import render_fleet_html
 from agvnav.report.plots import pyplot
+from agvnav.report.series_csv import units_path, write_csv
 from agvnav.sim.fleet import FleetResult
 
 __all__ = ["FLEET_COLUMNS", "TIMING_FIGURES", "fleet_document", "fleet_layout", "fleet_series", "save_fleet",

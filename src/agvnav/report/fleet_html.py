@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav._display import format_number
+from agvnav.report.series_csv import read_csv
 
 __all__ = ["SLIDER_SAMPLES", "fleet_slider_data", "is_fleet_folder", "render_fleet_html"]
 
@@ -61,13 +62,6 @@ def fleet_slider_data(series: dict[str, F64], n_vehicles: int, samples: int = SL
             col = series[name][rows][k] if rows.size else np.full(grid.size, np.nan)
             out[name].append([round(float(v), 4) if math.isfinite(float(v)) else None for v in col])
     return out
-
-
-def _read_long(path: Path) -> dict[str, F64]:
-    with path.open(encoding="utf-8") as f:
-        names = f.readline().strip().split(",")
-        data = np.loadtxt(f, delimiter=",", ndmin=2, dtype=np.float64)
-    return {n: data[:, i] for i, n in enumerate(names)}
 
 
 def _svg(layout: dict[str, Any] | None, series: dict[str, F64], rows: list[dict[str, Any]],
@@ -167,7 +161,7 @@ def render_fleet_html(run_dir: str | Path) -> str:
     d = Path(run_dir)
     try:
         metrics = json.loads((d / "metrics.json").read_text(encoding="utf-8"))
-        series = _read_long(d / "timeseries.csv")
+        series = read_csv(d / "timeseries.csv")
     except (OSError, ValueError) as exc:
         raise ValueError(f"{d}: not a readable agvnav fleet run folder ({exc})") from None
     layout_file = d / "layout.json"

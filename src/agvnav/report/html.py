@@ -32,6 +32,7 @@ from agvnav._display import display_unit, format_number
 from agvnav.geometry import lateral_position_error, wrap_angle
 from agvnav.report.fleet_html import is_fleet_folder, render_fleet_html
 from agvnav.report.plots import pyplot
+from agvnav.report.series_csv import read_csv
 
 __all__ = [
     "REPORT_HEADER",
@@ -85,19 +86,12 @@ class RunFolder:
     layout: dict[str, Any] | None
 
 
-def _read_columns(path: Path) -> dict[str, F64]:
-    with path.open(encoding="utf-8") as f:
-        names = f.readline().strip().split(",")
-        data = np.loadtxt(f, delimiter=",", ndmin=2, dtype=np.float64)
-    return {n: data[:, i] for i, n in enumerate(names)}
-
-
 def load_run(run_dir: str | Path) -> RunFolder:
     """Read a run folder written by ``agvnav simulate``; ValueError names a missing or damaged file."""
     d = Path(run_dir)
     try:
         metrics = json.loads((d / "metrics.json").read_text(encoding="utf-8"))
-        series = _read_columns(d / "timeseries.csv")
+        series = read_csv(d / "timeseries.csv")
     except (OSError, ValueError) as exc:
         raise ValueError(f"{d}: not a readable agvnav run folder ({exc})") from None
     layout_file = d / "layout.json"

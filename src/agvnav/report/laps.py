@@ -10,8 +10,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from agvnav._json import json_text
-from agvnav.report.files import write_csv
 from agvnav.report.plots import pyplot
+from agvnav.report.series_csv import write_csv
 
 __all__ = ["lap_table", "plot_laps", "save_laps", "summary_table"]
 
