@@ -33,7 +33,23 @@ arrival in order; NONE and SOFT run in parallel, SINGLE and HARD alone; SOFT and
 driving until they end. ``pick``/``drop`` (a load on/off), ``finePositioning`` take
 :attr:`VehicleConfig.action_s` seconds (a ``duration`` parameter overrides); ``finePositioning``
 then ends FAILED, with the reason, unless the estimate and its ``deviationRange`` put the vehicle
-within the tolerance of its node (``_fine_positioning_failure``). Instant actions:
+within the tolerance of its node (``_fine_positioning_failure``), except at a docking node.
+
+Docking (issue 32; docs/docking.md): a scenario with a ``mission`` and a ``docking`` section has a
+docking node, the network node named as the docking target, at the docking pose as the map places
+the station and reached by one straight approach edge from its approach node
+(:func:`agvnav.sim.docking.docking_node`, located errors). A ``finePositioning`` there runs the
+station-relative docking: the leg ends at the approach node, the action turns RUNNING and the
+docking (:func:`agvnav.sim.build.docking_autopilot`, the autopilot and station estimator of
+``agvnav simulate``; the loop feeds the global and the station estimator) drives the approach
+edge. It ends FINISHED, the docking node reached, only when the docking finished trusted; else
+FAILED with the docking's reason (a reflector not seen, a pattern mismatch, 3 sigma over the
+tolerance, ...), a ``nodeUnreachable`` error, and the vehicle holds on the approach until the
+order is cancelled. A finePositioning at the docking node reached another way is refused
+(``orderError`` / ``INVALID_ORDER_ACTION``). ``agvPosition`` stays the global estimate. A pause
+holds the docking still; its own timers (recognition, settling) run on meanwhile.
+
+Instant actions:
 ``startPause``/``stopPause``, ``cancelOrder`` (waiting and running actions FAILED, the vehicle
 stops, the cancel FINISHED once it stands, and only then the node and edge states cleared, so a
 master sees the order end by the cancel; without an order ``noOrderToCancel`` /
@@ -791,8 +807,8 @@ class VdaVehicle:
 
         Judged on the global estimate: not localized, or the estimated distance to the node's
         network position plus the stated ``deviationRange`` beyond the tolerance
-        (:attr:`VehicleConfig.fine_tolerance_m` or the node's ``allowedDeviationXY``). Docking
-        relative to a station's own target (``agvnav.navigation.docking``) is not run here.
+        (:attr:`VehicleConfig.fine_tolerance_m` or the node's ``allowedDeviationXY``). At the docking
+        node the docking judges instead (:meth:`_end_docking`).
         """
         item = next((it for it in self.items if it.seq == r.node_seq and it.node is not None), None)
         bound = self.deviation_range()
