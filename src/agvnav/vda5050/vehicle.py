@@ -28,9 +28,12 @@ Orders (VDA 5050 2.1 §6.6, 3.0 §6.1; the acceptance flow of their Figure 8):
 A rejection's error stays in ``state.errors`` until an order is accepted. The vehicle drives the
 released base from node to node: one :class:`~agvnav.navigation.mission.MissionAutopilot` leg
 up to the next node with a SOFT, SINGLE or HARD action or the decision point, where it stops if
-no update extended the base. Actions (§6.12 / 3.0 §6.2.2): a node's actions are queued on
-arrival in order; NONE and SOFT run in parallel, SINGLE and HARD alone; SOFT and HARD forbid
-driving until they end. ``pick``/``drop`` (a load on/off), ``finePositioning`` take
+no update extended the base. An update that extends the base while a leg drives is driven on
+without a stop at the old decision point: once the vehicle is on the leg's last edge, a new leg
+from the last node passed takes over at the speed it has (``_extend_leg``). Actions (§6.12 /
+3.0 §6.2.2): a node's actions are queued on arrival in order; NONE and SOFT run in parallel,
+SINGLE and HARD alone; SOFT and HARD forbid driving until they end. ``pick``/``drop`` (a load
+on/off), ``finePositioning`` take
 :attr:`VehicleConfig.action_s` seconds (a ``duration`` parameter overrides); ``finePositioning``
 then ends FAILED, with the reason, unless the estimate and its ``deviationRange`` put the vehicle
 within the tolerance of its node (``_fine_positioning_failure``), except at a docking node.
@@ -631,8 +634,9 @@ class VdaVehicle:
         self.items = self.items[i:]
         self._state_due = True
 
-    def _start_leg(self) -> None:
-        """Drive the released edges ahead up to the next node with blocking actions or the decision point."""
+    def _leg_route(self) -> tuple[list[Traversal], list[tuple[str, int]]]:
+        """The released edges ahead and their nodes, up to the next node with blocking actions, the decision point
+        or the approach edge of a docking (its approach node ends the leg)."""
         travs: list[Traversal] = []
         nodes: list[tuple[str, int]] = []
         for it in self.items[1:]:
@@ -647,23 +651,51 @@ class VdaVehicle:
             nodes.append((it.node.node_id, it.seq))
             if any(a.blocking_type != "NONE" for a in it.node.actions):
                 break
+        return travs[:len(nodes)], nodes
+
+    def _start_leg(self) -> None:
+        """Drive the released edges ahead up to the next node with blocking actions or the decision point."""
+        travs, nodes = self._leg_route()
         if not travs:
             if len(self.items) > 1 and self.items[1].released and self._docks_over(self.items[1]):
                 self._start_docking(self.items[2])
             return
+        self._drive(travs, nodes, 0.0)
+
+    def _drive(self, travs: list[Traversal], nodes: list[tuple[str, int]], v0: float) -> None:
+        """One leg from the last node passed over ``travs`` to ``nodes``, its speed profile starting at ``v0`` (m/s)."""
         net = self.network
         start = net.nodes[self.last_node]
         route = Route(tuple(travs), (self.last_node, *(n for n, _ in nodes)), 0.0)
         leg = Leg(0, "goto", nodes[-1][0], route, 0.0)
         try:
             plan = chain_mission([leg], np.array([start.x, start.y]), math.radians(net.spec.tolerances.heading_deg))
-            self.pilot.leg = mission_autopilot(self._leg_sc, plan, self._follower, self._plant, self._offset,
-                                               self._watch)
+            pilot = mission_autopilot(self._leg_sc, plan, self._follower, self._plant, self._offset, self._watch)
         except ValueError as exc:
             self._fail_drive(nodes[0][0], str(exc))
             return
+        if v0 != 0.0:
+            pilot.profile.reset(v0)
+        self.pilot.leg = pilot
         self.leg_nodes, self.leg_passed = nodes, 0
         self._state_due = True
+
+    def _extend_leg(self) -> None:
+        """An update released more of the route while a leg drives to the old decision point: once on the leg's
+        last edge, drive on (a new leg from the last node passed over the released edges ahead, at the speed the
+        vehicle has; its progress catches up within a step per metre) instead of stopping at the old end.
+
+        Not while the leg holds (paused, blocked, not localized), nor with point switching (a steered vehicle's
+        stints hand over between points C and O on the move).
+        """
+        leg = self.pilot.leg
+        if (leg is None or leg.finished or self.pilot.hold or self.leg_passed != len(self.leg_nodes) - 1
+                or (self.sc.mission is not None and self.sc.mission.point_switching)):
+            return
+        travs, nodes = self._leg_route()
+        if len(nodes) <= 1 or nodes[0] != self.leg_nodes[-1]:
+            return
+        self._drive(travs, nodes, float(leg.profile.v))
 
     def _fine_runs(self, seq: int) -> list[_ActionRun]:
         return [r for r in self.actions if r.node_seq == seq and r.action.action_type == "finePositioning"]
@@ -967,6 +999,8 @@ class VdaVehicle:
     def _decide(self) -> None:
         """Hold while paused, blocked or not localized; start the next leg when there is one to drive."""
         self.pilot.hold = self.paused or self._blocking() or not self._localized or self.link_lost_at is not None
+        if self.cancel_run is None and self.failure is None:
+            self._extend_leg()
         if (self.pilot.leg is None and self.pilot.dock is None and not self.pilot.hold and self.failure is None
                 and self.cancel_run is None and self._dock_failed is None and len(self.items) > 1):
             self._start_leg()
