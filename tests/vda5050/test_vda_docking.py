@@ -49,26 +49,31 @@ def run_until_done(v: VdaVehicle, bus: InProcessBus, limit_s: float) -> dict[str
     raise AssertionError(f"finePositioning not done after {limit_s} s")
 
 
-def test_fine_positioning_at_the_charger_docks_relative_to_the_true_station() -> None:
-    v, m, bus, states = make(scenario())
+@pytest.mark.parametrize(("name", "station"), [
+    ("docking_charger_vda", "CH"),
+    pytest.param("docking_pallet_stacker_vda", "PAL", marks=pytest.mark.slow),  # the stacker backs in: point O
+])
+def test_fine_positioning_at_a_docking_node_docks_relative_to_the_true_station(name: str, station: str) -> None:
+    v, m, bus, states = make(load_scenario(builtin_scenario(name)))
     fp = m.action("finePositioning", "fp", "HARD")
-    bus.publish_master("S", "order", m.order("o", 0, ["CH_wait", "CH_approach", "CH"], 3, actions={2: [fp]}))
+    nodes = [f"{station}_wait", f"{station}_approach", station]
+    bus.publish_master("S", "order", m.order("o", 0, nodes, 3, actions={2: [fp]}))
     done = run_until_done(v, bus, 90.0)
     st = v.state()
     assert done["actionStatus"] == "FINISHED", done
-    assert "docked at 'CH'" in str(done["resultDescription"])
-    assert st["lastNodeId"] == "CH" and st["nodeStates"] == [] and st["errors"] == []
+    assert f"docked at {station!r}" in str(done["resultDescription"])
+    assert st["lastNodeId"] == station and st["nodeStates"] == [] and st["errors"] == []
     err, err_h = v.docking_true_error() or (math.inf, math.inf)
     assert err <= 3e-3 and err_h <= math.radians(0.1)  # the docking tolerance, on the true station
     # the state's position stays the global estimate: near the true pose, ~20 mm off the map's station node
     pos = st["agvPosition"]
     assert (pos["x"], pos["y"]) == pytest.approx(tuple(float(c) for c in v.estimator.pose[:2]), abs=1e-9)  # type: ignore[index]
-    node = v.network.nodes["CH"]
+    node = v.network.nodes[station]
     assert 0.012 < math.hypot(pos["x"] - node.x, pos["y"] - node.y) < 0.03  # type: ignore[index, operator]
     # it ran while the vehicle docked: RUNNING (and driving) after the approach node, never FINISHED before
     running = [s for s in states if fine_state(s)["actionStatus"] == "RUNNING"]
     assert running and any(s["driving"] for s in running)
-    assert all(s["lastNodeId"] == "CH_approach" for s in running)
+    assert all(s["lastNodeId"] == f"{station}_approach" for s in running)
     assert bus.checked.failures == []
 
 
