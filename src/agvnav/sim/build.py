@@ -606,20 +606,17 @@ def build(sc: Scenario) -> Built:
     pilot: PathAutopilot | MissionAutopilot = PathAutopilot(follower, path, profile, plant, offset, watch=_watch(sc))
     if mission is not None:  # one PathAutopilot per leg (issue 14)
         pilot = missions.mission_autopilot(sc, mission, follower, plant, offset, _watch(sc))
-    sensors = _sensors(sc, world, rangers, estimator)
-    fed: PositioningEstimator | DockingEstimate = estimator
-    if sc.docking is not None:  # a mission that docks at the target's node (VDA 5050 finePositioning)
-        fed = _mission_docking(sc, estimator)
-        sensors = _sensors(sc, world, rangers, estimator, fed)
+    # a mission that docks at the target's node (VDA 5050 finePositioning): the loop feeds both estimators
+    docked = _mission_docking(sc, estimator) if sc.docking is not None else None
+    sensors = _sensors(sc, world, rangers, estimator, docked)
     loop_plant = _loop_plant(sc, plant, world)
     if sc.obstacles or sc.scanner is not None or sc.reactive is not None:  # issue 18: obstacles, scanner, reaction
         loop_plant, sensors, pilot = wire_reactive(sc, world, loop_plant, sensors, pilot)
-    loop = ClosedLoop(loop_plant, sensors, fed, pilot, sc.step_s, sc.seed)
+    loop = ClosedLoop(loop_plant, sensors, estimator if docked is None else docked, pilot, sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else _default_duration(sc, path)
     if mission is not None and sc.duration_s is None:
         duration = missions.mission_duration(sc, mission)
-    return Built(loop, world, path, plant, pilot, estimator, duration, point, offset, mission,
-                 fed if isinstance(fed, DockingEstimate) else None)
+    return Built(loop, world, path, plant, pilot, estimator, duration, point, offset, mission, docked)
 
 
 def _mission_docking(sc: Scenario, estimator: PositioningEstimator) -> DockingEstimate:
