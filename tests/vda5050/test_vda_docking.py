@@ -58,6 +58,13 @@ def test_fine_positioning_at_a_docking_node_docks_relative_to_the_true_station(n
     fp = m.action("finePositioning", "fp", "HARD")
     nodes = [f"{station}_wait", f"{station}_approach", station]
     bus.publish_master("S", "order", m.order("o", 0, nodes, 3, actions={2: [fp]}))
+    while v.pilot.dock is None or v.pilot.dock.phase != "approach" or v.t < 20.0:
+        bus.step()
+    bus.publish_master("S", "instantActions", m.instant(m.action("startPause", "sp")))  # a pause mid-approach
+    for _ in range(40):
+        bus.step()
+    assert not v.state()["driving"] and math.hypot(*v.velocity[:2]) < 0.01
+    bus.publish_master("S", "instantActions", m.instant(m.action("stopPause", "rp")))
     done = run_until_done(v, bus, 90.0)
     st = v.state()
     assert done["actionStatus"] == "FINISHED", done

@@ -746,7 +746,13 @@ class VdaVehicle:
             self._dock_failed = reason
             self._error("drive", (("nodeId", node_id),), f"docking at {node_id!r} failed, the vehicle holds on the "
                         f"approach (cancel the order): {reason}", slot="dock")
+        self._idle_station()
         self._state_due = True
+
+    def _idle_station(self) -> None:
+        """A fresh, idle station estimator once a docking is over (it served that docking only)."""
+        if self._docking is not None:
+            self._docking.station = station_estimator(self.sc, self._docking.station.target)
 
     def docking_true_error(self) -> tuple[float, float] | None:
         """The true error (m, rad) of base_link against the docking pose on the true station, or None without a
@@ -914,6 +920,8 @@ class VdaVehicle:
         for a in self.actions:
             if a.status not in DONE:
                 a.status, a.result = "FAILED", "cancelled"
+        if self.pilot.dock is not None:
+            self._idle_station()
         self.pilot.leg = self.pilot.dock = None  # no new leg while cancelling (_decide)
         self.cancelled = True
         self.cancel_run = r  # FINISHED once the vehicle stands; the node and edge states are cleared then
