@@ -133,3 +133,20 @@ def test_a_docking_node_off_the_docking_pose_is_refused_with_file_and_line(tmp_p
         docking_node(moved, load_mission_network(moved), load_target(moved))
     line = next(i for i, t in enumerate(text.splitlines(), 1) if "{id: CH, x:" in t)
     assert "bay.yaml" in str(exc.value) and f":{line}" in str(exc.value) and "30.0 mm" in str(exc.value)
+
+
+def test_a_cancel_mid_docking_fails_fine_positioning_and_stops() -> None:
+    v, m, bus, _ = make(scenario("CH_approach"))
+    fp = m.action("finePositioning", "fp", "HARD")
+    bus.publish_master("S", "order", m.order("o", 0, ["CH_approach", "CH"], 2, actions={1: [fp]}))
+    while v.pilot.dock is None or v.pilot.dock.phase != "approach" or v.t < 3.0:
+        bus.step()
+    assert v.state()["driving"]
+    bus.publish_master("S", "instantActions", m.instant(m.action("cancelOrder", "cx")))
+    for _ in range(60):
+        bus.step()
+    st = v.state()
+    assert fine_state(st)["actionStatus"] == "FAILED" and fine_state(st)["resultDescription"] == "cancelled"
+    assert st["nodeStates"] == [] and st["edgeStates"] == [] and not st["driving"]
+    assert st["lastNodeId"] == "CH_approach" and v.pilot.dock is None
+    assert bus.checked.failures == []
