@@ -65,6 +65,7 @@ from agvnav.sim.roles import GoniometerSensor
 from agvnav.vehicles import build_plant
 from agvnav.vehicles.builders import Plant as VehiclePlant
 from agvnav.world import WorldMap, builtin_map_names, load_builtin_map, load_map
+from agvnav.world.docking import DockingTarget
 from agvnav.world.scenario import KeyPath, Scenario, ScenarioError
 from agvnav.world.vehicle_specs import TractorTrailerSpec
 
@@ -113,6 +114,9 @@ class Built:
     point_offset: float
     mission: MissionPlan | None = None
     """the planned mission (:class:`agvnav.routes.mission.MissionPlan`) of a mission scenario."""
+    docking: DockingEstimate | None = None
+    """a mission scenario with a ``docking`` section: the global and the (idle) station estimator the loop
+    feeds, for a docking at the target's node (:func:`docking_autopilot`; the VDA 5050 ``finePositioning``)."""
 
 
 def guard(sc: Scenario, key: KeyPath, func: Callable[P, T], *args: P.args, **kwargs: P.kwargs) -> T:
@@ -506,9 +510,13 @@ def _watch(sc: Scenario) -> EstimatorWatch:
 
 
 def _sensors(
-    sc: Scenario, world: WorldMap, rangers: UltrasonicArray | None, estimator: PositioningEstimator
+    sc: Scenario, world: WorldMap, rangers: UltrasonicArray | None, estimator: PositioningEstimator,
+    docked: DockingEstimate | None = None,
 ) -> list[Sensor]:
     """The goniometer seeing the true world (survey error, moved reflectors), with the sensor faults; the rangers.
+
+    ``docked`` (a mission that docks at its target's node): the goniometer also sees the target on the true
+    station (:func:`agvnav.sim.docking.true_world`) and feeds both of its estimators.
 
     Each feeds ``estimator`` when it takes that kind of measurement (bearings: a streaming estimator;
     ranges: the EKF with rangers or the wall-landmark localizer); otherwise the sensor is only observed
@@ -532,6 +540,13 @@ def _sensors(
     bearings = estimator if isinstance(estimator, StreamingEstimator) else None
     gonio = GoniometerSensor(_goniometer(sc), true_world, bearings)
     sensor: Sensor = gonio
+    if docked is not None:
+        target = docked.station.target
+        sensor = docking.goniometer_role(sc, target, _goniometer(sc), docking.true_world(sc, true_world, target),
+                                         docked)
+        if not isinstance(sensor, GoniometerSensor):  # a person walking past: the sensor faults do not wrap it
+            return [sensor, *out]
+        gonio = sensor
     if any(f.kind not in PLANT_FAULTS for f in sc.faults):
         sensor = FaultySensor(gonio, sc.faults, world, sc.goniometer.rate_hz, sc.seed)
     return [sensor, *out]
@@ -559,7 +574,7 @@ def build(sc: Scenario) -> Built:
     """
     if sc.route is not None:
         raise sc.error(("route",), "a route scenario runs laps (agvnav.sim.simulate), it has no single path loop")
-    if sc.docking is not None:  # issue 32: dock relative to the station's target
+    if sc.docking is not None and sc.mission is None:  # issue 32: dock relative to the station's target
         return build_docking(sc)
     world = build_world(sc)
     mission = None
@@ -591,15 +606,24 @@ def build(sc: Scenario) -> Built:
     pilot: PathAutopilot | MissionAutopilot = PathAutopilot(follower, path, profile, plant, offset, watch=_watch(sc))
     if mission is not None:  # one PathAutopilot per leg (issue 14)
         pilot = missions.mission_autopilot(sc, mission, follower, plant, offset, _watch(sc))
-    sensors = _sensors(sc, world, rangers, estimator)
+    # a mission that docks at the target's node (VDA 5050 finePositioning): the loop feeds both estimators
+    docked = _mission_docking(sc, estimator) if sc.docking is not None else None
+    sensors = _sensors(sc, world, rangers, estimator, docked)
     loop_plant = _loop_plant(sc, plant, world)
     if sc.obstacles or sc.scanner is not None or sc.reactive is not None:  # issue 18: obstacles, scanner, reaction
         loop_plant, sensors, pilot = wire_reactive(sc, world, loop_plant, sensors, pilot)
-    loop = ClosedLoop(loop_plant, sensors, estimator, pilot, sc.step_s, sc.seed)
+    loop = ClosedLoop(loop_plant, sensors, estimator if docked is None else docked, pilot, sc.step_s, sc.seed)
     duration = sc.duration_s if sc.duration_s is not None else _default_duration(sc, path)
     if mission is not None and sc.duration_s is None:
         duration = missions.mission_duration(sc, mission)
-    return Built(loop, world, path, plant, pilot, estimator, duration, point, offset, mission)
+    return Built(loop, world, path, plant, pilot, estimator, duration, point, offset, mission, docked)
+
+
+def _mission_docking(sc: Scenario, estimator: PositioningEstimator) -> DockingEstimate:
+    """The estimates of a mission that docks at its target's node: the global one and an idle station one."""
+    _docking_point(sc, sc.vehicle.family)
+    target = docking.load_target(sc)
+    return DockingEstimate(_docking_global(sc, estimator), station_estimator(sc, target))
 
 
 def build_docking(sc: Scenario) -> Built:
@@ -609,38 +633,65 @@ def build_docking(sc: Scenario) -> Built:
     target = docking.load_target(sc)
     path = docking.approach_path(target)
     family = sc.vehicle.family
-    point = _point(sc, family)
-    if point != "O":
-        raise sc.error(("controller", "point"), "docking guides point O (base_link): set controller.point: O")
+    point = _docking_point(sc, family)
     x0 = _initial_state(sc, path, 0.0, family)
     plant = guard(sc, ("vehicle",), build_plant, sc.vehicle, x0.tolist())
     _check_mount(sc, plant)
-    follower = _follower(sc, path, family, plant.geometry)
+    estimator = _docking_global(sc, _estimator(sc, world, x0, None))
+    estimate = DockingEstimate(estimator, station_estimator(sc, target))
+    pilot = docking_autopilot(sc, target, plant, estimate)
+    truth = surveyed_truth(world, sc.world_truth.reflector_survey_std_m, sc.seed)
+    sensors = [docking.goniometer_role(sc, target, _goniometer(sc), docking.true_world(sc, truth, target), estimate)]
+    loop = ClosedLoop(_loop_plant(sc, plant, world), sensors, estimate, pilot, sc.step_s, sc.seed)
     dk = sc.docking
-    profile = guard(sc, ("docking", "speed_m_s"), SpeedProfile, cruise_speed=dk.speed_m_s,
-                      max_accel=sc.traction.max_accel_m_s2, max_decel=sc.traction.max_decel_m_s2)
-    estimator = _estimator(sc, world, x0, None)
+    duration = sc.duration_s if sc.duration_s is not None else 2.0 * target.approach / dk.speed_m_s + 60.0
+    return Built(loop, world, path, plant, pilot, estimator, duration, point, 0.0)
+
+
+def _docking_point(sc: Scenario, family: str) -> str:
+    point = _point(sc, family)
+    if point != "O":
+        raise sc.error(("controller", "point"), "docking guides point O (base_link): set controller.point: O")
+    return point
+
+
+def _docking_global(sc: Scenario, estimator: PositioningEstimator) -> StreamingEstimator:
     if not isinstance(estimator, StreamingEstimator):
         raise sc.error(("positioning", "method"), "docking positions globally with the goniometer: give ekf")
+    return estimator
+
+
+def station_estimator(sc: Scenario, target: DockingTarget) -> StationEstimator:
+    """A fresh (idle) station estimator of ``target`` for the scenario's goniometer and odometry (issue 32)."""
     g = sc.goniometer
+    if g is None:
+        raise sc.error(("docking",), "docking recognises its target with the goniometer: mount one")
     mount = (g.mount[0], g.mount[1], math.radians(g.mount[2]))
-    station = StationEstimator(target, mount, g.pulses_per_rev, 1.0 / g.rate_hz,
-                               docking.station_noise(sc, odometry_noise(sc)))
-    estimate = DockingEstimate(estimator, station)
+    return StationEstimator(target, mount, g.pulses_per_rev, 1.0 / g.rate_hz,
+                            docking.station_noise(sc, odometry_noise(sc)))
+
+
+def docking_autopilot(sc: Scenario, target: DockingTarget, plant: VehiclePlant,
+                      estimate: DockingEstimate) -> DockingAutopilot:
+    """The docking autopilot of ``sc.docking`` at ``target`` (issue 32): the straight approach drawn relative to
+    the map's station, the fine positioning of a vehicle that turns on the spot, the tolerances; guided on
+    ``estimate``'s station estimator (give it a fresh one, :func:`station_estimator`, for every docking)."""
+    dk, g = sc.docking, sc.goniometer
+    assert dk is not None and g is not None
+    path = docking.approach_path(target)
+    family = sc.vehicle.family
+    follower = _follower(sc, path, family, plant.geometry)
+    profile = guard(sc, ("docking", "speed_m_s"), SpeedProfile, cruise_speed=dk.speed_m_s,
+                    max_accel=sc.traction.max_accel_m_s2, max_decel=sc.traction.max_decel_m_s2)
     approach = PathAutopilot(follower, path, profile, plant, 0.0, end_tolerance=target.max_offset[0] + 0.05,
                              watch=_watch(sc))
     fine = None
     if family != "steered":
         turn = math.radians(sc.mission.turn_rate_deg_s) if sc.mission is not None else math.radians(30.0)
         fine = guard(sc, ("docking",), fine_positioner, plant, "X", 1.0 / g.rate_hz, sc.traction.max_accel_m_s2,
-                       turn)
+                     turn)
         fine.tolerance = 0.5 * dk.tolerance_mm * 1e-3
         fine.heading_tolerance = 0.5 * math.radians(dk.heading_tolerance_deg)
         fine.speed = 0.5 * fine.tolerance * g.rate_hz
     tol = DockingTolerances(dk.tolerance_mm * 1e-3, math.radians(dk.heading_tolerance_deg))
-    pilot = DockingAutopilot(target, approach, estimate, tol, fine, relative=dk.guide_on == "station")
-    truth = surveyed_truth(world, sc.world_truth.reflector_survey_std_m, sc.seed)
-    sensors = [docking.goniometer_role(sc, target, _goniometer(sc), docking.true_world(sc, truth, target), estimate)]
-    loop = ClosedLoop(_loop_plant(sc, plant, world), sensors, estimate, pilot, sc.step_s, sc.seed)
-    duration = sc.duration_s if sc.duration_s is not None else 2.0 * target.approach / dk.speed_m_s + 60.0
-    return Built(loop, world, path, plant, pilot, estimator, duration, point, 0.0)
+    return DockingAutopilot(target, approach, estimate, tol, fine, relative=dk.guide_on == "station")

@@ -24,6 +24,7 @@ from agvnav.navigation.docking import DockingAutopilot
 from agvnav.odometry import OdometryNoise, wheel_pair_noise
 from agvnav.positioning.station import to_station
 from agvnav.roles import BearingEstimator, Sensor
+from agvnav.routes.network import RouteNetwork
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.sim.reactive import OccludedReflections
 from agvnav.sim.roles import GoniometerSensor
@@ -35,7 +36,8 @@ from agvnav.world.scenario import Scenario
 from agvnav.world.vehicle_specs import SteeredVehicleSpec, WheeledVehicleSpec
 
 __all__ = [
-    "PERSON_SIDE_M", "approach_path", "compose", "docking_figures", "goniometer_role", "station_noise",
+    "PERSON_SIDE_M", "DockingNode", "approach_path", "compose", "docking_figures", "docking_node", "goniometer_role",
+    "station_noise",
     "true_station", "true_world", "turn_radius", "walking_person",
 ]
 
@@ -184,3 +186,48 @@ def docking_figures(sc: Scenario, series: dict[str, NDArray[np.float64]], pilot:
         "docking_reported_finished": float(pilot.phase == "finished"),
     }
 
+
+
+@dataclasses.dataclass(frozen=True)
+class DockingNode:
+    """Where a route network docks at a target: the docking ``node``, the ``approach`` node, the approach ``edge``."""
+
+    node: str
+    approach: str
+    edge: str
+
+
+def docking_node(sc: Scenario, network: RouteNetwork, target: DockingTarget) -> DockingNode:
+    """The docking node of ``target`` in ``network`` (module doc); ScenarioError naming the file, line and key.
+
+    The node named as the target must stand at the docking pose as the map places the station (within the
+    network's ``gap_m``; its ``heading_deg``, if given, within ``heading_deg``), and exactly one straight edge
+    must lead into it from a node at the approach start: the docking drives that edge.
+    """
+    spec = network.spec
+    if target.id not in network.nodes:
+        raise sc.error(("docking", "target"), f"no node {target.id!r} in route network {network.name!r} "
+                       f"({spec.source}): the docking node is the network node named as the target")
+    i = [n.id for n in spec.nodes].index(target.id)
+    tol = spec.tolerances
+    node = network.nodes[target.id]
+    dock = compose(target.station, target.docking_pose)
+    off = math.hypot(node.x - dock[0], node.y - dock[1])
+    if off > tol.gap_m:
+        raise spec.error(("nodes", i), f"docking node {target.id!r} is {off * 1e3:.1f} mm from the docking pose "
+                         f"({dock[0]:.4f}, {dock[1]:.4f}) m of target {target.id!r} as the map places the station "
+                         f"(gap tolerance {tol.gap_m * 1e3:g} mm)")
+    if node.heading is not None and abs(wrap_angle_scalar(node.heading - dock[2])) > math.radians(tol.heading_deg):
+        raise spec.error(("nodes", i, "heading_deg"), f"docking node {target.id!r}: heading "
+                         f"{math.degrees(node.heading):.2f} deg, the docking pose's is {math.degrees(dock[2]):.2f} deg")
+    start = compose(target.station, approach_start(target))
+    into = [e for e in network.edges.values() if e.target == target.id and e.curve.kind == "line"
+            and math.hypot(network.nodes[e.source].x - start[0], network.nodes[e.source].y - start[1]) <= tol.gap_m]
+    if not into:
+        raise spec.error(("nodes", i, "id"), f"no straight edge into docking node {target.id!r} from a node at its "
+                         f"approach start ({start[0]:.4f}, {start[1]:.4f}) m, {target.approach:g} m out: the "
+                         "docking drives that edge")
+    if len(into) > 1:
+        raise spec.error(into[1].key, f"docking node {target.id!r} has two approach edges ({into[0].id!r}, "
+                         f"{into[1].id!r}): ambiguous")
+    return DockingNode(target.id, into[0].source, into[0].id)

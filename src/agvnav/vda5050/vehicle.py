@@ -28,12 +28,31 @@ Orders (VDA 5050 2.1 §6.6, 3.0 §6.1; the acceptance flow of their Figure 8):
 A rejection's error stays in ``state.errors`` until an order is accepted. The vehicle drives the
 released base from node to node: one :class:`~agvnav.navigation.mission.MissionAutopilot` leg
 up to the next node with a SOFT, SINGLE or HARD action or the decision point, where it stops if
-no update extended the base. Actions (§6.12 / 3.0 §6.2.2): a node's actions are queued on
-arrival in order; NONE and SOFT run in parallel, SINGLE and HARD alone; SOFT and HARD forbid
-driving until they end. ``pick``/``drop`` (a load on/off), ``finePositioning`` take
+no update extended the base. An update that extends the base while a leg drives is driven on
+without a stop at the old decision point: once the vehicle is on the leg's last edge, a new leg
+from the last node passed takes over at the speed it has (``_extend_leg``). Actions (§6.12 /
+3.0 §6.2.2): a node's actions are queued on arrival in order; NONE and SOFT run in parallel,
+SINGLE and HARD alone; SOFT and HARD forbid driving until they end. ``pick``/``drop`` (a load
+on/off), ``finePositioning`` take
 :attr:`VehicleConfig.action_s` seconds (a ``duration`` parameter overrides); ``finePositioning``
 then ends FAILED, with the reason, unless the estimate and its ``deviationRange`` put the vehicle
-within the tolerance of its node (``_fine_positioning_failure``). Instant actions:
+within the tolerance of its node (``_fine_positioning_failure``), except at a docking node.
+
+Docking (issue 32; docs/docking.md): a scenario with a ``mission`` and a ``docking`` section has a
+docking node, the network node named as the docking target, at the docking pose as the map places
+the station and reached by one straight approach edge from its approach node
+(:func:`agvnav.sim.docking.docking_node`, located errors). A ``finePositioning`` there runs the
+station-relative docking: the leg ends at the approach node, the action turns RUNNING and the
+docking (:func:`agvnav.sim.build.docking_autopilot`, the autopilot and station estimator of
+``agvnav simulate``; the loop feeds the global and the station estimator) drives the approach
+edge. It ends FINISHED, the docking node reached, only when the docking finished trusted; else
+FAILED with the docking's reason (a reflector not seen, a pattern mismatch, 3 sigma over the
+tolerance, ...), a ``nodeUnreachable`` error, and the vehicle holds on the approach until the
+order is cancelled. A finePositioning at the docking node reached another way is refused
+(``orderError`` / ``INVALID_ORDER_ACTION``). ``agvPosition`` stays the global estimate. A pause
+holds the docking still; its own timers (recognition, settling) run on meanwhile.
+
+Instant actions:
 ``startPause``/``stopPause``, ``cancelOrder`` (waiting and running actions FAILED, the vehicle
 stops, the cancel FINISHED once it stands, and only then the node and edge states cleared, so a
 master sees the order end by the cancel; without an order ``noOrderToCancel`` /
@@ -76,15 +95,18 @@ from pydantic import ValidationError
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.guidance import HeadingHoldApproach
 from agvnav.guidance.follower import PathFollower
+from agvnav.navigation.docking import DockingAutopilot, DockingEstimate
 from agvnav.navigation.guard import EstimatorWatch, GuardLimits, PositioningGuard
 from agvnav.navigation.mission import MissionAutopilot
+from agvnav.positioning.station import to_station
 from agvnav.roles import Estimator, Plant
 from agvnav.routes.mission import Leg, chain_mission
 from agvnav.routes.network import Edge as NetEdge
 from agvnav.routes.network import EdgeCurve, RouteNetwork
 from agvnav.routes.nurbs import Nurbs
 from agvnav.routes.planning import Route, Traversal
-from agvnav.sim.build import build
+from agvnav.sim.build import build, docking_autopilot, station_estimator
+from agvnav.sim.docking import DockingNode, docking_node, true_station
 from agvnav.sim.engine import ClosedLoop
 from agvnav.sim.mission import load_mission_network, mission_autopilot
 from agvnav.vda5050.messages import (
@@ -227,18 +249,33 @@ class _Pilot:
     def __init__(self, family: str) -> None:
         self.family = family
         self.leg: MissionAutopilot | None = None
+        self.dock: DockingAutopilot | None = None
+        """the docking driving the approach edge into the docking node (finePositioning), or None."""
         self.hold = False
         self.finished = False
         self.v = 0.0
 
     def command(self, t: float, estimator: Estimator, plant: Plant, dt: float) -> tuple[float, ...]:
-        """The leg's command, or the family's standstill."""
+        """The docking's or the leg's command, or the family's standstill."""
+        if self.dock is not None and not self.hold and not self.dock.finished:
+            cmd = self.dock.command(t, estimator, plant, dt)
+            self.v = float(cmd[0])
+            if self.v == 0.0 and self.family != "steered" and any(c != 0.0 for c in cmd[1:]):
+                self.v = 1e-5  # turning on the spot (fine positioning): driving, at no speed along x
+            return cmd
         if self.leg is None or self.hold or self.leg.finished:
             self.v = 0.0
             return (0.0, 0.0, 0.0) if self.family == "holonomic" else (0.0, 0.0)
         cmd = self.leg.command(t, estimator, plant, dt)
         self.v = float(self.leg.pilot.signals()[0])
         return cmd
+
+    def reset_profile(self) -> None:
+        """Restart the speed profile from standstill (after a pause or a lost link)."""
+        if self.leg is not None:
+            self.leg.profile.reset(0.0)
+        if self.dock is not None:
+            self.dock.approach.profile.reset(0.0)
 
     def signals(self) -> tuple[float, ...]:
         """``v_cmd`` (m/s), ``driving`` (0/1)."""
@@ -269,10 +306,20 @@ class VdaVehicle:
             GuardLimits(s.lateral_3sigma_slow_m, s.lateral_3sigma_stop_m, s.slow_speed_fraction, s.resume_after_s),
             enabled=s.enabled and sc.goniometer is not None))
         self.estimator = built.estimator
+        self._docking: DockingEstimate | None = built.docking
+        self.dock_node: DockingNode | None = None
+        """the network's docking node of the scenario's docking target (None: no docking section)."""
+        if built.docking is not None:
+            if sc.docking is not None and sc.docking.guide_on != "station":
+                raise sc.error(("docking", "guide_on"), "a VDA 5050 vehicle docks relative to the station "
+                               "(guide_on: station): a stop on the map's station is never judged")
+            self.dock_node = docking_node(sc, self.network, built.docking.station.target)
+        self._dock_failed: str | None = None
         # a leg ends on arriving at its node: no fine positioning at standstill (that is the finePositioning action)
         self._leg_sc = sc.model_copy(update={"mission": sc.mission.model_copy(update={"align_heading": False})})
         self.pilot = _Pilot(str(built.plant.family))
-        self.loop = ClosedLoop(built.loop.plant, built.loop.sensors, built.estimator, self.pilot, sc.step_s, sc.seed,
+        fed = built.docking if built.docking is not None else built.estimator  # a docking feeds both estimators
+        self.loop = ClosedLoop(built.loop.plant, built.loop.sensors, fed, self.pilot, sc.step_s, sc.seed,
                                record_every=1_000_000)
         self.loop.start(1e9)
         self.truth_plant = built.loop.plant
@@ -357,8 +404,7 @@ class VdaVehicle:
             "brokerConnectionLost", "INFO", (("lostAt", wall_time(self.cfg.epoch, lost).isoformat()),),
             f"broker connection lost for {self.t - lost:.1f} s; "
             f"the vehicle held still meanwhile ({moved:.2f} m while stopping) and resumed its order on reconnection")
-        if self.pilot.leg is not None:
-            self.pilot.leg.profile.reset(0.0)
+        self.pilot.reset_profile()
         self._state_due = True
 
     # ------------------------------------------------------------------------------ inputs
@@ -484,6 +530,8 @@ class VdaVehicle:
                 if a.action_type not in ORDER_ACTIONS:
                     raise _Rejected("order", (*oid, ("actionId", a.action_id), ("actionType", a.action_type)),
                                     f"unsupported action {a.action_type!r}")
+                if a.action_type == "finePositioning" and i >= start:
+                    self._check_docking(o, i, a, oid)
             if i > 0:
                 e = o.edges[i - 1]
                 for a in e.actions:
@@ -496,6 +544,16 @@ class VdaVehicle:
             if i >= start:
                 out.append(_Item(n, n.node_id, n.sequence_id, n.released))
         return out
+
+    def _check_docking(self, o: Order, i: int, a: Action, oid: tuple[tuple[str, str], ...]) -> None:
+        """A finePositioning at the docking node must be reached over the approach edge (it docks on that edge)."""
+        dn = self.dock_node
+        if dn is None or o.nodes[i].node_id != dn.node:
+            return
+        if i == 0 or o.nodes[i - 1].node_id != dn.approach or o.edges[i - 1].trajectory is not None:
+            raise _Rejected("order", (*oid, ("nodeId", dn.node), ("actionId", a.action_id)),
+                            f"finePositioning at docking node {dn.node!r} docks over the approach edge {dn.edge!r}: "
+                            f"the order must reach {dn.node!r} from {dn.approach!r}")
 
     def _traversal(self, a: str, b: str, from_order: OrderEdge, oid: tuple[tuple[str, str], ...]) -> Traversal:
         edge_id = from_order.edge_id
@@ -543,6 +601,8 @@ class VdaVehicle:
 
     def _replace(self, o: Order, items: list[_Item]) -> None:
         self.actions = [r for r in self.actions if r.status not in DONE]  # none: the vehicle was idle
+        self._dock_failed = None
+        self.errors.pop("dock", None)
         self.items = items
         self.loads = self.loads
         for it in items:
@@ -574,35 +634,135 @@ class VdaVehicle:
         self.items = self.items[i:]
         self._state_due = True
 
-    def _start_leg(self) -> None:
-        """Drive the released edges ahead up to the next node with blocking actions or the decision point."""
+    def _leg_route(self) -> tuple[list[Traversal], list[tuple[str, int]]]:
+        """The released edges ahead and their nodes, up to the next node with blocking actions, the decision point
+        or the approach edge of a docking (its approach node ends the leg)."""
         travs: list[Traversal] = []
         nodes: list[tuple[str, int]] = []
         for it in self.items[1:]:
             if not it.released:
                 break
             if it.traversal is not None:
+                if self._docks_over(it):  # the leg ends at the approach node; the docking drives this edge
+                    break
                 travs.append(it.traversal)
                 continue
             assert it.node is not None
             nodes.append((it.node.node_id, it.seq))
             if any(a.blocking_type != "NONE" for a in it.node.actions):
                 break
+        return travs[:len(nodes)], nodes
+
+    def _start_leg(self) -> None:
+        """Drive the released edges ahead up to the next node with blocking actions or the decision point."""
+        travs, nodes = self._leg_route()
         if not travs:
+            if len(self.items) > 1 and self.items[1].released and self._docks_over(self.items[1]):
+                self._start_docking(self.items[2])
             return
+        self._drive(travs, nodes, 0.0)
+
+    def _drive(self, travs: list[Traversal], nodes: list[tuple[str, int]], v0: float) -> None:
+        """One leg from the last node passed over ``travs`` to ``nodes``, its speed profile starting at ``v0`` (m/s)."""
         net = self.network
         start = net.nodes[self.last_node]
         route = Route(tuple(travs), (self.last_node, *(n for n, _ in nodes)), 0.0)
         leg = Leg(0, "goto", nodes[-1][0], route, 0.0)
         try:
             plan = chain_mission([leg], np.array([start.x, start.y]), math.radians(net.spec.tolerances.heading_deg))
-            self.pilot.leg = mission_autopilot(self._leg_sc, plan, self._follower, self._plant, self._offset,
-                                               self._watch)
+            pilot = mission_autopilot(self._leg_sc, plan, self._follower, self._plant, self._offset, self._watch)
         except ValueError as exc:
             self._fail_drive(nodes[0][0], str(exc))
             return
+        if v0 != 0.0:
+            pilot.profile.reset(v0)
+        self.pilot.leg = pilot
         self.leg_nodes, self.leg_passed = nodes, 0
         self._state_due = True
+
+    def _extend_leg(self) -> None:
+        """An update released more of the route while a leg drives to the old decision point: once on the leg's
+        last edge, drive on (a new leg from the last node passed over the released edges ahead, at the speed the
+        vehicle has; its progress catches up within a step per metre) instead of stopping at the old end.
+
+        Not while the leg holds (paused, blocked, not localized), nor with point switching (a steered vehicle's
+        stints hand over between points C and O on the move).
+        """
+        leg = self.pilot.leg
+        if (leg is None or leg.finished or self.pilot.hold or self.leg_passed != len(self.leg_nodes) - 1
+                or (self.sc.mission is not None and self.sc.mission.point_switching)):
+            return
+        travs, nodes = self._leg_route()
+        if len(nodes) <= 1 or nodes[0] != self.leg_nodes[-1]:
+            return
+        self._drive(travs, nodes, float(leg.profile.v))
+
+    def _fine_runs(self, seq: int) -> list[_ActionRun]:
+        return [r for r in self.actions if r.node_seq == seq and r.action.action_type == "finePositioning"]
+
+    def _docks_over(self, edge: _Item) -> bool:
+        """True when ``edge`` is the approach edge into the docking node and a finePositioning waits there."""
+        dn = self.dock_node
+        if dn is None or edge.traversal is None or edge.traversal.edge.id != dn.edge:
+            return False
+        i = self.items.index(edge)
+        node = self.items[i + 1] if i + 1 < len(self.items) else None
+        return (node is not None and node.released and node.node is not None and node.node.node_id == dn.node
+                and any(r.status == "WAITING" for r in self._fine_runs(node.seq)))
+
+    def _start_docking(self, node: _Item) -> None:
+        """Standing at the approach node: the docking (a fresh station estimator) drives the approach edge; the
+        node's finePositioning RUNS meanwhile (module doc)."""
+        est = self._docking
+        assert est is not None and node.node is not None
+        est.station = station_estimator(self.sc, est.station.target)
+        self.pilot.dock = docking_autopilot(self.sc, est.station.target, self._plant, est)
+        for r in self._fine_runs(node.seq):
+            if r.status == "WAITING":
+                r.status, r.ends = "RUNNING", math.inf
+        self.leg_nodes, self.leg_passed = [(node.node.node_id, node.seq)], 0
+        self._state_due = True
+
+    def _end_docking(self, dock: DockingAutopilot) -> None:
+        """The docking judged: FINISHED and the docking node reached only when it finished trusted; else the
+        finePositioning FAILED with the docking's reason and the vehicle holds on the approach (module doc)."""
+        self.pilot.dock = None
+        node_id, seq = self.leg_nodes[0]
+        runs = [r for r in self._fine_runs(seq) if r.status == "RUNNING"]
+        if dock.phase == "finished" and dock.failure is None:
+            pos, head, sig, _ = dock.errors()
+            off = math.hypot(float(dock.offset[0]), float(dock.offset[1]))
+            for r in runs:
+                r.status = "FINISHED"
+                r.result = (f"docked at {node_id!r} relative to its target: estimated error {pos * 1e3:.2f} mm, "
+                            f"{math.degrees(head):.3f} deg, 3 sigma {sig * 1e3:.2f} mm; station measured "
+                            f"{off * 1e3:.1f} mm off the map")
+            self.leg_passed = 1
+            self._traverse(next(it for it in self.items if it.node is not None and it.seq == seq))
+        else:
+            reason = dock.failure or "docking ended unjudged"
+            for r in runs:
+                r.status, r.result = "FAILED", reason
+            self._dock_failed = reason
+            self._error("drive", (("nodeId", node_id),), f"docking at {node_id!r} failed, the vehicle holds on the "
+                        f"approach (cancel the order): {reason}", slot="dock")
+        self._idle_station()
+        self._state_due = True
+
+    def _idle_station(self) -> None:
+        """A fresh, idle station estimator once a docking is over (it served that docking only)."""
+        if self._docking is not None:
+            self._docking.station = station_estimator(self.sc, self._docking.station.target)
+
+    def docking_true_error(self) -> tuple[float, float] | None:
+        """The true error (m, rad) of base_link against the docking pose on the true station, or None without a
+        docking node (the simulator's instrument: the scenario's ``docking.truth``)."""
+        if self._docking is None:
+            return None
+        target = self._docking.station.target
+        rel = to_station(true_station(self.sc, target), np.asarray(self.truth_plant.pose, dtype=np.float64)[:3])
+        d = target.docking_pose
+        return float(math.hypot(rel[0] - d[0], rel[1] - d[1])), abs(wrap_angle_scalar(float(rel[2] - d[2])))
 
     def _fail_drive(self, node_id: str, text: str) -> None:
         self._error("drive", (("nodeId", node_id),), text, level="FATAL", slot="drive")
@@ -610,6 +770,10 @@ class VdaVehicle:
         self.failure = text
 
     def _progress(self) -> None:
+        if self.pilot.dock is not None:
+            if self.pilot.dock.finished:
+                self._end_docking(self.pilot.dock)
+            return
         leg = self.pilot.leg
         if leg is None:
             return
@@ -681,8 +845,8 @@ class VdaVehicle:
 
         Judged on the global estimate: not localized, or the estimated distance to the node's
         network position plus the stated ``deviationRange`` beyond the tolerance
-        (:attr:`VehicleConfig.fine_tolerance_m` or the node's ``allowedDeviationXY``). Docking
-        relative to a station's own target (``agvnav.navigation.docking``) is not run here.
+        (:attr:`VehicleConfig.fine_tolerance_m` or the node's ``allowedDeviationXY``). At the docking
+        node the docking judges instead (:meth:`_end_docking`).
         """
         item = next((it for it in self.items if it.seq == r.node_seq and it.node is not None), None)
         bound = self.deviation_range()
@@ -735,8 +899,7 @@ class VdaVehicle:
             r.status = "FINISHED"
         elif kind == "stopPause":
             self.paused = False
-            if self.pilot.leg is not None:
-                self.pilot.leg.profile.reset(0.0)
+            self.pilot.reset_profile()
             r.status = "FINISHED"
         elif kind == "cancelOrder":
             self._cancel(r)
@@ -757,7 +920,9 @@ class VdaVehicle:
         for a in self.actions:
             if a.status not in DONE:
                 a.status, a.result = "FAILED", "cancelled"
-        self.pilot.leg = None  # no new leg while cancelling (_decide)
+        if self.pilot.dock is not None:
+            self._idle_station()
+        self.pilot.leg = self.pilot.dock = None  # no new leg while cancelling (_decide)
         self.cancelled = True
         self.cancel_run = r  # FINISHED once the vehicle stands; the node and edge states are cleared then
 
@@ -842,8 +1007,10 @@ class VdaVehicle:
     def _decide(self) -> None:
         """Hold while paused, blocked or not localized; start the next leg when there is one to drive."""
         self.pilot.hold = self.paused or self._blocking() or not self._localized or self.link_lost_at is not None
-        if (self.pilot.leg is None and not self.pilot.hold and self.failure is None and self.cancel_run is None
-                and len(self.items) > 1):
+        if self.cancel_run is None and self.failure is None:
+            self._extend_leg()
+        if (self.pilot.leg is None and self.pilot.dock is None and not self.pilot.hold and self.failure is None
+                and self.cancel_run is None and self._dock_failed is None and len(self.items) > 1):
             self._start_leg()
 
     def run_until(self, t: float, on_step: Callable[[], None] | None = None) -> None:

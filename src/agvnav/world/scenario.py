@@ -533,6 +533,9 @@ class DockingSpec(StrictModel):
 
     The vehicle starts at the approach start of the map's target (``approach_m`` before the
     docking pose, as the map places the station) and docks relative to the target it sees.
+    Beside a ``mission`` the vehicle starts at the mission's start and drives its network; the
+    network node named as the target is the docking node, where a VDA 5050 ``finePositioning``
+    runs this docking (``agvnav.vda5050.vehicle``).
     """
 
     target: str
@@ -584,7 +587,8 @@ class Scenario(SourcedModel):
     mission: MissionSpec | None = None
     """a mission on a route network, instead of a path (issue 14)."""
     docking: DockingSpec | None = None
-    """dock at a station relative to its target reflectors, instead of a path (issue 32)."""
+    """dock at a station relative to its target reflectors, instead of a path (issue 32); beside a mission, the
+    docking at the target's node (VDA 5050 finePositioning)."""
     start: StartSpec = StartSpec()
     """initial placement relative to the path start."""
     controller: ControllerSpec = ControllerSpec()
@@ -628,8 +632,9 @@ class Scenario(SourcedModel):
         given = [k for k in ("path", "route", "mission", "docking") if getattr(self, k) is not None]
         if not given:
             raise ValueError("give a path (or a mission, a docking, or for the seed-004 automaton a route)")
-        if self.docking is not None and len(given) > 1:
-            raise ValueError("a docking replaces the path: give one of path, mission, route, docking")
+        if self.docking is not None and (self.path is not None or self.route is not None):
+            raise ValueError("a docking replaces the path: give one of path, route, docking (a docking may go with "
+                             "a mission: the VDA 5050 vehicle docks at the target's node)")
         if self.mission is not None and (self.path is not None or self.route is not None):
             raise ValueError("a mission replaces the path: give one of path, mission, route")
         if self.route is not None and self.vehicle.model != "tracked":
