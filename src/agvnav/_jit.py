@@ -30,10 +30,12 @@ numba's on-disk cache keys a kernel on its own source file only: a kernel that c
 another file (``wrap_angle_kernel`` of ``geometry.angles`` from ``sensors.beam``,
 ``positioning._fast``'s bearing and noise kernels from ``positioning._integrity_fast``) or reads
 another module's constant would keep stale machine code after an edit of the callee alone. So
-agvnav keeps its machine code in a cache folder of its own whose name is a key over every source
-file of the package (path, size, modification time; :func:`cache_dir`): an edit anywhere starts a
-fresh cache, and the previous caches are pruned (the newest :data:`KEEP_CACHES` stay). A user's own
-``NUMBA_CACHE_DIR`` wins.
+agvnav keeps its machine code in a cache folder of its own whose name is a key over the kernel
+sources (:func:`cache_dir`): every module that defines a kernel and every agvnav module those
+import, transitively (path, size, modification time; :func:`kernel_sources`). An edit of any of
+them starts a fresh cache; an edit elsewhere (the simulator, the CLI, a bench) keeps the machine
+code. The previous caches are pruned (the newest :data:`KEEP_CACHES` stay, one per checkout or
+state of the kernels). A user's own ``NUMBA_CACHE_DIR`` wins.
 
 The mode is ``AGVNAV_JIT=0`` / ``1`` from the environment when set, else compiled unless
 a caller said otherwise (:func:`set_compiled`). It is resolved once, at the first call of
@@ -48,12 +50,23 @@ import functools
 import hashlib
 import math
 import os
+import re
 import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar, cast
 
-__all__ = ["Kernel", "cache_dir", "compiled", "jit", "kernels", "mode", "set_compiled", "set_compiled_for_run"]
+__all__ = [
+    "Kernel",
+    "cache_dir",
+    "compiled",
+    "jit",
+    "kernel_sources",
+    "kernels",
+    "mode",
+    "set_compiled",
+    "set_compiled_for_run",
+]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -187,26 +200,64 @@ class Kernel:
         return f"Kernel({self.py_func.__module__}.{self.py_func.__qualname__})"
 
 
-#: How many of agvnav's kernel caches (one per state of the source) stay on disk.
-KEEP_CACHES = 3
+#: How many of agvnav's kernel caches (one per state of the kernel sources) stay on disk.
+KEEP_CACHES = 6
+
+#: A module defines kernels when its text holds one of these: it imports this module or calls numba's ``njit``.
+_KERNEL_MARKS = ("from agvnav._jit import", "from agvnav import _jit", "njit(")
+#: The agvnav modules a module imports (absolute imports: the package uses no relative ones).
+_IMPORTS = re.compile(r"^[ \t]*(?:from (agvnav(?:\.\w+)*) import (\([^)]*\)|[\w, ]+)|import (agvnav(?:\.\w+)*))", re.M)
+
+
+def _module_files(root: Path) -> dict[str, Path]:
+    """Every module of the package under ``root``: dotted name -> file (a package's ``__init__.py``)."""
+    out: dict[str, Path] = {}
+    for path in root.rglob("*.py"):
+        if "__pycache__" in path.parts:
+            continue
+        parts = path.relative_to(root.parent).with_suffix("").parts
+        out[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return out
+
+
+def kernel_sources(root: Path) -> list[Path]:
+    """The files a kernel's machine code can depend on: the kernel modules and their agvnav imports, transitively.
+
+    A name imported ``from agvnav.pkg import name`` counts as the module ``agvnav.pkg.name``
+    when that is a module, and as ``agvnav.pkg`` (its ``__init__``, which re-exports it) otherwise.
+    Sorted, for a stable key.
+    """
+    files = _module_files(root)
+    texts = {m: f.read_text(encoding="utf-8") for m, f in files.items()}
+    todo = [m for m, text in texts.items() if any(k in text for k in _KERNEL_MARKS)]
+    seen: set[str] = set()
+    while todo:
+        m = todo.pop()
+        if m in seen or m not in texts:
+            continue
+        seen.add(m)
+        for frm, names, plain in _IMPORTS.findall(texts[m]):
+            if plain:
+                todo.append(plain)
+                continue
+            for name in re.findall(r"\w+", names):
+                todo.append(f"{frm}.{name}" if f"{frm}.{name}" in texts else frm)
+    return sorted(files[m] for m in seen)
 
 
 def _source_key(root: Path) -> str:
-    """A key over every ``.py`` file under ``root``: relative path, size and modification time (ns)."""
+    """A key over the kernel sources under ``root`` (:func:`kernel_sources`): relative path, size, mtime (ns)."""
     h = hashlib.blake2b(digest_size=8)
-    for folder, dirs, files in os.walk(root):
-        dirs[:] = sorted(d for d in dirs if d != "__pycache__")
-        for name in sorted(f for f in files if f.endswith(".py")):
-            st = os.stat(os.path.join(folder, name))
-            rel = os.path.relpath(os.path.join(folder, name), root)
-            h.update(f"{rel}:{st.st_size}:{st.st_mtime_ns}\n".encode())
+    for path in kernel_sources(root):
+        st = path.stat()
+        h.update(f"{path.relative_to(root)}:{st.st_size}:{st.st_mtime_ns}\n".encode())
     return h.hexdigest()
 
 
 def cache_dir() -> Path:
     """The folder numba keeps agvnav's machine code in: ``$XDG_CACHE_HOME/agvnav/numba/<source key>``.
 
-    The key changes with any edit of the package's source (:func:`_source_key`), so a kernel never
+    The key changes with any edit of a kernel source (:func:`kernel_sources`), so a kernel never
     runs machine code compiled against another file's old kernels or constants.
     """
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "agvnav" / "numba"
