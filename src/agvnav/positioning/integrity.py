@@ -45,6 +45,8 @@ from agvnav.positioning.integrity_nis import (
 )
 from agvnav.positioning.integrity_offset import OffsetCheck, common_offset
 from agvnav.positioning.integrity_raim import (
+    Attributed,
+    Attributions,
     FdeResult,
     RaimEpisode,
     _chi2_3dof_isf,  # noqa: F401 - re-exported (tests)
@@ -53,7 +55,7 @@ from agvnav.positioning.integrity_raim import (
     window_raim,
 )
 from agvnav.positioning.integrity_sight import HeadClock, reflectors_in_sight
-from agvnav.positioning.integrity_support import MonitorMap, explained_fraction, support_failures, survey_information
+from agvnav.positioning.integrity_support import MonitorMap, support_failures, survey_information
 from agvnav.positioning.integrity_verdict import failed_at, inflates, score, verdict_of
 from agvnav.positioning.integrity_window import (  # noqa: F401 - _WIDTH re-exported
     _WIDTH,
@@ -146,8 +148,7 @@ class IntegrityMonitor:
         self.walls = None if walls is None else np.asarray(walls, dtype=np.float64).reshape(-1, 2, 2)
         self._entries = _Window()
         self._rejects: deque[float] = deque()
-        #: gated-out reflections attributed to one reflector: (t, map row, y, S, H0, H1, H2) (:meth:`attributed`)
-        self._attributed: deque[tuple[float, int, float, float, float, float, float]] = deque()
+        self._attribution = Attributions()  # gated-out reflections attributed to one reflector (:meth:`attributed`)
         #: the map for the kernels (:mod:`agvnav.positioning._integrity_fast`): x, y, radius, map_std (m), as
         #: contiguous arrays; copies, so the map and mount are read-only properties (:attr:`xy` and co)
         self._tables = tuple(np.array(a, dtype=np.float64)  # contiguous, writeable copies (numba's array type)
@@ -218,8 +219,8 @@ class IntegrityMonitor:
         j = int(index)
         row = window_row(t, nis, j, bearing, odom, self._clock.on_time(t, bearing), correction, innovation)
         self._entries.push(row, t, self.limits.window_s)  # stored as doubles
-        if self._attributed:
-            self._void_attributions(t, j)
+        if self._attribution.rows:
+            self._attribution.void(t, j, _SWEEP * self.revolution_s)
         self._nis.add(j, nis)
 
     def attribution_gate(self) -> float:
@@ -247,16 +248,12 @@ class IntegrityMonitor:
         """
         if not self.limits.attribute:
             return
-        y, s, h0, h1, h2 = (float(v) for v in innovation)
-        self._attributed.append((float(t), int(index), y, s, h0, h1, h2))
-        while self._attributed and t - self._attributed[0][0] > self.limits.window_s:
-            self._attributed.popleft()
+        self._attribution.add(t, index, innovation, self.limits.window_s)
 
-    def _void_attributions(self, t: float, j: int) -> None:
-        """Forget the attributions to reflector ``j`` within the sweep (0.75 revolution) before ``t`` (s)."""
-        sweep = _SWEEP * self.revolution_s
-        if any(a[1] == j and t - a[0] < sweep for a in self._attributed):
-            self._attributed = deque(a for a in self._attributed if not (a[1] == j and t - a[0] < sweep))
+    @property
+    def _attributed(self) -> deque[Attributed]:
+        """The attributed reflections, rows ``(t, map row, y, S, H0, H1, H2)`` (:class:`Attributions`)."""
+        return self._attribution.rows
 
     @property
     def used(self) -> tuple[int, ...]:
@@ -341,11 +338,6 @@ class IntegrityMonitor:
     def _information(self, head: tuple[float, float, float], sightings: np.ndarray) -> tuple[float, np.ndarray]:
         """PDOP² and survey floor (:func:`~agvnav.positioning.integrity_support.survey_information`)."""
         return survey_information(head, sightings, self._tables, self._mount_t)
-
-    def _explained(self, head: tuple[float, float, float], n_used: int) -> float:
-        """Reflectors used over those in sight (:func:`~agvnav.positioning.integrity_support.explained_fraction`)."""
-        return explained_fraction(self._map, head, n_used, self.limits.min_explained_fraction, self.excluded,
-                                  self._excluded_flags())
 
     def _in_range(self, hx: float, hy: float) -> int:
         """How many reflectors (not excluded) are within ``max_range`` (m) of ``(hx, hy)`` (m), compiled."""

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections import deque
 from collections.abc import Collection
 from dataclasses import dataclass
 
@@ -47,7 +48,7 @@ from numpy.typing import ArrayLike
 from agvnav.positioning._chi2_table import FALSE_ALARM, QUANTILES_1E5
 from agvnav.positioning._integrity_fast import _fde_statistics, mean_innovations, window_fde
 
-__all__ = ["FdeResult", "RaimEpisode", "chi2_threshold", "leave_one_out_fde", "window_raim"]
+__all__ = ["Attributions", "FdeResult", "RaimEpisode", "chi2_threshold", "leave_one_out_fde", "window_raim"]
 
 
 @dataclass(frozen=True)
@@ -259,3 +260,33 @@ class RaimEpisode:
             tally.clear()
             return ["raim"], j
         return ["raim"], None
+
+
+#: One attributed reflection: ``(t, map row, y, S, H0, H1, H2)`` (s, -, rad, rad², the bearing Jacobian row).
+Attributed = tuple[float, int, float, float, float, float, float]
+
+
+class Attributions:
+    """The gated-out reflections attributed to one reflector, oldest first (:attr:`rows`), for the RAIM only.
+
+    A reflection the identification gate rejected that exactly one reflector, not yet seen in
+    the sweep, explains within the attribution gate (module docstring): one more sighting of
+    that reflector for :func:`window_raim` and the common offset, never support of the estimate.
+    """
+
+    def __init__(self) -> None:
+        self.rows: deque[Attributed] = deque()
+
+    def add(self, t: float, index: int, innovation: tuple[float, float, float, float, float], window_s: float) -> None:
+        """One attribution at ``t`` (s) to map row ``index`` with its ``(y, S, H0, H1, H2)``; those older than
+        ``window_s`` (s) are dropped."""
+        y, s, h0, h1, h2 = (float(v) for v in innovation)
+        self.rows.append((float(t), int(index), y, s, h0, h1, h2))
+        while self.rows and t - self.rows[0][0] > window_s:
+            self.rows.popleft()
+
+    def void(self, t: float, j: int, sweep_s: float) -> None:
+        """Forget the attributions to map row ``j`` within ``sweep_s`` (s) before ``t`` (s): an acceptance of
+        the same reflector in the sweep makes them spurious reflections next to a sound reflector."""
+        if any(a[1] == j and t - a[0] < sweep_s for a in self.rows):
+            self.rows = deque(a for a in self.rows if not (a[1] == j and t - a[0] < sweep_s))
