@@ -447,6 +447,20 @@ def test_a_forced_mode_wins_over_the_environment(monkeypatch: pytest.MonkeyPatch
     assert _jit.compiled()  # a later call without force gives the environment back its say
 
 
+def test_by_mode_runs_the_implementation_of_the_mode_in_force(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``by_mode`` looks the mode up at each call: the caller never asks which mode runs."""
+    monkeypatch.delenv("AGVNAV_JIT", raising=False)
+    before = _jit.compiled()
+    run = _jit.by_mode(lambda x, k=1: ("compiled", x, k), lambda x, k=1: ("interpreted", x, k))
+    try:
+        _jit.set_compiled(True)
+        assert run(2, k=3) == ("compiled", 2, 3)
+        _jit.set_compiled(False)
+        assert run(2) == ("interpreted", 2, 1)
+    finally:
+        _jit.set_compiled(before)
+
+
 def test_set_compiled_for_run_picks_by_work() -> None:
     assert not _jit.set_compiled_for_run(26.0, 9)  # the default scenario: numba's start-up costs more
     assert _jit.set_compiled_for_run(406.0, 102)  # warehouse_mission: compiled pays

@@ -54,10 +54,11 @@ import re
 import shutil
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TypeVar, cast
+from typing import Any, ParamSpec, TypeVar, cast
 
 __all__ = [
     "Kernel",
+    "by_mode",
     "cache_dir",
     "compiled",
     "jit",
@@ -69,6 +70,8 @@ __all__ = [
 ]
 
 F = TypeVar("F", bound=Callable[..., Any])
+P = ParamSpec("P")
+R = TypeVar("R")
 
 _ENV = "AGVNAV_JIT"
 _KERNELS: list[Kernel] = []
@@ -104,6 +107,20 @@ def compiled() -> bool:
     Resolved at the first call and at each :func:`set_compiled` (``AGVNAV_JIT`` is read then).
     """
     return _mode[0] if _mode else _resolve()
+
+
+def by_mode(when_compiled: Callable[P, R], when_interpreted: Callable[P, R]) -> Callable[P, R]:
+    """One function that runs ``when_compiled`` while the process runs compiled, else ``when_interpreted``.
+
+    For an algorithm with two implementations, each the faster in its mode (the route planner's
+    A* kernel compiled, SciPy's Dijkstra interpreted): the caller calls one function and never
+    asks which mode runs (issue 27). The mode is looked up at each call (:func:`compiled`).
+    """
+
+    def run(*args: P.args, **kwargs: P.kwargs) -> R:
+        return (when_compiled if compiled() else when_interpreted)(*args, **kwargs)
+
+    return run
 
 
 def mode() -> str:

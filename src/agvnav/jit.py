@@ -4,7 +4,9 @@ A process runs every kernel compiled (numba) or as plain Python, the numbers agr
 rounding (a seeded run is bit-identical to itself within one mode); :func:`set_compiled_for_run`
 picks the cheaper mode for one run, ``AGVNAV_JIT=0/1`` in the environment overrides it and
 ``set_compiled(on, force=True)`` (``agvnav simulate --jit on|off``) overrides both. :func:`mode`
-names the mode in force for a run's metadata. Importing this module does not import numba.
+names the mode in force for a run's metadata; :func:`by_mode` runs the implementation of an
+algorithm that suits the mode, so no caller outside the kernels asks which one runs. Importing
+this module does not import numba.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from agvnav._jit import (
     COMPILED_STARTUP_S,
     INTERPRETED_S_PER_REFLECTOR_S,
     Kernel,
+    by_mode,
     compiled,
     jit,
     kernels,
@@ -22,6 +25,6 @@ from agvnav._jit import (
 )
 
 __all__ = [
-    "COMPILED_STARTUP_S", "INTERPRETED_S_PER_REFLECTOR_S", "Kernel", "compiled", "jit", "kernels", "mode",
-    "set_compiled", "set_compiled_for_run",
+    "COMPILED_STARTUP_S", "INTERPRETED_S_PER_REFLECTOR_S", "Kernel", "by_mode", "compiled", "jit", "kernels",
+    "mode", "set_compiled", "set_compiled_for_run",
 ]

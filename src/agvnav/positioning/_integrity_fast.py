@@ -4,7 +4,7 @@
 a Python loop per sighting for one triangulation cross-check per revolution: 40 % of a
 closed-loop step. These kernels (:func:`agvnav._jit.jit`: compiled by numba, or run as the
 same plain Python with ``AGVNAV_JIT=0``) compute the same equations on the monitor's float
-window (:meth:`~agvnav.positioning.integrity._Window.buffer`). They use plain ``math``
+window (:meth:`~agvnav.positioning.integrity_window._Window.buffer`). They use plain ``math``
 (``math.hypot``, ``x * x``, ``round``): the two modes agree to rounding (about 1e-12
 relative, ``tests/test_jit.py``), not bit for bit, and a decision taken on a value within
 rounding of its threshold may go either way in the two modes (issue 27: determinism is
@@ -54,7 +54,7 @@ _CRIT2 = (2.0 * CRITICAL_TOL) * (2.0 * CRITICAL_TOL)  # total's critical-circle 
 
 @jit
 def _head(x: float, y: float, psi: float, mx: float, my: float, mpsi: float) -> tuple[float, float, float]:
-    """Head pose in ``map`` from the base_link pose and the mount (``integrity._head``)."""
+    """Head pose in ``map`` from the base_link pose and the mount (``integrity_support``)."""
     c, s = math.cos(psi), math.sin(psi)
     return x + c * mx - s * my, y + s * mx + c * my, psi + mpsi
 
@@ -265,7 +265,7 @@ def crosscheck_fix(
     buf: Any, start: int, newest: Any, pose: Any, odom: Any, mount: Any, rx: Any, ry: Any, radius: Any,
     map_std: Any, noise: Any, bearing_var: float, max_var: float,
 ) -> tuple[int, float, float, float, float, float, int, int, int, float, float, float, float, float, float]:
-    """The cross-check's propagated bearings, best triple and ToTal fix (``IntegrityMonitor._crosscheck``).
+    """The cross-check's propagated bearings, best triple and ToTal fix (``crosscheck_distance``).
 
     Seed 000 §2.2: a triangulation needs the three angles at one configuration of the robot,
     so each bearing, measured at its own pose, is brought to now through the odometry between
@@ -279,7 +279,7 @@ def crosscheck_fix(
     the fix :func:`total_fix`'s (ToTal, Pierlot & Van Droogenbroeck 2014: not a seed document)
     with :func:`fix_covariance` and :func:`nonlinear_fix`.
 
-    ``buf``, ``start``: the window (:meth:`~agvnav.positioning.integrity._Window.buffer`); ``newest (N,)``
+    ``buf``, ``start``: the window (:meth:`~agvnav.positioning.integrity_window._Window.buffer`); ``newest (N,)``
     each map row's newest sighting within a revolution (window position, -1: none; the tally's);
     ``pose``, ``odom`` (3,) the estimate and the odometric pose now (m, m, rad); ``mount`` (3,);
     the map ``rx, ry, radius, map_std (N,)`` (m); ``noise`` (3,) the odometry coefficients
@@ -485,7 +485,7 @@ def information(
 ) -> tuple[float, bool, float, float, float, float, float, float]:
     """PDOP² (m²/rad², inf if unobservable) of the sighted reflectors from the head, and the survey floor.
 
-    ``IntegrityMonitor._information`` for the map rows with ``sightings (N,)`` non-zero, in
+    ``integrity_support.survey_information`` for the map rows with ``sightings (N,)`` non-zero, in
     ascending order: their bearing information (:func:`_information_sums`), inverted
     (:func:`_inverse3`); the survey-error information's inverse, carried from the head
     ``(hx, hy, hpsi)`` (m, m, rad) to base_link through ``base = head - R(psi) mount``.
@@ -525,7 +525,7 @@ def information(
 def in_range(hx: float, hy: float, rx: Any, ry: Any, max_range: float, excluded: Any) -> int:
     """How many reflectors (not flagged in ``excluded (N,)``) lie within ``max_range`` (m) of ``(hx, hy)`` (m).
 
-    ``IntegrityMonitor._in_range``: ``math.hypot(dx, dy) <= max_range``.
+    :func:`~agvnav.positioning.integrity_support.explained_fraction`: ``math.hypot(dx, dy) <= max_range``.
     """
     count = 0
     for j in range(len(rx)):
@@ -709,7 +709,7 @@ def nis_per_reflector(buf: Any, start: int, n: int, sightings: Any, first: Any, 
     contributes one degree of freedom: the mean of its NIS values (its fixed error squared
     over ``S``, plus the averaged white part).
 
-    ``buf``, ``start``, ``n``: the window (:meth:`~agvnav.positioning.integrity._Window.buffer`);
+    ``buf``, ``start``, ``n``: the window (:meth:`~agvnav.positioning.integrity_window._Window.buffer`);
     ``sightings``, ``first``, ``nis (N,)`` the tally's counts, first positions and summed NIS
     per map row.
     """

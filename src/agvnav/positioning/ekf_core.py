@@ -33,10 +33,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.odometry import OdometryNoise, SteeredOdometryNoise
 from agvnav.positioning import _fast
 from agvnav.positioning.measurement import MeasurementModel
 
-__all__ = ["CONSIDER_MAX_ENTRY", "CONSIDER_MIN_DET", "ConsiderState", "EkfCore", "EkfStep", "Linearisation"]
+__all__ = [
+    "CONSIDER_MAX_ENTRY", "CONSIDER_MIN_DET", "ConsiderState", "EkfCore", "EkfStep", "Linearisation", "noise_constants",
+]
 
 #: ``M`` of the factored ``P_xp = M C^T`` is folded into ``C`` below this ``|det M|`` ...
 CONSIDER_MIN_DET = 0.05
@@ -175,6 +178,28 @@ class ConsiderState:
             C = self.C
             C[j, 0], C[j, 1], C[j, 2] = C[j, 0] + s0 * ax, C[j, 1] + s1 * ax, C[j, 2] + s2 * ax
             C[j, 3], C[j, 4], C[j, 5] = C[j, 3] + s0 * ay, C[j, 4] + s1 * ay, C[j, 5] + s2 * ay
+
+
+def noise_constants(
+    noise: OdometryNoise, k_lateral: float, consider: bool
+) -> tuple[NDArray[np.float64], tuple[float, float]]:
+    """The noise model for :func:`~agvnav.positioning._fast.move_state`, and the calibration variances.
+
+    A :class:`~agvnav.odometry.SteeredOdometryNoise` gives a consider filter the exact
+    steered-wheel model (:func:`~agvnav.positioning._fast.steered_noise`) and its
+    calibration errors as consider parameters, ``(radius_scale_std², steering_offset_std²)``
+    (zeros otherwise); the other methods take its Crowley bound (the inherited ``k_d,
+    k_dtheta, k_theta``). ``k_lateral`` (m²/m) the holonomic term.
+    """
+    steered: tuple[bool, float, float, float, float] | None = None
+    cvar = (0.0, 0.0)
+    if isinstance(noise, SteeredOdometryNoise) and consider:
+        steered = (noise.front, noise.wheelbase_m, noise.slip_k, noise.steering_std**2 * noise.step_m,
+                   noise.min_roll_per_rad)
+        cvar = (noise.radius_scale_std**2, noise.steering_offset_std**2)
+    consts = _fast.move_constants((noise.k_d, noise.k_dtheta, noise.k_theta, k_lateral), steered, consider,
+                                  cvar != (0.0, 0.0), cvar)
+    return consts, cvar
 
 
 class EkfCore:

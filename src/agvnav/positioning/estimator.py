@@ -22,6 +22,11 @@ The estimator is assembled from parts, each a module with its own state:
 * :mod:`agvnav.positioning.lifecycle` -- the status, the start-up and relocalisation
   search, the lock-out watch; and the :class:`~agvnav.positioning.integrity.IntegrityMonitor`.
 
+The class itself stands on two bases: :class:`~agvnav.positioning.readout.EstimatorReadout`
+(the read side: pose, covariance, status, counters, measurement steps) and
+:class:`~agvnav.positioning.supervision.EstimatorSupervision` (start, loss, lock-out and the
+wiring of the integrity monitor); this module assembles the parts and feeds them.
+
 What differs between the methods -- how an identified reflection corrects the pose -- is
 the subclass's ``_accept`` (:mod:`agvnav.positioning.ekf`: a measurement-model update;
 :mod:`agvnav.positioning.dynamic`: a triangulated fix). The methods are created by name
@@ -44,33 +49,36 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import as_float_array, require_finite, require_nonnegative, require_positive
-from agvnav.geometry import wrap_angle
-from agvnav.odometry import OdometryNoise, SteeredOdometryNoise
+from agvnav.odometry import OdometryNoise
 from agvnav.positioning import _fast
 from agvnav.positioning.association import BearingAssociation
 from agvnav.positioning.bounds import encoder_bearing_std
-from agvnav.positioning.ekf_core import ConsiderState, EkfCore, EkfStep, RawStep, make_step
+from agvnav.positioning.ekf_core import EkfCore, EkfStep, RawStep, noise_constants
 from agvnav.positioning.gating import GateSpec
-from agvnav.positioning.identification import CHI2_1DOF_999, Association, InitialPoseResult
+from agvnav.positioning.identification import CHI2_1DOF_999, Association
 from agvnav.positioning.inputs import InputChecks
 from agvnav.positioning.integrity import IntegrityLimits, IntegrityMonitor
-from agvnav.positioning.lifecycle import STATUSES, LockoutWatch, StartUp, status_of
-from agvnav.positioning.plausibility import DropCounter, PlausibilityLimits, check_covariance, sound_state
+from agvnav.positioning.lifecycle import (  # noqa: F401 - MAX_INFLATED_POSITION_VAR re-exported
+    MAX_INFLATED_POSITION_VAR,
+    STATUSES,
+    LockoutWatch,
+    StartUp,
+)
+from agvnav.positioning.plausibility import PlausibilityLimits, check_covariance
+from agvnav.positioning.supervision import EstimatorSupervision
 
 __all__ = ["METHODS", "STATUSES", "StreamingEstimator", "make_estimator"]
 
 #: Method names accepted by :func:`make_estimator` (seed 000 §2.2 and issue 4 §4).
 METHODS = ("naive", "angle_propagation", "batch_ml", "ekf")
 
-#: Lock-out inflation stops once the position variance trace reaches this (m²).
-MAX_INFLATED_POSITION_VAR = 0.25
 
 _NAN3 = (math.nan,) * 3
 
 #: The concrete estimator classes by method name, filled as they are defined.
 _ESTIMATORS: dict[str, type[StreamingEstimator]] = {}
 
-class StreamingEstimator:
+class StreamingEstimator(EstimatorSupervision):
     """Base of the streaming estimators: assembles the parts (module docstring), keeps the counters.
 
     Parameters
@@ -222,7 +230,8 @@ class StreamingEstimator:
             1.0 / self.rate_hz,
         )
         #: The filter core: pose, covariance and (EKF) the consider state.
-        self.core = EkfCore(self._move_constants(), self._new_consider())
+        consts, self._calibration_var = noise_constants(self.odometry_noise, self.k_lateral, self.consider)
+        self.core = EkfCore(consts, self._new_consider())
         self.n_accepted = 0
         self.n_rejected = 0
         self.n_inflations = 0
@@ -233,188 +242,6 @@ class StreamingEstimator:
             check_covariance("initial_covariance", initial_covariance)
         if initial_pose is not None:
             self._start(initial_pose, initial_covariance)
-
-    def _move_constants(self) -> NDArray[np.float64]:
-        """The noise model for :func:`~agvnav.positioning._fast.move_state`.
-
-        A :class:`~agvnav.odometry.SteeredOdometryNoise` gives a consider filter the exact
-        steered-wheel model (:func:`~agvnav.positioning._fast.steered_noise`) and its
-        calibration errors as consider parameters; the other methods take its Crowley bound
-        (the inherited ``k_d, k_dtheta, k_theta``).
-        """
-        k = self.odometry_noise
-        steered: tuple[bool, float, float, float, float] | None = None
-        cvar = (0.0, 0.0)
-        if isinstance(k, SteeredOdometryNoise) and self.consider:
-            steered = (k.front, k.wheelbase_m, k.slip_k, k.steering_std**2 * k.step_m, k.min_roll_per_rad)
-            cvar = (k.radius_scale_std**2, k.steering_offset_std**2)
-        self._calibration_var = cvar
-        return _fast.move_constants((k.k_d, k.k_dtheta, k.k_theta, self.k_lateral), steered, self.consider,
-                                    cvar != (0.0, 0.0), cvar)
-
-    def _new_consider(self) -> ConsiderState | None:
-        """A fresh consider state (``P_xp = 0``, ``P_xc = 0``) for a consider filter, else None."""
-        if not self.consider:
-            return None
-        return ConsiderState((self.survey_std**2).tolist(), self._calibration_var != (0.0, 0.0))
-
-    # ------------------------------------------------------------------ state (the core's) as arrays
-    @property
-    def _x_t(self) -> tuple[float, ...]:
-        return self.core.x
-
-    @_x_t.setter
-    def _x_t(self, value: tuple[float, ...]) -> None:
-        self.core.x = value
-
-    @property
-    def _P_t(self) -> tuple[float, ...]:
-        return self.core.P
-
-    @_P_t.setter
-    def _P_t(self, value: tuple[float, ...]) -> None:
-        self.core.P = value
-
-    @property
-    def _x(self) -> NDArray[np.float64]:
-        return np.array(self.core.x)
-
-    @_x.setter
-    def _x(self, value: ArrayLike) -> None:
-        self.core.x = tuple(np.asarray(value, dtype=np.float64).reshape(3).tolist())
-
-    @property
-    def _P(self) -> NDArray[np.float64]:
-        return np.array(self.core.P).reshape(3, 3)
-
-    @_P.setter
-    def _P(self, value: ArrayLike) -> None:
-        self.core.P = tuple(np.asarray(value, dtype=np.float64).reshape(9).tolist())
-
-    @property
-    def _odom(self) -> NDArray[np.float64]:
-        return np.array(self.core.odom)
-
-    # ------------------------------------------------------------------ read
-    @property
-    def t(self) -> float:
-        """Time (s) of the latest input (NaN before the first one)."""
-        return self.inputs.now
-
-    @property
-    def pose(self) -> NDArray[np.float64]:
-        """``(3,)`` base_link pose ``[x, y, psi]`` in ``map`` at :attr:`t` (NaN while initialising)."""
-        return self._x
-
-    @property
-    def covariance(self) -> NDArray[np.float64]:
-        """``(3, 3)`` covariance of :attr:`pose` (m², rad²; NaN while initialising).
-
-        For the fix-based estimators (``naive``, ``angle_propagation``, ``batch_ml``): the
-        filter's ``P`` plus the survey floor of the reflectors that support it
-        (:attr:`~agvnav.positioning.integrity.IntegrityMonitor.survey_floor`): the
-        error a constant survey error of the reflectors leaves, which ``P``, taking it
-        as white bearing noise, averages away. The two add (the estimate's error is the
-        filter's white error plus the survey bias, independent of each other); the part
-        of the survey error ``P`` still holds after averaging over ``n`` revolutions is
-        about ``floor / n``, a double count on the safe side. The EKF overrides this:
-        its Schmidt-Kalman consider filter carries the survey errors' correlation with
-        the pose, so its ``P`` alone is the covariance (:mod:`agvnav.positioning.ekf`;
-        with the floor added, 200 runs of ``guidance_test`` gave NEES 2.40, band
-        2.67-3.35, the heading part 0.54 of 1: the double count).
-        """
-        P = self._P
-        floor = self.monitor.survey_floor
-        if not floor.any():
-            return P
-        return P + floor
-
-    @property
-    def filter_covariance(self) -> NDArray[np.float64]:
-        """``(3, 3)`` the filter's own ``P`` (m², rad²), without the survey floor of :attr:`covariance`."""
-        return self._P
-
-    @property
-    def status(self) -> str:
-        """``"initialising"``, ``"tracking"``, ``"degraded"``, ``"dead_reckoning"`` or ``"lost"``.
-
-        ``lost`` and ``degraded`` are the integrity monitor's verdicts (class docstring);
-        ``dead_reckoning`` no accepted reflection for ``dead_reckoning_after`` seconds.
-        """
-        return status_of(self.core.has_pose(), self.monitor.verdict, self._dead_reckoning())
-
-    @property
-    def quality(self) -> float:
-        """0-1 quality figure of the latest integrity check (0 while initialising or lost)."""
-        return self.monitor.quality if self.core.has_pose() else 0.0
-
-    @property
-    def reflectors_used(self) -> int:
-        """Distinct reflectors that supported the estimate over the monitor's window."""
-        return self.monitor.reflectors_used
-
-    @property
-    def n_dropped(self) -> dict[str, int]:
-        """Inputs dropped as implausible (``strict=False``), per reason."""
-        return dict(self.inputs.drops.by_reason)
-
-    @property
-    def drops(self) -> DropCounter:
-        """The dropped inputs, per reason and time (:class:`~agvnav.positioning.plausibility.DropCounter`)."""
-        return self.inputs.drops
-
-    @property
-    def strict(self) -> bool:
-        """Whether a bad input raises ValueError (True) or is dropped and counted."""
-        return self.inputs.strict
-
-    @property
-    def plausibility(self) -> PlausibilityLimits:
-        """The :class:`~agvnav.positioning.plausibility.PlausibilityLimits` of the inputs."""
-        return self.inputs.plausibility
-
-    @property
-    def last_search(self) -> InitialPoseResult | None:
-        """The latest start-up or relocalisation search's result."""
-        return self.startup.last_search
-
-    @property
-    def ambiguous(self) -> bool:
-        """Whether the latest search found several poses (and took none)."""
-        return self.startup.ambiguous
-
-    @property
-    def n_relocalisations(self) -> int:
-        """Relocalisations (searches that set the pose again after ``lost``)."""
-        return self.startup.n_relocalisations
-
-    @property
-    def n_unreachable(self) -> int:
-        """Relocalised poses refused as out of reach of the last trusted one."""
-        return self.startup.n_unreachable
-
-    @property
-    def last_step(self) -> EkfStep | None:
-        """The latest measurement step (:class:`~agvnav.positioning.ekf_core.EkfStep`), None before any.
-
-        Prior and posterior pose and covariance, innovation, its variance, gain (NaN for
-        the fix-based methods, which replace the pose by a fix), accepted or why not.
-        """
-        return None if self._step is None else make_step(self._step)
-
-    def record_steps(self, recorder: Callable[[EkfStep], None] | None) -> None:
-        """Hand every measurement step to ``recorder`` (e.g. ``list.append``); None stops recording."""
-        self._recorder = recorder
-
-    def _keep_step(self, raw: RawStep) -> None:
-        self._step = raw
-        if self._recorder is not None:
-            self._recorder(make_step(raw))
-
-    def _dead_reckoning(self) -> bool:
-        inputs = self.inputs
-        since = self._t_last_accept if self._t_last_accept is not None else inputs.t_first
-        return inputs.t is not None and since is not None and inputs.t - since > self.dead_reckoning_after
 
     # ------------------------------------------------------------------ feed
     def predict(self, t: float, delta_d: float, delta_theta: float, delta_lateral: float = 0.0) -> None:
@@ -548,80 +375,6 @@ class StreamingEstimator:
             raise ValueError(f"t and bearings must have the same shape, got {tt.shape} and {zz.shape}")
         return np.array([self.update(float(a), float(b)) for a, b in zip(tt, zz, strict=True)], dtype=bool)
 
-    # ------------------------------------------------------------------ lifecycle
-    def _judge_state(self, t: float) -> None:
-        """After every call: a pose and covariance that are not sound make the estimator ``"lost"``.
-
-        Sound: a finite pose and a finite, symmetric, positive-definite ``P``
-        (:func:`~agvnav.positioning.plausibility.sound_state`). The inputs are checked before
-        they reach the state, so this is the last line: whatever still broke the state
-        (rounding in an update of an extreme ``P``) never leaves a usable status over it. Lost,
-        the estimator stops correcting and relocalises (class docstring); the event is
-        counted in :attr:`n_dropped` as ``"broken_state"`` (never raised: it is no input).
-        """
-        if sound_state(self.core.x, self.core.P) or not self.core.has_pose() or self.monitor.verdict == "lost":
-            return
-        self._lose(t, "broken_state")
-
-    def _lose(self, t: float, reason: str) -> None:
-        """Make the verdict ``"lost"`` for ``reason``, counted in :attr:`n_dropped` (see :meth:`_judge_state`)."""
-        self.inputs.drops.drop(t, reason)
-        self.monitor.verdict = "lost"
-        self.monitor.reasons = (reason,)
-        self.monitor.quality = 0.0
-        self.startup.buffer.clear()
-
-    def _watch_lockout(self, t: float, accepted: bool) -> None:
-        """Inflate ``P`` x4 when most reflections of the last 1.5 revolutions miss their gates.
-
-        A wrong early association (a spurious reflection inside a wide initial gate) can leave
-        a confident but wrong estimate that then rejects the true reflections: the classic
-        EKF lock-out (:class:`~agvnav.positioning.lifecycle.LockoutWatch`). The covariance is
-        inflated -- never the pose -- until the gates admit the reflectors again (counted in
-        :attr:`n_inflations`), up to ``MAX_INFLATED_POSITION_VAR``. Only reflections that fall
-        into no gate count as rejections (the caller passes no ambiguous one: in the racked
-        aisles half of each revolution is ambiguous, with the estimate 6 mm from the truth).
-
-        An inflation runs the monitor's check at once rather than at the next revolution:
-        the differential AGV whose encoders dropped out (zero increments while it drove on)
-        stood 14-25 cm off while "tracking" for 1.05 s before the once-a-revolution check
-        caught up. The check, not the inflation, decides the verdict: heavy clutter inflates
-        with the pose sound.
-        """
-        if not self.lockout.record(t, accepted):
-            return
-        P = self.core.P
-        if P[0] + P[4] < MAX_INFLATED_POSITION_VAR:
-            self.core.P = tuple(4.0 * v for v in P)
-            self.n_inflations += 1
-            self._watch_integrity(t, force=True)  # judge the estimate now, not a revolution later
-            self.lockout.clear()
-
-    def _start(self, pose: ArrayLike, covariance: ArrayLike | None) -> None:
-        x = require_finite("initial_pose", pose)
-        if x.shape != (3,):
-            raise ValueError(f"initial_pose must have shape (3,), got {x.shape}")
-        P = np.diag([0.05, 0.05, 0.02]) ** 2 if covariance is None else require_finite("initial_covariance", covariance)
-        if P.shape != (3, 3):
-            raise ValueError(f"initial_covariance must have shape (3, 3), got {P.shape}")
-        self._x = (x[0], x[1], wrap_angle(x[2]))
-        self._P = 0.5 * (P + P.T)
-        self.core.consider = self._new_consider()  # a new start is independent of the survey errors
-        self._t_last_accept = self.inputs.t  # None before the first input: counted from the first one
-        self.monitor.reset()
-        self.association.reset_claims(self.monitor.excluded)
-        self.lockout.clear()
-
-    def _try_start(self) -> None:
-        """Start-up search once a full revolution of reflections at standstill is buffered."""
-        result = self.startup.search(relocalising=self.core.has_pose())
-        if result is not None:
-            self._start(result.pose, result.covariance + np.diag([1e-6, 1e-6, 1e-8]))
-            self._on_start()
-
-    def _on_start(self) -> None:
-        """Called once the start-up search has set the pose (a fix-based method drops its buffer)."""
-
     # ------------------------------------------------------------------ association
     def _gate(self, t: float, z: float) -> Association:
         """The association part's gate on the current estimate (:meth:`BearingAssociation.gate`)."""
@@ -633,17 +386,6 @@ class StreamingEstimator:
     def _gate_accept(self, t: float, z: float) -> tuple[Association, Sequence[float]]:  # pragma: no cover
         """:meth:`_gate` and, when it identifies a reflector, :meth:`_accept`, in one kernel call (consider only)."""
         raise NotImplementedError
-
-    def _consider_args(self, f02: float, f12: float) -> Any:
-        """``(M, C, svar)`` for :func:`~agvnav.positioning._fast.gate_one`, ``M`` moved by ``F(f02, f12)``.
-
-        None without consider parameters.
-        """
-        c = self.core.consider
-        if c is None:
-            return None
-        M = c.M if f02 == 0.0 and f12 == 0.0 else _fast.shear(c.M, f02, f12)
-        return M, c.C, c.svar
 
     def _accept(self, t: float, bearing: float, assoc: Association) -> Sequence[float]:  # pragma: no cover
         """Correct the pose with the identified reflection; returns the gain (NaN when there is none)."""
@@ -684,74 +426,6 @@ class StreamingEstimator:
         self.monitor.accepted(t, nis, j, z, _fast.twist_step(ox, oy, opsi, *back)[:3], self._correction(*before),
                               self._innovation(y, S, H_now))
         return True
-
-    def _attribute(self, t: float, z: float) -> None:
-        """Hand the monitor a rejected bearing ``z`` (rad) at ``t`` (s) that one unseen reflector explains.
-
-        The association part's attribution gate
-        (:meth:`~agvnav.positioning.association.BearingAssociation.attribution`) widened to the
-        monitor's (:meth:`~agvnav.positioning.integrity.IntegrityMonitor.attribution_gate`);
-        the reflection is that reflector's sighting for the RAIM only
-        (:meth:`~agvnav.positioning.integrity.IntegrityMonitor.attributed`). EKF only (the
-        RAIM judges Kalman innovations).
-        """
-        if self.method != "ekf" or not self.monitor.limits.attribute:
-            return
-        found = self.association.attribution(t, z, self.core.x, self.core.P, self.monitor.attribution_gate,
-                                             self._consider_args(0.0, 0.0))
-        if found is not None:
-            j, y, S, H = found
-            self.monitor.attributed(t, j, (float(y), float(S), float(H[0]), float(H[1]), float(H[2])))
-
-    # ------------------------------------------------------------------ integrity (issue 12)
-    def _watch_integrity(self, t: float, force: bool = False) -> None:
-        """Once per revolution, or now with ``force``: the monitor's check; inflate ``P`` when it asks.
-
-        In a drift episode the monitor also hands the position noise of the measured drift
-        (:attr:`~agvnav.positioning.integrity.IntegrityMonitor.drift_noise`, m²), added to
-        ``P``'s position block as process noise (the consider cross-covariances stay: the
-        noise is independent of the survey errors).
-        """
-        core = self.core
-        if not core.has_pose() or self.monitor.verdict == "lost" or not (force or self.monitor.due(t)):
-            return
-        n_excluded = len(self.monitor.excluded)
-        if self.monitor.check(t, self._x, self._P, core.odom, self._dead_reckoning()):
-            k = self.monitor.limits.inflation
-            core.P = tuple(k * v for v in core.P)
-            self.n_inflations += 1
-        q00, q01, q11 = self.monitor.drift_noise
-        if q00 or q11:
-            P = list(core.P)
-            P[0] += q00
-            P[1] += q01
-            P[3] += q01
-            P[4] += q11
-            core.P = tuple(P)
-        if len(self.monitor.excluded) != n_excluded:
-            self.apply_exclusions()
-
-    def apply_exclusions(self) -> None:
-        """Never associate the reflectors the monitor excluded (claimed forever: outside every sweep)."""
-        self.association.exclude(self.monitor.excluded)
-
-    def _correction(
-        self, x0: tuple[float, ...], P0: tuple[float, ...]
-    ) -> tuple[float, float, float, float, float] | None:
-        """The last update's position correction and covariance decrease (the EKF's), for the monitor."""
-        if self.method != "ekf":
-            return None
-        x1, P1 = self.core.x, self.core.P
-        return (x1[0] - x0[0], x1[1] - x0[1], P0[0] - P1[0], P0[1] - P1[1], P0[4] - P1[4])
-
-    def _innovation(
-        self, y: float, S: float, H: ArrayLike
-    ) -> tuple[float, float, float, float, float] | None:
-        """The update's innovation, its variance and Jacobian row for the monitor's RAIM (EKF only)."""
-        if self.method != "ekf":
-            return None
-        h = np.asarray(H, dtype=np.float64).reshape(-1)
-        return (float(y), float(S), float(h[0]), float(h[1]), float(h[2]))
 
 def make_estimator(
     method: str = "ekf", world: Any = None, mount: ArrayLike = (0.0, 0.0, 0.0), **kwargs: Any

@@ -4,6 +4,17 @@
 revolution to now through the odometry and triangulates them with ToTal, in one compiled pass
 over the window (:func:`~agvnav.positioning._integrity_fast.crosscheck_fix`); the fix and the
 estimate must agree within the chi-square bound of their summed covariances.
+
+It runs when three distinct reflectors were seen in the last revolution: their bearings are
+brought to one instant through the odometry (the angle propagation of seed 000 §2.2) and
+triangulated with ToTal (:func:`~agvnav.positioning.triangulate`, ``valid=False`` near the
+critical circle), each bearing's variance counting the odometry error of its propagation (the
+monitor's ``odometry_noise``, the filter's seed-002 coefficients); the fix and the estimate
+must agree within the chi-square bound of their summed covariances (``crosscheck_bound``), or
+within ``crosscheck_min_m`` (the check looks for gross errors such as a wrong association; a
+fixed survey error of the three reflectors can bias one triple's fix by a few sigma while the
+filter, averaging every reflector, stays consistent). A failure of the cross-check alone is not
+held (:mod:`agvnav.positioning.integrity_verdict`).
 """
 
 from __future__ import annotations

@@ -5,7 +5,17 @@
 * corrections: the Kalman corrections summed over the window against their covariance
   (:func:`corrections_drift`): the odometry carrying the estimate off its bearings;
 * uncertainty: a position or heading variance beyond what the bearing gate can identify
-  reflectors with (:func:`uncertainty_failures`): ``"uncertainty"``, which makes the verdict ``lost``.
+  reflectors with (:func:`uncertainty_failures`): ``"uncertainty"``, which makes the verdict ``lost``;
+* per reflector, the exponentially weighted mean of its NIS ``y^2 / S`` (weight 1/8,
+  about 8 sightings; squared, so a bias that changes sign as the vehicle moves still
+  counts; :class:`ReflectorNis`): a reflector whose mean exceeds ``exclude_sigmas^2`` and
+  ``exclude_ratio^2`` times the mean of the other reflectors' is inconsistent with the rest of
+  the map (moved, or a reflection off a shiny surface beside it) and is *excluded*
+  (:attr:`~agvnav.positioning.integrity.IntegrityMonitor.excluded`), which the estimator never
+  associates again (at most ``max_excluded``, and never below ``min_reflectors + 1`` others in
+  view; fault detection and exclusion as RAIM does for satellites). Only where the RAIM
+  (:mod:`agvnav.positioning.integrity_raim`) has no redundancy to judge with: where it can run,
+  it owns the exclusion.
 """
 
 from __future__ import annotations
@@ -14,7 +24,7 @@ import math
 
 import numpy as np
 
-__all__ = ["CHI2_2DOF_999", "chi2_upper", "corrections_drift", "uncertainty_failures"]
+__all__ = ["CHI2_2DOF_999", "ReflectorNis", "chi2_upper", "corrections_drift", "uncertainty_failures"]
 
 #: Chi-square quantile, 2 dof, 0.999: agreement bound of the triangulation cross-check.
 CHI2_2DOF_999 = 13.815510557964274
@@ -79,3 +89,46 @@ def uncertainty_failures(P: np.ndarray, lost_position_std_m: float, lost_heading
     if not (pos_var <= lost_position_std_m**2 and P[2, 2] <= lost_heading_std_rad**2):
         return ["uncertainty"]
     return []
+
+
+class ReflectorNis:
+    """Per map row the exponentially weighted mean of its NIS (weight 1/8) and its sightings (module docstring)."""
+
+    def __init__(self, n: int) -> None:
+        self.mean = [0.0] * n
+        self.count = [0] * n
+
+    def add(self, j: int, nis: float) -> None:
+        """One finite ``nis`` of map row ``j`` (an infinite or NaN one is not counted)."""
+        if -math.inf < nis < math.inf:
+            n = self.count[j] + 1
+            self.count[j] = n
+            self.mean[j] += (nis - self.mean[j]) / min(n, 8)
+
+    def forget(self) -> None:
+        """Start afresh (after a reset or an exclusion: judge the others anew)."""
+        self.mean = [0.0] * len(self.mean)
+        self.count = [0] * len(self.count)
+
+    def outlier(
+        self, window_rows: list[int], n_excluded: int, max_excluded: int, min_reflectors: int,
+        exclude_sigmas: float, exclude_ratio: float,
+    ) -> int | None:
+        """The one map row whose innovations disagree with the others' (module docstring), or None.
+
+        ``window_rows``: the map rows of the window's reflections; ``n_excluded`` reflectors are
+        excluded already. Among the rows seen 8 times or more (at least ``min_reflectors + 2``),
+        the one of the largest mean beyond ``exclude_sigmas^2`` and ``exclude_ratio^2`` times
+        the others' mean.
+        """
+        if n_excluded >= max_excluded:
+            return None
+        seen = [j for j in set(window_rows) if self.count[j] >= 8]  # the set's order, as before
+        if len(seen) < min_reflectors + 2:
+            return None
+        worst = max(seen, key=lambda j: self.mean[j])
+        others = sum(self.mean[j] for j in seen if j != worst) / (len(seen) - 1)
+        m = self.mean[worst]
+        if m > exclude_sigmas**2 and m > exclude_ratio**2 * others:
+            return worst
+        return None

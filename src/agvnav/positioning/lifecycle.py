@@ -23,7 +23,10 @@ from numpy.typing import NDArray
 
 from agvnav.positioning.identification import InitialPoseResult, initial_pose_search
 
-__all__ = ["STATUSES", "LockoutWatch", "StartUp", "status_of"]
+__all__ = ["MAX_INFLATED_POSITION_VAR", "STATUSES", "LockoutWatch", "StartUp", "status_of"]
+
+#: Lock-out inflation stops once the position variance trace reaches this (m²).
+MAX_INFLATED_POSITION_VAR = 0.25
 
 #: Values of :attr:`~agvnav.positioning.estimator.StreamingEstimator.status`.
 STATUSES = ("initialising", "tracking", "degraded", "dead_reckoning", "lost")
@@ -76,6 +79,29 @@ class LockoutWatch:
         self.n_ok += accepted
         n_bad = len(self.recent) - self.n_ok
         return n_bad >= 4 and 2 * self.n_ok < n_bad
+
+    def inflated(self, t: float, accepted: bool, P: tuple[float, ...]) -> tuple[float, ...] | None:
+        """:meth:`record` the reflection at ``t`` (s); on a lock-out, ``P`` (row-major ``(9,)``) x4, else None.
+
+        A wrong early association (a spurious reflection inside a wide initial gate) can leave
+        a confident but wrong estimate that then rejects the true reflections: the classic
+        EKF lock-out. The covariance is inflated -- never the pose -- until the gates admit the
+        reflectors again, up to :data:`MAX_INFLATED_POSITION_VAR` (None beyond it). Only
+        reflections that fall into no gate count as rejections (the caller passes no ambiguous
+        one: in the racked aisles half of each revolution is ambiguous, with the estimate 6 mm
+        from the truth).
+
+        The caller then runs the monitor's check at once rather than at the next revolution:
+        the differential AGV whose encoders dropped out (zero increments while it drove on)
+        stood 14-25 cm off while "tracking" for 1.05 s before the once-a-revolution check
+        caught up. The check, not the inflation, decides the verdict: heavy clutter inflates
+        with the pose sound.
+        """
+        if not self.record(t, accepted):
+            return None
+        if P[0] + P[4] < MAX_INFLATED_POSITION_VAR:
+            return tuple(4.0 * v for v in P)
+        return None
 
 
 class StartUp:

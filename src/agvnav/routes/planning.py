@@ -44,9 +44,9 @@ from numpy.typing import NDArray
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from agvnav._jit import compiled, jit
+from agvnav._jit import by_mode, jit
 from agvnav.geometry.angles import wrap_angle
-from agvnav.routes.network import Edge, RouteNetwork
+from agvnav.routes.network import Edge, Node, RouteNetwork
 from agvnav.world.vehicle_specs import vehicle_kind
 
 __all__ = [
@@ -285,17 +285,26 @@ class Planner:
         if not src or not dst:
             raise NoRouteError(f"no route to station {goal!r} from {start!r} for a {self.vehicle.model}")
         a, b = self.network.nodes[start], self.network.nodes[goal]
-        pred: NDArray[np.int32] | NDArray[np.int64]
-        best = -2
-        if compiled():
-            best, time_s, pred = self._search.run(src, dst, b.x, b.y, 1.0 / self.vehicle.max_speed)
-            if best >= 0:
-                return self._unwind_arcs(best, start, time_s)
-        if best == -2:  # interpreted, or the heap overflowed (rounding re-opened states): Dijkstra
-            best, time_s, pred = self._dijkstra(src, dst, math.hypot(b.x - a.x, b.y - a.y))
-        if best < 0:
+        # A* compiled, Dijkstra interpreted (module docstring)
+        route = by_mode(self._astar_route, self._dijkstra_route)(src, dst, a, b, start)
+        if route is None:
             raise NoRouteError(f"no route to station {goal!r} from {start!r} for a {self.vehicle.model}")
-        return self._unwind(pred, best, start, time_s)
+        return route
+
+    def _astar_route(self, src: list[int], dst: list[int], a: Node, b: Node, start: str) -> Route | None:
+        """The compiled search: A* from the states ``src`` to any of ``dst`` (nodes ``a`` to ``b``), None if none.
+
+        Dijkstra (:meth:`_dijkstra_route`) when the heap overflowed (rounding re-opened states).
+        """
+        best, time_s, _ = self._search.run(src, dst, b.x, b.y, 1.0 / self.vehicle.max_speed)
+        if best >= 0:
+            return self._unwind_arcs(best, start, time_s)
+        return self._dijkstra_route(src, dst, a, b, start) if best == -2 else None
+
+    def _dijkstra_route(self, src: list[int], dst: list[int], a: Node, b: Node, start: str) -> Route | None:
+        """The interpreted search (:meth:`_dijkstra`) as a route from node ``start``, None if none."""
+        best, time_s, pred = self._dijkstra(src, dst, math.hypot(b.x - a.x, b.y - a.y))
+        return None if best < 0 else self._unwind(pred, best, start, time_s)
 
     def _dijkstra(self, src: list[int], dst: list[int], d: float) -> tuple[int, float, NDArray[np.int32]]:
         """The interpreted search (module doc): the goal state reached (-1: none), its time (s), predecessors."""
