@@ -49,6 +49,16 @@ from agvnav.sim.rangers import UltrasonicSensorRole
 from agvnav.sim.reactive import ObstacleRangers, OccludedReflections, ReactiveInputs, ScannerRole
 from agvnav.sim.roles import GoniometerSensor
 from agvnav.sim.run import SimResult, result_of
+from agvnav.sim.traffic import (
+    FleetTraffic,
+    check_conflicts,
+    plan_traffic,
+    report_progress,
+    standing_mission,
+    traffic_figures,
+    under_traffic_control,
+    wire_holds,
+)
 from agvnav.world.fleet import FleetScenario
 from agvnav.world.obstacles import obstacle_from_spec
 from agvnav.world.scenario import Scenario, ScenarioError
@@ -93,6 +103,8 @@ class BuiltFleet:
     duration: float
     n_obstacles: int
     """obstacles of the scenario itself in each vehicle's set (vehicle ``j``'s body is obstacle ``n_obstacles + j``)."""
+    traffic: FleetTraffic | None = None
+    """the traffic control (jobs dispatched, routes planned together, the ADG's hold points), when under it."""
 
 
 def _apply_at(fleet: FleetScenario, i: int, sc: Scenario) -> Scenario:
@@ -130,9 +142,15 @@ def build_fleet(fleet: FleetScenario) -> BuiltFleet:
     built: list[Built] = []
     own = [_apply_at(fleet, i, sc) for i, sc in enumerate(fleet.vehicle_scenarios())]
     _check_stations(fleet, own)
+    traffic = plan_traffic(fleet, own) if under_traffic_control(fleet) else None
     for i, sc in enumerate(own):
         try:
-            b = build(sc)
+            if traffic is None:
+                b = build(sc)
+            else:
+                planned = traffic.missions[ids[i]]
+                b = build(sc, planned if planned is not None else standing_mission(traffic, sc))
+                wire_holds(traffic, ids[i], sc, b.plant, b.autopilot)
         except ScenarioError as exc:
             if exc.key and exc.key[:2] == ("mission", "start") and fleet.fleet.vehicles[i].at is not None:
                 raise fleet.error(("fleet", "vehicles", i, "at"), f"vehicle {ids[i]!r}: {exc.detail}") from None
@@ -146,10 +164,12 @@ def build_fleet(fleet: FleetScenario) -> BuiltFleet:
     for i, b in enumerate(built):
         _wire_others(b, scenarios[i], bodies, i)
     duration = float(fleet.duration_s) if fleet.duration_s is not None else max(b.duration for b in built)
+    if traffic is not None and fleet.duration_s is None:  # the planned waits for traffic on top
+        duration += max((p.end_s for p in traffic.plan.plans.values()), default=0.0)
     stride = fleet_stride(fleet, len(built), float(built[0].loop.dt), duration)
     for b in built:
         b.loop.record_every = stride
-    return BuiltFleet(fleet, ids, scenarios, built, bodies, duration, n_obs)
+    return BuiltFleet(fleet, ids, scenarios, built, bodies, duration, n_obs, traffic)
 
 
 #: Recorded rows of all the vehicles together a fleet keeps at most when its rate is automatic
@@ -304,6 +324,8 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
     tally = _Tally(bf)
     collisions: list[dict[str, Any]] = []
     ended_at = [math.nan] * n
+    traffic = bf.traffic
+    idle = [i for i in range(n) if traffic is not None and traffic.missions[bf.ids[i]] is None]
     cpu0, wall0 = time.process_time(), time.perf_counter()
     steps = 0
     vehicle_steps = 0
@@ -318,9 +340,18 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
             if not loops[i].sense():
                 ended_at[i] = t1
             tally.count(i, loops[i].autopilot.signals(), dt)
+            if traffic is not None:
+                report_progress(traffic, bf.ids[i], loops[i].autopilot, t1, dt)
+        if traffic is not None:
+            check_conflicts(traffic, t1, dt)
         vehicle_steps += len(active)
         steps += 1
         t = t1
+        if idle and all(i in idle or not loops[i].running for i in range(n)):
+            for i in idle:  # a vehicle without work stands at its start until the others are done
+                if loops[i].running:
+                    loops[i].stop(IDLE)
+                    ended_at[i] = t
         hit = _separations(bf, sep, t)
         if hit is not None:
             a, b = hit
@@ -339,6 +370,8 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
         results.append(result_of(sc, vb, out))
     vehicles = [_vehicle_figures(bf, i, results[i], sep, collisions, tally) for i in range(n)]
     figures = fleet_figures(vehicles, collisions, sep, t)
+    if traffic is not None:
+        figures.update(_traffic_totals(traffic))
     figures.update(steps=steps, vehicle_steps=vehicle_steps, cpu_time_s=cpu, wall_time_s=wall,
                    real_time_factor_cpu=t / cpu if cpu > 0 else math.inf,
                    us_per_vehicle_step=1e6 * cpu / vehicle_steps if vehicle_steps else math.nan)
@@ -350,6 +383,9 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
         failed = [v for v in vehicles if v["outcome"] != "completed"]
         outcome = "failed" if failed else "completed"
         reason = None if not failed else "; ".join(f"{v['id']}: {v['reason']}" for v in failed)
+        unserved = _unserved(traffic)
+        if unserved:
+            outcome, reason = "failed", "; ".join([*([reason] if reason else []), unserved])
     if progress is not None:
         progress(t)
     return FleetResult(bf.fleet, bf.ids, results, figures, vehicles, outcome, reason, collisions)
@@ -419,10 +455,13 @@ def _vehicle_figures(bf: BuiltFleet, i: int, result: SimResult, sep: _Separation
         other = [v for c in collisions for v in c["vehicles"] if bf.ids[i] in c["vehicles"] and v != bf.ids[i]]
         reason = f"collision with {other[0]}" if other else "collision"
     by = tally.by[i]
-    return {
+    outcome = result.outcome
+    if reason == IDLE:
+        outcome, reason = "completed", "idle: no job dispatched to it, it stood at its start"
+    row = {
         "id": bf.ids[i],
         "model": result.scenario.vehicle.model,
-        "outcome": result.outcome,
+        "outcome": outcome,
         "reason": reason,
         "jobs": jobs,
         "jobs_completed": done,
@@ -434,6 +473,38 @@ def _vehicle_figures(bf: BuiltFleet, i: int, result: SimResult, sep: _Separation
         "nearest_vehicle": sep.nearest[i] or None,
         "end_s": float(t[-1]) if t.size else 0.0,
     }
+    if bf.traffic is not None:
+        row.update(traffic_figures(bf.traffic, bf.ids[i]))
+    return row
+
+
+#: The stop reason of a vehicle without work, ended once the others are done (reported completed, idle).
+IDLE = "idle"
+
+
+def _traffic_totals(traffic: FleetTraffic) -> dict[str, Any]:
+    """The fleet's traffic figures: jobs dispatched and unserved, time waiting for traffic (s), conflicts."""
+    waits = traffic.control.waits
+    return {
+        "transport_jobs": len(traffic.jobs),
+        "unserved_jobs": [j.id for j, _ in traffic.assignment.unserved],
+        "unserved_vehicles": sorted(traffic.plan.unserved),
+        "traffic_wait_s": sum(w.total_s for w in waits.values()),
+        "traffic_conflicts": len(traffic.conflicts),
+        "traffic_conflict_s": sum(traffic.conflict_s.values()) / 2.0,
+        "traffic_margin_m": traffic.margin_m,
+        "adg_dependencies": traffic.adg.n_dependencies,
+        "follow_adg": traffic.control.follow_adg,
+    }
+
+
+def _unserved(traffic: FleetTraffic | None) -> str:
+    """Why some work was not served (empty when all was)."""
+    if traffic is None:
+        return ""
+    parts = [f"job {j.id} unserved: {why}" for j, why in traffic.assignment.unserved]
+    parts += [f"vehicle {v} unserved: {why}" for v, why in traffic.plan.unserved.items()]
+    return "; ".join(parts)
 
 
 def _distance(series: dict[str, NDArray[np.float64]]) -> NDArray[np.float64]:
