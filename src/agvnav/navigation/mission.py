@@ -367,7 +367,7 @@ class MissionAutopilot:
         self._k = i
         st = self._stints[i]
         path, speed = self._stint_path(st)
-        if self._spot is not None and i > 0:
+        if self._spot is not None:
             direction = int(self.plan.path.direction_at(st.s0 + 1e-6))
             self._turn_to = float(self.plan.path.heading_at(st.s0 + 1e-6)) + (math.pi if direction < 0 else 0.0)
         a_lat, creep_d, creep_v = self._limits
@@ -444,7 +444,11 @@ class MissionAutopilot:
     def _turning(self, estimator: Estimator, dt: float) -> tuple[float, ...] | None:
         """The spot turn to the stint's start heading (None once done: the stint's pilot drives on)."""
         assert self._spot is not None and self._turn_to is not None
-        error = math.remainder(self._turn_to - float(estimator.pose[2]), 2.0 * math.pi)
+        heading = float(estimator.pose[2])
+        if not math.isfinite(heading) or estimator.status in ("initialising", "lost"):
+            self._omega = 0.0
+            return self._hold()  # no heading to turn by: wait for the estimate
+        error = math.remainder(self._turn_to - heading, 2.0 * math.pi)
         if abs(error) <= SPOT_TURN_DONE_RAD and abs(self._omega) <= self._spot.turn_accel * dt:
             self._turn_to, self._omega = None, 0.0
             return None
