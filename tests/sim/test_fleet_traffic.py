@@ -104,7 +104,8 @@ def test_a_vehicle_without_work_stands_at_its_start_and_counts_as_done(tmp_path:
     assert result.outcome == "completed", result.reason
     spare = result.vehicles[1]
     assert spare["outcome"] == "completed" and spare["reason"].startswith("idle")
-    assert spare["distance_m"] < 0.05
+    assert spare["distance_m"] < 0.05 and spare["jobs"] == 0 and spare["traffic_wait_s"] == 0.0
+    assert result.figures["jobs_completed"] == result.figures["jobs"] == 1
 
 
 def test_traffic_control_needs_every_vehicle_on_the_mission_network(tmp_path: Path) -> None:

@@ -13,7 +13,7 @@ import numpy as np
 from shapely.geometry import Polygon
 
 from agvnav.vda5050.bus import InProcessBus
-from agvnav.vda5050.master import JobMaster, MasterMessages
+from agvnav.vda5050.master import JobMaster, MasterMessages, job_master, load_fleet_spec
 from agvnav.vda5050.vehicle import VdaVehicle, VehicleConfig
 from agvnav.world.scenario import parse_scenario
 
@@ -123,3 +123,19 @@ def test_without_traffic_control_the_same_orders_meet_at_the_crossing(tmp_path: 
         bus.step()
         closest = min(closest, _footprint(fleet["a"]).distance(_footprint(fleet["b"])))
     assert closest == 0.0  # their true footprints overlapped: a collision
+
+
+def test_a_fleet_spec_turns_the_traffic_control_on(tmp_path: Path) -> None:
+    p = tmp_path / "f.yaml"
+    p.write_text("scenario: mission_hall_differential\nmanufacturer: acme\ntraffic: true\nmargin_m: 0.3\n"
+                 "vehicles:\n  - {serial: a, start: S1}\n  - {serial: b, start: S3}\n", encoding="utf-8")
+    m = job_master(load_fleet_spec(p))
+    assert m.traffic and m.zones is not None and m.zones.margin_m == 0.3
+    off = job_master(load_fleet_spec(_without_traffic(p)))
+    assert not off.traffic and off.zones is None
+
+
+def _without_traffic(p: Path) -> Path:
+    q = p.with_name("g.yaml")
+    q.write_text(p.read_text(encoding="utf-8").replace("traffic: true\nmargin_m: 0.3\n", ""), encoding="utf-8")
+    return q

@@ -23,6 +23,12 @@ the fleet's figures (:func:`fleet_figures`) summarise them: jobs completed, deli
 time each vehicle spent slowed or stopped and why, minimum separation (footprint to footprint),
 collisions. A fleet of one is the single-vehicle run, bit for bit.
 
+A fleet with transport jobs or a ``fleet.traffic`` section runs under traffic control
+(:mod:`agvnav.sim.traffic`): the jobs are dispatched and every route planned together before the
+vehicles are built, each vehicle is built with its planned mission and stands at the hold points of
+the plan's ADG; after every step each vehicle reports its estimated progress. The rows and figures
+then add the jobs dispatched and the time each vehicle waited for traffic, per zone and per node.
+
 This is the per-vehicle engine stepped in lockstep; the batch-kernel engine of issue 28 replaces
 the stepping, not the scenario format, the results or their tests.
 """
@@ -458,6 +464,7 @@ def _vehicle_figures(bf: BuiltFleet, i: int, result: SimResult, sep: _Separation
     outcome = result.outcome
     if reason == IDLE:
         outcome, reason = "completed", "idle: no job dispatched to it, it stood at its start"
+        jobs = done = deliveries = 0
     row = {
         "id": bf.ids[i],
         "model": result.scenario.vehicle.model,
