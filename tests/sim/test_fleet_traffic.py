@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 
 from agvnav.sim.fleet import build_fleet, simulate_fleet
-from agvnav.world.fleet import parse_fleet
+from agvnav.sim.traffic import plan_traffic
+from agvnav.world.fleet import load_fleet, parse_fleet
 from agvnav.world.scenario import ScenarioError
 
 # One two-way lane of 6 m in the hall (y = 3 m, from WH at x = 7 to EH at x = 13), two stations fanned out at each
@@ -119,3 +120,21 @@ def test_a_job_at_an_unknown_station_is_refused_at_its_key(tmp_path: Path) -> No
     body = "  vehicles:\n" + _vehicle("a", "WA") + "  jobs:\n    - {id: J1, pick: WB, drop: nowhere}\n"
     with pytest.raises(ScenarioError, match=r"fleet.jobs\[0\].drop: unknown station 'nowhere'"):
         build_fleet(_fleet(tmp_path, body))  # type: ignore[arg-type]
+
+
+def test_the_shipped_fleet_with_jobs_is_planned_for_every_vehicle_and_job() -> None:
+    fleet = load_fleet("warehouse_fleet_jobs")
+    traffic = plan_traffic(fleet, fleet.vehicle_scenarios())
+    assert len(traffic.jobs) == 6 and not traffic.assignment.unserved and not traffic.plan.unserved
+    assert sum(len(js) for js in traffic.assignment.jobs.values()) == 6
+    assert traffic.adg.is_acyclic() and traffic.adg.n_dependencies > 0
+    assert all(m is not None for m in traffic.missions.values())
+
+
+@pytest.mark.slow
+def test_the_shipped_fleet_with_jobs_does_every_job_without_collision() -> None:
+    result = simulate_fleet(load_fleet("warehouse_fleet_jobs"))
+    f = result.figures
+    assert result.outcome == "completed", result.reason
+    assert f["collisions"] == 0 and f["traffic_conflicts"] == 0 and f["deliveries"] == 6
+    assert f["jobs_completed"] == f["jobs"] and f["traffic_wait_s"] > 0.0
