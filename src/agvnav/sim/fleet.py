@@ -490,15 +490,14 @@ IDLE = "idle"
 
 
 def _traffic_totals(traffic: FleetTraffic) -> dict[str, Any]:
-    """The fleet's traffic figures: jobs dispatched and unserved, time waiting for traffic (s), conflicts."""
-    waits = traffic.control.waits
+    """The fleet's traffic figures: jobs dispatched and unserved, conflicts (the time waiting for traffic is
+    :func:`fleet_figures`' sum of the vehicles')."""
     return {
         "transport_jobs": len(traffic.jobs),
         "unserved_jobs": [j.id for j, _ in traffic.assignment.unserved],
         "unserved_vehicles": sorted(traffic.plan.unserved),
-        "traffic_wait_s": sum(w.total_s for w in waits.values()),
         "traffic_conflicts": len(traffic.conflicts),
-        "traffic_conflict_s": sum(traffic.conflict_s.values()) / 2.0,
+        "traffic_conflict_s": traffic.conflict_time_s,
         "traffic_margin_m": traffic.margin_m,
         "adg_dependencies": traffic.adg.n_dependencies,
         "follow_adg": traffic.control.follow_adg,
@@ -546,7 +545,8 @@ def _job_counts(built: Built, result: SimResult) -> tuple[int, int, int]:
 
 def fleet_figures(vehicles: list[dict[str, Any]], collisions: list[dict[str, Any]], sep: Any,
                   t_end: float) -> dict[str, Any]:
-    """The fleet's headline figures from its vehicles' rows (sums and minima of them)."""
+    """The fleet's headline figures from its vehicles' rows (sums and minima of them; ``traffic_wait_s`` under traffic
+    control)."""
     deliveries = sum(v["deliveries"] for v in vehicles)
     return {
         "vehicles": len(vehicles),
@@ -563,6 +563,8 @@ def fleet_figures(vehicles: list[dict[str, Any]], collisions: list[dict[str, Any
         "time_stopped_positioning_s": sum(v["time_stopped_positioning_s"] for v in vehicles),
         "time_stopped_fields_s": sum(v["time_stopped_fields_s"] for v in vehicles),
         "sim_time_s": t_end,
+        **({"traffic_wait_s": sum(v["traffic_wait_s"] for v in vehicles)}
+           if any("traffic_wait_s" in v for v in vehicles) else {}),
     }
 
 

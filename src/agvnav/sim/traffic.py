@@ -80,6 +80,8 @@ class FleetTraffic:
     missions: dict[str, MissionPlan | None]
     conflict_s: dict[str, float] = field(default_factory=dict)
     """per vehicle, time (s) it held resources conflicting with another's (by the reported progress)."""
+    conflict_time_s: float = 0.0
+    """time (s) some two vehicles held conflicting resources (by the reported progress)."""
     conflicts: list[tuple[str, str, float]] = field(default_factory=list)
     """each pair of vehicles that held conflicting resources and the first time (s) it did."""
 
@@ -232,7 +234,10 @@ def report_progress(traffic: FleetTraffic, vehicle: str, autopilot: object, t: f
 
 def check_conflicts(traffic: FleetTraffic, t: float, dt: float) -> None:
     """Count the time vehicles hold conflicting resources (by their reported progress; the independent check)."""
-    for a, b in traffic.control.conflicting():
+    pairs = traffic.control.conflicting()
+    if pairs:
+        traffic.conflict_time_s += dt
+    for a, b in pairs:
         traffic.conflict_s[a] += dt
         traffic.conflict_s[b] += dt
         if not any(c[:2] == (a, b) for c in traffic.conflicts):
