@@ -99,6 +99,7 @@ def test_without_the_holds_the_same_plans_meet_in_the_lane(tmp_path: Path) -> No
     assert result.figures["traffic_wait_s"] == 0.0
 
 
+@pytest.mark.slow
 def test_a_vehicle_without_work_stands_at_its_start_and_counts_as_done(tmp_path: Path) -> None:
     body = ("  vehicles:\n" + _vehicle("busy", "WA", "[{action: goto, station: WB}]") + _vehicle("spare", "EA"))
     result = simulate_fleet(_fleet(tmp_path, body))  # type: ignore[arg-type]
