@@ -139,3 +139,13 @@ def test_the_shipped_fleet_with_jobs_does_every_job_without_collision() -> None:
     assert result.outcome == "completed", result.reason
     assert f["collisions"] == 0 and f["traffic_conflicts"] == 0 and f["deliveries"] == 6
     assert f["jobs_completed"] == f["jobs"] and f["traffic_wait_s"] > 0.0
+
+
+def test_a_single_mission_without_jobs_is_refused_at_its_key() -> None:
+    from agvnav.sim.build import build
+    from agvnav.world.scenario import builtin_scenario, parse_scenario
+
+    text = Path(builtin_scenario("mission_hall_differential")).read_text()
+    i, j = text.index("  jobs:\n"), text.index("controller:")
+    with pytest.raises(ScenarioError, match=r"x.yaml:\d+: mission.jobs: the mission has no jobs"):
+        build(parse_scenario(text[:i] + "  jobs: []\n" + text[j:], "x.yaml"))
