@@ -2,7 +2,8 @@
 
 * ``metrics.json``: ``scenario``, ``seed``, ``outcome``, ``reason``, ``fleet`` (the fleet's figures,
   :func:`agvnav.sim.fleet.fleet_figures`, without timing), ``collisions``, ``vehicles`` (one row per
-  vehicle: outcome, jobs, time slowed and stopped and why, minimum separation) and ``runs``: per
+  vehicle: outcome, jobs, time slowed and stopped and why, minimum separation; under traffic control
+  the jobs dispatched to it and the time it waited for traffic, per zone and per node) and ``runs``: per
   vehicle id its single-run document (:func:`agvnav.report.files.metrics_document`);
 * ``timing.json``: CPU and wall time, real-time factor, cost per vehicle-step;
 * ``timeseries.csv``: every vehicle's recorded series in long form, ``vehicle`` (its index in
