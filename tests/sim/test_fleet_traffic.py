@@ -99,6 +99,22 @@ def test_without_the_holds_the_same_plans_meet_in_the_lane(tmp_path: Path) -> No
     assert result.figures["traffic_wait_s"] == 0.0
 
 
+def test_a_vehicle_waiting_behind_one_whose_run_ended_is_stopped_naming_it(tmp_path: Path) -> None:
+    # a box on the lane the first vehicle drives (no safety fields): it runs into it, and the other, waiting for it
+    # to clear the lane, would wait for ever: it is stopped, failed, naming the vehicle it waits for
+    (tmp_path / "lane.yaml").write_text(LANE)
+    body = HEAD + ("obstacles: [{id: box, shape: box, length_m: 0.6, width_m: 0.6, position: [11.5, 3.0]}]\n"
+                   "fleet:\n  traffic: {home: false}\n") + HEAD_ON
+    result = simulate_fleet(parse_fleet(body, str(tmp_path / "f.yaml"), base_dir=tmp_path))
+    rows = {r["id"]: r for r in result.vehicles}
+    hit = next(r for r in rows.values() if r["reason"] == "collision")
+    waiter = rows["east" if hit["id"] == "west" else "west"]
+    assert result.outcome == "failed"
+    assert waiter["outcome"] == "failed"
+    assert waiter["reason"].startswith(f"blocked: waits for traffic behind {hit['id']}")
+    assert waiter["end_s"] < hit["end_s"] + 1.0  # stopped at once, not at the time limit
+
+
 @pytest.mark.slow
 def test_a_vehicle_without_work_stands_at_its_start_and_counts_as_done(tmp_path: Path) -> None:
     body = ("  vehicles:\n" + _vehicle("busy", "WA", "[{action: goto, station: WB}]") + _vehicle("spare", "EA"))

@@ -79,3 +79,19 @@ def test_the_hold_point_is_the_source_of_the_first_step_not_allowed() -> None:
     v = held[0]
     k = next(k for k in range(len(control.plans[v].steps)) if control.adg.blockers(v, 2 * k))
     assert control.hold_point(v) == control.bounds[v][k][0]
+
+
+def test_a_vehicle_at_its_hold_point_waits_on_the_other() -> None:
+    control = _control([("WA", "EC"), ("EA", "WC")])
+    assert not any(control.waiting_on(v) for v in control.plans)  # nobody stands at a hold point yet
+    s = dict.fromkeys(control.plans, 0.0)
+    t, seen = 0.0, {}
+    while t < 100.0 and not seen:
+        t += 0.1
+        for v in s:
+            s[v] = min(s[v] + 0.1, control.hold_point(v), control.bounds[v][-1][1])
+            control.report(v, s[v], t, 0.1)
+        seen = {v: control.waiting_on(v) for v in s if control.waiting_on(v)}
+    (v, on), = seen.items()
+    assert on == set(control.plans) - {v}
+    assert s[v] == pytest.approx(control.hold_point(v))  # it stands at its hold point

@@ -350,6 +350,7 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
                 report_progress(traffic, bf.ids[i], loops[i].autopilot, t1, dt)
         if traffic is not None:
             check_conflicts(traffic, t1, dt)
+            _stop_blocked(bf, traffic, t1, ended_at)
         vehicle_steps += len(active)
         steps += 1
         t = t1
@@ -395,6 +396,28 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
     if progress is not None:
         progress(t)
     return FleetResult(bf.fleet, bf.ids, results, figures, vehicles, outcome, reason, collisions)
+
+
+#: The stop reason of a vehicle that waits for traffic behind vehicles whose runs have ended (it never could go on).
+BLOCKED = "blocked"
+
+
+def _stop_blocked(bf: BuiltFleet, traffic: FleetTraffic, t: float, ended_at: list[float]) -> None:
+    """Stop every vehicle standing at a hold point that waits only for vehicles whose runs have ended (failed before
+    passing the events it waits for): it would wait for ever; the reason names them."""
+    loops = [b.loop for b in bf.built]
+    ended = {bf.ids[j] for j, loop in enumerate(loops) if not loop.running}
+    if not ended:
+        return
+    for i, loop in enumerate(loops):
+        if not loop.running:
+            continue
+        on = traffic.control.waiting_on(bf.ids[i])
+        if on and on <= ended:
+            traffic.blocked[bf.ids[i]] = sorted(on)
+            loop.stop(BLOCKED)
+            ended_at[i] = t
+            ended.add(bf.ids[i])
 
 
 def _move_bodies(bf: BuiltFleet, active: list[int], t0: float, t1: float) -> None:
@@ -462,6 +485,9 @@ def _vehicle_figures(bf: BuiltFleet, i: int, result: SimResult, sep: _Separation
         reason = f"collision with {other[0]}" if other else "collision"
     by = tally.by[i]
     outcome = result.outcome
+    if reason == BLOCKED and bf.traffic is not None:
+        reason = (f"blocked: waits for traffic behind {', '.join(bf.traffic.blocked.get(bf.ids[i], []))}, whose run "
+                  "ended first")
     if reason == IDLE:
         outcome, reason = "completed", "idle: no job dispatched to it, it stood at its start"
         jobs = done = deliveries = 0

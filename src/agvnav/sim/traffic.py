@@ -21,7 +21,9 @@ each vehicle reports its *estimated* progress along its mission path (the autopi
 real vehicle reports), which marks the ADG's events and counts the time waiting for traffic, per zone
 and per node. The policy is the traffic package's and the navigation's; this module only wires it.
 A job no vehicle can serve, or a vehicle the planner cannot serve, is reported (``unserved``) and fails
-the fleet run; a vehicle left without work stands at its start.
+the fleet run; a vehicle left without work stands at its start; a vehicle that waits for traffic behind
+vehicles whose runs have ended (a collision, lost positioning) is stopped, failed, naming them (never a
+silent stall to the time limit).
 """
 
 from __future__ import annotations
@@ -80,6 +82,8 @@ class FleetTraffic:
     missions: dict[str, MissionPlan | None]
     conflict_s: dict[str, float] = field(default_factory=dict)
     """per vehicle, time (s) it held resources conflicting with another's (by the reported progress)."""
+    blocked: dict[str, list[str]] = field(default_factory=dict)
+    """vehicles stopped because they waited for traffic behind vehicles whose runs had ended, and those vehicles."""
     conflict_time_s: float = 0.0
     """time (s) some two vehicles held conflicting resources (by the reported progress)."""
     conflicts: list[tuple[str, str, float]] = field(default_factory=list)

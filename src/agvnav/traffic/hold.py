@@ -205,6 +205,16 @@ class HoldControl:
                     break
                 adg.mark(vehicle, e)
 
+    def waiting_on(self, vehicle: str) -> set[str]:
+        """The vehicles whose events the vehicle's next step waits for, once it has reached that step's source
+        (empty while it drives, or when only a release time holds it)."""
+        if not self.follow_adg or vehicle not in self.plans:
+            return set()
+        e = self.adg.done[vehicle]
+        if e % 2 or e // 2 >= len(self.plans[vehicle].steps):
+            return set()
+        return {d.after for d in self.adg.blockers(vehicle, e)}
+
     def held(self, vehicle: str) -> tuple[Resource, ...]:
         """The resources the vehicle holds by its reported progress: step ``k``'s source, edge and target on it, the
         node when at one (within :data:`AT_NODE_M`)."""
