@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from agvnav.sim.fleet import build_fleet, simulate_fleet
@@ -88,6 +89,10 @@ def test_two_vehicles_meeting_head_on_in_a_lane_take_turns_and_do_every_job(tmp_
     zone = max(waiter["traffic_wait_by_zone_s"], key=waiter["traffic_wait_by_zone_s"].get)
     assert zone == {"west": "edge:WH-WA~r", "east": "edge:EH-EB~r"}[waiter["id"]]  # the way out of its spur
     assert f["min_separation_m"] > 0.5
+    # the recorded series agrees: the waiter stood at its hold point as long as it waited (to a step)
+    s = result.results[[r["id"] for r in result.vehicles].index(waiter["id"])].series
+    held = float(np.sum(np.diff(s["t"], prepend=s["t"][0])[s["traffic_hold"] > 0.5]))
+    assert held == pytest.approx(waiter["traffic_wait_s"], abs=0.11)
 
 
 def test_without_the_holds_the_same_plans_meet_in_the_lane(tmp_path: Path) -> None:

@@ -18,7 +18,8 @@ Topological navigation (seed 003 §3.9): the controller's path is the concatenat
 planned edges; where the vehicle is on the graph (edge, progress, next node) comes from its
 progress along the chained path. The recorded signals add ``leg`` (index of the job being
 driven), ``nodes_passed``, ``dwelling`` (1 while stopped at a station) and ``point_offset`` (m,
-the guided point's distance ahead of base_link).
+the guided point's distance ahead of base_link), and with hold points (:meth:`MissionAutopilot.hold_at`)
+``traffic_hold`` (1 while the vehicle stands at a hold point: waiting for traffic, or for a job's release time).
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ from agvnav.routes.mission import MissionPlan, speed_limits
 
 __all__ = [
     "ALIGN_WHEELBASES",
+    "HOLD_REACHED_M",
     "MIN_APPROACH_M",
     "NODE_REACHED_M",
     "SPOT_TURN_DONE_RAD",
@@ -153,6 +155,9 @@ def _straight_tail(plan: MissionPlan, s0: float, s1: float) -> float:
         i -= 1
     return max(s, s0)
 
+
+#: A vehicle stands at its hold point within this distance (m) of it (the recorded ``traffic_hold``).
+HOLD_REACHED_M = 0.1
 
 #: A joint of the mission path where the body heading jumps by more than this (rad) is a turn on the spot.
 SPOT_TURN_MIN_RAD = math.radians(5.0)
@@ -315,8 +320,11 @@ class MissionAutopilot:
         self.pilot = self._start(0)
         names = self.pilot.signal_names
         self._i_s, self._i_rem = names.index("s_est"), names.index("remaining")
-        self.signal_names = (*names, "leg", "nodes_passed", "dwelling", "point_offset")
-        self._sig = (*self.pilot.signals(), 0.0, 0.0, 0.0, self._offsets[self._stints[0].point])
+        self._i_v = names.index("v_cmd")
+        held: tuple[str, ...] = ("traffic_hold",) if self._holds is not None else ()
+        self.signal_names = (*names, "leg", "nodes_passed", "dwelling", "point_offset", *held)
+        self._sig = (*self.pilot.signals(), 0.0, 0.0, 0.0, self._offsets[self._stints[0].point],
+                     *(0.0 for _ in held))
 
     def wrap_stints(self, wrap: Callable[[PathAutopilot], PathAutopilot]) -> None:
         """Drive every stint with ``wrap(pilot)`` instead of its PathAutopilot (e.g. the reaction to the safety
@@ -498,7 +506,15 @@ class MissionAutopilot:
         sig[self._i_s] = s
         sig[self._i_rem] = self.plan.path.length - s
         passed = bisect.bisect_right(self._node_s, s + NODE_REACHED_M)
-        self._sig = (*sig, float(st.leg), float(passed), 1.0 if dwelling else 0.0, self._offsets[st.point])
+        self._sig = (*sig, float(st.leg), float(passed), 1.0 if dwelling else 0.0, self._offsets[st.point],
+                     *self._held(s, float(sig[self._i_v]), dwelling))
+
+    def _held(self, s: float, v: float, dwelling: bool) -> tuple[float, ...]:
+        """``traffic_hold``: 1 while the vehicle stands at its hold point (not dwelling), with hold points only."""
+        if self._holds is None:
+            return ()
+        at = self._holds.hold_point(s) - s <= HOLD_REACHED_M and v == 0.0 and not dwelling
+        return (1.0 if at else 0.0,)
 
     def signals(self) -> tuple[float, ...]:
         """The stint pilot's signals (``s_est`` and ``remaining`` along the whole mission), leg, nodes, dwelling,
