@@ -47,7 +47,7 @@ from agvnav.traffic.adg import Adg, build_adg
 from agvnav.traffic.dispatch import Assignment, DriveTimes, FleetVehicle, dispatch, tasks_of
 from agvnav.traffic.hold import HoldControl, Waits, mission_legs, step_bounds
 from agvnav.traffic.jobs import TransportJob, fleet_jobs
-from agvnav.traffic.plan import INF, NEVER, FleetPlan, Goal, Occupation, plan_fleet
+from agvnav.traffic.plan import INF, NEVER, FleetPlan, Goal, Occupation, VehiclePlan, plan_fleet
 from agvnav.traffic.zones import ConflictZones, conflict_zones, model_footprint
 from agvnav.vehicles.builders import build_plant
 from agvnav.world.fleet import FleetScenario, TrafficSpec
@@ -180,7 +180,8 @@ def plan_traffic(fleet: FleetScenario, scenarios: Sequence[Scenario]) -> FleetTr
             raise fleet.error(("fleet", "vehicles", ids.index(v.id)), f"vehicle {v.id!r}: {exc}") from None
         missions[v.id] = mp
         bounds[v.id] = step_bounds(mp.node_s, vp)
-    control = HoldControl(adg, plan.plans, bounds, zones, follow_adg=spec.follow_adg)
+    standing = {t.vehicle: VehiclePlan(t.vehicle, t.limits.model, t.start, (), (), ()) for t in tasks if not t.goals}
+    control = HoldControl(adg, {**plan.plans, **standing}, bounds, zones, follow_adg=spec.follow_adg)
     return FleetTraffic(net, jobs, assignment, zones, margin, plan, adg, control, missions,
                         dict.fromkeys(ids, 0.0))
 

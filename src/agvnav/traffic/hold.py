@@ -138,8 +138,9 @@ class VehicleHolds:
 class HoldControl:
     """The ADG of a fleet plan kept on vehicles that report their progress (module doc).
 
-    ``plans``: each vehicle's plan; ``bounds``: each vehicle's :func:`step_bounds`; ``follow_adg``: False
-    drives the plans without hold points (nothing is marked, nobody waits; the comparison case).
+    ``plans``: each vehicle's plan (a vehicle without steps stands at its start: in the check, not in the ADG);
+    ``bounds``: each vehicle's :func:`step_bounds`; ``follow_adg``: False drives the plans without hold points
+    (nothing is marked, nobody waits; the comparison case).
     """
 
     def __init__(self, adg: Adg, plans: dict[str, VehiclePlan], bounds: dict[str, list[tuple[float, float]]],
@@ -162,7 +163,7 @@ class HoldControl:
 
     def _next_step(self, vehicle: str) -> int:
         """The step whose start is the vehicle's next start event (len(steps) when all have started)."""
-        done = self.adg.done[vehicle]
+        done = self.adg.done.get(vehicle, 0)  # a vehicle without steps is not in the ADG
         return (done + 1) // 2
 
     def _allowed(self, vehicle: str, k: int) -> bool:
@@ -186,9 +187,9 @@ class HoldControl:
         of ``dt`` (s) when it stands at a step not allowed outside a station's dwell."""
         self.s[vehicle] = float(s)
         self.t = max(self.t, float(t))
-        if not self.follow_adg:
-            return
         adg, b = self.adg, self.bounds[vehicle]
+        if not self.follow_adg or not b:
+            return
         n = len(b)
         while adg.done[vehicle] < 2 * n:
             e = adg.done[vehicle]
@@ -208,9 +209,9 @@ class HoldControl:
     def waiting_on(self, vehicle: str) -> set[str]:
         """The vehicles whose events the vehicle's next step waits for, once it has reached that step's source
         (empty while it drives, or when only a release time holds it)."""
-        if not self.follow_adg or vehicle not in self.plans:
+        e = self.adg.done.get(vehicle)
+        if not self.follow_adg or e is None:
             return set()
-        e = self.adg.done[vehicle]
         if e % 2 or e // 2 >= len(self.plans[vehicle].steps):
             return set()
         return {d.after for d in self.adg.blockers(vehicle, e)}
