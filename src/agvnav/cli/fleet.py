@@ -11,13 +11,14 @@ import typer
 from agvnav.cli.errors import err_console, fail, user_errors
 
 SPEC_ARG = typer.Argument(..., help="Fleet spec YAML: scenario (route network, map), version, manufacturer, "
-                          "vehicles [{serial, start}], jobs, timeout_s.")
+                          "vehicles [{serial, start}], jobs, timeout_s, traffic (true: traffic control).")
 BROKER_OPT = typer.Option(..., "--broker", help="MQTT broker as mqtt://HOST:PORT.")
 
 
 @user_errors
 def fleet(spec: str = SPEC_ARG, broker: str = BROKER_OPT) -> None:
-    """Dispatch pick-and-drop jobs over VDA 5050 to the vehicles of SPEC (any vendor's); no traffic control yet."""
+    """Dispatch pick-and-drop jobs over VDA 5050 to the vehicles of SPEC (any vendor's); with ``traffic: true`` in
+    SPEC, routes planned together and each order's base released as the traffic control allows (issue 30)."""
     from agvnav.vda5050.bus import MissingExtraError, parse_broker, require_mqtt, serve_master
     from agvnav.vda5050.master import job_master, load_fleet_spec
 

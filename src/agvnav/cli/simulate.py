@@ -194,6 +194,9 @@ def _fleet_table(result: Any) -> tuple[str, list[Col], list[list[str]]]:
             Col("jobs done", "right", 0), Col("deliveries", "right", 1), Col("distance (m)", "right", 2),
             Col("slowed / stopped positioning (s)", "right", 1), Col("slowed / stopped fields (s)", "right", 1),
             Col("min separation (m)", "right", 0)]
+    traffic = "traffic_wait_s" in f
+    if traffic:
+        cols.append(Col("waited for traffic (s): most at, for", "right", 1, wrap=True))
     rows = []
     for v in result.vehicles:
         outcome = v["outcome"] + (f" ({v['reason']})" if v["reason"] else "")
@@ -202,6 +205,8 @@ def _fleet_table(result: Any) -> tuple[str, list[Col], list[list[str]]]:
         fields = f"{_fmt(v['time_slowed_fields_s'], 1.0, 1)} / {_fmt(v['time_stopped_fields_s'], 1.0, 1)}"
         rows.append([v["id"], v["model"], outcome, f"{v['jobs_completed']} / {v['jobs']}", str(v["deliveries"]),
                      _fmt(v["distance_m"], 1.0, 1), guard, fields, near])
+        if traffic:
+            rows[-1].append(_traffic_wait(v))
     pair = f" ({' - '.join(f['min_separation_pair'])})" if f["min_separation_pair"] else ""
     rows.append([
         "fleet", f"{f['vehicles']} vehicles", result.outcome + (f" ({result.reason})" if result.reason else ""),
@@ -209,8 +214,19 @@ def _fleet_table(result: Any) -> tuple[str, list[Col], list[list[str]]]:
         f"{f['collisions']} collisions", f"sim {_fmt(f['sim_time_s'], 1.0, 1)} s",
         f"RTF {_fmt(f['real_time_factor_cpu'], 1.0, 1)} (CPU)", _fmt(f["min_separation_m"], 1.0, 2) + pair,
     ])
+    if traffic:
+        rows[-1].append(f"{_fmt(f['traffic_wait_s'], 1.0, 1)} ({f['traffic_conflicts']} conflicts)")
     title = f"{result.fleet.name}: fleet of {len(result.ids)} (seed {result.fleet.seed})"
     return title, cols, rows
+
+
+def _traffic_wait(v: dict[str, Any]) -> str:
+    """A vehicle's time waiting for traffic (s), the node it waited at most and the zone it waited for most."""
+    wait = _fmt(v["traffic_wait_s"], 1.0, 1)
+    zones = v.get("traffic_wait_by_zone_s") or {}
+    if not v.get("traffic_wait_most_at"):
+        return wait
+    return f"{wait}: {v['traffic_wait_most_at']}, {max(zones, key=lambda k: zones[k])}"
 
 
 def _print_json(result: Any) -> None:

@@ -8,7 +8,8 @@ proprioceptive readings, its sensors' latest inputs), through the roles of :mod:
 * :mod:`~agvnav.navigation.guard`: :class:`PositioningGuard` and :class:`EstimatorWatch`, slow
   down / stop / resume when positioning degrades;
 * :mod:`~agvnav.navigation.mission`: the mission autopilot, one path autopilot per stint, station
-  stops (imported on its own: route planning pulls in networkx and scipy);
+  stops, the hold points of a fleet's traffic control (:class:`~agvnav.navigation.mission.HoldPoints`)
+  and turns on the spot inside a leg (imported on its own: route planning pulls in networkx and scipy);
 * :mod:`~agvnav.navigation.fine_positioning`: fine positioning at a station for a spot-turning vehicle;
 * :mod:`~agvnav.navigation.reactive`: the reaction to obstacles and their avoidance;
 * :mod:`~agvnav.navigation.hybrid`: the seed-004 hybrid automaton as an autopilot.

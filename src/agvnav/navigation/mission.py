@@ -18,7 +18,8 @@ Topological navigation (seed 003 §3.9): the controller's path is the concatenat
 planned edges; where the vehicle is on the graph (edge, progress, next node) comes from its
 progress along the chained path. The recorded signals add ``leg`` (index of the job being
 driven), ``nodes_passed``, ``dwelling`` (1 while stopped at a station) and ``point_offset`` (m,
-the guided point's distance ahead of base_link).
+the guided point's distance ahead of base_link), and with hold points (:meth:`MissionAutopilot.hold_at`)
+``traffic_hold`` (1 while the vehicle stands at a hold point: waiting for traffic, or for a job's release time).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,15 +44,21 @@ from agvnav.routes.mission import MissionPlan, speed_limits
 
 __all__ = [
     "ALIGN_WHEELBASES",
+    "HOLD_REACHED_M",
     "MIN_APPROACH_M",
     "NODE_REACHED_M",
+    "SPOT_TURN_DONE_RAD",
+    "SPOT_TURN_MIN_RAD",
+    "HoldPoints",
     "LimitedSpeedProfile",
     "MissionAutopilot",
+    "SpotTurn",
     "StationStop",
     "Stint",
     "run_bounds",
     "stints",
     "sub_path",
+    "turn_points",
 ]
 
 #: A node counts as passed once the progress is within this distance (m) of it (a station stop ends short of it).
@@ -67,14 +75,34 @@ class LimitedSpeedProfile(SpeedProfile):
     limit: Callable[[], float] | None = None
     carry_on: float = 0.0
     """distance (m) the vehicle drives on past the end of the current path (a handover): no braking for it."""
+    hold: Callable[[], float] | None = None
+    """distance (m) to the hold point where the vehicle must stand next (inf: none; :class:`HoldPoints`)."""
 
     def command(self, remaining: float, dt: float, v_target: float | None = None) -> float:
-        """As :meth:`SpeedProfile.command`, with ``|v_target|`` capped by ``limit()`` and ``carry_on`` m
-        added to ``remaining`` (m)."""
+        """As :meth:`SpeedProfile.command`, with ``|v_target|`` capped by ``limit()``, ``carry_on`` m
+        added to ``remaining`` (m), and ``remaining`` cut at the hold point (the profile's own braking stops
+        the vehicle there, smoothly, and starts it again once the hold point moves on)."""
         target = self.cruise_speed if v_target is None else float(v_target)
         if self.limit is not None:
             target = math.copysign(min(abs(target), self.limit()), target) if target else 0.0
-        return super().command(remaining + self.carry_on, dt, target)
+        ahead = remaining + self.carry_on
+        if self.hold is not None:
+            ahead = min(ahead, max(self.hold(), 0.0))
+        return super().command(ahead, dt, target)
+
+
+@runtime_checkable
+class HoldPoints(Protocol):
+    """Where a vehicle must stand next along its mission path: a traffic controller's hold points.
+
+    A fleet's traffic control (:mod:`agvnav.traffic.hold`) tells each vehicle, from the progress the vehicle
+    reports, the node before the next conflict zone it may not enter yet; the vehicle brakes to stand there
+    and goes on once the point moves on.
+    """
+
+    def hold_point(self, s: float) -> float:
+        """Arclength (m) along the mission path where the vehicle at ``s`` (m, its estimate) must stand next
+        (inf: none)."""
 
 
 @dataclass(frozen=True)
@@ -128,7 +156,30 @@ def _straight_tail(plan: MissionPlan, s0: float, s1: float) -> float:
     return max(s, s0)
 
 
-def stints(plan: MissionPlan, switching: bool, wheelbase: float = 0.0) -> list[Stint]:
+#: A vehicle stands at its hold point within this distance (m) of it (the recorded ``traffic_hold``).
+HOLD_REACHED_M = 0.1
+
+#: A joint of the mission path where the body heading jumps by more than this (rad) is a turn on the spot.
+SPOT_TURN_MIN_RAD = math.radians(5.0)
+#: A turn on the spot ends once the estimated heading is within this (rad) of the target.
+SPOT_TURN_DONE_RAD = math.radians(0.5)
+
+
+def turn_points(plan: MissionPlan, tol: float = SPOT_TURN_MIN_RAD) -> list[float]:
+    """Arclengths (m) of the joints of the mission path where the body heading jumps by more than ``tol`` (rad): the
+    turns on the spot the planner gave a spot-turning vehicle inside a leg."""
+    starts = plan.path.segment_starts
+    out = []
+    for i in range(1, len(plan.path.segments)):
+        a, b = plan.path.segments[i - 1], plan.path.segments[i]
+        ha = float(a.end_heading) + (math.pi if a.direction < 0 else 0.0)
+        hb = float(b.heading_at(0.0)) + (math.pi if b.direction < 0 else 0.0)
+        if abs(math.remainder(hb - ha, 2.0 * math.pi)) > tol:
+            out.append(float(starts[i]))
+    return out
+
+
+def stints(plan: MissionPlan, switching: bool, wheelbase: float = 0.0, turns: bool = False) -> list[Stint]:
     """The stints of a mission: one per moving leg, or with ``switching`` the guided point's stints.
 
     Point switching [seed000 §3.1]: the stacker is guided at C (the steered wheel) cruising and at
@@ -143,7 +194,10 @@ def stints(plan: MissionPlan, switching: bool, wheelbase: float = 0.0) -> list[S
     """
     moving = [k for k, leg in enumerate(plan.legs) if leg.route is not None and leg.route.traversals]
     if not switching:
-        return [Stint(k, float(plan.leg_bounds[k, 0]), float(plan.leg_bounds[k, 1]), None, 0.0, True) for k in moving]
+        if not turns:
+            return [Stint(k, float(plan.leg_bounds[k, 0]), float(plan.leg_bounds[k, 1]), None, 0.0, True)
+                    for k in moving]
+        return _turning_stints(plan, moving)
     bounds = run_bounds(plan)
     out: list[Stint] = []
     for k in moving:
@@ -161,6 +215,34 @@ def stints(plan: MissionPlan, switching: bool, wheelbase: float = 0.0) -> list[S
             else:
                 out.append(Stint(k, s0, s1, "O", 0.0, last))
     return out
+
+
+def _turning_stints(plan: MissionPlan, moving: list[int]) -> list[Stint]:
+    """One stint per stretch between two turns on the spot (:func:`turn_points`) inside each moving leg."""
+    cuts_all = turn_points(plan)
+    out = []
+    for k in moving:
+        a, b = float(plan.leg_bounds[k, 0]), float(plan.leg_bounds[k, 1])
+        cuts = [a, *(c for c in cuts_all if a + 1e-9 < c < b - 1e-9), b]
+        out += [Stint(k, s0, s1, None, 0.0, s1 == b) for s0, s1 in itertools.pairwise(cuts)]
+    return out
+
+
+@dataclass(frozen=True)
+class SpotTurn:
+    """How a spot-turning vehicle turns on the spot between two stints: the plant command of a body twist
+    ``twist(v, omega)`` (m/s, rad/s), the turn rate (rad/s) and the spot-turn acceleration (rad/s^2)."""
+
+    twist: Callable[[float, float], tuple[float, ...]]
+    turn_rate: float
+    turn_accel: float
+
+    def omega(self, error: float, omega_prev: float, dt: float) -> float:
+        """Yaw rate (rad/s) for the next ``dt`` s with ``error`` (rad) left: the largest that still stops at the
+        target at ``turn_accel``, at most ``turn_rate``, changed by at most ``turn_accel dt``."""
+        want = math.copysign(min(self.turn_rate, math.sqrt(2.0 * self.turn_accel * abs(error))), error)
+        step = self.turn_accel * dt
+        return min(max(want, omega_prev - step), omega_prev + step)
 
 
 def sub_path(plan: MissionPlan, a: float, b: float) -> tuple[list[Segment], NDArray[np.int64]]:
@@ -227,6 +309,10 @@ class MissionAutopilot:
         self._node_s = [s for s, _ in plan.node_s]
         self._handover_at = math.inf
         self._wrap: Callable[[PathAutopilot], PathAutopilot] | None = None
+        self._holds: HoldPoints | None = None
+        self._spot: SpotTurn | None = None
+        self._turn_to: float | None = None
+        self._omega = 0.0
         self._begin()
 
     def _begin(self) -> None:
@@ -234,8 +320,11 @@ class MissionAutopilot:
         self.pilot = self._start(0)
         names = self.pilot.signal_names
         self._i_s, self._i_rem = names.index("s_est"), names.index("remaining")
-        self.signal_names = (*names, "leg", "nodes_passed", "dwelling", "point_offset")
-        self._sig = (*self.pilot.signals(), 0.0, 0.0, 0.0, self._offsets[self._stints[0].point])
+        self._i_v = names.index("v_cmd")
+        held: tuple[str, ...] = ("traffic_hold",) if self._holds is not None else ()
+        self.signal_names = (*names, "leg", "nodes_passed", "dwelling", "point_offset", *held)
+        self._sig = (*self.pilot.signals(), 0.0, 0.0, 0.0, self._offsets[self._stints[0].point],
+                     *(0.0 for _ in held))
 
     def wrap_stints(self, wrap: Callable[[PathAutopilot], PathAutopilot]) -> None:
         """Drive every stint with ``wrap(pilot)`` instead of its PathAutopilot (e.g. the reaction to the safety
@@ -244,6 +333,29 @@ class MissionAutopilot:
             raise ValueError("wrap the stints before the mission starts")
         self._wrap = wrap
         self._begin()
+
+    def hold_at(self, holds: HoldPoints) -> None:
+        """Stand at ``holds``' hold points (a fleet's traffic control): every stint brakes to stop at the next one
+        and starts again once it moves on; before the mission starts only."""
+        if self._k != 0 or self.stops or self.finished:
+            raise ValueError("give the hold points before the mission starts")
+        self._holds = holds
+        self._begin()
+
+    def turn_on_spot(self, spot: SpotTurn) -> None:
+        """Turn on the spot where the mission path's heading jumps inside a leg (:func:`turn_points`: the planner's
+        turns at a node), and before a stint that leaves a station in another heading; before the mission starts
+        only. Each stretch between two turns is a stint of its own, stopped at its end."""
+        if self._k != 0 or self.stops or self.finished:
+            raise ValueError("give the spot turn before the mission starts")
+        self._spot = spot
+        self._stints = stints(self.plan, False, 0.0, turns=True)
+        self._begin()
+
+    @property
+    def progress(self) -> float:
+        """The estimated arclength (m) along the whole mission path (what the vehicle reports to a fleet manager)."""
+        return float(self._sig[self._i_s])
 
     def _stint_path(self, st: Stint) -> tuple[Path, NDArray[np.float64]]:
         segs, idx = sub_path(self.plan, st.s0, st.s1)
@@ -263,6 +375,9 @@ class MissionAutopilot:
         self._k = i
         st = self._stints[i]
         path, speed = self._stint_path(st)
+        if self._spot is not None:
+            direction = int(self.plan.path.direction_at(st.s0 + 1e-6))
+            self._turn_to = float(self.plan.path.heading_at(st.s0 + 1e-6)) + (math.pi if direction < 0 else 0.0)
         a_lat, creep_d, creep_v = self._limits
         ahead, ahead_speed = path, speed
         if st.handover:  # the limit looks on through the next stint: C stops L past where O will stop
@@ -285,6 +400,14 @@ class MissionAutopilot:
             return float(v_grid[min(int(s / step), len(v_grid) - 1)])
 
         self.profile.limit = limit
+        self.profile.hold = None
+        holds = self._holds
+        if holds is not None:
+            def hold() -> float:  # the pilot's progress along the stint is one step old, as for limit()
+                s = st.s0 + float(pilot.signals()[i_s])
+                return holds.hold_point(s) - s
+
+            self.profile.hold = hold
         return pilot
 
     def _station_point(self, st: Stint) -> tuple[float, float]:
@@ -308,6 +431,11 @@ class MissionAutopilot:
         if t < self._dwell_until:
             self._record(dwelling=True)
             return self._hold()
+        if self._spot is not None and self._turn_to is not None:
+            cmd = self._turning(estimator, dt)
+            if cmd is not None:
+                self._record(dwelling=False)
+                return cmd
         if float(self.pilot.signals()[self._i_s]) >= self._handover_at:  # C arrived: O takes over, moving
             self.pilot = self._start(self._k + 1)
         cmd = self.pilot.command(t, estimator, plant, dt)
@@ -320,6 +448,20 @@ class MissionAutopilot:
 
     def _hold(self) -> tuple[float, ...]:
         return (0.0, 0.0, 0.0) if self.pilot.family == "holonomic" else (0.0, 0.0)
+
+    def _turning(self, estimator: Estimator, dt: float) -> tuple[float, ...] | None:
+        """The spot turn to the stint's start heading (None once done: the stint's pilot drives on)."""
+        assert self._spot is not None and self._turn_to is not None
+        heading = float(estimator.pose[2])
+        if not math.isfinite(heading) or estimator.status in ("initialising", "lost"):
+            self._omega = 0.0
+            return self._hold()  # no heading to turn by: wait for the estimate
+        error = math.remainder(self._turn_to - heading, 2.0 * math.pi)
+        if abs(error) <= SPOT_TURN_DONE_RAD and abs(self._omega) <= self._spot.turn_accel * dt:
+            self._turn_to, self._omega = None, 0.0
+            return None
+        self._omega = self._spot.omega(error, self._omega, dt)
+        return self._spot.twist(0.0, self._omega)
 
     def _arrived(self, t: float) -> None:
         st = self._stints[self._k]
@@ -364,7 +506,15 @@ class MissionAutopilot:
         sig[self._i_s] = s
         sig[self._i_rem] = self.plan.path.length - s
         passed = bisect.bisect_right(self._node_s, s + NODE_REACHED_M)
-        self._sig = (*sig, float(st.leg), float(passed), 1.0 if dwelling else 0.0, self._offsets[st.point])
+        self._sig = (*sig, float(st.leg), float(passed), 1.0 if dwelling else 0.0, self._offsets[st.point],
+                     *self._held(s, float(sig[self._i_v]), dwelling))
+
+    def _held(self, s: float, v: float, dwelling: bool) -> tuple[float, ...]:
+        """``traffic_hold``: 1 while the vehicle stands at its hold point (not dwelling), with hold points only."""
+        if self._holds is None:
+            return ()
+        at = self._holds.hold_point(s) - s <= HOLD_REACHED_M and v == 0.0 and not dwelling
+        return (1.0 if at else 0.0,)
 
     def signals(self) -> tuple[float, ...]:
         """The stint pilot's signals (``s_est`` and ``remaining`` along the whole mission), leg, nodes, dwelling,

@@ -2,7 +2,8 @@
 
 * ``metrics.json``: ``scenario``, ``seed``, ``outcome``, ``reason``, ``fleet`` (the fleet's figures,
   :func:`agvnav.sim.fleet.fleet_figures`, without timing), ``collisions``, ``vehicles`` (one row per
-  vehicle: outcome, jobs, time slowed and stopped and why, minimum separation) and ``runs``: per
+  vehicle: outcome, jobs, time slowed and stopped and why, minimum separation; under traffic control
+  the jobs dispatched to it and the time it waited for traffic, per zone and per node) and ``runs``: per
   vehicle id its single-run document (:func:`agvnav.report.files.metrics_document`);
 * ``timing.json``: CPU and wall time, real-time factor, cost per vehicle-step;
 * ``timeseries.csv``: every vehicle's recorded series in long form, ``vehicle`` (its index in
@@ -32,7 +33,7 @@ __all__ = ["FLEET_COLUMNS", "TIMING_FIGURES", "fleet_document", "fleet_layout", 
 
 #: Columns of the long time series (those a vehicle lacks are NaN).
 FLEET_COLUMNS = ("t", "x", "y", "psi", "est_x", "est_y", "est_psi", "est_status", "lateral_error", "guard_level",
-                 "reaction_level", "dwelling", "leg")
+                 "reaction_level", "dwelling", "leg", "traffic_hold")
 
 #: Fleet figures that are timing (timing.json, never metrics.json: the metrics are deterministic).
 TIMING_FIGURES = ("cpu_time_s", "wall_time_s", "real_time_factor_cpu", "us_per_vehicle_step")
@@ -136,10 +137,12 @@ def plot_tracks(result: FleetResult, out: Path) -> Path:
 
 
 def plot_timeline(result: FleetResult, out: Path) -> Path:
-    """Per vehicle, one bar over time: moving, dwelling at a station, slowed, stopped (positioning or fields)."""
+    """Per vehicle, one bar over time: moving, dwelling at a station, slowed, stopped (positioning or fields),
+    held at a hold point (under traffic control: for traffic, or a job's release time)."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(10, 0.5 * len(result.ids) + 1.5))
-    colours = {"dwelling": "tab:blue", "slowed": "tab:orange", "stopped": "tab:red", "moving": "tab:green"}
+    colours = {"dwelling": "tab:blue", "slowed": "tab:orange", "stopped": "tab:red", "moving": "tab:green",
+               "held": "tab:purple"}
     for row, r in enumerate(result.results):
         s = r.series
         t = s["t"]
@@ -151,6 +154,8 @@ def plot_timeline(result: FleetResult, out: Path) -> Path:
         state[np.maximum(guard, react) >= 2.0] = "stopped"
         if "dwelling" in s:
             state[s["dwelling"] > 0.5] = "dwelling"
+        if "traffic_hold" in s:
+            state[s["traffic_hold"] > 0.5] = "held"
         for name, colour in colours.items():
             mask = state == name
             if mask.any():
@@ -159,8 +164,9 @@ def plot_timeline(result: FleetResult, out: Path) -> Path:
                                color=colour)
     ax.set_yticks(range(len(result.ids)), result.ids)
     ax.set_xlabel("t (s)")
+    held = any("traffic_hold" in r.series for r in result.results)
     ax.set_title(f"{result.fleet.name}: what each vehicle did (green moving, blue at a station, orange slowed, "
-                 "red stopped)", fontsize=9)
+                 "red stopped" + (", purple held for traffic or a job's release)" if held else ")"), fontsize=9)
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     plt.close(fig)

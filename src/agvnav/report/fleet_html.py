@@ -132,6 +132,7 @@ VEHICLE_COLUMNS = (
     ("time_stopped_positioning_s", "stopped, positioning (s)"), ("time_slowed_fields_s", "slowed, fields (s)"),
     ("time_stopped_fields_s", "stopped, fields (s)"), ("time_stopped_by_vehicle_s", "stopped by a vehicle (s)"),
     ("stopped_most_by", "mostly by"), ("min_separation_m", "closest (m)"), ("nearest_vehicle", "to"),
+    ("traffic_wait_s", "waited for traffic (s)"), ("traffic_wait_most_at", "mostly at"),
 )
 
 
@@ -152,8 +153,12 @@ def _tables(metrics: dict[str, Any]) -> str:
     head = "".join(f"<th>{html.escape(h)}</th>" for _, h in VEHICLE_COLUMNS)
     body = "".join("<tr>" + "".join(f"<td>{_cell(v.get(k))}</td>" for k, _ in VEHICLE_COLUMNS) + "</tr>"
                    for v in metrics.get("vehicles", []))
+    waits = "".join(f"<tr><td>{html.escape(str(v.get('id')))}</td><td>{html.escape(z)}</td><td>{_cell(s)}</td></tr>"
+                    for v in metrics.get("vehicles", []) for z, s in (v.get("traffic_wait_by_zone_s") or {}).items())
+    traffic = (f"<h2>Waiting for traffic</h2><table><tr><th>vehicle</th><th>zone waited for</th><th>time (s)</th></tr>"
+               f"{waits}</table>") if waits else ""
     return (f"<h2>Fleet</h2><table>{rows}</table><h2>Vehicles</h2>"
-            f"<table><tr>{head}</tr>{body}</table>")
+            f"<table><tr>{head}</tr>{body}</table>{traffic}")
 
 
 def render_fleet_html(run_dir: str | Path) -> str:

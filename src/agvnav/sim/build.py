@@ -567,23 +567,27 @@ def _default_duration(sc: Scenario, path: Path) -> float:
     return 1.5 * (path.length / v + ramps) + 5.0 + sc.end_hold_s
 
 
-def build(sc: Scenario) -> Built:
+def build(sc: Scenario, mission: MissionPlan | None = None) -> Built:
     """Wire every part of scenario ``sc`` (any vehicle following a path) into a ClosedLoop.
 
     A scenario with the seed-004 ``route`` runs laps instead (:func:`agvnav.sim.laps.simulate_tracked`).
+    ``mission``: a mission planned elsewhere for the scenario's mission vehicle (a fleet's traffic plan,
+    :mod:`agvnav.sim.traffic`), driven instead of the scenario's own jobs.
     """
     if sc.route is not None:
         raise sc.error(("route",), "a route scenario runs laps (agvnav.sim.simulate), it has no single path loop")
     if sc.docking is not None and sc.mission is None:  # issue 32: dock relative to the station's target
         return build_docking(sc)
     world = build_world(sc)
-    mission = None
+    if mission is not None and sc.mission is None:
+        raise ValueError("a planned mission needs a mission scenario (its network and start)")
     if sc.mission is not None:
         # imported only for a mission scenario: routes pull in networkx and scipy.interpolate, about
         # half of agvnav.sim's import time, which path scenarios never use
         from agvnav.sim import mission as missions  # noqa: PLC0415 - start-up time of path scenarios
 
-        mission = missions.plan_mission(sc)
+        if mission is None:
+            mission = missions.plan_mission(sc)
     path = build_path(sc) if mission is None else mission.path
     family = sc.vehicle.family
     point = _point(sc, family)

@@ -23,6 +23,12 @@ the fleet's figures (:func:`fleet_figures`) summarise them: jobs completed, deli
 time each vehicle spent slowed or stopped and why, minimum separation (footprint to footprint),
 collisions. A fleet of one is the single-vehicle run, bit for bit.
 
+A fleet with transport jobs or a ``fleet.traffic`` section runs under traffic control
+(:mod:`agvnav.sim.traffic`): the jobs are dispatched and every route planned together before the
+vehicles are built, each vehicle is built with its planned mission and stands at the hold points of
+the plan's ADG; after every step each vehicle reports its estimated progress. The rows and figures
+then add the jobs dispatched and the time each vehicle waited for traffic, per zone and per node.
+
 This is the per-vehicle engine stepped in lockstep; the batch-kernel engine of issue 28 replaces
 the stepping, not the scenario format, the results or their tests.
 """
@@ -49,6 +55,16 @@ from agvnav.sim.rangers import UltrasonicSensorRole
 from agvnav.sim.reactive import ObstacleRangers, OccludedReflections, ReactiveInputs, ScannerRole
 from agvnav.sim.roles import GoniometerSensor
 from agvnav.sim.run import SimResult, result_of
+from agvnav.sim.traffic import (
+    FleetTraffic,
+    check_conflicts,
+    plan_traffic,
+    report_progress,
+    standing_mission,
+    traffic_figures,
+    under_traffic_control,
+    wire_holds,
+)
 from agvnav.world.fleet import FleetScenario
 from agvnav.world.obstacles import obstacle_from_spec
 from agvnav.world.scenario import Scenario, ScenarioError
@@ -93,6 +109,8 @@ class BuiltFleet:
     duration: float
     n_obstacles: int
     """obstacles of the scenario itself in each vehicle's set (vehicle ``j``'s body is obstacle ``n_obstacles + j``)."""
+    traffic: FleetTraffic | None = None
+    """the traffic control (jobs dispatched, routes planned together, the ADG's hold points), when under it."""
 
 
 def _apply_at(fleet: FleetScenario, i: int, sc: Scenario) -> Scenario:
@@ -130,9 +148,15 @@ def build_fleet(fleet: FleetScenario) -> BuiltFleet:
     built: list[Built] = []
     own = [_apply_at(fleet, i, sc) for i, sc in enumerate(fleet.vehicle_scenarios())]
     _check_stations(fleet, own)
+    traffic = plan_traffic(fleet, own) if under_traffic_control(fleet) else None
     for i, sc in enumerate(own):
         try:
-            b = build(sc)
+            if traffic is None:
+                b = build(sc)
+            else:
+                planned = traffic.missions[ids[i]]
+                b = build(sc, planned if planned is not None else standing_mission(traffic, sc))
+                wire_holds(traffic, ids[i], sc, b.plant, b.autopilot)
         except ScenarioError as exc:
             if exc.key and exc.key[:2] == ("mission", "start") and fleet.fleet.vehicles[i].at is not None:
                 raise fleet.error(("fleet", "vehicles", i, "at"), f"vehicle {ids[i]!r}: {exc.detail}") from None
@@ -146,10 +170,12 @@ def build_fleet(fleet: FleetScenario) -> BuiltFleet:
     for i, b in enumerate(built):
         _wire_others(b, scenarios[i], bodies, i)
     duration = float(fleet.duration_s) if fleet.duration_s is not None else max(b.duration for b in built)
+    if traffic is not None and fleet.duration_s is None:  # the planned waits for traffic on top
+        duration += max((p.end_s for p in traffic.plan.plans.values()), default=0.0)
     stride = fleet_stride(fleet, len(built), float(built[0].loop.dt), duration)
     for b in built:
         b.loop.record_every = stride
-    return BuiltFleet(fleet, ids, scenarios, built, bodies, duration, n_obs)
+    return BuiltFleet(fleet, ids, scenarios, built, bodies, duration, n_obs, traffic)
 
 
 #: Recorded rows of all the vehicles together a fleet keeps at most when its rate is automatic
@@ -304,6 +330,8 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
     tally = _Tally(bf)
     collisions: list[dict[str, Any]] = []
     ended_at = [math.nan] * n
+    traffic = bf.traffic
+    idle = [i for i in range(n) if traffic is not None and traffic.missions[bf.ids[i]] is None]
     cpu0, wall0 = time.process_time(), time.perf_counter()
     steps = 0
     vehicle_steps = 0
@@ -318,9 +346,19 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
             if not loops[i].sense():
                 ended_at[i] = t1
             tally.count(i, loops[i].autopilot.signals(), dt)
+            if traffic is not None:
+                report_progress(traffic, bf.ids[i], loops[i].autopilot, t1, dt)
+        if traffic is not None:
+            check_conflicts(traffic, t1, dt)
+            _stop_blocked(bf, traffic, t1, ended_at)
         vehicle_steps += len(active)
         steps += 1
         t = t1
+        if idle and all(i in idle or not loops[i].running for i in range(n)):
+            for i in idle:  # a vehicle without work stands at its start until the others are done
+                if loops[i].running:
+                    loops[i].stop(IDLE)
+                    ended_at[i] = t
         hit = _separations(bf, sep, t)
         if hit is not None:
             a, b = hit
@@ -339,6 +377,8 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
         results.append(result_of(sc, vb, out))
     vehicles = [_vehicle_figures(bf, i, results[i], sep, collisions, tally) for i in range(n)]
     figures = fleet_figures(vehicles, collisions, sep, t)
+    if traffic is not None:
+        figures.update(_traffic_totals(traffic))
     figures.update(steps=steps, vehicle_steps=vehicle_steps, cpu_time_s=cpu, wall_time_s=wall,
                    real_time_factor_cpu=t / cpu if cpu > 0 else math.inf,
                    us_per_vehicle_step=1e6 * cpu / vehicle_steps if vehicle_steps else math.nan)
@@ -350,9 +390,34 @@ def run_fleet(bf: BuiltFleet, progress: Callable[[float], None] | None = None) -
         failed = [v for v in vehicles if v["outcome"] != "completed"]
         outcome = "failed" if failed else "completed"
         reason = None if not failed else "; ".join(f"{v['id']}: {v['reason']}" for v in failed)
+        unserved = _unserved(traffic)
+        if unserved:
+            outcome, reason = "failed", "; ".join([*([reason] if reason else []), unserved])
     if progress is not None:
         progress(t)
     return FleetResult(bf.fleet, bf.ids, results, figures, vehicles, outcome, reason, collisions)
+
+
+#: The stop reason of a vehicle that waits for traffic behind vehicles whose runs have ended (it never could go on).
+BLOCKED = "blocked"
+
+
+def _stop_blocked(bf: BuiltFleet, traffic: FleetTraffic, t: float, ended_at: list[float]) -> None:
+    """Stop every vehicle standing at a hold point that waits only for vehicles whose runs have ended (failed before
+    passing the events it waits for): it would wait for ever; the reason names them."""
+    loops = [b.loop for b in bf.built]
+    ended = {bf.ids[j] for j, loop in enumerate(loops) if not loop.running}
+    if not ended:
+        return
+    for i, loop in enumerate(loops):
+        if not loop.running:
+            continue
+        on = traffic.control.waiting_on(bf.ids[i])
+        if on and on <= ended:
+            traffic.blocked[bf.ids[i]] = sorted(on)
+            loop.stop(BLOCKED)
+            ended_at[i] = t
+            ended.add(bf.ids[i])
 
 
 def _move_bodies(bf: BuiltFleet, active: list[int], t0: float, t1: float) -> None:
@@ -419,10 +484,17 @@ def _vehicle_figures(bf: BuiltFleet, i: int, result: SimResult, sep: _Separation
         other = [v for c in collisions for v in c["vehicles"] if bf.ids[i] in c["vehicles"] and v != bf.ids[i]]
         reason = f"collision with {other[0]}" if other else "collision"
     by = tally.by[i]
-    return {
+    outcome = result.outcome
+    if reason == BLOCKED and bf.traffic is not None:
+        reason = (f"blocked: waits for traffic behind {', '.join(bf.traffic.blocked.get(bf.ids[i], []))}, whose run "
+                  "ended first")
+    if reason == IDLE:
+        outcome, reason = "completed", "idle: no job dispatched to it, it stood at its start"
+        jobs = done = deliveries = 0
+    row = {
         "id": bf.ids[i],
         "model": result.scenario.vehicle.model,
-        "outcome": result.outcome,
+        "outcome": outcome,
         "reason": reason,
         "jobs": jobs,
         "jobs_completed": done,
@@ -434,6 +506,37 @@ def _vehicle_figures(bf: BuiltFleet, i: int, result: SimResult, sep: _Separation
         "nearest_vehicle": sep.nearest[i] or None,
         "end_s": float(t[-1]) if t.size else 0.0,
     }
+    if bf.traffic is not None:
+        row.update(traffic_figures(bf.traffic, bf.ids[i]))
+    return row
+
+
+#: The stop reason of a vehicle without work, ended once the others are done (reported completed, idle).
+IDLE = "idle"
+
+
+def _traffic_totals(traffic: FleetTraffic) -> dict[str, Any]:
+    """The fleet's traffic figures: jobs dispatched and unserved, conflicts (the time waiting for traffic is
+    :func:`fleet_figures`' sum of the vehicles')."""
+    return {
+        "transport_jobs": len(traffic.jobs),
+        "unserved_jobs": [j.id for j, _ in traffic.assignment.unserved],
+        "unserved_vehicles": sorted(traffic.plan.unserved),
+        "traffic_conflicts": len(traffic.conflicts),
+        "traffic_conflict_s": traffic.conflict_time_s,
+        "traffic_margin_m": traffic.margin_m,
+        "adg_dependencies": traffic.adg.n_dependencies,
+        "follow_adg": traffic.control.follow_adg,
+    }
+
+
+def _unserved(traffic: FleetTraffic | None) -> str:
+    """Why some work was not served (empty when all was)."""
+    if traffic is None:
+        return ""
+    parts = [f"job {j.id} unserved: {why}" for j, why in traffic.assignment.unserved]
+    parts += [f"vehicle {v} unserved: {why}" for v, why in traffic.plan.unserved.items()]
+    return "; ".join(parts)
 
 
 def _distance(series: dict[str, NDArray[np.float64]]) -> NDArray[np.float64]:
@@ -468,7 +571,8 @@ def _job_counts(built: Built, result: SimResult) -> tuple[int, int, int]:
 
 def fleet_figures(vehicles: list[dict[str, Any]], collisions: list[dict[str, Any]], sep: Any,
                   t_end: float) -> dict[str, Any]:
-    """The fleet's headline figures from its vehicles' rows (sums and minima of them)."""
+    """The fleet's headline figures from its vehicles' rows (sums and minima of them; ``traffic_wait_s`` under traffic
+    control)."""
     deliveries = sum(v["deliveries"] for v in vehicles)
     return {
         "vehicles": len(vehicles),
@@ -485,6 +589,8 @@ def fleet_figures(vehicles: list[dict[str, Any]], collisions: list[dict[str, Any
         "time_stopped_positioning_s": sum(v["time_stopped_positioning_s"] for v in vehicles),
         "time_stopped_fields_s": sum(v["time_stopped_fields_s"] for v in vehicles),
         "sim_time_s": t_end,
+        **({"traffic_wait_s": sum(v["traffic_wait_s"] for v in vehicles)}
+           if any("traffic_wait_s" in v for v in vehicles) else {}),
     }
 
 

@@ -71,6 +71,8 @@ def plan_mission(sc: Scenario) -> MissionPlan:
     net = load_mission_network(sc)
     if m.start not in net.nodes:
         raise sc.error(("mission", "start"), f"unknown station {m.start!r} in network {net.name!r}")
+    if not m.jobs:
+        raise sc.error(("mission", "jobs"), "the mission has no jobs: give at least one")
     limits = VehicleLimits(sc.vehicle.model, sc.traction.speed_m_s, m.lateral_accel_m_s2,
                            math.radians(m.turn_rate_deg_s))
     try:

@@ -6,6 +6,8 @@
 * :mod:`agvnav.traffic.adg`: the action dependency graph that executes the plans under delays;
 * :mod:`agvnav.traffic.execute`: a kinematic-time executor of the plans (Monte Carlo, brute-force checks);
 * :mod:`agvnav.traffic.replan`: replanning the steps not yet started when a vehicle is blocked long;
+* :mod:`agvnav.traffic.hold`: the ADG kept on vehicles that drive themselves and report their progress (hold
+  points of the closed-loop fleet, :mod:`agvnav.sim.traffic`);
 * :mod:`agvnav.traffic.baseline`: an exclusive-resource allocator the way openTCS allocates;
 * :mod:`agvnav.traffic.lif`: LIF 1.0 (VDMA Layout Interchange Format) import and export.
 """

@@ -3,10 +3,33 @@
 :class:`MasterMessages` writes the messages a master sends, in the form of the version spoken
 (2.x edges name their nodes, 3.0 edges do not), with its own header ids per topic.
 :class:`JobMaster` dispatches pick-and-drop jobs over routes it plans, with order updates and
-instant actions, through any transport (the in-process bus of the bench, MQTT). It has no
-traffic control: the vehicles it drives must not share the floor (each in its own simulated
-world, or real vehicles on separate networks) until the traffic control of the issue filed
-beside issue 31 exists.
+instant actions, through any transport (the in-process bus of the bench, MQTT).
+
+Without traffic control (the default) each vehicle's route is planned alone, its first half released
+and the rest released by an update once the vehicle nears the decision point: the vehicles must not
+share the floor (each in its own simulated world, or on separate networks).
+
+With traffic control (``traffic=True``, issue 30) the vehicles share the floor. Jobs go out in
+rounds: once every vehicle is idle, each is given a station (distinct, reachable, not where another
+stands) and all routes are planned together (:func:`agvnav.traffic.plan.plan_fleet` over the conflict
+zones of the vehicles' model, :func:`agvnav.traffic.zones.conflict_zones`), and the plan's order of
+passage through every zone is kept by its action dependency graph (:mod:`agvnav.traffic.adg`):
+
+* each order carries the whole route; its **base** (released nodes and edges) ends at the last node
+  up to which every step's start is allowed by the ADG (the dependencies on the other vehicles'
+  events are met), the rest is **horizon**; the vehicle stops at the end of the base (the decision
+  point) unless an update extended it;
+* the vehicles' states report progress: ``lastNodeId``/``lastNodeSequenceId`` (node ``i`` of the
+  route has sequence id ``2 i``) marks the ADG's events of the steps up to that node (the step's
+  start and arrival: the resources it held behind the vehicle are given up);
+* after every report the master extends, by an order update stitched at the decision point, the base
+  of each vehicle whose next steps the ADG now allows (:attr:`JobMaster.releases` logs each release).
+
+A step is released only when the vehicles planned through its zone before it have reported leaving
+it, so a late vehicle delays the others and never meets them (the ADG's safety and deadlock freedom,
+:mod:`agvnav.traffic.adg`); the zones' margin (``margin_m``) covers the vehicles' positioning and
+tracking errors and the reach of ``lastNodeId`` (a node counts as passed within the vehicle's
+deviation of it).
 """
 
 from __future__ import annotations
@@ -23,7 +46,10 @@ from pydantic import Field, model_validator
 
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.routes.network import RouteNetwork
-from agvnav.routes.planning import Planner, VehicleLimits
+from agvnav.routes.planning import NoRouteError, Planner, VehicleLimits
+from agvnav.traffic.adg import Adg, build_adg
+from agvnav.traffic.plan import Goal, VehicleTask, plan_fleet
+from agvnav.traffic.zones import DEFAULT_MARGIN_M, ConflictZones, conflict_zones
 from agvnav.vda5050.messages import iso_timestamp
 from agvnav.vda5050.schemas import JsonObject, major
 from agvnav.world.strict import (
@@ -110,6 +136,10 @@ class _Dispatch:
     next_instant: float = 0.0
     done: int = 0
     rejected: int = 0
+    route: tuple[str, ...] = ()
+    """traffic control: the nodes of the running order's whole route."""
+    granted: int = 0
+    """traffic control: steps of the route released so far (the base ends at ``route[granted]``)."""
 
 
 class JobMaster:
@@ -129,9 +159,21 @@ class JobMaster:
     def __init__(self, network: RouteNetwork, map_id: str, version: str, manufacturer: str, serials: Sequence[str],
                  start: str | dict[str, str], send: Callable[[str, str, JsonObject], None],
                  model: str = "differential", seed: int = 0, instant_period_s: float = 60.0, pause_s: float = 2.0,
-                 action_s: float = 3.0) -> None:
+                 action_s: float = 3.0, traffic: bool = False, margin_m: float = 2 * DEFAULT_MARGIN_M) -> None:
         self.network, self.send = network, send
-        self.planner = Planner(network, VehicleLimits(model))
+        self.limits = VehicleLimits(model)
+        self.planner = Planner(network, self.limits)
+        self.traffic = traffic
+        """traffic control (module doc): routes planned together, bases released as the ADG allows."""
+        self.zones: ConflictZones | None = conflict_zones(network, [model], margin_m=margin_m) if traffic else None
+        self.adg: Adg | None = None
+        """traffic control: the ADG of the round under way."""
+        self.t = 0.0
+        """the caller's clock at the last :meth:`tick` (s)."""
+        self.releases: list[tuple[float, str, int, int]] = []
+        """traffic control: every base release ``(t, serial, first step, steps released)``, in order."""
+        self.marks: list[tuple[float, str, int]] = []
+        """traffic control: every ADG event marked from the vehicles' reports ``(t, serial, event)``, in order."""
         starts = start if isinstance(start, dict) else dict.fromkeys(serials, start)
         self.stations = [s for s in network.stations if s not in starts.values()] or list(network.stations)
         self.rng = np.random.default_rng(seed)
@@ -153,13 +195,16 @@ class JobMaster:
 
     def tick(self, t: float) -> None:
         """Send what is due at time ``t`` (s): new orders to idle vehicles, instant actions."""
+        self.t = t
+        if self.traffic and not any(d.busy for d in self.vehicles.values()):
+            self._round()
         for serial, d in self.vehicles.items():
             if d.failed is not None:
                 continue
             if d.paused_until is not None and t >= d.paused_until:
                 self.send(serial, "instantActions", d.messages.instant(d.messages.action("stopPause", f"sp{t:.2f}")))
                 d.paused_until = None
-            if not d.busy and d.done < self.max_jobs:
+            if not self.traffic and not d.busy and d.done < self.max_jobs:
                 self._dispatch(serial, d)
             if t >= d.next_instant and d.paused_until is None:
                 kind = str(self.rng.choice(["stateRequest", "factsheetRequest", "startPause"]))
@@ -167,6 +212,93 @@ class JobMaster:
                 if kind == "startPause":
                     d.paused_until = t + self.pause_s
                 d.next_instant = t + self._gap()
+
+    def _round(self) -> None:
+        """Traffic control: a station for every vehicle that has jobs left, all routes planned together, their ADG,
+        an order each with the base the ADG allows (module doc)."""
+        assert self.zones is not None
+        taken = {d.node for d in self.vehicles.values()}
+        tasks = []
+        for serial, d in self.vehicles.items():
+            if d.failed is not None or d.done >= self.max_jobs:
+                continue
+            options = [s for s in self.stations if s not in taken and self._reachable(d.node, s)]
+            if not options:
+                continue
+            goal = str(self.rng.choice(options))
+            taken.add(goal)
+            act = "drop" if d.carrying else "pick"
+            tasks.append(VehicleTask(serial, self.limits, d.node, (Goal(goal, self.action_s, action=act),)))
+        if not tasks:
+            return
+        plan = plan_fleet(self.network, tasks, self.zones)
+        self.adg = build_adg(plan, self.zones)
+        for task in tasks:
+            steps = plan.plans[task.vehicle].steps
+            if not steps:
+                continue  # unserved this round: planned again in the next
+            d = self.vehicles[task.vehicle]
+            d.route = (task.start, *(st.target for st in steps))
+            d.order += 1
+            act = task.goals[0].action
+            d.goal_actions = [MasterMessages.action(act, f"{task.vehicle}-{d.order}-{act}", "HARD", stationType="floor",
+                                                    loadType="EPAL",
+                                                    loadId=f"load-{task.vehicle}-{d.order - int(d.carrying)}",
+                                                    duration=self.action_s)]
+            d.busy, d.update_id, d.granted = True, 0, 0
+            self._grant(task.vehicle, d, first=True)
+
+    def _reachable(self, a: str, b: str) -> bool:
+        try:
+            self.planner.plan(a, b)
+        except NoRouteError:
+            return False
+        return True
+
+    def _grantable(self, serial: str, d: _Dispatch) -> int:
+        """Steps of the route the ADG lets the vehicle take: up to the first whose start waits for another vehicle."""
+        assert self.adg is not None
+        k, n = d.granted, len(d.route) - 1
+        while k < n and not self.adg.blockers(serial, 2 * k):
+            k += 1
+        return k
+
+    def _grant(self, serial: str, d: _Dispatch, first: bool = False) -> None:
+        """Send the order (``first``) or an update stitched at the decision point, when the base grows."""
+        k = self._grantable(serial, d)
+        if not first and k == d.granted:
+            return
+        start = d.granted
+        nodes = list(d.route[start:])
+        if not first:
+            d.update_id += 1
+        self.send(serial, "order", d.messages.order(f"{serial}-job{d.order}", d.update_id, nodes, k - start + 1,
+                                                    2 * start, {len(nodes) - 1: d.goal_actions}))
+        self.releases.append((self.t, serial, start, k - start))
+        d.granted = k
+        d.horizon = tuple(d.route[k:]) if k < len(d.route) - 1 else ()
+        d.decision_seq = 2 * k
+
+    def _progress(self, serial: str, d: _Dispatch, msg: JsonObject) -> None:
+        """Traffic control: mark the ADG's events of the steps up to the node the vehicle reports, then extend the
+        bases the ADG now allows."""
+        adg = self.adg
+        last, seq = msg.get("lastNodeId"), msg.get("lastNodeSequenceId")
+        if adg is None or not d.route or not isinstance(seq, int) or seq % 2 or not isinstance(last, str):
+            return
+        i = seq // 2
+        if not 0 < i < len(d.route) or d.route[i] != last:
+            return
+        marked = False
+        while adg.done[serial] < 2 * i and adg.done[serial] < 2 * d.granted:
+            e = adg.done[serial]
+            adg.mark(serial, e)
+            self.marks.append((self.t, serial, e))
+            marked = True
+        if marked:
+            for other, od in self.vehicles.items():
+                if od.busy and od.route and od.granted < len(od.route) - 1:
+                    self._grant(other, od)
 
     def _dispatch(self, serial: str, d: _Dispatch) -> None:
         goal = str(self.rng.choice([s for s in self.stations if s != d.node] or self.stations))
@@ -205,11 +337,13 @@ class JobMaster:
         last = msg.get("lastNodeId")
         if isinstance(last, str) and last:
             d.node = last
+        if self.traffic:
+            self._progress(serial, d, msg)
         nodes = msg.get("nodeStates", [])
         acts = [*msg.get("actionStates", []), *msg.get("instantActionStates", [])]  # type: ignore[misc]
         order_acts = [a for a in acts if isinstance(a, dict)
                       and str(a.get("actionId", "")).startswith(f"{serial}-{d.order}-")]
-        if d.horizon and isinstance(nodes, list):
+        if not self.traffic and d.horizon and isinstance(nodes, list):
             released = [n for n in nodes if isinstance(n, dict) and n.get("released")]
             if len(released) <= 1:  # the vehicle is on its way to the decision point: release the rest
                 self._release(serial, d)
@@ -259,6 +393,11 @@ class FleetSpec(SourcedModel):
     """mean interval (s) of the stateRequest/factsheetRequest/pause instant actions (0: none)."""
     seed: int = Field(default=0, ge=0)
     """seed of the choice of stations."""
+    traffic: bool = False
+    """traffic control (issue 30): the vehicles share the floor; jobs go out in rounds, routes planned together,
+    each order's base released as far as the action dependency graph allows (:class:`JobMaster`)."""
+    margin_m: float = Field(default=2 * DEFAULT_MARGIN_M, ge=0.0)
+    """traffic control: safety margin (m) between two vehicles' swept footprints (positioning, tracking errors)."""
 
     @model_validator(mode="after")
     def _distinct(self) -> FleetSpec:
@@ -297,4 +436,4 @@ def job_master(fs: FleetSpec) -> JobMaster:
     map_id = sc.map if isinstance(sc.map, str) else str(sc.map.get("name", "map"))
     return JobMaster(net, map_id, fs.version, fs.manufacturer, [v.serial for v in fs.vehicles],
                      {v.serial: v.start for v in fs.vehicles}, lambda _s, _n, _m: None, sc.vehicle.model, fs.seed,
-                     fs.instant_period_s, action_s=fs.action_s)
+                     fs.instant_period_s, action_s=fs.action_s, traffic=fs.traffic, margin_m=fs.margin_m)

@@ -72,6 +72,7 @@ __all__ = [
     "FleetSpec",
     "FleetVehicleSpec",
     "JobStreamSpec",
+    "TrafficSpec",
     "TransportJobSpec",
     "VehicleSections",
     "is_fleet_document",
@@ -180,6 +181,19 @@ class JobStreamSpec(StrictModel):
     """time each drop takes."""
 
 
+class TrafficSpec(StrictModel):
+    """Traffic control of a fleet on its route network (issue 30): routes planned together, kept through an ADG."""
+
+    margin_m: NonNegFloat = 0.2
+    """safety margin between two vehicles' swept footprints (m) for the conflict zones: covers positioning and
+    tracking errors (widened by each vehicle's guided point offset and body beyond its model's footprint)."""
+    home: bool = True
+    """each vehicle drives back to its start after its work (false: it parks where its last job ends)."""
+    follow_adg: bool = True
+    """vehicles stand at the hold points until the ADG lets them enter the next conflict zone; false: the plans
+    are driven without hold points (for comparison only: what the traffic control prevents)."""
+
+
 class FleetSpec(StrictModel):
     """The vehicles of a fleet scenario (issue 28), each driving its own mission or path; the transport jobs."""
 
@@ -191,6 +205,9 @@ class FleetSpec(StrictModel):
     """transport jobs generated at a rate (issue 30)."""
     jobs_file: str | None = None
     """a YAML file (relative to the scenario) with ``jobs`` and/or ``job_stream`` as here."""
+    traffic: TrafficSpec | None = None
+    """traffic control (on whenever there are transport jobs; give it to plan the vehicles' own missions together,
+    or to set its margin)."""
 
     @model_validator(mode="after")
     def _unique_ids(self) -> FleetSpec:

@@ -18,7 +18,14 @@ from typing import Any, Literal, get_args, get_origin
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
-from agvnav.world.fleet import PER_VEHICLE_KEYS, SHARED_KEYS, FleetVehicleSpec
+from agvnav.world.fleet import (
+    PER_VEHICLE_KEYS,
+    SHARED_KEYS,
+    FleetVehicleSpec,
+    JobStreamSpec,
+    TrafficSpec,
+    TransportJobSpec,
+)
 from agvnav.world.limits import limits_reference
 from agvnav.world.scenario import Scenario
 from agvnav.world.strict import attribute_docs
@@ -156,6 +163,19 @@ def fleet_reference() -> list[str]:
         "collisions, min_separation_m...; `vehicles`: one row per vehicle with the time it was slowed or stopped and",
         "why; `runs`: each vehicle's single-run metrics), `timing.json`, `timeseries.csv` (every vehicle's series",
         "in long form, `vehicle` its index first) and the plots `fleet_tracks.png`, `fleet_timeline.png`.",
+        "",
+        "### Transport jobs and traffic control: `fleet.jobs`, `fleet.job_stream`, `fleet.traffic`",
+        "",
+        "A fleet with transport jobs (or a `fleet.traffic` section) runs under traffic control (issue 30): every",
+        "vehicle drives a mission on one route network (its own jobs first; `jobs: []` for none), the jobs are",
+        "dispatched (nearest idle vehicle), all routes planned together over the conflict zones, and each vehicle",
+        "stands at the node before a zone until the plan's action dependency graph lets it in (from the progress",
+        "the others report). `fleet.jobs_file` names a YAML file with `jobs` and/or `job_stream` as here. The rows",
+        "of `vehicles` add `dispatched_jobs`, `traffic_wait_s` and where (`traffic_wait_by_zone_s`,",
+        "`traffic_wait_by_node_s`); `fleet` adds `traffic_wait_s`, `unserved_jobs`, `traffic_conflicts`.",
+        "",
+        *_table([*schema_rows(TrafficSpec, "fleet.traffic."), *schema_rows(TransportJobSpec, "fleet.jobs[]."),
+                 *schema_rows(JobStreamSpec, "fleet.job_stream.")]),
     ]
 
 

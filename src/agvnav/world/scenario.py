@@ -478,8 +478,9 @@ class MissionSpec(StrictModel):
     """route network: shipped name (agvnav/data/routes) or file path."""
     start: str
     """station the vehicle starts at (its heading_deg is the start heading)."""
-    jobs: Annotated[list[JobSpec], Field(min_length=1)]
-    """the jobs, in order."""
+    jobs: list[JobSpec]
+    """the jobs, in order (at least one; in a fleet under traffic control none is allowed: the vehicle then takes
+    dispatched transport jobs only)."""
     blocked_edges: list[str] = Field(default_factory=list)
     """edges that may not be used (the route replans around them)."""
     lateral_accel_m_s2: PosFloat = 0.3
