@@ -36,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav.actuators import SpeedProfile
+from agvnav.geometry import wrap_angle_scalar
 from agvnav.guidance import FinePositioner
 from agvnav.guidance.paths import LineSegment, Path, Segment
 from agvnav.navigation.path import PathAutopilot
@@ -174,7 +175,7 @@ def turn_points(plan: MissionPlan, tol: float = SPOT_TURN_MIN_RAD) -> list[float
         a, b = plan.path.segments[i - 1], plan.path.segments[i]
         ha = float(a.end_heading) + (math.pi if a.direction < 0 else 0.0)
         hb = float(b.heading_at(0.0)) + (math.pi if b.direction < 0 else 0.0)
-        if abs(math.remainder(hb - ha, 2.0 * math.pi)) > tol:
+        if abs(wrap_angle_scalar(hb - ha)) > tol:
             out.append(float(starts[i]))
     return out
 
@@ -456,7 +457,7 @@ class MissionAutopilot:
         if not math.isfinite(heading) or estimator.status in ("initialising", "lost"):
             self._omega = 0.0
             return self._hold()  # no heading to turn by: wait for the estimate
-        error = math.remainder(self._turn_to - heading, 2.0 * math.pi)
+        error = wrap_angle_scalar(self._turn_to - heading)
         if abs(error) <= SPOT_TURN_DONE_RAD and abs(self._omega) <= self._spot.turn_accel * dt:
             self._turn_to, self._omega = None, 0.0
             return None
