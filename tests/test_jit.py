@@ -273,7 +273,7 @@ NESTED = {
     "schmidt_accept": "gate_accept", "total_core": "total_batch",
     "_turn": "sipp", "_slot": "sipp", "_push_state": "sipp", "_chain": "sipp",
     "_node_intervals": "sipp", "_search": "sipp", "_n_classes": "sipp", "scratch_size": "sipp",
-    "release_held": "reserve", "chain_occupations": "reserve",
+    "release_held": "reserve", "chain_occupations": "reserve", "_heap_up": "dijkstra_to", "_heap_down": "dijkstra_to",
 }
 
 

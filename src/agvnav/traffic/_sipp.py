@@ -31,21 +31,73 @@ _TWO_PI = 2.0 * math.pi
 @jit
 def dijkstra_to(goal: int, rev_ptr: NDArray[np.int64], rev_from: NDArray[np.int64], rev_w: NDArray[np.float64],
                 n: int) -> NDArray[np.float64]:
-    """Static shortest drive time (s) from every node to ``goal`` over the reversed traversals (inf: none)."""
+    """Static shortest drive time (s) from every node to ``goal`` over the reversed traversals (inf: none).
+
+    The queue is a binary heap of nodes on arrays with each node's place in it (a node is queued once and
+    moved up when its time improves): no tuples, no stale entries.
+    """
     dist = np.full(n, np.inf)
+    heap = np.empty(n, np.int64)
+    place = np.full(n, -1, np.int64)  # -1: never queued, -2: settled
     dist[goal] = 0.0
-    heap = [(0.0, goal)]
-    while len(heap) > 0:
-        d, u = heapq.heappop(heap)
-        if d > dist[u]:
-            continue
+    heap[0] = goal
+    place[goal] = 0
+    size = 1
+    while size > 0:
+        u = heap[0]
+        place[u] = -2
+        size -= 1
+        if size > 0:
+            _heap_down(heap, place, dist, size, heap[size])
+        d = dist[u]
         for i in range(rev_ptr[u], rev_ptr[u + 1]):
             v = rev_from[i]
             nd = d + rev_w[i]
-            if nd < dist[v]:
+            if nd < dist[v] and place[v] != -2:
                 dist[v] = nd
-                heapq.heappush(heap, (nd, v))
+                if place[v] == -1:
+                    place[v] = size
+                    size += 1
+                _heap_up(heap, place, dist, place[v], v)
     return dist
+
+
+@jit
+def _heap_up(heap: NDArray[np.int64], place: NDArray[np.int64], key: NDArray[np.float64], i: int, x: int) -> None:
+    """Put node ``x`` at heap place ``i`` or above, moving the parents with larger keys down."""
+    kx = key[x]
+    while i > 0:
+        p = (i - 1) >> 1
+        y = heap[p]
+        if key[y] <= kx:
+            break
+        heap[i] = y
+        place[y] = i
+        i = p
+    heap[i] = x
+    place[x] = i
+
+
+@jit
+def _heap_down(heap: NDArray[np.int64], place: NDArray[np.int64], key: NDArray[np.float64], size: int, x: int
+               ) -> None:
+    """Put node ``x`` at the root's place or below (a heap of ``size``), moving smaller children up."""
+    kx = key[x]
+    i = 0
+    while True:
+        c = 2 * i + 1
+        if c >= size:
+            break
+        if c + 1 < size and key[heap[c + 1]] < key[heap[c]]:
+            c += 1
+        y = heap[c]
+        if key[y] >= kx:
+            break
+        heap[i] = y
+        place[y] = i
+        i = c
+    heap[i] = x
+    place[x] = i
 
 
 @jit
