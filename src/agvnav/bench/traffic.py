@@ -7,7 +7,8 @@ exact edges, brute-force collision check every 0.2 s; the closed loop is too slo
   lanes) and of ``warehouse_oneway`` (one-way aisles joined by a ring, the layout an exclusive-resource
   controller needs; both in the ``warehouse`` map), each dispatched :data:`JOBS_PER_VEHICLE` transport
   jobs between the station spurs (nearest idle, :mod:`agvnav.traffic.dispatch`) then sent home, planned
-  together (:func:`agvnav.traffic.plan.plan_fleet`) and executed through the ADG, with random
+  together (:func:`agvnav.traffic.stages.plan_fleet_staged`: prioritised planning, in stages when some
+  vehicles' goals are others' starts) and executed through the ADG, with random
   per-vehicle delays: speed x U(0.7, 1.3), a Poisson number of stops (mean 2 in the window) of U(0, 60) s;
 * **lane swap**: four and eight vehicles swapping ends on ``lane_swap`` (one two-way lane, one passing bay).
 
@@ -49,6 +50,7 @@ from agvnav.traffic.execute import AdgController, ExecResult, execute, random_de
 from agvnav.traffic.jobs import TransportJob
 from agvnav.traffic.plan import Conflicts, Goal, VehicleTask, plan_fleet
 from agvnav.traffic.replan import Replanner
+from agvnav.traffic.stages import plan_fleet_staged
 
 __all__ = ["PRIORITY", "TITLE", "judge", "run", "run_once"]
 
@@ -134,7 +136,7 @@ def run_once(net: RouteNetwork, zones: Conflicts, tasks: Sequence[VehicleTask], 
     """One Monte Carlo run: plan, ADG, execute under random delays; the baseline with the same delays."""
     rng = np.random.default_rng(seed)
     foot = _footprint()
-    plan = plan_fleet(net, tasks, zones)
+    plan = plan_fleet_staged(net, tasks, zones)
     adg = build_adg(plan, zones)
     ids = [t.vehicle for t in tasks]
     delays = random_delays(ids, rng, WINDOW_S)
