@@ -524,10 +524,15 @@ def _unwind(task: VehicleTask, graph: _Graph, tr: list[int], dep: list[float], t
             gi += 1
             continue
         trav, source, target = graph.ends[tr[i]]
-        steps.append(Step(trav, source, target, dep[i], t[i], gi, pending_dwell, pending_nb))
+        # tuple.__new__ with every field: a Step without the NamedTuple's Python-level constructor (hot: a fleet
+        # replan makes thousands)
+        steps.append(_new_step(Step, (trav, source, target, dep[i], t[i], gi, pending_dwell, pending_nb, None, 0)))
         pending_dwell, pending_nb = 0.0, 0.0
     return VehiclePlan(task.vehicle, task.limits.model, task.start, tuple(steps), tuple(goals), tuple(arrivals),
                        task.ready_s)
+
+
+_new_step = tuple.__new__
 
 
 def _with_arrival(st: Step, goal: int) -> Step:
@@ -595,15 +600,17 @@ def plan_fleet(network: RouteNetwork, tasks: Sequence[VehicleTask], zones: Confl
     bounds_of = {t.vehicle: [ix.graph(t.limits).lower_bounds(ix.node_index[g.station]) for g in t.goals]
                  for t in tasks}
     held: dict[str, tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]] = {}
+    why: dict[str, str | None] = {}
     for t in tasks:
-        held[t.vehicle] = ends = _endpoints(t, bounds_of[t.vehicle], ix, start_hold_s)
+        why[t.vehicle] = _unreachable(t, bounds_of[t.vehicle], ix)
+        held[t.vehicle] = ends = _endpoints(t, bounds_of[t.vehicle], ix, start_hold_s, why[t.vehicle] is None)
         res.add_arrays(t.vehicle, t.limits.model, *ends)
     plans: dict[str, VehiclePlan] = {}
     unserved: dict[str, str] = {}
     for t in tasks:
         graph = ix.graph(t.limits)
         bounds = bounds_of[t.vehicle]
-        unreachable = _unreachable(t, bounds, ix)
+        unreachable = why[t.vehicle]
         held_q = held[t.vehicle][0]
         res.release_arrays(t.vehicle, t.limits.model, held_q)
         out = None if unreachable else _plan_vehicle(t, graph, res, bounds)
@@ -618,12 +625,15 @@ def plan_fleet(network: RouteNetwork, tasks: Sequence[VehicleTask], zones: Confl
     return FleetPlan(plans, unserved, tuple(t.vehicle for t in tasks), time.perf_counter() - t_wall)
 
 
-def _endpoints(task: VehicleTask, bounds: list[NDArray[np.float64]], ix: TrafficIndex, start_hold_s: float = INF
+def _endpoints(task: VehicleTask, bounds: list[NDArray[np.float64]], ix: TrafficIndex, start_hold_s: float = INF,
+               reachable: bool | None = None
                ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
     """The reservations a vehicle holds before it is planned: its start from its ready time on, and its
     last goal from the earliest time it could get there on (module doc)."""
     q, t0 = [ix.node_index[task.start]], [task.ready_s]
-    if task.goals and _unreachable(task, bounds, ix) is None:
+    if reachable is None:
+        reachable = _unreachable(task, bounds, ix) is None
+    if task.goals and reachable:
         g = task.goals[-1]
         h = np.stack(bounds)
         gnode = np.array([ix.node_index[x.station] for x in task.goals], dtype=np.int64)
