@@ -92,7 +92,7 @@ CHECK_STEP_M = 0.1
 #: A vehicle waiting on the ADG this long (s) makes the replanning executor replan (``replan_*`` columns). 20 s, not
 #: 60 s: a stop lasts U(0, 60) s, so after 60 s most are over and the vehicles ordered after the stopped one have
 #: waited for nothing (warehouse_oneway, 10 vehicles, three seeds: 66 deliveries/h without replanning, 72 replanning
-#: after 60 s, 84 after 20 s, 80 after 8 s; replanning a fleet costs tens of ms).
+#: after 60 s, 84 after 20 s; on two of them 87 after 20 s and 75 after 8 s, replans that undo one another).
 REPLAN_AFTER_S = 20.0
 
 
