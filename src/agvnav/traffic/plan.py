@@ -21,7 +21,12 @@ fewer vehicles sent to wait for a goal that others keep crossing, and far fewer 
 
 Speed: the search runs on integers (:class:`TrafficIndex`, kernels in :mod:`agvnav.traffic._sipp`,
 compiled by numba): the conflict relation, each model's traversals and the reverse-Dijkstra lower
-bound of each goal are computed once per network and kept; replanning costs the searches only.
+bound of each goal are computed once per network and kept; replanning costs the searches only. A
+search's best times live in a dense scratch table kept per model graph (each search cleans the entries
+it touched), not a hash map; a vehicle's touching busy intervals on a resource are merged into one;
+the occupations reserved for a planned vehicle come from the search's chain of states (the same as
+:func:`occupation_arrays` of its plan, ``tests/traffic/test_plan_tables.py``). ``agvnav bench traffic``:
+100 vehicles on a 2,025-node grid, fresh goals each time (their Dijkstras included), about 70-90 ms.
 
 Each vehicle's work is a list of :class:`Goal` (a station, the dwell there, the earliest time the
 dwell may start: a job's release). All goals of a vehicle are searched in one SIPP (the goal index
