@@ -58,3 +58,23 @@ def test_the_swap_is_planned_and_executed_without_collision_or_deadlock(lane, n:
         r = execute(net, routes, AdgController(build_adg(plan, zones)), zones, delays, 3000.0)
         assert not r.collisions and not r.violations and r.deadlock is None
         assert len(r.delivery_times) == n
+
+
+def test_replanning_the_staged_swap_keeps_parked_vehicles_where_they_are(lane) -> None:  # type: ignore[no-untyped-def]
+    """A replan after vehicles have parked reserves them where they parked, not at their first start (this
+    seed's delays made a later replan send a vehicle into a spur where one was parked: a collision)."""
+    from agvnav.traffic.replan import Replanner
+
+    net, zones = lane
+    tasks = _tasks(8)
+    plan = plan_fleet_staged(net, tasks, zones)
+    ids = [t.vehicle for t in tasks]
+    feet = dict.fromkeys(ids, model_footprint(MODEL))
+    delays = random_delays(ids, np.random.default_rng(100005), 600.0)
+    replanner = Replanner(net, zones, tasks, feet, plan)
+    routes = routes_from_plan(plan, net, {t.vehicle: LIM for t in tasks}, feet)
+    r = execute(net, routes, AdgController(build_adg(plan, zones)), zones, delays, 3000.0, replan=replanner,
+                replan_after_s=20.0)
+    assert r.replans >= 2
+    assert not r.collisions and not r.violations and r.deadlock is None
+    assert len(r.delivery_times) == 8
