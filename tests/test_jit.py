@@ -271,8 +271,9 @@ NESTED = {
     "_hits_disc": "line_of_sight", "near_one": "near_rows", "_visit_box": "grid_rows", "_finite_poses": "scan_hermite",
     "_solve_augmented": "_fde_statistics", "_normal_equations": "_fde_statistics", "position_crlb_one": "best_triple",
     "schmidt_accept": "gate_accept", "total_core": "total_batch",
-    "_clash_end": "sipp", "_turn": "sipp", "_key": "sipp", "_push_state": "sipp", "_chain": "sipp",
-    "_node_intervals": "sipp",
+    "_turn": "sipp", "_slot": "sipp", "_push_state": "sipp", "_chain": "sipp",
+    "_node_intervals": "sipp", "_search": "sipp", "_n_classes": "sipp", "scratch_size": "sipp",
+    "release_held": "reserve", "chain_occupations": "reserve", "_heap_up": "dijkstra_to", "_heap_down": "dijkstra_to",
 }
 
 

@@ -38,7 +38,27 @@ def test_a_gain_under_target_away_from_saturation_is_not_judged() -> None:
 @pytest.mark.slow
 def test_the_quick_bench_rows_are_judged_from_their_own_figures() -> None:
     rows = traffic.run(quick=True)
-    assert {r["case"] for r in rows} == {"lane_swap", *traffic.NETWORKS}
+    assert {r["case"] for r in rows} == {"lane_swap", *traffic.NETWORKS, traffic.HALL}
     for r in rows:
         assert r["missed_targets"] == traffic.judge(r)
         assert r["collisions"] == 0 and r["deadlocks"] == 0 and r["zone_missed"] == 0
+
+
+def test_the_hall_rows_pair_our_layout_with_the_baseline_s_and_mark_its_peak() -> None:
+    rows = []
+    for n, ours, base_grid, base_oneway in ((5, 70.0, 10.0, 40.0), (10, 130.0, 3.0, 80.0), (20, 150.0, 0.0, 75.0)):
+        rows.append(_row(case=traffic.OURS_LAYOUT, vehicles=n, deliveries_per_h=ours,
+                         baseline_deliveries_per_h=base_grid, baseline_deadlocks=2))
+        rows.append(_row(case=traffic.BASELINE_LAYOUT, vehicles=n, deliveries_per_h=ours / 2,
+                         baseline_deliveries_per_h=base_oneway, baseline_deadlocks=0))
+    rows += traffic._hall_rows(rows)
+    traffic._saturation(rows)
+    hall = [r for r in rows if r["case"] == traffic.HALL]
+    assert [(r["deliveries_per_h"], r["baseline_deliveries_per_h"], r["baseline_deadlocks"]) for r in hall] == [
+        (70.0, 40.0, 0), (130.0, 80.0, 0), (150.0, 75.0, 0)]
+    assert [r["baseline_saturates"] for r in hall] == [False, True, False]
+    assert hall[1]["gain_pct"] == pytest.approx(62.5)
+    assert traffic.judge(hall[1]) == "-"
+    layout = [r for r in rows if r["case"] != traffic.HALL]  # their peak shown, the target judged on the hall
+    assert not any(r["baseline_saturates"] for r in layout)
+    assert [r["baseline_peak"] for r in layout] == [True, False, False, True, False, False]

@@ -3,6 +3,7 @@
 * :mod:`agvnav.traffic.zones`: which resources (nodes, edges) two vehicle models may not hold at once;
 * :mod:`agvnav.traffic.jobs`, :mod:`agvnav.traffic.dispatch`: transport jobs and their assignment;
 * :mod:`agvnav.traffic.plan`: prioritised planning with reservations over conflict resources (SIPP);
+* :mod:`agvnav.traffic.stages`: planning in stages when vehicles' goals are one another's starts (lane swaps);
 * :mod:`agvnav.traffic.adg`: the action dependency graph that executes the plans under delays;
 * :mod:`agvnav.traffic.execute`: a kinematic-time executor of the plans (Monte Carlo, brute-force checks);
 * :mod:`agvnav.traffic.replan`: replanning the steps not yet started when a vehicle is blocked long;

@@ -189,8 +189,10 @@ class Replanner:
         out: dict[str, VehicleRoute] = {}
         for v, old in routes.items():
             r = new.get(v)
-            if r is None:
-                out[v] = VehicleRoute(v, old.limits, old.footprint, old.start, old.start_heading, ())
+            if r is None:  # parked (its goals all reached): it stays where its route ended, not at its first start
+                last = old.steps[-1].traversal if old.steps else None
+                end, heading = (last.edge.target, last.end_heading) if last else (old.start, old.start_heading)
+                out[v] = VehicleRoute(v, old.limits, old.footprint, end, heading, ())
                 continue
             steps = list(r.steps)
             k = progress[v].k
