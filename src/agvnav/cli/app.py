@@ -49,7 +49,7 @@ LAZY_COMMANDS: dict[str, tuple[str, str, str]] = {
     ),
     "fleet": (
         "agvnav.cli.fleet", "fleet",
-        "Dispatch pick-and-drop jobs over VDA 5050 to the vehicles of SPEC (any vendor's); no traffic control yet.",
+        "Dispatch pick-and-drop jobs over VDA 5050 to SPEC's vehicles (any vendor's), traffic-controlled on request.",
     ),
     "report": (
         "agvnav.cli.report", "report",

@@ -17,8 +17,11 @@ BROKER_OPT = typer.Option(..., "--broker", help="MQTT broker as mqtt://HOST:PORT
 
 @user_errors
 def fleet(spec: str = SPEC_ARG, broker: str = BROKER_OPT) -> None:
-    """Dispatch pick-and-drop jobs over VDA 5050 to the vehicles of SPEC (any vendor's); with ``traffic: true`` in
-    SPEC, routes planned together and each order's base released as the traffic control allows (issue 30)."""
+    """Dispatch pick-and-drop jobs over VDA 5050 to SPEC's vehicles (any vendor's), traffic-controlled on request.
+
+    With ``traffic: true`` in SPEC the routes are planned together and each order's base is released
+    as far as the traffic control allows (issue 30).
+    """
     from agvnav.vda5050.bus import MissingExtraError, parse_broker, require_mqtt, serve_master
     from agvnav.vda5050.master import job_master, load_fleet_spec
 
