@@ -110,10 +110,17 @@ def kernels_compiled() -> None:
     """The vehicle's kernels compiled into the on-disk cache before a test starts ``agvnav vehicle`` processes.
 
     On a fresh checkout the first vehicle compiles agvnav's kernels (a minute or more on a busy
-    machine) before it connects; compiled here once, every process started after loads them.
+    machine) before it connects; compiled here once, every process started after loads them. The
+    vehicle drives an order for a while, so the kernels first called on the move (gating, updates,
+    integrity checks) are compiled too: compiled lazily mid-drive, they would stall a vehicle
+    process for seconds and a test waiting on its messages would time out.
     """
+    from agvnav.routes.network import load_network
+    from agvnav.vda5050.master import MasterMessages
     from agvnav.vda5050.vehicle import VdaVehicle, VehicleConfig
     from agvnav.world.scenario import load_scenario
 
-    v = VdaVehicle(load_scenario("mission_hall_differential"), VehicleConfig("warm", "up"))
-    v.step()
+    v = VdaVehicle(load_scenario("mission_hall_differential"), VehicleConfig("warm", "up", "2.1.0"))
+    mm = MasterMessages(load_network(SRC / "agvnav/data/routes/hall_loop.yaml"), "hall", "2.1.0", "warm", "up")
+    v.receive("order", mm.order("warm", 0, ["S1", "P"], 2))
+    v.run_until(15.0)
