@@ -282,7 +282,7 @@ NESTED = {
     "_turn": "sipp", "_slot": "sipp", "_push_state": "sipp", "_chain": "sipp",
     "_node_intervals": "sipp", "_search": "sipp", "_n_classes": "sipp", "scratch_size": "sipp",
     "twist_table_pose": "twist_table_poses", "segment_hits_box": "bodies_block_sight",
-    "_segments_gap": "footprint_gaps", "_inside_polygon": "footprint_gaps",
+    "_segments_gap": "footprint_gaps", "point_in_polygon": "points_in_polygon",
     "release_held": "reserve", "chain_occupations": "reserve", "_heap_up": "dijkstra_to", "_heap_down": "dijkstra_to",
 }
 
@@ -347,6 +347,7 @@ def _triangulation_kernel_outputs(rng: np.random.Generator) -> Outputs:
 def _motion_kernel_outputs(rng: np.random.Generator) -> Outputs:
     """The SE(2) exponential's kernels (``kinematics.twist``), the fleet's bodies (``sim.bodies``) and the
     scanner's rays (``sensors.scanner``) on random motion tables and scenes."""
+    from agvnav.geometry.polygon import points_in_polygon
     from agvnav.sensors.scanner import ray_ranges, scan_poses
 
     n, g = 8, 5
@@ -382,6 +383,8 @@ def _motion_kernel_outputs(rng: np.random.Generator) -> Outputs:
         "scan_poses": [np.asarray(a, dtype=np.float64) for a in scan_poses(
             np.column_stack([rng.uniform(-5, 5, (3, 2)), rng.uniform(-9, 9, 3)]), 0.4, 0.1, 0.2,
             np.radians(np.arange(-135.0, 135.5, 1.0)), seg, circ, 8.0, rng.normal(0.0, 0.05, (3, 271)))],
+        "points_in_polygon": [points_in_polygon(rng.uniform(-2, 2, (500, 2)), rng.uniform(-2, 2, (9, 2)))
+                              for _ in range(5)],
         "footprint_gaps": [bodies.footprint_gaps(rng.uniform(0.0, 4.0, (30, 5, 2)), *np.triu_indices(30, 1))],
     }
 
@@ -521,6 +524,19 @@ def test_set_compiled_for_run_picks_by_work() -> None:
     assert _jit.compiled()
     with pytest.raises(ValueError, match="sim_seconds"):
         _jit.set_compiled_for_run(-1.0, 3)
+
+
+def test_a_safety_scanner_s_rays_tip_a_short_run_to_compiled() -> None:
+    """The scanner's rays cost ~0.8 us per ray and surface as plain Python: a 26 s run scanning at 12.5 Hz
+    compiles (issue 28: the rays are a kernel now)."""
+    from agvnav.sensors.scanner import SafetyScanner
+
+    extra = SafetyScanner(rate_hz=12.5).interpreted_cost_s(26.0, 28)
+    assert 2.0 < extra < 10.0
+    assert _jit.set_compiled_for_run(26.0, 9, extra)
+    assert not _jit.set_compiled_for_run(26.0, 9, 0.0)
+    with pytest.raises(ValueError, match="extra_s"):
+        _jit.set_compiled_for_run(26.0, 9, -1.0)
 
 
 def test_set_compiled_for_run_reports_the_mode_in_force(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import Polygon
 
 from agvnav._jit import jit
+from agvnav.geometry.polygon import point_in_polygon
 from agvnav.kinematics.twist import fleet_twist_poses, fleet_twist_tables, twist_table_pose
 from agvnav.world.obstacles import ObstacleSet
 
@@ -160,18 +161,6 @@ def _segments_gap(ax: float, ay: float, bx: float, by: float, cx: float, cy: flo
 
 
 @jit
-def _inside_polygon(px: float, py: float, poly: NDArray[np.float64]) -> bool:
-    """Whether the point ``(px, py)`` lies inside the closed polygon ``poly (k, 2)`` (crossing number)."""
-    inside = False
-    k = poly.shape[0]
-    for i in range(k):
-        x0, y0, x1, y1 = poly[i, 0], poly[i, 1], poly[(i + 1) % k, 0], poly[(i + 1) % k, 1]
-        if (y0 > py) != (y1 > py) and px < x0 + (py - y0) * (x1 - x0) / (y1 - y0):
-            inside = not inside
-    return inside
-
-
-@jit
 def footprint_gaps(placed: NDArray[np.float64], a: NDArray[np.int64], b: NDArray[np.int64]) -> NDArray[np.float64]:
     """Distance (m) between the placed footprints ``placed[a[p]]`` and ``placed[b[p]]`` (``(n, k, 2)``, map frame)
     for every pair ``p``: 0 when their edges meet or one holds a vertex of the other, else the least distance
@@ -185,7 +174,7 @@ def footprint_gaps(placed: NDArray[np.float64], a: NDArray[np.int64], b: NDArray
             for j in range(k):
                 gap = min(gap, _segments_gap(pa[i, 0], pa[i, 1], pa[(i + 1) % k, 0], pa[(i + 1) % k, 1],
                                              pb[j, 0], pb[j, 1], pb[(j + 1) % k, 0], pb[(j + 1) % k, 1]))
-        if gap > 0.0 and (_inside_polygon(pa[0, 0], pa[0, 1], pb) or _inside_polygon(pb[0, 0], pb[0, 1], pa)):
+        if gap > 0.0 and (point_in_polygon(pa[0, 0], pa[0, 1], pb) or point_in_polygon(pb[0, 0], pb[0, 1], pa)):
             gap = 0.0
         out[p] = gap
     return out

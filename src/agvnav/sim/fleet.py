@@ -29,8 +29,12 @@ vehicles are built, each vehicle is built with its planned mission and stands at
 the plan's ADG; after every step each vehicle reports its estimated progress. The rows and figures
 then add the jobs dispatched and the time each vehicle waited for traffic, per zone and per node.
 
-This is the per-vehicle engine stepped in lockstep; the batch-kernel engine of issue 28 replaces
-the stepping, not the scenario format, the results or their tests.
+The world's step is batch-first: after the plants advance, every vehicle's true motion over the step
+is held in arrays (:class:`~agvnav.sim.bodies.FleetBodies`' motion tables, one ``pose_at`` call per
+vehicle), and the work against the other bodies runs in kernels once per step or instant for all
+vehicles (box edges, lines of sight, footprint gaps). Each vehicle's sensors, estimator and autopilot
+are still its own loop's, stepped in lockstep; the batch-kernel engine of issue 28 replaces that
+stepping, not the scenario format, the results or their tests.
 """
 
 from __future__ import annotations
