@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from agvnav.geometry import angle_diff, between
 from agvnav.odometry import OdometryNoise, integrate_pose
 from agvnav.positioning.dynamic import batch_ml_fix, centre_bearings, propagate_bearings
+from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.estimator import make_estimator
-from agvnav.positioning.identification import bearing_model
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.world import WorldMap, load_builtin_map
 

@@ -32,8 +32,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav.geometry import angle_diff, between, circumcentre, compose, inverse, wrap_angle
 from agvnav.positioning.bounds import crlb, fisher_information
+from agvnav.positioning.edge_bearing import bearing_model, edge_offset, measurement_variance
 from agvnav.positioning.estimator import StreamingEstimator
-from agvnav.positioning.identification import bearing_model, edge_offset, measurement_variance
 from agvnav.positioning.plausibility import sound_state
 from agvnav.positioning.triangulation import triangulate
 
@@ -114,7 +114,7 @@ def batch_ml_fix(
     Unknown ``x_f``; the pose at reflection i is ``x_i = x_f ⊕ d_i`` with ``d_i`` the
     odometric motion from t_f back to t_i (``relative_motion (n, 3)``). Minimises
     ``sum_i wrap(z_i - h(x_i, R_i))^2 / sigma^2`` with ``h`` the leading-edge bearing
-    (:func:`~agvnav.positioning.identification.bearing_model`), Jacobian
+    (:func:`~agvnav.positioning.edge_bearing.bearing_model`), Jacobian
     ``dh/dx_f = H_i J_i``, ``J_i = d(x_f ⊕ d_i)/dx_f``.
 
     ``bearings (n,)`` edge bearings (rad), ``reflector_xy (n, 2)``, ``radius (n,)``,
