@@ -24,8 +24,8 @@ from agvnav.positioning import triangulate
 from agvnav.positioning.bounds import crlb, inv_sym3
 from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.ekf import CONSIDER_MAX_ENTRY, CONSIDER_MIN_DET
+from agvnav.positioning.fix_covariance import _nonlinear
 from agvnav.positioning.gating import BearingIndex, GateSpec
-from agvnav.positioning.triangulation import _nonlinear
 from agvnav.sensors.beam import wrapped_offsets
 from agvnav.world import load_builtin_map
 
