@@ -22,10 +22,10 @@ from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
 from agvnav.positioning import _fast
 from agvnav.positioning import _integrity_fast as fast_integrity
 from agvnav.positioning._integrity_fast import _information_sums, best_triple
+from agvnav.positioning.fix_validity import _layout_ok_kernel
 from agvnav.positioning.gating import BearingIndex, GateSpec, near_rows
 from agvnav.positioning.integrity import IntegrityMonitor, _fde_statistics, _window_tally
 from agvnav.positioning.total import _div, _wrap, total_batch
-from agvnav.positioning.triangulation import _layout_ok_kernel
 from agvnav.routes.planning import astar_kernel
 from agvnav.sensors import beam
 from agvnav.traffic import _sipp  # noqa: F401 - its kernels are in the property test
@@ -312,7 +312,7 @@ def _traffic_kernel_outputs(rng: np.random.Generator) -> Outputs:
 
 
 def _triangulation_kernel_outputs(rng: np.random.Generator) -> Outputs:
-    """The batch triangulation's kernels (``positioning.total``, ``positioning.triangulation``) on random fixes."""
+    """The batch triangulation's kernels (``positioning.total``, ``positioning.fix_validity``) on random fixes."""
     m = 400
     r = rng.uniform(-10.0, 10.0, (m, 3, 2))
     r[: m // 5, :, 1] = r[: m // 5, :1, 1]  # collinear layouts, as many walls
