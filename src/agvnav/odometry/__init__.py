@@ -1,4 +1,5 @@
-"""Odometry (seed 002 §3): increments, pose integration rules, covariance, error models, UMBmark."""
+"""Odometry (seed 002 §3): increments, pose integration rules, the noise model (its variance kernel in
+:mod:`agvnav.odometry.noise_kernels`, its covariance in :mod:`agvnav.odometry.covariance`), error models, UMBmark."""
 
 from agvnav.odometry.covariance import (
     STEERED_MODELS,
