@@ -15,6 +15,15 @@ __all__ = [
 ]
 
 # Dynamic positioning (issue 4): identification, streaming estimators, factory by name.
+from agvnav.positioning.deviation import (
+    DeviationWatch,
+    Evidence,
+    TrustedFix,
+    covariance_radius,
+    radius_k,
+    reach_radius,
+    snapshot_radius,
+)
 from agvnav.positioning.dynamic import (
     AnglePropagationEstimator,
     BatchMLEstimator,
@@ -39,6 +48,8 @@ __all__ += [
     "ESTIMATOR_METHODS",
     "AnglePropagationEstimator",
     "BatchMLEstimator",
+    "DeviationWatch",
+    "Evidence",
     "BearingMeasurement",
     "EkfCore",
     "EkfEstimator",
@@ -47,14 +58,19 @@ __all__ += [
     "MeasurementModel",
     "NaiveEstimator",
     "StreamingEstimator",
+    "TrustedFix",
     "WallRangeMeasurement",
     "associate_sweep",
     "batch_ml_fix",
     "bearing_model",
+    "covariance_radius",
     "ekf_predict",
     "ekf_update",
     "gate_reflection",
     "initial_pose_search",
     "make_estimator",
     "propagate_bearings",
+    "radius_k",
+    "reach_radius",
+    "snapshot_radius",
 ]
