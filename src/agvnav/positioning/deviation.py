@@ -18,7 +18,11 @@ larger of those it has (the larger of two bounds holds when either assumption do
   tell (the filter's gain is small and the lag grows slowly; 20 % slip left the hall's
   differential AGV 25-46 mm off a 21 mm covariance bound, the monitor's checks silent), does
   not break it. ``k_fix`` is smaller than ``k``: the snapshot only has to hold when the
-  covariance does not (a rare fault), so its own miss probability multiplies that of the fault;
+  covariance does not (a rare fault), so its own miss probability multiplies that of the fault.
+  Stated only while the odometry moved over the last revolution (more than 1 mm): standing,
+  no slip can carry the estimate off, and an odometry that reads nothing while the vehicle
+  drives is what the missing reflectors reveal (the reach below); a standing vehicle keeps its
+  few-mm covariance bound (``finePositioning`` judges its stop on it);
 * **reach** (:func:`reach_radius`): when the estimate is in doubt -- most reflectors in sight
   missing while reflections arrive (a false lock or lock-out: the bearings that are accepted
   are self-consistent about a wrong pose, so the snapshot says nothing), a lock-out
@@ -41,6 +45,7 @@ odometry is what ``P`` models), the reach otherwise.
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -158,6 +163,16 @@ class DeviationWatch:
         self.in_doubt = False
         self.trusted = False
         self._offset_bound = chi2_threshold(3, 1e-3)
+        self._odometry: deque[tuple[float, float, float]] = deque()  # (t, x, y) of the odometric pose, a revolution
+
+    def odometry_moved(self, est: StreamingEstimator) -> float:
+        """How far (m) the odometric pose moved over the last revolution (records it; the snapshot's gate)."""
+        t, (ox, oy, _) = est.t, est.core.odom
+        q = self._odometry
+        q.append((t, ox, oy))
+        while len(q) > 1 and t - q[1][0] >= est.monitor.revolution_s:
+            q.popleft()
+        return math.hypot(ox - q[0][1], oy - q[0][2])
 
     def evidence(self, est: StreamingEstimator) -> Evidence:
         """What the last revolution's reflections say about ``est``'s estimate (:class:`Evidence`)."""
@@ -183,11 +198,12 @@ class DeviationWatch:
         if math.isnan(cov):
             return None
         ev = self.evidence(est)
+        moving = self.odometry_moved(est) > 1e-3
         missing = ev.rejected >= 3 and ev.seen < self.min_seen_fraction * ev.expected
         self.in_doubt = ev.lockout or missing or ev.offset_d2 > self._offset_bound
         mostly = ev.seen >= max(4, math.ceil(self.min_seen_fraction * ev.expected))
         self.trusted = not self.in_doubt and mostly and not math.isnan(ev.snapshot) and est.status != "dead_reckoning"
-        here = cov if math.isnan(ev.snapshot) else max(cov, ev.snapshot)
+        here = max(cov, ev.snapshot) if moving and not math.isnan(ev.snapshot) else cov
         if self.trusted:
             self.anchor = TrustedFix(est.t, x, y, here)
             return here

@@ -399,9 +399,11 @@ class IntegrityMonitor:
         """``(seen, expected, rejected)`` at ``t`` (s): distinct reflectors accepted in the last revolution,
         reflectors in sight (not excluded) from the head at base_link ``pose (3,)`` (m, m, rad)
         (:func:`~agvnav.positioning.integrity_sight.reflectors_in_sight`), and reflections the gate
-        rejected in the last revolution. What a fix is trusted on (:class:`~agvnav.positioning.deviation.DeviationWatch`):
-        a false lock accepts a few bearings self-consistent about a wrong pose and misses the
-        reflectors in sight; clutter adds rejections and misses none."""
+        rejected in the last revolution. What a fix is trusted on
+        (:class:`~agvnav.positioning.deviation.DeviationWatch`): a false lock accepts a few
+        bearings self-consistent about a wrong pose and misses the reflectors in sight;
+        clutter adds rejections and misses none.
+        """
         x = np.asarray(pose, dtype=np.float64).reshape(3)
         if not np.all(np.isfinite(x)):
             return 0, 0, 0

@@ -317,8 +317,9 @@ class VdaVehicle:
         v_max = config.deviation_max_speed_m_s
         #: deviationRange's evidence and trusted fix (:class:`~agvnav.positioning.deviation.DeviationWatch`),
         #: fed every loop step; None for an estimator that is no streaming one
-        self._deviation = DeviationWatch(float(sc.traction.speed_m_s) if v_max is None else v_max,
-                                         k=config.deviation_k) if isinstance(self.estimator, StreamingEstimator) else None
+        speed = float(sc.traction.speed_m_s) if v_max is None else v_max
+        streaming = isinstance(self.estimator, StreamingEstimator)
+        self._deviation = DeviationWatch(speed, k=config.deviation_k) if streaming else None
         self._range: float | None = None
         self._range_t = math.nan
         self._docking: DockingEstimate | None = built.docking
