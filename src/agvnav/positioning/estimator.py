@@ -235,7 +235,6 @@ class StreamingEstimator(EstimatorSupervision):
         self.n_accepted = 0
         self.n_rejected = 0
         self.n_inflations = 0
-        self._t_lockout = -math.inf  # the latest lock-out inflation (:attr:`last_lockout`)
         self._t_last_accept: float | None = None
         self._step: RawStep | None = None
         self._recorder: Callable[[EkfStep], None] | None = None

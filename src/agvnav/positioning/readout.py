@@ -38,7 +38,6 @@ class EstimatorReadout:
     startup: StartUp
     dead_reckoning_after: float
     _t_last_accept: float | None
-    _t_lockout: float
     _step: RawStep | None
     _recorder: Callable[[EkfStep], None] | None
 
@@ -131,12 +130,6 @@ class EstimatorReadout:
     def quality(self) -> float:
         """0-1 quality figure of the latest integrity check (0 while initialising or lost)."""
         return self.monitor.quality if self.core.has_pose() else 0.0
-
-    @property
-    def last_lockout(self) -> float:
-        """Time (s) of the latest lock-out inflation: most reflections missed their gates
-        (:class:`~agvnav.positioning.lifecycle.LockoutWatch`); -inf before any."""
-        return self._t_lockout
 
     @property
     def reflectors_used(self) -> int:

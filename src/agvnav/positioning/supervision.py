@@ -83,7 +83,6 @@ class EstimatorSupervision(EstimatorReadout):
         :attr:`n_inflations`) and judge the estimate now, not a revolution later."""
         P = self.lockout.inflated(t, accepted, self.core.P)
         if P is not None:
-            self._t_lockout = t  # most reflections missed their gates (:attr:`last_lockout`)
             self.core.P = P
             self.n_inflations += 1
             self._watch_integrity(t, force=True)  # judge the estimate now, not a revolution later
