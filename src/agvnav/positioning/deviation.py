@@ -25,8 +25,11 @@ larger of those it has (the larger of two bounds holds when either assumption do
   few-mm covariance bound (``finePositioning`` judges its stop on it);
 * **reach** (:func:`reach_radius`): when the estimate is in doubt -- most reflectors in sight
   missing while reflections arrive (a false lock or lock-out: the bearings that are accepted
-  are self-consistent about a wrong pose, so the snapshot says nothing), or the last
-  revolution's offset beyond chance -- what still holds is the
+  are self-consistent about a wrong pose, so the snapshot says nothing), the integrity
+  monitor finding the reflections late (``"timing"``: an uncompensated latency stamps each
+  bearing at its arrival, so the bearings agree about where the vehicle was, not where it is;
+  the head clock measures the latency only modulo a revolution, so nothing the vehicle knows
+  bounds it), or the last revolution's offset beyond chance -- what still holds is the
   triangle inequality from the last :class:`TrustedFix` ``(t0, x0, r0)``, the latest instant
   the evidence vouched for the estimate: ``|x(t) - truth(t)| <= r0 + |x(t) - x0| +
   v_max (t - t0)`` for a vehicle that cannot drive faster than ``v_max`` (its factsheet's
@@ -200,7 +203,8 @@ class DeviationWatch:
         ev = self.evidence(est)
         moving = self.odometry_moved(est) > 1e-3
         missing = ev.rejected >= 3 and ev.seen < self.min_seen_fraction * ev.expected
-        self.in_doubt = missing or ev.offset_d2 > self._offset_bound
+        late = "timing" in est.monitor.reasons  # stamps off: the bearings are self-consistent about a past pose
+        self.in_doubt = missing or late or ev.offset_d2 > self._offset_bound
         mostly = ev.seen >= max(4, math.ceil(self.min_seen_fraction * ev.expected))
         self.trusted = not self.in_doubt and mostly and not math.isnan(ev.snapshot) and est.status != "dead_reckoning"
         here = max(cov, ev.snapshot) if moving and not math.isnan(ev.snapshot) else cov
