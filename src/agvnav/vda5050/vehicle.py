@@ -63,18 +63,17 @@ Positioning in the state, honestly: ``positionInitialized``/``localized`` is fal
 estimator is initialising or lost (the integrity monitor's verdict), and then the vehicle does
 not start driving and reports ``localizationError`` / ``LOCALIZATION_ERROR`` (FATAL);
 ``localizationScore`` is the integrity monitor's 0-1 quality; ``deviationRange`` is the bound of
-:func:`agvnav.positioning.deviation.deviation_bound`: while the monitor vouches for the estimate,
-``k sqrt(lambda_max(P_xy))`` (m) of its position covariance with ``k = VehicleConfig.deviation_k``
-(4.5: a consistent Gaussian error exceeds it with probability ``exp(-k^2/2)`` = 4e-5 in the
-plane); while the estimate is in doubt (the monitor says ``degraded``, or most reflections
-missed their gates: :attr:`~agvnav.positioning.estimator.StreamingEstimator.in_doubt`) the
-covariance says nothing any more (an encoder dropout left a ``tracking`` estimate 0.1 m off
-with sigma 3 mm, then its widened gates locked onto a pose 0.75 m off for 5 s, ``degraded``),
-and the bound is the reach from the last trusted fix: its own bound, plus how far the
-estimate moved since, plus how far the vehicle could drive since at
-``VehicleConfig.deviation_max_speed_m_s`` (the factsheet's ``speedMax`` by default). The
-bench measures the miss rate on the true pose; a fault the monitor has not (yet) seen leaves
-the covariance bound, and those misses are the estimator's silent failures.
+:class:`agvnav.positioning.deviation.DeviationWatch`, fed every loop step, stated from what the
+vehicle knows: the larger of ``k sqrt(lambda_max(P_xy))`` of the position covariance
+(``k = VehicleConfig.deviation_k``, 4.5: a consistent error exceeds it with probability 4e-5) and,
+while the odometry moves, the last head revolution's bearings alone (their common offset plus
+3 sigma of that fix: wheel slip carries the filter off its bearings before any check can tell);
+while the estimate is in doubt (most reflectors in sight missing with reflections arriving --
+an encoder dropout, a false lock --, late reflections, or the revolution's offset beyond
+chance) the reach from the last trusted fix: its bound, plus how far the estimate moved since,
+plus how far the vehicle could drive since at ``VehicleConfig.deviation_max_speed_m_s`` (the
+factsheet's ``speedMax`` by default). ``agvnav bench vda5050`` measures the miss rate on the
+true pose and says where the bound is too wide to be useful.
 ``safetyState.fieldViolation`` is true while the reaction to the safety fields slows or stops the
 vehicle (mission scenarios have no reaction wired yet, so false).
 
