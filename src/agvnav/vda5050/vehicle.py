@@ -266,16 +266,21 @@ class _Pilot:
         """The docking's or the leg's command, or the family's standstill."""
         if self.dock is not None and not self.hold and not self.dock.finished:
             cmd = self.dock.command(t, estimator, plant, dt)
-            self.v = float(cmd[0])
-            if self.v == 0.0 and self.family != "steered" and any(c != 0.0 for c in cmd[1:]):
-                self.v = 1e-5  # turning on the spot (fine positioning): driving, at no speed along x
+            self._driving(float(cmd[0]), cmd)
             return cmd
         if self.leg is None or self.hold or self.leg.finished:
             self.v = 0.0
             return (0.0, 0.0, 0.0) if self.family == "holonomic" else (0.0, 0.0)
         cmd = self.leg.command(t, estimator, plant, dt)
-        self.v = float(self.leg.pilot.signals()[0])
+        self._driving(float(self.leg.pilot.signals()[0]), cmd)
         return cmd
+
+    def _driving(self, v: float, cmd: tuple[float, ...]) -> None:
+        """The commanded speed ``v`` (m/s); turning on the spot (a turn inside a leg, fine positioning) counts as
+        driving (VDA 5050 ``driving``: moving and/or rotating), at no speed along x."""
+        self.v = v
+        if v == 0.0 and self.family != "steered" and any(c != 0.0 for c in cmd[1:]):
+            self.v = 1e-5
 
     def reset_profile(self) -> None:
         """Restart the speed profile from standstill (after a pause or a lost link)."""
@@ -337,6 +342,8 @@ class VdaVehicle:
         self.loop = ClosedLoop(built.loop.plant, built.loop.sensors, fed, self.pilot, sc.step_s, sc.seed,
                                record_every=1_000_000)
         self.loop.start(1e9)
+        self._t_after_end = 0.0
+        """simulated time (s) once the loop's run has ended (:attr:`t`)."""
         self.truth_plant = built.loop.plant
         # order
         self.order_id, self.update_id = "", 0
@@ -371,8 +378,8 @@ class VdaVehicle:
     # ------------------------------------------------------------------------------ clock, time
     @property
     def t(self) -> float:
-        """Simulated time (s)."""
-        return self.loop.t
+        """Simulated time (s); after the loop's run ended (a collision, lost positioning) it runs on, the vehicle dead."""
+        return self.loop.t if self.loop.running else self._t_after_end
 
     @property
     def dt(self) -> float:
@@ -1009,10 +1016,17 @@ class VdaVehicle:
     def step(self) -> None:
         """One loop step of the simulated vehicle, its order and actions; queues what it publishes."""
         if self.loop.running:
+            t = self.loop.t + self.dt
             self.loop.step()
-            if not self.loop.running and self.failure is None:
-                self.failure = self.loop.finish().failure or "stopped"
-                self._fail_drive(self.last_node, f"the vehicle stopped: {self.failure}")
+            if not self.loop.running:
+                self._t_after_end = t
+                self.pilot.v = 0.0  # the vehicle stands, dead
+                failure = self.loop.finish().failure or "stopped"
+                if self.failure is None:
+                    self.failure = failure
+                    self._fail_drive(self.last_node, f"the vehicle stopped: {self.failure}")
+        else:
+            self._t_after_end += self.dt
         pose = np.asarray(self.estimator.pose, dtype=np.float64)
         d = pose - self._last_pose
         c, s = math.cos(pose[2]), math.sin(pose[2])
