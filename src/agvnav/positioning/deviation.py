@@ -202,7 +202,13 @@ class DeviationWatch:
         return Evidence(seen, expected, rejected, snap, d2)
 
     def update(self, est: StreamingEstimator) -> float | None:
-        """The bound (m) of ``est``'s position error now; None while it has no pose or is lost."""
+        """The bound (m) of ``est``'s position error now; None while it has no pose or is lost.
+
+        Missing reflectors count as doubt only with at least three rejections in the revolution
+        (reflections arrive that fit nowhere: a blind head or a removed reflector rejects none,
+        and a blind head is what ``P``'s dead reckoning models); the snapshot only with the
+        odometry moved more than 1 mm in the revolution (module doc).
+        """
         if est.status in ("initialising", "lost"):
             self.anchor, self.in_doubt, self.trusted = None, True, False
             return None
