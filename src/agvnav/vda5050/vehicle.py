@@ -378,7 +378,8 @@ class VdaVehicle:
     # ------------------------------------------------------------------------------ clock, time
     @property
     def t(self) -> float:
-        """Simulated time (s); after the loop's run ended (a collision, lost positioning) it runs on, the vehicle dead."""
+        """Simulated time (s); after the loop's run ended (a collision, lost positioning) it runs on,
+        the vehicle dead."""
         return self.loop.t if self.loop.running else self._t_after_end
 
     @property
