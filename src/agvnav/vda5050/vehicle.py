@@ -62,16 +62,18 @@ master sees the order end by the cancel; without an order ``noOrderToCancel`` /
 Positioning in the state, honestly: ``positionInitialized``/``localized`` is false while the
 estimator is initialising or lost (the integrity monitor's verdict), and then the vehicle does
 not start driving and reports ``localizationError`` / ``LOCALIZATION_ERROR`` (FATAL);
-``localizationScore`` is the integrity monitor's 0-1 quality; ``deviationRange`` is the bound
-``k sqrt(lambda_max(P_xy))`` (m) of the estimate's position covariance with
-``k = VehicleConfig.deviation_k`` (4.5: a consistent Gaussian error exceeds it with probability
-``exp(-k^2/2)`` = 4e-5 in the plane; the bench measures the miss rate on the true pose). While the
-integrity monitor says ``degraded`` its checks found the covariance not to be trusted (late
-reflections, slip, clutter): the bound is widened ``VehicleConfig.deviation_degraded_factor``
-times (3: under the reflection-delay fault the true error reached 2.4 times the covariance
-bound while degraded, ``agvnav bench vda5050``). A fault the monitor has not (yet) seen leaves
-the bound as the covariance says: those misses are the estimator's silent failures and the
-bench counts them.
+``localizationScore`` is the integrity monitor's 0-1 quality; ``deviationRange`` is the bound of
+:class:`agvnav.positioning.deviation.DeviationWatch`, fed every loop step, stated from what the
+vehicle knows: the larger of ``k sqrt(lambda_max(P_xy))`` of the position covariance
+(``k = VehicleConfig.deviation_k``, 4.5: a consistent error exceeds it with probability 4e-5) and,
+while the odometry moves, the last head revolution's bearings alone (their common offset plus
+3 sigma of that fix: wheel slip carries the filter off its bearings before any check can tell);
+while the estimate is in doubt (most reflectors in sight missing with reflections arriving --
+an encoder dropout, a false lock --, late reflections, or the revolution's offset beyond
+chance) the reach from the last trusted fix: its bound, plus how far the estimate moved since,
+plus how far the vehicle could drive since at ``VehicleConfig.deviation_max_speed_m_s`` (the
+factsheet's ``speedMax`` by default). ``agvnav bench vda5050`` measures the miss rate on the
+true pose and says where the bound is too wide to be useful.
 ``safetyState.fieldViolation`` is true while the reaction to the safety fields slows or stops the
 vehicle (mission scenarios have no reaction wired yet, so false).
 
@@ -98,6 +100,8 @@ from agvnav.guidance.follower import PathFollower
 from agvnav.navigation.docking import DockingAutopilot, DockingEstimate
 from agvnav.navigation.guard import EstimatorWatch, GuardLimits, PositioningGuard
 from agvnav.navigation.mission import MissionAutopilot
+from agvnav.positioning.deviation import DeviationWatch, covariance_radius
+from agvnav.positioning.estimator import StreamingEstimator
 from agvnav.positioning.station import to_station
 from agvnav.roles import Estimator, Plant
 from agvnav.routes.mission import Leg, chain_mission
@@ -181,8 +185,10 @@ class VehicleConfig:
     visualization_period_s: float = 1.0
     """visualization period (0: none)."""
     deviation_k: float = 4.5
-    deviation_degraded_factor: float = 3.0
-    """deviationRange widened this many times while the integrity monitor says ``degraded`` (module doc)."""
+    """deviationRange's ``k`` (sigmas of the position covariance's major axis; module doc)."""
+    deviation_max_speed_m_s: float | None = None
+    """the speed (m/s) the vehicle cannot exceed, for deviationRange's reach while the estimate is in
+    doubt (module doc); None: the scenario's ``traction.speed_m_s`` (the factsheet's ``speedMax``)."""
     start_tolerance_m: float = 0.5
     """how far from a new order's first node counts as on it when the node gives no allowedDeviationXY."""
     node_tolerance_m: float = 0.1
@@ -199,9 +205,10 @@ class VehicleConfig:
         if not (0.0 < self.state_period_s <= 30.0):
             raise ValueError(f"state_period_s must be in (0, 30] s (VDA 5050: at least every 30 s), "
                              f"got {self.state_period_s!r}")
-        if not (self.deviation_k > 0.0 and self.deviation_degraded_factor >= 1.0):
-            raise ValueError(f"deviation_k must be > 0 and deviation_degraded_factor >= 1, got {self.deviation_k!r}, "
-                             f"{self.deviation_degraded_factor!r}")
+        v_max = self.deviation_max_speed_m_s
+        if not (self.deviation_k > 0.0 and (v_max is None or v_max > 0.0)):
+            raise ValueError(f"deviation_k and deviation_max_speed_m_s must be > 0, got {self.deviation_k!r}, "
+                             f"{v_max!r}")
         if self.visualization_period_s < 0.0:
             raise ValueError(f"visualization_period_s must be >= 0, got {self.visualization_period_s!r}")
         for name in (self.manufacturer, self.serial, self.interface):
@@ -311,6 +318,14 @@ class VdaVehicle:
             GuardLimits(s.lateral_3sigma_slow_m, s.lateral_3sigma_stop_m, s.slow_speed_fraction, s.resume_after_s),
             enabled=s.enabled and sc.goniometer is not None))
         self.estimator = built.estimator
+        v_max = config.deviation_max_speed_m_s
+        #: deviationRange's evidence and trusted fix (:class:`~agvnav.positioning.deviation.DeviationWatch`),
+        #: fed every loop step; None for an estimator that is no streaming one
+        speed = float(sc.traction.speed_m_s) if v_max is None else v_max
+        streaming = isinstance(self.estimator, StreamingEstimator)
+        self._deviation = DeviationWatch(speed, k=config.deviation_k) if streaming else None
+        self._range: float | None = None
+        self._range_t = math.nan
         self._docking: DockingEstimate | None = built.docking
         self.dock_node: DockingNode | None = None
         """the network's docking node of the scenario's docking target (None: no docking section)."""
@@ -974,14 +989,25 @@ class VdaVehicle:
             self._state_due = True
 
     def deviation_range(self) -> float | None:
-        """The stated bound (m) of the position error: ``k sqrt(lambda_max(P_xy))`` (module doc)."""
+        """The stated bound (m) of the position error (module doc), None while not localized."""
         if not self._localized:
             return None
-        p = np.asarray(self.estimator.covariance, dtype=np.float64)[:2, :2]
-        if not np.all(np.isfinite(p)):
-            return None
-        k = self.cfg.deviation_k * (self.cfg.deviation_degraded_factor if self.estimator.status == "degraded" else 1.0)
-        return float(k * math.sqrt(max(float(np.linalg.eigvalsh(p)[-1]), 0.0)))
+        if self._range_t != self.t:
+            self._update_range()
+        return self._range
+
+    def _update_range(self) -> None:
+        """Feed the deviation watch the estimate of this step (every step: it keeps the last trusted fix)."""
+        self._range_t = self.t
+        est = self.estimator
+        if self._deviation is not None and isinstance(est, StreamingEstimator):
+            self._range = self._deviation.update(est)
+        elif self._localized and est.status == "tracking":  # no evidence to judge with: the covariance alone
+            self._range = covariance_radius(np.asarray(est.covariance, dtype=np.float64)[:2, :2], self.cfg.deviation_k)
+        else:
+            self._range = None
+        if self._range is not None and not math.isfinite(self._range):
+            self._range = None
 
     def _speed(self) -> float:
         return math.hypot(self.velocity[0], self.velocity[1])
@@ -1008,6 +1034,7 @@ class VdaVehicle:
             self.velocity = ((c * d[0] + s * d[1]) / self.dt, (-s * d[0] + c * d[1]) / self.dt,
                              wrap_angle_scalar(float(d[2])) / self.dt)
         self._last_pose = pose.copy()
+        self._update_range()
         was_driving = self.pilot.v != 0.0
         self._update_localization()
         self._progress()
