@@ -20,13 +20,14 @@ from agvnav import _jit
 from agvnav.geometry import wrap_angle
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
 from agvnav.kinematics import twist
+from agvnav.odometry import increment_variances
 from agvnav.positioning import _fast
 from agvnav.positioning import _integrity_fast as fast_integrity
 from agvnav.positioning._integrity_fast import _information_sums, best_triple
+from agvnav.positioning.fix_validity import _layout_ok_kernel
 from agvnav.positioning.gating import BearingIndex, GateSpec, near_rows
 from agvnav.positioning.integrity import IntegrityMonitor, _fde_statistics, _window_tally
 from agvnav.positioning.total import _div, _wrap, total_batch
-from agvnav.positioning.triangulation import _layout_ok_kernel
 from agvnav.routes.planning import astar_kernel
 from agvnav.sensors import (
     beam,
@@ -191,7 +192,7 @@ def _scalar_kernel_outputs(rng: np.random.Generator) -> Outputs:
         rows = {
             "_sinc": [_fast._sinc(dth)], "_dsinc": [_fast._dsinc(dth)],
             "twist_step": list(_fast.twist_step(x, y, psi, dd, dth, dl)),
-            "increment_variances": list(_fast.increment_variances(dd, dth, 1e-4, 2e-4, 1e-5)),
+            "increment_variances": list(increment_variances(dd, dth, 1e-4, 2e-4, 1e-5)),
             "process_noise": list(_fast.process_noise(psi, dd, dth, 1e-4, 2e-4, 1e-5, dl, 3e-4)),
             "steered_noise": [w for part in _fast.steered_noise(psi, dd, dth, bool(rng.uniform() < 0.5), 1.2, 1e-3,
                                                                 4e-5, float(rng.choice([0.0, 0.5]))) for w in part],
@@ -322,7 +323,7 @@ def _traffic_kernel_outputs(rng: np.random.Generator) -> Outputs:
 
 
 def _triangulation_kernel_outputs(rng: np.random.Generator) -> Outputs:
-    """The batch triangulation's kernels (``positioning.total``, ``positioning.triangulation``) on random fixes."""
+    """The batch triangulation's kernels (``positioning.total``, ``positioning.fix_validity``) on random fixes."""
     m = 400
     r = rng.uniform(-10.0, 10.0, (m, 3, 2))
     r[: m // 5, :, 1] = r[: m // 5, :1, 1]  # collinear layouts, as many walls

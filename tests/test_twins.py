@@ -37,8 +37,9 @@ from agvnav.odometry import (
 from agvnav.odometry.errors import NonSystematicErrors
 from agvnav.odometry.scalar import differential_increments_scalar, track_increments, tricycle_increments_scalar
 from agvnav.positioning import _fast as pos_fast
+from agvnav.positioning.bearing_gate import gate_reflection
+from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.gating import GateSpec
-from agvnav.positioning.identification import bearing_model, gate_reflection
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.twins import TWINS, Twin, twin_names
 from agvnav.world import load_builtin_map

@@ -89,7 +89,7 @@ TWINS: tuple[Twin, ...] = (
          "path geometry"),
     Twin("encoder_bearing", "agvnav.sensors.goniometer:Goniometer._encoder_bearing_few",
          "agvnav.sensors.goniometer:Goniometer.encoder_bearing", "seed 000 §2.1", 0.0),
-    Twin("gate_one", "agvnav.positioning._fast:gate_one", "agvnav.positioning.identification:gate_reflection",
+    Twin("gate_one", "agvnav.positioning._fast:gate_one", "agvnav.positioning.bearing_gate:gate_reflection",
          "[seed000 eq2] chi-square gate", 1e-10),
 )
 

@@ -31,3 +31,13 @@ def test_total_row_agrees_with_scenario_rows() -> None:
     rows[0]["localized_while_lost"] = 1
     assert "localized while lost" in bench._deviation_total(rows)["verdict"]
     assert "10^5" in bench._deviation_total(rows[:1])["verdict"]
+
+
+def test_total_row_states_the_median_bound_over_all_states_and_says_when_it_is_useless() -> None:
+    rows = [{"checked": 3, "failed": 0, "localized_while_lost": 0, "states": 3, "_ranges": [0.02, 0.03, 0.04]},
+            {"checked": 2, "failed": 0, "localized_while_lost": 0, "states": 2, "_ranges": [1.0, 2.0]}]
+    tot = bench._deviation_total(rows)
+    assert tot["median_range_m"] == 0.04 and tot["bound"] == "useful"
+    assert all("_ranges" not in r for r in rows)  # private: popped before the rows are printed
+    assert bench._usefulness([1.0, 2.0]).startswith("USELESS (median 1.50 m")
+    assert bench._usefulness([]) == "none stated"

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from agvnav.guidance.hybrid import HybridController, HybridParams, HybridState, PolygonRoute
-from agvnav.positioning.wall_landmarks import LandmarkParams, WallLandmarkLocalizer
+from agvnav.positioning.landmark_params import LandmarkParams
+from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
 from agvnav.sensors import seed_004_layout
 
 SIDE = 3.5

@@ -21,7 +21,7 @@ import numpy as np
 from hypothesis import strategies as st
 
 from agvnav.positioning import make_estimator
-from agvnav.positioning.identification import bearing_model
+from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
 from agvnav.sensors import seed_004_layout
 from agvnav.world import load_builtin_map

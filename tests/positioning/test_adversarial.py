@@ -21,7 +21,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from agvnav.positioning import make_estimator
-from agvnav.positioning.identification import bearing_model
+from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.plausibility import PlausibilityLimits, implausible_increment, sound_state
 from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
 

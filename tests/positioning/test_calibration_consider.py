@@ -24,8 +24,8 @@ from scipy.stats import chi2
 from agvnav.geometry import angle_diff, wrap_angle
 from agvnav.odometry import calibration_jacobian, integrate_pose, motion_covariance, pose_jacobian, steered_noise
 from agvnav.positioning import _fast
+from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.ekf import EkfEstimator
-from agvnav.positioning.identification import bearing_model
 from agvnav.positioning.integrity import IntegrityLimits
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.world import load_builtin_map

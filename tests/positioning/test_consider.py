@@ -22,9 +22,9 @@ from scipy.stats import chi2
 from agvnav.geometry import wrap_angle
 from agvnav.odometry import OdometryNoise, integrate_pose, motion_covariance, pose_jacobian
 from agvnav.positioning import _fast
+from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.ekf import EkfEstimator
 from agvnav.positioning.gating import BearingIndex, GateSpec
-from agvnav.positioning.identification import bearing_model
 from agvnav.positioning.integrity import IntegrityLimits
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.world import WorldMap, load_builtin_map

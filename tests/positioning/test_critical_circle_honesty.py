@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from agvnav.positioning import triangulate
-from agvnav.positioning.triangulation import NONLINEAR_RATIO
+from agvnav.positioning.fix_covariance import NONLINEAR_RATIO
 
 R = 5.0
 REFLECTORS = np.c_[R * np.cos(np.radians([90, 210, 330])), R * np.sin(np.radians([90, 210, 330]))]

@@ -10,9 +10,9 @@ from hypothesis import strategies as st
 
 from agvnav.geometry import angle_diff, between
 from agvnav.odometry import OdometryNoise, integrate_pose
-from agvnav.positioning.dynamic import batch_ml_fix, centre_bearings, propagate_bearings
+from agvnav.positioning.bearing_propagation import batch_ml_fix, centre_bearings, propagate_bearings
+from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.estimator import make_estimator
-from agvnav.positioning.identification import bearing_model
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.world import WorldMap, load_builtin_map
 
@@ -134,7 +134,7 @@ def test_bad_triangulation_method_rejected(lab: WorldMap) -> None:
 
 
 def test_near_critical_circle() -> None:
-    from agvnav.positioning.dynamic import near_critical_circle
+    from agvnav.positioning.fix_switch import near_critical_circle
 
     R = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])
     assert near_critical_circle(R, [0.0, -1.0], 0.1)

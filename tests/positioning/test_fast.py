@@ -9,9 +9,10 @@ import pytest
 
 from agvnav.odometry import OdometryNoise, integrate_pose, motion_covariance, pose_jacobian
 from agvnav.positioning import _fast, make_estimator
+from agvnav.positioning.bearing_gate import gate_reflection
+from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.ekf import ekf_predict, ekf_update
 from agvnav.positioning.gating import GateSpec
-from agvnav.positioning.identification import bearing_model, gate_reflection
 from agvnav.world import load_builtin_map
 
 TOL = 1e-12

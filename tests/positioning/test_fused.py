@@ -85,7 +85,7 @@ def test_lockout_inflation_between_gate_and_update(p_xy: float) -> None:
     before the update, room after it) the inflation must not happen; with room it must.
     """
     from agvnav.positioning import make_estimator
-    from agvnav.positioning.identification import bearing_model
+    from agvnav.positioning.edge_bearing import bearing_model
     from agvnav.world import load_builtin_map
 
     world = load_builtin_map("lab")

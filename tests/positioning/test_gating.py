@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 from agvnav.positioning import _fast, make_estimator
 from agvnav.positioning import association as association_module
+from agvnav.positioning.edge_bearing import bearing_model, measurement_variance
 from agvnav.positioning.gating import INDEX_MIN_REFLECTORS, BearingIndex, GateSpec, grid_rows, near_rows
-from agvnav.positioning.identification import bearing_model, measurement_variance
 from agvnav.positioning.integrity import IntegrityLimits
 from agvnav.world import Reflector, WorldMap
 

@@ -8,13 +8,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from agvnav.geometry import angle_diff, bearing_to, compose
-from agvnav.positioning.identification import (
-    associate_sweep,
-    bearing_model,
-    gate_reflection,
-    initial_pose_search,
-    resect_three,
-)
+from agvnav.positioning.bearing_gate import associate_sweep, gate_reflection
+from agvnav.positioning.edge_bearing import bearing_model
+from agvnav.positioning.identification import initial_pose_search
+from agvnav.positioning.resection import resect_three
 from agvnav.sensors.goniometer import leading_edge_bearing
 from agvnav.world import Reflector, WorldMap, load_builtin_map
 

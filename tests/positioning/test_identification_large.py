@@ -9,7 +9,8 @@ import pytest
 
 from agvnav.geometry import angle_diff
 from agvnav.positioning import identification as ident
-from agvnav.positioning.identification import bearing_model, initial_pose_search
+from agvnav.positioning.edge_bearing import bearing_model
+from agvnav.positioning.identification import initial_pose_search
 from agvnav.positioning.spatial import count_explained, nearest_neighbours
 
 MOUNT = np.array([0.3, 0.0, 0.0])

@@ -15,7 +15,7 @@ PACKAGE = Path(agvnav.positioning.__file__).parent
 
 #: The one deferred import allowed: a heavy third-party module inside the one function that uses it.
 DEFERRED_THIRD_PARTY = {
-    ("identification.py", "associate_sweep", "scipy.optimize"),
+    ("bearing_gate.py", "associate_sweep", "scipy.optimize"),
     ("integrity_raim.py", "chi2_threshold", "scipy.stats"),
 }
 

@@ -1,7 +1,7 @@
 """Each kernel of the positioning inner loops against its oracle: the NumPy (or public) form of its equation.
 
 The leading-edge bearing and its Jacobian (seed 000 §2.1) against
-:func:`~agvnav.positioning.identification.bearing_model`, the odometry noise [seed002 eq17] against
+:func:`~agvnav.positioning.edge_bearing.bearing_model`, the odometry noise [seed002 eq17] against
 :func:`~agvnav.odometry.motion_covariance`, the gate against ``gate_one`` and the Schmidt-Kalman
 update written in NumPy, the integrity check's fix against triangulate and the CRLB. One
 parametrized test; the kernels' two modes agree to rounding (``tests/test_jit.py``), so these run
@@ -22,10 +22,10 @@ from agvnav.positioning import _fast as pos_fast
 from agvnav.positioning import _integrity_fast as integrity_fast
 from agvnav.positioning import triangulate
 from agvnav.positioning.bounds import crlb, inv_sym3
+from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.ekf import CONSIDER_MAX_ENTRY, CONSIDER_MIN_DET
+from agvnav.positioning.fix_covariance import _nonlinear
 from agvnav.positioning.gating import BearingIndex, GateSpec
-from agvnav.positioning.identification import bearing_model
-from agvnav.positioning.triangulation import _nonlinear
 from agvnav.sensors.beam import wrapped_offsets
 from agvnav.world import load_builtin_map
 

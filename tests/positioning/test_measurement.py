@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from agvnav.geometry import angle_diff
-from agvnav.positioning.identification import bearing_model
+from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.measurement import BearingMeasurement, MeasurementModel, WallRangeMeasurement
 
 coord = st.floats(-20.0, 20.0, allow_nan=False)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from agvnav.odometry import OdometryNoise
-from agvnav.positioning.identification import bearing_model
+from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.station import StationEstimator, prior_in_station, station_offset, to_station
 from agvnav.world.docking import DockingTarget, parse_docking_targets
 

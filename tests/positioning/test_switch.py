@@ -9,8 +9,8 @@ from tests.positioning._drive import arc_pose_at, feed
 from agvnav.geometry import bearing_to
 from agvnav.odometry import OdometryNoise
 from agvnav.positioning.bounds import fisher_information
-from agvnav.positioning.dynamic import fix_given_heading, predicted_position_variances
 from agvnav.positioning.estimator import make_estimator
+from agvnav.positioning.fix_switch import fix_given_heading, predicted_position_variances
 from agvnav.sensors.goniometer import Goniometer
 from agvnav.world import Reflector, WorldMap
 

@@ -9,15 +9,9 @@ from hypothesis import strategies as st
 
 from agvnav.actuators import unicycle_to_wheels
 from agvnav.odometry import OdometryNoise, motion_covariance, pose_jacobian
-from agvnav.positioning.wall_landmarks import (
-    LandmarkParams,
-    WallLandmarkLocalizer,
-    check_route_passes_landmarks,
-    dead_reckoning_step,
-    distance_from_wall,
-    heading_from_side_pair,
-    wall_line,
-)
+from agvnav.positioning.landmark_params import LandmarkParams, check_route_passes_landmarks
+from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
+from agvnav.positioning.wall_ranging import dead_reckoning_step, distance_from_wall, heading_from_side_pair, wall_line
 from agvnav.sensors import seed_004_layout
 
 LAYOUT = seed_004_layout()

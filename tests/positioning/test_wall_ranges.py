@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from agvnav.odometry import OdometryNoise
 from agvnav.positioning import make_estimator
-from agvnav.positioning.wall_landmarks import distance_from_wall, wall_line
 from agvnav.positioning.wall_ranges import WallRangeModel, wall_range, wall_range_jacobian
+from agvnav.positioning.wall_ranging import distance_from_wall, wall_line
 from agvnav.sensors import seed_004_layout
 
 LAYOUT = seed_004_layout()

@@ -21,7 +21,7 @@ def _spec(model: str) -> VehicleKindSpec:
 def test_the_registry_is_the_scenario_union() -> None:
     members = typing.get_args(typing.get_args(VehicleSpec)[0])
     assert tuple(VEHICLE_KINDS.values()) == members
-    assert tuple(VEHICLE_KINDS) == VEHICLE_MODELS and len(VEHICLE_MODELS) == 8
+    assert tuple(VEHICLE_KINDS) == VEHICLE_MODELS and len(VEHICLE_MODELS) == 9
 
 
 @pytest.mark.parametrize("model", VEHICLE_MODELS)

@@ -20,7 +20,7 @@ circle of a three-reflector layout (``SWITCH_REFLECTORS``), where the three-bear
 (relative) fix is indeterminate, with the angle propagation triangulating by absolute
 angles (the seed's method), by relative angles with absolute angles inside a geometric
 band around the circle (``band``), and by the switch on the predicted error of each
-method (``predicted``, :func:`agvnav.positioning.dynamic.predicted_position_variances`);
+method (``predicted``, :func:`agvnav.positioning.fix_switch.predicted_position_variances`);
 ``relative_fraction`` is the share of the switch's fixes made by the relative method.
 """
 

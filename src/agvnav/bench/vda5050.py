@@ -27,11 +27,15 @@ Three parts, each row judged against issue 31's target (``verdict``: ``met`` or 
   lab's reflectors R3 and R8 become the hall's S2 and S3, on the wall beside the route), and the
   vehicle, publishing a state every loop step, runs jobs of the master. Over the states with
   ``positionInitialized``/``localized`` true: ``failed`` counts those whose true position error
-  exceeds ``deviationRange``; ``localized_while_lost`` those reporting localized while the
-  integrity monitor's status is ``lost`` or ``initialising``. Misses while the monitor says
-  ``tracking`` are the estimator's silent failures (the bound is widened only while degraded,
-  :class:`~agvnav.vda5050.vehicle.VehicleConfig`). Target (on the total row, as the
-  issue states it over all states): miss rate at most 1e-3, and never localized while lost.
+  exceeds ``deviationRange``; ``median_range_m``, ``p90_range_m`` say how wide the stated bound was,
+  and ``bound``: ``useful`` when the median is within :data:`USEFUL_RANGE_M`, else ``USELESS``
+  (honest but wider than a node's tolerance: a master cannot tell from it whether the vehicle
+  stands on its node); ``localized_while_lost`` counts states reporting localized while the
+  integrity monitor's status is ``lost`` or ``initialising``. The bound is what the vehicle
+  knows (:class:`agvnav.positioning.deviation.DeviationWatch`: covariance, the last revolution's
+  snapshot fix, the reach from the last trusted fix while in doubt); the miss is judged on
+  the true pose. Target (on the total row, as the issue states it over all states): miss rate
+  at most 1e-3, and never localized while lost.
   Default 200 s per scenario, ``--quick`` 60 s, ``--full`` enough for 10^5 states in all.
 """
 
@@ -59,7 +63,7 @@ import yaml
 __all__ = ["PRIORITY", "TITLE", "conformance", "deviation", "latency", "run"]
 
 TITLE = "VDA 5050: conformance, order-to-motion latency, state jitter, deviationRange misses (issue 31)"
-PRIORITY = ("part", "case", "checked", "failed", "verdict", "rate", "median_s", "max_s")
+PRIORITY = ("part", "case", "checked", "failed", "verdict", "rate", "median_range_m", "bound", "median_s", "max_s")
 
 VERSIONS = ("2.0.0", "2.1.0", "3.0.0")
 SCENARIO = "mission_hall_differential"
@@ -68,6 +72,9 @@ MISS_TARGET = 1e-3
 #: lab reflectors named by the fault scenarios -> hall reflectors beside the route network.
 REFLECTOR_MAP = {"R3": "S2", "R8": "S3"}
 FAULT_REPEAT_S = 60.0
+#: a median deviationRange beyond this (m) is reported USELESS: wider than the vehicle's default node
+#: tolerance (:attr:`~agvnav.vda5050.vehicle.VehicleConfig.node_tolerance_m`), it cannot say the vehicle is on its node.
+USEFUL_RANGE_M = 0.1
 
 #: (vehicles, simulated s) of the conformance run, by size.
 CONFORMANCE = {"quick": (2, 60.0), "default": (3, 120.0), "full": (10, 3600.0)}
@@ -154,6 +161,7 @@ def deviation(name: str, seconds: float, seed: int) -> dict[str, Any]:
     v = VdaVehicle(sc, VehicleConfig("agvnav", "f", "2.1.0", state_period_s=sc.step_s, visualization_period_s=0.0))
     tally = {"states": 0, "localized": 0, "misses": 0, "while_lost": 0}
     worst = [0.0]
+    ranges: list[float] = []
 
     def on_message(serial: str, topic: str, msg: dict[str, Any]) -> None:
         master.on_message(serial, topic, msg)
@@ -172,6 +180,7 @@ def deviation(name: str, seconds: float, seed: int) -> dict[str, Any]:
             tally["misses"] += 1
         if bound:
             worst[0] = max(worst[0], err / float(bound))
+            ranges.append(float(bound))
 
     bus = InProcessBus({"f": v}, "2.1.0", on_message)
     master = JobMaster(v.network, v.map_id, "2.1.0", "agvnav", ["f"], sc.mission.start, bus.publish_master,
@@ -185,12 +194,25 @@ def deviation(name: str, seconds: float, seed: int) -> dict[str, Any]:
     problems += [f"{tally['while_lost']} states localized while lost"] if tally["while_lost"] else []
     return {"part": "deviationRange", "case": name, "checked": n, "failed": tally["misses"],
             "rate": tally["misses"] / n if n else math.nan, "localized_while_lost": tally["while_lost"],
-            "states": tally["states"], "worst_error_over_range": worst[0], "simulated_s": round(v.t, 2),
+            "states": tally["states"], "worst_error_over_range": worst[0],
+            "median_range_m": float(np.median(ranges)) if ranges else math.nan, "bound": _usefulness(ranges),
+            "_ranges": ranges,
+            "p90_range_m": float(np.quantile(ranges, 0.9)) if ranges else math.nan, "simulated_s": round(v.t, 2),
             "jobs_done": master.jobs_done, "first_failure": v.failure or "",
             "target": f"<= {MISS_TARGET:g}, never localized while lost", "verdict": _verdict(problems)}
 
 
+def _usefulness(ranges: list[float]) -> str:
+    """``useful`` or ``USELESS (median ... m > 0.1 m)`` for the stated bounds ``ranges`` (m)."""
+    if not ranges:
+        return "none stated"
+    med = float(np.median(ranges))
+    return "useful" if med <= USEFUL_RANGE_M else f"USELESS (median {med:.2f} m > {USEFUL_RANGE_M:g} m)"
+
+
 def _deviation_total(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The total row over the scenario rows (their private ``_ranges``, the stated bounds, popped)."""
+    ranges = [b for r in rows for b in r.pop("_ranges", [])]
     n = sum(r["checked"] for r in rows)
     bad = sum(r["failed"] for r in rows)
     lost = sum(r["localized_while_lost"] for r in rows)
@@ -206,6 +228,7 @@ def _deviation_total(rows: list[dict[str, Any]]) -> dict[str, Any]:
         problems.append(f"only {n} states (the target is stated over 10^5: --full)")
     return {"part": "deviationRange", "case": "all fault scenarios", "checked": n, "failed": bad, "rate": rate,
             "localized_while_lost": lost, "states": sum(r["states"] for r in rows),
+            "median_range_m": float(np.median(ranges)) if ranges else math.nan, "bound": _usefulness(ranges),
             "target": f"<= {MISS_TARGET:g} over 10^5 states, never localized while lost",
             "verdict": _verdict(problems)}
 

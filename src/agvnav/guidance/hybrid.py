@@ -183,7 +183,7 @@ class HybridParams:
         require_nonnegative("dwell", self.dwell)
 
     def landmark_kwargs(self) -> dict[str, Any]:
-        """The fields the wall-landmark estimator takes (``agvnav.positioning.wall_landmarks.LandmarkParams``).
+        """The fields the wall-landmark estimator takes (``agvnav.positioning.landmark_params.LandmarkParams``).
 
         The automaton itself reads only ``loss_timeout`` of the landmark figures; the
         wiring hands these to the estimator that makes the calibrations.

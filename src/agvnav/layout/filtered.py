@@ -13,7 +13,8 @@ pose ``[x_O, y_O, ψ]`` (not the head centre P, which sits ``mount`` ahead of it
   goniometer delivers them.
 * Between two bearings the covariance grows by the odometry model,
   ``P⁻ = F P Fᵀ + Q`` [seed002 eq14] with ``Q = G diag(k_d Δd, k_dθ Δd + k_θ |Δθ|) Gᵀ``
-  [seed002 eq17] (the midpoint form of :func:`agvnav.odometry.motion_covariance`).
+  [seed002 eq17] (the midpoint form of :func:`agvnav.odometry.motion_covariance`; the variances
+  from the odometry kernel :func:`agvnav.odometry.increment_variances`).
 * Each bearing ``θ_j = atan2(y_j - y_P, x_j - x_P) - ψ - θ_m`` [seed000 §2.2] updates
   ``P`` with its Jacobian with respect to base_link,
   ``H = [dy/d², -dx/d², -1 + (dy/d²) ∂x_P/∂ψ - (dx/d²) ∂y_P/∂ψ]``:
@@ -34,6 +35,7 @@ builds its runs that way.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -44,8 +46,9 @@ from numba import njit
 from numpy.typing import NDArray
 
 from agvnav.geometry import wrap_angle
+from agvnav.jit import Kernel
 from agvnav.layout.prediction import information
-from agvnav.odometry import OdometryNoise
+from agvnav.odometry import OdometryNoise, increment_variances
 from agvnav.positioning.bounds import inv_sym3
 
 __all__ = ["FilteredPrediction", "base_link_information", "filtered_prediction", "single_fix_rms"]
@@ -124,8 +127,7 @@ def _recursion(pose: NDArray[np.float64], turn: NDArray[np.float64], visible: ND
                 G[1, 0], G[1, 1] = sm, 0.5 * ds * cm
                 G[2, 1] = 1.0
                 sig = np.zeros((2, 2))
-                sig[0, 0] = k_d * ds
-                sig[1, 1] = k_dth * ds + k_th * abs(dthe)
+                sig[0, 0], sig[1, 1] = increment_variances(ds, dthe, k_d, k_dth, k_th)
                 Q = G @ sig @ G.T
                 P = F @ P @ F.T + Q
                 E = F @ E @ F.T + Q
@@ -160,7 +162,16 @@ def _recursion(pose: NDArray[np.float64], turn: NDArray[np.float64], visible: ND
     return mean_sq, post
 
 
-_recursion_jit = cast(Callable[..., tuple[NDArray[np.float64], NDArray[np.float64]]], njit(cache=True)(_recursion))
+@functools.cache
+def _recursion_jit() -> Callable[..., tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """:func:`_recursion` compiled by numba, made on first use.
+
+    Asking the odometry kernel for its dispatcher first teaches numba to type it inside the
+    recursion (:class:`agvnav.jit.Kernel`) and points numba's cache at agvnav's, keyed over the
+    kernel sources, so an edit of the odometry kernel recompiles the recursion too.
+    """
+    cast(Kernel, increment_variances).dispatcher()
+    return cast(Callable[..., tuple[NDArray[np.float64], NDArray[np.float64]]], njit(cache=True)(_recursion))
 
 
 def filtered_prediction(pose: NDArray[np.float64], visible: NDArray[np.bool_], refl: NDArray[np.float64],
@@ -190,7 +201,7 @@ def filtered_prediction(pose: NDArray[np.float64], visible: NDArray[np.bool_], r
     p0 = np.ascontiguousarray(initial_cov, dtype=np.float64).reshape(3, 3)
     e0 = p0 if initial_error_cov is None else np.ascontiguousarray(initial_error_cov, dtype=np.float64).reshape(3, 3)
     turn = wrap_angle(np.diff(pose[:, 2]))
-    ms, post = _recursion_jit(pose, turn, vis, np.ascontiguousarray(refl, dtype=np.float64).reshape(-1, 2),
+    ms, post = _recursion_jit()(pose, turn, vis, np.ascontiguousarray(refl, dtype=np.float64).reshape(-1, 2),
                               np.asarray(mount, dtype=np.float64), bearing_std**2, rpm,
                               noise.k_d, noise.k_dtheta, noise.k_theta, p0, e0)
     return FilteredPrediction(ms, post)

@@ -1,4 +1,5 @@
-"""Odometry (seed 002 §3): increments, pose integration rules, covariance, error models, UMBmark."""
+"""Odometry (seed 002 §3): increments, pose integration rules, the noise model (its variance kernel in
+:mod:`agvnav.odometry.noise_kernels`, its covariance in :mod:`agvnav.odometry.covariance`), error models, UMBmark."""
 
 from agvnav.odometry.covariance import (
     STEERED_MODELS,
@@ -24,6 +25,7 @@ from agvnav.odometry.errors import (
 )
 from agvnav.odometry.increments import differential_increments, differential_wheel_distances, tricycle_increments
 from agvnav.odometry.integrate import RULES, increment_jacobian, integrate_pose, pose_jacobian
+from agvnav.odometry.noise_kernels import increment_variances, increment_variances_array
 from agvnav.odometry.odometer import DifferentialOdometer, TricycleOdometer
 from agvnav.odometry.umbmark import UMBmarkResult, estimate_errors, square_run, umbmark
 
@@ -49,6 +51,8 @@ __all__ = [
     "differential_wheel_distances",
     "estimate_errors",
     "increment_jacobian",
+    "increment_variances",
+    "increment_variances_array",
     "integrate_pose",
     "motion_covariance",
     "noise_from_truth",

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav.odometry.integrate import increment_jacobian, integrate_pose, pose_jacobian
+from agvnav.odometry.noise_kernels import increment_variances_array
 
 FloatArray = NDArray[np.float64]
 
@@ -52,13 +53,14 @@ class OdometryNoise:
                 raise ValueError(f"{name} must be a non-negative finite number, got {k!r}")
 
     def increment_covariance(self, delta_d: ArrayLike, delta_theta: ArrayLike) -> FloatArray:
-        """``diag(K_D|ΔD|, K_Dθ|ΔD| + K_θ|Δθ|)`` ``(..., 2, 2)`` of the increments ``(ΔD, Δθ)``."""
-        dd = np.abs(np.asarray(delta_d, dtype=np.float64))
-        dth = np.abs(np.asarray(delta_theta, dtype=np.float64))
-        shape = np.broadcast_shapes(dd.shape, dth.shape)
-        cov = np.zeros(shape + (2, 2))
-        cov[..., 0, 0] = self.k_d * dd
-        cov[..., 1, 1] = self.k_dtheta * dd + self.k_theta * dth
+        """``diag(K_D|ΔD|, K_Dθ|ΔD| + K_θ|Δθ|)`` ``(..., 2, 2)`` of the increments ``(ΔD, Δθ)``.
+
+        The variances are :func:`agvnav.odometry.noise_kernels.increment_variances` [seed002 eq17] on arrays.
+        """
+        var_d, var_th = increment_variances_array(delta_d, delta_theta, self.k_d, self.k_dtheta, self.k_theta)
+        cov = np.zeros(var_d.shape + (2, 2))
+        cov[..., 0, 0] = var_d
+        cov[..., 1, 1] = var_th
         return cov
 
 

@@ -7,12 +7,13 @@ functions below compute the equations with the ``math`` module and explicit 3x3
 arithmetic on flat row-major tuples, as kernels (:func:`agvnav._jit.jit`: compiled by
 numba or run as plain Python, the two modes agreeing to rounding). Each equation is
 written once: the leading-edge bearing and its Jacobian (:func:`edge_bearing`,
-:func:`bearing_jacobian`, seed 000 §2.1) and the odometry noise ``Q`` [seed002 eq17]
-(:func:`increment_variances`, :func:`process_noise`, :func:`steered_noise`) are the
+:func:`bearing_jacobian`, seed 000 §2.1) and the odometry noise ``Q`` (:func:`process_noise`,
+:func:`steered_noise`, over the odometry package's variance kernel
+:func:`agvnav.odometry.increment_variances`, re-exported here) are the
 kernels the compiled per-reflection path (:func:`move_state`, :func:`gate_rows`,
 :func:`gate_accept`) and the integrity monitor's check
 (:mod:`agvnav.positioning._integrity_fast`) call. The vectorised NumPy forms
-(:func:`agvnav.positioning.identification.bearing_model`,
+(:func:`agvnav.positioning.edge_bearing.bearing_model`,
 :func:`agvnav.odometry.motion_covariance`) are their test oracles and serve every
 batch use; ``tests/positioning/test_fast.py`` checks the kernels against them to 1e-12.
 
@@ -30,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav._jit import Kernel, jit
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
+from agvnav.odometry.noise_kernels import increment_variances as increment_variances  # re-exported
 from agvnav.positioning.gating import GateSpec, grid_rows
 
 Mat3 = tuple[float, ...]
@@ -88,33 +90,18 @@ def twist_step(
 
 
 @jit
-def increment_variances(
-    dist: float, dth: float, k_d: float, k_dtheta: float, k_theta: float
-) -> tuple[float, float]:
-    """Variances of one odometry increment's distance and heading, ``(var_d, var_th)`` (m², rad²).
-
-    The odometry model of seed 002 [seed002 eq17] (corrected to a covariance, see
-    :mod:`agvnav.odometry.covariance`): ``var_d = K_D |s|`` and ``var_th = K_Dtheta |s| +
-    K_theta |dth|`` for ``|s|`` = ``dist`` m travelled and ``dth`` rad turned.
-    """
-    s = abs(dist)
-    return k_d * s, k_dtheta * s + k_theta * abs(dth)
-
-
-@jit
 def process_noise(
     psi: float, dd: float, dth: float, k_d: float, k_dtheta: float, k_theta: float,
     dl: float = 0.0, k_lateral: float = 0.0,
 ) -> Mat3:
     """Process noise ``Q = G diag(var_d, var_th, var_l) G^T`` of one increment (flat 3x3).
 
-    The odometry model of seed 002 [seed002 eq17] (corrected to a covariance, see
-    :mod:`agvnav.odometry.covariance`): independent errors on the increments,
-    ``var_d = K_D |dd|`` and ``var_th = K_Dtheta s + K_theta |dth|`` with ``s =
-    hypot(dd, dl)`` the distance travelled, extended for holonomic vehicles by a lateral
-    error ``var_l = K_lateral |dl|`` (m^2 per metre of sideways travel). ``G`` is the
-    exact Jacobian of :func:`twist_step`'s displacement ``sinc(h) R(psi + h) [dd, dl]``
-    (``h = dth / 2``) with respect to ``(dd, dth, dl)``: its ``dth`` column holds the
+    The odometry model of seed 002 [seed002 eq17] (:func:`agvnav.odometry.increment_variances`,
+    its one kernel): independent errors on the increments, ``var_d = K_D |dd|`` and
+    ``var_th = K_Dtheta s + K_theta |dth|`` with ``s = hypot(dd, dl)`` the distance travelled,
+    extended for holonomic vehicles by a lateral error ``var_l = K_lateral |dl|`` (m^2 per
+    metre of sideways travel). ``G`` is the exact Jacobian of :func:`twist_step`'s displacement
+    ``sinc(h) R(psi + h) [dd, dl]`` (``h = dth / 2``) with respect to ``(dd, dth, dl)``: its ``dth`` column holds the
     lateral displacement a heading error makes within the step,
     ``(sinc'(h) R a + sinc(h) R_perp a) / 2`` with ``a = [dd, dl]`` (issue 12).
 
@@ -127,8 +114,9 @@ def process_noise(
     c, s = math.cos(heading), math.sin(heading)
     ax, ay = c * dd - s * dl, s * dd + c * dl  # R(heading) [dd, dl]
     tx, ty = 0.5 * (dk * ax - k * ay), 0.5 * (dk * ay + k * ax)  # d displacement / d dth
-    var_d = k_d * abs(dd)
-    var_th = increment_variances(math.hypot(dd, dl), dth, k_d, k_dtheta, k_theta)[1]
+    var_d, var_th = increment_variances(dd, dth, k_d, k_dtheta, k_theta)
+    if dl != 0.0:  # holonomic: the heading error grows with the whole distance travelled
+        var_th = increment_variances(math.hypot(dd, dl), dth, k_d, k_dtheta, k_theta)[1]
     var_l = k_lateral * abs(dl)
     kc, ks = k * c, k * s
     q00 = var_d * kc * kc + var_th * tx * tx + var_l * ks * ks
@@ -442,7 +430,7 @@ def edge_bearing(
     """Leading-edge bearing of one reflector from head centre ``(px, py)`` (seed 000 §2.1).
 
     ``h = wrap(atan2(dy, dx) - psi - mount_theta - asin(r / d))`` as in
-    :func:`agvnav.positioning.identification.bearing_model`. Returns ``(h, dx, dy, d^2, d)``.
+    :func:`agvnav.positioning.edge_bearing.bearing_model`. Returns ``(h, dx, dy, d^2, d)``.
     """
     dx, dy = rx - px, ry - py
     d2 = dx * dx + dy * dy
@@ -474,7 +462,7 @@ def bearing_row(
 ) -> tuple[float, float, float, float, float]:
     """:func:`edge_bearing` and :func:`bearing_jacobian` of one reflector: ``(h, H0, H1, H2, d)``.
 
-    Mirrors :func:`agvnav.positioning.identification.bearing_model` for one reflector.
+    Mirrors :func:`agvnav.positioning.edge_bearing.bearing_model` for one reflector.
     """
     h, dx, dy, d2, d = edge_bearing(px, py, psi, mount_theta, rx, ry, r)
     h0, h1, h2 = bearing_jacobian(dx, dy, d2, d, r, dpx_dpsi, dpy_dpsi)
@@ -527,7 +515,7 @@ def gate_one(
 ) -> tuple[int, float, float, int, tuple[float, float, float], float, float]:
     """Chi-square gate of one bearing against the map's reflectors, for one pose.
 
-    Mirrors :func:`agvnav.positioning.identification.gate_reflection`: for each
+    Mirrors :func:`agvnav.positioning.bearing_gate.gate_reflection`: for each
     reflector in range and not claimed in this sweep (``t - claimed[j] < spec.sweep``
     excludes it), ``y = wrap(z - h)``, ``S = H P H^T + sigma^2 + (map_std / d)^2``,
     inside when ``y^2 / S < gate``. ``candidates`` restricts the loop to those rows

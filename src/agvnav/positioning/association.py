@@ -3,7 +3,7 @@
 :class:`BearingAssociation` holds the map as the compiled gate reads it, the claim times
 (a reflector is claimed once per sweep, 3/4 of a revolution) and the line-of-sight mask,
 and gates one bearing against every candidate reflector with the chi-square test of
-:func:`~agvnav.positioning.identification.gate_reflection` (one kernel call,
+:func:`~agvnav.positioning.bearing_gate.gate_reflection` (one kernel call,
 :func:`~agvnav.positioning._fast.gate_rows`; on maps of ``INDEX_MIN_REFLECTORS`` or more
 reflectors only the candidates of a :class:`~agvnav.positioning.gating.BearingIndex`
 are evaluated). A consider filter's gate takes the Schmidt-Kalman ``S``
@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from agvnav.positioning import _fast
+from agvnav.positioning.bearing_gate import Association
 from agvnav.positioning.gating import INDEX_MIN_REFLECTORS, BearingIndex, GateSpec
-from agvnav.positioning.identification import Association
 from agvnav.positioning.integrity import reflectors_in_sight
 
 __all__ = ["BearingAssociation"]

@@ -9,11 +9,13 @@ identified reflection, given the odometric pose of base_link at every reflection
   (the baseline that shows the problem);
 * :class:`AnglePropagationEstimator` -- the seeds' method: simulate the evolution of
   each relative angle from its reflection to ``t_f`` with the kinematics and odometry
-  (:func:`propagate_bearings`), then triangulate with absolute angles (seed 000 §2.3);
+  (:func:`~agvnav.positioning.bearing_propagation.propagate_bearings`), then triangulate
+  with absolute angles (seed 000 §2.3), or choose the fix by its predicted error
+  (:mod:`agvnav.positioning.fix_switch`, seed 000 §5);
 * :class:`BatchMLEstimator` -- every bearing of the last revolution with the odometry
   between them, solved jointly for the pose at ``t_f`` by Gauss-Newton
-  (:func:`batch_ml_fix`), the maximum-likelihood fix when odometry over one revolution
-  is taken as exact.
+  (:func:`~agvnav.positioning.bearing_propagation.batch_ml_fix`), the maximum-likelihood
+  fix when odometry over one revolution is taken as exact.
 
 All three share identification, odometric prediction and status with the EKF
 (:class:`~agvnav.positioning.estimator.StreamingEstimator`); between fixes the pose is
@@ -30,197 +32,21 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav.geometry import angle_diff, between, circumcentre, compose, inverse, wrap_angle
+from agvnav.geometry import between, compose, inverse, wrap_angle
+from agvnav.positioning.bearing_propagation import batch_ml_fix, centre_bearings, ml_system, propagate_bearings
 from agvnav.positioning.bounds import crlb, fisher_information
+from agvnav.positioning.edge_bearing import bearing_model, measurement_variance
 from agvnav.positioning.estimator import StreamingEstimator
-from agvnav.positioning.identification import bearing_model, edge_offset, measurement_variance
+from agvnav.positioning.fix_switch import fix_given_heading, near_critical_circle, predicted_position_variances
 from agvnav.positioning.plausibility import sound_state
 from agvnav.positioning.triangulation import triangulate
 
-__all__ = [
-    "AnglePropagationEstimator",
-    "BatchMLEstimator",
-    "NaiveEstimator",
-    "batch_ml_fix",
-    "centre_bearings",
-    "fix_given_heading",
-    "near_critical_circle",
-    "predicted_position_variances",
-    "propagate_bearings",
-]
+__all__ = ["AnglePropagationEstimator", "BatchMLEstimator", "NaiveEstimator"]
 
 #: A fix whose Mahalanobis distance from the prediction exceeds this (chi-square, 3 dof, false
 #: alarm 1e-9: 6.7 sigma; ``scipy.stats.chi2.isf(1e-9, 3)``, a literal so that importing agvnav
 #: does not import scipy.stats, issue 11) is refused (:meth:`_FixEstimator._plausible_fix`).
 FIX_GATE = 44.841275330562404
-
-
-def centre_bearings(
-    edge_bearing: ArrayLike, pose: ArrayLike, mount: ArrayLike, reflector_xy: ArrayLike, radius: ArrayLike
-) -> NDArray[np.float64]:
-    """Reported leading-edge bearings (rad) moved to the reflector centres, ``+asin(r/d)``.
-
-    The distance d is taken from the (predicted) base_link ``pose (..., 3)`` at the
-    reflection; an error of a few cm in d changes the correction by ``r * dd / d^2``,
-    i.e. micro-radians (seed 000 §2.1: the angle is read at the start of the reflection).
-    """
-    _, _, d = bearing_model(pose, mount, reflector_xy, radius)
-    return wrap_angle(np.asarray(edge_bearing, dtype=np.float64) - edge_offset(d, radius))
-
-
-def propagate_bearings(
-    bearings: ArrayLike,
-    odom_at_reflection: ArrayLike,
-    odom_at_fix: ArrayLike,
-    pose_at_fix: ArrayLike,
-    mount: ArrayLike,
-    reflector_xy: ArrayLike,
-) -> NDArray[np.float64]:
-    """Bring centre bearings measured at instants t_i to the fix instant t_f (seed 000 §2.2, [7]).
-
-    The vehicle's motion from t_i to t_f is the odometric relative motion
-    ``between(odom_f, odom_i)``; composing it with the pose at the fix gives the pose at
-    t_i, and the reflector's relative angle changes by the kinematic prediction
-
-        theta_i(t_f) = theta_i(t_i) + [h(x_f, R_i) - h(x_i, R_i)],
-
-    with ``h`` the head-frame centre bearing. The correction is exact when the odometry
-    is exact and ``pose_at_fix`` is right; callers iterate it with the new fix (a fixed
-    point, since the correction's sensitivity to the pose error is second order).
-
-    Shapes: ``bearings (..., n)``, ``odom_at_reflection (..., n, 3)``, ``odom_at_fix (..., 3)``,
-    ``pose_at_fix (..., 3)``, ``reflector_xy (..., n, 2)``; returns ``(..., n)`` (rad).
-    """
-    x_f = np.asarray(pose_at_fix, dtype=np.float64)[..., None, :]
-    rel = between(np.asarray(odom_at_fix, dtype=np.float64)[..., None, :], odom_at_reflection)
-    x_i = compose(x_f, rel)
-    h_f, _, _ = bearing_model(x_f, mount, reflector_xy, 0.0)
-    h_i, _, _ = bearing_model(x_i, mount, reflector_xy, 0.0)
-    return wrap_angle(np.asarray(bearings, dtype=np.float64) + angle_diff(h_f, h_i))
-
-
-def batch_ml_fix(
-    pose0: ArrayLike,
-    bearings: ArrayLike,
-    reflector_xy: ArrayLike,
-    radius: ArrayLike,
-    relative_motion: ArrayLike,
-    mount: ArrayLike,
-    bearing_var: ArrayLike,
-    iterations: int = 10,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]:
-    """Joint Gauss-Newton fix of the pose at t_f from bearings taken at their own instants.
-
-    Unknown ``x_f``; the pose at reflection i is ``x_i = x_f ⊕ d_i`` with ``d_i`` the
-    odometric motion from t_f back to t_i (``relative_motion (n, 3)``). Minimises
-    ``sum_i wrap(z_i - h(x_i, R_i))^2 / sigma^2`` with ``h`` the leading-edge bearing
-    (:func:`~agvnav.positioning.identification.bearing_model`), Jacobian
-    ``dh/dx_f = H_i J_i``, ``J_i = d(x_f ⊕ d_i)/dx_f``.
-
-    ``bearings (n,)`` edge bearings (rad), ``reflector_xy (n, 2)``, ``radius (n,)``,
-    ``bearing_var`` scalar or ``(n,)`` variances (rad²) weighting each residual.
-    Returns ``(pose (3,), covariance (3, 3), valid)``; invalid when the normal matrix is
-    singular (fewer than three independent directions) or the iteration diverges.
-    """
-    x = np.array(pose0, dtype=np.float64)
-    z = np.asarray(bearings, dtype=np.float64)
-    rel = np.asarray(relative_motion, dtype=np.float64)
-    w = 1.0 / np.broadcast_to(np.asarray(bearing_var, dtype=np.float64), z.shape)
-    for _ in range(iterations):
-        A, r = _ml_system(x, z, reflector_xy, radius, rel, mount)
-        N = A.T @ (A * w[:, None])
-        if np.linalg.cond(N) > 1e12:
-            return x, np.full((3, 3), np.nan), False
-        step = np.linalg.solve(N, A.T @ (r * w))
-        x = x + step
-        x[2] = wrap_angle(x[2])
-        if np.max(np.abs(step)) < 1e-10:
-            break
-    A, r = _ml_system(x, z, reflector_xy, radius, rel, mount)
-    cov = np.linalg.inv(A.T @ (A * w[:, None]))
-    valid = bool(np.all(np.isfinite(x)) and np.max(np.abs(r)) < 0.5)
-    return x, 0.5 * (cov + cov.T), valid
-
-
-def _ml_system(
-    x: NDArray[np.float64],
-    z: NDArray[np.float64],
-    xy: ArrayLike,
-    radius: ArrayLike,
-    rel: NDArray[np.float64],
-    mount: ArrayLike,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Stacked Jacobian ``(n, 3)`` with respect to ``x_f`` and residuals ``(n,)``."""
-    x_i = compose(x, rel)
-    h, H, _ = bearing_model(x_i, mount, xy, radius)
-    c, s = np.cos(x[2]), np.sin(x[2])
-    J = np.zeros((rel.shape[0], 3, 3))
-    J[:, 0, 0] = J[:, 1, 1] = J[:, 2, 2] = 1.0
-    J[:, 0, 2] = -s * rel[:, 0] - c * rel[:, 1]
-    J[:, 1, 2] = c * rel[:, 0] - s * rel[:, 1]
-    return np.einsum("ni,nij->nj", H, J), angle_diff(z, h)
-
-
-def near_critical_circle(reflector_xy: ArrayLike, head_xy: ArrayLike, margin: float) -> bool:
-    """True when P lies within ``margin`` (relative to the radius) of the circle through three reflectors.
-
-    ``reflector_xy (3, 2)``, ``head_xy (2,)`` (m). Collinear reflectors (no circle) give False.
-    Seed 000 §2.2: the relative-angle triangulation is indeterminate on that circle.
-    """
-    centre, valid = circumcentre(*np.asarray(reflector_xy, dtype=np.float64))
-    if not valid:
-        return False
-    radius = np.hypot(*(np.asarray(reflector_xy)[0] - centre))
-    return bool(abs(np.hypot(*(np.asarray(head_xy) - centre)) - radius) < margin * radius)
-
-
-def predicted_position_variances(
-    reflector_xy: ArrayLike, head_pose: ArrayLike, bearing_std: float, heading_std: float
-) -> tuple[float, float]:
-    """Predicted position variance (m², trace of the x-y block) of the two methods at a head pose.
-
-    Seed 000 §5 plans to "alternate the absolute and the relative methods according to the
-    error associated with the goniometer's angular resolution" [seed000 §5]. The two
-    predictions, from the linearised bearings ``J`` (``(3, 3)`` Fisher information
-    ``J^T J / sigma^2``, blocks ``A`` (x-y) and ``b`` (x-y with heading)):
-
-    * relative (three bearings only, heading from them): ``(J^T J / sigma^2)^-1``, which
-      grows without bound near the critical circle [seed000 §2.2];
-    * absolute with the odometric heading held [seed000 §2.3]: ``A^-1 + g g^T heading_std^2``
-      with ``g = -A^-1 b`` (the position error a heading error causes).
-
-    ``reflector_xy (3, 2)`` m, ``head_pose (3,)`` (m, m, rad), stds in rad. Returns
-    ``(relative, absolute)``; ``inf`` where a prediction is singular.
-    """
-    info = fisher_information(np.asarray(reflector_xy, dtype=np.float64), np.asarray(head_pose, dtype=np.float64),
-                              float(bearing_std))
-    a, b = info[:2, :2], info[:2, 2]
-    relative = float(np.trace(np.linalg.inv(info)[:2, :2])) if np.linalg.cond(info) < 1e12 else math.inf
-    if np.linalg.cond(a) >= 1e12:
-        return relative, math.inf
-    a_inv = np.linalg.inv(a)
-    g = -a_inv @ b
-    return relative, float(np.trace(a_inv) + heading_std**2 * float(g @ g))
-
-
-def fix_given_heading(
-    reflector_xy: ArrayLike, bearings: ArrayLike, heading: float, weights: ArrayLike | None = None
-) -> NDArray[np.float64] | None:
-    """Head position (m) from the lines of absolute angle ``heading + theta_i`` through each reflector.
-
-    The absolute-angle construction with the heading held at ``heading`` [seed000 §2.3]:
-    the weighted least-squares intersection of the lines (``weights (n,)``, default 1);
-    None when the lines are (nearly) parallel.
-    """
-    xy = np.asarray(reflector_xy, dtype=np.float64)
-    phi = heading + np.asarray(bearings, dtype=np.float64)
-    normal = np.column_stack([-np.sin(phi), np.cos(phi)])
-    w = np.ones(len(phi)) if weights is None else np.asarray(weights, dtype=np.float64)
-    lhs = normal.T @ (normal * w[:, None])
-    if np.linalg.cond(lhs) >= 1e12:
-        return None
-    rhs = normal.T @ (w * np.sum(normal * xy, axis=1))
-    return np.asarray(np.linalg.solve(lhs, rhs), dtype=np.float64)
 
 
 def _triangulate_head(
@@ -330,7 +156,7 @@ class _FixEstimator(StreamingEstimator):
     ) -> NDArray[np.float64]:
         """Bearing-noise covariance ``(A^T A / sigma^2)^-1`` of a fix from ``entries``."""
         z = np.array([e[1] for e in entries])
-        A, _ = _ml_system(pose, z, *self._reflectors(entries), rel, self.mount)
+        A, _ = ml_system(pose, z, *self._reflectors(entries), rel, self.mount)
         N = A.T @ (A / self._variances(pose, entries, rel)[:, None])
         if np.linalg.cond(N) > 1e12:
             return self._P

@@ -10,7 +10,7 @@ State ``x = [x, y, psi]`` of base_link in ``map``, covariance ``P``.
   (:func:`agvnav.odometry.motion_covariance` when ``dlateral = 0``);
 * update (one reflection, at its own instant): ``y = wrap(z - h(x))`` with ``h`` the
   leading-edge bearing of the identified reflector from the head
-  (:func:`~agvnav.positioning.identification.bearing_model`, seed 000 §2.1),
+  (:func:`~agvnav.positioning.edge_bearing.bearing_model`, seed 000 §2.1),
   ``S = H P H^T + R``, ``K = P H^T S^-1``, ``x <- x + K y``,
   ``P <- (I - K H) P (I - K H)^T + K R K^T`` (Joseph form, stays symmetric positive);
   :func:`ekf_update` is that update, the estimator's own is its Schmidt-Kalman form below.
@@ -87,9 +87,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from agvnav.geometry import wrap_angle
 from agvnav.positioning import _fast
+from agvnav.positioning.bearing_gate import Association
 from agvnav.positioning.ekf_core import CONSIDER_MAX_ENTRY, CONSIDER_MIN_DET, ConsiderState, Linearisation
 from agvnav.positioning.estimator import StreamingEstimator
-from agvnav.positioning.identification import Association
 from agvnav.positioning.wall_ranges import RangeAssociation, WallRangeModel
 
 __all__ = ["CONSIDER_MAX_ENTRY", "CONSIDER_MIN_DET", "EkfEstimator", "ekf_predict", "ekf_update"]

@@ -52,10 +52,10 @@ from agvnav._validate import as_float_array, require_finite, require_nonnegative
 from agvnav.odometry import OdometryNoise
 from agvnav.positioning import _fast
 from agvnav.positioning.association import BearingAssociation
+from agvnav.positioning.bearing_gate import CHI2_1DOF_999, Association
 from agvnav.positioning.bounds import encoder_bearing_std
 from agvnav.positioning.ekf_core import EkfCore, EkfStep, RawStep, noise_constants
 from agvnav.positioning.gating import GateSpec
-from agvnav.positioning.identification import CHI2_1DOF_999, Association
 from agvnav.positioning.inputs import InputChecks
 from agvnav.positioning.integrity import IntegrityLimits, IntegrityMonitor
 from agvnav.positioning.lifecycle import (  # noqa: F401 - MAX_INFLATED_POSITION_VAR re-exported

@@ -2,7 +2,7 @@
 
 The streaming estimators identify each anonymous reflection with a chi-square gate on
 its bearing innovation (:func:`agvnav.positioning._fast.gate_one`, mirroring
-:func:`~agvnav.positioning.identification.gate_reflection`). Evaluated reflector by
+:func:`~agvnav.positioning.bearing_gate.gate_reflection`). Evaluated reflector by
 reflector in Python, that gate costs about 2 us per reflector and per reflection, and
 the reflections per second grow with the number of reflectors too: the cost of a run
 grows as N^2 (issue 11: 46x real time at N = 64, 5x at N = 256).

@@ -1,57 +1,37 @@
-"""Identifying anonymous reflections: the bearing model, a tracking gate, and the start-up search.
+"""Start-up and relocalisation: the pose of a standing vehicle from one revolution of anonymous bearings.
 
 The goniometer reports only ``(t, bearing)`` (seed 000 §2.1): which map reflector
-produced a reflection must be decided by the positioning side. Two situations:
-
-* tracking -- a predicted pose and its covariance exist: each reflection is matched
-  to the reflector whose predicted bearing lies inside a chi-square gate on the
-  innovation, and a reflector already claimed in the current sweep cannot be claimed
-  again (:func:`gate_reflection`, :func:`associate_sweep`);
-* start-up without any prior (standstill, as commercial sensors do): reflector
-  triples are tried against observed bearing triples, each hypothesis is resected and
-  scored by how many reflections it explains, and an ambiguity (several distinct
-  poses explaining equally many, e.g. a rotationally symmetric layout) is reported
-  rather than guessed (:func:`initial_pose_search`). Small maps try every ordered
-  reflector triple; a large map (above :data:`FULL_SEARCH_MAX_CELLS`) is searched
-  locally, in memory linear in its size: consecutive bearings on neighbouring
-  reflectors (:mod:`agvnav.positioning.spatial`), chunked and with early rejection.
-  That assumes reflections next to each other come from reflectors next to each other
-  (walls, racks); on a map of scattered, isolated reflectors it may find nothing. Not
-  having tried every triple, it reports a pose ``found`` only when the pose explains at
-  least :data:`LOCAL_MIN_FRACTION` of the bearings.
-
-The measurement model (:func:`bearing_model`) is the bearing, in the head frame, of
-the leading tangent edge of a cylindrical reflector of radius r seen from the head
-centre P: the head turns counter-clockwise, so the beam meets the edge at
-``centre - asin(r / d)`` (seed 000 §2.1: the angle is read "at the start of the
-reflection").
+produced a reflection must be decided by the positioning side. While tracking, a chi-square
+gate does it (:mod:`agvnav.positioning.bearing_gate`). At start-up without any prior
+(standstill, as commercial sensors do), reflector triples are tried against observed
+bearing triples, each hypothesis is resected (:func:`agvnav.positioning.resection.resect_three`)
+and scored by how many reflections it explains, and an ambiguity (several distinct poses
+explaining equally many, e.g. a rotationally symmetric layout) is reported rather than
+guessed (:func:`initial_pose_search`). Small maps try every ordered reflector triple; a
+large map (above :data:`FULL_SEARCH_MAX_CELLS`) is searched locally, in memory linear in
+its size: consecutive bearings on neighbouring reflectors (:mod:`agvnav.positioning.spatial`),
+chunked and with early rejection. That assumes reflections next to each other come from
+reflectors next to each other (walls, racks); on a map of scattered, isolated reflectors it
+may find nothing. Not having tried every triple, it reports a pose ``found`` only when the
+pose explains at least :data:`LOCAL_MIN_FRACTION` of the bearings. The bearings are the
+leading tangent edges of :func:`agvnav.positioning.edge_bearing.bearing_model`.
 """
 
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav.geometry import angle_diff, compose, inverse, wrap_angle
+from agvnav.positioning.bearing_gate import CHI2_1DOF_999, associate_sweep
+from agvnav.positioning.edge_bearing import bearing_model, edge_offset, measurement_variance
+from agvnav.positioning.resection import resect_three
 from agvnav.positioning.spatial import count_explained, nearest_neighbours
 
-__all__ = [
-    "Association",
-    "InitialPoseResult",
-    "associate_sweep",
-    "bearing_model",
-    "edge_offset",
-    "gate_reflection",
-    "initial_pose_search",
-    "measurement_variance",
-    "resect_three",
-]
-
-#: chi-square quantile, 1 degree of freedom, probability 0.999 (gate on one bearing innovation).
-CHI2_1DOF_999 = 10.827566170662733
+__all__ = ["InitialPoseResult", "initial_pose_search"]
 
 #: The start-up search tries every (bearing triple, ordered reflector triple) pair while
 #: its score table (hypotheses x bearings x reflectors) stays at or below this many cells
@@ -70,227 +50,6 @@ LOCAL_SEEDS = 16
 LOCAL_MAX_SCORED = 2048
 #: Hypotheses scored at once against every reflector by the local search.
 LOCAL_CHUNK = 2048
-
-
-def edge_offset(distance: ArrayLike, radius: ArrayLike) -> NDArray[np.float64]:
-    """Angle (rad) from a reflector's centre to its leading tangent edge, ``-asin(r / d)``.
-
-    The head turns counter-clockwise, so the reflection starts on the clockwise side of
-    the cylinder (seed 000 §2.1). ``distance`` (m) and ``radius`` (m) broadcast; a head
-    inside a reflector (``d <= r``) is clipped to ``-pi/2``.
-    """
-    d = np.asarray(distance, dtype=np.float64)
-    r = np.asarray(radius, dtype=np.float64)
-    ratio = np.clip(r / np.where(d > 0.0, d, np.inf), 0.0, 1.0)
-    return -np.arcsin(np.where(d > 0.0, ratio, 1.0))
-
-
-def bearing_model(
-    pose: ArrayLike, mount: ArrayLike, reflector_xy: ArrayLike, radius: ArrayLike = 0.0
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Predicted leading-edge bearing of reflectors from the head, and its Jacobian.
-
-    Parameters
-    ----------
-    pose:
-        ``(..., 3)`` base_link pose ``[x, y, psi]`` in ``map`` (m, rad).
-    mount:
-        ``(3,)`` pose of the head centre P in base_link (m, rad).
-    reflector_xy, radius:
-        ``(..., 2)`` reflector centres (m) and ``(...)`` radii (m); all broadcast.
-
-    Returns
-    -------
-    h:
-        ``(...)`` bearing in the head frame (rad, wrapped), ``atan2(R - P) - psi_P - asin(r/d)``
-        (seed 000 §2.1: the angle theta_i of the beam relative to the frame at the start of
-        the reflection).
-    H:
-        ``(..., 3)`` derivative of ``h`` with respect to ``[x, y, psi]`` of base_link.
-    distance:
-        ``(...)`` distance (m) from P to the reflector centre.
-    """
-    pose = np.asarray(pose, dtype=np.float64)
-    m = np.asarray(mount, dtype=np.float64)
-    xy = np.asarray(reflector_xy, dtype=np.float64)
-    r = np.asarray(radius, dtype=np.float64)
-    c, s = np.cos(pose[..., 2]), np.sin(pose[..., 2])
-    px = pose[..., 0] + c * m[0] - s * m[1]
-    py = pose[..., 1] + s * m[0] + c * m[1]
-    dx, dy = xy[..., 0] - px, xy[..., 1] - py
-    d2 = dx * dx + dy * dy
-    d = np.sqrt(d2)
-    h = wrap_angle(np.arctan2(dy, dx) - pose[..., 2] - m[2] + edge_offset(d, r))
-    safe_d = np.where(d > 0.0, d, np.inf)
-    ratio = np.clip(r / safe_d, 0.0, 1.0 - 1e-12)
-    edge_gain = r / (safe_d**3 * np.sqrt(1.0 - ratio**2))  # d/dd of asin(r/d), sign folded below
-    dh_dpx = dy / np.where(d2 > 0.0, d2, np.inf) - edge_gain * dx
-    dh_dpy = -dx / np.where(d2 > 0.0, d2, np.inf) - edge_gain * dy
-    dpx_dpsi = -s * m[0] - c * m[1]
-    dpy_dpsi = c * m[0] - s * m[1]
-    dh_dpsi = dh_dpx * dpx_dpsi + dh_dpy * dpy_dpsi - 1.0
-    H = np.stack(np.broadcast_arrays(dh_dpx, dh_dpy, dh_dpsi), axis=-1)
-    return h, H, d
-
-
-@dataclass(frozen=True)
-class Association:
-    """Outcome of gating one reflection (see :func:`gate_reflection`).
-
-    ``index`` is the map reflector row (-1 when rejected); ``nis`` the normalised innovation
-    squared of the chosen reflector (inf when none); ``n_in_gate`` how many reflectors fell
-    inside the gate (2 or more means the reflection was rejected as ambiguous); ``H`` the
-    bearing Jacobian row, ``S`` the innovation variance and ``R`` the measurement variance.
-    """
-
-    index: int
-    innovation: float
-    nis: float
-    n_in_gate: int
-    H: NDArray[np.float64] = field(repr=False)
-    S: float
-    R: float
-
-
-def measurement_variance(bearing_var: ArrayLike, map_std: float, distance: ArrayLike) -> NDArray[np.float64]:
-    """Variance (rad²) of one bearing: encoder/bearing noise plus the map survey error seen at ``distance`` (m).
-
-    ``R = sigma_b^2 + (map_std / d)^2``: a reflector displaced by ``map_std`` across the line
-    of sight shifts its bearing by ``map_std / d`` (seed 000 §4.1: surveyed positions).
-    """
-    d = np.asarray(distance, dtype=np.float64)
-    return np.asarray(bearing_var, dtype=np.float64) + (float(map_std) / np.where(d > 0.0, d, np.inf)) ** 2
-
-
-def gate_reflection(
-    bearing: float,
-    pose: ArrayLike,
-    covariance: ArrayLike,
-    mount: ArrayLike,
-    reflector_xy: ArrayLike,
-    radius: ArrayLike,
-    bearing_var: float,
-    *,
-    max_range: float = np.inf,
-    excluded: ArrayLike | None = None,
-    gate: float = CHI2_1DOF_999,
-    map_std: float = 0.0,
-) -> Association:
-    """Match one anonymous bearing to a map reflector with a chi-square innovation gate.
-
-    For every reflector within ``max_range`` of the head the innovation
-    ``y = wrap(z - h(x))`` and its variance ``S = H P H^T + sigma^2`` are formed; the
-    reflection is accepted when exactly one reflector has ``y^2 / S < gate`` (chi-square,
-    1 dof). Two or more reflectors in the gate means the prediction cannot tell them apart:
-    the reflection is rejected rather than risk a wrong label. ``excluded`` (bool ``(N,)``)
-    removes reflectors already claimed in the current sweep, so one sweep never gives the
-    same reflector twice. ``map_std`` (m) is the survey error of a reflector position; it
-    adds ``(map_std / d)^2`` to the measurement variance (returned as ``R``).
-    """
-    xy = np.asarray(reflector_xy, dtype=np.float64)
-    P = np.asarray(covariance, dtype=np.float64)
-    h, H, d = bearing_model(pose, mount, xy, radius)
-    y = angle_diff(float(bearing), h)
-    R = measurement_variance(bearing_var, map_std, d)
-    S = np.einsum("ni,ij,nj->n", H, P, H) + R
-    nis = y * y / S
-    ok = d <= max_range
-    if excluded is not None:
-        ok &= ~np.asarray(excluded, dtype=bool)
-    in_gate = ok & (nis < gate)
-    n_in = int(np.count_nonzero(in_gate))
-    if n_in != 1:
-        return Association(-1, float("nan"), float("inf"), n_in, np.zeros(3), float("nan"), float("nan"))
-    j = int(np.flatnonzero(in_gate)[0])
-    return Association(j, float(y[j]), float(nis[j]), 1, H[j], float(S[j]), float(R[j]))
-
-
-def associate_sweep(
-    bearings: ArrayLike,
-    pose: ArrayLike,
-    covariance: ArrayLike,
-    mount: ArrayLike,
-    reflector_xy: ArrayLike,
-    radius: ArrayLike,
-    bearing_var: float,
-    *,
-    max_range: float = np.inf,
-    gate: float = CHI2_1DOF_999,
-    map_std: float = 0.0,
-) -> NDArray[np.int64]:
-    """Label all bearings ``(k,)`` of one sweep at once: ``(k,)`` reflector rows, -1 = rejected.
-
-    A global nearest-neighbour assignment (Hungarian algorithm on the NIS) inside the
-    chi-square gate, so no two reflections of the sweep claim the same reflector and
-    spurious reflections that fit no reflector are left unlabelled.
-
-    ``scipy.optimize`` (``linear_sum_assignment``) is imported here, on the first call,
-    not with the module: it is about 60 % of the start-up time of ``agvnav.cli``, and
-    only the start-up pose search needs it.
-    """
-    from scipy.optimize import linear_sum_assignment  # noqa: PLC0415 - heavy third-party import, deferred (issue 11)
-
-    z = np.atleast_1d(np.asarray(bearings, dtype=np.float64))
-    xy = np.asarray(reflector_xy, dtype=np.float64)
-    h, H, d = bearing_model(pose, mount, xy, radius)
-    R = measurement_variance(bearing_var, map_std, d)
-    S = np.einsum("ni,ij,nj->n", H, np.asarray(covariance, dtype=np.float64), H) + R
-    nis = angle_diff(z[:, None], h[None, :]) ** 2 / S[None, :]
-    allowed = (nis < gate) & (d <= max_range)[None, :]
-    labels = np.full(z.shape, -1, dtype=np.int64)
-    if not np.any(allowed):
-        return labels
-    cost = np.where(allowed, nis, 1e9)
-    rows, cols = linear_sum_assignment(cost)
-    keep = allowed[rows, cols]
-    labels[rows[keep]] = cols[keep]
-    return labels
-
-
-def resect_three(
-    reflector_xy: ArrayLike, bearings: ArrayLike
-) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Head pose from three simultaneous centre bearings (rad) of three known reflectors.
-
-    Geometric circle intersection on the relative angles (seed 000 §2.2, Fig. 1b, the
-    "arcos capaces" method): P lies on the circle through R1, R2 that sees them under
-    ``alpha = theta2 - theta1`` and on the circle through R2, R3 under ``beta``; the two
-    circles meet at R2 and at P, the mirror of R2 in the line of their centres. The heading
-    is then the circular mean of ``atan2(R_i - P) - theta_i``. Used here only to generate
-    start-up hypotheses (no odometric heading exists yet); the fixes of a moving vehicle use
-    :func:`agvnav.positioning.triangulate`.
-
-    ``reflector_xy (..., 3, 2)``, ``bearings (..., 3)`` -> ``(pose (..., 3), valid (...))``;
-    invalid on the critical circle and for collinear, coincident or inconsistent data.
-    """
-    R = np.asarray(reflector_xy, dtype=np.float64)
-    th = np.asarray(bearings, dtype=np.float64)
-    c12 = _arc_centre(R[..., 0, :], R[..., 1, :], angle_diff(th[..., 1], th[..., 0]))
-    c23 = _arc_centre(R[..., 1, :], R[..., 2, :], angle_diff(th[..., 2], th[..., 1]))
-    u = c23 - c12
-    uu = np.sum(u * u, axis=-1)
-    scale = np.maximum(np.sum((R[..., 1, :] - R[..., 0, :]) ** 2, -1), 1e-300)
-    valid = np.isfinite(uu) & (uu > 1e-10 * scale)
-    safe = np.where(valid, uu, 1.0)
-    t = np.sum((R[..., 1, :] - c12) * u, axis=-1) / safe
-    foot = c12 + t[..., None] * u
-    p = 2.0 * foot - R[..., 1, :]
-    absolute = np.arctan2(R[..., 1] - p[..., None, 1], R[..., 0] - p[..., None, 0])
-    diff = wrap_angle(absolute - th)
-    heading = wrap_angle(np.arctan2(np.mean(np.sin(diff), -1), np.mean(np.cos(diff), -1)))
-    spread = np.max(np.abs(angle_diff(diff, heading[..., None])), axis=-1)
-    valid &= np.all(np.isfinite(p), axis=-1) & (spread < 1e-3)
-    pose = np.concatenate([p, heading[..., None]], axis=-1)
-    return np.where(valid[..., None], pose, np.nan), valid
-
-
-def _arc_centre(a: NDArray[np.float64], b: NDArray[np.float64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Centre of the circle through ``a``, ``b`` from which chord ab is seen under ``angle`` (CCW)."""
-    chord = b - a
-    left = np.stack([-chord[..., 1], chord[..., 0]], axis=-1)
-    sin_a = np.sin(angle)
-    cot = np.cos(angle) / np.where(np.abs(sin_a) > 1e-12, sin_a, np.nan)
-    return 0.5 * (a + b) + 0.5 * cot[..., None] * left
 
 
 @dataclass(frozen=True)
@@ -345,16 +104,17 @@ def initial_pose_search(
 
     1. Pick bearing triples spread around the revolution (all triples when few).
     2. For each, try every ordered triple of map reflectors, resect the head pose
-       (:func:`resect_three`, then once more with the edge correction of seed 000 §2.1 at
+       (:func:`~agvnav.positioning.resection.resect_three`, then once more with the edge correction of seed 000 §2.1 at
        the resected distances), drop hypotheses out of range.
     3. Score each hypothesis by the number of bearings it explains within a coarse
        tolerance; refine the best distinct hypotheses by Gauss-Newton on all the bearings
-       they explain (labels by :func:`associate_sweep`, chi-square gate).
+       they explain (labels by :func:`~agvnav.positioning.bearing_gate.associate_sweep`, chi-square gate).
     4. Keep the pose explaining the most; if another distinct pose (farther than
        ``position_tol`` m or ``heading_tol`` rad) explains as many, report ``ambiguous``.
 
     ``bearings (k,)`` head-frame edge bearings (rad); the map arrays as in
-    :func:`bearing_model`; ``map_std`` as in :func:`gate_reflection`. Needs at least three
+    :func:`~agvnav.positioning.edge_bearing.bearing_model`; ``map_std`` as in
+    :func:`~agvnav.positioning.bearing_gate.gate_reflection`. Needs at least three
     reflections and three reflectors.
     """
     raw = wrap_angle(np.atleast_1d(np.asarray(bearings, dtype=np.float64)))

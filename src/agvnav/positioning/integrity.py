@@ -43,7 +43,7 @@ from agvnav.positioning.integrity_nis import (
     chi2_upper,
     uncertainty_failures,
 )
-from agvnav.positioning.integrity_offset import OffsetCheck, common_offset
+from agvnav.positioning.integrity_offset import OffsetCheck, common_offset, revolution_fix
 from agvnav.positioning.integrity_raim import (
     Attributed,
     Attributions,
@@ -394,6 +394,35 @@ class IntegrityMonitor:
         (:func:`~agvnav.positioning.integrity_offset.common_offset`); None with fewer than 4 reflectors."""
         return common_offset(self._entries, self._attributed, t, self.revolution_s, self._excluded_flags(),
                              self._tables[3], self.bearing_std**2)
+
+    def explained(self, t: float, pose: ArrayLike) -> tuple[int, int, int]:
+        """``(seen, expected, rejected)`` at ``t`` (s): distinct reflectors accepted in the last revolution,
+        reflectors in sight (not excluded) from the head at base_link ``pose (3,)`` (m, m, rad)
+        (:func:`~agvnav.positioning.integrity_sight.reflectors_in_sight`), and reflections the gate
+        rejected in the last revolution. What a fix is trusted on
+        (:class:`~agvnav.positioning.deviation.DeviationWatch`): a false lock accepts a few
+        bearings self-consistent about a wrong pose and misses the reflectors in sight;
+        clutter adds rejections and misses none.
+        """
+        x = np.asarray(pose, dtype=np.float64).reshape(3)
+        if not np.all(np.isfinite(x)):
+            return 0, 0, 0
+        rev = self.revolution_s
+        rec = self._entries.records()
+        seen = len({int(j) for j, tr in zip(rec["reflector"], rec["t"], strict=True) if not t - tr > rev})
+        c, s = math.cos(float(x[2])), math.sin(float(x[2]))
+        mx, my, _ = self._mount_t
+        head = (float(x[0]) + c * mx - s * my, float(x[1]) + s * mx + c * my)
+        sight = reflectors_in_sight(self.xy, self.radius, head, self.walls, self.max_range)
+        sight[list(self.excluded)] = False
+        rejected = sum(1 for tr in self._rejects if not t - tr > rev)
+        return seen, int(sight.sum()), rejected
+
+    def fix(self, t: float) -> tuple[np.ndarray, np.ndarray, int] | None:
+        """The last revolution's bearings alone: the truth minus the estimate, its covariance and the reflectors
+        (:func:`~agvnav.positioning.integrity_offset.revolution_fix`); None with fewer than 4 reflectors."""
+        return revolution_fix(self._entries, self._attributed, t, self.revolution_s, self._excluded_flags(),
+                              self._tables[3], self.bearing_std**2)
 
     def _offset_failures(self, t: float) -> list[str]:
         """``["offset"]`` (:class:`~agvnav.positioning.integrity_offset.OffsetCheck`)."""

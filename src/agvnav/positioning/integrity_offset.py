@@ -17,11 +17,11 @@ from collections.abc import Collection
 
 import numpy as np
 
-from agvnav.positioning._integrity_fast import revolution_offset
+from agvnav.positioning._integrity_fast import mean_innovations, revolution_innovations, revolution_offset
 from agvnav.positioning.integrity_raim import _chi2_3dof_isf
 from agvnav.positioning.integrity_window import _Window
 
-__all__ = ["OffsetCheck", "common_offset"]
+__all__ = ["OffsetCheck", "common_offset", "revolution_fix"]
 
 _NO_ATTRIBUTED = np.zeros((0, 7))
 
@@ -56,6 +56,38 @@ def common_offset(
     ok, dx0, dx1, dx2, stat = revolution_offset(buf, start, len(window), t, revolution_s, excluded, att, len(att),
                                                 map_std, bearing_var)
     return (np.array([dx0, dx1, dx2]), stat) if ok else None
+
+
+def revolution_fix(
+    window: _Window, attributed: Collection[tuple[float, ...]], t: float, revolution_s: float,
+    excluded: np.ndarray, map_std: np.ndarray, bearing_var: float,
+) -> tuple[np.ndarray, np.ndarray, int] | None:
+    """The fit of :func:`common_offset` with its covariance: what one revolution of bearings alone says.
+
+    The same weighted least squares ``ybar = Hbar dx`` (per reflector the mean innovation
+    over the last revolution, :func:`~agvnav.positioning._integrity_fast.mean_innovations`),
+    solved with its normal matrix ``A = Hbar^T W Hbar``: ``dx = A^-1 Hbar^T W ybar`` and
+    ``cov(dx) = A^-1`` [seed002 eq14: the innovations of a consistent filter are white with
+    variance ``S``]. The innovation is the bearing measured minus the one predicted from the
+    estimate, so ``dx`` is the truth minus the estimate as the bearings see it, independent
+    of what the odometry claims (its error over one revolution aside): a snapshot fix.
+    Returns ``(dx (3,), cov (3, 3), reflectors)`` (m, m, rad; m², m rad, rad²), or None with
+    fewer than 4 reflectors or a singular fit. NumPy, not compiled: the caller asks for it
+    once per revolution (:class:`~agvnav.positioning.deviation.DeviationWatch`).
+    """
+    buf, start = window.buffer()
+    att = np.array(attributed, dtype=np.float64) if attributed else _NO_ATTRIBUTED
+    sums = revolution_innovations(buf, start, len(window), t, revolution_s, excluded, att, len(att))
+    rows = np.flatnonzero(sums[:, 5] != 0.0).astype(np.int64)
+    if rows.shape[0] < 4:
+        return None
+    ybar, hbar, _, w = mean_innovations(sums, rows, map_std, bearing_var)
+    A = hbar.T @ (w[:, None] * hbar)
+    if not np.all(np.isfinite(A)) or np.linalg.cond(A) > 1e12:
+        return None
+    cov = np.linalg.inv(A)
+    dx = cov @ (hbar.T @ (w * ybar))
+    return dx, 0.5 * (cov + cov.T), int(rows.shape[0])
 
 
 class OffsetCheck:

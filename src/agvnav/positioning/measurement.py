@@ -16,7 +16,7 @@ plus one model here, not a hand-written EKF update. Two models today:
   reflector (seed 000 §2.1; the kernels
   :func:`~agvnav.positioning._fast.edge_bearing` and
   :func:`~agvnav.positioning._fast.bearing_jacobian`, the one scalar form of
-  :func:`~agvnav.positioning.identification.bearing_model`);
+  :func:`~agvnav.positioning.edge_bearing.bearing_model`);
 * :class:`WallRangeMeasurement` -- an ultrasonic range to a known wall line
   ([seed004 eq6] [seed004 eq7] [seed004 eq8]; :func:`~agvnav.positioning.wall_ranges.wall_range`).
 """

@@ -16,7 +16,7 @@ The equations are the global EKF's, reused in another frame:
   (:func:`agvnav.odometry.propagate`);
 * update with one reflection: ``h`` the leading-edge bearing of target reflector ``j`` from the
   goniometer head, ``atan2(R - P) - psi_P - asin(r/d)`` (seed 000 §2.1, Fig. 6b:
-  :func:`~agvnav.positioning.identification.bearing_model`), the Joseph-form update
+  :func:`~agvnav.positioning.edge_bearing.bearing_model`), the Joseph-form update
   (:func:`~agvnav.positioning.ekf.ekf_update`), the residual wrapped.
   The bearing variance is the pulse count's quantisation ``(2 pi / N)^2 / 12`` (seed 000 §2.1:
   65535 pulses per revolution) plus the target's own build tolerance ``(target_std / d)^2``.
@@ -64,8 +64,8 @@ from numpy.typing import ArrayLike, NDArray
 from agvnav.geometry import wrap_angle_scalar
 from agvnav.odometry import OdometryNoise, propagate
 from agvnav.positioning._chi2_table import QUANTILES_1E5
+from agvnav.positioning.edge_bearing import bearing_model
 from agvnav.positioning.ekf import ekf_update
-from agvnav.positioning.identification import bearing_model
 from agvnav.world.docking import DockingTarget
 
 __all__ = ["StationEstimator", "prior_in_station", "station_offset", "to_station"]

@@ -50,12 +50,21 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav._jit import jit
 from agvnav._validate import as_float_array
 from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 from agvnav.positioning._three import ScalarMath, layout_scale2
 from agvnav.positioning.absolute_angles import absolute_angles_kernel
-from agvnav.positioning.bounds import fisher_information, inv_sym3
+
+# the tolerances are re-exported: the compiled integrity fix (positioning._integrity_fast) imports them from here
+from agvnav.positioning.fix_covariance import NONLINEAR_RATIO, _covariance, _nonlinear  # noqa: F401
+from agvnav.positioning.fix_validity import (  # noqa: F401
+    LAYOUT_TOL,
+    PARALLEL_TOL,
+    _check_single,
+    _layout_flags,
+    _layout_ok,
+    _OnReflectorLine,
+)
 from agvnav.positioning.least_squares import (
     _normal_equations_single,
     inv3_single,
@@ -71,19 +80,6 @@ METHODS = ("absolute_angles", "relative_angles", "total", "least_squares")
 #: machine, 16k-32k beat 4k-8k (fewer Python calls per fix) and 64k (the working set
 #: leaves the cache); the kernels create a few dozen temporaries per chunk.
 CHUNK = 16384
-
-#: Relative tolerance for coincident / collinear reflector layouts.
-LAYOUT_TOL = 1e-9
-#: A three-reflector fix with ``bearing_std`` whose largest position std exceeds this
-#: fraction of its distance from the critical circle is flagged ``valid=False`` (issue 12):
-#: there the error is no longer linear in the bearing noise and the linearised covariance
-#: does not bound it. Monte Carlo near the circle (bearing std 1e-3 and 1e-4 rad, ToTal and
-#: relative angles): 25 % and 10 % of the valid fixes fell outside their own 95 % ellipse;
-#: of those this flag keeps, 5.3 % (tests/positioning/test_critical_circle_honesty.py).
-NONLINEAR_RATIO = 0.3
-#: Largest |sin| of the pairwise bearing differences for which the rays count as parallel
-#: (P on the line of collinear reflectors: the fix is undetermined).
-PARALLEL_TOL = 1e-9
 
 @dataclass(frozen=True)
 class TriangulationResult:
@@ -221,190 +217,6 @@ def _check_count(method: str, n: int, has_prior: bool) -> None:
     if method == "least_squares" and n < need:
         hint = "" if has_prior else " (2 with heading_estimate and heading_std)"
         raise ValueError(f"method 'least_squares' needs at least {need} reflectors{hint}, got {n}")
-
-
-def _check_single(r: NDArray[np.float64], b: NDArray[np.float64], h: NDArray[np.float64] | None) -> None:
-    """Single-fix path: value problems raise (batches flag them instead). Plain Python: N is small.
-
-    The same tests and sums as the batch flags' definition (:func:`_layout_flags`); the squared
-    distances once per pair (``(p - q)**2 == (q - p)**2`` exactly), ``map`` rather than generators
-    (issue 29: 11 -> 8 µs CPU of a ~30 µs fix, measured interleaved on a loaded machine).
-    """
-    pts = r.tolist()
-    xs = [p[0] for p in pts]
-    ys = [p[1] for p in pts]
-    if not (all(map(math.isfinite, xs)) and all(map(math.isfinite, ys))):
-        raise ValueError("reflectors contains NaN or inf")
-    if not all(map(math.isfinite, b.tolist())):
-        raise ValueError("bearings contains NaN or inf")
-    if h is not None and not all(map(math.isfinite, h.ravel().tolist())):
-        raise ValueError("heading_estimate contains NaN or inf")
-    n = len(pts)
-    pairs = [(i, j, (xs[i] - xs[j]) ** 2 + (ys[i] - ys[j]) ** 2) for i in range(n) for j in range(i + 1, n)]
-    near = LAYOUT_TOL**2 * max([d for _, _, d in pairs], default=0.0)
-    for i, j, d in pairs:
-        if d <= near:
-            raise ValueError(f"reflectors {i} and {j} coincide")
-    if n < 3:
-        return
-    mx, my = sum(xs) / n, sum(ys) / n
-    cx = [x - mx for x in xs]
-    cy = [y - my for y in ys]
-    sxx = sum([c**2 for c in cx])
-    syy = sum([c**2 for c in cy])
-    sxy = sum([u * v for u, v in zip(cx, cy, strict=True)])
-    if sxx * syy - sxy * sxy <= LAYOUT_TOL * (sxx + syy) ** 2 and _parallel_rays(b).any():
-        raise _OnReflectorLine  # geometry, not bad input: the batch path flags it invalid
-
-
-class _OnReflectorLine(Exception):
-    """P stands on the line of collinear reflectors (raised and caught inside this module)."""
-
-
-def _parallel_rays(b: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """Per element: every pair of bearings ``(..., N)`` differs by 0 or pi (within ``PARALLEL_TOL``)."""
-    with np.errstate(invalid="ignore"):  # NaN bearings: not parallel (flagged as bad values elsewhere)
-        d = np.sin(b[..., :, None] - b[..., None, :])
-        return np.asarray(np.max(np.abs(d), axis=(-2, -1)) <= PARALLEL_TOL)
-
-
-def _nonlinear(
-    r: NDArray[np.float64],
-    x: NDArray[np.float64],
-    y: NDArray[np.float64],
-    cov: NDArray[np.float64],
-    from_estimate: NDArray[np.bool_],
-) -> NDArray[np.bool_]:
-    """``(m,)`` True where a three-reflector fix is too near its critical circle for its covariance.
-
-    ``r`` is ``(3, 2)`` or ``(m, 3, 2)`` (m), ``x, y`` the fixes (m), ``cov (m, 3, 3)``. The
-    distance from the circle through the reflectors (their line when collinear) is compared
-    with the largest position std: ``std > NONLINEAR_RATIO * distance`` (see the constant).
-    A fix that kept the heading estimate (``from_estimate``) is judged by its prior instead.
-    """
-    rr = np.broadcast_to(r, (x.shape[0], 3, 2))
-    ax, bx, cx = rr[:, 0, 0], rr[:, 1, 0], rr[:, 2, 0]
-    ay, by, cy = rr[:, 0, 1], rr[:, 1, 1], rr[:, 2, 1]
-    with np.errstate(all="ignore"):
-        den = 2.0 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
-        a2, b2, c2 = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
-        ux = (a2 * (by - cy) + b2 * (cy - ay) + c2 * (ay - by)) / den
-        uy = (a2 * (cx - bx) + b2 * (ax - cx) + c2 * (bx - ax)) / den
-        circle = np.abs(np.hypot(x - ux, y - uy) - np.hypot(ax - ux, ay - uy))
-        lx, ly = cx - ax, cy - ay  # collinear: distance from the line through the reflectors
-        line = np.abs(lx * (y - ay) - ly * (x - ax)) / np.hypot(lx, ly)
-        dist = np.where(np.isfinite(circle), circle, line)
-        a, b, c = cov[:, 0, 0], cov[:, 1, 1], cov[:, 0, 1]
-        big = 0.5 * (a + b) + np.sqrt(0.25 * (a - b) ** 2 + c * c)  # largest eigenvalue of the position block
-        return ~from_estimate & np.isfinite(big) & (big > (NONLINEAR_RATIO * dist) ** 2)
-
-
-def _layout_flags(r: NDArray[np.float64]) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
-    """Per-element (coincident, collinear) flags of layouts ``(..., N, 2)``."""
-    d = r[..., :, None, :] - r[..., None, :, :]
-    dist2 = np.sum(d * d, axis=-1)
-    n = r.shape[-2]
-    scale = np.max(dist2, axis=(-2, -1))
-    off = np.where(np.eye(n, dtype=bool), np.inf, dist2)
-    coincident = np.min(off, axis=(-2, -1)) <= LAYOUT_TOL**2 * scale
-    c = r - np.mean(r, axis=-2, keepdims=True)
-    sxx, syy, sxy = np.sum(c[..., 0] ** 2, -1), np.sum(c[..., 1] ** 2, -1), np.sum(c[..., 0] * c[..., 1], -1)
-    collinear = (n >= 3) & (sxx * syy - sxy * sxy <= LAYOUT_TOL * (sxx + syy) ** 2)
-    return coincident, collinear
-
-
-def _layout_ok(r: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """``(m,)`` True where a fix's layout and bearings pass the batch checks: the validity flags.
-
-    ``r`` is one shared layout ``(N, 2)`` or one per fix ``(m, N, 2)``, ``b (m, N)``. False where a
-    bearing is NaN or inf, the reflectors coincide, or they are collinear and every pair of rays
-    is parallel (P on their line): ``~(coincident | collinear & parallel) & finite`` with the flags
-    of :func:`_layout_flags` and :func:`_parallel_rays`, which stay the definition (and the test
-    oracle). One pass over the fixes (:func:`_layout_ok_kernel`); a shared layout's flags are
-    settled once here.
-    """
-    m = b.shape[0]
-    shared = r.ndim == 2
-    coincident, collinear = _layout_flags(r) if shared else (False, False)
-    ok = np.empty(m, dtype=bool)
-    rr = r[None] if shared else r
-    _layout_ok_kernel(np.ascontiguousarray(rr), np.ascontiguousarray(b), shared, bool(coincident), bool(collinear),
-                      ok)
-    return ok
-
-
-@jit
-def _layout_ok_kernel(
-    r: NDArray[np.float64],
-    b: NDArray[np.float64],
-    shared: bool,
-    coincident: bool,
-    collinear: bool,
-    ok: NDArray[np.bool_],
-) -> None:
-    """:func:`_layout_ok` in one pass: ``ok[k]`` for layouts ``r (1 or m, N, 2)`` (m) and bearings ``b (m, N)`` (rad).
-
-    ``shared``: ``r`` is one layout whose ``coincident``/``collinear`` flags the caller computed
-    (:func:`_layout_flags`); otherwise each fix's flags are computed here as :func:`_layout_flags`
-    defines them, NaN comparing False as in its reductions. The parallel test is
-    :func:`_parallel_rays` over the pairs ``i < j`` (``sin`` is odd; ``sin(0) = 0`` on the diagonal).
-    """
-    m, n = b.shape
-    for k in range(m):
-        finite = True
-        for i in range(n):
-            if not math.isfinite(b[k, i]):
-                finite = False
-        if not finite:
-            ok[k] = False
-            continue
-        coin, coll = coincident, collinear
-        if not shared:
-            rk = r[k]
-            scale = 0.0
-            near = math.inf
-            nan = False
-            for i in range(n):
-                for j in range(n):
-                    dx = rk[i, 0] - rk[j, 0]
-                    dy = rk[i, 1] - rk[j, 1]
-                    d2 = dx * dx + dy * dy
-                    if d2 != d2:
-                        nan = True
-                    elif d2 > scale:
-                        scale = d2
-                    if i != j and d2 < near:
-                        near = d2
-            coin = (not nan) and near <= LAYOUT_TOL * LAYOUT_TOL * scale
-            mx = 0.0
-            my = 0.0
-            for i in range(n):
-                mx += rk[i, 0]
-                my += rk[i, 1]
-            mx = mx / n
-            my = my / n
-            sxx = 0.0
-            syy = 0.0
-            sxy = 0.0
-            for i in range(n):
-                cx = rk[i, 0] - mx
-                cy = rk[i, 1] - my
-                sxx += cx * cx
-                syy += cy * cy
-                sxy += cx * cy
-            tr = sxx + syy
-            coll = n >= 3 and sxx * syy - sxy * sxy <= LAYOUT_TOL * (tr * tr)
-        if coin:
-            ok[k] = False
-            continue
-        parallel = False
-        if coll:
-            parallel = True
-            for i in range(n):
-                for j in range(i + 1, n):
-                    if not abs(math.sin(b[k, i] - b[k, j])) <= PARALLEL_TOL:
-                        parallel = False
-        ok[k] = not parallel
 
 
 def _solve(
@@ -584,33 +396,3 @@ def _kernel(
         res["valid"] = res["valid"] & ~res["heading_from_estimate"]
     return res
 
-
-def _covariance(
-    method: str,
-    r: NDArray[np.float64],
-    res: dict[str, NDArray[np.float64]],
-    bs: NDArray[np.float64],
-    hs: NDArray[np.float64] | None,
-) -> NDArray[np.float64]:
-    """Covariance ``(m, 3, 3)`` from the linearisation at the solution.
-
-    For three bearings every exact method has the same first-order error
-    ``J^-1 dtheta``, so ``(J^T R^-1 J)^-1`` applies to all of them; where absolute_angles
-    kept the heading estimate its std ``heading_std`` enters as a prior on the heading.
-    """
-    if method == "least_squares":
-        info = res["information"]
-    else:
-        pose = np.stack([res["x"], res["y"], res["heading"]], axis=-1)
-        with np.errstate(all="ignore"):
-            info = fisher_information(r, pose, bs)
-        if hs is not None and "heading_from_estimate" in res:
-            info[:, 2, 2] += np.where(res["heading_from_estimate"], 1.0 / hs**2, 0.0)
-    cov, ok = inv_sym3(info)
-    cov[~ok] = np.nan
-    if method == "absolute_angles" and hs is None:
-        # Critical circle without heading_std: three bearings do not bound the fix (the
-        # position turns with the heading error), so say so with infinite variances.
-        unbounded = np.asarray(res["heading_from_estimate"], dtype=bool)
-        cov[unbounded] = np.diag([np.inf, np.inf, np.inf])
-    return cov

@@ -4,33 +4,12 @@ Seed 004 positions a tracked robot on a fixed route by dead reckoning
 ([seed004 eq3] [seed004 eq4] [seed004 eq5]) and recalibrates it with walls placed along the route as
 landmarks, measured by HY-SRF05 rangers (agvnav.sensors.ultrasonic):
 
-* **Orientation** ([seed004 eq6] [seed004 eq7]): two side sensors ``dist`` apart along the body,
-  both beaming perpendicular to it, see a wall alongside at ranges US1
-  (front) and US2 (rear). With the wall on the *right*, a CCW heading offset
-  theta relative to the wall direction moves the front sensor away:
-  ``theta = arctan((US1 - US2) / dist)`` ([seed004 eq7]; [seed004 eq6] is the same
-  expression written for theta < 0). With the wall on the left the sign flips. The
-  seed's arctan assumes each range is measured *along the sensor axis*
-  (the perpendicular distance divided by cos(theta), so the difference is
-  ``dist * tan(theta)``): that is ``beam="ray"``. A cone-beam ultrasonic
-  ranger (agvnav.sensors.ultrasonic) returns the *nearest* echo, which is the
-  perpendicular distance itself whenever |theta| is within the beam
-  half-angle; the difference is then ``dist * sin(theta)`` and the exact
-  inverse is arcsin: ``beam="cone"``, our default. The two agree to
-  O(theta^3) (1e-4 rad at 3.6 deg), so this deviation only removes a bias.
-* **Position at a corner** [seed004 eq8]: the front sensor measures the wall ahead,
-  ``x = x_lan - US``. Here generalised to any wall line, heading and mount:
-  a range ``r`` from a sensor mounted at ``m = (x_s, y_s, phi)`` on a robot at
-  ``p, theta`` gives the sensor's distance to the wall line ``n . q = c``
-  (unit normal ``n`` towards the robot): ``r`` for the cone beam (nearest
-  echo), ``-r n . b`` with ``b`` the beam direction for the ray model; then
-  ``n . p = c + distance - n . R(theta) [x_s, y_s]``. This fixes the position
-  component along ``n`` only; the tangential component is kept from dead
-  reckoning. [seed004 eq8] is the case theta = 0, sensor at base_link (both models).
-* **Lateral offset from the side pair** (an extension, not in the seed: the
-  same relation with the side sensors fixes the distance to a side wall).
-
-Dead reckoning uses the Euler rule of [seed004 eq3] [seed004 eq4] [seed004 eq5], as the seed does, through
+the heading from a side pair beside a wall ([seed004 eq6] [seed004 eq7]) and the distance
+from a wall ahead ([seed004 eq8], generalised to any wall, heading and mount), whose
+relations are in :mod:`agvnav.positioning.wall_ranging` (with the cone-beam deviation from
+the seed's arctan); the parameters and the calibration record are in
+:mod:`agvnav.positioning.landmark_params`. Dead reckoning uses the Euler rule of
+[seed004 eq3] [seed004 eq4] [seed004 eq5], as the seed does, through
 agvnav.odometry.integrate_pose (``rule`` selects its exact-arc form instead).
 
 :class:`WallLandmarkLocalizer` is a streaming estimator of its own (the
@@ -46,16 +25,17 @@ The EKF fuses the same ranges one by one (agvnav.positioning.wall_ranges).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from agvnav._validate import require_finite, require_nonnegative, require_positive
+from agvnav._validate import require_finite, require_positive
 from agvnav.geometry import angle_diff, wrap_angle
 from agvnav.odometry import OdometryNoise, integrate_pose
 from agvnav.positioning._fast import predict_covariance, process_noise
+from agvnav.positioning.landmark_params import Calibration, LandmarkParams
 from agvnav.positioning.plausibility import (
     MAX_DEPARTURE,
     DropCounter,
@@ -63,180 +43,10 @@ from agvnav.positioning.plausibility import (
     implausible_increment,
     sound_state,
 )
+from agvnav.positioning.wall_ranging import check_beam, distance_from_wall, heading_from_side_pair, wall_line
 from agvnav.sensors.ultrasonic import ConeEcho, UltrasonicArray, UltrasonicSensor, check_wall_segments
 
-__all__ = [
-    "SEED_004_PAIRS",
-    "Calibration",
-    "LandmarkParams",
-    "WallLandmarkLocalizer",
-    "check_route_passes_landmarks",
-    "dead_reckoning_step",
-    "distance_from_wall",
-    "heading_from_side_pair",
-    "wall_line",
-]
-
-SIDES = ("right", "left")
-
-
-def dead_reckoning_step(
-    pose: ArrayLike, omega_right: ArrayLike, omega_left: ArrayLike, wheel_radius: float, track_width: float, dt: float
-) -> NDArray[np.float64]:
-    """Pose ``(..., 3)`` after ``dt`` s of wheel speeds (rad/s) [seed004 eq3] [seed004 eq4] [seed004 eq5].
-
-    ``x += r/2 (wR + wL) cos(theta) dt``, ``y += r/2 (wR + wL) sin(theta) dt``,
-    ``theta += r/L (wR - wL) dt`` (Euler rule, evaluated at the old heading).
-    """
-    p = np.asarray(pose, dtype=np.float64)
-    wr, wl = np.asarray(omega_right, dtype=np.float64), np.asarray(omega_left, dtype=np.float64)
-    delta_d = wheel_radius / 2.0 * (wr + wl) * dt
-    delta_theta = wheel_radius / track_width * (wr - wl) * dt
-    return integrate_pose(p, delta_d, delta_theta, rule="euler")
-
-
-def heading_from_side_pair(
-    us_front: ArrayLike,
-    us_rear: ArrayLike,
-    spacing: float,
-    side: str,
-    wall_heading: ArrayLike = 0.0,
-    beam: str = "cone",
-) -> NDArray[np.float64]:
-    """Robot heading (rad) from a side sensor pair beside a wall [seed004 eq6] [seed004 eq7].
-
-    Parameters
-    ----------
-    us_front, us_rear : ranges (m) of the front (US1) and rear (US2) sensor,
-        ``(...)``; both beams perpendicular to the body, towards the wall.
-    spacing : distance between the two sensors along the body (m), ``dist``.
-    side : ``"right"`` or ``"left"``, the side the wall is on.
-    wall_heading : direction (rad) of the wall taken along the travel direction.
-    beam : ``"ray"`` for the seed's ``theta = ±arctan((US1 - US2) / dist)``,
-        ``"cone"`` (default) for ``±arcsin`` (nearest-echo ranges, see module doc).
-
-    Returns ``wall_heading + theta``.
-    """
-    if side not in SIDES:
-        raise ValueError(f"side must be 'right' or 'left', got {side!r}")
-    _check_beam(beam)
-    require_positive("spacing", spacing)
-    ratio = (np.asarray(us_front, dtype=np.float64) - np.asarray(us_rear, dtype=np.float64)) / spacing
-    theta = np.arctan(ratio) if beam == "ray" else np.arcsin(np.clip(ratio, -1.0, 1.0))
-    return wrap_angle(np.asarray(wall_heading) + (theta if side == "right" else -theta))
-
-
-def wall_line(segment: ArrayLike, toward: ArrayLike) -> tuple[NDArray[np.float64], float]:
-    """Unit normal ``n (2,)`` of a wall segment ``(2, 2)`` pointing to ``toward (2,)``, and ``c = n . a``.
-
-    The wall's line is ``{q : n . q = c}``; ``n . p - c`` is the signed distance of ``p``.
-    """
-    seg = require_finite("wall segment", segment).reshape(2, 2)
-    d = seg[1] - seg[0]
-    length = float(np.hypot(*d))
-    if length <= 0.0:
-        raise ValueError(f"wall segment has zero length: {seg.tolist()}")
-    n = np.array([-d[1], d[0]]) / length
-    if np.dot(n, np.asarray(toward, dtype=np.float64) - seg[0]) < 0.0:
-        n = -n
-    return n, float(np.dot(n, seg[0]))
-
-
-def distance_from_wall(
-    ranges: ArrayLike, mounts: ArrayLike, heading: float, normal: ArrayLike, beam: str = "cone"
-) -> NDArray[np.float64]:
-    """Signed distance (m) of base_link from a wall line, one value per reading ([seed004 eq8] generalised).
-
-    Parameters
-    ----------
-    ranges : ``(k,)`` measured ranges (m). mounts : ``(k, 3)`` sensor mounts
-        ``(x, y, phi)`` in base_link. heading : robot heading (rad).
-    normal : unit normal ``(2,)`` of the wall, pointing to the robot.
-    beam : ``"cone"`` (range = perpendicular distance) or ``"ray"`` (range along the axis).
-
-    Returns ``n . p - c`` implied by each reading: ``d_sensor - n . R m_xy``
-    with ``d_sensor = r`` (cone) or ``-r n . b`` (ray).
-    """
-    _check_beam(beam)
-    r = np.asarray(ranges, dtype=np.float64)
-    m = np.asarray(mounts, dtype=np.float64).reshape(-1, 3)
-    n = np.asarray(normal, dtype=np.float64)
-    c, s = math.cos(heading), math.sin(heading)
-    offset = np.stack([c * m[:, 0] - s * m[:, 1], s * m[:, 0] + c * m[:, 1]], axis=-1)
-    axis = np.stack([np.cos(heading + m[:, 2]), np.sin(heading + m[:, 2])], axis=-1)
-    sensor_distance = r if beam == "cone" else -r * (axis @ n)
-    return sensor_distance - offset @ n
-
-
-def _check_beam(beam: str) -> None:
-    if beam not in ("cone", "ray"):
-        raise ValueError(f"beam must be 'cone' or 'ray', got {beam!r}")
-
-
-@dataclass(frozen=True)
-class Calibration:
-    """One applied correction: time (s), kind (``"heading"``, ``"side_offset"``,
-    ``"front_offset"``), wall index, pose before and after (``(3,)``), the ``side``
-    whose sensors made it (``"right"``, ``"left"``, ``"front"``; ``""`` for a direct
-    call) and the wall's name ``wall_id``."""
-
-    t: float
-    kind: str
-    wall: int
-    before: NDArray[np.float64]
-    after: NDArray[np.float64]
-    side: str = ""
-    wall_id: str = ""
-
-
-SEED_004_PAIRS = (("right", "right_front", "right_rear"), ("left", "left_front", "left_rear"))
-
-
-@dataclass(frozen=True)
-class LandmarkParams:
-    """Association and calibration parameters of :class:`WallLandmarkLocalizer` (SI units).
-
-    detect_range : a reading counts only up to this range (m); 0.60 m is the seed's
-        optimal range of the HY-SRF05.
-    gate, front_gate : largest |measured - predicted| range (m) for a side sensor / the
-        front sensor to be associated with a wall (the front gate is wider: the
-        along-track error grows with the distance driven since the last corner).
-    end_margin : both sensors of a side pair must project onto the wall at least this
-        far (m) inside its ends (near an end the cone sees the corner, not the face).
-    calibration_gain : blend of each correction in (0, 1] (1 replaces, as the seed).
-    pair_max_age : the two readings of a pair must be at most this old (s).
-    lateral_calibration : also fix the distance to a side wall (an extension).
-    parallel_tolerance : a wall is "alongside" when its direction is within this
-        angle (rad) of the estimated heading, and "across" (the front-wall correction) otherwise.
-    side_pairs : ``(side, front sensor, rear sensor)`` names of the side pairs.
-    front_sensor : name of the forward sensor (the front-wall correction).
-    """
-
-    detect_range: float = 0.60
-    gate: float = 0.15
-    front_gate: float = 0.30
-    end_margin: float = 0.05
-    calibration_gain: float = 0.25
-    pair_max_age: float = 0.12
-    lateral_calibration: bool = True
-    parallel_tolerance: float = math.radians(10.0)
-    side_pairs: tuple[tuple[str, str, str], ...] = SEED_004_PAIRS
-    front_sensor: str = "front"
-
-    def __post_init__(self) -> None:
-        for name in ("detect_range", "gate", "front_gate", "pair_max_age", "parallel_tolerance"):
-            require_positive(name, getattr(self, name))
-        require_nonnegative("end_margin", self.end_margin)
-        if not 0.0 < self.calibration_gain <= 1.0:
-            raise ValueError(f"calibration_gain must be in (0, 1], got {self.calibration_gain!r}")
-        for side, *_ in self.side_pairs:
-            if side not in SIDES:
-                raise ValueError(f"side_pairs: side must be 'right' or 'left', got {side!r}")
-
-    @property
-    def sensor_names(self) -> set[str]:
-        """Every ranger name the parameters refer to."""
-        return {self.front_sensor, *(n for _, front, rear in self.side_pairs for n in (front, rear))}
+__all__ = ["WallLandmarkLocalizer"]
 
 
 @dataclass
@@ -333,7 +143,7 @@ class WallLandmarkLocalizer:
         self.wall_ids = list(wall_ids) if wall_ids is not None else [f"W{i}" for i in range(len(self.walls))]
         if len(self.wall_ids) != len(self.walls):
             raise ValueError(f"wall_ids names {len(self.wall_ids)} walls, but there are {len(self.walls)}")
-        _check_beam(beam)
+        check_beam(beam)
         if rule not in ("euler", "midpoint", "arc"):
             raise ValueError(f"rule must be 'euler', 'midpoint' or 'arc', got {rule!r}")
         self.beam, self.rule = beam, rule
@@ -594,35 +404,3 @@ class WallLandmarkLocalizer:
             return
         self.covariance = P
         self.pose, self.t, self.status = after, float(t), "tracking"
-
-
-def check_route_passes_landmarks(
-    legs: Iterable[tuple[ArrayLike, float, float]],
-    walls: ArrayLike,
-    body_width: float,
-    detect_range: float = 0.60,
-    parallel_tolerance: float = math.radians(10.0),
-) -> None:
-    """ValueError unless some wall runs alongside some leg within the side rangers' reach.
-
-    ``legs`` yields ``(start (2,), heading (rad), length (m))``; ``walls (M, 2, 2)`` (m);
-    a wall is within reach when its mean lateral offset from the leg line lies in
-    ``(body_width / 2, body_width / 2 + detect_range]`` and it overlaps the leg.
-    """
-    segs = check_wall_segments(walls) if np.size(walls) else np.zeros((0, 2, 2))
-    half_width = body_width / 2.0
-    for start, heading, length in legs:
-        u = np.array([math.cos(heading), math.sin(heading)])
-        for seg in segs:
-            d = seg[1] - seg[0]
-            if abs(math.sin(math.atan2(d[1], d[0]) - heading)) > math.sin(parallel_tolerance):
-                continue
-            along = (seg - np.asarray(start)) @ u
-            lateral = abs(float(np.mean((seg - np.asarray(start)) @ np.array([-u[1], u[0]]))))
-            overlap = min(along.max(), length) - max(along.min(), 0.0)
-            if overlap > 0.0 and half_width < lateral <= half_width + detect_range:
-                return
-    raise ValueError(
-        "the route never passes a landmark: no landmark wall runs alongside a leg within "
-        f"{detect_range:.2f} m of the side sensors"
-    )

@@ -159,7 +159,7 @@ def build_fleet(fleet: FleetScenario) -> BuiltFleet:
             else:
                 planned = traffic.missions[ids[i]]
                 b = build(sc, planned if planned is not None else standing_mission(traffic, sc))
-                wire_holds(traffic, ids[i], sc, b.plant, b.autopilot)
+                wire_holds(traffic, ids[i], b.autopilot)
         except ScenarioError as exc:
             if exc.key and exc.key[:2] == ("mission", "start") and fleet.fleet.vehicles[i].at is not None:
                 raise fleet.error(("fleet", "vehicles", i, "at"), f"vehicle {ids[i]!r}: {exc.detail}") from None

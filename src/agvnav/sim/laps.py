@@ -40,7 +40,8 @@ from numpy.typing import ArrayLike, NDArray
 from agvnav.actuators import DriveGeometry
 from agvnav.guidance.hybrid import HybridController, HybridParams, PolygonRoute
 from agvnav.navigation.hybrid import HybridAutopilot
-from agvnav.positioning.wall_landmarks import LandmarkParams, WallLandmarkLocalizer, check_route_passes_landmarks
+from agvnav.positioning.landmark_params import LandmarkParams, check_route_passes_landmarks
+from agvnav.positioning.wall_landmarks import WallLandmarkLocalizer
 from agvnav.sensors.ultrasonic import UltrasonicArray
 from agvnav.sim.build import build_world, guard, ultrasonic_array, wall_ids
 from agvnav.sim.engine import ClosedLoop, LoopOutput

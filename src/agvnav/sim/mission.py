@@ -26,9 +26,9 @@ from agvnav.guidance import GuidanceError, HeadingHoldApproach, make_follower
 from agvnav.guidance.errors import errors_from_projection
 from agvnav.guidance.follower import PathFollower
 from agvnav.guidance.paths import Path
-from agvnav.navigation.fine_positioning import fine_positioner
+from agvnav.navigation.fine_positioning import fine_positioner, spot_turn_lever, twist_command
 from agvnav.navigation.guard import SpeedWatch
-from agvnav.navigation.mission import LimitedSpeedProfile, MissionAutopilot, StationStop, run_bounds
+from agvnav.navigation.mission import LimitedSpeedProfile, MissionAutopilot, SpotTurn, StationStop, run_bounds
 from agvnav.navigation.path import PathAutopilot
 from agvnav.roles import Plant
 from agvnav.routes.mission import Job, MissionError, MissionPlan, chain_mission, plan_legs
@@ -49,6 +49,7 @@ __all__ = [
     "near_line_curve_joints",
     "plan_mission",
     "route_tracking",
+    "spot_turn",
     "tracked_point",
 ]
 
@@ -316,8 +317,21 @@ def mission_autopilot(
                                     math.radians(m.turn_rate_deg_s))
         except ValueError as exc:
             raise sc.error(("vehicle",), str(exc)) from None
-    return MissionAutopilot(plan, make, profile, m.lateral_accel_m_s2, m.creep_distance_m, m.creep_speed_m_s,
-                            switching, wheelbase, point_offset, align)
+    pilot = MissionAutopilot(plan, make, profile, m.lateral_accel_m_s2, m.creep_distance_m, m.creep_speed_m_s,
+                             switching, wheelbase, point_offset, align)
+    if plant.family in ("unicycle", "holonomic"):
+        pilot.turn_on_spot(spot_turn(sc, plant))
+    return pilot
+
+
+def spot_turn(sc: Scenario, plant: Plant) -> SpotTurn:
+    """How a spot-turning vehicle of scenario ``sc`` turns on the spot where its mission turns at a node: the body
+    twist command, the mission's turn rate, and the traction limit at the wheels over their lever (rad/s^2)."""
+    m = sc.mission
+    assert m is not None
+    layout = sc.vehicle.layout if isinstance(sc.vehicle, MecanumSpec) else "X"
+    lever = spot_turn_lever(plant.geometry, layout)
+    return SpotTurn(twist_command(plant), math.radians(m.turn_rate_deg_s), sc.traction.max_accel_m_s2 / lever)
 
 
 def _twin_follower(sc: Scenario, follower: PathFollower, plant: Plant, path: Path, point: str) -> PathFollower:

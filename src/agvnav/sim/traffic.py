@@ -36,9 +36,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from agvnav.navigation.fine_positioning import spot_turn_lever, twist_command
-from agvnav.navigation.mission import MissionAutopilot, SpotTurn
-from agvnav.roles import Plant
+from agvnav.navigation.mission import MissionAutopilot
 from agvnav.routes.mission import Leg, MissionError, MissionPlan, chain_mission
 from agvnav.routes.network import RouteNetwork
 from agvnav.routes.planning import Route, Traversal, VehicleLimits
@@ -52,7 +50,6 @@ from agvnav.traffic.zones import ConflictZones, conflict_zones, model_footprint
 from agvnav.vehicles.builders import build_plant
 from agvnav.world.fleet import FleetScenario, TrafficSpec
 from agvnav.world.scenario import Scenario
-from agvnav.world.vehicle_specs import MecanumSpec
 
 __all__ = [
     "FleetTraffic",
@@ -210,18 +207,12 @@ def standing_mission(traffic: FleetTraffic, sc: Scenario) -> MissionPlan:
                          math.radians(net.spec.tolerances.heading_deg))
 
 
-def wire_holds(traffic: FleetTraffic, vehicle: str, sc: Scenario, plant: Plant, autopilot: object) -> None:
+def wire_holds(traffic: FleetTraffic, vehicle: str, autopilot: object) -> None:
     """Make the vehicle's mission autopilot stand at the traffic control's hold points (at its start for ever
-    when it has no work) and, a spot-turning vehicle, turn on the spot where its plan turns at a node."""
+    when it has no work); a spot-turning vehicle turns on the spot where its plan turns at a node, as every
+    mission autopilot does (:func:`agvnav.sim.mission.mission_autopilot`)."""
     if not isinstance(autopilot, MissionAutopilot):
         raise TypeError(f"vehicle {vehicle!r}: traffic control needs a mission autopilot, got {type(autopilot)}")
-    if plant.family in ("unicycle", "holonomic"):
-        m = sc.mission
-        assert m is not None
-        layout = sc.vehicle.layout if isinstance(sc.vehicle, MecanumSpec) else "X"
-        lever = spot_turn_lever(plant.geometry, layout)
-        autopilot.turn_on_spot(SpotTurn(twist_command(plant), math.radians(m.turn_rate_deg_s),
-                                        sc.traction.max_accel_m_s2 / lever))
     if traffic.missions[vehicle] is None:
         autopilot.hold_at(_Stand())
     else:

@@ -62,16 +62,18 @@ master sees the order end by the cancel; without an order ``noOrderToCancel`` /
 Positioning in the state, honestly: ``positionInitialized``/``localized`` is false while the
 estimator is initialising or lost (the integrity monitor's verdict), and then the vehicle does
 not start driving and reports ``localizationError`` / ``LOCALIZATION_ERROR`` (FATAL);
-``localizationScore`` is the integrity monitor's 0-1 quality; ``deviationRange`` is the bound
-``k sqrt(lambda_max(P_xy))`` (m) of the estimate's position covariance with
-``k = VehicleConfig.deviation_k`` (4.5: a consistent Gaussian error exceeds it with probability
-``exp(-k^2/2)`` = 4e-5 in the plane; the bench measures the miss rate on the true pose). While the
-integrity monitor says ``degraded`` its checks found the covariance not to be trusted (late
-reflections, slip, clutter): the bound is widened ``VehicleConfig.deviation_degraded_factor``
-times (3: under the reflection-delay fault the true error reached 2.4 times the covariance
-bound while degraded, ``agvnav bench vda5050``). A fault the monitor has not (yet) seen leaves
-the bound as the covariance says: those misses are the estimator's silent failures and the
-bench counts them.
+``localizationScore`` is the integrity monitor's 0-1 quality; ``deviationRange`` is the bound of
+:class:`agvnav.positioning.deviation.DeviationWatch`, fed every loop step, stated from what the
+vehicle knows: the larger of ``k sqrt(lambda_max(P_xy))`` of the position covariance
+(``k = VehicleConfig.deviation_k``, 4.5: a consistent error exceeds it with probability 4e-5) and,
+while the odometry moves, the last head revolution's bearings alone (their common offset plus
+3 sigma of that fix: wheel slip carries the filter off its bearings before any check can tell);
+while the estimate is in doubt (most reflectors in sight missing with reflections arriving --
+an encoder dropout, a false lock --, late reflections, or the revolution's offset beyond
+chance) the reach from the last trusted fix: its bound, plus how far the estimate moved since,
+plus how far the vehicle could drive since at ``VehicleConfig.deviation_max_speed_m_s`` (the
+factsheet's ``speedMax`` by default). ``agvnav bench vda5050`` measures the miss rate on the
+true pose and says where the bound is too wide to be useful.
 ``safetyState.fieldViolation`` is true while the reaction to the safety fields slows or stops the
 vehicle (mission scenarios have no reaction wired yet, so false).
 
@@ -98,6 +100,8 @@ from agvnav.guidance.follower import PathFollower
 from agvnav.navigation.docking import DockingAutopilot, DockingEstimate
 from agvnav.navigation.guard import EstimatorWatch, GuardLimits, PositioningGuard
 from agvnav.navigation.mission import MissionAutopilot
+from agvnav.positioning.deviation import DeviationWatch, covariance_radius
+from agvnav.positioning.estimator import StreamingEstimator
 from agvnav.positioning.station import to_station
 from agvnav.roles import Estimator, Plant
 from agvnav.routes.mission import Leg, chain_mission
@@ -181,8 +185,10 @@ class VehicleConfig:
     visualization_period_s: float = 1.0
     """visualization period (0: none)."""
     deviation_k: float = 4.5
-    deviation_degraded_factor: float = 3.0
-    """deviationRange widened this many times while the integrity monitor says ``degraded`` (module doc)."""
+    """deviationRange's ``k`` (sigmas of the position covariance's major axis; module doc)."""
+    deviation_max_speed_m_s: float | None = None
+    """the speed (m/s) the vehicle cannot exceed, for deviationRange's reach while the estimate is in
+    doubt (module doc); None: the scenario's ``traction.speed_m_s`` (the factsheet's ``speedMax``)."""
     start_tolerance_m: float = 0.5
     """how far from a new order's first node counts as on it when the node gives no allowedDeviationXY."""
     node_tolerance_m: float = 0.1
@@ -199,9 +205,10 @@ class VehicleConfig:
         if not (0.0 < self.state_period_s <= 30.0):
             raise ValueError(f"state_period_s must be in (0, 30] s (VDA 5050: at least every 30 s), "
                              f"got {self.state_period_s!r}")
-        if not (self.deviation_k > 0.0 and self.deviation_degraded_factor >= 1.0):
-            raise ValueError(f"deviation_k must be > 0 and deviation_degraded_factor >= 1, got {self.deviation_k!r}, "
-                             f"{self.deviation_degraded_factor!r}")
+        v_max = self.deviation_max_speed_m_s
+        if not (self.deviation_k > 0.0 and (v_max is None or v_max > 0.0)):
+            raise ValueError(f"deviation_k and deviation_max_speed_m_s must be > 0, got {self.deviation_k!r}, "
+                             f"{v_max!r}")
         if self.visualization_period_s < 0.0:
             raise ValueError(f"visualization_period_s must be >= 0, got {self.visualization_period_s!r}")
         for name in (self.manufacturer, self.serial, self.interface):
@@ -259,16 +266,21 @@ class _Pilot:
         """The docking's or the leg's command, or the family's standstill."""
         if self.dock is not None and not self.hold and not self.dock.finished:
             cmd = self.dock.command(t, estimator, plant, dt)
-            self.v = float(cmd[0])
-            if self.v == 0.0 and self.family != "steered" and any(c != 0.0 for c in cmd[1:]):
-                self.v = 1e-5  # turning on the spot (fine positioning): driving, at no speed along x
+            self._driving(float(cmd[0]), cmd)
             return cmd
         if self.leg is None or self.hold or self.leg.finished:
             self.v = 0.0
             return (0.0, 0.0, 0.0) if self.family == "holonomic" else (0.0, 0.0)
         cmd = self.leg.command(t, estimator, plant, dt)
-        self.v = float(self.leg.pilot.signals()[0])
+        self._driving(float(self.leg.pilot.signals()[0]), cmd)
         return cmd
+
+    def _driving(self, v: float, cmd: tuple[float, ...]) -> None:
+        """The commanded speed ``v`` (m/s); turning on the spot (a turn inside a leg, fine positioning) counts as
+        driving (VDA 5050 ``driving``: moving and/or rotating), at no speed along x."""
+        self.v = v
+        if v == 0.0 and self.family != "steered" and any(c != 0.0 for c in cmd[1:]):
+            self.v = 1e-5
 
     def reset_profile(self) -> None:
         """Restart the speed profile from standstill (after a pause or a lost link)."""
@@ -306,6 +318,14 @@ class VdaVehicle:
             GuardLimits(s.lateral_3sigma_slow_m, s.lateral_3sigma_stop_m, s.slow_speed_fraction, s.resume_after_s),
             enabled=s.enabled and sc.goniometer is not None))
         self.estimator = built.estimator
+        v_max = config.deviation_max_speed_m_s
+        #: deviationRange's evidence and trusted fix (:class:`~agvnav.positioning.deviation.DeviationWatch`),
+        #: fed every loop step; None for an estimator that is no streaming one
+        speed = float(sc.traction.speed_m_s) if v_max is None else v_max
+        streaming = isinstance(self.estimator, StreamingEstimator)
+        self._deviation = DeviationWatch(speed, k=config.deviation_k) if streaming else None
+        self._range: float | None = None
+        self._range_t = math.nan
         self._docking: DockingEstimate | None = built.docking
         self.dock_node: DockingNode | None = None
         """the network's docking node of the scenario's docking target (None: no docking section)."""
@@ -322,6 +342,8 @@ class VdaVehicle:
         self.loop = ClosedLoop(built.loop.plant, built.loop.sensors, fed, self.pilot, sc.step_s, sc.seed,
                                record_every=1_000_000)
         self.loop.start(1e9)
+        self._t_after_end = 0.0
+        """simulated time (s) once the loop's run has ended (:attr:`t`)."""
         self.truth_plant = built.loop.plant
         # order
         self.order_id, self.update_id = "", 0
@@ -356,8 +378,8 @@ class VdaVehicle:
     # ------------------------------------------------------------------------------ clock, time
     @property
     def t(self) -> float:
-        """Simulated time (s)."""
-        return self.loop.t
+        """Simulated time (s); it runs on after the loop's run ended (a collision, lost positioning)."""
+        return self.loop.t if self.loop.running else self._t_after_end
 
     @property
     def dt(self) -> float:
@@ -967,14 +989,25 @@ class VdaVehicle:
             self._state_due = True
 
     def deviation_range(self) -> float | None:
-        """The stated bound (m) of the position error: ``k sqrt(lambda_max(P_xy))`` (module doc)."""
+        """The stated bound (m) of the position error (module doc), None while not localized."""
         if not self._localized:
             return None
-        p = np.asarray(self.estimator.covariance, dtype=np.float64)[:2, :2]
-        if not np.all(np.isfinite(p)):
-            return None
-        k = self.cfg.deviation_k * (self.cfg.deviation_degraded_factor if self.estimator.status == "degraded" else 1.0)
-        return float(k * math.sqrt(max(float(np.linalg.eigvalsh(p)[-1]), 0.0)))
+        if self._range_t != self.t:
+            self._update_range()
+        return self._range
+
+    def _update_range(self) -> None:
+        """Feed the deviation watch the estimate of this step (every step: it keeps the last trusted fix)."""
+        self._range_t = self.t
+        est = self.estimator
+        if self._deviation is not None and isinstance(est, StreamingEstimator):
+            self._range = self._deviation.update(est)
+        elif self._localized and est.status == "tracking":  # no evidence to judge with: the covariance alone
+            self._range = covariance_radius(np.asarray(est.covariance, dtype=np.float64)[:2, :2], self.cfg.deviation_k)
+        else:
+            self._range = None
+        if self._range is not None and not math.isfinite(self._range):
+            self._range = None
 
     def _speed(self) -> float:
         return math.hypot(self.velocity[0], self.velocity[1])
@@ -983,10 +1016,17 @@ class VdaVehicle:
     def step(self) -> None:
         """One loop step of the simulated vehicle, its order and actions; queues what it publishes."""
         if self.loop.running:
+            t = self.loop.t + self.dt
             self.loop.step()
-            if not self.loop.running and self.failure is None:
-                self.failure = self.loop.finish().failure or "stopped"
-                self._fail_drive(self.last_node, f"the vehicle stopped: {self.failure}")
+            if not self.loop.running:
+                self._t_after_end = t
+                self.pilot.v = 0.0  # the vehicle stands, dead
+                failure = self.loop.finish().failure or "stopped"
+                if self.failure is None:
+                    self.failure = failure
+                    self._fail_drive(self.last_node, f"the vehicle stopped: {self.failure}")
+        else:
+            self._t_after_end += self.dt
         pose = np.asarray(self.estimator.pose, dtype=np.float64)
         d = pose - self._last_pose
         c, s = math.cos(pose[2]), math.sin(pose[2])
@@ -994,6 +1034,7 @@ class VdaVehicle:
             self.velocity = ((c * d[0] + s * d[1]) / self.dt, (-s * d[0] + c * d[1]) / self.dt,
                              wrap_angle_scalar(float(d[2])) / self.dt)
         self._last_pose = pose.copy()
+        self._update_range()
         was_driving = self.pilot.v != 0.0
         self._update_localization()
         self._progress()

@@ -27,6 +27,7 @@ from agvnav.vehicles.tractor_trailer import TractorTrailerPlant
 from agvnav.vehicles.tricycle import TricyclePlant
 from agvnav.world.vehicle_specs import (
     AckermannSpec,
+    DifferentialOffsetSpec,
     DifferentialSpec,
     MecanumSpec,
     MotorSpec,
@@ -132,7 +133,7 @@ def speed_loop(motor: MotorSpec, pid: PidSpec) -> WheelSpeedLoop:
     )
 
 
-def _differential(spec: WheeledVehicleSpec, state: Sequence[float]) -> DifferentialPlant:
+def _differential(spec: WheeledVehicleSpec, state: Sequence[float], axle_offset: float = 0.0) -> DifferentialPlant:
     tr = spec.truth
     return DifferentialPlant(
         spec.wheel_radius_m * (1.0 + tr.wheel_radius_error),
@@ -144,7 +145,13 @@ def _differential(spec: WheeledVehicleSpec, state: Sequence[float]) -> Different
         NonSystematicErrors(slip_k=tr.slip_k),
         spec.substep_s,
         footprint=footprint(spec),
+        axle_offset=axle_offset,
     )
+
+
+def _differential_offset(spec: DifferentialOffsetSpec, state: Sequence[float]) -> DifferentialPlant:
+    """A differential plant whose base_link (the body centre) is ``axle_offset_m`` ahead of the axle."""
+    return _differential(spec, state, spec.axle_offset_m)
 
 
 def _tractor_trailer(spec: TractorTrailerSpec, state: Sequence[float]) -> TractorTrailerPlant:
@@ -196,6 +203,7 @@ PLANT_BUILDERS: dict[type[VehicleKindSpec], PlantBuilder] = {
     AckermannSpec: _steered_rear,
     QuadSteerSpec: _quad_steer,
     DifferentialSpec: _differential,
+    DifferentialOffsetSpec: _differential_offset,
     TractorTrailerSpec: _tractor_trailer,
     MecanumSpec: _mecanum,
     TrackedSpec: _tracked,

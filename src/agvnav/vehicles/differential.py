@@ -11,10 +11,17 @@ odometry converts them with the *nominal* geometry (seed 002 eq. 16).
 
 Motion: the sub-stepped speed loop, constant-twist sub-steps (exact ``pose_at``),
 encoders and odometry of :class:`agvnav.vehicles.wheel_pair.WheelPairPlant`.
+
+``axle_offset``: base_link may lie ``a`` m ahead of the axle midpoint (a body-centred
+AGV whose castors carry the other end). A rigid body's point ``a`` ahead of the axle
+moves with ``v_y = a omega`` besides the axle's ``v_x`` (seed 003 §3.2.4, velocity of
+a body point), so both twist matrices gain ``a`` times their heading row in the
+lateral row, and the odometry reports ``delta_lateral = a delta_theta``.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -28,6 +35,12 @@ from agvnav.vehicles.motion import differential_twist_matrix
 from agvnav.vehicles.wheel_pair import WheelPairPlant
 
 __all__ = ["DifferentialPlant"]
+
+
+def _offset(twist: list[list[float]], a: float) -> list[list[float]]:
+    """The twist matrix of the body point ``a`` m ahead of the axle midpoint: ``v_y += a omega``."""
+    vx, vy, w = twist
+    return [vx, [vy[0] + a * w[0], vy[1] + a * w[1]], w]
 
 
 class DifferentialPlant(WheelPairPlant):
@@ -47,10 +60,11 @@ class DifferentialPlant(WheelPairPlant):
     substep : speed-loop period (s), > 0.
     footprint : body polygon ``(k, 2)`` in base_link (m); default a box ``±0.5 track``
         long and ``0.5 track + 0.5 wheel_radius`` to each side (an assumption).
+    axle_offset : base_link's distance ahead of the axle midpoint (m; negative: behind), default 0.
 
     Plant role: ``family = "unicycle"``, command ``(omega_right, omega_left)``
     wheel-rate set-points (rad/s), ``geometry = UnicycleGeometry(track, wheel_radius)``;
-    ``delta_lateral`` of the odometry is 0.
+    ``delta_lateral`` of the odometry is ``axle_offset * delta_theta`` (0 on the axle).
     """
 
     def __init__(
@@ -65,7 +79,11 @@ class DifferentialPlant(WheelPairPlant):
         substep: float = 0.01,
         *,
         footprint: ArrayLike | None = None,
+        axle_offset: float = 0.0,
     ) -> None:
+        if not math.isfinite(axle_offset):
+            raise ValueError(f"axle_offset must be a finite number of metres, got {axle_offset!r}")
+        self.axle_offset = float(axle_offset)
         self.nominal = DifferentialGeometry.symmetric(wheel_radius, track)
         self.systematic = systematic if systematic is not None else SystematicErrors()
         self.nonsystematic = nonsystematic if nonsystematic is not None else NonSystematicErrors()
@@ -74,8 +92,8 @@ class DifferentialPlant(WheelPairPlant):
         super().__init__(
             loop if loop is not None else WheelSpeedLoop(),
             WheelEncoder(counts_per_rev, wheel_radius),
-            differential_twist_matrix(self.truth.track, self.systematic.misalignment),
-            differential_twist_matrix(self.nominal.track),
+            _offset(differential_twist_matrix(self.truth.track, self.systematic.misalignment), axle_offset),
+            _offset(differential_twist_matrix(self.nominal.track), axle_offset),
             initial_pose,
             substep,
             UnicycleGeometry(float(track), float(wheel_radius)),

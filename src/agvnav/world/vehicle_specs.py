@@ -19,6 +19,7 @@ __all__ = [
     "VEHICLE_KINDS",
     "VEHICLE_MODELS",
     "AckermannSpec",
+    "DifferentialOffsetSpec",
     "DifferentialSpec",
     "DifferentialTruthSpec",
     "Family",
@@ -248,6 +249,28 @@ class DifferentialSpec(WheeledVehicleSpec):
     """vehicle model name."""
 
 
+class DifferentialOffsetSpec(WheeledVehicleSpec):
+    """A differential AGV whose drive axle is off the body centre, castors carrying the other end.
+
+    base_link is the body centre (where the footprint is centred and the goniometer
+    mounts), ``axle_offset_m`` ahead of the drive axle's midpoint, so it moves sideways
+    by ``axle_offset_m`` times the yaw rate (seed 003 §3.2.4). Turning at standstill
+    swings base_link on a circle of that radius, so it does not turn in place at a node.
+    """
+
+    turns_on_spot: ClassVar[bool] = False  # base_link swings about the axle
+    model: Literal["differential_offset"]
+    """vehicle model name."""
+    axle_offset_m: Annotated[float, Field(ge=-1.0, le=1.0)] = 0.2
+    """base_link (body centre) ahead of the drive axle's midpoint (negative: behind)."""
+
+    @model_validator(mode="after")
+    def _axle_under_body(self) -> DifferentialOffsetSpec:
+        if abs(self.axle_offset_m) >= 0.5 * self.body_length_m:
+            raise ValueError("axle_offset_m must put the drive axle inside the body (|offset| < body_length_m / 2)")
+        return self
+
+
 class TractorTrailerSpec(WheeledVehicleSpec):
     """A differential tugger with one off-axle trailer (seed 003 §3.2.7).
 
@@ -374,7 +397,7 @@ class TrackedSpec(VehicleKindSpec):
 
 VehicleSpec = Annotated[
     TricycleSpec | TricycleRearSpec | AckermannSpec | QuadSteerSpec
-    | DifferentialSpec | TractorTrailerSpec | MecanumSpec | TrackedSpec,
+    | DifferentialSpec | TractorTrailerSpec | MecanumSpec | TrackedSpec | DifferentialOffsetSpec,
     Field(discriminator="model"),
 ]
 
