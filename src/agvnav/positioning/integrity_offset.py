@@ -67,8 +67,8 @@ def revolution_fix(
     The same weighted least squares ``ybar = Hbar dx`` (per reflector the mean innovation
     over the last revolution, :func:`~agvnav.positioning._integrity_fast.mean_innovations`),
     solved with its normal matrix ``A = Hbar^T W Hbar``: ``dx = A^-1 Hbar^T W ybar`` and
-    ``cov(dx) = A^-1`` [seed002 eq14: the innovations of a consistent filter are white with
-    variance ``S``]. The innovation is the bearing measured minus the one predicted from the
+    ``cov(dx) = A^-1`` [seed002 eq14] (the innovations of a consistent filter are white with
+    variance ``S``). The innovation is the bearing measured minus the one predicted from the
     estimate, so ``dx`` is the truth minus the estimate as the bearings see it, independent
     of what the odometry claims (its error over one revolution aside): a snapshot fix.
     Returns ``(dx (3,), cov (3, 3), reflectors)`` (m, m, rad; m², m rad, rad²), or None with
