@@ -19,6 +19,7 @@ import pytest
 from agvnav import _jit
 from agvnav.geometry import wrap_angle
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
+from agvnav.kinematics import twist
 from agvnav.odometry import increment_variances
 from agvnav.positioning import _fast
 from agvnav.positioning import _integrity_fast as fast_integrity
@@ -28,7 +29,11 @@ from agvnav.positioning.gating import BearingIndex, GateSpec, near_rows
 from agvnav.positioning.integrity import IntegrityMonitor, _fde_statistics, _window_tally
 from agvnav.positioning.total import _div, _wrap, total_batch
 from agvnav.routes.planning import astar_kernel
-from agvnav.sensors import beam
+from agvnav.sensors import (
+    beam,
+    scanner,  # noqa: F401 - its kernel is in the property test
+)
+from agvnav.sim import bodies
 from agvnav.traffic import _sipp  # noqa: F401 - its kernels are in the property test
 from agvnav.vehicles.tricycle import hermite_poses
 
@@ -66,14 +71,16 @@ def _random_outputs() -> Outputs:
     walls = (seg[:, 0, 0].copy(), seg[:, 0, 1].copy(), seg[:, 1, 0] - seg[:, 0, 0], seg[:, 1, 1] - seg[:, 0, 1])
     lx, ly = lab.reflector_xy[:, 0].copy(), lab.reflector_xy[:, 1].copy()
     scans = []
-    for k in range(400):  # scan_hermite (and _finite_poses) on random steps through the lab
+    for k in range(400):  # scan_motion (and _finite_poses) on random steps through the lab, both kinds
         p0 = np.array([rng.uniform(2.0, 18.0), rng.uniform(2.0, 10.0), rng.uniform(-4.0, 4.0)])
         table = np.array([p0, rng.normal(0.0, 0.05, 3), p0 + rng.normal(0.0, 0.04, 3), rng.normal(0.0, 0.05, 3)])
         grid = np.linspace(0.05 * k, 0.05 * k + 0.05, 3)
-        status, ts, rs = beam.scan_hermite(table, 0.05 * k, 0.05, grid, lx, ly, lab.reflector_radius, 0.3, 0.0,
+        motion = (beam.HERMITE, table, np.zeros((0, 3)), 0.05 * k, 0.05) if k % 2 else (
+            beam.TWIST, table[[0, 2, 2]], np.array([[0.4, 0.0, 1.0], [0.3, 0.1, -0.5]]), 0.05 * k, 0.025)
+        status, ts, rs = beam.scan_motion(*motion, grid, lx, ly, lab.reflector_radius, 0.3, 0.0,
                                            0.0, 2.0 * math.pi * 8.0, 1, *walls, 0.0, 30.0, 8.0, 1e-10, 2.2e-16, 6)
         scans += [status, ts, rs]
-    out["scan_hermite"] = scans
+    out["scan_motion"] = scans
     ts = np.round(rng.uniform(0.0, 1.0, 300), 2)  # ties: a stable sort keeps their order
     picked = beam.seen_in_order(ts, np.arange(300, dtype=np.int64), rng.uniform(size=300) < 0.7)
     out["seen_in_order"] = list(picked)
@@ -269,11 +276,14 @@ def _integrity_kernel_outputs(rng: np.random.Generator) -> Outputs:
 #: run in the caller's mode).
 NESTED = {
     "wrap_angle_scalar": "wrap_angle_kernel", "offset_one": "offsets_at", "_hits_wall": "line_of_sight",
-    "_hits_disc": "line_of_sight", "near_one": "near_rows", "_visit_box": "grid_rows", "_finite_poses": "scan_hermite",
+    "_hits_disc": "line_of_sight", "near_one": "near_rows", "_visit_box": "grid_rows", "_finite_poses": "scan_motion",
+    "motion_poses": "scan_motion",
     "_solve_augmented": "_fde_statistics", "_normal_equations": "_fde_statistics", "position_crlb_one": "best_triple",
     "schmidt_accept": "gate_accept", "total_core": "total_batch",
     "_turn": "sipp", "_slot": "sipp", "_push_state": "sipp", "_chain": "sipp",
     "_node_intervals": "sipp", "_search": "sipp", "_n_classes": "sipp", "scratch_size": "sipp",
+    "twist_table_pose": "twist_table_poses", "segment_hits_box": "bodies_block_sight",
+    "_segments_gap": "footprint_gaps", "point_in_polygon": "points_in_polygon",
     "release_held": "reserve", "chain_occupations": "reserve", "_heap_up": "dijkstra_to", "_heap_down": "dijkstra_to",
 }
 
@@ -335,9 +345,55 @@ def _triangulation_kernel_outputs(rng: np.random.Generator) -> Outputs:
     }
 
 
+def _motion_kernel_outputs(rng: np.random.Generator) -> Outputs:
+    """The SE(2) exponential's kernels (``kinematics.twist``), the fleet's bodies (``sim.bodies``) and the
+    scanner's rays (``sensors.scanner``) on random motion tables and scenes."""
+    from agvnav.geometry.polygon import points_in_polygon
+    from agvnav.sensors.scanner import ray_ranges, scan_poses
+
+    n, g = 8, 5
+    pose = np.column_stack([rng.uniform(-10, 10, (400, 2)), rng.uniform(-7, 7, 400)])
+    vx, vy, w, dt = rng.uniform(-2, 2, 400), rng.uniform(-1, 1, 400), rng.uniform(-3, 3, 400), rng.uniform(0, 0.2, 400)
+    w[:50] *= 1e-6  # the series branch
+    stepped = twist.twist_steps(pose, vx, vy, w, dt)
+    logs = np.array([twist.twist_log(*pose[i], *stepped[i]) for i in range(400)])
+    states = np.cumsum(rng.normal(0.0, 0.02, (n, g + 1, 3)), axis=1) + rng.uniform(0, 10, (n, 1, 3))
+    twists = np.zeros((n, g, 3))
+    twist.fleet_twist_tables(states, 0.01, twists)
+    t0, h, n_sub = np.full(n, 1.0), np.full(n, 0.01), np.full(n, g, dtype=np.int64)
+    rows, t = rng.integers(0, n, 300), rng.uniform(0.99, 1.06, 300)
+    p0, p1 = rng.uniform(-1, 11, (500, 2)), rng.uniform(-1, 11, (500, 2))
+    boxes = np.column_stack([-rng.uniform(0.2, 1, n), rng.uniform(0.2, 1, n), -rng.uniform(0.2, 1, n),
+                             rng.uniform(0.2, 1, n)])
+    radius = np.hypot(np.abs(boxes[:, :2]).max(axis=1), np.abs(boxes[:, 2:]).max(axis=1))
+    sight = bodies.bodies_block_sight(p0, p1, rng.uniform(1.0, 1.05, 500), np.arange(n), states, twists, n_sub, t0, h,
+                                      boxes, radius)
+    seg = rng.uniform(-15, 15, (40, 4))
+    circ = np.column_stack([rng.uniform(-10, 10, (5, 2)), rng.uniform(0.1, 1.0, 5)])
+    angles = rng.uniform(-math.pi, math.pi, (3, 1)) + np.radians(np.arange(0.0, 270.0, 1.0))[None, :]
+    rays = [np.asarray(a, dtype=np.float64) for reach in (math.inf, 8.0)
+            for a in ray_ranges(rng.uniform(-8, 8, (3, 2)), angles, seg, circ, reach)]
+    return {
+        "twist_steps": [stepped], "twist_pose": [np.array([twist.twist_pose(*pose[i], vx[i], vy[i], w[i], dt[i])
+                                                            for i in range(100)])],
+        "twist_log": [logs], "fleet_twist_tables": [twists],
+        "twist_table_poses": [twist.twist_table_poses(states[0], twists[0], 1.0, 0.01, t)],
+        "fleet_twist_poses": [twist.fleet_twist_poses(states, twists, n_sub, t0, h, rows, t)],
+        "bodies_block_sight": [sight], "bodies_edges": [bodies.bodies_edges(states, twists, n_sub, t0, h, boxes, 1.02)],
+        "ray_ranges": rays,
+        "scan_poses": [np.asarray(a, dtype=np.float64) for a in scan_poses(
+            np.column_stack([rng.uniform(-5, 5, (3, 2)), rng.uniform(-9, 9, 3)]), 0.4, 0.1, 0.2,
+            np.radians(np.arange(-135.0, 135.5, 1.0)), seg, circ, 8.0, rng.normal(0.0, 0.05, (3, 271)))],
+        "points_in_polygon": [points_in_polygon(rng.uniform(-2, 2, (500, 2)), rng.uniform(-2, 2, (9, 2)))
+                              for _ in range(5)],
+        "footprint_gaps": [bodies.footprint_gaps(rng.uniform(0.0, 4.0, (30, 5, 2)), *np.triu_indices(30, 1))],
+    }
+
+
 def _outputs(compiled: bool) -> Outputs:
     _jit.set_compiled(compiled)
     out = _random_outputs()
+    out.update(_motion_kernel_outputs(np.random.default_rng(17)))
     rng = np.random.default_rng(13)
     out.update(_scalar_kernel_outputs(rng))
     out.update(_integrity_kernel_outputs(rng))
@@ -469,6 +525,19 @@ def test_set_compiled_for_run_picks_by_work() -> None:
     assert _jit.compiled()
     with pytest.raises(ValueError, match="sim_seconds"):
         _jit.set_compiled_for_run(-1.0, 3)
+
+
+def test_a_safety_scanner_s_rays_tip_a_short_run_to_compiled() -> None:
+    """The scanner's rays cost ~0.8 us per ray and surface as plain Python: a 26 s run scanning at 12.5 Hz
+    compiles (issue 28: the rays are a kernel now)."""
+    from agvnav.sensors.scanner import SafetyScanner
+
+    extra = SafetyScanner(rate_hz=12.5).interpreted_cost_s(26.0, 28)
+    assert 2.0 < extra < 10.0
+    assert _jit.set_compiled_for_run(26.0, 9, extra)
+    assert not _jit.set_compiled_for_run(26.0, 9, 0.0)
+    with pytest.raises(ValueError, match="extra_s"):
+        _jit.set_compiled_for_run(26.0, 9, -1.0)
 
 
 def test_set_compiled_for_run_reports_the_mode_in_force(monkeypatch: pytest.MonkeyPatch) -> None:

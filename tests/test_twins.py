@@ -27,8 +27,8 @@ from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 from agvnav.guidance.errors import tracking_errors, tracking_errors_scalar
 from agvnav.guidance.paths import ArcSegment, LineSegment
 from agvnav.guidance.paths import Path as GPath
-from agvnav.kinematics import TricycleStacker, twist_step
-from agvnav.kinematics.scalar import stacker_rate, stacker_rk4, stacker_rk4_values, track_twist, twist_pose
+from agvnav.kinematics import TricycleStacker
+from agvnav.kinematics.scalar import stacker_rate, stacker_rk4, stacker_rk4_values, track_twist
 from agvnav.kinematics.tracked import TrackedVehicle, TrackSlipNoise
 from agvnav.odometry import (
     differential_increments,
@@ -84,14 +84,6 @@ def _stacker_rate(rng: np.random.Generator) -> Pair:
     x = np.array([*rng.normal(size=2), rng.uniform(-3, 3), rng.uniform(-1.4, 1.4)])
     u = rng.normal(size=2)
     return stacker_rate(x[2], x[3], u[0], u[1], 1.1), TricycleStacker(1.1).derivative(x, u)
-
-
-def _twist_pose(rng: np.random.Generator) -> Pair:
-    x, y, th = rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-7, 7)
-    vx, vy = rng.uniform(-3, 3, 2)
-    w = rng.choice([rng.uniform(-5, 5), 1e-7])
-    h = rng.uniform(1e-4, 0.2)
-    return twist_pose(x, y, th, vx, vy, w, h), twist_step(np.array([x, y, th]), vx, vy, w, h)
 
 
 def _tracked(rng: np.random.Generator) -> object:
@@ -231,7 +223,7 @@ def _gate_one(rng: np.random.Generator) -> Pair:
 
 CASES: dict[str, Callable[[np.random.Generator], Pair]] = {
     "wrap_angle": _wrap, "stacker_rk4": _stacker_rk4, "stacker_rk4_values": _stacker_rk4_values,
-    "stacker_rate": _stacker_rate, "twist_pose": _twist_pose,
+    "stacker_rate": _stacker_rate,
     "track_twist": _track_twist, "track_factors": _track_factors, "tricycle_increments": _tricycle_increments,
     "track_increments": _track_increments, "differential_increments": _differential_increments,
     "perturb": _perturb, "speed_loop": _speed_loop, "steering_step": _steering_step,
@@ -296,5 +288,5 @@ def test_every_scalar_twin_in_the_source_is_in_the_table() -> None:
 def test_guard_sees_known_twins() -> None:
     """The guard is not vacuous: it finds the scalar modules' kernels and a ``*_scalar`` method."""
     found = _scalar_twins_in_source()
-    assert "agvnav.kinematics.scalar:twist_pose" in found
+    assert "agvnav.kinematics.scalar:stacker_rate" in found
     assert "agvnav.guidance.paths:ArcSegment.project_scalar" in found

@@ -155,17 +155,18 @@ INTERPRETED_S_PER_REFLECTOR_S = 1.2e-3
 COMPILED_STARTUP_S = 0.75
 
 
-def set_compiled_for_run(sim_seconds: float, reflectors: int) -> bool:
+def set_compiled_for_run(sim_seconds: float, reflectors: int, extra_s: float = 0.0) -> bool:
     """Pick the cheaper mode for one run of ``sim_seconds`` simulated seconds (s) with ``reflectors`` in the map.
 
-    Interpreted when the kernels' estimated extra cost as plain Python stays below numba's
-    start-up (:data:`COMPILED_STARTUP_S`), compiled otherwise; sets it (:func:`set_compiled`)
+    Interpreted when the kernels' estimated extra cost as plain Python (the goniometer's, plus
+    ``extra_s`` (s) the caller estimates for its other kernels, e.g. a safety scanner's rays) stays
+    below numba's start-up (:data:`COMPILED_STARTUP_S`), compiled otherwise; sets it (:func:`set_compiled`)
     and returns whether the kernels now run compiled (:func:`compiled`: ``AGVNAV_JIT`` wins).
     The numbers agree to rounding either way; mainly time differs.
     """
-    if sim_seconds < 0.0 or reflectors < 0:
-        raise ValueError(f"sim_seconds {sim_seconds} and reflectors {reflectors} must be >= 0")
-    on = sim_seconds * max(reflectors, 1) * INTERPRETED_S_PER_REFLECTOR_S > COMPILED_STARTUP_S
+    if sim_seconds < 0.0 or reflectors < 0 or not extra_s >= 0.0:
+        raise ValueError(f"sim_seconds {sim_seconds}, reflectors {reflectors} and extra_s {extra_s} must be >= 0")
+    on = sim_seconds * max(reflectors, 1) * INTERPRETED_S_PER_REFLECTOR_S + extra_s > COMPILED_STARTUP_S
     set_compiled(on)
     return compiled()  # the mode in force: AGVNAV_JIT in the environment wins over the estimate
 

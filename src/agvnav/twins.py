@@ -57,7 +57,6 @@ TWINS: tuple[Twin, ...] = (
          "[seed000 eq8] (stacker_rk4's body, as floats)"),
     Twin("stacker_rate", "agvnav.kinematics.scalar:stacker_rate", "agvnav.kinematics:TricycleStacker.derivative",
          "[seed000 eq8]"),
-    Twin("twist_pose", "agvnav.kinematics.scalar:twist_pose", "agvnav.kinematics:twist_step", "[seed002 eq25]"),
     Twin("track_twist", "agvnav.kinematics.scalar:track_twist", "agvnav.kinematics:TrackedVehicle.body_twist",
          "[seed004 eq3]"),
     Twin("track_factors", "agvnav.kinematics.tracked:TrackSlipNoise.factors_scalar",

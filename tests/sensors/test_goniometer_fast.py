@@ -86,8 +86,36 @@ def test_chord_step_clips_to_the_bracket_and_stops_within_tolerance() -> None:
 
 
 @pytest.mark.parametrize("mount, direction", [((0.3, 0.0, 0.0), 1), ((0.2, -0.1, 0.4), -1)])
+def test_the_fused_twist_scan_equals_the_generic_scan(mount: tuple, direction: int) -> None:
+    """scan_motion on a plant's constant-twist sub-steps gives the generic path's reflections bit for bit."""
+    from agvnav import _jit
+    from agvnav.kinematics.twist import TwistPoses, twist_pose
+
+    world = load_builtin_map("lab")
+    g = Goniometer(mount=mount, direction=direction, p_miss=0.1, spurious_rate=0.5, jitter_std=1e-4)
+    rng = np.random.default_rng(5)
+    before = _jit.compiled()
+    _jit.set_compiled(True)
+    try:
+        pose = (10.0, 6.0, 0.3)
+        for k in range(120):  # a wandering drive through the lab, 0.05 s steps of five sub-steps
+            t0 = 0.05 * k
+            twists = np.column_stack([rng.uniform(0.2, 1.0, 5), np.zeros(5), rng.uniform(-1.0, 1.0, 5)])
+            states = [pose]
+            for tw in twists:
+                states.append(twist_pose(*states[-1], *tw, 0.01))
+            poses = TwistPoses(np.array(states), twists, t0, 0.01)
+            pose = states[-1]
+            fused = g.scan(world, poses, t0, t0 + 0.05, np.random.default_rng(k))
+            generic = g.scan(world, lambda t, p=poses: p(t), t0, t0 + 0.05, np.random.default_rng(k))
+            assert fused == generic
+    finally:
+        _jit.set_compiled(before)
+
+
+@pytest.mark.parametrize("mount, direction", [((0.3, 0.0, 0.0), 1), ((0.2, -0.1, 0.4), -1)])
 def test_the_fused_hermite_scan_equals_the_generic_scan(mount: tuple, direction: int) -> None:
-    """scan_hermite (one compiled call) gives the generic path's reflections bit for bit, and its errors."""
+    """scan_motion (one compiled call) gives the generic path's reflections bit for bit, and its errors."""
     from agvnav import _jit
     from agvnav.geometry.hermite import HermitePoses
 

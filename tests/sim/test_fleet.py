@@ -60,6 +60,28 @@ def test_a_small_fleet_completes_and_its_headline_agrees_with_the_vehicles() -> 
     assert rows[0]["distance_m"] == pytest.approx(6.0, abs=0.1)
 
 
+def test_the_bodies_motion_tables_are_the_plants_true_motion_over_every_step() -> None:
+    """The fleet's arrays (sim.bodies) give each wheel-pair plant's own pose_at at any instant of the step."""
+    fleet = parse_fleet(HEAD + "duration_s: 3.0\nfleet:\n  vehicles:\n"
+                        "    - id: south\n      path: " + _line(3.0, 2.0, 0.0, 6.0) + "\n"
+                        "    - id: west\n      path: " + _line(2.0, 4.0, 90.0, 3.0) + "\n", "two.yaml")
+    bf = build_fleet(fleet)
+    rng = np.random.default_rng(0)
+    checked: list[float] = []
+
+    def check(t: float) -> None:
+        b = bf.bodies
+        if b.t1 <= b.t0:
+            return
+        times = rng.uniform(b.t0, b.t1, 7)
+        for i, vb in enumerate(bf.built):
+            np.testing.assert_allclose(b.poses_at(times, np.array([i]))[:, 0], vb.plant.pose_at(times), atol=1e-9)
+        checked.append(t)
+
+    simulate_fleet(fleet, progress=check, built=bf)
+    assert len(checked) > 50
+
+
 def test_two_vehicles_driven_into_each_other_collide_named_on_the_true_poses() -> None:
     fleet = parse_fleet(HEAD + "fleet:\n  vehicles:\n"
                         "    - id: east\n      path: " + _line(3.0, 2.0, 0.0, 10.0) + "\n"

@@ -96,6 +96,7 @@ def _simulate(
     if jit not in ("on", "off", "auto"):
         raise fail(f"--jit {jit}: expected on, off or auto")
     from agvnav.jit import set_compiled, set_compiled_for_run
+    from agvnav.sim.reactive import interpreted_scans_s
 
     if jit != "auto":  # the user's choice wins over AGVNAV_JIT
         set_compiled(jit == "on", force=True)
@@ -122,7 +123,8 @@ def _simulate(
     _collect_again()
     expected_s = expected_sim_time(sc, built)
     if jit == "auto":  # a short run with few reflectors is cheaper without numba's start-up
-        set_compiled_for_run(expected_s, len(built.world.reflector_xy))
+        set_compiled_for_run(expected_s, len(built.world.reflector_xy),
+                             interpreted_scans_s(built.loop.sensors, expected_s))
     _prepare_out(out, force)
     with RunProgress(sc.name, expected_s, "s simulated") as bar:
         result = run_scenario(sc, progress=bar.update, built=built)
@@ -152,6 +154,7 @@ def _simulate_fleet(
     from agvnav.jit import set_compiled_for_run
     from agvnav.report.fleet import fleet_document, save_fleet, timing_fleet
     from agvnav.sim.fleet import build_fleet, run_fleet
+    from agvnav.sim.reactive import interpreted_scans_s
     from agvnav.world.fleet import load_fleet
 
     if log is not None:
@@ -163,7 +166,8 @@ def _simulate_fleet(
     built = build_fleet(fleet)  # every cross-vehicle rule checked before the progress bar starts
     _collect_again()
     if jit == "auto":  # else --jit forced the mode already
-        set_compiled_for_run(built.duration * len(built.ids), len(built.built[0].world.reflector_xy))
+        set_compiled_for_run(built.duration * len(built.ids), len(built.built[0].world.reflector_xy),
+                             sum(interpreted_scans_s(b.loop.sensors, built.duration) for b in built.built))
     _prepare_out(out, force)
     with RunProgress(fleet.name, built.duration, "s simulated") as bar:
         result = run_fleet(built, progress=bar.update)

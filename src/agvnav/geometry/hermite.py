@@ -7,7 +7,7 @@ between them at any instant of the step ([seed000 eq8] gives the derivatives). I
 
 :class:`HermitePoses` is that ``pose_at`` as an object: callable like any pose function,
 and a kernel that knows the curve (the goniometer's scan,
-:func:`agvnav.sensors.beam.scan_hermite`) evaluates it itself, compiled, instead of calling
+:func:`agvnav.sensors.beam.scan_motion`) evaluates it itself, compiled, instead of calling
 back into Python for every instant of its root finder.
 """
 

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from agvnav._validate import as_float_array, require_last_dim
+from agvnav.kinematics.twist import twist_steps
 
 FloatArray = NDArray[np.float64]
 
@@ -46,29 +47,18 @@ def twist_step(
     -----
     The SE(2) exponential. With ``v_y = 0`` it is the exact arc [seed002 eq25]: the chord
     ``ΔD·sin(Δθ/2)/(Δθ/2)`` [seed002 eq23] [seed002 eq24] along the mid heading; a series
-    expansion is used for ``|Δθ| < 1e-4`` so straight lines lose no precision.
+    expansion is used for ``|Δθ/2| < 1e-4`` so straight lines lose no precision. The equation's
+    one form is the compiled kernel :func:`agvnav.kinematics.twist.twist_pose`; this is its
+    broadcasting wrapper (:func:`~agvnav.kinematics.twist.twist_steps`).
     """
     pose = np.asarray(pose, dtype=np.float64)
-    dth = np.asarray(omega, dtype=np.float64) * dt
-    dx = np.asarray(v_x, dtype=np.float64) * dt
-    dy = np.asarray(v_y, dtype=np.float64) * dt
-    sinc_half = _sinc_half(dth)
-    # Exponential map: body displacement V(Δθ)·(dx, dy) = sinc(Δθ/2)·R(Δθ/2)·(dx, dy).
-    heading_mid = pose[..., 2] + 0.5 * dth
-    fwd = sinc_half * dx
-    lat = sinc_half * dy
-    c, s = np.cos(heading_mid), np.sin(heading_mid)
-    return np.stack(
-        [pose[..., 0] + c * fwd - s * lat, pose[..., 1] + s * fwd + c * lat, pose[..., 2] + dth], axis=-1
-    )
-
-
-def _sinc_half(dth: FloatArray) -> FloatArray:
-    """``sin(h)/h`` for the half angle ``h = Δθ/2`` (series below 5e-5 rad)."""
-    h = 0.5 * dth
-    small = np.abs(h) < 5e-5
-    safe_h = np.where(small, 1.0, h)
-    return np.where(small, 1.0 - h * h / 6.0, np.sin(safe_h) / safe_h)
+    if pose.shape[-1:] != (3,):
+        raise ValueError(f"pose must have a trailing length of 3, got shape {pose.shape}")
+    parts = np.broadcast_arrays(pose[..., 0], *(np.asarray(a, dtype=np.float64) for a in (v_x, v_y, omega, dt)))
+    shape = parts[0].shape
+    flat = [np.ascontiguousarray(a).reshape(-1) for a in parts[1:]]
+    start = np.ascontiguousarray(np.broadcast_to(pose, (*shape, 3))).reshape(-1, 3)
+    return np.asarray(twist_steps(start, *flat), dtype=np.float64).reshape(*shape, 3)
 
 
 def rk4_step(

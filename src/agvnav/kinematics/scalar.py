@@ -63,21 +63,6 @@ def stacker_rk4_values(
     return new, k1, stacker_rate(new[2], new[3], v, gamma_dot, wheelbase)
 
 
-def twist_pose(x: float, y: float, th: float, vx: float, vy: float, w: float, h: float) -> tuple[float, float, float]:
-    """Exact pose after ``h`` s of a constant body twist ``(vx, vy, w)`` (m/s, rad/s).
-
-    Mirrors :func:`agvnav.kinematics.twist_step` (the SE(2) exponential; [seed002 eq25]
-    when ``vy = 0``), with the same series for ``|w h / 2| < 1e-4``.
-    """
-    dth = w * h
-    half = 0.5 * dth
-    sinc = 1.0 - half * half / 6.0 if abs(half) < 1e-4 else math.sin(half) / half
-    mid = th + half
-    fwd, lat = sinc * vx * h, sinc * vy * h
-    c, s = math.cos(mid), math.sin(mid)
-    return x + c * fwd - s * lat, y + s * fwd + c * lat, th + dth
-
-
 def track_twist(
     v_right: float, v_left: float, twist_matrix: Sequence[Sequence[float]]
 ) -> tuple[float, float, float]:

@@ -215,13 +215,8 @@ class ReactiveAutopilot(PathAutopilot):
         return demand, v_max, p_len
 
     def _inside(self, points: NDArray[np.float64], polygon: NDArray[np.float64]) -> NDArray[np.bool_]:
-        """:func:`agvnav.reactive.intrusions`, testing only the points in the polygon's bounding box."""
-        lo, hi = polygon.min(axis=0), polygon.max(axis=0)
-        box = (points[:, 0] >= lo[0]) & (points[:, 0] <= hi[0]) & (points[:, 1] >= lo[1]) & (points[:, 1] <= hi[1])
-        out = np.zeros(points.shape[0], dtype=bool)
-        if box.any():
-            out[box] = intrusions(points[box], polygon)
-        return out
+        """:func:`agvnav.reactive.intrusions` (one compiled call)."""
+        return intrusions(points, polygon)
 
     def command(self, t: float, estimator: Estimator, plant: Plant, dt: float) -> tuple[float, ...]:
         """Reaction, then avoidance, then the route's (or the detour's) autopilot; records the signals."""

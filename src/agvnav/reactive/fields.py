@@ -48,6 +48,8 @@ import shapely
 from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import Polygon
 
+from agvnav.geometry.polygon import points_inside
+
 __all__ = [
     "ISO13855_K_M_S",
     "FieldConfig",
@@ -301,10 +303,9 @@ def generate_fields(
 
 
 def intrusions(points: ArrayLike, polygon: ArrayLike) -> NDArray[np.bool_]:
-    """Which points ``(..., 2)`` (base_link, m; NaN rows are no echo) lie inside ``polygon (k, 2)``, ``(...)``."""
-    p = np.asarray(points, dtype=np.float64)
-    inside = shapely.contains_xy(Polygon(np.asarray(polygon, dtype=np.float64)), p[..., 0], p[..., 1])
-    return np.asarray(inside & np.isfinite(p[..., 0]), dtype=np.bool_)
+    """Which points ``(..., 2)`` (base_link, m; NaN rows are no echo) lie inside ``polygon (k, 2)``, ``(...)``:
+    the compiled crossing-number test (:func:`agvnav.geometry.polygon.points_inside`)."""
+    return points_inside(points, polygon)
 
 
 def approach_clearance(

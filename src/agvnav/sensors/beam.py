@@ -8,8 +8,10 @@ offset (:func:`offset_one`, the one formulation), find the brackets where it pas
 one reflector per instant (:func:`offsets_at`) and test the line of sight
 (:func:`line_of_sight`); :func:`chord_brackets`, :func:`chord_step` and :func:`seen_in_order` are the
 root finder's bookkeeping around them (one call each instead of a dozen NumPy calls on a few
-elements: issue 11), and :func:`scan_hermite` runs the whole scan of one window in one call
-when the motion is a Hermite curve (:class:`agvnav.geometry.hermite.HermitePoses`). They are
+elements: issue 11), and :func:`scan_motion` runs the whole scan of one window in one call
+when the plant's motion is a table a kernel evaluates (a Hermite curve,
+:class:`agvnav.geometry.hermite.HermitePoses`; constant-twist sub-steps,
+:class:`agvnav.kinematics.twist.TwistPoses`). They are
 compiled by numba (``cache=True``: compiled once per machine, reused across runs;
 :mod:`agvnav._jit`), loop over plain float64 arrays, and serve one vehicle or a batch of
 instants alike: the goniometer calls them with the pose samples its ``pose_at`` gave, so no NumPy
@@ -27,9 +29,10 @@ from numpy.typing import NDArray
 from agvnav._jit import jit
 from agvnav.geometry.angles import wrap_angle_kernel
 from agvnav.geometry.hermite import hermite_poses
+from agvnav.kinematics.twist import twist_table_poses
 
 __all__ = [
-    "chord_brackets", "chord_step", "grid_crossings", "line_of_sight", "offset_one", "offsets_at", "scan_hermite",
+    "chord_brackets", "chord_step", "grid_crossings", "line_of_sight", "offset_one", "offsets_at", "scan_motion",
     "seen_in_order", "wrapped_offsets",
 ]
 
@@ -243,9 +246,25 @@ def _finite_poses(pose: NDArray[np.float64]) -> bool:
     return True
 
 
+#: Kinds of motion table :func:`scan_motion` evaluates itself.
+HERMITE, TWIST = 0, 1
+
+
 @jit
-def scan_hermite(
-    hermite: NDArray[np.float64], t0: float, dt: float, grid: NDArray[np.float64],
+def motion_poses(kind: int, table: NDArray[np.float64], twists: NDArray[np.float64], t0: float, h: float,
+                 t: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Base_link poses ``(k, 3)`` at instants ``t (k,)`` (s) of a step's motion table of ``kind``:
+    :data:`HERMITE`, the ``(4, 3)`` curve of :func:`~agvnav.geometry.hermite.hermite_poses` over ``[t0, t0 + h]``
+    (``twists`` unused); :data:`TWIST`, boundary poses and sub-step twists of
+    :func:`~agvnav.kinematics.twist.twist_table_poses` (sub-steps of ``h`` s from ``t0``)."""
+    if kind == 0:
+        return hermite_poses(table, t0, h, t)
+    return twist_table_poses(table, twists, t0, h, t)
+
+
+@jit
+def scan_motion(
+    kind: int, table: NDArray[np.float64], twists: NDArray[np.float64], t0: float, h: float, grid: NDArray[np.float64],
     rx: NDArray[np.float64], ry: NDArray[np.float64], r: NDArray[np.float64],
     mx: float, my: float, phase: float, omega: float, direction: int,
     wall_x0: NDArray[np.float64], wall_y0: NDArray[np.float64],
@@ -255,8 +274,9 @@ def scan_hermite(
     """The goniometer's exact crossings on the bracket ``grid`` (s) of one window, all in one call.
 
     The same steps as :meth:`agvnav.sensors.goniometer.Goniometer.scan`'s generic path, in the
-    same order and arithmetic, with the base_link poses from :func:`hermite_poses` of
-    ``(hermite, t0, dt)`` instead of a call back into Python: :func:`grid_crossings`,
+    same order and arithmetic, with the base_link poses from the step's motion table
+    (:func:`motion_poses` of ``(kind, table, twists, t0, h)``) instead of a call back into Python:
+    :func:`grid_crossings`,
     :func:`chord_brackets`, up to ``chord_iter`` :func:`chord_step` to the tolerance
     ``max(angle_tol, 8 eps max|hi| 2 pi rate_hz)`` (rad), :func:`line_of_sight` and
     :func:`seen_in_order`. Returns ``(0, t, rows)``: the seen instants (s) and reflector rows in
@@ -265,7 +285,7 @@ def scan_hermite(
     raises). Walls ``start + [0, 1] direction`` (m), ranges (m) as in :func:`line_of_sight`.
     """
     no_t, no_rows = np.empty(0), np.empty(0, np.int64)
-    pose = hermite_poses(hermite, t0, dt, grid)
+    pose = motion_poses(kind, table, twists, t0, h, grid)
     if not _finite_poses(pose):
         return 2, no_t, no_rows
     interval, refl, f_lo, f_hi = grid_crossings(grid, pose, rx, ry, r, mx, my, phase, omega, direction)
@@ -274,7 +294,7 @@ def scan_hermite(
     lo, hi, slope, t, trx, try_, tr, h_max = chord_brackets(grid, interval, f_lo, f_hi, refl, rx, ry, r)
     tol = max(angle_tol, 8.0 * eps * h_max[0] * _TWO_PI * rate_hz)
     for _ in range(chord_iter):
-        pose = hermite_poses(hermite, t0, dt, t)
+        pose = motion_poses(kind, table, twists, t0, h, t)
         if not _finite_poses(pose):
             return 2, no_t, no_rows
         done, t, hx, hy, d = chord_step(t, pose, trx, try_, tr, mx, my, phase, omega, direction, slope, lo, hi, tol)

@@ -43,13 +43,16 @@ from numpy.typing import ArrayLike, NDArray
 from agvnav._validate import require_finite, require_nonnegative, require_positive
 from agvnav.geometry.angles import wrap_angle, wrap_angle_scalar
 from agvnav.geometry.hermite import HermitePoses
+from agvnav.kinematics.twist import TwistPoses
 from agvnav.sensors.beam import (
+    HERMITE,
+    TWIST,
     chord_brackets,
     chord_step,
     grid_crossings,
     line_of_sight,
     offsets_at,
-    scan_hermite,
+    scan_motion,
     seen_in_order,
 )
 from agvnav.world.map import WorldMap
@@ -469,10 +472,11 @@ class Goniometer:
         n_int = max(1, math.ceil((t1 - t0) * self.rate_hz * _BRACKETS_PER_REV))
         grid = _bracket_grid(t0, t1, n_int)
         consts = self._consts()
-        if isinstance(pose_at, HermitePoses):  # the whole scan in one kernel call, same numbers
+        motion = _motion_table(pose_at)
+        if motion is not None:  # the whole scan in one kernel call, same numbers
             rx, ry, r, w0x, w0y, wvx, wvy = m.sight()
-            status, t_seen, r_seen = scan_hermite(
-                pose_at.table, pose_at.t0, pose_at.dt, grid, rx, ry, r, *consts, w0x, w0y, wvx, wvy,
+            status, t_seen, r_seen = scan_motion(
+                *motion, grid, rx, ry, r, *consts, w0x, w0y, wvx, wvy,
                 self.min_range, self.max_range, self.rate_hz, _ANGLE_TOL, _EPS, _CHORD_ITER,
             )
             if status == 0:
@@ -626,6 +630,18 @@ def _bracket_grid(t0: float, t1: float, n_int: int) -> NDArray[np.float64]:
         return np.array([t0, t1])
     step = (t1 - t0) / n_int
     return np.array([i * step + t0 for i in range(n_int)] + [t1])
+
+
+_NO_TWISTS = np.zeros((0, 3))
+
+
+def _motion_table(pose_at: PoseFunction) -> tuple[int, NDArray[np.float64], NDArray[np.float64], float, float] | None:
+    """The motion table :func:`~agvnav.sensors.beam.scan_motion` evaluates itself, when ``pose_at`` is one."""
+    if isinstance(pose_at, HermitePoses):
+        return HERMITE, pose_at.table, _NO_TWISTS, pose_at.t0, pose_at.dt
+    if isinstance(pose_at, TwistPoses):
+        return TWIST, pose_at.states, pose_at.twists, pose_at.t0, pose_at.h
+    return None
 
 
 def _call_pose(pose_at: PoseFunction, t: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -29,8 +29,12 @@ vehicles are built, each vehicle is built with its planned mission and stands at
 the plan's ADG; after every step each vehicle reports its estimated progress. The rows and figures
 then add the jobs dispatched and the time each vehicle waited for traffic, per zone and per node.
 
-This is the per-vehicle engine stepped in lockstep; the batch-kernel engine of issue 28 replaces
-the stepping, not the scenario format, the results or their tests.
+The world's step is batch-first: after the plants advance, every vehicle's true motion over the step
+is held in arrays (:class:`~agvnav.sim.bodies.FleetBodies`' motion tables, one ``pose_at`` call per
+vehicle), and the work against the other bodies runs in kernels once per step or instant for all
+vehicles (box edges, lines of sight, footprint gaps). Each vehicle's sensors, estimator and autopilot
+are still its own loop's, stepped in lockstep; the batch-kernel engine of issue 28 replaces that
+stepping, not the scenario format, the results or their tests.
 """
 
 from __future__ import annotations
@@ -42,12 +46,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import shapely
 from numpy.typing import NDArray
 from shapely.geometry import Polygon
 
 from agvnav.geometry import wrap_angle_scalar
-from agvnav.sim.bodies import BodiesInView, FleetBodies, placed_footprints
+from agvnav.sim.bodies import BodiesInView, FleetBodies, footprint_gaps, placed_footprints
 from agvnav.sim.build import Built, build
 from agvnav.sim.engine import record_stride
 from agvnav.sim.mission import load_mission_network
@@ -421,19 +424,22 @@ def _stop_blocked(bf: BuiltFleet, traffic: FleetTraffic, t: float, ended_at: lis
 
 
 def _move_bodies(bf: BuiltFleet, active: list[int], t0: float, t1: float) -> None:
-    """The step ``(t0, t1]`` begins for the bodies: the active vehicles' true poses at ``t1`` (the others stand)."""
-    p1 = bf.bodies.p1.copy()
+    """The step ``(t0, t1]`` begins for the bodies: the active vehicles' true poses at the bodies' sample instants of
+    the step (one ``pose_at`` call each; the others stand where they stopped)."""
+    bodies = bf.bodies
+    grid = bodies.sample_times(t0, t1)
+    poses = np.repeat(bodies.p1[:, None, :], grid.size, axis=1)
     for i in active:
-        p1[i] = np.asarray(bf.built[i].plant.pose, dtype=np.float64)[:3]
-    bf.bodies.begin_step(t0, t1, p1)
+        poses[i] = bf.built[i].plant.pose_at(grid)
+    bodies.begin_step(t0, t1, poses)
 
 
 def _separations(bf: BuiltFleet, sep: _Separation, t: float) -> tuple[int, int] | None:
     """Update the smallest separations at ``t`` (true poses); the first pair in contact, if any.
 
     Every pair's lower bound ``|c_a - c_b| - R_a - R_b`` (bounding circles of the footprints about
-    base_link) at once; the exact footprint-to-footprint distance (shapely, vectorised over the pairs)
-    for the pairs whose bound is within :data:`EXACT_WITHIN_M`.
+    base_link) at once; the exact footprint-to-footprint distance (:func:`~agvnav.sim.bodies.footprint_gaps`,
+    compiled over the pairs) for the pairs whose bound is within :data:`EXACT_WITHIN_M`.
     """
     n = bf.bodies.n
     if n < 2:
@@ -447,11 +453,8 @@ def _separations(bf: BuiltFleet, sep: _Separation, t: float) -> tuple[int, int] 
     near = np.argwhere(np.triu(d <= EXACT_WITHIN_M, 1))
     hit = None
     if near.shape[0]:
-        used = np.unique(near)
-        shapes = np.empty(n, dtype=object)
-        shapes[used] = shapely.polygons(placed_footprints(bodies.footprints[used], poses[used]))
-        a, b = near[:, 0], near[:, 1]
-        exact = shapely.distance(shapes[a], shapes[b])
+        a, b = np.ascontiguousarray(near[:, 0]), np.ascontiguousarray(near[:, 1])
+        exact = footprint_gaps(placed_footprints(bodies.footprints, poses), a, b)
         d[a, b] = d[b, a] = exact
         touching = np.flatnonzero(exact <= 0.0)
         if touching.size:

@@ -32,7 +32,6 @@ import numpy as np
 from numpy.typing import NDArray
 from shapely.geometry import Polygon
 
-from agvnav.geometry import compose
 from agvnav.navigation.path import PathAutopilot
 from agvnav.navigation.reactive import AvoidParams, ReactiveAutopilot, ReactiveInputs, ReactiveWatch
 from agvnav.reactive import FieldConfig, Reaction, ReactionLimits, generate_fields
@@ -53,6 +52,7 @@ __all__ = [
     "ObstacleRangers",
     "OccludedReflections",
     "ScannerRole",
+    "interpreted_scans_s",
     "reactive_figures",
     "wire_reactive",
 ]
@@ -120,12 +120,16 @@ class OccludedReflections:
         ev = self.inner.observe(pose_at, t0, t1, rng)
         if ev.shape[0] == 0:
             return ev
-        heads = compose(np.asarray(pose_at(ev[:, 0]), dtype=np.float64).reshape(-1, 3), self.mount)
         keep = np.ones(ev.shape[0], dtype=bool)
         real = np.flatnonzero(ev[:, 2] >= 0)  # spurious reflections (index -1) have no line of sight
         if real.size:
+            t = np.ascontiguousarray(ev[real, 0])
+            pose = np.asarray(pose_at(t), dtype=np.float64).reshape(-1, 3)
+            c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+            mx, my = float(self.mount[0]), float(self.mount[1])  # the head in the map frame (compose, x and y)
+            heads = np.column_stack([pose[:, 0] + c * mx - s * my, pose[:, 1] + s * mx + c * my])
             target = self.reflector_xy[ev[real, 2].astype(np.int64)]
-            keep[real] = ~self.obstacles.blocked(heads[real, :2], target, ev[real, 0])
+            keep[real] = ~self.obstacles.blocked(heads, target, t)
         self.n_occluded += int((~keep).sum())
         return ev[keep]
 
@@ -202,6 +206,14 @@ class ObstacleCollisionWatch(WrappedPlant):
                 self.hit = i
                 return "collision"
         return None
+
+
+def interpreted_scans_s(sensors: Sequence[Sensor], sim_seconds: float) -> float:
+    """Extra CPU (s) the safety scanners among ``sensors`` cost over ``sim_seconds`` (s) with the kernels run as
+    plain Python (:meth:`~agvnav.sensors.scanner.SafetyScanner.interpreted_cost_s`, against the walls and the
+    obstacles' edges), for :func:`agvnav.jit.set_compiled_for_run`."""
+    return sum(s.scanner.interpreted_cost_s(sim_seconds, s.walls.shape[0] + 4 * len(s.obstacles))
+               for s in sensors if isinstance(s, ScannerRole))
 
 
 def _placed(footprint: NDArray[np.float64], pose: NDArray[np.float64]) -> Polygon:

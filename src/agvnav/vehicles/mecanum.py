@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 from agvnav.actuators import WheelSpeedLoop
 from agvnav.actuators.scalar import ScalarSpeedLoop
 from agvnav.kinematics.omnidirectional import MecanumBase
-from agvnav.kinematics.scalar import twist_pose
+from agvnav.kinematics.twist import twist_pose
 from agvnav.odometry.errors import NonSystematicErrors
 from agvnav.sensors.encoders import WheelEncoder, wheel_count
 from agvnav.vehicles.geometry import HolonomicGeometry, box_footprint, check_footprint

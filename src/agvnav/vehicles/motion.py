@@ -3,8 +3,9 @@
 A plant that moves with a constant body twist inside each sub-step records the
 pose at every sub-step start and the twist of every sub-step; the pose at any
 instant of the step is then exact: the SE(2) exponential
-(:func:`agvnav.kinematics.twist_step`, seed 002 eq. 25 for ``v_y = 0``) of the
-sub-step's twist for the time elapsed in it.
+(:func:`agvnav.kinematics.twist.twist_pose`, seed 002 eq. 25 for ``v_y = 0``) of the
+sub-step's twist for the time elapsed in it, one compiled call for all the instants asked
+(:func:`agvnav.kinematics.twist.twist_table_poses`, the kernel a fleet's bodies use too).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from agvnav.kinematics.base import twist_step
+from agvnav.kinematics.twist import TwistPoses, twist_table_poses
 
 __all__ = ["SubstepTrajectory", "differential_twist_matrix", "hermite_pose", "piecewise_twist_pose"]
 
@@ -35,13 +36,8 @@ def piecewise_twist_pose(
     states : ``(n + 1, 3)`` poses ``[x, y, heading]`` at the sub-step boundaries (m, rad).
     twists : ``(n, 3)`` body twists ``[v_x, v_y, omega]`` of the sub-steps (m/s, rad/s).
     """
-    t = np.asarray(t, dtype=np.float64).reshape(-1)
-    n = twists.shape[0]
-    rel = np.clip(t - t0, 0.0, n * h)
-    i = np.minimum((rel / h).astype(np.int64), n - 1)
-    tau = rel - i * h
-    tw = twists[i] * tau[:, None]
-    return twist_step(states[i], tw[:, 0], tw[:, 1], tw[:, 2], 1.0)
+    t = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
+    return np.asarray(twist_table_poses(states, twists, float(t0), float(h), t), dtype=np.float64)
 
 
 def differential_twist_matrix(track: float, misalignment: float = 0.0) -> list[list[float]]:
@@ -97,14 +93,16 @@ class SubstepTrajectory:
     _h: float
     _states: NDArray[np.float64]
     _twists: NDArray[np.float64]
+    _poses: TwistPoses
 
     def _start_trajectory(self, initial_pose: NDArray[np.float64], substep: float) -> None:
         """At rest at ``initial_pose`` ``[x, y, heading]`` (m, rad); ``substep`` (s)."""
         p = np.asarray(initial_pose, dtype=np.float64).reshape(3)
         self._pose = (float(p[0]), float(p[1]), float(p[2]))
         self._t0, self._h = 0.0, float(substep)
-        self._states = p[None, :].copy()
+        self._states = p[None, :].repeat(2, axis=0)
         self._twists = np.zeros((1, 3))
+        self._poses = TwistPoses(self._states, self._twists, self._t0, self._h)
 
     def _record_step(
         self, t0: float, h: float, states: list[tuple[float, float, float]], twists: list[tuple[float, float, float]]
@@ -114,6 +112,7 @@ class SubstepTrajectory:
         self._t0, self._h = float(t0), h
         self._states = np.array(states)
         self._twists = np.array(twists)
+        self._poses.set(self._states, self._twists, self._t0, h)
 
     @property
     def pose(self) -> NDArray[np.float64]:
@@ -130,6 +129,8 @@ class SubstepTrajectory:
         """Length (s) of the last step's sub-steps."""
         return self._h
 
-    def pose_at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """True pose ``(k, 3)`` at instants ``t (k,)`` (s) of the last step (exact per sub-step twist)."""
-        return piecewise_twist_pose(t, self._t0, self._h, self._states, self._twists)
+    @property
+    def pose_at(self) -> TwistPoses:
+        """True pose ``(k, 3)`` at instants ``t (k,)`` (s) of the last step (exact per sub-step twist): ``pose_at(t)``,
+        a :class:`~agvnav.kinematics.twist.TwistPoses` updated in place every step."""
+        return self._poses

@@ -26,7 +26,8 @@ from numpy.typing import ArrayLike
 
 from agvnav.actuators import WheelSpeedLoop
 from agvnav.actuators.scalar import ScalarSpeedLoop
-from agvnav.kinematics.scalar import track_twist, twist_pose
+from agvnav.kinematics.scalar import track_twist
+from agvnav.kinematics.twist import twist_pose
 from agvnav.odometry.scalar import track_increments
 from agvnav.sensors.encoders import WheelEncoder, wheel_count
 from agvnav.vehicles.geometry import UnicycleGeometry, check_footprint
