@@ -29,6 +29,7 @@ from agvnav.positioning.triangulation import _layout_ok_kernel
 from agvnav.routes.planning import astar_kernel
 from agvnav.sensors import beam
 from agvnav.traffic import _sipp  # noqa: F401 - its kernels are in the property test
+from agvnav.traffic._collide import first_overlap, pad_footprints
 from agvnav.vehicles.tricycle import hermite_poses
 
 pytestmark = pytest.mark.usefixtures("restore_jit_mode")
@@ -273,6 +274,7 @@ NESTED = {
     "schmidt_accept": "gate_accept", "total_core": "total_batch",
     "_turn": "sipp", "_slot": "sipp", "_push_state": "sipp", "_chain": "sipp",
     "_node_intervals": "sipp", "_search": "sipp", "_n_classes": "sipp", "scratch_size": "sipp",
+    "place": "first_overlap", "_separates": "first_overlap", "polygons_overlap": "first_overlap",
     "release_held": "reserve", "chain_occupations": "reserve", "_heap_up": "dijkstra_to", "_heap_down": "dijkstra_to",
 }
 
@@ -311,6 +313,20 @@ def _traffic_kernel_outputs(rng: np.random.Generator) -> Outputs:
     return {name: list(times) for name in ("sipp", "dijkstra_to", "reserve", "release", "safe_intervals")}
 
 
+def _collide_kernel_outputs(rng: np.random.Generator) -> Outputs:
+    """The executor's collision kernel (``traffic._collide``): the first overlapping pair of random boxes."""
+    out = []
+    for _ in range(300):
+        n = int(rng.integers(2, 10))
+        half = rng.uniform(0.2, 0.8, (n, 2))
+        feet = [np.array([[a, -b], [a, b], [-a, b], [-a, -b]]) for a, b in half]
+        fps, counts = pad_footprints(feet)
+        xs, ys, hs = rng.uniform(0.0, 4.0, n), rng.uniform(0.0, 4.0, n), rng.uniform(-math.pi, math.pi, n)
+        out.append(first_overlap(xs, ys, hs, np.hypot(half[:, 0], half[:, 1]), fps, counts, np.zeros((4, 2)),
+                                 np.zeros((4, 2))))
+    return {"first_overlap": [np.array(out, dtype=np.float64)]}
+
+
 def _triangulation_kernel_outputs(rng: np.random.Generator) -> Outputs:
     """The batch triangulation's kernels (``positioning.total``, ``positioning.triangulation``) on random fixes."""
     m = 400
@@ -343,6 +359,7 @@ def _outputs(compiled: bool) -> Outputs:
     out.update(_triangulation_kernel_outputs(rng))
     out.update(_planning_kernel_outputs(rng))
     out.update(_traffic_kernel_outputs(rng))
+    out.update(_collide_kernel_outputs(rng))
     return out
 
 

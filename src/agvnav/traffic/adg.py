@@ -30,6 +30,9 @@ from collections import defaultdict
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+import numpy as np
+from numpy.typing import NDArray
+
 from agvnav.traffic.plan import NEVER, Conflicts, FleetPlan, Occupation, Resource
 
 __all__ = ["Adg", "Dependency", "PlanConflictError", "build_adg"]
@@ -91,23 +94,34 @@ class Adg:
         return out
 
     def is_acyclic(self) -> bool:
-        """Kahn's algorithm over :meth:`edges`."""
-        nodes = [(v, e) for v, n in self.n_events.items() for e in range(n)]
-        indeg = dict.fromkeys(nodes, 0)
-        succ: dict[tuple[str, int], list[tuple[str, int]]] = defaultdict(list)
-        for a, b in self.edges():
-            succ[a].append(b)
-            indeg[b] += 1
-        stack = [n for n, d in indeg.items() if d == 0]
+        """Kahn's algorithm over :meth:`edges` (events numbered in one integer range, the chains implicit)."""
+        base: dict[str, int] = {}
+        total = 0
+        for v, n in self.n_events.items():
+            base[v] = total
+            total += n
+        last = [False] * total
+        for v, n in self.n_events.items():
+            if n:
+                last[base[v] + n - 1] = True
+        indeg = [0 if i == 0 or last[i - 1] else 1 for i in range(total)]  # the chain edge into each event
+        succ: list[list[int]] = [[] for _ in range(total)]
+        for v, by_event in self.deps.items():
+            for e, lst in by_event.items():
+                for d in lst:
+                    succ[base[d.after] + d.after_event].append(base[v] + e)
+                    indeg[base[v] + e] += 1
+        stack = [i for i in range(total) if indeg[i] == 0]
         seen = 0
         while stack:
-            n = stack.pop()
+            i = stack.pop()
             seen += 1
-            for m in succ[n]:
+            nxt = succ[i] if last[i] else [*succ[i], i + 1]
+            for m in nxt:
                 indeg[m] -= 1
                 if indeg[m] == 0:
                     stack.append(m)
-        return seen == len(nodes)
+        return seen == total
 
     @property
     def n_dependencies(self) -> int:
@@ -116,46 +130,76 @@ class Adg:
 
 
 def build_adg(plan: FleetPlan, zones: Conflicts) -> Adg:
-    """The ADG of a valid fleet plan (module doc); :class:`PlanConflictError` for an invalid one."""
+    """The ADG of a valid fleet plan (module doc); :class:`PlanConflictError` for an invalid one.
+
+    Every pair of conflicting occupations of two vehicles is visited (each twice, in the order of the
+    plans' occupations): the pairs come out as arrays (:func:`_pairs`), the order of passage, the plan's
+    validity and the latest dependency per vehicle pair and event are decided on them at once.
+    """
     occs = [o for p in plan.plans.values() for o in p.occupations()]
-    by_res: dict[tuple[str, Resource], list[Occupation]] = defaultdict(list)
-    models = sorted({o.model for o in occs})
-    for o in occs:
-        for mb in models:
-            for r in zones.conflicts(o.model, o.resource, mb):
-                by_res[(mb, r)].append(o)
-    best: dict[tuple[str, int, str], Dependency] = {}
-    for ob in occs:
-        for oa in by_res.get((ob.model, ob.resource), ()):
-            if oa.vehicle == ob.vehicle:
-                continue
-            if oa.t1 <= ob.t0:
-                first, later = oa, ob
-            elif ob.t1 <= oa.t0:
-                first, later = ob, oa
-            else:
-                raise PlanConflictError(
-                    f"vehicles {oa.vehicle!r} and {ob.vehicle!r} plan conflicting {oa.resource} and {ob.resource} at "
-                    f"overlapping times [{oa.t0:.2f}, {oa.t1:.2f}] and [{ob.t0:.2f}, {ob.t1:.2f}] s")
-            _depend(best, first, later)
-    deps: dict[str, dict[int, list[Dependency]]] = defaultdict(lambda: defaultdict(list))
-    for d in best.values():
-        deps[d.vehicle][d.event].append(d)
+    ob, oa = _pairs(occs, zones)
+    veh_id = {v: i for i, v in enumerate(plan.plans)}
+    veh = np.array([veh_id[o.vehicle] for o in occs], dtype=np.int64)
+    t0 = np.array([o.t0 for o in occs], dtype=np.float64)
+    t1 = np.array([o.t1 for o in occs], dtype=np.float64)
+    acq = np.array([o.acquire for o in occs], dtype=np.int64)
+    rel = np.array([o.release for o in occs], dtype=np.int64)
+    other = veh[oa] != veh[ob]
+    ob, oa = ob[other], oa[other]
+    a_first = t1[oa] <= t0[ob]
+    b_first = ~a_first & (t1[ob] <= t0[oa])
+    first, later = np.where(a_first, oa, ob), np.where(a_first, ob, oa)
+    takes = (acq[later] >= 0) & (acq[later] % 2 == 0)
+    overlap = ~(a_first | b_first)
+    parks = ~overlap & takes & (rel[first] >= NEVER)
+    bad = np.flatnonzero(overlap | parks)
+    if len(bad):
+        _refuse(occs, int(oa[bad[0]]), int(ob[bad[0]]), int(first[bad[0]]), int(later[bad[0]]), bool(overlap[bad[0]]))
+    first, later = first[takes], later[takes]
     n_events = {v: 2 * len(p.steps) for v, p in plan.plans.items()}
+    if not len(first):
+        return Adg(n_events, {})
+    n_veh = max(len(veh_id), 1)
+    key = (veh[later] * (int(acq.max(initial=0)) + 1) + acq[later]) * n_veh + veh[first]
+    seq = np.arange(len(key))
+    order = np.lexsort((seq, -rel[first], key))  # per key: the latest release, the first visited among equals
+    keys_sorted = key[order]
+    winner = order[np.flatnonzero(np.r_[True, keys_sorted[1:] != keys_sorted[:-1]])]
+    _, first_seen = np.unique(key, return_index=True)  # the dependencies in the order their keys were first met
+    win_of = dict(zip(key[winner].tolist(), winner.tolist(), strict=True))
+    deps: dict[str, dict[int, list[Dependency]]] = defaultdict(lambda: defaultdict(list))
+    for i in np.sort(first_seen).tolist():
+        w = win_of[int(key[i])]
+        lo, fo = occs[int(later[w])], occs[int(first[w])]
+        deps[lo.vehicle][lo.acquire].append(Dependency(lo.vehicle, lo.acquire, fo.vehicle, fo.release, lo.resource))
     return Adg(n_events, {v: dict(by) for v, by in deps.items()})
 
 
-def _depend(best: dict[tuple[str, int, str], Dependency], first: Occupation, later: Occupation) -> None:
-    """``later``'s taking waits for ``first``'s giving up; only step starts take resources (module doc)."""
-    if later.acquire < 0 or later.acquire % 2 == 1:
-        return
-    if first.release >= NEVER:
-        raise PlanConflictError(f"vehicle {later.vehicle!r} plans {later.resource} after {first.vehicle!r} parks "
-                                f"holding {first.resource}")
-    key = (later.vehicle, later.acquire, first.vehicle)
-    old = best.get(key)
-    if old is None or old.after_event < first.release:
-        best[key] = Dependency(later.vehicle, later.acquire, first.vehicle, first.release, later.resource)
+def _pairs(occs: list[Occupation], zones: Conflicts) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Every pair ``(b, a)`` of occupation indices where ``b``'s resource conflicts with ``a``'s (``a``'s model
+    and resource reach it), ``b`` in order and for each the ``a`` in order; same-vehicle pairs included."""
+    models = sorted({o.model for o in occs})
+    by_res: dict[tuple[str, Resource], list[int]] = defaultdict(list)
+    for i, o in enumerate(occs):
+        for mb in models:
+            for r in zones.conflicts(o.model, o.resource, mb):
+                by_res[(mb, r)].append(i)
+    lists = [by_res.get((o.model, o.resource), []) for o in occs]
+    lengths = np.array([len(x) for x in lists], dtype=np.int64)
+    ob = np.repeat(np.arange(len(occs), dtype=np.int64), lengths)
+    oa = np.fromiter((i for x in lists for i in x), dtype=np.int64, count=int(lengths.sum()))
+    return ob, oa
+
+
+def _refuse(occs: list[Occupation], a: int, b: int, first: int, later: int, overlap: bool) -> None:
+    """Raise the :class:`PlanConflictError` of the first invalid pair met."""
+    oa, ob, fo, lo = occs[a], occs[b], occs[first], occs[later]
+    if overlap:
+        raise PlanConflictError(
+            f"vehicles {oa.vehicle!r} and {ob.vehicle!r} plan conflicting {oa.resource} and {ob.resource} at "
+            f"overlapping times [{oa.t0:.2f}, {oa.t1:.2f}] and [{ob.t0:.2f}, {ob.t1:.2f}] s")
+    raise PlanConflictError(f"vehicle {lo.vehicle!r} plans {lo.resource} after {fo.vehicle!r} parks "
+                            f"holding {fo.resource}")
 
 
 def waits_for(adg: Adg, waiting: Mapping[str, int]) -> dict[str, set[str]]:

@@ -30,6 +30,7 @@ the closed loop.
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -41,6 +42,7 @@ from shapely.geometry import Polygon
 from agvnav.geometry.angles import wrap_angle_scalar
 from agvnav.routes.network import RouteNetwork
 from agvnav.routes.planning import Traversal, VehicleLimits, edge_time
+from agvnav.traffic._collide import first_overlap, is_convex, pad_footprints
 from agvnav.traffic.adg import Adg
 from agvnav.traffic.plan import Conflicts, FleetPlan, Resource
 
@@ -206,18 +208,34 @@ class Replan(Protocol):
 
 
 class _EdgeGeom:
+    """An edge's sampled centre line as plain lists: arc length (m), x, y (m) and heading (rad) per sample."""
+
     def __init__(self, tr: Traversal) -> None:
         pts = tr.edge.curve.points
         seg = np.hypot(*np.diff(pts, axis=0).T)
-        self.cum = np.concatenate([[0.0], np.cumsum(seg)])
-        self.pts = pts
-        self.head = np.unwrap(tr.edge.curve.headings) + (math.pi if tr.mode < 0 else 0.0)
-        self.length = float(self.cum[-1])
+        cum = np.concatenate([[0.0], np.cumsum(seg)])
+        head = np.unwrap(tr.edge.curve.headings) + (math.pi if tr.mode < 0 else 0.0)
+        self.cum: list[float] = cum.tolist()
+        self.xs: list[float] = pts[:, 0].tolist()
+        self.ys: list[float] = pts[:, 1].tolist()
+        self.head: list[float] = head.tolist()
+        self.length = self.cum[-1]
 
     def pose(self, s: float) -> tuple[float, float, float]:
+        """The pose at arc length ``s`` (m, clipped to the edge): linear between samples, as ``np.interp``."""
         s = min(max(s, 0.0), self.length)
-        return (float(np.interp(s, self.cum, self.pts[:, 0])), float(np.interp(s, self.cum, self.pts[:, 1])),
-                float(np.interp(s, self.cum, self.head)))
+        cum = self.cum
+        j = bisect_right(cum, s) - 1
+        if j >= len(cum) - 1 or cum[j] == s:
+            j = min(j, len(cum) - 1)
+            return self.xs[j], self.ys[j], self.head[j]
+        return _lerp(cum, self.xs, j, s), _lerp(cum, self.ys, j, s), _lerp(cum, self.head, j, s)
+
+
+def _lerp(xp: list[float], fp: list[float], j: int, x: float) -> float:
+    """``np.interp`` between samples ``j`` and ``j + 1`` (its slope-times-offset form, for the same rounding)."""
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[j]
 
 
 def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: Controller, zones: Conflicts,
@@ -228,9 +246,10 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
     ids = [r.vehicle for r in routes]
     geoms: dict[tuple[str, int], _EdgeGeom] = {}
     speed: dict[tuple[str, int], float] = {}
+    shapes = _Shapes()
     for r in routes:
-        _index_route(r, geoms, speed)
-    radius = {r.vehicle: float(np.max(np.hypot(r.footprint[:, 0], r.footprint[:, 1]))) for r in routes}
+        _index_route(r, geoms, speed, shapes)
+    collider = _Collider(routes)
     states: dict[str, _State] = {}
     for r in routes:
         n = network.nodes[r.start]
@@ -261,13 +280,14 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
             if new is not None:
                 by_id, controller = new
                 routes = [by_id[v] for v in ids]
-                _restart(states, by_id, geoms, speed)
+                collider = _Collider(routes)
+                _restart(states, by_id, geoms, speed, shapes)
                 blocked.clear()
                 waiting = {}  # the steps waited for were the old routes'; the new controller is asked next tick
                 res.replans += 1
         if moved:
             last_move = t
-        hit = _collision(routes, states, radius)
+        hit = collider.first(states)
         if hit is not None:
             res.collisions.append((hit[0], hit[1], t))
             break
@@ -286,12 +306,37 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
     return res
 
 
-def _index_route(r: VehicleRoute, geoms: dict[tuple[str, int], _EdgeGeom], speed: dict[tuple[str, int], float]
-                 ) -> None:
+class _Shapes:
+    """Each edge's geometry per direction and planned speed per vehicle model, computed once per execution (the
+    routes of a replan drive the same edges)."""
+
+    def __init__(self) -> None:
+        self.geoms: dict[tuple[str, int], _EdgeGeom] = {}
+        self.speeds: dict[tuple[str, VehicleLimits], float] = {}
+
+    def geom(self, tr: Traversal) -> _EdgeGeom:
+        """The sampled centre line of ``tr`` (its direction of travel)."""
+        key = (tr.edge.id, tr.mode)
+        g = self.geoms.get(key)
+        if g is None:
+            g = self.geoms[key] = _EdgeGeom(tr)
+        return g
+
+    def speed(self, tr: Traversal, limits: VehicleLimits) -> float:
+        """The mean planned speed (m/s) over ``tr``'s edge: its length over its planned time."""
+        key = (tr.edge.id, limits)
+        v = self.speeds.get(key)
+        if v is None:
+            v = self.speeds[key] = tr.edge.curve.length / edge_time(tr.edge, limits)
+        return v
+
+
+def _index_route(r: VehicleRoute, geoms: dict[tuple[str, int], _EdgeGeom], speed: dict[tuple[str, int], float],
+                 shapes: _Shapes) -> None:
     """The edge geometry and planned speed (m/s) of each step of ``r``."""
     for k, st in enumerate(r.steps):
-        geoms[(r.vehicle, k)] = _EdgeGeom(st.traversal)
-        speed[(r.vehicle, k)] = st.traversal.edge.curve.length / edge_time(st.traversal.edge, r.limits)
+        geoms[(r.vehicle, k)] = shapes.geom(st.traversal)
+        speed[(r.vehicle, k)] = shapes.speed(st.traversal, r.limits)
 
 
 def _progress(states: dict[str, _State], by_id: dict[str, VehicleRoute], speed: dict[tuple[str, int], float],
@@ -309,13 +354,13 @@ def _progress(states: dict[str, _State], by_id: dict[str, VehicleRoute], speed: 
 
 
 def _restart(states: dict[str, _State], by_id: dict[str, VehicleRoute], geoms: dict[tuple[str, int], _EdgeGeom],
-             speed: dict[tuple[str, int], float]) -> None:
+             speed: dict[tuple[str, int], float], shapes: _Shapes) -> None:
     """Every vehicle at the first step of its new route (the one under way when it moves)."""
     geoms.clear()
     speed.clear()
     for v, st in states.items():
         r = by_id[v]
-        _index_route(r, geoms, speed)
+        _index_route(r, geoms, speed, shapes)
         if st.phase != "done":
             st.k = 0
             if not r.steps:
@@ -395,21 +440,41 @@ def _placed(fp: NDArray[np.float64], x: float, y: float, h: float) -> Polygon:
     return Polygon(np.column_stack([x + c * fp[:, 0] - s * fp[:, 1], y + s * fp[:, 0] + c * fp[:, 1]]))
 
 
-def _collision(routes: Sequence[VehicleRoute], states: dict[str, _State], radius: dict[str, float]
-               ) -> tuple[str, str] | None:
-    """The first pair of vehicles whose true footprints intersect (bounding circles first)."""
-    ids = [r.vehicle for r in routes]
-    xy = np.array([states[v].xy for v in ids])
-    rad = np.array([radius[v] for v in ids])
-    d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
-    near = np.argwhere(np.triu(d < rad[:, None] + rad[None, :], 1))
-    for a, b in near.tolist():
-        sa, sb = states[ids[a]], states[ids[b]]
-        pa = _placed(routes[a].footprint, sa.xy[0], sa.xy[1], sa.heading)
-        pb = _placed(routes[b].footprint, sb.xy[0], sb.xy[1], sb.heading)
-        if pa.intersects(pb):
-            return ids[a], ids[b]
-    return None
+class _Collider:
+    """The collision check of the module doc: the compiled separating-axis kernel (:mod:`agvnav.traffic._collide`)
+    when every footprint is convex, else shapely on the pairs whose bounding circles meet (the same first pair)."""
+
+    def __init__(self, routes: Sequence[VehicleRoute]) -> None:
+        self.ids = [r.vehicle for r in routes]
+        self.feet = [r.footprint for r in routes]
+        self.radius = np.array([float(np.max(np.hypot(f[:, 0], f[:, 1]))) for f in self.feet])
+        self.convex = all(is_convex(f) for f in self.feet)
+        self.fps, self.counts = pad_footprints(self.feet)
+        k = self.fps.shape[1]
+        self.scratch = (np.zeros((k, 2)), np.zeros((k, 2)))
+
+    def first(self, states: dict[str, _State]) -> tuple[str, str] | None:
+        """The first pair of vehicles (route order) whose true footprints intersect, or None."""
+        sts = [states[v] for v in self.ids]
+        xs = np.array([st.xy[0] for st in sts])
+        ys = np.array([st.xy[1] for st in sts])
+        hs = np.array([st.heading for st in sts])
+        if self.convex:
+            ab = int(first_overlap(xs, ys, hs, self.radius, self.fps, self.counts, *self.scratch))
+            return None if ab < 0 else (self.ids[ab // len(sts)], self.ids[ab % len(sts)])
+        return self._shapely(xs, ys, hs)
+
+    def _shapely(self, xs: NDArray[np.float64], ys: NDArray[np.float64], hs: NDArray[np.float64]
+                 ) -> tuple[str, str] | None:
+        rad = self.radius
+        d = np.hypot(xs[:, None] - xs[None, :], ys[:, None] - ys[None, :])
+        near = np.argwhere(np.triu(d < rad[:, None] + rad[None, :], 1))
+        for a, b in near.tolist():
+            pa = _placed(self.feet[a], float(xs[a]), float(ys[a]), float(hs[a]))
+            pb = _placed(self.feet[b], float(xs[b]), float(ys[b]), float(hs[b]))
+            if pa.intersects(pb):
+                return self.ids[a], self.ids[b]
+        return None
 
 
 def _wait_cycle(controller: Controller, waiting: dict[str, int]) -> list[str] | None:
