@@ -184,10 +184,12 @@ def _pairs(occs: list[Occupation], zones: Conflicts) -> tuple[NDArray[np.int64],
         for mb in models:
             for r in zones.conflicts(o.model, o.resource, mb):
                 by_res[(mb, r)].append(i)
-    lists = [by_res.get((o.model, o.resource), []) for o in occs]
+    arrays = {key: np.array(x, dtype=np.int64) for key, x in by_res.items()}
+    none = np.zeros(0, dtype=np.int64)
+    lists = [arrays.get((o.model, o.resource), none) for o in occs]
     lengths = np.array([len(x) for x in lists], dtype=np.int64)
     ob = np.repeat(np.arange(len(occs), dtype=np.int64), lengths)
-    oa = np.fromiter((i for x in lists for i in x), dtype=np.int64, count=int(lengths.sum()))
+    oa = np.concatenate(lists) if lists else none
     return ob, oa
 
 

@@ -43,7 +43,7 @@ from agvnav.geometry.angles import wrap_angle_scalar
 from agvnav.routes.network import RouteNetwork
 from agvnav.routes.planning import Traversal, VehicleLimits, edge_time
 from agvnav.traffic._collide import first_overlap, is_convex, pad_footprints
-from agvnav.traffic.adg import Adg
+from agvnav.traffic.adg import Adg, Dependency
 from agvnav.traffic.plan import Conflicts, FleetPlan, Resource
 
 __all__ = [
@@ -78,27 +78,40 @@ class Controller(Protocol):
 
 
 class AdgController:
-    """The ADG as a :class:`Controller`: step ``k`` is event ``2 k``, its arrival ``2 k + 1``."""
+    """The ADG as a :class:`Controller`: step ``k`` is event ``2 k``, its arrival ``2 k + 1``.
+
+    ``version`` counts the events marked: the blockers of a step are looked up again only after one.
+    """
 
     def __init__(self, adg: Adg) -> None:
         self.adg = adg
+        self.version = 0
+        self._blockers: dict[tuple[str, int], tuple[int, list[Dependency]]] = {}
+
+    def _blocking(self, vehicle: str, k: int) -> list[Dependency]:
+        got = self._blockers.get((vehicle, k))
+        if got is None or got[0] != self.version:
+            got = self._blockers[(vehicle, k)] = (self.version, self.adg.blockers(vehicle, 2 * k))
+        return got[1]
 
     def may_start(self, vehicle: str, k: int, t: float) -> str | None:
         """None when every dependency of the step's start is met, else the resource it waits for."""
-        b = self.adg.blockers(vehicle, 2 * k)
+        b = self._blocking(vehicle, k)
         return None if not b else f"{b[0].resource[0]}:{b[0].resource[1]}"
 
     def started(self, vehicle: str, k: int, t: float) -> None:
         """Mark the start event."""
         self.adg.mark(vehicle, 2 * k)
+        self.version += 1
 
     def arrived(self, vehicle: str, k: int, t: float) -> None:
         """Mark the arrival event."""
         self.adg.mark(vehicle, 2 * k + 1)
+        self.version += 1
 
     def waiting_for(self, vehicle: str, k: int) -> set[str]:
         """The vehicles whose events the start waits for."""
-        return {d.after for d in self.adg.blockers(vehicle, 2 * k)}
+        return {d.after for d in self._blocking(vehicle, k)}
 
 
 @dataclass(frozen=True)
@@ -260,12 +273,15 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
     by_id = {r.vehicle: r for r in routes}
     t, last_move, last_replan = 0.0, 0.0, -math.inf
     blocked: dict[str, float] = {}
+    stops = {v: tuple((a, a + d) for a, d in delays.stops.get(v, ())) for v in ids}
+    waits_seen: tuple[object, ...] = ()
+    posed = True  # poses changed since the last collision check (the first tick checks the start poses)
     while t < horizon_s:
         moved = False
         waiting: dict[str, int] = {}
         for v in ids:
             st, r = states[v], by_id[v]
-            if st.phase == "done" or _stopped(delays, v, t):
+            if st.phase == "done" or _in_stop(stops[v], t):
                 continue
             moved |= _advance(v, st, r, t, dt, controller, zones, states, geoms, speed, delays, res, waiting)
             if v in waiting:
@@ -285,13 +301,19 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
                 blocked.clear()
                 waiting = {}  # the steps waited for were the old routes'; the new controller is asked next tick
                 res.replans += 1
+                posed = True  # the footprints are checked again after a switch
         if moved:
             last_move = t
-        hit = collider.first(states)
-        if hit is not None:
-            res.collisions.append((hit[0], hit[1], t))
-            break
-        cycle = _wait_cycle(controller, waiting)
+        if moved or posed:  # no move, no new pose: the last tick's check holds
+            posed = False
+            hit = collider.first(states)
+            if hit is not None:
+                res.collisions.append((hit[0], hit[1], t))
+                break
+        # the waits of an unchanged controller (same events marked) on the same steps form no new cycle
+        seen = (controller, getattr(controller, "version", None), tuple(waiting.items()))
+        cycle = None if seen[1] is not None and seen == waits_seen else _wait_cycle(controller, waiting)
+        waits_seen = seen
         if cycle is not None:
             res.deadlock = f"cycle of waits at {t:.1f} s: {' -> '.join(cycle)}"
             break
@@ -369,6 +391,14 @@ def _restart(states: dict[str, _State], by_id: dict[str, VehicleRoute], geoms: d
 
 def _stopped(delays: Delays, v: str, t: float) -> bool:
     return any(a <= t < a + d for a, d in delays.stops.get(v, ()))
+
+
+def _in_stop(stops: tuple[tuple[float, float], ...], t: float) -> bool:
+    """True when ``t`` (s) lies in one of the stops ``(start, end)`` (s), ``start <= t < end``."""
+    for a, b in stops:
+        if a <= t < b:
+            return True
+    return False
 
 
 def _advance(v: str, st: _State, r: VehicleRoute, t: float, dt: float, controller: Controller, zones: Conflicts,
