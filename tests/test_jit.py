@@ -324,7 +324,25 @@ def _collide_kernel_outputs(rng: np.random.Generator) -> Outputs:
         xs, ys, hs = rng.uniform(0.0, 4.0, n), rng.uniform(0.0, 4.0, n), rng.uniform(-math.pi, math.pi, n)
         out.append(first_overlap(xs, ys, hs, np.hypot(half[:, 0], half[:, 1]), fps, counts, np.zeros((4, 2)),
                                  np.zeros((4, 2))))
-    return {"first_overlap": [np.array(out, dtype=np.float64)]}
+    from agvnav.traffic._adg_fast import visit_pairs  # the ADG's pair visit on random occupations
+
+    visits = []
+    for _ in range(50):
+        n, n_veh, n_keys = int(rng.integers(2, 40)), int(rng.integers(2, 5)), int(rng.integers(1, 6))
+        key_of = rng.integers(-1, n_keys, n)
+        members = rng.integers(0, n, 3 * n_keys)
+        indptr = np.concatenate([[0], np.sort(rng.integers(0, 3 * n_keys, n_keys - 1)), [3 * n_keys]])
+        t0 = rng.uniform(0.0, 100.0, n)
+        t1 = t0 + rng.uniform(0.0, 1.0, n)
+        veh, acq = rng.integers(0, n_veh, n), rng.integers(-1, 6, n)
+        rel = np.where(rng.uniform(size=n) < 0.1, 1 << 60, acq + 1)
+        slots = n_veh * 6 * n_veh
+        arrays = [np.zeros(slots, dtype=np.int64) for _ in range(3)] + [np.full(slots, -1, dtype=np.int64),
+                                                                       np.zeros(3, dtype=np.int64)]
+        count = visit_pairs(indptr.astype(np.int64), members, key_of, veh, t0, t1, acq, rel,
+                            np.arange(n_veh, dtype=np.int64) * 6, n_veh, 1 << 60, *arrays)
+        visits.append(np.concatenate([[count], *arrays]).astype(np.float64))
+    return {"first_overlap": [np.array(out, dtype=np.float64)], "visit_pairs": visits}
 
 
 def _triangulation_kernel_outputs(rng: np.random.Generator) -> Outputs:

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from agvnav.traffic._adg_fast import visit_pairs
 from agvnav.traffic.plan import NEVER, Conflicts, FleetPlan, Occupation, Resource
 
 __all__ = ["Adg", "Dependency", "PlanConflictError", "build_adg"]
@@ -133,64 +134,60 @@ def build_adg(plan: FleetPlan, zones: Conflicts) -> Adg:
     """The ADG of a valid fleet plan (module doc); :class:`PlanConflictError` for an invalid one.
 
     Every pair of conflicting occupations of two vehicles is visited (each twice, in the order of the
-    plans' occupations): the pairs come out as arrays (:func:`_pairs`), the order of passage, the plan's
-    validity and the latest dependency per vehicle pair and event are decided on them at once.
+    plans' occupations, :func:`agvnav.traffic._adg_fast.visit_pairs`): the order of passage, the plan's
+    validity and the latest dependency per vehicle pair and event.
     """
     occs = [o for p in plan.plans.values() for o in p.occupations()]
-    ob, oa = _pairs(occs, zones)
+    indptr, members, key_of = _conflict_lists(occs, zones)
     veh_id = {v: i for i, v in enumerate(plan.plans)}
-    veh = np.array([veh_id[o.vehicle] for o in occs], dtype=np.int64)
-    t0 = np.array([o.t0 for o in occs], dtype=np.float64)
-    t1 = np.array([o.t1 for o in occs], dtype=np.float64)
-    acq = np.array([o.acquire for o in occs], dtype=np.int64)
-    rel = np.array([o.release for o in occs], dtype=np.int64)
-    other = veh[oa] != veh[ob]
-    ob, oa = ob[other], oa[other]
-    a_first = t1[oa] <= t0[ob]
-    b_first = ~a_first & (t1[ob] <= t0[oa])
-    first, later = np.where(a_first, oa, ob), np.where(a_first, ob, oa)
-    takes = (acq[later] >= 0) & (acq[later] % 2 == 0)
-    overlap = ~(a_first | b_first)
-    parks = ~overlap & takes & (rel[first] >= NEVER)
-    bad = np.flatnonzero(overlap | parks)
-    if len(bad):
-        _refuse(occs, int(oa[bad[0]]), int(ob[bad[0]]), int(first[bad[0]]), int(later[bad[0]]), bool(overlap[bad[0]]))
-    first, later = first[takes], later[takes]
-    n_events = {v: 2 * len(p.steps) for v, p in plan.plans.items()}
-    if not len(first):
-        return Adg(n_events, {})
     n_veh = max(len(veh_id), 1)
-    key = (veh[later] * (int(acq.max(initial=0)) + 1) + acq[later]) * n_veh + veh[first]
-    seq = np.arange(len(key))
-    order = np.lexsort((seq, -rel[first], key))  # per key: the latest release, the first visited among equals
-    keys_sorted = key[order]
-    winner = order[np.flatnonzero(np.r_[True, keys_sorted[1:] != keys_sorted[:-1]])]
-    _, first_seen = np.unique(key, return_index=True)  # the dependencies in the order their keys were first met
-    win_of = dict(zip(key[winner].tolist(), winner.tolist(), strict=True))
+    n_ev = [2 * len(p.steps) for p in plan.plans.values()]
+    slot_base = np.concatenate([[0], np.cumsum(n_ev)[:-1]]).astype(np.int64) if n_ev else np.zeros(1, np.int64)
+    n_slots = max(int(sum(n_ev)), 1) * n_veh
+    best_rel, best_later, best_first = (np.zeros(n_slots, dtype=np.int64) for _ in range(3))
+    order = np.full(n_slots, -1, dtype=np.int64)
+    bad = np.zeros(3, dtype=np.int64)
+    visit_pairs(indptr, members, key_of, np.array([veh_id[o.vehicle] for o in occs], dtype=np.int64),
+                np.array([o.t0 for o in occs], dtype=np.float64), np.array([o.t1 for o in occs], dtype=np.float64),
+                np.array([o.acquire for o in occs], dtype=np.int64), np.array([o.release for o in occs],
+                                                                             dtype=np.int64),
+                slot_base, n_veh, NEVER, best_rel, best_later, best_first, order, bad)
+    if bad[0]:
+        _refuse(occs, int(bad[1]), int(bad[2]), int(bad[1]), int(bad[2]), bool(bad[0] == 1))
+    filled = np.flatnonzero(order >= 0)
+    filled = filled[np.argsort(order[filled], kind="stable")]
     deps: dict[str, dict[int, list[Dependency]]] = defaultdict(lambda: defaultdict(list))
-    for i in np.sort(first_seen).tolist():
-        w = win_of[int(key[i])]
-        lo, fo = occs[int(later[w])], occs[int(first[w])]
+    for lo_i, fo_i in zip(best_later[filled].tolist(), best_first[filled].tolist(), strict=True):
+        lo, fo = occs[lo_i], occs[fo_i]
         deps[lo.vehicle][lo.acquire].append(Dependency(lo.vehicle, lo.acquire, fo.vehicle, fo.release, lo.resource))
+    n_events = {v: 2 * len(p.steps) for v, p in plan.plans.items()}
     return Adg(n_events, {v: dict(by) for v, by in deps.items()})
 
 
-def _pairs(occs: list[Occupation], zones: Conflicts) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Every pair ``(b, a)`` of occupation indices where ``b``'s resource conflicts with ``a``'s (``a``'s model
-    and resource reach it), ``b`` in order and for each the ``a`` in order; same-vehicle pairs included."""
+def _conflict_lists(occs: list[Occupation], zones: Conflicts
+                    ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Per key (a model and a resource), the occupations (in order) whose resource conflicts with it: CSR
+    ``indptr``, ``members``; and each occupation's own key (-1: none conflicts with it)."""
     models = sorted({o.model for o in occs})
-    by_res: dict[tuple[str, Resource], list[int]] = defaultdict(list)
-    for i, o in enumerate(occs):
-        for mb in models:
-            for r in zones.conflicts(o.model, o.resource, mb):
-                by_res[(mb, r)].append(i)
-    arrays = {key: np.array(x, dtype=np.int64) for key, x in by_res.items()}
-    none = np.zeros(0, dtype=np.int64)
-    lists = [arrays.get((o.model, o.resource), none) for o in occs]
-    lengths = np.array([len(x) for x in lists], dtype=np.int64)
-    ob = np.repeat(np.arange(len(occs), dtype=np.int64), lengths)
-    oa = np.concatenate(lists) if lists else none
-    return ob, oa
+    keys: dict[tuple[str, Resource], int] = {}
+    reach: dict[tuple[str, Resource], NDArray[np.int64]] = {}
+    rows: list[NDArray[np.int64]] = []
+    for o in occs:
+        got = reach.get((o.model, o.resource))
+        if got is None:
+            ids = [keys.setdefault((mb, r), len(keys))
+                   for mb in models for r in zones.conflicts(o.model, o.resource, mb)]
+            got = reach[(o.model, o.resource)] = np.array(ids, dtype=np.int64)
+        rows.append(got)
+    lengths = np.array([len(x) for x in rows], dtype=np.int64)
+    occ = np.repeat(np.arange(len(occs), dtype=np.int64), lengths)
+    key = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
+    by_key = np.argsort(key, kind="stable")  # grouped by key, each group in the occupations' order
+    members = occ[by_key]
+    indptr = np.zeros(len(keys) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(key, minlength=len(keys)), out=indptr[1:])
+    key_of = np.array([keys.get((o.model, o.resource), -1) for o in occs], dtype=np.int64)
+    return indptr, members, key_of
 
 
 def _refuse(occs: list[Occupation], a: int, b: int, first: int, later: int, overlap: bool) -> None:

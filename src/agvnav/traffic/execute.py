@@ -395,7 +395,7 @@ def _stopped(delays: Delays, v: str, t: float) -> bool:
 
 def _in_stop(stops: tuple[tuple[float, float], ...], t: float) -> bool:
     """True when ``t`` (s) lies in one of the stops ``(start, end)`` (s), ``start <= t < end``."""
-    for a, b in stops:
+    for a, b in stops:  # noqa: SIM110 - a loop, not a generator: asked for every vehicle at every tick
         if a <= t < b:
             return True
     return False
