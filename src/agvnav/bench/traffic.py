@@ -12,6 +12,12 @@ exact edges, brute-force collision check every 0.2 s; the closed loop is too slo
   per-vehicle delays: speed x U(0.7, 1.3), a Poisson number of stops (mean 2 in the window) of U(0, 60) s;
 * **lane swap**: four and eight vehicles swapping ends on ``lane_swap`` (one two-way lane, one passing bay).
 
+Runs: :data:`TOTAL_RUNS` (1,000, the issue's figure) Monte Carlo runs over the ten Monte Carlo rows, 100 per
+row (:func:`runs_per_row`; ``--runs N`` sets the runs per row, ``--quick`` runs 2 per row on the two smaller
+fleets); the ``all_runs`` row sums them (:func:`_total_row`: runs, collisions, deadlocks over every row).
+A run of 30 vehicles costs 20-25 s of CPU (the replanning execution replans dozens of times), so the default
+bench takes hours: run it in the background.
+
 Every row is judged against the issue's targets (:func:`judge`): ``missed_targets`` names each one the
 row misses (``-`` when it meets them all): collisions, deadlocks, missed conflicts (collisions the zones
 did not foresee, and the brute-force check of the zones themselves, ``zone_missed``), unserved vehicles,
@@ -23,11 +29,13 @@ Each run is executed twice on our side: through the ADG of the first plan, and w
 conflict counts cover both executions. The same jobs run under the openTCS-like baseline
 (:mod:`agvnav.traffic.baseline`) with the same delays.
 Throughput is deliveries per hour over the first :data:`WINDOW_S` s (every vehicle still has work then);
-``gain_pct`` is ours against the baseline's. The throughput target is judged on the **hall** rows
-(``case`` ``warehouse``): the same hall, stations, jobs and delays, each controller on the layout it can
-run: ours on the two-way lanes of ``warehouse_grid`` (the plan and the ADG keep head-on traffic safe),
-the baseline on the one-way aisles of ``warehouse_oneway`` (on two-way lanes it deadlocks, so an
-openTCS user draws one-way aisles); ``baseline_saturates`` marks the fleet size where the baseline's
+``gain_pct`` is ours against the baseline's. The ``layouts`` column says which layout each controller ran on
+and which figure is judged. The throughput target is judged on the **hall** rows
+(``case`` ``warehouse``, ``layouts`` "ours: warehouse_grid, baseline: warehouse_oneway (judged)": a change
+of layout between the two controllers, not the same lanes): the same hall, stations, jobs and delays, each
+controller on the layout it can run: ours on the two-way lanes of ``warehouse_grid`` (the plan and the ADG
+keep head-on traffic safe), the baseline on the one-way aisles of ``warehouse_oneway`` (on two-way lanes it
+deadlocks, so an openTCS user draws one-way aisles); ``baseline_saturates`` marks the fleet size where the baseline's
 throughput peaks there. The per-layout rows show both controllers on one layout (``baseline_peak``:
 the baseline's peak on that layout; shown, not judged). ``plan_ms`` is the single-vehicle
 query of :func:`agvnav.bench.traffic_planning.bench_planning`; ``replan_ms`` the median time to plan 100

@@ -179,7 +179,8 @@ def mapping(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT
 @user_errors
 def traffic(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT,
             runs: int = typer.Option(0, "--runs", min=0, help="Monte Carlo runs per row (0: the default, 1,000 runs "
-                                     "over the 10 rows, 100 per row; 2 per row with --quick); minutes of CPU.")
+                                     "over the 10 rows, 100 per row; 2 per row with --quick); the default takes hours "
+                                     "of CPU.")
             ) -> None:
     """Traffic control: collisions and deadlocks under delays, deliveries/h beside the baseline, planning time."""
     try:
