@@ -38,7 +38,9 @@ def test_a_gain_under_target_away_from_saturation_is_not_judged() -> None:
 @pytest.mark.slow
 def test_the_quick_bench_rows_are_judged_from_their_own_figures() -> None:
     rows = traffic.run(quick=True)
-    assert {r["case"] for r in rows} == {"lane_swap", *traffic.NETWORKS, traffic.HALL}
+    assert {r["case"] for r in rows} == {"lane_swap", *traffic.NETWORKS, traffic.HALL, traffic.TOTAL}
+    total = next(r for r in rows if r["case"] == traffic.TOTAL)
+    assert total["runs"] == traffic.QUICK_RUNS * (len(traffic.SWAP_SIZES) + 2 * len(traffic.NETWORKS))
     for r in rows:
         assert r["missed_targets"] == traffic.judge(r)
         assert r["collisions"] == 0 and r["deadlocks"] == 0 and r["zone_missed"] == 0
