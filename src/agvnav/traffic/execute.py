@@ -263,6 +263,7 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
     for r in routes:
         _index_route(r, geoms, speed, shapes)
     collider = _Collider(routes)
+    zones = _KeptConflicts(zones)
     states: dict[str, _State] = {}
     for r in routes:
         n = network.nodes[r.start]
@@ -326,6 +327,22 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
     res.finished = {v: states[v].phase == "done" for v in ids}
     res.steps_done = {v: states[v].k for v in ids}
     return res
+
+
+class _KeptConflicts:
+    """The zones' relation, each answer kept (the executor asks the same few resources again and again)."""
+
+    def __init__(self, zones: Conflicts) -> None:
+        self.zones = zones
+        self.kept: dict[tuple[str, Resource, str], frozenset[Resource]] = {}
+
+    def conflicts(self, model_a: str, res_a: Resource, model_b: str) -> frozenset[Resource]:
+        """:meth:`Conflicts.conflicts`, asked once per model pair and resource."""
+        key = (model_a, res_a, model_b)
+        got = self.kept.get(key)
+        if got is None:
+            got = self.kept[key] = self.zones.conflicts(model_a, res_a, model_b)
+        return got
 
 
 class _Shapes:
