@@ -35,6 +35,7 @@ from agvnav.sensors import (
 )
 from agvnav.sim import bodies
 from agvnav.traffic import _sipp  # noqa: F401 - its kernels are in the property test
+from agvnav.traffic._collide import first_overlap, pad_footprints
 from agvnav.vehicles.tricycle import hermite_poses
 
 pytestmark = pytest.mark.usefixtures("restore_jit_mode")
@@ -284,6 +285,7 @@ NESTED = {
     "_node_intervals": "sipp", "_search": "sipp", "_n_classes": "sipp", "scratch_size": "sipp",
     "twist_table_pose": "twist_table_poses", "segment_hits_box": "bodies_block_sight",
     "_segments_gap": "footprint_gaps", "point_in_polygon": "points_in_polygon",
+    "place": "first_overlap", "_separates": "first_overlap", "polygons_overlap": "first_overlap",
     "release_held": "reserve", "chain_occupations": "reserve", "_heap_up": "dijkstra_to", "_heap_down": "dijkstra_to",
 }
 
@@ -320,6 +322,38 @@ def _traffic_kernel_outputs(rng: np.random.Generator) -> Outputs:
     plan = plan_fleet(net, tasks, _TouchZones(net))
     times = [np.array([(s.t_start, s.t_end) for s in p.steps] or [(0.0, 0.0)]) for p in plan.plans.values()]
     return {name: list(times) for name in ("sipp", "dijkstra_to", "reserve", "release", "safe_intervals")}
+
+
+def _collide_kernel_outputs(rng: np.random.Generator) -> Outputs:
+    """The executor's collision kernel (``traffic._collide``): the first overlapping pair of random boxes."""
+    out = []
+    for _ in range(300):
+        n = int(rng.integers(2, 10))
+        half = rng.uniform(0.2, 0.8, (n, 2))
+        feet = [np.array([[a, -b], [a, b], [-a, b], [-a, -b]]) for a, b in half]
+        fps, counts = pad_footprints(feet)
+        xs, ys, hs = rng.uniform(0.0, 4.0, n), rng.uniform(0.0, 4.0, n), rng.uniform(-math.pi, math.pi, n)
+        out.append(first_overlap(xs, ys, hs, np.hypot(half[:, 0], half[:, 1]), fps, counts, np.zeros((4, 2)),
+                                 np.zeros((4, 2))))
+    from agvnav.traffic._adg_fast import visit_pairs  # the ADG's pair visit on random occupations
+
+    visits = []
+    for _ in range(50):
+        n, n_veh, n_keys = int(rng.integers(2, 40)), int(rng.integers(2, 5)), int(rng.integers(1, 6))
+        key_of = rng.integers(-1, n_keys, n)
+        members = rng.integers(0, n, 3 * n_keys)
+        indptr = np.concatenate([[0], np.sort(rng.integers(0, 3 * n_keys, n_keys - 1)), [3 * n_keys]])
+        t0 = rng.uniform(0.0, 100.0, n)
+        t1 = t0 + rng.uniform(0.0, 1.0, n)
+        veh, acq = rng.integers(0, n_veh, n), rng.integers(-1, 6, n)
+        rel = np.where(rng.uniform(size=n) < 0.1, 1 << 60, acq + 1)
+        slots = n_veh * 6 * n_veh
+        arrays = [np.zeros(slots, dtype=np.int64) for _ in range(3)] + [np.full(slots, -1, dtype=np.int64),
+                                                                       np.zeros(3, dtype=np.int64)]
+        count = visit_pairs(indptr.astype(np.int64), members, key_of, veh, t0, t1, acq, rel,
+                            np.arange(n_veh, dtype=np.int64) * 6, n_veh, 1 << 60, *arrays)
+        visits.append(np.concatenate([[count], *arrays]).astype(np.float64))
+    return {"first_overlap": [np.array(out, dtype=np.float64)], "visit_pairs": visits}
 
 
 def _triangulation_kernel_outputs(rng: np.random.Generator) -> Outputs:
@@ -400,6 +434,7 @@ def _outputs(compiled: bool) -> Outputs:
     out.update(_triangulation_kernel_outputs(rng))
     out.update(_planning_kernel_outputs(rng))
     out.update(_traffic_kernel_outputs(rng))
+    out.update(_collide_kernel_outputs(rng))
     return out
 
 

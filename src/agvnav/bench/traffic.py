@@ -12,6 +12,12 @@ exact edges, brute-force collision check every 0.2 s; the closed loop is too slo
   per-vehicle delays: speed x U(0.7, 1.3), a Poisson number of stops (mean 2 in the window) of U(0, 60) s;
 * **lane swap**: four and eight vehicles swapping ends on ``lane_swap`` (one two-way lane, one passing bay).
 
+Runs: :data:`TOTAL_RUNS` (1,000, the issue's figure) Monte Carlo runs over the ten Monte Carlo rows, 100 per
+row (:func:`runs_per_row`; ``--runs N`` sets the runs per row, ``--quick`` runs 2 per row on the two smaller
+fleets); the ``all_runs`` row sums them (:func:`_total_row`: runs, collisions, deadlocks over every row).
+A run of 30 vehicles costs 20-25 s of CPU (the replanning execution replans dozens of times), so the default
+bench takes hours: run it in the background.
+
 Every row is judged against the issue's targets (:func:`judge`): ``missed_targets`` names each one the
 row misses (``-`` when it meets them all): collisions, deadlocks, missed conflicts (collisions the zones
 did not foresee, and the brute-force check of the zones themselves, ``zone_missed``), unserved vehicles,
@@ -23,11 +29,13 @@ Each run is executed twice on our side: through the ADG of the first plan, and w
 conflict counts cover both executions. The same jobs run under the openTCS-like baseline
 (:mod:`agvnav.traffic.baseline`) with the same delays.
 Throughput is deliveries per hour over the first :data:`WINDOW_S` s (every vehicle still has work then);
-``gain_pct`` is ours against the baseline's. The throughput target is judged on the **hall** rows
-(``case`` ``warehouse``): the same hall, stations, jobs and delays, each controller on the layout it can
-run: ours on the two-way lanes of ``warehouse_grid`` (the plan and the ADG keep head-on traffic safe),
-the baseline on the one-way aisles of ``warehouse_oneway`` (on two-way lanes it deadlocks, so an
-openTCS user draws one-way aisles); ``baseline_saturates`` marks the fleet size where the baseline's
+``gain_pct`` is ours against the baseline's. The ``layouts`` column says which layout each controller ran on
+and which figure is judged. The throughput target is judged on the **hall** rows
+(``case`` ``warehouse``, ``layouts`` "ours: warehouse_grid, baseline: warehouse_oneway (judged)": a change
+of layout between the two controllers, not the same lanes): the same hall, stations, jobs and delays, each
+controller on the layout it can run: ours on the two-way lanes of ``warehouse_grid`` (the plan and the ADG
+keep head-on traffic safe), the baseline on the one-way aisles of ``warehouse_oneway`` (on two-way lanes it
+deadlocks, so an openTCS user draws one-way aisles); ``baseline_saturates`` marks the fleet size where the baseline's
 throughput peaks there. The per-layout rows show both controllers on one layout (``baseline_peak``:
 the baseline's peak on that layout; shown, not judged). ``plan_ms`` is the single-vehicle
 query of :func:`agvnav.bench.traffic_planning.bench_planning`; ``replan_ms`` the median time to plan 100
@@ -60,9 +68,9 @@ from agvnav.traffic.stages import plan_fleet_staged
 __all__ = ["PRIORITY", "TITLE", "judge", "run", "run_once"]
 
 TITLE = "Traffic: collisions and deadlocks under delays, deliveries/h beside the baseline, planning (issue 30)"
-PRIORITY = ("case", "vehicles", "runs", "missed_targets", "collisions", "deadlocks", "deliveries_per_h",
+PRIORITY = ("case", "vehicles", "runs", "layouts", "missed_targets", "collisions", "deadlocks", "deliveries_per_h",
             "baseline_deliveries_per_h", "gain_pct", "baseline_deadlocks", "baseline_saturates", "baseline_peak",
-            "layouts", "unserved", "plan_ms",
+            "unserved", "plan_ms",
             "replan_ms", "replan_cpu_ms", "missed_conflicts", "zone_missed",
             "replan_deliveries_per_h", "replans")
 
@@ -72,6 +80,12 @@ JOBS_PER_VEHICLE = 5
 WINDOW_S = 600.0
 HORIZON_S = 3000.0
 SIZES = (5, 10, 20, 30)
+#: Monte Carlo runs of the whole bench by default (the issue's target: 0 collisions and 0 deadlocks over 1,000 runs),
+#: spread evenly over the rows that run (:func:`runs_per_row`); ``--quick``: :data:`QUICK_RUNS` per row.
+TOTAL_RUNS = 1000
+QUICK_RUNS = 2
+#: The row that sums the Monte Carlo rows (the issue's 1,000-run figure; the hall rows reuse the per-layout runs).
+TOTAL = "all_runs"
 #: The warehouse layouts: two-way lanes (the baseline meets head-on and deadlocks), and one-way aisles joined by
 #: a ring (drawn for the baseline, as openTCS users do: the throughput comparison).
 NETWORKS = ("warehouse_grid", "warehouse_oneway")
@@ -219,7 +233,7 @@ def _hall_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         row.update({k: v for k, v in b.items() if k.startswith("baseline_")})
         row.pop("baseline_peak", None)
         d, bd = row["deliveries_per_h"], row["baseline_deliveries_per_h"]
-        row.update(case=HALL, layouts=f"{OURS_LAYOUT} / {BASELINE_LAYOUT}",
+        row.update(case=HALL, layouts=f"ours: {OURS_LAYOUT}, baseline: {BASELINE_LAYOUT} (judged)",
                    gain_pct=100.0 * (d / bd - 1.0) if bd > 0 else float("inf"),
                    zone_missed=r["zone_missed"] + b["zone_missed"])
         out.append(row)
@@ -254,12 +268,35 @@ def replan_ms(zones_of: Any = None, repeats: int = 3, n: int = 100, side: int = 
             "replan_unserved": float(unserved)}
 
 
-def run(quick: bool = False, seed: int = 0) -> list[dict[str, Any]]:
-    """The table's rows: the lane swap, each fleet size, then the planning times (module doc)."""
+def runs_per_row(quick: bool = False, total: int = TOTAL_RUNS) -> int:
+    """Runs per Monte Carlo row so that the rows together make at least ``total`` runs (``--quick``: a few)."""
+    if quick:
+        return QUICK_RUNS
+    n_rows = len(SWAP_SIZES) + len(NETWORKS) * len(SIZES)
+    return -(-total // n_rows)
+
+
+def _total_row(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The Monte Carlo rows summed (lane swap and both layouts; the hall rows are these runs paired again)."""
+    mc = [r for r in rows if r["case"] in ("lane_swap", *NETWORKS)]
+    keys = ("runs", "collisions", "deadlocks", "conflict_violations", "missed_conflicts", "unserved", "replans",
+            "replans_tried")
+    row: dict[str, Any] = {k: sum(r[k] for r in mc) for k in keys}
+    sizes = [int(r["vehicles"]) for r in mc]
+    row.update(case=TOTAL, vehicles=f"{min(sizes)}-{max(sizes)}" if sizes else "-", layouts="lane_swap + both layouts",
+               zone_missed=max((r["zone_missed"] for r in mc), default=0))
+    return row
+
+
+def run(quick: bool = False, seed: int = 0, runs: int | None = None) -> list[dict[str, Any]]:
+    """The table's rows: the lane swap, each fleet size, the hall comparison, the total, then the planning times
+    (module doc). ``runs``: Monte Carlo runs per row (default :func:`runs_per_row`)."""
     from agvnav.bench.traffic_planning import bench_planning  # noqa: PLC0415
 
     sizes = SIZES[:2] if quick else SIZES
-    runs = 2 if quick else 200
+    runs = runs_per_row(quick) if runs is None else runs
+    if runs < 1:
+        raise ValueError(f"runs per row must be >= 1, got {runs}")
     rows = []
     swap_net = load_network("lane_swap")
     swap_zones = _zones(swap_net)
@@ -268,7 +305,7 @@ def run(quick: bool = False, seed: int = 0) -> list[dict[str, Any]]:
     for n in SWAP_SIZES:
         rows.append(_row("lane_swap", n, [run_once(swap_net, swap_zones, _swap_tasks(n), seed + k)
                                           for k in range(runs)]))
-        rows[-1]["zone_missed"] = swap_missed
+        rows[-1].update(zone_missed=swap_missed, layouts="both: lane_swap")
     for name in NETWORKS:
         net = load_network(name)
         zones = _zones(net)
@@ -279,9 +316,10 @@ def run(quick: bool = False, seed: int = 0) -> list[dict[str, Any]]:
                 rng = np.random.default_rng([seed, n, k])
                 results.append(run_once(net, zones, _warehouse_tasks(net, n, rng), seed + 1000 * n + k))
             rows.append(_row(name, n, results))
-            rows[-1]["zone_missed"] = missed
+            rows[-1].update(zone_missed=missed, layouts=f"both: {name} (shown)")
     rows += _hall_rows(rows)
     _saturation(rows)
+    rows.append(_total_row(rows))
     planning = bench_planning(quick)
     rp = replan_ms(repeats=3 if quick else 11)
     for r in rows:

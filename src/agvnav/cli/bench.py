@@ -177,9 +177,22 @@ def mapping(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT
 
 @bench_app.command("traffic")
 @user_errors
-def traffic(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT) -> None:
+def traffic(json: bool = JSON_OPT, quick: bool = QUICK_OPT, seed: int = SEED_OPT, wide: bool = WIDE_OPT,
+            runs: int = typer.Option(0, "--runs", min=0, help="Monte Carlo runs per row (0: the default, 1,000 runs "
+                                     "over the 10 rows, 100 per row; 2 per row with --quick); the default takes hours "
+                                     "of CPU.")
+            ) -> None:
     """Traffic control: collisions and deadlocks under delays, deliveries/h beside the baseline, planning time."""
-    _run("traffic", json, quick, seed, wide)
+    try:
+        from agvnav.bench import traffic as bench
+
+        key = f"bench traffic{' --quick' if quick else ''}{f' --runs {runs}' if runs else ''}"
+        with RunProgress("bench traffic", None, "", key=key):
+            records = bench.run(quick=quick, seed=seed, runs=runs or None)
+    except ModuleNotFoundError as exc:
+        raise _missing_extra("traffic", exc) or exc from None
+    emit("traffic", records, as_json=json, title=bench.TITLE, seed=seed, quick=quick, wide=wide,
+         priority=bench.PRIORITY)
 
 
 @bench_app.command("fleet")

@@ -30,6 +30,10 @@ from collections import defaultdict
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+import numpy as np
+from numpy.typing import NDArray
+
+from agvnav.traffic._adg_fast import visit_pairs
 from agvnav.traffic.plan import NEVER, Conflicts, FleetPlan, Occupation, Resource
 
 __all__ = ["Adg", "Dependency", "PlanConflictError", "build_adg"]
@@ -91,23 +95,34 @@ class Adg:
         return out
 
     def is_acyclic(self) -> bool:
-        """Kahn's algorithm over :meth:`edges`."""
-        nodes = [(v, e) for v, n in self.n_events.items() for e in range(n)]
-        indeg = dict.fromkeys(nodes, 0)
-        succ: dict[tuple[str, int], list[tuple[str, int]]] = defaultdict(list)
-        for a, b in self.edges():
-            succ[a].append(b)
-            indeg[b] += 1
-        stack = [n for n, d in indeg.items() if d == 0]
+        """Kahn's algorithm over :meth:`edges` (events numbered in one integer range, the chains implicit)."""
+        base: dict[str, int] = {}
+        total = 0
+        for v, n in self.n_events.items():
+            base[v] = total
+            total += n
+        last = [False] * total
+        for v, n in self.n_events.items():
+            if n:
+                last[base[v] + n - 1] = True
+        indeg = [0 if i == 0 or last[i - 1] else 1 for i in range(total)]  # the chain edge into each event
+        succ: list[list[int]] = [[] for _ in range(total)]
+        for v, by_event in self.deps.items():
+            for e, lst in by_event.items():
+                for d in lst:
+                    succ[base[d.after] + d.after_event].append(base[v] + e)
+                    indeg[base[v] + e] += 1
+        stack = [i for i in range(total) if indeg[i] == 0]
         seen = 0
         while stack:
-            n = stack.pop()
+            i = stack.pop()
             seen += 1
-            for m in succ[n]:
+            nxt = succ[i] if last[i] else [*succ[i], i + 1]
+            for m in nxt:
                 indeg[m] -= 1
                 if indeg[m] == 0:
                     stack.append(m)
-        return seen == len(nodes)
+        return seen == total
 
     @property
     def n_dependencies(self) -> int:
@@ -116,46 +131,74 @@ class Adg:
 
 
 def build_adg(plan: FleetPlan, zones: Conflicts) -> Adg:
-    """The ADG of a valid fleet plan (module doc); :class:`PlanConflictError` for an invalid one."""
+    """The ADG of a valid fleet plan (module doc); :class:`PlanConflictError` for an invalid one.
+
+    Every pair of conflicting occupations of two vehicles is visited (each twice, in the order of the
+    plans' occupations, :func:`agvnav.traffic._adg_fast.visit_pairs`): the order of passage, the plan's
+    validity and the latest dependency per vehicle pair and event.
+    """
     occs = [o for p in plan.plans.values() for o in p.occupations()]
-    by_res: dict[tuple[str, Resource], list[Occupation]] = defaultdict(list)
-    models = sorted({o.model for o in occs})
-    for o in occs:
-        for mb in models:
-            for r in zones.conflicts(o.model, o.resource, mb):
-                by_res[(mb, r)].append(o)
-    best: dict[tuple[str, int, str], Dependency] = {}
-    for ob in occs:
-        for oa in by_res.get((ob.model, ob.resource), ()):
-            if oa.vehicle == ob.vehicle:
-                continue
-            if oa.t1 <= ob.t0:
-                first, later = oa, ob
-            elif ob.t1 <= oa.t0:
-                first, later = ob, oa
-            else:
-                raise PlanConflictError(
-                    f"vehicles {oa.vehicle!r} and {ob.vehicle!r} plan conflicting {oa.resource} and {ob.resource} at "
-                    f"overlapping times [{oa.t0:.2f}, {oa.t1:.2f}] and [{ob.t0:.2f}, {ob.t1:.2f}] s")
-            _depend(best, first, later)
+    indptr, members, key_of = _conflict_lists(occs, zones)
+    veh_id = {v: i for i, v in enumerate(plan.plans)}
+    n_veh = max(len(veh_id), 1)
+    n_ev = [2 * len(p.steps) for p in plan.plans.values()]
+    slot_base = np.concatenate([[0], np.cumsum(n_ev)[:-1]]).astype(np.int64) if n_ev else np.zeros(1, np.int64)
+    n_slots = max(int(sum(n_ev)), 1) * n_veh
+    best_rel, best_later, best_first = (np.zeros(n_slots, dtype=np.int64) for _ in range(3))
+    order = np.full(n_slots, -1, dtype=np.int64)
+    bad = np.zeros(3, dtype=np.int64)
+    visit_pairs(indptr, members, key_of, np.array([veh_id[o.vehicle] for o in occs], dtype=np.int64),
+                np.array([o.t0 for o in occs], dtype=np.float64), np.array([o.t1 for o in occs], dtype=np.float64),
+                np.array([o.acquire for o in occs], dtype=np.int64), np.array([o.release for o in occs],
+                                                                             dtype=np.int64),
+                slot_base, n_veh, NEVER, best_rel, best_later, best_first, order, bad)
+    if bad[0]:
+        _refuse(occs, int(bad[1]), int(bad[2]), int(bad[1]), int(bad[2]), bool(bad[0] == 1))
+    filled = np.flatnonzero(order >= 0)
+    filled = filled[np.argsort(order[filled], kind="stable")]
     deps: dict[str, dict[int, list[Dependency]]] = defaultdict(lambda: defaultdict(list))
-    for d in best.values():
-        deps[d.vehicle][d.event].append(d)
+    for lo_i, fo_i in zip(best_later[filled].tolist(), best_first[filled].tolist(), strict=True):
+        lo, fo = occs[lo_i], occs[fo_i]
+        deps[lo.vehicle][lo.acquire].append(Dependency(lo.vehicle, lo.acquire, fo.vehicle, fo.release, lo.resource))
     n_events = {v: 2 * len(p.steps) for v, p in plan.plans.items()}
     return Adg(n_events, {v: dict(by) for v, by in deps.items()})
 
 
-def _depend(best: dict[tuple[str, int, str], Dependency], first: Occupation, later: Occupation) -> None:
-    """``later``'s taking waits for ``first``'s giving up; only step starts take resources (module doc)."""
-    if later.acquire < 0 or later.acquire % 2 == 1:
-        return
-    if first.release >= NEVER:
-        raise PlanConflictError(f"vehicle {later.vehicle!r} plans {later.resource} after {first.vehicle!r} parks "
-                                f"holding {first.resource}")
-    key = (later.vehicle, later.acquire, first.vehicle)
-    old = best.get(key)
-    if old is None or old.after_event < first.release:
-        best[key] = Dependency(later.vehicle, later.acquire, first.vehicle, first.release, later.resource)
+def _conflict_lists(occs: list[Occupation], zones: Conflicts
+                    ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Per key (a model and a resource), the occupations (in order) whose resource conflicts with it: CSR
+    ``indptr``, ``members``; and each occupation's own key (-1: none conflicts with it)."""
+    models = sorted({o.model for o in occs})
+    keys: dict[tuple[str, Resource], int] = {}
+    reach: dict[tuple[str, Resource], NDArray[np.int64]] = {}
+    rows: list[NDArray[np.int64]] = []
+    for o in occs:
+        got = reach.get((o.model, o.resource))
+        if got is None:
+            ids = [keys.setdefault((mb, r), len(keys))
+                   for mb in models for r in zones.conflicts(o.model, o.resource, mb)]
+            got = reach[(o.model, o.resource)] = np.array(ids, dtype=np.int64)
+        rows.append(got)
+    lengths = np.array([len(x) for x in rows], dtype=np.int64)
+    occ = np.repeat(np.arange(len(occs), dtype=np.int64), lengths)
+    key = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
+    by_key = np.argsort(key, kind="stable")  # grouped by key, each group in the occupations' order
+    members = occ[by_key]
+    indptr = np.zeros(len(keys) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(key, minlength=len(keys)), out=indptr[1:])
+    key_of = np.array([keys.get((o.model, o.resource), -1) for o in occs], dtype=np.int64)
+    return indptr, members, key_of
+
+
+def _refuse(occs: list[Occupation], a: int, b: int, first: int, later: int, overlap: bool) -> None:
+    """Raise the :class:`PlanConflictError` of the first invalid pair met."""
+    oa, ob, fo, lo = occs[a], occs[b], occs[first], occs[later]
+    if overlap:
+        raise PlanConflictError(
+            f"vehicles {oa.vehicle!r} and {ob.vehicle!r} plan conflicting {oa.resource} and {ob.resource} at "
+            f"overlapping times [{oa.t0:.2f}, {oa.t1:.2f}] and [{ob.t0:.2f}, {ob.t1:.2f}] s")
+    raise PlanConflictError(f"vehicle {lo.vehicle!r} plans {lo.resource} after {fo.vehicle!r} parks "
+                            f"holding {fo.resource}")
 
 
 def waits_for(adg: Adg, waiting: Mapping[str, int]) -> dict[str, set[str]]:

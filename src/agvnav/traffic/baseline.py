@@ -115,6 +115,12 @@ class BaselineAllocator:
             for r, b in crossing_blocks(network).items():
                 self.blocks[r] = self.blocks.get(r, frozenset()) | b
         self.held: dict[str, set[Resource]] = {r.vehicle: {("node", r.start)} for r in routes}
+        self.version = 0
+        """counts the claims and releases: a decision on an unchanged holding is the one made before."""
+        self._wants: dict[tuple[str, int], frozenset[Resource]] = {}
+        self._reach: dict[tuple[str, int, str], frozenset[Resource]] = {}
+        self._conf: dict[tuple[str, Resource, str], frozenset[Resource]] = {}
+        self._decided: dict[tuple[str, int], tuple[int, tuple[str, Resource] | None]] = {}
 
     def _span(self, vehicle: str, k: int) -> int:
         """How many steps from ``k`` on a claim covers: ``lookahead``, and on while the next one enters a block."""
@@ -124,34 +130,66 @@ class BaselineAllocator:
             n += 1
         return n
 
-    def _wanted(self, vehicle: str, k: int) -> set[Resource]:
-        steps = self.routes[vehicle].steps
-        want: set[Resource] = set()
-        for st in steps[k:k + self._span(vehicle, k)]:
-            want.update(_step_resources(st.traversal))
-        for r in list(want):
-            want |= self.blocks.get(r, frozenset())
-        return want
+    def _wanted(self, vehicle: str, k: int) -> frozenset[Resource]:
+        """The claim of step ``k``: its resources, the next ones the span covers and their blocks (kept)."""
+        got = self._wants.get((vehicle, k))
+        if got is None:
+            steps = self.routes[vehicle].steps
+            want: set[Resource] = set()
+            for st in steps[k:k + self._span(vehicle, k)]:
+                want.update(_step_resources(st.traversal))
+            for r in list(want):
+                want |= self.blocks.get(r, frozenset())
+            got = self._wants[(vehicle, k)] = frozenset(want)
+        return got
 
-    def _clash(self, vehicle: str, want: set[Resource]) -> tuple[str, Resource] | None:
+    def _conflicts(self, model: str, r: Resource, other: str) -> frozenset[Resource]:
+        """The zones' relation, kept per model pair and resource."""
+        key = (model, r, other)
+        got = self._conf.get(key)
+        if got is None:
+            got = self._conf[key] = self.zones.conflicts(model, r, other)
+        return got
+
+    def _reached(self, vehicle: str, k: int, other: str) -> frozenset[Resource]:
+        """Every resource a vehicle of model ``other`` must not hold for ``vehicle``'s claim of step ``k``."""
+        key = (vehicle, k, other)
+        got = self._reach.get(key)
+        if got is None:
+            model = self.routes[vehicle].limits.model
+            out: set[Resource] = set()
+            for r in self._wanted(vehicle, k):
+                out |= self._conflicts(model, r, other)
+            got = self._reach[key] = frozenset(out)
+        return got
+
+    def _clash(self, vehicle: str, k: int) -> tuple[str, Resource] | None:
+        """The first other vehicle (route order) holding something the claim of step ``k`` conflicts with, and the
+        first resource of the claim that clashes; decided again only after a claim or a release."""
+        got = self._decided.get((vehicle, k))
+        if got is not None and got[0] == self.version:
+            return got[1]
         model = self.routes[vehicle].limits.model
+        found: tuple[str, Resource] | None = None
         for u, held in self.held.items():
-            if u == vehicle:
-                continue
             mu = self.routes[u].limits.model
-            for r in want:
-                if held & self.zones.conflicts(model, r, mu):
-                    return u, r
-        return None
+            if u == vehicle or held.isdisjoint(self._reached(vehicle, k, mu)):
+                continue
+            r = next(r for r in self._wanted(vehicle, k) if not held.isdisjoint(self._conflicts(model, r, mu)))
+            found = (u, r)
+            break
+        self._decided[(vehicle, k)] = (self.version, found)
+        return found
 
     def may_start(self, vehicle: str, k: int, t: float) -> str | None:
         """None when the step's claim succeeds now, else the first resource that clashes."""
-        c = self._clash(vehicle, self._wanted(vehicle, k))
+        c = self._clash(vehicle, k)
         return None if c is None else f"{c[1][0]}:{c[1][1]}"
 
     def started(self, vehicle: str, k: int, t: float) -> None:
         """Claim the step's resources."""
         self.held[vehicle] |= self._wanted(vehicle, k)
+        self.version += 1
 
     def arrived(self, vehicle: str, k: int, t: float) -> None:
         """Free what lies behind: keep the node reached (not its block: standing at a dead end holds the dead
@@ -164,13 +202,9 @@ class BaselineAllocator:
             ahead |= self.blocks.get(r, frozenset())
         self.held[vehicle] &= ahead
         self.held[vehicle].add(("node", steps[k].traversal.edge.target))
+        self.version += 1
 
     def waiting_for(self, vehicle: str, k: int) -> set[str]:
         """The vehicles holding something the step's claim clashes with."""
-        model = self.routes[vehicle].limits.model
-        want = self._wanted(vehicle, k)
-        out = set()
-        for u, held in self.held.items():
-            if u != vehicle and any(held & self.zones.conflicts(model, r, self.routes[u].limits.model) for r in want):
-                out.add(u)
-        return out
+        return {u for u, held in self.held.items()
+                if u != vehicle and not held.isdisjoint(self._reached(vehicle, k, self.routes[u].limits.model))}

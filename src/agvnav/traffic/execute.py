@@ -9,8 +9,10 @@ until then it holds at the node (the time and the zone it waits for are recorded
 
 Checks, independent of the controller:
 
-* **collisions**: every ``dt`` the true footprints (placed at the sampled poses) of every pair of
-  vehicles whose bounding circles meet are intersected (shapely);
+* **collisions**: every ``dt`` in which a vehicle moved, the true footprints (placed at the sampled poses)
+  of every pair of vehicles whose bounding circles meet are intersected: the separating-axis test of
+  convex polygons compiled (:mod:`agvnav.traffic._collide`, checked against shapely in the tests), shapely
+  for a footprint that is not convex; the first pair in route order is reported;
 * **conflict violations**: whenever a vehicle takes a step's resources they are compared with every
   resource the others hold (the zones' relation);
 * **deadlocks**: the vehicles waiting on the controller form a cycle of waits (the controller's
@@ -23,13 +25,16 @@ a new set of routes and controller it returns takes over from the next tick (the
 kept as the first steps of the new routes). The checks above run unchanged across it.
 
 This executor replaces the closed loop (sensors, estimator, follower) by the kinematics the plan
-assumes, so a thousand Monte Carlo runs take minutes; ``agvnav.sim.fleet`` runs the same controller in
-the closed loop.
+assumes; ``agvnav.sim.fleet`` runs the same controller in the closed loop. Its cost is the tick loop in
+Python (poses from plain lists, controller decisions kept until an event or a claim changes them, the
+wait-for search only when the waits change) and, with ``replan``, the replanning itself (30 vehicles:
+20-25 s of CPU for the three executions of ``agvnav bench traffic``'s run, about half of it replanning).
 """
 
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -41,7 +46,8 @@ from shapely.geometry import Polygon
 from agvnav.geometry.angles import wrap_angle_scalar
 from agvnav.routes.network import RouteNetwork
 from agvnav.routes.planning import Traversal, VehicleLimits, edge_time
-from agvnav.traffic.adg import Adg
+from agvnav.traffic._collide import first_overlap, is_convex, pad_footprints
+from agvnav.traffic.adg import Adg, Dependency
 from agvnav.traffic.plan import Conflicts, FleetPlan, Resource
 
 __all__ = [
@@ -76,27 +82,40 @@ class Controller(Protocol):
 
 
 class AdgController:
-    """The ADG as a :class:`Controller`: step ``k`` is event ``2 k``, its arrival ``2 k + 1``."""
+    """The ADG as a :class:`Controller`: step ``k`` is event ``2 k``, its arrival ``2 k + 1``.
+
+    ``version`` counts the events marked: the blockers of a step are looked up again only after one.
+    """
 
     def __init__(self, adg: Adg) -> None:
         self.adg = adg
+        self.version = 0
+        self._blockers: dict[tuple[str, int], tuple[int, list[Dependency]]] = {}
+
+    def _blocking(self, vehicle: str, k: int) -> list[Dependency]:
+        got = self._blockers.get((vehicle, k))
+        if got is None or got[0] != self.version:
+            got = self._blockers[(vehicle, k)] = (self.version, self.adg.blockers(vehicle, 2 * k))
+        return got[1]
 
     def may_start(self, vehicle: str, k: int, t: float) -> str | None:
         """None when every dependency of the step's start is met, else the resource it waits for."""
-        b = self.adg.blockers(vehicle, 2 * k)
+        b = self._blocking(vehicle, k)
         return None if not b else f"{b[0].resource[0]}:{b[0].resource[1]}"
 
     def started(self, vehicle: str, k: int, t: float) -> None:
         """Mark the start event."""
         self.adg.mark(vehicle, 2 * k)
+        self.version += 1
 
     def arrived(self, vehicle: str, k: int, t: float) -> None:
         """Mark the arrival event."""
         self.adg.mark(vehicle, 2 * k + 1)
+        self.version += 1
 
     def waiting_for(self, vehicle: str, k: int) -> set[str]:
         """The vehicles whose events the start waits for."""
-        return {d.after for d in self.adg.blockers(vehicle, 2 * k)}
+        return {d.after for d in self._blocking(vehicle, k)}
 
 
 @dataclass(frozen=True)
@@ -206,18 +225,34 @@ class Replan(Protocol):
 
 
 class _EdgeGeom:
+    """An edge's sampled centre line as plain lists: arc length (m), x, y (m) and heading (rad) per sample."""
+
     def __init__(self, tr: Traversal) -> None:
         pts = tr.edge.curve.points
         seg = np.hypot(*np.diff(pts, axis=0).T)
-        self.cum = np.concatenate([[0.0], np.cumsum(seg)])
-        self.pts = pts
-        self.head = np.unwrap(tr.edge.curve.headings) + (math.pi if tr.mode < 0 else 0.0)
-        self.length = float(self.cum[-1])
+        cum = np.concatenate([[0.0], np.cumsum(seg)])
+        head = np.unwrap(tr.edge.curve.headings) + (math.pi if tr.mode < 0 else 0.0)
+        self.cum: list[float] = cum.tolist()
+        self.xs: list[float] = pts[:, 0].tolist()
+        self.ys: list[float] = pts[:, 1].tolist()
+        self.head: list[float] = head.tolist()
+        self.length = self.cum[-1]
 
     def pose(self, s: float) -> tuple[float, float, float]:
+        """The pose at arc length ``s`` (m, clipped to the edge): linear between samples, as ``np.interp``."""
         s = min(max(s, 0.0), self.length)
-        return (float(np.interp(s, self.cum, self.pts[:, 0])), float(np.interp(s, self.cum, self.pts[:, 1])),
-                float(np.interp(s, self.cum, self.head)))
+        cum = self.cum
+        j = bisect_right(cum, s) - 1
+        if j >= len(cum) - 1 or cum[j] == s:
+            j = min(j, len(cum) - 1)
+            return self.xs[j], self.ys[j], self.head[j]
+        return _lerp(cum, self.xs, j, s), _lerp(cum, self.ys, j, s), _lerp(cum, self.head, j, s)
+
+
+def _lerp(xp: list[float], fp: list[float], j: int, x: float) -> float:
+    """``np.interp`` between samples ``j`` and ``j + 1`` (its slope-times-offset form, for the same rounding)."""
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[j]
 
 
 def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: Controller, zones: Conflicts,
@@ -228,9 +263,11 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
     ids = [r.vehicle for r in routes]
     geoms: dict[tuple[str, int], _EdgeGeom] = {}
     speed: dict[tuple[str, int], float] = {}
+    shapes = _Shapes()
     for r in routes:
-        _index_route(r, geoms, speed)
-    radius = {r.vehicle: float(np.max(np.hypot(r.footprint[:, 0], r.footprint[:, 1]))) for r in routes}
+        _index_route(r, geoms, speed, shapes)
+    collider = _Collider(routes)
+    zones = _KeptConflicts(zones)
     states: dict[str, _State] = {}
     for r in routes:
         n = network.nodes[r.start]
@@ -241,12 +278,15 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
     by_id = {r.vehicle: r for r in routes}
     t, last_move, last_replan = 0.0, 0.0, -math.inf
     blocked: dict[str, float] = {}
+    stops = {v: tuple((a, a + d) for a, d in delays.stops.get(v, ())) for v in ids}
+    waits_seen: tuple[object, ...] = ()
+    posed = True  # poses changed since the last collision check (the first tick checks the start poses)
     while t < horizon_s:
         moved = False
         waiting: dict[str, int] = {}
         for v in ids:
             st, r = states[v], by_id[v]
-            if st.phase == "done" or _stopped(delays, v, t):
+            if st.phase == "done" or _in_stop(stops[v], t):
                 continue
             moved |= _advance(v, st, r, t, dt, controller, zones, states, geoms, speed, delays, res, waiting)
             if v in waiting:
@@ -261,17 +301,24 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
             if new is not None:
                 by_id, controller = new
                 routes = [by_id[v] for v in ids]
-                _restart(states, by_id, geoms, speed)
+                collider = _Collider(routes)
+                _restart(states, by_id, geoms, speed, shapes)
                 blocked.clear()
                 waiting = {}  # the steps waited for were the old routes'; the new controller is asked next tick
                 res.replans += 1
+                posed = True  # the footprints are checked again after a switch
         if moved:
             last_move = t
-        hit = _collision(routes, states, radius)
-        if hit is not None:
-            res.collisions.append((hit[0], hit[1], t))
-            break
-        cycle = _wait_cycle(controller, waiting)
+        if moved or posed:  # no move, no new pose: the last tick's check holds
+            posed = False
+            hit = collider.first(states)
+            if hit is not None:
+                res.collisions.append((hit[0], hit[1], t))
+                break
+        # the waits of an unchanged controller (same events marked) on the same steps form no new cycle
+        seen = (controller, getattr(controller, "version", None), tuple(waiting.items()))
+        cycle = None if seen[1] is not None and seen == waits_seen else _wait_cycle(controller, waiting)
+        waits_seen = seen
         if cycle is not None:
             res.deadlock = f"cycle of waits at {t:.1f} s: {' -> '.join(cycle)}"
             break
@@ -286,12 +333,53 @@ def execute(network: RouteNetwork, routes: Sequence[VehicleRoute], controller: C
     return res
 
 
-def _index_route(r: VehicleRoute, geoms: dict[tuple[str, int], _EdgeGeom], speed: dict[tuple[str, int], float]
-                 ) -> None:
+class _KeptConflicts:
+    """The zones' relation, each answer kept (the executor asks the same few resources again and again)."""
+
+    def __init__(self, zones: Conflicts) -> None:
+        self.zones = zones
+        self.kept: dict[tuple[str, Resource, str], frozenset[Resource]] = {}
+
+    def conflicts(self, model_a: str, res_a: Resource, model_b: str) -> frozenset[Resource]:
+        """:meth:`Conflicts.conflicts`, asked once per model pair and resource."""
+        key = (model_a, res_a, model_b)
+        got = self.kept.get(key)
+        if got is None:
+            got = self.kept[key] = self.zones.conflicts(model_a, res_a, model_b)
+        return got
+
+
+class _Shapes:
+    """Each edge's geometry per direction and planned speed per vehicle model, computed once per execution (the
+    routes of a replan drive the same edges)."""
+
+    def __init__(self) -> None:
+        self.geoms: dict[tuple[str, int], _EdgeGeom] = {}
+        self.speeds: dict[tuple[str, VehicleLimits], float] = {}
+
+    def geom(self, tr: Traversal) -> _EdgeGeom:
+        """The sampled centre line of ``tr`` (its direction of travel)."""
+        key = (tr.edge.id, tr.mode)
+        g = self.geoms.get(key)
+        if g is None:
+            g = self.geoms[key] = _EdgeGeom(tr)
+        return g
+
+    def speed(self, tr: Traversal, limits: VehicleLimits) -> float:
+        """The mean planned speed (m/s) over ``tr``'s edge: its length over its planned time."""
+        key = (tr.edge.id, limits)
+        v = self.speeds.get(key)
+        if v is None:
+            v = self.speeds[key] = tr.edge.curve.length / edge_time(tr.edge, limits)
+        return v
+
+
+def _index_route(r: VehicleRoute, geoms: dict[tuple[str, int], _EdgeGeom], speed: dict[tuple[str, int], float],
+                 shapes: _Shapes) -> None:
     """The edge geometry and planned speed (m/s) of each step of ``r``."""
     for k, st in enumerate(r.steps):
-        geoms[(r.vehicle, k)] = _EdgeGeom(st.traversal)
-        speed[(r.vehicle, k)] = st.traversal.edge.curve.length / edge_time(st.traversal.edge, r.limits)
+        geoms[(r.vehicle, k)] = shapes.geom(st.traversal)
+        speed[(r.vehicle, k)] = shapes.speed(st.traversal, r.limits)
 
 
 def _progress(states: dict[str, _State], by_id: dict[str, VehicleRoute], speed: dict[tuple[str, int], float],
@@ -309,13 +397,13 @@ def _progress(states: dict[str, _State], by_id: dict[str, VehicleRoute], speed: 
 
 
 def _restart(states: dict[str, _State], by_id: dict[str, VehicleRoute], geoms: dict[tuple[str, int], _EdgeGeom],
-             speed: dict[tuple[str, int], float]) -> None:
+             speed: dict[tuple[str, int], float], shapes: _Shapes) -> None:
     """Every vehicle at the first step of its new route (the one under way when it moves)."""
     geoms.clear()
     speed.clear()
     for v, st in states.items():
         r = by_id[v]
-        _index_route(r, geoms, speed)
+        _index_route(r, geoms, speed, shapes)
         if st.phase != "done":
             st.k = 0
             if not r.steps:
@@ -324,6 +412,14 @@ def _restart(states: dict[str, _State], by_id: dict[str, VehicleRoute], geoms: d
 
 def _stopped(delays: Delays, v: str, t: float) -> bool:
     return any(a <= t < a + d for a, d in delays.stops.get(v, ()))
+
+
+def _in_stop(stops: tuple[tuple[float, float], ...], t: float) -> bool:
+    """True when ``t`` (s) lies in one of the stops ``(start, end)`` (s), ``start <= t < end``."""
+    for a, b in stops:  # noqa: SIM110 - a loop, not a generator: asked for every vehicle at every tick
+        if a <= t < b:
+            return True
+    return False
 
 
 def _advance(v: str, st: _State, r: VehicleRoute, t: float, dt: float, controller: Controller, zones: Conflicts,
@@ -395,21 +491,41 @@ def _placed(fp: NDArray[np.float64], x: float, y: float, h: float) -> Polygon:
     return Polygon(np.column_stack([x + c * fp[:, 0] - s * fp[:, 1], y + s * fp[:, 0] + c * fp[:, 1]]))
 
 
-def _collision(routes: Sequence[VehicleRoute], states: dict[str, _State], radius: dict[str, float]
-               ) -> tuple[str, str] | None:
-    """The first pair of vehicles whose true footprints intersect (bounding circles first)."""
-    ids = [r.vehicle for r in routes]
-    xy = np.array([states[v].xy for v in ids])
-    rad = np.array([radius[v] for v in ids])
-    d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
-    near = np.argwhere(np.triu(d < rad[:, None] + rad[None, :], 1))
-    for a, b in near.tolist():
-        sa, sb = states[ids[a]], states[ids[b]]
-        pa = _placed(routes[a].footprint, sa.xy[0], sa.xy[1], sa.heading)
-        pb = _placed(routes[b].footprint, sb.xy[0], sb.xy[1], sb.heading)
-        if pa.intersects(pb):
-            return ids[a], ids[b]
-    return None
+class _Collider:
+    """The collision check of the module doc: the compiled separating-axis kernel (:mod:`agvnav.traffic._collide`)
+    when every footprint is convex, else shapely on the pairs whose bounding circles meet (the same first pair)."""
+
+    def __init__(self, routes: Sequence[VehicleRoute]) -> None:
+        self.ids = [r.vehicle for r in routes]
+        self.feet = [r.footprint for r in routes]
+        self.radius = np.array([float(np.max(np.hypot(f[:, 0], f[:, 1]))) for f in self.feet])
+        self.convex = all(is_convex(f) for f in self.feet)
+        self.fps, self.counts = pad_footprints(self.feet)
+        k = self.fps.shape[1]
+        self.scratch = (np.zeros((k, 2)), np.zeros((k, 2)))
+
+    def first(self, states: dict[str, _State]) -> tuple[str, str] | None:
+        """The first pair of vehicles (route order) whose true footprints intersect, or None."""
+        sts = [states[v] for v in self.ids]
+        xs = np.array([st.xy[0] for st in sts])
+        ys = np.array([st.xy[1] for st in sts])
+        hs = np.array([st.heading for st in sts])
+        if self.convex:
+            ab = int(first_overlap(xs, ys, hs, self.radius, self.fps, self.counts, *self.scratch))
+            return None if ab < 0 else (self.ids[ab // len(sts)], self.ids[ab % len(sts)])
+        return self._shapely(xs, ys, hs)
+
+    def _shapely(self, xs: NDArray[np.float64], ys: NDArray[np.float64], hs: NDArray[np.float64]
+                 ) -> tuple[str, str] | None:
+        rad = self.radius
+        d = np.hypot(xs[:, None] - xs[None, :], ys[:, None] - ys[None, :])
+        near = np.argwhere(np.triu(d < rad[:, None] + rad[None, :], 1))
+        for a, b in near.tolist():
+            pa = _placed(self.feet[a], float(xs[a]), float(ys[a]), float(hs[a]))
+            pb = _placed(self.feet[b], float(xs[b]), float(ys[b]), float(hs[b]))
+            if pa.intersects(pb):
+                return self.ids[a], self.ids[b]
+        return None
 
 
 def _wait_cycle(controller: Controller, waiting: dict[str, int]) -> list[str] | None:
