@@ -20,7 +20,8 @@ from agvnav import _jit
 from agvnav.geometry import wrap_angle
 from agvnav.geometry.angles import wrap_angle_kernel, wrap_angle_scalar
 from agvnav.kinematics import twist
-from agvnav.odometry import increment_variances
+from agvnav.layout.filtered import filtered_prediction
+from agvnav.odometry import OdometryNoise, increment_variances
 from agvnav.positioning import _fast
 from agvnav.positioning import _integrity_fast as fast_integrity
 from agvnav.positioning._integrity_fast import _information_sums, best_triple
@@ -435,7 +436,21 @@ def _outputs(compiled: bool) -> Outputs:
     out.update(_planning_kernel_outputs(rng))
     out.update(_traffic_kernel_outputs(rng))
     out.update(_collide_kernel_outputs(rng))
+    out.update(_layout_kernel_outputs())
     return out
+
+
+def _layout_kernel_outputs() -> Outputs:
+    """The layout planner's bearing-by-bearing covariance recursion along a 10 m straight past five reflectors."""
+    pose = np.zeros((101, 3))
+    pose[:, 0] = np.linspace(-5.0, 5.0, 101)
+    pose[:, 1] = -4.0
+    refl = np.array([[-15.0, 5.0], [-5.0, 5.0], [5.0, 5.0], [15.0, 5.0], [0.0, -10.0]])
+    vis = np.ones((101, 5), dtype=bool)
+    vis[::7, 2] = False
+    p0 = np.diag([4e-4, 4e-4, 3e-4])
+    out = filtered_prediction(pose, vis, refl, (0.3, 0.0, 0.0), 1e-4, 8.0, OdometryNoise(1e-4, 2e-4, 1e-5), p0)
+    return {"_recursion": [out.mean_square, out.post_rms]}
 
 
 def _planning_kernel_outputs(rng: np.random.Generator) -> Outputs:

@@ -35,18 +35,14 @@ builds its runs that way.
 
 from __future__ import annotations
 
-import functools
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import cast
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from agvnav._jit import jit
 from agvnav.geometry import wrap_angle
-from agvnav.jit import Kernel
 from agvnav.layout.prediction import information
 from agvnav.odometry import OdometryNoise, increment_variances
 from agvnav.positioning.bounds import inv_sym3
@@ -63,6 +59,7 @@ class FilteredPrediction:
     post_rms: NDArray[np.float64]
 
 
+@jit
 def _recursion(pose: NDArray[np.float64], turn: NDArray[np.float64], visible: NDArray[np.bool_],
                refl: NDArray[np.float64], mount: NDArray[np.float64], bearing_var: float,
                rev_per_m: NDArray[np.float64], k_d: float, k_dth: float, k_th: float,
@@ -162,18 +159,6 @@ def _recursion(pose: NDArray[np.float64], turn: NDArray[np.float64], visible: ND
     return mean_sq, post
 
 
-@functools.cache
-def _recursion_jit() -> Callable[..., tuple[NDArray[np.float64], NDArray[np.float64]]]:
-    """:func:`_recursion` compiled by numba, made on first use.
-
-    Asking the odometry kernel for its dispatcher first teaches numba to type it inside the
-    recursion (:class:`agvnav.jit.Kernel`) and points numba's cache at agvnav's, keyed over the
-    kernel sources, so an edit of the odometry kernel recompiles the recursion too.
-    """
-    cast(Kernel, increment_variances).dispatcher()
-    return cast(Callable[..., tuple[NDArray[np.float64], NDArray[np.float64]]], njit(cache=True)(_recursion))
-
-
 def filtered_prediction(pose: NDArray[np.float64], visible: NDArray[np.bool_], refl: NDArray[np.float64],
                         mount: tuple[float, float, float], bearing_std: float,
                         revolutions_per_m: float | NDArray[np.float64],
@@ -201,7 +186,7 @@ def filtered_prediction(pose: NDArray[np.float64], visible: NDArray[np.bool_], r
     p0 = np.ascontiguousarray(initial_cov, dtype=np.float64).reshape(3, 3)
     e0 = p0 if initial_error_cov is None else np.ascontiguousarray(initial_error_cov, dtype=np.float64).reshape(3, 3)
     turn = wrap_angle(np.diff(pose[:, 2]))
-    ms, post = _recursion_jit()(pose, turn, vis, np.ascontiguousarray(refl, dtype=np.float64).reshape(-1, 2),
+    ms, post = _recursion(pose, turn, vis, np.ascontiguousarray(refl, dtype=np.float64).reshape(-1, 2),
                               np.asarray(mount, dtype=np.float64), bearing_std**2, rpm,
                               noise.k_d, noise.k_dtheta, noise.k_theta, p0, e0)
     return FilteredPrediction(ms, post)
